@@ -1,0 +1,54 @@
+"""Exception family of the science core.
+
+Every error a user can cause carries what went wrong, where (file, key, line) and why, so
+the CLI can print one line without a traceback.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "BikeRigError",
+    "InputFileError",
+    "MeasurementError",
+    "GeometryError",
+    "ModelError",
+]
+
+
+class BikeRigError(Exception):
+    """Base class of every error bike_rig raises on purpose."""
+
+
+class InputFileError(BikeRigError):
+    """A file could not be read or has the wrong format.
+
+    Args:
+        path: The file, as given by the user.
+        reason: Why it could not be used.
+        key: The offending key, if there is one.
+        line: The 1-based line number, if known.
+    """
+
+    def __init__(self, path: str, reason: str, key: str | None = None, line: int | None = None):
+        self.path = path
+        self.reason = reason
+        self.key = key
+        self.line = line
+        where = path
+        if line is not None:
+            where += f":{line}"
+        if key is not None:
+            where += f": key '{key}'"
+        super().__init__(f"{where}: {reason}")
+
+
+class MeasurementError(InputFileError):
+    """A measurement value is missing, malformed or physically impossible."""
+
+
+class GeometryError(BikeRigError):
+    """The measured geometry cannot determine a result (e.g. parallel hanging lines)."""
+
+
+class ModelError(BikeRigError):
+    """The Whipple model cannot be evaluated for the given parameters or speeds."""
