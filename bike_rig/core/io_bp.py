@@ -1,0 +1,166 @@
+"""BicycleParameters' text formats: ``<Name>Measured.txt``, ``<Name>Benchmark.txt``, and its
+parameter-set YAML.
+
+Text files hold one ``name = value+/-sigma`` per line (``#`` starts a comment; several
+comma-separated values on one line are averaged, as BicycleParameters does, with the σ of the
+mean of independent readings). Data in this format from the BicycleParameters project are
+BSD-2-Clause, (c) 2011-2025 BicycleParameters Authors.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+
+import yaml
+
+from .benchmark import PARAMETER_NAMES, ParameterSet, parameters_from_values
+from .errors import InputFileError, MeasurementError
+from .measurements import REQUIRED_KEYS, Measurements, Origin, Reading
+
+__all__ = [
+    "TextEntry",
+    "dump_bp_parameter_yaml",
+    "parse_value",
+    "read_bp_measured",
+    "read_bp_parameters",
+    "read_bp_text",
+]
+
+_NUMBER_KEYS = re.compile(r"^(alpha|a|Tt|Tc)[A-Z]\d+$")
+_PM = re.compile(r"\s*(?:\+/-|±)\s*")
+
+
+@dataclass(frozen=True)
+class TextEntry:
+    """One ``name = ...`` line of a BicycleParameters text file.
+
+    Attributes:
+        text: The right-hand side as written.
+        line: Its 1-based line number.
+    """
+
+    text: str
+    line: int
+
+
+def parse_value(text: str) -> tuple[float, float]:
+    """Parse ``"v"``, ``"v+/-s"`` or ``"v ± s"``; several comma-separated values are averaged.
+
+    Returns:
+        (value, sigma); sigma 0 where none is written.
+
+    Raises:
+        ValueError: the text is not a number with an optional uncertainty.
+    """
+    values, variances = [], []
+    for part in text.split(","):
+        pieces = _PM.split(part.strip())
+        if len(pieces) > 2 or not pieces[0]:
+            raise ValueError(f"'{text}' is not 'value' or 'value+/-sigma'")
+        v = float(pieces[0])
+        s = float(pieces[1]) if len(pieces) == 2 else 0.0
+        values.append(v)
+        variances.append(s * s)
+    n = len(values)
+    return sum(values) / n, math.sqrt(sum(variances)) / n
+
+
+def read_bp_text(path: str | Path) -> dict[str, TextEntry]:
+    """Read a BicycleParameters text file into ``{name: TextEntry}`` without interpreting values.
+
+    Raises:
+        InputFileError: unreadable file, a line without ``=``, or a key given twice.
+    """
+    p = str(path)
+    try:
+        content = Path(path).read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputFileError(p, f"cannot read the file ({exc.__class__.__name__}: {exc})") from None
+    entries: dict[str, TextEntry] = {}
+    for n, raw in enumerate(content.splitlines(), start=1):
+        line = raw.split("#", 1)[0].strip()
+        if not line:
+            continue
+        if "=" not in line:
+            raise InputFileError(p, f"expected 'name = value+/-sigma', got '{raw.strip()}'", line=n)
+        key, _, rhs = line.partition("=")
+        key = key.strip()
+        if not key:
+            raise InputFileError(p, "a line has no name before '='", line=n)
+        if key in entries:
+            raise InputFileError(p, f"given twice (first on line {entries[key].line})", key=key, line=n)
+        entries[key] = TextEntry(rhs.strip(), n)
+    return entries
+
+
+def _bicycle_name(path: str | Path, suffix: str) -> str:
+    stem = Path(path).stem
+    return stem[: -len(suffix)] if stem.endswith(suffix) and len(stem) > len(suffix) else stem
+
+
+def read_bp_measured(path: str | Path) -> Measurements:
+    """Read a BicycleParameters ``<Name>Measured.txt`` file.
+
+    Keys the benchmark parameters need become readings; all other keys (rider geometry and
+    the like) are kept verbatim in ``extras``.
+
+    Raises:
+        InputFileError: the file cannot be read or parsed.
+        MeasurementError: a needed value is not a number.
+    """
+    p = str(path)
+    entries = read_bp_text(path)
+    readings: dict[str, Reading] = {}
+    extras: dict[str, object] = {}
+    for key, e in entries.items():
+        if key in REQUIRED_KEYS or _NUMBER_KEYS.match(key):
+            try:
+                v, s = parse_value(e.text)
+            except ValueError as exc:
+                raise MeasurementError(p, f"not a number: {exc}", key=key, line=e.line) from None
+            readings[key] = Reading(v, s, Origin(p, key, e.line))
+        else:
+            extras[key] = e.text
+    return Measurements(_bicycle_name(path, "Measured"), readings, p, extras)
+
+
+def read_bp_parameters(path: str | Path) -> ParameterSet:
+    """Read a BicycleParameters ``<Name>Benchmark.txt`` parameter file (values ± σ).
+
+    Raises:
+        InputFileError: unreadable, a parameter missing or not a number.
+    """
+    p = str(path)
+    entries = read_bp_text(path)
+    values, sigmas = {}, {}
+    for key in PARAMETER_NAMES:
+        if key not in entries:
+            raise MeasurementError(p, "missing (one of the benchmark parameters)", key=key)
+        try:
+            values[key], sigmas[key] = parse_value(entries[key].text)
+        except ValueError as exc:
+            raise MeasurementError(p, f"not a number: {exc}", key=key, line=entries[key].line) from None
+    return parameters_from_values(_bicycle_name(path, "Benchmark"), values, sigmas, p)
+
+
+def dump_bp_parameter_yaml(params: ParameterSet, description: str = "") -> str:
+    """The parameters as a BicycleParameters parameter-set YAML document.
+
+    The layout is the one ``bicycleparameters.parameter_sets.ParameterSet.to_yaml`` writes and
+    ``Meijaard2007ParameterSet._from_yaml`` reads (``values`` holds plain floats; σ are not
+    part of that format and are listed in ``description``).
+    """
+    values: Mapping[str, float] = params.values()
+    doc = {
+        "description": description
+        or f"Benchmark parameters of {params.bicycle}, computed by bike_rig from {params.source}.",
+        "parameterization": "Meijaard2007",
+        "parameters": params.bicycle.lower(),
+        "rider": False,
+        "values": {k: float(values[k]) for k in PARAMETER_NAMES},
+    }
+    return yaml.safe_dump(doc, sort_keys=False)

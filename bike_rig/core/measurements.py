@@ -1,0 +1,177 @@
+"""Records of one bicycle's raw readings (value ± σ) and their validation.
+
+Readings are stored flat under BicycleParameters' ``Measured.txt`` key names, the field's
+vocabulary, whatever file they came from (see ``README.md``, "File formats"):
+
+==================  ====================================================  ======
+key                 reading                                               unit
+==================  ====================================================  ======
+g                   local acceleration of gravity                         m/s²
+w                   wheelbase                                             m
+gamma               head-tube angle from the horizontal                   degree
+f                   fork offset                                           m
+nR, nF              wheel rotations rolled (exact count)                  1
+dR, dF              distance rolled over those rotations                  m
+mR, mF, mB, mH      masses of the rear wheel, front wheel, frame, fork    kg
+lR, lF              wheel compound-pendulum arm (rim contact to centre)   m
+TcR1, TcF1          wheel compound-pendulum periods                       s
+TtR1, TtF1          wheel torsional-pendulum periods                      s
+TcB1, TcH1          frame / fork compound-pendulum periods (about axles)  s
+alphaB<i>, aB<i>    frame hanging angle and string-to-rear-axle distance  degree, m
+TtB<i>              frame torsional period at orientation i               s
+alphaH<i>, aH<i>    fork hanging angle and string-to-front-axle distance  degree, m
+TtH<i>              fork torsional period at orientation i                s
+mP, lP, dP          calibration rod mass, length, diameter                kg, m, m
+TtP1                calibration rod torsional period                      s
+==================  ====================================================  ======
+
+Degrees occur only in ``gamma`` and ``alpha*``; the science converts them to radians first.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+from .errors import MeasurementError
+
+__all__ = [
+    "DEGREE_KEYS",
+    "Measurements",
+    "Origin",
+    "Reading",
+    "REQUIRED_KEYS",
+    "orientation_indices",
+    "validate",
+]
+
+#: Keys every measurement set needs (orientation keys are checked separately).
+REQUIRED_KEYS: tuple[str, ...] = (
+    "g", "w", "gamma", "f",
+    "nR", "dR", "mR", "lR", "TcR1", "TtR1",
+    "nF", "dF", "mF", "lF", "TcF1", "TtF1",
+    "mB", "TcB1", "mH", "TcH1",
+    "mP", "lP", "dP", "TtP1",
+)  # fmt: skip
+#: Keys whose readings are in degrees (the only ones).
+DEGREE_KEYS = re.compile(r"^(gamma|alpha[BH]\d+)$")
+#: Keys that must be strictly positive.
+_POSITIVE = re.compile(r"^(g|w|n[RF]|d[RF]|m[RFBHP]|l[RFP]|dP|T[ct][RFBHP]\d+)$")
+#: Exact counts.
+_COUNTS = ("nR", "nF")
+#: Minimum number of hanging orientations of the frame and of the fork (Eq 35 needs 3).
+MIN_ORIENTATIONS = 3
+
+
+@dataclass(frozen=True)
+class Origin:
+    """Where a reading came from, for error messages.
+
+    Attributes:
+        path: The file as given by the user.
+        key: The key as written in that file (e.g. ``frame.orientations[2].angle_deg``).
+        line: 1-based line number, or None if unknown.
+    """
+
+    path: str
+    key: str
+    line: int | None = None
+
+
+@dataclass(frozen=True)
+class Reading:
+    """One measured value with its standard uncertainty.
+
+    Attributes:
+        value: The value, in the unit of its key (see the module table).
+        sigma: Its standard deviation, same unit; 0 for exact values.
+        origin: Where it was read.
+    """
+
+    value: float
+    sigma: float
+    origin: Origin | None = None
+
+    def error(self, reason: str) -> MeasurementError:
+        """A :class:`MeasurementError` pointing at this reading."""
+        o = self.origin or Origin("<memory>", "?")
+        return MeasurementError(o.path, reason, key=o.key, line=o.line)
+
+
+@dataclass(frozen=True)
+class Measurements:
+    """All raw readings of one bicycle.
+
+    Attributes:
+        bicycle: The bicycle's name.
+        readings: Readings keyed by the flat key names of the module table.
+        path: The file they were read from.
+        extras: Entries of the file that the 25 parameters do not need (e.g. rider
+            geometry), kept verbatim so that nothing recorded is lost on conversion.
+    """
+
+    bicycle: str
+    readings: Mapping[str, Reading]
+    path: str = "<memory>"
+    extras: Mapping[str, object] = field(default_factory=dict)
+
+    def value(self, key: str) -> float:
+        """The value of reading ``key``."""
+        return self.readings[key].value
+
+    def orientations(self, part: str) -> list[int]:
+        """The orientation indices of ``part`` ('B' frame or 'H' fork), in order."""
+        return orientation_indices(self.readings, part)
+
+
+def orientation_indices(readings: Mapping[str, object], part: str) -> list[int]:
+    """Sorted indices ``i`` for which any of ``alpha<part><i>``, ``a<part><i>`` exists."""
+    pattern = re.compile(rf"^(alpha|a|Tt){part}(\d+)$")
+    found = {int(m.group(2)) for k in readings if (m := pattern.match(k))}
+    return sorted(found)
+
+
+def _check_reading(key: str, r: Reading) -> None:
+    if not (math.isfinite(r.value) and math.isfinite(r.sigma)):
+        raise r.error("value and sigma must be finite numbers")
+    if r.sigma < 0:
+        raise r.error(f"sigma must be >= 0, got {r.sigma:g}")
+    if _POSITIVE.match(key) and r.value <= 0:
+        raise r.error(f"must be positive, got {r.value:g}")
+    if key in _COUNTS and (r.value != round(r.value) or r.sigma != 0):
+        raise r.error(f"a number of rotations is an exact whole count, got {r.value:g} ± {r.sigma:g}")
+    if key == "gamma" and not 0 < r.value <= 90:
+        raise r.error(f"head-tube angle must be in (0, 90] degrees from the horizontal, got {r.value:g}")
+    if key.startswith("alpha") and not -360 <= r.value <= 360:
+        raise r.error(f"hanging angle must be in [-360, 360] degrees, got {r.value:g}")
+
+
+def validate(m: Measurements) -> None:
+    """Check that ``m`` has every reading the 25 parameters need, each physically possible.
+
+    Raises:
+        MeasurementError: naming the file, key, line and reason of the first problem.
+    """
+    for key in REQUIRED_KEYS:
+        if key not in m.readings:
+            raise MeasurementError(m.path, "missing (needed for the benchmark parameters)", key=key)
+    for key, r in m.readings.items():
+        _check_reading(key, r)
+    names = {"B": "frame", "H": "fork"}
+    for part, name in names.items():
+        idx = m.orientations(part)
+        for i in idx:
+            for prefix in ("alpha", "a", "Tt"):
+                if f"{prefix}{part}{i}" not in m.readings:
+                    raise MeasurementError(
+                        m.path, f"{name} orientation {i} lacks this reading", key=f"{prefix}{part}{i}"
+                    )
+        if len(idx) < MIN_ORIENTATIONS:
+            raise MeasurementError(
+                m.path,
+                f"{name}: {len(idx)} hanging orientation(s) given, at least {MIN_ORIENTATIONS} are "
+                "needed for the inertia tensor (Eq 35)",
+                key=f"alpha{part}",
+            )
