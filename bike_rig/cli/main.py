@@ -1,0 +1,239 @@
+"""``bike-rig``: the command line. The only place that prints for users.
+
+Every user mistake ends in one line on stderr naming the file, key, line and reason, with
+exit status 2 and no traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..core.benchmark import ComMethod, ParameterSet, compute_parameters
+from ..core.errors import BikeRigError, InputFileError
+from ..core.io_bp import dump_bp_parameter_yaml, read_bp_text
+from ..core.io_yaml import ATTRIBUTION, dump_measurements_yaml, dump_parameters_yaml, load_yaml_document
+from ..core.loader import load_input
+from ..core.measurements import Measurements
+from ..core.model import SigmaConvention, canonical_with_sigma
+from ..core.rider import PAPER_RIDER, Rider, add_rider
+from ..core.whipple import critical_speeds, eigenvalues
+from ..paths import config_file
+from . import format as fmt
+
+__all__ = ["main"]
+
+EXIT_USER_ERROR = 2
+DEFAULT_BICYCLE = "bicycles/browser.yaml"
+
+
+class UsageError(BikeRigError):
+    """A command-line argument is invalid."""
+
+
+def _parameters(path: str, com_method: str) -> ParameterSet:
+    got = load_input(path)
+    if isinstance(got, Measurements):
+        return compute_parameters(got, ComMethod(com_method))
+    return got
+
+
+def _rider(spec: str | None) -> Rider | None:
+    if spec is None:
+        return None
+    if spec == "paper":
+        return PAPER_RIDER
+    data, lines = load_yaml_document(spec)
+    keys = ("mass", "x", "z", "Ixx", "Iyy", "Izz", "Ixz")
+    if not isinstance(data, dict):
+        raise InputFileError(spec, f"a rider file is a mapping of {', '.join(keys)}")
+    values = {}
+    for k in keys:
+        v = data.get(k)
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            raise InputFileError(spec, f"needs a number ({v!r} given)", key=k, line=lines.get((k,)))
+        values[k] = float(v)
+    if values["mass"] <= 0:
+        raise InputFileError(spec, "rider mass must be positive", key="mass", line=lines.get(("mass",)))
+    return Rider(name=str(data.get("name", Path(spec).stem)), **values)
+
+
+def _speeds(spec: Sequence[str] | None) -> np.ndarray:
+    if spec is None:
+        return np.linspace(0.0, 10.0, 11)
+    try:
+        start, stop = float(spec[0]), float(spec[1])
+        n = int(spec[2])
+    except ValueError:
+        raise UsageError(f"--speeds START STOP N: numbers expected, got {' '.join(spec)}") from None
+    if not (math.isfinite(start) and math.isfinite(stop)) or n < 1 or start > stop:
+        raise UsageError(f"--speeds START STOP N needs finite START <= STOP and N >= 1, got {' '.join(spec)}")
+    return np.linspace(start, stop, n)
+
+
+def _params_json(ps: ParameterSet) -> dict[str, Any]:
+    pv = ps.parameters
+    return {
+        "bicycle": ps.bicycle,
+        "parameters": {k: {"value": pv.value(k), "sigma": pv.sigma(k)} for k in pv.names},
+    }
+
+
+def cmd_params(args: argparse.Namespace) -> int:
+    ps = _parameters(args.file, args.com_method)
+    form = "json" if args.json else args.format
+    if form == "json":
+        text = json.dumps(_params_json(ps), indent=2)
+    elif form == "bp-yaml":
+        text = dump_bp_parameter_yaml(ps)
+    elif form == "yaml":
+        text = dump_parameters_yaml(ps)
+    else:
+        text = fmt.parameter_table(ps)
+    _emit(text, args.output)
+    return 0
+
+
+def _model_json(ms: Any, cs: Any, speeds: np.ndarray, eig: Any) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for name in ("M", "C1", "K0", "K2"):
+        out[name] = np.asarray(getattr(ms.matrices, name)).tolist()
+    for name in ("M", "C1", "K0", "K2"):
+        out[f"{name}_sigma"] = np.asarray(getattr(ms.sigma, name)).tolist()
+    out["weave_speed"] = cs.weave
+    out["capsize_speed"] = cs.capsize
+    out["speeds"] = speeds.tolist()
+    out["modes"] = list(eig.labels)
+    out["eigenvalues"] = [[{"re": float(z.real), "im": float(z.imag)} for z in row] for row in eig.eigenvalues]
+    return out
+
+
+def cmd_model(args: argparse.Namespace) -> int:
+    ps = _parameters(args.file, args.com_method)
+    rider = _rider(args.rider)
+    if rider is not None:
+        ps = add_rider(ps, rider)
+    speeds = _speeds(args.speeds)
+    ms = canonical_with_sigma(ps, SigmaConvention(args.sigma))
+    cs = critical_speeds(ms.matrices, ms.g)
+    eig = eigenvalues(ms.matrices, ms.g, speeds)
+    if args.json:
+        _emit(json.dumps(_model_json(ms, cs, speeds, eig), indent=2), args.output)
+        return 0
+    text = "\n\n".join(
+        [
+            f"{ps.bicycle}: Whipple model (from {ps.source})",
+            fmt.matrix_table(ms),
+            fmt.speeds_summary(cs),
+            fmt.eigen_table(speeds.tolist(), eig.eigenvalues, eig.labels),
+        ]
+    )
+    _emit(text, args.output)
+    return 0
+
+
+def cmd_import_bp(args: argparse.Namespace) -> int:
+    entries = read_bp_text(args.file)  # fails early and clearly on unreadable files
+    got = load_input(args.file)
+    if isinstance(got, Measurements):
+        from ..core.measurements import validate
+
+        validate(got)
+        text = dump_measurements_yaml(got, ATTRIBUTION)
+    else:
+        text = dump_parameters_yaml(got, ATTRIBUTION)
+    Path(args.output).write_text(text, encoding="utf-8")
+    kind = "measurements" if isinstance(got, Measurements) else "parameters"
+    print(f"wrote {args.output}: {got.bicycle} {kind}, {len(entries)} entries read", file=sys.stderr)
+    return 0
+
+
+def cmd_demo(args: argparse.Namespace) -> int:
+    path = args.bicycle or str(config_file(DEFAULT_BICYCLE))
+    ps = _parameters(path, "centroid")
+    ms = canonical_with_sigma(ps)
+    cs = critical_speeds(ms.matrices, ms.g)
+    rider_ms = canonical_with_sigma(add_rider(ps, PAPER_RIDER))
+    rider_cs = critical_speeds(rider_ms.matrices, rider_ms.g)
+    print(fmt.parameter_table(ps))
+    print()
+    print(fmt.matrix_table(ms))
+    print()
+    print(fmt.speeds_summary(cs))
+    print()
+    print("with the paper's rigid rider (Table 1):")
+    print(fmt.speeds_summary(rider_cs))
+    return 0
+
+
+def _emit(text: str, output: str | None) -> None:
+    if output:
+        try:
+            Path(output).write_text(text + "\n", encoding="utf-8")
+        except OSError as exc:
+            raise InputFileError(output, f"cannot write ({exc.strerror})") from None
+    else:
+        print(text)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of every subcommand."""
+    p = argparse.ArgumentParser(prog="bike-rig", description="Bicycle parameter rig (Moore et al.) tools.")
+    sub = p.add_subparsers(dest="command", required=True)
+
+    def common(q: argparse.ArgumentParser) -> None:
+        q.add_argument("file", help="measurement file or parameter file (our YAML or BicycleParameters text)")
+        q.add_argument(
+            "--com-method",
+            choices=[m.value for m in ComMethod],
+            default=ComMethod.CENTROID.value,
+            help="mass-centre method: centroid of the line intersections (paper, default) or least squares",
+        )
+        q.add_argument("-o", "--output", help="write to this file instead of standard output")
+
+    q = sub.add_parser("params", help="the 25 benchmark parameters with σ")
+    common(q)
+    q.add_argument("--json", action="store_true", help="one JSON object on standard output")
+    q.add_argument("--format", choices=["table", "json", "yaml", "bp-yaml"], default="table")
+    q.set_defaults(func=cmd_params)
+
+    q = sub.add_parser("model", help="canonical matrices, critical speeds and eigenvalues")
+    common(q)
+    q.add_argument("--rider", help="'paper' for the paper's rigid rider (Table 1), or a rider YAML file")
+    q.add_argument("--speeds", nargs=3, metavar=("START", "STOP", "N"), help="speeds in m/s (default 0 10 11)")
+    q.add_argument("--sigma", choices=[c.value for c in SigmaConvention], default="correlated")
+    q.add_argument("--json", action="store_true", help="one JSON object on standard output")
+    q.set_defaults(func=cmd_model)
+
+    q = sub.add_parser("import-bp", help="convert a BicycleParameters text file to bike_rig YAML")
+    q.add_argument("file", help="<Name>Measured.txt or <Name>Benchmark.txt")
+    q.add_argument("-o", "--output", required=True, help="the YAML file to write")
+    q.set_defaults(func=cmd_import_bp)
+
+    q = sub.add_parser("demo", help="the default bicycle's parameters and stability")
+    q.add_argument("--bicycle", help="measurement file (default: config/bicycles/browser.yaml)")
+    q.set_defaults(func=cmd_demo)
+    return p
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of ``bike-rig``; returns the exit status."""
+    args = build_parser().parse_args(argv)
+    try:
+        return int(args.func(args))
+    except BikeRigError as exc:
+        print(f"bike-rig {args.command}: error: {exc}", file=sys.stderr)
+        return EXIT_USER_ERROR
+    except BrokenPipeError:
+        return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

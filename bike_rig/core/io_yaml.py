@@ -1,0 +1,369 @@
+"""bike_rig's YAML files: one bicycle's measurements, and a parameter set.
+
+Measurement file (``format: bike_rig-measurements/1``), SI units, degrees only in keys ending
+in ``_deg``; every measured value is ``[value, sigma]`` (also accepted: ``{value: v, sigma: s}``
+or ``"v +/- s"``); wheel rotations are exact whole counts::
+
+    format: bike_rig-measurements/1
+    bicycle: Browser
+    gravity: [9.81, 0.01]                 # m/s^2
+    geometry:
+      wheelbase: [1.121, 0.002]           # m
+      head_tube_angle_deg: [67.1, 0.2]    # degrees from the horizontal
+      fork_offset: [0.0705, 0.001]        # m
+    rear_wheel:                           # front_wheel: the same keys
+      mass: [3.11, 0.02]                  # kg
+      rotations: 13                       # exact count
+      distance_rolled: [27.85, 0.01]      # m, over those rotations
+      pendulum_arm: [0.29325, 0.001]      # m, rod/rim contact to wheel centre
+      compound_period: [1.3611, 3.9e-06]  # s
+      torsional_period: [0.79656, 1.2e-06]  # s
+    frame:                                # fork: the same keys, distances to the front axle
+      mass: [9.86, 0.02]                  # kg
+      compound_period: [1.7173, 5.0e-06]  # s, swinging about the rear axle
+      orientations:                       # >= 3 hanging orientations
+        - {angle_deg: [3.4, 0.2], distance: [0.098, 0.003], torsional_period: [2.0996, 8.1e-05]}
+    calibration_rod:
+      mass: [5.56, 0.02]                  # kg
+      length: [1.05, 0.001]               # m
+      diameter: [0.03, 0.0001]            # m
+      torsional_period: [1.894, 5.9e-06]  # s
+    other: {}                             # anything else recorded, kept verbatim
+
+Parameter file (``format: bike_rig-parameters/1``): ``bicycle``, and ``parameters`` mapping
+each of the 26 BicycleParameters keys to ``[value, sigma]`` (SI, ``lam`` in rad).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator, Mapping
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from .benchmark import PARAMETER_NAMES, ParameterSet, parameters_from_values
+from .errors import InputFileError, MeasurementError
+from .io_bp import parse_value
+from .measurements import Measurements, Origin, Reading
+
+__all__ = [
+    "MEASUREMENTS_FORMAT",
+    "PARAMETERS_FORMAT",
+    "dump_measurements_yaml",
+    "dump_parameters_yaml",
+    "load_yaml_document",
+    "measurements_from_document",
+    "parameters_from_document",
+]
+
+MEASUREMENTS_FORMAT = "bike_rig-measurements/1"
+PARAMETERS_FORMAT = "bike_rig-parameters/1"
+
+ATTRIBUTION = (
+    "Derived from BicycleParameters data (https://github.com/moorepants/BicycleParameters), "
+    "BSD-2-Clause, (c) 2011-2025 BicycleParameters Authors."
+)
+
+#: (section, key) -> (flat key suffix-free name, unit comment); {p} is the part letter.
+_WHEEL = {
+    "mass": ("m{p}", "kg"),
+    "rotations": ("n{p}", "exact count"),
+    "distance_rolled": ("d{p}", "m, over those rotations"),
+    "pendulum_arm": ("l{p}", "m, rod/rim contact to wheel centre"),
+    "compound_period": ("Tc{p}1", "s"),
+    "torsional_period": ("Tt{p}1", "s"),
+}
+_PART = {
+    "mass": ("m{p}", "kg"),
+    "compound_period": ("Tc{p}1", "s, swinging about the {axle} axle"),
+}
+_ORIENTATION = {
+    "angle_deg": ("alpha{p}{i}", "degrees"),
+    "distance": ("a{p}{i}", "m"),
+    "torsional_period": ("Tt{p}{i}", "s"),
+}
+_GEOMETRY = {
+    "wheelbase": ("w", "m"),
+    "head_tube_angle_deg": ("gamma", "degrees from the horizontal"),
+    "fork_offset": ("f", "m"),
+}
+_ROD = {
+    "mass": ("mP", "kg"),
+    "length": ("lP", "m"),
+    "diameter": ("dP", "m"),
+    "torsional_period": ("TtP1", "s"),
+}
+_WHEELS = {"rear_wheel": "R", "front_wheel": "F"}
+_PARTS = {"frame": ("B", "rear"), "fork": ("H", "front")}
+
+
+Lines = dict[tuple[object, ...], int]
+
+
+def _walk(node: yaml.Node, path: tuple[object, ...], lines: Lines) -> None:
+    lines[path] = node.start_mark.line + 1
+    if isinstance(node, yaml.MappingNode):
+        for k, v in node.value:
+            key = k.value if isinstance(k, yaml.ScalarNode) else str(k)
+            lines[path + (key,)] = k.start_mark.line + 1
+            _walk(v, path + (key,), lines)
+    elif isinstance(node, yaml.SequenceNode):
+        for i, v in enumerate(node.value):
+            _walk(v, path + (i,), lines)
+
+
+def load_yaml_document(path: str | Path) -> tuple[Any, Lines]:
+    """Load a YAML file and the 1-based line number of every key and item in it.
+
+    Raises:
+        InputFileError: unreadable file or invalid YAML (with the line of the error).
+    """
+    p = str(path)
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputFileError(p, f"cannot read the file ({exc.__class__.__name__}: {exc})") from None
+    try:
+        node = yaml.compose(text, Loader=yaml.SafeLoader)
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        line = mark.line + 1 if mark is not None else None
+        problem = getattr(exc, "problem", None) or str(exc)
+        raise InputFileError(p, f"invalid YAML: {problem}", line=line) from None
+    lines: Lines = {}
+    if node is not None:
+        _walk(node, (), lines)
+    return data, lines
+
+
+def _label(path: tuple[object, ...]) -> str:
+    out = ""
+    for part in path:
+        out += f"[{part}]" if isinstance(part, int) else (f".{part}" if out else str(part))
+    return out
+
+
+class _Doc:
+    """A loaded YAML document with line-aware accessors raising MeasurementError."""
+
+    def __init__(self, path: str, data: Any, lines: Lines):
+        self.path, self.data, self.lines = path, data, lines
+
+    def error(self, where: tuple[object, ...], reason: str) -> MeasurementError:
+        line = self.lines.get(where)
+        if line is None and where:
+            line = self.lines.get(where[:-1])
+        return MeasurementError(self.path, reason, key=_label(where) or None, line=line)
+
+    def mapping(self, where: tuple[object, ...], value: Any) -> Mapping[str, Any]:
+        if not isinstance(value, Mapping):
+            raise self.error(where, f"expected a mapping of keys, got {type(value).__name__}")
+        return value
+
+    def reading(self, where: tuple[object, ...], value: Any) -> tuple[float, float]:
+        try:
+            if isinstance(value, bool):
+                raise ValueError("a boolean is not a measurement")
+            if isinstance(value, (list, tuple)):
+                if len(value) != 2:
+                    raise ValueError(f"expected [value, sigma], got {len(value)} items")
+                v, s = (_number(x) for x in value)
+            elif isinstance(value, Mapping):
+                unknown = set(value) - {"value", "sigma"}
+                if unknown or "value" not in value or "sigma" not in value:
+                    raise ValueError("expected {value: v, sigma: s}")
+                v, s = _number(value["value"]), _number(value["sigma"])
+            elif isinstance(value, str):
+                if "+/-" not in value and "±" not in value:
+                    raise ValueError(f"'{value}' has no sigma; write [value, sigma]")
+                v, s = parse_value(value)
+            elif isinstance(value, (int, float)):
+                raise ValueError(f"{value} has no sigma; every measured value is [value, sigma]")
+            else:
+                raise ValueError(f"not a number: {value!r}")
+        except ValueError as exc:
+            raise self.error(where, str(exc)) from None
+        return v, s
+
+    def origin(self, where: tuple[object, ...]) -> Origin:
+        return Origin(self.path, _label(where), self.lines.get(where))
+
+
+def _number(x: Any) -> float:
+    if isinstance(x, bool) or not isinstance(x, (int, float, str)):
+        raise ValueError(f"not a number: {x!r}")
+    try:
+        return float(x)
+    except ValueError:
+        raise ValueError(f"not a number: {x!r}") from None
+
+
+def _fields(
+    doc: _Doc, where: tuple[object, ...], section: Any, table: Mapping[str, tuple[str, str]], fmt: Mapping[str, object]
+) -> Iterator[tuple[str, Reading]]:
+    sec = doc.mapping(where, section)
+    for key in sec:
+        if key not in table and key != "orientations":
+            raise doc.error(where + (key,), f"unknown key; expected one of {', '.join(table)}")
+    for key, (flat, _unit) in table.items():
+        if key not in sec:
+            continue
+        w = where + (key,)
+        if key == "rotations":
+            n = sec[key]
+            if isinstance(n, bool) or not isinstance(n, int):
+                raise doc.error(w, f"rotations is an exact whole count, got {n!r}")
+            yield flat.format(**fmt), Reading(float(n), 0.0, doc.origin(w))
+        else:
+            v, s = doc.reading(w, sec[key])
+            yield flat.format(**fmt), Reading(v, s, doc.origin(w))
+
+
+def measurements_from_document(path: str, data: Any, lines: Lines) -> Measurements:
+    """Build :class:`Measurements` from a loaded ``bike_rig-measurements/1`` document.
+
+    Raises:
+        MeasurementError: a key is unknown, malformed or lacks its σ (with its line).
+    """
+    doc = _Doc(path, data, lines)
+    top = doc.mapping((), data)
+    known = {"format", "bicycle", "attribution", "notes", "gravity", "geometry", "calibration_rod", "other"}
+    known |= set(_WHEELS) | set(_PARTS)
+    for key in top:
+        if key not in known:
+            raise doc.error((key,), f"unknown section; expected one of {', '.join(sorted(known))}")
+    readings: dict[str, Reading] = {}
+    if "gravity" in top:
+        v, s = doc.reading(("gravity",), top["gravity"])
+        readings["g"] = Reading(v, s, doc.origin(("gravity",)))
+    for section, table in (("geometry", _GEOMETRY), ("calibration_rod", _ROD)):
+        if section in top:
+            readings.update(_fields(doc, (section,), top[section], table, {}))
+    for section, p in _WHEELS.items():
+        if section in top:
+            readings.update(_fields(doc, (section,), top[section], _WHEEL, {"p": p}))
+    for section, (p, axle) in _PARTS.items():
+        if section not in top:
+            continue
+        sec = doc.mapping((section,), top[section])
+        readings.update(_fields(doc, (section,), sec, _PART, {"p": p, "axle": axle}))
+        orients = sec.get("orientations", [])
+        if not isinstance(orients, list):
+            raise doc.error((section, "orientations"), "expected a list of orientations")
+        for i, o in enumerate(orients):
+            w = (section, "orientations", i)
+            got = dict(_fields(doc, w, o, _ORIENTATION, {"p": p, "i": i + 1}))
+            for key, (flat, _u) in _ORIENTATION.items():
+                if flat.format(p=p, i=i + 1) not in got:
+                    raise doc.error(w, f"orientation {i + 1} lacks '{key}'")
+            readings.update(got)
+    name = top.get("bicycle")
+    if not isinstance(name, str) or not name:
+        raise doc.error(("bicycle",), "missing: the bicycle's name")
+    other = top.get("other") or {}
+    return Measurements(name, readings, path, dict(doc.mapping(("other",), other)))
+
+
+def parameters_from_document(path: str, data: Any, lines: Lines) -> ParameterSet:
+    """A :class:`ParameterSet` from our parameter YAML or a BicycleParameters parameter set.
+
+    Accepts ``bike_rig-parameters/1`` (values with σ), BicycleParameters' parameter-set YAML
+    (``values:`` of plain floats, σ = 0) and a flat mapping of the 26 keys to floats.
+    """
+    doc = _Doc(path, data, lines)
+    top = doc.mapping((), data)
+    if top.get("format") == PARAMETERS_FORMAT:
+        where: tuple[object, ...] = ("parameters",)
+        table = doc.mapping(where, top.get("parameters"))
+        name = str(top.get("bicycle") or Path(path).stem)
+        with_sigma = True
+    elif "values" in top:
+        where = ("values",)
+        table = doc.mapping(where, top["values"])
+        name = str(top.get("parameters") or Path(path).stem)
+        with_sigma = False
+    else:
+        where, table, name, with_sigma = (), top, Path(path).stem, False
+    values, sigmas = {}, {}
+    for key in PARAMETER_NAMES:
+        w = where + (key,)
+        if key not in table:
+            raise doc.error(w, "missing (one of the benchmark parameters)")
+        if with_sigma:
+            values[key], sigmas[key] = doc.reading(w, table[key])
+        else:
+            try:
+                values[key] = _number(table[key])
+            except ValueError as exc:
+                raise doc.error(w, str(exc)) from None
+        if not math.isfinite(values[key]):
+            raise doc.error(w, "must be a finite number")
+    return parameters_from_values(name, values, sigmas, path)
+
+
+def _pair(r: Reading) -> str:
+    return f"[{r.value!r}, {r.sigma!r}]"
+
+
+def dump_measurements_yaml(m: Measurements, attribution: str | None = None) -> str:
+    """A ``bike_rig-measurements/1`` document for ``m``, with units in comments.
+
+    Values are written with Python's shortest round-trip repr, so reading the file back gives
+    bit-identical readings.
+    """
+    r = m.readings
+    out = [f"format: {MEASUREMENTS_FORMAT}", f"bicycle: {yaml.safe_dump(m.bicycle).splitlines()[0]}"]
+    if attribution:
+        out.append(f"attribution: {yaml.safe_dump(attribution, width=1 << 16).splitlines()[0]}")
+    out.append("# SI units; angles in degrees only where the key ends in _deg. Every value: [value, sigma].")
+    if "g" in r:
+        out.append(f"gravity: {_pair(r['g'])}  # m/s^2")
+
+    def rows(table: Mapping[str, tuple[str, str]], fmt: Mapping[str, object]) -> list[str]:
+        found = []
+        for key, (flat, unit) in table.items():
+            k = flat.format(**fmt)
+            if k in r:
+                val = str(int(r[k].value)) if key == "rotations" else _pair(r[k])
+                found.append(f"  {key}: {val}  # {unit.format(**fmt)}")
+        return found
+
+    def section(name: str, body: list[str]) -> None:
+        if body:
+            out.append(f"{name}:")
+            out.extend(body)
+
+    section("geometry", rows(_GEOMETRY, {}))
+    for name, p in _WHEELS.items():
+        section(name, rows(_WHEEL, {"p": p}))
+    for name, (p, axle) in _PARTS.items():
+        body = rows(_PART, {"p": p, "axle": axle})
+        idx = m.orientations(p)
+        if idx:
+            body.append("  orientations:  # angle_deg: degrees; distance: m; torsional_period: s")
+            for i in idx:
+                items = [f"{key}: {_pair(r[flat.format(p=p, i=i)])}" for key, (flat, _u) in _ORIENTATION.items()]
+                body.append("    - {" + ", ".join(items) + "}")
+        section(name, body)
+    section("calibration_rod", rows(_ROD, {}))
+    if m.extras:
+        out.append("other:  # recorded but not needed for the benchmark parameters, kept verbatim")
+        for k, v in m.extras.items():
+            out.append(f"  {k}: {yaml.safe_dump(v, width=1 << 16).splitlines()[0]}")
+    return "\n".join(out) + "\n"
+
+
+def dump_parameters_yaml(params: ParameterSet, attribution: str | None = None) -> str:
+    """A ``bike_rig-parameters/1`` document: the 26 parameters as ``[value, sigma]``."""
+    out = [f"format: {PARAMETERS_FORMAT}", f"bicycle: {params.bicycle}"]
+    if attribution:
+        out.append(f"attribution: {yaml.safe_dump(attribution, width=1 << 16).splitlines()[0]}")
+    out.append("# SI units (lam in rad). Every value: [value, sigma].")
+    out.append("parameters:")
+    pv = params.parameters
+    for name in PARAMETER_NAMES:
+        out.append(f"  {name}: [{pv.value(name)!r}, {pv.sigma(name)!r}]")
+    return "\n".join(out) + "\n"

@@ -1,0 +1,67 @@
+"""Open any accepted input file: measurements or a parameter set, in our YAML or
+BicycleParameters' formats, recognised by content."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from .benchmark import PARAMETER_NAMES, ParameterSet
+from .errors import InputFileError
+from .io_bp import read_bp_measured, read_bp_parameters, read_bp_text
+from .io_yaml import (
+    MEASUREMENTS_FORMAT,
+    PARAMETERS_FORMAT,
+    load_yaml_document,
+    measurements_from_document,
+    parameters_from_document,
+)
+from .measurements import Measurements
+
+__all__ = ["load_input", "load_measurements"]
+
+_YAML_SUFFIXES = {".yaml", ".yml"}
+
+
+def load_input(path: str | Path) -> Measurements | ParameterSet:
+    """Read a measurement file or a parameter file.
+
+    Accepted: ``bike_rig-measurements/1`` and ``bike_rig-parameters/1`` YAML, BicycleParameters'
+    ``*Measured.txt`` and ``*Benchmark.txt`` text files and its parameter-set YAML.
+
+    Raises:
+        InputFileError: the file is missing, unreadable or of no accepted kind.
+    """
+    p = str(path)
+    if not Path(path).is_file():
+        raise InputFileError(p, "no such file" if not Path(path).exists() else "not a regular file")
+    if Path(path).suffix.lower() in _YAML_SUFFIXES:
+        data, lines = load_yaml_document(path)
+        if not isinstance(data, dict):
+            raise InputFileError(p, "expected a YAML mapping at the top level")
+        fmt = data.get("format")
+        if fmt == MEASUREMENTS_FORMAT:
+            return measurements_from_document(p, data, lines)
+        if fmt == PARAMETERS_FORMAT or "values" in data or "IBxx" in data:
+            return parameters_from_document(p, data, lines)
+        raise InputFileError(
+            p,
+            f"unknown kind of YAML file: expected 'format: {MEASUREMENTS_FORMAT}' or "
+            f"'format: {PARAMETERS_FORMAT}' (or a BicycleParameters parameter set)",
+        )
+    entries = read_bp_text(path)
+    if not entries:
+        raise InputFileError(p, "empty file: no 'name = value+/-sigma' lines")
+    is_parameters = all(k in entries for k in PARAMETER_NAMES) and "TtP1" not in entries
+    return read_bp_parameters(path) if is_parameters else read_bp_measured(path)
+
+
+def load_measurements(path: str | Path) -> Measurements:
+    """Read a file that must hold raw measurements.
+
+    Raises:
+        InputFileError: the file holds something else.
+    """
+    got = load_input(path)
+    if not isinstance(got, Measurements):
+        raise InputFileError(str(path), "holds benchmark parameters, but raw measurements are needed here")
+    return got
