@@ -46,7 +46,7 @@ import yaml
 from .benchmark import PARAMETER_NAMES, ParameterSet, parameters_from_values
 from .errors import InputFileError, MeasurementError
 from .io_bp import parse_value
-from .measurements import Measurements, Origin, Reading
+from .measurements import REQUIRED_KEYS, Measurements, Origin, Reading
 
 __all__ = [
     "MEASUREMENTS_FORMAT",
@@ -222,6 +222,39 @@ def _fields(
             yield flat.format(**fmt), Reading(v, s, doc.origin(w))
 
 
+def _yaml_location(flat: str) -> tuple[str, ...]:
+    """Where a flat key lives in the YAML layout, e.g. 'TcB1' -> ('frame', 'compound_period')."""
+    if flat == "g":
+        return ("gravity",)
+    for section, table, fmt in (("geometry", _GEOMETRY, {}), ("calibration_rod", _ROD, {})):
+        for key, (f, _u) in table.items():
+            if f.format(**fmt) == flat:
+                return (section, key)
+    for section, p in _WHEELS.items():
+        for key, (f, _u) in _WHEEL.items():
+            if f.format(p=p) == flat:
+                return (section, key)
+    for section, (p, axle) in _PARTS.items():
+        for key, (f, _u) in _PART.items():
+            if f.format(p=p, axle=axle) == flat:
+                return (section, key)
+    return (flat,)
+
+
+def _check_complete(doc: _Doc, readings: Mapping[str, Reading]) -> None:
+    for flat in REQUIRED_KEYS:
+        if flat not in readings:
+            where = _yaml_location(flat)
+            parent = where[:-1]
+            line = doc.lines.get(parent) if parent else None
+            raise MeasurementError(
+                doc.path,
+                "missing (needed for the benchmark parameters)",
+                key=_label(where),
+                line=line,
+            )
+
+
 def measurements_from_document(path: str, data: Any, lines: Lines) -> Measurements:
     """Build :class:`Measurements` from a loaded ``bike_rig-measurements/1`` document.
 
@@ -260,6 +293,7 @@ def measurements_from_document(path: str, data: Any, lines: Lines) -> Measuremen
                 if flat.format(p=p, i=i + 1) not in got:
                     raise doc.error(w, f"orientation {i + 1} lacks '{key}'")
             readings.update(got)
+    _check_complete(doc, readings)
     name = top.get("bicycle")
     if not isinstance(name, str) or not name:
         raise doc.error(("bicycle",), "missing: the bicycle's name")
