@@ -1,0 +1,42 @@
+"""Packaging of the ament_python package bike_rig (configuration of tools: pyproject.toml)."""
+
+from __future__ import annotations
+
+from glob import glob
+from pathlib import Path
+
+from setuptools import find_packages, setup
+
+PACKAGE = "bike_rig"
+HERE = Path(__file__).resolve().parent
+
+
+def _files(pattern: str) -> list[str]:
+    """Files (not directories) matching a glob relative to this file, sorted."""
+    return sorted(p for p in glob(pattern, root_dir=HERE) if (HERE / p).is_file())
+
+
+setup(
+    name=PACKAGE,
+    version="0.1.0",
+    description="Bicycle parameter measurement rig and Whipple model on ROS 2",
+    license="Apache-2.0",
+    python_requires=">=3.11",
+    packages=find_packages(include=[PACKAGE, f"{PACKAGE}.*"], exclude=["test", "test.*"]),
+    package_data={PACKAGE: ["py.typed"]},
+    data_files=[
+        ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),
+        (f"share/{PACKAGE}", ["package.xml"]),
+        (f"share/{PACKAGE}/config", _files("config/*.yaml")),
+        (f"share/{PACKAGE}/config/bicycles", _files("config/bicycles/*")),
+    ],
+    # Runtime libraries are installed from tools/requirements.txt (pinned, with the ROS
+    # wheels), not declared here: the ROS packages come from the ROS prefix, as in ament.
+    install_requires=[],
+    zip_safe=False,
+    entry_points={
+        "console_scripts": [
+            "bike-rig = bike_rig.cli.main:main",
+        ],
+    },
+)
