@@ -1,0 +1,233 @@
+"""The environment of every ROS 2 process that bike_rig starts.
+
+One place decides how a node, a test helper or a demo process talks DDS:
+
+* ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST``, always. With the default range (SUBNET) Fast DDS
+  multicasts discovery on every interface; our processes must never send traffic off
+  loopback. (``ROS_LOCALHOST_ONLY`` is gone in Kilted and is silently ignored.)
+* a ``ROS_DOMAIN_ID`` unique to the run, so concurrent runs on one machine do not cross-talk.
+  :func:`unique_domain_id` reserves one through ``domain_coordinator`` (a bind on local TCP
+  port 32768 + id, no traffic) and falls back to a pid-based id.
+* ``RMW_IMPLEMENTATION=rmw_fastrtps_cpp``, the only rmw the PyPI wheels ship.
+
+It also removes stale Fast DDS shared-memory segments (:func:`remove_stale_fastdds_segments`):
+segments left by killed processes can delay the next discovery by about 2.7 s.
+"""
+
+from __future__ import annotations
+
+import atexit
+import contextlib
+import logging
+import os
+import time
+from collections.abc import Iterator, Mapping
+from pathlib import Path
+from typing import Any
+
+__all__ = [
+    "DISCOVERY_RANGE",
+    "MAX_DOMAIN_ID",
+    "RMW_IMPLEMENTATION",
+    "fallback_domain_id",
+    "process_domain_id",
+    "remove_stale_fastdds_segments",
+    "ros_environment",
+    "unique_domain_id",
+]
+
+_log = logging.getLogger(__name__)
+
+DISCOVERY_RANGE = "LOCALHOST"
+"""Value forced for ``ROS_AUTOMATIC_DISCOVERY_RANGE``."""
+
+RMW_IMPLEMENTATION = "rmw_fastrtps_cpp"
+"""The ROS middleware every process uses."""
+
+MAX_DOMAIN_ID = 101
+"""Largest domain id that is safe on Linux with the default DDS port mapping."""
+
+_REMOVED_VARIABLES = (
+    # ignored by Kilted; dropped so that nobody reads it as being in force
+    "ROS_LOCALHOST_ONLY",
+    # static peers would be contacted even with a LOCALHOST discovery range
+    "ROS_STATIC_PEERS",
+)
+
+_process_domain: int | None = None
+_process_domain_stack: contextlib.ExitStack | None = None
+
+
+def fallback_domain_id(pid: int | None = None) -> int:
+    """A domain id in 1..100 derived from a process id, for when no coordinator is available.
+
+    Args:
+        pid: The process id to derive it from; the current process if None.
+
+    Returns:
+        ``pid % 100 + 1``.
+    """
+    return (os.getpid() if pid is None else pid) % 100 + 1
+
+
+@contextlib.contextmanager
+def unique_domain_id() -> Iterator[int]:
+    """Reserve a ROS domain id, unique on this machine, for the duration of the context.
+
+    The id comes from ``domain_coordinator.domain_id()`` (1..100), which holds a bind on local
+    TCP port 32768 + id as a lock until the context exits; no packet is sent. If the
+    coordinator is missing or cannot find a free id, a pid-based id is used instead (unique
+    between concurrent processes in most cases, but not guaranteed) and a warning is logged.
+
+    Yields:
+        The domain id, 1..100.
+    """
+    reservation: contextlib.AbstractContextManager[Any] | None = None
+    try:
+        from domain_coordinator import domain_id
+
+        reservation = domain_id()
+        value = int(reservation.__enter__())
+    except (ImportError, RuntimeError, OSError) as exc:
+        reservation = None
+        value = fallback_domain_id()
+        _log.warning("domain_coordinator failed (%s); using pid-based ROS_DOMAIN_ID %d", exc, value)
+    try:
+        yield value
+    finally:
+        # Never pass the body's exception on: domain_coordinator's generator swallows an
+        # OSError thrown into it and would then fail with "generator didn't stop".
+        if reservation is not None:
+            reservation.__exit__(None, None, None)
+
+
+def process_domain_id() -> int:
+    """The domain id reserved for this process, allocated on first use and held until exit."""
+    global _process_domain, _process_domain_stack
+    if _process_domain is None:
+        stack = contextlib.ExitStack()
+        _process_domain = stack.enter_context(unique_domain_id())
+        _process_domain_stack = stack
+        atexit.register(stack.close)
+    return _process_domain
+
+
+def ros_environment(
+    base: Mapping[str, str] | None = None, domain_id: int | None = None
+) -> dict[str, str]:
+    """The environment for a ROS 2 process that bike_rig starts.
+
+    Args:
+        base: The environment to start from (not modified); ``os.environ`` if None.
+        domain_id: The ``ROS_DOMAIN_ID`` to use. If None, the base's ``ROS_DOMAIN_ID`` is kept
+            when it is set (a parent process, a test fixture or the user chose it); otherwise
+            this process's reserved id (:func:`process_domain_id`) is used.
+
+    Returns:
+        A new dict: a copy of ``base`` with ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST``,
+        ``ROS_DOMAIN_ID`` and ``RMW_IMPLEMENTATION=rmw_fastrtps_cpp`` set, and
+        ``ROS_LOCALHOST_ONLY`` and ``ROS_STATIC_PEERS`` removed.
+
+    Raises:
+        ValueError: If the domain id (given or inherited) is not an integer in 0..101.
+    """
+    env = dict(os.environ if base is None else base)
+    if domain_id is None:
+        inherited = env.get("ROS_DOMAIN_ID", "").strip()
+        if inherited:
+            try:
+                domain_id = int(inherited)
+            except ValueError:
+                raise ValueError(
+                    f"ROS_DOMAIN_ID={inherited!r} is not an integer in 0..{MAX_DOMAIN_ID}"
+                ) from None
+        else:
+            domain_id = process_domain_id()
+    if not 0 <= domain_id <= MAX_DOMAIN_ID:
+        raise ValueError(f"ROS_DOMAIN_ID {domain_id} is outside 0..{MAX_DOMAIN_ID}")
+    for name in _REMOVED_VARIABLES:
+        env.pop(name, None)
+    env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = DISCOVERY_RANGE
+    env["ROS_DOMAIN_ID"] = str(domain_id)
+    env["RMW_IMPLEMENTATION"] = RMW_IMPLEMENTATION
+    return env
+
+
+def _paths_in_use(proc: Path) -> set[str]:
+    """Every file that a process has mapped (``/proc/*/maps``) or open (``/proc/*/fd``)."""
+    used: set[str] = set()
+    for pid_dir in proc.iterdir():
+        if not pid_dir.name.isdigit():
+            continue
+        with contextlib.suppress(OSError):
+            for line in (pid_dir / "maps").read_text().splitlines():
+                parts = line.split(maxsplit=5)
+                if len(parts) == 6:
+                    used.add(parts[5].removesuffix(" (deleted)"))
+        with contextlib.suppress(OSError):
+            for fd in (pid_dir / "fd").iterdir():
+                with contextlib.suppress(OSError):
+                    used.add(os.readlink(fd))
+    return used
+
+
+def _segment_group(name: str) -> str:
+    """The Fast DDS object a shared-memory file belongs to.
+
+    ``fastdds_port7411`` (segment), ``fastdds_port7411_el`` (lock file, held open, not mapped)
+    and ``sem.fastdds_port7411_mutex`` (named mutex, open only while a port is being opened)
+    all map to ``fastdds_port7411``.
+    """
+    name = name.removeprefix("sem.")
+    for suffix in ("_mutex", "_el", "_sl"):
+        name = name.removesuffix(suffix)
+    return name
+
+
+def remove_stale_fastdds_segments(
+    shm_dir: Path = Path("/dev/shm"),
+    min_age_s: float = 10.0,
+    proc: Path = Path("/proc"),
+) -> list[Path]:
+    """Delete Fast DDS shared-memory files that no process uses any more.
+
+    A Fast DDS process killed with SIGKILL (or by ``timeout``) leaves its ``fastdds_*``
+    segments, lock files and ``sem.fastdds_*`` mutexes behind; the next process then may take
+    about 2.7 s to discover its peers. Files are grouped by the object they belong to (see
+    ``_segment_group``); a group is removed only if no process has any of its files mapped
+    (``/proc/<pid>/maps``) or open (``/proc/<pid>/fd``: lock files are held open, not mapped)
+    and none of its files was modified in the last ``min_age_s`` seconds (so a segment being
+    created right now is left alone). Files that cannot be inspected or removed are skipped.
+
+    Args:
+        shm_dir: The shared-memory directory.
+        min_age_s: Minimum age, in seconds since the last modification, of every file of a
+            removed group.
+        proc: The procfs mount point.
+
+    Returns:
+        The files removed.
+    """
+    groups: dict[str, list[Path]] = {}
+    for path in sorted([*shm_dir.glob("fastdds_*"), *shm_dir.glob("sem.fastdds_*")]):
+        groups.setdefault(_segment_group(path.name), []).append(path)
+    if not groups:
+        return []
+    used = _paths_in_use(proc)
+    now = time.time()
+    removed: list[Path] = []
+    for paths in groups.values():
+        try:
+            if any(str(p) in used or now - p.stat().st_mtime < min_age_s for p in paths):
+                continue
+        except OSError:
+            continue
+        for path in paths:
+            try:
+                path.unlink()
+            except OSError:
+                continue
+            removed.append(path)
+    if removed:
+        _log.info("removed %d stale Fast DDS shared-memory files from %s", len(removed), shm_dir)
+    return removed

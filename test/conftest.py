@@ -1,0 +1,46 @@
+"""Fixtures shared by every test folder (keep it small: folder-specific fixtures live there)."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+from bike_rig.rosenv import remove_stale_fastdds_segments, ros_environment, unique_domain_id
+
+REPO_ROOT = Path(__file__).resolve().parent.parent
+
+
+@pytest.fixture(scope="session")
+def ros_domain_id() -> Iterator[int]:
+    """A ROS_DOMAIN_ID reserved for this pytest run (held until the session ends).
+
+    Also removes Fast DDS shared-memory files left by killed processes of earlier runs, which
+    would slow down discovery.
+    """
+    remove_stale_fastdds_segments()
+    with unique_domain_id() as domain_id:
+        yield domain_id
+
+
+@pytest.fixture
+def ros_env(ros_domain_id: int) -> dict[str, str]:
+    """Environment for a ROS process started by a test: LOCALHOST discovery, the run's domain.
+
+    A fresh copy per test, from bike_rig.rosenv.ros_environment.
+    """
+    return ros_environment(domain_id=ros_domain_id)
+
+
+@pytest.fixture(scope="session")
+def shared_dir() -> Path:
+    """The read-only reference material, ``<repo>/../shared`` (data, paper, notes)."""
+    path = REPO_ROOT.parent / "shared"
+    if not path.is_dir():
+        pytest.fail(
+            f"reference folder {path} is missing: the tests expect shared/ beside the repository "
+            "(as in CI, where ../shared is provided)",
+            pytrace=False,
+        )
+    return path
