@@ -14,7 +14,7 @@ stopped with SIGINT or SIGTERM, then exit 0:
 * subscriber: ``MSG {...}`` for every GyroBatch received, as a dict (see ``batch_to_dict``).
 * publisher: waits for a ``GO`` line on stdin after its match (the test sends it once the
   subscriber has matched too, so no sample can be written before both ends know each other),
-  publishes every batch of BATCHES_JSON in order, then ``PUBLISHED {"count": n, "acked": b}``.
+  publishes every batch of BATCHES_JSON in order, then ``PUBLISHED {"count": n}``.
 """
 
 from __future__ import annotations
@@ -27,7 +27,6 @@ import time
 from typing import Any
 
 import rclpy
-from rclpy.duration import Duration
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -123,8 +122,9 @@ def run_publisher(node: Node, topic: str, batches_file: str) -> None:
     wait_until(node, go.is_set, "GO on stdin")
     for msg in batches:
         pub.publish(msg)
-    acked = pub.wait_for_all_acked(Duration(seconds=MATCH_TIMEOUT_S))
-    report("PUBLISHED", {"count": len(batches), "acked": acked})
+    # (no wait_for_all_acked: acks follow Fast DDS's 3 s heartbeat period; the subscriber's
+    # report is the proof of delivery)
+    report("PUBLISHED", {"count": len(batches)})
     rclpy.spin(node)
 
 
