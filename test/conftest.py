@@ -8,8 +8,7 @@ from pathlib import Path
 import pytest
 
 from bike_rig.rosenv import remove_stale_fastdds_segments, ros_environment, unique_domain_id
-
-REPO_ROOT = Path(__file__).resolve().parent.parent
+from test.support.paper import SharedFolderMissingError, shared_dir
 
 
 @pytest.fixture(scope="session")
@@ -33,14 +32,15 @@ def ros_env(ros_domain_id: int) -> dict[str, str]:
     return ros_environment(domain_id=ros_domain_id)
 
 
-@pytest.fixture(scope="session")
-def shared_dir() -> Path:
-    """The read-only reference material, ``<repo>/../shared`` (data, paper, notes)."""
-    path = REPO_ROOT.parent / "shared"
-    if not path.is_dir():
-        pytest.fail(
-            f"reference folder {path} is missing: the tests expect shared/ beside the repository "
-            "(as in CI, where ../shared is provided)",
-            pytrace=False,
-        )
-    return path
+@pytest.fixture(scope="session", name="shared_dir")
+def shared_dir_fixture() -> Path:
+    """The read-only reference material (data, paper, notes): ``<repo>/../shared``.
+
+    Located by ``test.support.paper.shared_dir`` (which honours ``$BIKE_RIG_SHARED``); a
+    missing folder fails the test with that function's message instead of a traceback.
+    """
+    try:
+        return shared_dir()
+    except SharedFolderMissingError as exc:
+        problem = str(exc)
+    pytest.fail(f"{problem}: the tests expect shared/ beside the repository, as CI provides it", pytrace=False)

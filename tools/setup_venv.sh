@@ -68,6 +68,7 @@ fi
 if [ ! -x "$VENV/bin/python" ]; then
   log "creating venv $VENV with $("$PYTHON" --version 2>&1)"
   timeout 300 "$PYTHON" -m venv "$VENV"
+  "$VENV/bin/python" -c 'import sys; sys.version_info[:2] == (3, 11) or print("WARNING: tools/constraints.txt was resolved and tested on CPython 3.11 only", file=sys.stderr)'
   stamp_set path "$VENV"
 fi
 PIP=("$VENV/bin/python" -m pip --no-input --disable-pip-version-check)
