@@ -17,6 +17,7 @@ from pathlib import Path
 
 from bike_rig.core.benchmark import PARAMETER_NAMES, compute_parameters
 from bike_rig.core.io_bp import read_bp_measured
+from bike_rig.core.measurements import Measurements
 from bike_rig.core.model import canonical_with_sigma
 
 SHARED = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "bicycleparameters"
@@ -45,10 +46,10 @@ def main() -> int:
     worst_ours = 0.0
     for bike in BIKES:
         raw = SHARED / bike / "RawData" / f"{bike}Measured.txt"
-        parse = median_ms(lambda: read_bp_measured(raw), 50)
+        parse = median_ms(lambda raw=raw: read_bp_measured(raw), 50)
         m = read_bp_measured(raw)
 
-        def ours() -> object:
+        def ours(m: Measurements = m) -> object:
             ps = compute_parameters(m)
             return canonical_with_sigma(ps)
 
@@ -58,7 +59,7 @@ def main() -> int:
         if bp_main is not None:
             mp = bp_io.load_parameter_text_file(str(raw))
 
-            def theirs() -> object:
+            def theirs(mp: dict[str, object] = mp) -> object:
                 par, _extras = bp_main.calculate_benchmark_from_measured(mp)
                 return bp_bicycle.benchmark_par_to_canonical(par)
 

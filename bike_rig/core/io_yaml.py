@@ -226,9 +226,9 @@ def _yaml_location(flat: str) -> tuple[str, ...]:
     """Where a flat key lives in the YAML layout, e.g. 'TcB1' -> ('frame', 'compound_period')."""
     if flat == "g":
         return ("gravity",)
-    for section, table, fmt in (("geometry", _GEOMETRY, {}), ("calibration_rod", _ROD, {})):
+    for section, table in (("geometry", _GEOMETRY), ("calibration_rod", _ROD)):
         for key, (f, _u) in table.items():
-            if f.format(**fmt) == flat:
+            if f == flat:
                 return (section, key)
     for section, p in _WHEELS.items():
         for key, (f, _u) in _WHEEL.items():

@@ -58,7 +58,8 @@ def test_centroid_and_least_squares_differ_for_inconsistent_lines() -> None:
     intercepts = [0.0, -1.0, -3.0]  # triangle (1, 0), (3, 0), (-1, -2)... not concurrent
     xc, zc = com.centroid_com(slopes, intercepts)
     xl, zl = com.least_squares_com(slopes, intercepts)
-    pts = [com.line_intersection(slopes[i], intercepts[i], slopes[j], intercepts[j]) for i, j in ((0, 1), (0, 2), (1, 2))]
+    pairs = ((0, 1), (0, 2), (1, 2))
+    pts = [com.line_intersection(slopes[i], intercepts[i], slopes[j], intercepts[j]) for i, j in pairs]
     assert (xc, zc) == pytest.approx(tuple(np.mean(pts, axis=0)))
     # least squares minimises the summed squared vertical residuals; the centroid does not
     def cost(x: float, z: float) -> float:
@@ -72,9 +73,9 @@ def test_rod_and_pendulum_inertias() -> None:
     k = inertia.torsional_stiffness(0.5, 2.0)
     assert inertia.torsional_pendulum_inertia(k, 2.0) == pytest.approx(0.5)
     # compound pendulum: T = 2π sqrt((I + m l²) / (m g l)) inverted by Eq 28
-    I, m, g, length = 0.12, 3.0, 9.81, 0.3
-    T = 2 * np.pi * np.sqrt((I + m * length**2) / (m * g * length))
-    assert inertia.compound_pendulum_inertia(m, g, length, T) == pytest.approx(I, rel=1e-13)
+    i_c, m, g, length = 0.12, 3.0, 9.81, 0.3
+    T = 2 * np.pi * np.sqrt((i_c + m * length**2) / (m * g * length))
+    assert inertia.compound_pendulum_inertia(m, g, length, T) == pytest.approx(i_c, rel=1e-13)
 
 
 @settings(max_examples=50, deadline=None)

@@ -4,10 +4,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 import yaml
-
-import numpy as np
 
 from bike_rig.core.benchmark import PARAMETER_NAMES, benchmark_formulas, compute_parameters
 from bike_rig.core.io_bp import dump_bp_parameter_yaml, parse_value, read_bp_measured
@@ -31,7 +30,7 @@ def test_parse_value_forms() -> None:
     assert parse_value("13") == (13.0, 0.0)
     v, s = parse_value("0.1+/-0.03, 0.2+/-0.04")  # BicycleParameters averages, σ of the mean
     assert v == pytest.approx(0.15) and s == pytest.approx(0.025)
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="could not convert"):
         parse_value("abc")
 
 
