@@ -401,29 +401,29 @@ def _largest_resolvent_root(p: FloatArray, q: FloatArray, r: FloatArray) -> Floa
     For ``y⁴ + p y² + q y + r = (y² + S y + P1)(y² - S y + P2)`` the resolvent's roots are
     ``t = S²``; its value at 0 is ``-q² ≤ 0``, so a real root ``t ≥ 0`` always exists and ``S``
     is real. Cardano (one real root) or the trigonometric form (three real roots) give the
-    start; a Newton step on the cubic polishes it.
+    start; a Newton step on the cubic polishes it. Call under ``np.errstate(all="ignore")``:
+    divisions by zero only produce values that are replaced or rejected.
     """
-    a2, a1, a0 = 2.0 * p, p * p - 4.0 * r, -(q * q)
-    # Depressed cubic x³ + P x + Q with t = x - a2/3.
-    pp = -(p * p) / 3.0 - 4.0 * r
-    half = p * p * p / 27.0 - 4.0 * p * r / 3.0 + 0.5 * q * q  # -Q/2
-    third = pp / 3.0
+    p2, q2 = p * p, q * q
+    a2, a1 = 2.0 * p, p2 - 4.0 * r
+    # Depressed cubic x³ + P x + Q with t = x - 2p/3: third = P/3, half = -Q/2.
+    third = -(p2 / 9.0) - (4.0 / 3.0) * r
+    half = p * (p2 / 27.0 - (4.0 / 3.0) * r) + 0.5 * q2
     disc = half * half + third * third * third  # (not ** 3: numpy's pow is ~50x slower)
-    root_disc = np.sqrt(np.maximum(disc, 0.0))
-    u = np.cbrt(half + np.copysign(root_disc, half))
-    x = u - _safe_divide(pp, 3.0 * u, 0.0)
+    u = np.cbrt(half + np.copysign(np.sqrt(np.maximum(disc, 0.0)), half))
+    x = u - third / u  # u = 0 only where disc <= 0, replaced below
     three = np.flatnonzero(disc <= 0.0)
     if three.size:
         m = np.sqrt(np.maximum(-third[three], 0.0))
         cos_arg = np.clip(_safe_divide(half[three], m * m * m, 0.0), -1.0, 1.0)
         x[three] = 2.0 * m * np.cos(np.arccos(cos_arg) / 3.0)
-    t = x - a2 / 3.0
+    t = x - (2.0 / 3.0) * p
     # One Newton step (more changes nothing measurable; none leaves ~1e-8 errors at v = 0),
-    # kept only where it lowers |f|: at a multiple root f' is rounding noise.
-    f = ((t + a2) * t + a1) * t + a0
-    fp = (3.0 * t + 2.0 * a2) * t + a1
-    t_new = t - _safe_divide(f, fp, 0.0)
-    f_new = ((t_new + a2) * t_new + a1) * t_new + a0
+    # kept only where it lowers |f|: at a multiple root f' is rounding noise (NaN steps from
+    # f' = 0 compare false and are dropped too).
+    f = ((t + a2) * t + a1) * t - q2
+    t_new = t - f / ((3.0 * t + 2.0 * a2) * t + a1)
+    f_new = ((t_new + a2) * t_new + a1) * t_new - q2
     return np.maximum(np.where(np.abs(f_new) <= np.abs(f), t_new, t), 0.0)
 
 
@@ -431,16 +431,17 @@ def _quadratic_parts(bq: FloatArray, cq: FloatArray) -> tuple[FloatArray, ...]:
     """Roots of ``s² + bq s + cq`` as (re1, re2, im1): ``re1 ≥ re2`` if real, else ``im1 > 0``.
 
     The root of larger magnitude comes from the cancellation-free formula and the smaller one
-    from the product ``cq``, so small roots keep their relative accuracy.
+    from the product ``cq``, so small roots keep their relative accuracy. Call under
+    ``np.errstate(all="ignore")`` (``0/0`` at ``bq = cq = 0`` is dropped by ``fmax/fmin``).
     """
     disc = bq * bq - 4.0 * cq
     root = np.sqrt(np.abs(disc))
     real = disc >= 0.0
     big = -0.5 * (bq + np.copysign(root, bq))
-    small = _safe_divide(cq, big, 0.0)
+    small = cq / big
     centre = -0.5 * bq
-    re1 = np.where(real, np.maximum(big, small), centre)
-    re2 = np.where(real, np.minimum(big, small), centre)
+    re1 = np.where(real, np.fmax(big, small), centre)
+    re2 = np.where(real, np.fmin(big, small), centre)
     im1 = np.where(real, 0.0, 0.5 * root)
     return re1, re2, im1
 
@@ -456,6 +457,17 @@ def _monic_quartic_parts(b: FloatArray, c: FloatArray, d: FloatArray, e: FloatAr
         factorisation fails its check (:func:`_factor_mismatch`), the column comes from
         :func:`_companion_parts` instead.
     """
+    with np.errstate(all="ignore"):
+        re, im, suspect = _ferrari(b, c, d, e)
+    if suspect.size:
+        re[:, suspect], im[:, suspect] = _companion_parts(b[suspect], c[suspect], d[suspect], e[suspect])
+    return re, im
+
+
+def _ferrari(
+    b: FloatArray, c: FloatArray, d: FloatArray, e: FloatArray
+) -> tuple[FloatArray, FloatArray, NDArray[np.intp]]:
+    """Body of :func:`_monic_quartic_parts`; also returns the columns that fail the check."""
     bb = b * b
     # Depressed quartic y⁴ + p y² + q y + r with s = y - b/4.
     p = c - 0.375 * bb
@@ -468,26 +480,22 @@ def _monic_quartic_parts(b: FloatArray, c: FloatArray, d: FloatArray, e: FloatAr
     # difference cancels: take the one with the smaller first-order error.
     pt = p + t
     w2 = pt * pt - 4.0 * r
-    by_root = np.copysign(np.sqrt(np.maximum(w2, 0.0)), q)
-    by_quotient = _safe_divide(q, s_, by_root)
-    q_over_s = np.where(w2 > t * (np.abs(pt) + np.sqrt(np.abs(r))), by_root, by_quotient)
+    use_root = (w2 > t * (np.abs(pt) + np.sqrt(np.abs(r)))) | (s_ == 0.0)
+    q_over_s = np.where(use_root, np.copysign(np.sqrt(np.maximum(w2, 0.0)), q), q / s_)
     common = bb / 16.0 + 0.5 * pt
     skew = 0.25 * s_ * b - 0.5 * q_over_s
     c1, c2 = common + skew, common - skew
     # C1 C2 = e exactly: recompute the smaller constant term from the larger one.
     first_big = np.abs(c1) >= np.abs(c2)
-    c2 = np.where(first_big, _safe_divide(e, c1, c2), c2)
-    c1 = np.where(first_big, c1, _safe_divide(e, c2, c1))
+    np.divide(e, c1, out=c2, where=first_big & (c1 != 0.0))
+    np.divide(e, c2, out=c1, where=~first_big & (c2 != 0.0))
     half_b = 0.5 * b
     b1, b2 = half_b + s_, half_b - s_
     f1 = _quadratic_parts(b1, c1)
     f2 = _quadratic_parts(b2, c2)
     re = np.stack([f1[0], f1[1], f2[0], f2[1]])
     im = np.stack([f1[2], -f1[2], f2[2], -f2[2]])
-    suspect = np.flatnonzero(_factor_mismatch(b1, c1, b2, c2, c, d))
-    if suspect.size:
-        re[:, suspect], im[:, suspect] = _companion_parts(b[suspect], c[suspect], d[suspect], e[suspect])
-    return re, im
+    return re, im, np.flatnonzero(_factor_mismatch(b1, c1, b2, c2, c, d))
 
 
 def _factor_mismatch(
