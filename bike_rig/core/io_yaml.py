@@ -103,7 +103,7 @@ Lines = dict[tuple[object, ...], int]
 
 
 def _walk(node: yaml.Node, path: tuple[object, ...], lines: Lines) -> None:
-    lines[path] = node.start_mark.line + 1
+    lines.setdefault(path, node.start_mark.line + 1)  # a key's own line wins over its value's
     if isinstance(node, yaml.MappingNode):
         for k, v in node.value:
             key = k.value if isinstance(k, yaml.ScalarNode) else str(k)
