@@ -1,0 +1,510 @@
+"""The description of a (simulated) measurement rig, and its file ``config/rig.yaml``.
+
+A rig is everything about the measurement that is not the bicycle: the torsion rod and the
+calibration rod, the wheel fixtures, the hanging orientations, the rate gyro and the data
+acquisition, how the trials are run, and the standard deviation of every static reading.
+``format: bike_rig-rig/1``, SI units, degrees only in keys ending in ``_deg``::
+
+    format: bike_rig-rig/1
+    name: paper rig                     # free text
+    torsion_rod:
+      stiffness: 5.62                   # N m/rad; or diameter (m), length (m) and
+                                        # shear_modulus (Pa): k = G π d⁴ / (32 L)
+    calibration_rod: {mass: 5.56, length: 1.05, diameter: 0.03}   # kg, m, m (true values)
+    wheels:
+      rear: {rotations: 13, pendulum_arm: 0.29325}   # rotations rolled; rim contact to centre, m
+      front: {rotations: 13, pendulum_arm: 0.293}
+    orientations_deg:                   # head tube / steer tube to the horizontal, >= 3 each
+      frame: [3.4, 138.7, 229.8]
+      fork: [346.7, 28.1, 287.0]
+    gyro:
+      scale_factor: 1.1459156           # V per rad/s, nominal (20 mV per deg/s)
+      scale_factor_tolerance: 0.03      # relative 1σ of the true scale, drawn per session
+      zero_rate_output: 2.5             # V at zero rate (nominal)
+      bias: 0.02                        # rad/s, 1σ of the turn-on bias, drawn per trial
+      bias_drift: 1.0e-4                # rad/s/√s, random walk of the bias
+      noise_density: 1.0e-4             # (rad/s)/√Hz, white rate noise (one-sided)
+    adc:
+      bits: 12
+      range: [-5.0, 5.0]                # V, the input range (clips at the rails)
+      sample_rate: 1000                 # Hz
+    trials:
+      per_measurement: 3
+      duration: 30                      # s; or a list of durations drawn per trial
+      amplitude_deg: [0.2, 0.9]         # initial amplitude, uniform in this range (< 1°)
+      damping_ratio: 0.001
+    coupled_swing:                      # optional: a second, close mode that beats
+      probability: 0.05                 # per frame/fork torsional trial
+      trials: []                        # and/or these trials, e.g. [frame_torsional_o2_t3]
+      detuning: [0.05, 0.15]            # |f2 / f1 − 1|, uniform, random sign
+      amplitude_ratio: [0.4, 0.9]       # second mode's amplitude over the first's, < 1
+    reading_sigma:                      # 1σ of every static reading (noise drawn = σ written)
+      gravity: 0.01                     # m/s²
+      wheelbase: 0.002                  # m
+      head_tube_angle_deg: 0.2          # degree
+      fork_offset: 0.001                # m
+      distance_rolled: 0.01             # m
+      pendulum_arm: 0.001               # m
+      mass: 0.02                        # kg (every part and the calibration rod)
+      hanging_angle_deg: 0.2            # degree
+      string_distance: 0.003            # m
+      rod_length: 0.001                 # m
+      rod_diameter: 0.0001              # m
+
+Numbers may be written as YAML numbers or as numeric strings (``1e-4``, which YAML 1.1 reads
+as a string).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from ..benchmark import MIN_ORIENTATION_SPREAD_DEG
+from ..io_yaml import load_yaml_document
+from ..measurements import MIN_ORIENTATIONS
+from .errors import RigFileError
+from .plan import measurement_plan
+
+__all__ = [
+    "RIG_FORMAT",
+    "Adc",
+    "CalibrationRod",
+    "CoupledSwing",
+    "Gyro",
+    "ReadingSigma",
+    "RigConfig",
+    "TrialPlan",
+    "WheelFixture",
+    "load_rig",
+    "rig_from_document",
+    "torsion_rod_stiffness",
+]
+
+RIG_FORMAT = "bike_rig-rig/1"
+
+
+@dataclass(frozen=True)
+class CalibrationRod:
+    """The steel calibration rod of known inertia (paper Fig 9); true dimensions.
+
+    Attributes:
+        mass: kg.
+        length: m.
+        diameter: m.
+    """
+
+    mass: float
+    length: float
+    diameter: float
+
+
+@dataclass(frozen=True)
+class WheelFixture:
+    """How a wheel is measured.
+
+    Attributes:
+        rotations: Whole rotations rolled for the radius (Eq 6).
+        pendulum_arm: Rod/rim contact to the wheel centre when hung as a compound pendulum, m.
+    """
+
+    rotations: int
+    pendulum_arm: float
+
+
+@dataclass(frozen=True)
+class Gyro:
+    """The rate gyro (the paper's Silicon Sensing CRS03).
+
+    Attributes:
+        scale_factor: Nominal output per rate, V / (rad/s); used to convert back.
+        scale_factor_tolerance: Relative 1σ of the true scale factor about the nominal one,
+            drawn once per session (one gyro per session).
+        zero_rate_output: Nominal output at zero rate, V.
+        bias: 1σ of the turn-on rate bias, rad/s, drawn per trial.
+        bias_drift: Random-walk density of the bias, (rad/s)/√s.
+        noise_density: One-sided density of the white rate noise, (rad/s)/√Hz.
+    """
+
+    scale_factor: float
+    scale_factor_tolerance: float
+    zero_rate_output: float
+    bias: float
+    bias_drift: float
+    noise_density: float
+
+    def noise_sigma(self, sample_rate: float) -> float:
+        """Standard deviation of the white noise per sample, rad/s: density × √(f_s / 2)."""
+        return self.noise_density * math.sqrt(sample_rate / 2.0)
+
+
+@dataclass(frozen=True)
+class Adc:
+    """The data acquisition (the paper's NI USB-6008, 12 bit, 1 kHz).
+
+    Attributes:
+        bits: Resolution, bit.
+        low: Lower rail of the input range, V.
+        high: Upper rail, V.
+        sample_rate: Samples per second, Hz.
+    """
+
+    bits: int
+    low: float
+    high: float
+    sample_rate: float
+
+    @property
+    def lsb(self) -> float:
+        """One code step, V: (high − low) / 2^bits."""
+        return (self.high - self.low) / 2**self.bits
+
+
+@dataclass(frozen=True)
+class TrialPlan:
+    """How each period measurement is run.
+
+    Attributes:
+        per_measurement: Trials per period (the paper: three).
+        durations: Trial duration, s; one value, or choices drawn uniformly per trial.
+        amplitude_deg: Range (low, high) of the initial amplitude, degree, drawn uniformly.
+        damping_ratio: ζ of every oscillation.
+    """
+
+    per_measurement: int
+    durations: tuple[float, ...]
+    amplitude_deg: tuple[float, float]
+    damping_ratio: float
+
+
+@dataclass(frozen=True)
+class CoupledSwing:
+    """A second pendulum mode at a close frequency that exchanges energy (beating, Fig 7).
+
+    Attributes:
+        probability: Chance that a frame or fork torsional trial beats.
+        trials: Trials that beat whatever the draw, by name (``frame_torsional_o2_t3``).
+        detuning: Range of |f₂ / f₁ − 1|, drawn uniformly with a random sign.
+        amplitude_ratio: Range of the second mode's initial amplitude over the first's (< 1,
+            so that neither motion ever dies out completely).
+    """
+
+    probability: float
+    trials: tuple[str, ...]
+    detuning: tuple[float, float]
+    amplitude_ratio: tuple[float, float]
+
+
+@dataclass(frozen=True)
+class ReadingSigma:
+    """Standard deviation of each static reading; the noise drawn and the σ written.
+
+    Attributes:
+        gravity: m/s².
+        wheelbase: m.
+        head_tube_angle_deg: degree.
+        fork_offset: m.
+        distance_rolled: m.
+        pendulum_arm: m.
+        mass: kg (every part and the calibration rod).
+        hanging_angle_deg: degree.
+        string_distance: m.
+        rod_length: m.
+        rod_diameter: m.
+    """
+
+    gravity: float
+    wheelbase: float
+    head_tube_angle_deg: float
+    fork_offset: float
+    distance_rolled: float
+    pendulum_arm: float
+    mass: float
+    hanging_angle_deg: float
+    string_distance: float
+    rod_length: float
+    rod_diameter: float
+
+
+@dataclass(frozen=True)
+class RigConfig:
+    """A whole rig description (see the module docstring for the file).
+
+    Attributes:
+        name: Free text.
+        stiffness: True torsion-rod stiffness k, N m/rad.
+        calibration_rod: The calibration rod's true dimensions.
+        rear_wheel: Rear wheel fixture.
+        front_wheel: Front wheel fixture.
+        frame_orientations_deg: True hanging angles of the frame's head tube, degree.
+        fork_orientations_deg: True hanging angles of the fork's steer tube, degree.
+        gyro: The rate gyro.
+        adc: The data acquisition.
+        trials: How the trials are run.
+        coupled_swing: The beating mode, or None for none.
+        sigma: Standard deviation of every static reading.
+        source: The file it was read from.
+    """
+
+    name: str
+    stiffness: float
+    calibration_rod: CalibrationRod
+    rear_wheel: WheelFixture
+    front_wheel: WheelFixture
+    frame_orientations_deg: tuple[float, ...]
+    fork_orientations_deg: tuple[float, ...]
+    gyro: Gyro
+    adc: Adc
+    trials: TrialPlan
+    coupled_swing: CoupledSwing | None
+    sigma: ReadingSigma
+    source: str = "<memory>"
+
+
+def torsion_rod_stiffness(diameter: float, length: float, shear_modulus: float) -> float:
+    """Torsional stiffness of a solid round rod.
+
+    Args:
+        diameter: m.
+        length: m.
+        shear_modulus: G, Pa (mild steel ≈ 79 GPa).
+
+    Returns:
+        k = G J_p / L with J_p = π d⁴ / 32, N m/rad.
+    """
+    return shear_modulus * math.pi * diameter**4 / (32.0 * length)
+
+
+Where = tuple[object, ...]
+
+
+def _label(where: Where) -> str:
+    out = ""
+    for part in where:
+        out += f"[{part}]" if isinstance(part, int) else (f".{part}" if out else str(part))
+    return out
+
+
+class _Reader:
+    """Line-aware accessors of a loaded rig document, raising :class:`RigFileError`."""
+
+    def __init__(self, path: str, lines: Mapping[tuple[object, ...], int]):
+        self.path, self.lines = path, lines
+
+    def error(self, where: Where, reason: str) -> RigFileError:
+        line = self.lines.get(where)
+        probe = where
+        while line is None and probe:
+            probe = probe[:-1]
+            line = self.lines.get(probe)
+        return RigFileError(self.path, reason, key=_label(where) or None, line=line)
+
+    def section(self, value: Any, where: Where, keys: Sequence[str], optional: Sequence[str] = ()) -> Mapping[str, Any]:
+        """A mapping with exactly ``keys`` (and possibly ``optional``)."""
+        if not isinstance(value, Mapping):
+            raise self.error(where, f"expected a mapping of {', '.join(keys)}, got {value!r}")
+        for key in value:
+            if key not in keys and key not in optional:
+                raise self.error(where + (key,), f"unknown key; expected one of {', '.join([*keys, *optional])}")
+        for key in keys:
+            if key not in value:
+                raise self.error(where, f"missing key '{key}'")
+        return value
+
+    def number(self, value: Any, where: Where, *, low: float | None = None, strict: bool = True) -> float:
+        """A finite number (YAML number or numeric string), optionally > low (or >= low)."""
+        if isinstance(value, bool) or not isinstance(value, (int, float, str)):
+            raise self.error(where, f"expected a number, got {value!r}")
+        try:
+            x = float(value)
+        except ValueError:
+            raise self.error(where, f"expected a number, got {value!r}") from None
+        if not math.isfinite(x):
+            raise self.error(where, f"must be finite, got {value!r}")
+        if low is not None and (x <= low if strict else x < low):
+            raise self.error(where, f"must be {'>' if strict else '>='} {low:g}, got {x:g}")
+        return x
+
+    def count(self, value: Any, where: Where, low: int = 1) -> int:
+        if isinstance(value, bool) or not isinstance(value, int) or value < low:
+            raise self.error(where, f"expected a whole number >= {low}, got {value!r}")
+        return value
+
+    def numbers(self, value: Any, where: Where, *, low: float | None = None, strict: bool = True) -> list[float]:
+        if not isinstance(value, list) or not value:
+            raise self.error(where, f"expected a non-empty list of numbers, got {value!r}")
+        return [self.number(v, where + (i,), low=low, strict=strict) for i, v in enumerate(value)]
+
+    def interval(self, value: Any, where: Where, *, low: float, high: float | None = None) -> tuple[float, float]:
+        """A range [a, b] with low < a <= b (< high)."""
+        got = self.numbers(value, where, low=low)
+        if len(got) != 2 or got[0] > got[1]:
+            raise self.error(where, f"expected a range [low, high] with low <= high, got {value!r}")
+        if high is not None and got[1] >= high:
+            raise self.error(where, f"must stay below {high:g}, got {got[1]:g}")
+        return got[0], got[1]
+
+
+def _orientations(r: _Reader, value: Any, where: Where, name: str) -> tuple[float, ...]:
+    angles = r.numbers(value, where)
+    if len(angles) < MIN_ORIENTATIONS:
+        raise r.error(where, f"{name}: {len(angles)} orientation(s), at least {MIN_ORIENTATIONS} are needed (Eq 35)")
+    for i, a in enumerate(angles):
+        for j in range(i):
+            d = (a - angles[j]) % 180.0
+            if min(d, 180.0 - d) < MIN_ORIENTATION_SPREAD_DEG:
+                raise r.error(
+                    where + (i,),
+                    f"{name} orientations {j + 1} and {i + 1} hang along parallel lines ({min(d, 180.0 - d):.3g}° "
+                    "apart modulo 180°); they cannot locate the mass centre (Eq 17) or the tensor (Eq 35)",
+                )
+    return tuple(angles)
+
+
+def rig_from_document(path: str, data: Any, lines: Mapping[tuple[object, ...], int]) -> RigConfig:
+    """Build a :class:`RigConfig` from a loaded ``bike_rig-rig/1`` document.
+
+    Raises:
+        RigFileError: a key is missing, unknown, malformed or impossible (with its line).
+    """
+    r = _Reader(path, lines)
+    sections = (
+        "format", "torsion_rod", "calibration_rod", "wheels", "orientations_deg", "gyro", "adc", "trials",
+        "reading_sigma",
+    )  # fmt: skip
+    if not isinstance(data, Mapping):
+        raise r.error((), "expected a YAML mapping at the top level")
+    top = r.section(data, (), sections, ("name", "coupled_swing"))
+    if top["format"] != RIG_FORMAT:
+        raise r.error(("format",), f"expected '{RIG_FORMAT}', got {top['format']!r}")
+
+    rod = top["torsion_rod"]
+    if isinstance(rod, Mapping) and "stiffness" in rod:
+        r.section(rod, ("torsion_rod",), ("stiffness",))
+        stiffness = r.number(rod["stiffness"], ("torsion_rod", "stiffness"), low=0.0)
+    else:
+        geo = r.section(rod, ("torsion_rod",), ("diameter", "length", "shear_modulus"))
+        stiffness = torsion_rod_stiffness(
+            r.number(geo["diameter"], ("torsion_rod", "diameter"), low=0.0),
+            r.number(geo["length"], ("torsion_rod", "length"), low=0.0),
+            r.number(geo["shear_modulus"], ("torsion_rod", "shear_modulus"), low=0.0),
+        )
+
+    cal = r.section(top["calibration_rod"], ("calibration_rod",), ("mass", "length", "diameter"))
+    calibration = CalibrationRod(
+        mass=r.number(cal["mass"], ("calibration_rod", "mass"), low=0.0),
+        length=r.number(cal["length"], ("calibration_rod", "length"), low=0.0),
+        diameter=r.number(cal["diameter"], ("calibration_rod", "diameter"), low=0.0),
+    )
+
+    wheels = r.section(top["wheels"], ("wheels",), ("rear", "front"))
+    fixtures = []
+    for name in ("rear", "front"):
+        sec = r.section(wheels[name], ("wheels", name), ("rotations", "pendulum_arm"))
+        rotations = r.count(sec["rotations"], ("wheels", name, "rotations"))
+        arm = r.number(sec["pendulum_arm"], ("wheels", name, "pendulum_arm"), low=0.0)
+        fixtures.append(WheelFixture(rotations, arm))
+
+    ori = r.section(top["orientations_deg"], ("orientations_deg",), ("frame", "fork"))
+    frame = _orientations(r, ori["frame"], ("orientations_deg", "frame"), "frame")
+    fork = _orientations(r, ori["fork"], ("orientations_deg", "fork"), "fork")
+
+    gkeys = ("scale_factor", "scale_factor_tolerance", "zero_rate_output", "bias", "bias_drift", "noise_density")
+    g = r.section(top["gyro"], ("gyro",), gkeys)
+    gyro = Gyro(
+        scale_factor=r.number(g["scale_factor"], ("gyro", "scale_factor"), low=0.0),
+        zero_rate_output=r.number(g["zero_rate_output"], ("gyro", "zero_rate_output")),
+        **{
+            k: r.number(g[k], ("gyro", k), low=0.0, strict=False)
+            for k in gkeys
+            if k not in ("scale_factor", "zero_rate_output")
+        },
+    )
+
+    a = r.section(top["adc"], ("adc",), ("bits", "range", "sample_rate"))
+    bits = r.count(a["bits"], ("adc", "bits"))
+    if bits > 32:
+        raise r.error(("adc", "bits"), f"at most 32 bits, got {bits}")
+    rails = r.numbers(a["range"], ("adc", "range"))
+    if len(rails) != 2 or rails[0] >= rails[1]:
+        raise r.error(("adc", "range"), f"expected [low, high] volts with low < high, got {a['range']!r}")
+    adc = Adc(bits, rails[0], rails[1], r.number(a["sample_rate"], ("adc", "sample_rate"), low=0.0))
+    if not adc.low < gyro.zero_rate_output < adc.high:
+        raise r.error(
+            ("gyro", "zero_rate_output"),
+            f"{gyro.zero_rate_output:g} V lies outside the ADC range [{adc.low:g}, {adc.high:g}] V: "
+            "every sample would clip",
+        )
+
+    t = r.section(top["trials"], ("trials",), ("per_measurement", "duration", "amplitude_deg", "damping_ratio"))
+    dur = t["duration"]
+    durations = r.numbers(dur if isinstance(dur, list) else [dur], ("trials", "duration"), low=0.0)
+    damping = r.number(t["damping_ratio"], ("trials", "damping_ratio"), low=0.0, strict=False)
+    if damping >= 1.0:
+        raise r.error(("trials", "damping_ratio"), f"an oscillation needs a damping ratio below 1, got {damping:g}")
+    trials = TrialPlan(
+        per_measurement=r.count(t["per_measurement"], ("trials", "per_measurement")),
+        durations=tuple(durations),
+        amplitude_deg=r.interval(t["amplitude_deg"], ("trials", "amplitude_deg"), low=0.0, high=90.0),
+        damping_ratio=damping,
+    )
+
+    swing = None
+    if top.get("coupled_swing") is not None:
+        w = ("coupled_swing",)
+        c = r.section(top["coupled_swing"], w, ("detuning", "amplitude_ratio"), ("probability", "trials"))
+        p = r.number(c.get("probability", 0.0), w + ("probability",), low=0.0, strict=False)
+        if p > 1.0:
+            raise r.error(w + ("probability",), f"a probability is at most 1, got {p:g}")
+        names = c.get("trials", []) or []
+        if not isinstance(names, list) or not all(isinstance(n, str) for n in names):
+            raise r.error(w + ("trials",), "expected a list of trial names, e.g. [frame_torsional_o2_t3]")
+        plan = measurement_plan(len(frame), len(fork))
+        known = {m.trial_name(i + 1) for m in plan for i in range(trials.per_measurement)}
+        for i, n in enumerate(names):
+            if n not in known:
+                example = plan[-1].trial_name(1)
+                raise r.error(w + ("trials", i), f"no such trial '{n}' in this rig's session (e.g. {example})")
+        swing = CoupledSwing(
+            probability=p,
+            trials=tuple(names),
+            detuning=r.interval(c["detuning"], w + ("detuning",), low=0.0, high=1.0),
+            amplitude_ratio=r.interval(c["amplitude_ratio"], w + ("amplitude_ratio",), low=0.0, high=1.0),
+        )
+
+    skeys = tuple(ReadingSigma.__dataclass_fields__)
+    s = r.section(top["reading_sigma"], ("reading_sigma",), skeys)
+    sigma = ReadingSigma(**{k: r.number(s[k], ("reading_sigma", k), low=0.0, strict=False) for k in skeys})
+
+    name = top.get("name", Path(path).stem)
+    return RigConfig(
+        name=str(name),
+        stiffness=stiffness,
+        calibration_rod=calibration,
+        rear_wheel=fixtures[0],
+        front_wheel=fixtures[1],
+        frame_orientations_deg=frame,
+        fork_orientations_deg=fork,
+        gyro=gyro,
+        adc=adc,
+        trials=trials,
+        coupled_swing=swing,
+        sigma=sigma,
+        source=path,
+    )
+
+
+def load_rig(path: str | Path) -> RigConfig:
+    """Read a rig description (``format: bike_rig-rig/1``).
+
+    Raises:
+        RigFileError: the file is missing or invalid, naming the key and line.
+    """
+    p = str(path)
+    if not Path(path).is_file():
+        raise RigFileError(p, "no such file" if not Path(path).exists() else "not a regular file")
+    data, lines = load_yaml_document(path)
+    return rig_from_document(p, data, lines)

@@ -1,0 +1,119 @@
+"""The rig description file: the shipped rig, and every bad rig file's one-line error."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pytest
+
+from bike_rig.core.errors import InputFileError
+from bike_rig.core.sim.errors import RigFileError
+from bike_rig.core.sim.rig import RigConfig, load_rig, torsion_rod_stiffness
+from bike_rig.paths import config_file
+
+SHIPPED = config_file("rig.yaml")
+
+
+def test_shipped_rig_is_the_papers(rig: RigConfig) -> None:
+    assert rig.stiffness == 5.62
+    assert (rig.calibration_rod.mass, rig.calibration_rod.length, rig.calibration_rod.diameter) == (5.56, 1.05, 0.03)
+    assert rig.adc.bits == 12 and rig.adc.sample_rate == 1000.0
+    assert rig.adc.lsb == pytest.approx(10.0 / 4096)
+    assert rig.trials.per_measurement == 3 and rig.trials.durations == (30.0,)
+    assert rig.frame_orientations_deg == (3.4, 138.7, 229.8)
+    assert rig.coupled_swing is not None and rig.coupled_swing.probability == 0.05
+    assert rig.sigma.hanging_angle_deg == 0.2 and rig.sigma.string_distance == 0.003
+    assert rig.gyro.noise_sigma(1000.0) == pytest.approx(1e-4 * math.sqrt(500.0))
+
+
+def _write(tmp_path: Path, old: str, new: str) -> tuple[Path, int]:
+    """The shipped rig with ``old`` replaced by ``new``; returns the file and the changed line."""
+    text = SHIPPED.read_text(encoding="utf-8")
+    assert text.count(old) == 1, old
+    line = text[: text.index(old)].count("\n") + 1
+    path = tmp_path / "rig.yaml"
+    path.write_text(text.replace(old, new), encoding="utf-8")
+    return path, line
+
+
+def test_torsion_rod_from_its_geometry(tmp_path: Path) -> None:
+    path, _ = _write(tmp_path, "stiffness: 5.62", "{diameter: 0.005, length: 1.0, shear_modulus: 7.93e+10}\n  #")
+    rig = load_rig(path)
+    assert rig.stiffness == pytest.approx(7.93e10 * math.pi * 0.005**4 / 32.0)
+    assert rig.stiffness == torsion_rod_stiffness(0.005, 1.0, 7.93e10)
+
+
+def test_numbers_may_be_numeric_strings(tmp_path: Path) -> None:
+    path, _ = _write(tmp_path, "bias_drift: 1.0e-4", "bias_drift: 1e-4")  # YAML 1.1 reads a string
+    assert load_rig(path).gyro.bias_drift == 1e-4
+
+
+def test_durations_may_be_a_list_of_choices(tmp_path: Path) -> None:
+    path, _ = _write(tmp_path, "duration: 30 ", "duration: [15, 30] ")
+    assert load_rig(path).trials.durations == (15.0, 30.0)
+
+
+def test_coupled_swing_is_optional(tmp_path: Path) -> None:
+    path, _ = _write(tmp_path, "coupled_swing:  ", "coupled_swing_unused:  ")
+    text = path.read_text(encoding="utf-8")
+    start = text.index("coupled_swing_unused")
+    end = text.index("reading_sigma:")
+    path.write_text(text[:start] + text[end:], encoding="utf-8")
+    assert load_rig(path).coupled_swing is None
+
+
+BAD = [
+    # (replace, by: the key and the reason the error must name, on the replaced line)
+    ("format: bike_rig-rig/1", "format: bike_rig-rig/9", "format", "expected 'bike_rig-rig/1'"),
+    ("stiffness: 5.62", "stiffness: -1", "torsion_rod.stiffness", "must be > 0"),
+    ("stiffness: 5.62", "stiffness: stiff", "torsion_rod.stiffness", "expected a number"),
+    ("frame: [3.4, 138.7, 229.8]", "frame: [3.4, 138.7]", "orientations_deg.frame", "at least 3"),
+    ("frame: [3.4, 138.7, 229.8]", "frame: [3.4, 138.7, 318.8]", "orientations_deg.frame[2]", "parallel"),
+    ("bits: 12", "bits: twelve", "adc.bits", "whole number"),
+    ("range: [-5.0, 5.0]", "range: [5.0, -5.0]", "adc.range", "low < high"),
+    ("zero_rate_output: 2.5", "zero_rate_output: 7.5", "gyro.zero_rate_output", "outside the ADC range"),
+    ("damping_ratio: 0.001", "damping_ratio: 1.5", "trials.damping_ratio", "below 1"),
+    ("amplitude_deg: [0.2, 0.9]", "amplitude_deg: [0.9, 0.2]", "trials.amplitude_deg", "low <= high"),
+    ("probability: 0.05", "probability: 1.5", "coupled_swing.probability", "at most 1"),
+    ("trials: []", "trials: [frame_torsional_o4_t1]", "coupled_swing.trials[0]", "no such trial"),
+    ("noise_density: 1.0e-4", "noise_density: 1.0e-4\n  colour: red", "gyro.colour", "unknown key"),
+    ("rear: {rotations: 13,", "rear: {rotations: 13.5,", "wheels.rear.rotations", "whole number"),
+    ("pendulum_arm: 0.293}", "pendulum_arm: [0.293]}", "wheels.front.pendulum_arm", "expected a number"),
+]
+
+
+@pytest.mark.parametrize(("old", "new", "key", "reason"), BAD, ids=[b[2] + ":" + b[3] for b in BAD])
+def test_bad_rig_file_names_file_line_key_and_reason(tmp_path: Path, old: str, new: str, key: str, reason: str) -> None:
+    path, line = _write(tmp_path, old, new)
+    if key == "gyro.colour":
+        line += 1
+    with pytest.raises(RigFileError) as err:
+        load_rig(path)
+    message = str(err.value)
+    assert "\n" not in message
+    assert message.startswith(f"{path}:{line}: key '{key}': "), message
+    assert reason in message
+
+
+def test_missing_key_points_at_its_section(tmp_path: Path) -> None:
+    path, _ = _write(tmp_path, "  mass: 0.02                    # kg (Molen scale, 7)\n", "")
+    section = next(
+        i for i, t in enumerate(path.read_text(encoding="utf-8").splitlines(), 1) if t.startswith("reading_")
+    )
+    with pytest.raises(RigFileError, match=r":(\d+): key 'reading_sigma': missing key 'mass'$") as err:
+        load_rig(path)
+    # the section's line, or its first entry's (where the YAML node of the section starts)
+    assert err.value.line in (section, section + 1)
+
+
+def test_unreadable_rig_files(tmp_path: Path) -> None:
+    with pytest.raises(RigFileError, match="no such file"):
+        load_rig(tmp_path / "nope.yaml")
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("format: bike_rig-rig/1\ngyro: [1, 2\n", encoding="utf-8")
+    with pytest.raises(InputFileError, match=r"bad\.yaml:\d+: invalid YAML"):
+        load_rig(bad)
+    bad.write_text("- 1\n- 2\n", encoding="utf-8")
+    with pytest.raises(RigFileError, match="mapping"):
+        load_rig(bad)
