@@ -318,7 +318,8 @@ class CharacteristicPolynomial:
 
     Attributes:
         coefficients: Shape ``S + (5, 5)``; index ``[k, j]`` multiplies ``s**k * v**j``
-            (units kg² m⁴ s^(k-4)... consistent with ``det`` of a 2x2 matrix in kg m²/s²).
+            (``s`` in 1/s, ``v`` in m/s; the determinant is in kg² m⁴ s⁻⁴, so entry
+            ``[k, j]`` is in kg² m^(4-j) s^(k+j-4)).
     """
 
     coefficients: Array
@@ -427,23 +428,27 @@ def _largest_resolvent_root(p: FloatArray, q: FloatArray, r: FloatArray) -> Floa
     return np.maximum(np.where(np.abs(f_new) <= np.abs(f), t_new, t), 0.0)
 
 
-def _quadratic_parts(bq: FloatArray, cq: FloatArray) -> tuple[FloatArray, ...]:
-    """Roots of ``s² + bq s + cq`` as (re1, re2, im1): ``re1 ≥ re2`` if real, else ``im1 > 0``.
+def _quadratic_into(bq: FloatArray, cq: FloatArray, re: FloatArray, im: FloatArray) -> None:
+    """Roots of ``s² + bq s + cq`` into rows ``re[0:2], im[0:2]`` (views of length N).
 
-    The root of larger magnitude comes from the cancellation-free formula and the smaller one
-    from the product ``cq``, so small roots keep their relative accuracy. Call under
+    Row 0 holds the larger real root or the root with ``Im > 0``. The root of larger
+    magnitude comes from the cancellation-free formula and the smaller one from the product
+    ``cq``, so small roots keep their relative accuracy. Call under
     ``np.errstate(all="ignore")`` (``0/0`` at ``bq = cq = 0`` is dropped by ``fmax/fmin``).
     """
     disc = bq * bq - 4.0 * cq
     root = np.sqrt(np.abs(disc))
-    real = disc >= 0.0
+    cplx = disc < 0.0
     big = -0.5 * (bq + np.copysign(root, bq))
     small = cq / big
+    np.fmax(big, small, out=re[0])
+    np.fmin(big, small, out=re[1])
     centre = -0.5 * bq
-    re1 = np.where(real, np.fmax(big, small), centre)
-    re2 = np.where(real, np.fmin(big, small), centre)
-    im1 = np.where(real, 0.0, 0.5 * root)
-    return re1, re2, im1
+    np.copyto(re[0], centre, where=cplx)
+    np.copyto(re[1], centre, where=cplx)
+    np.multiply(root, 0.5, out=im[0])
+    np.copyto(im[0], 0.0, where=~cplx)
+    np.negative(im[0], out=im[1])
 
 
 def _monic_quartic_parts(b: FloatArray, c: FloatArray, d: FloatArray, e: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -457,17 +462,24 @@ def _monic_quartic_parts(b: FloatArray, c: FloatArray, d: FloatArray, e: FloatAr
         factorisation fails its check (:func:`_factor_mismatch`), the column comes from
         :func:`_companion_parts` instead.
     """
-    with np.errstate(all="ignore"):
-        re, im, suspect = _ferrari(b, c, d, e)
-    if suspect.size:
-        re[:, suspect], im[:, suspect] = _companion_parts(b[suspect], c[suspect], d[suspect], e[suspect])
+    re = np.empty((4, b.size))
+    im = np.empty((4, b.size))
+    _quartic_into(b, c, d, e, re, im)
     return re, im
 
 
+def _quartic_into(b: FloatArray, c: FloatArray, d: FloatArray, e: FloatArray, re: FloatArray, im: FloatArray) -> None:
+    """:func:`_monic_quartic_parts` writing into given ``(4, N)`` arrays (or views)."""
+    with np.errstate(all="ignore"):
+        suspect = _ferrari(b, c, d, e, re, im)
+    if suspect.size:
+        re[:, suspect], im[:, suspect] = _companion_parts(b[suspect], c[suspect], d[suspect], e[suspect])
+
+
 def _ferrari(
-    b: FloatArray, c: FloatArray, d: FloatArray, e: FloatArray
-) -> tuple[FloatArray, FloatArray, NDArray[np.intp]]:
-    """Body of :func:`_monic_quartic_parts`; also returns the columns that fail the check."""
+    b: FloatArray, c: FloatArray, d: FloatArray, e: FloatArray, re: FloatArray, im: FloatArray
+) -> NDArray[np.intp]:
+    """Body of :func:`_quartic_into`; returns the columns that fail the factor check."""
     bb = b * b
     # Depressed quartic y⁴ + p y² + q y + r with s = y - b/4.
     p = c - 0.375 * bb
@@ -491,11 +503,9 @@ def _ferrari(
     np.divide(e, c2, out=c1, where=~first_big & (c2 != 0.0))
     half_b = 0.5 * b
     b1, b2 = half_b + s_, half_b - s_
-    f1 = _quadratic_parts(b1, c1)
-    f2 = _quadratic_parts(b2, c2)
-    re = np.stack([f1[0], f1[1], f2[0], f2[1]])
-    im = np.stack([f1[2], -f1[2], f2[2], -f2[2]])
-    return re, im, np.flatnonzero(_factor_mismatch(b1, c1, b2, c2, c, d))
+    _quadratic_into(b1, c1, re[0:2], im[0:2])
+    _quadratic_into(b2, c2, re[2:4], im[2:4])
+    return np.flatnonzero(_factor_mismatch(b1, c1, b2, c2, c, d))
 
 
 def _factor_mismatch(
@@ -606,8 +616,22 @@ _BLOCK = 8192
 _MAX_SEGMENTS = 64
 
 
-def _flagged_block(re: FloatArray, im: FloatArray) -> NDArray[np.intp]:
-    """Flagged steps (see :func:`_flagged_steps`) within one contiguous block of speeds."""
+def _flagged_steps(re: FloatArray, im: FloatArray) -> NDArray[np.intp]:
+    """Steps ``i → i+1`` at which keeping the columns is not provably the best matching.
+
+    If every root moved by less than half the smallest distance ``δ`` between the roots at
+    speed ``i``, any other matching pairs some root with a different one, at a distance
+    ``> δ - δ/2 = δ/2``, more than the identity pays for it; so the identity is the unique
+    minimum of the summed distances. Only the other steps (branch points, coincident roots,
+    reordering of the closed-form factors, coarse grids) need the full search.
+
+    Args:
+        re: Real parts, shape ``(4, n)`` (rows in factor order, columns by speed).
+        im: Imaginary parts, same shape.
+
+    Returns:
+        Indices ``i`` (``0 <= i < n - 1``) of the flagged steps.
+    """
     d_re, d_im = np.diff(re, axis=1), np.diff(im, axis=1)
     move = (d_re * d_re + d_im * d_im).max(axis=0)
     gap = np.full(move.shape, np.inf)
@@ -618,30 +642,13 @@ def _flagged_block(re: FloatArray, im: FloatArray) -> NDArray[np.intp]:
     return np.flatnonzero(4.0 * move >= gap)
 
 
-def _flagged_steps(re: FloatArray, im: FloatArray) -> NDArray[np.intp]:
-    """Steps ``i → i+1`` at which keeping the columns is not provably the best matching.
-
-    If every root moved by less than half the smallest distance ``δ`` between the roots at
-    speed ``i``, any other matching pairs some root with a different one, at a distance
-    ``> δ - δ/2 = δ/2``, more than the identity pays for it; so the identity is the unique
-    minimum of the summed distances. Only the other steps (branch points, coincident roots,
-    reordering of the closed-form factors, coarse grids) need the full search.
-    """
-    n_steps = re.shape[1] - 1
-    found = [np.zeros(0, dtype=np.intp)]
-    for lo in range(0, n_steps, _BLOCK):
-        hi = min(lo + _BLOCK, n_steps)
-        found.append(_flagged_block(re[:, lo : hi + 1], im[:, lo : hi + 1]) + lo)
-    return np.concatenate(found)
-
-
-def _best_step_permutations(z: ComplexArray, steps: NDArray[np.intp]) -> NDArray[np.intp]:
+def _best_step_permutations(re: FloatArray, im: FloatArray, steps: NDArray[np.intp]) -> NDArray[np.intp]:
     """Codes of the minimum summed-distance matchings at the given steps (ties → identity).
 
     Code ``c`` means: root ``j`` at speed ``i`` continues as root ``_PERMS[c][j]`` at ``i+1``.
     """
-    before = z[:, steps].T
-    after = z[:, steps + 1].T
+    before = (re[:, steps] + 1j * im[:, steps]).T
+    after = (re[:, steps + 1] + 1j * im[:, steps + 1]).T
     cost = np.abs(after[:, _PERMS] - before[:, None, :]).sum(axis=-1)
     return np.asarray(np.argmin(cost, axis=1), dtype=np.intp)
 
@@ -656,18 +663,22 @@ def _prefix_compose(codes: NDArray[np.intp]) -> NDArray[np.intp]:
     return cum
 
 
-def _track(re: FloatArray, im: FloatArray, z: ComplexArray) -> NDArray[np.intp]:
+def _track(re: FloatArray, im: FloatArray, steps: NDArray[np.intp]) -> NDArray[np.intp]:
     """Permutation code per (sorted) speed mapping tracked column ``k`` to factor-order row.
 
+    Args:
+        re: Real parts of the roots, shape ``(4, N)``, columns by increasing speed.
+        im: Imaginary parts, same shape.
+        steps: The flagged steps (see :func:`_flagged_steps`); all others keep the rows.
+
     Returns:
-        ``codes`` of shape ``(N,)``: the root on track ``k`` at speed ``i`` is
-        ``z[_PERMS[codes[i]][k], i]``.
+        ``codes`` of shape ``(N,)``: the root on track ``k`` at speed ``i`` is row
+        ``_PERMS[codes[i]][k]`` of column ``i``.
     """
     n = re.shape[1]
-    steps = _flagged_steps(re, im)
     if steps.size == 0:
         return np.zeros(n, dtype=np.intp)
-    cum = _prefix_compose(_best_step_permutations(z, steps))
+    cum = _prefix_compose(_best_step_permutations(re, im, steps))
     before = np.zeros(n, dtype=np.intp)
     before[steps + 1] = 1
     return np.concatenate([np.zeros(1, dtype=np.intp), cum])[np.cumsum(before)]
@@ -707,7 +718,8 @@ class EigenSweep:
     Attributes:
         speeds: Speeds (m/s), shape ``(N,)``, in the order given by the caller.
         eigenvalues: Shape ``(N, 4)`` complex (1/s); row ``i`` belongs to ``speeds[i]``,
-            column ``j`` to mode ``labels[j]``.
+            column ``j`` to mode ``labels[j]`` (stored column-major: the transpose of a
+            ``(4, N)`` array, so each mode's column is contiguous).
         labels: Mode of each column, always :data:`MODE_LABELS`
             ``("weave", "weave", "capsize", "caster")``.
         eigenvectors: ``None``, or shape ``(N, 4, 4)`` complex: ``eigenvectors[i, :, j]`` is
@@ -754,7 +766,7 @@ def _speed_array(speeds: ArrayLike) -> FloatArray:
     return arr
 
 
-def _monic_speed_coefficients(coef: FloatArray, v: FloatArray) -> tuple[FloatArray, ...]:
+def _monic_speed_coefficients(coef: FloatArray, v: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
     """Monic quartic coefficients ``b, c, d, e`` at the speeds ``v`` from ``coef[k, j]``."""
     e_ = coef / coef[4, 0]
     u = v * v
@@ -805,31 +817,55 @@ def _eigenvectors(matrices: CanonicalMatrices, g: float, v: FloatArray, s: Compl
     return out
 
 
-def _sorted_roots(coef: FloatArray, v: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """Quartic roots at each speed, ``(re, im)`` of shape ``(4, N)`` in factor order."""
-    re = np.empty((4, v.size))
-    im = np.empty((4, v.size))
-    for lo in range(0, v.size, _BLOCK):
-        block = slice(lo, lo + _BLOCK)
-        re[:, block], im[:, block] = _monic_quartic_parts(*_monic_speed_coefficients(coef, v[block]))
-    return re, im
+def _sorted_roots(coef: FloatArray, v: FloatArray) -> tuple[FloatArray, FloatArray, NDArray[np.intp]]:
+    """Quartic roots at the sorted speeds ``v``, block by block, and the flagged steps.
+
+    Returns:
+        ``(re, im, steps)``: roots of shape ``(4, N)`` in factor order, and the steps that
+        :func:`_flagged_steps` flags (computed per block while it is in cache).
+    """
+    n = v.size
+    re = np.empty((4, n))
+    im = np.empty((4, n))
+    steps = [np.zeros(0, dtype=np.intp)]
+    for lo in range(0, n, _BLOCK):
+        hi = min(lo + _BLOCK, n)
+        _quartic_into(*_monic_speed_coefficients(coef, v[lo:hi]), re[:, lo:hi], im[:, lo:hi])
+        start = max(lo - 1, 0)  # include the step from the previous block
+        steps.append(_flagged_steps(re[:, start:hi], im[:, start:hi]) + start)
+    return re, im, np.concatenate(steps)
 
 
-def _gather(z: ComplexArray, table: NDArray[np.intp], codes: NDArray[np.intp]) -> ComplexArray:
-    """``out[i, m] = z[table[codes[i], m], i]``: roots in output-column order, shape ``(N, 4)``.
+def _gather(
+    re: FloatArray,
+    im: FloatArray,
+    table: NDArray[np.intp],
+    codes: NDArray[np.intp],
+    order: NDArray[np.intp] | None,
+) -> ComplexArray:
+    """Roots in output order: ``out[order[i], m] = (re + i im)[table[codes[i], m], i]``.
 
     ``codes`` is piecewise constant (it changes only at flagged steps), so few segments are
-    copied slice by slice; many segments fall back to one fancy-indexing gather.
+    copied row slice by row slice; many segments fall back to fancy indexing. The result has
+    shape ``(N, 4)`` and is the transpose of a C-ordered ``(4, N)`` array.
     """
-    n = z.shape[1]
+    n = re.shape[1]
+    out = np.empty((4, n), dtype=complex)
     edges = np.flatnonzero(codes[1:] != codes[:-1]) + 1
     if edges.size >= _MAX_SEGMENTS:
-        return np.asarray(np.take_along_axis(z.T, table[codes], axis=1))
-    out = np.empty((n, 4), dtype=complex)
-    bounds = [0, *edges.tolist(), n]
-    for lo, hi in itertools.pairwise(bounds):
-        out[lo:hi] = z[table[codes[lo]], lo:hi].T
-    return out
+        index = table[codes].T
+        out.real = np.take_along_axis(re, index, axis=0)
+        out.imag = np.take_along_axis(im, index, axis=0)
+    else:
+        for lo, hi in itertools.pairwise([0, *edges.tolist(), n]):
+            for m, row in enumerate(table[codes[lo]]):
+                out.real[m, lo:hi] = re[row, lo:hi]
+                out.imag[m, lo:hi] = im[row, lo:hi]
+    if order is not None:
+        unsorted = np.empty_like(out)
+        unsorted[:, order] = out
+        out = unsorted
+    return out.T
 
 
 def eigenvalues(matrices: CanonicalMatrices, g: float, speeds: ArrayLike, vectors: bool = False) -> EigenSweep:
@@ -869,16 +905,11 @@ def eigenvalues(matrices: CanonicalMatrices, g: float, speeds: ArrayLike, vector
     order = None if np.all(v[1:] >= v[:-1]) else np.argsort(v, kind="stable")
     v_sorted = v if order is None else v[order]
     coef = np.asarray(characteristic_polynomial(matrices, float(g)).coefficients, dtype=float)
-    re, im = _sorted_roots(coef, v_sorted)
-    z = np.empty(re.shape, dtype=complex)
-    z.real, z.imag = re, im
-    codes = _track(re, im, z)
-    labels = _label_order(z[_PERMS[codes[-1]], -1])
-    values = _gather(z, _PERMS[:, labels], codes)
-    if order is not None:
-        unsorted = np.empty_like(values)
-        unsorted[order] = values
-        values = unsorted
+    re, im, steps = _sorted_roots(coef, v_sorted)
+    codes = _track(re, im, steps)
+    top = _PERMS[codes[-1]]
+    labels = _label_order(re[top, -1] + 1j * im[top, -1])
+    values = _gather(re, im, _PERMS[:, labels], codes, order)
     vecs = _eigenvectors(matrices, float(g), v, values) if vectors else None
     return EigenSweep(speeds=v, eigenvalues=values, labels=MODE_LABELS, eigenvectors=vecs)
 
