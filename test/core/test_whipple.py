@@ -190,6 +190,20 @@ def test_characteristic_coefficients_are_the_determinant(bench: CanonicalMatrice
     np.testing.assert_allclose(np.polynomial.polynomial.polyval2d(s, v, c2d), np.linalg.det(mats), rtol=1e-11)
 
 
+def test_hurwitz_determinant_is_v2_times_quadratic_in_v2(bench: CanonicalMatrices) -> None:
+    # The closed-form weave candidates rest on H(v) = a3 a2 a1 - a4 a1² - a0 a3² = v² Q(v²)
+    # with Q quadratic: fit Q on three speeds, predict H at others.
+    def hurwitz(v: NDArray[np.float64]) -> NDArray[np.float64]:
+        a4, a3, a2, a1, a0 = characteristic_coefficients(bench, G, v).T
+        return np.asarray(a3 * a2 * a1 - a4 * a1**2 - a0 * a3**2)
+
+    fit_v = np.array([1.0, 3.0, 7.0])
+    q = np.polyfit(fit_v**2, hurwitz(fit_v) / fit_v**2, 2)
+    test_v = np.array([0.5, 2.0, 4.29238253634111, 9.0, 15.0])
+    np.testing.assert_allclose(hurwitz(test_v), test_v**2 * np.polyval(q, test_v**2), rtol=1e-9, atol=1e-6)
+    assert abs(hurwitz(np.array([WEAVE_SPEED]))[0]) < 1e-6 * abs(hurwitz(np.array([3.0]))[0])
+
+
 # --- eigenvalues --------------------------------------------------------------------------------
 
 
