@@ -19,6 +19,7 @@ from numpy.typing import NDArray
 from . import com, geometry, inertia
 from .errors import GeometryError
 from .measurements import Measurements, validate
+from .symbols import PARAMETER_NAMES
 from .uncertain import Propagated, UncertainVector, complex_step_jacobian, monte_carlo
 from .units import radians
 
@@ -34,12 +35,6 @@ __all__ = [
     "monte_carlo_parameters",
 ]
 
-#: The benchmark parameters in BicycleParameters' order (25 plus g).
-PARAMETER_NAMES: tuple[str, ...] = (
-    "IBxx", "IBxz", "IByy", "IBzz", "IFxx", "IFyy", "IHxx", "IHxz", "IHyy", "IHzz",
-    "IRxx", "IRyy", "c", "g", "lam", "mB", "mF", "mH", "mR", "rF", "rR", "w",
-    "xB", "xH", "zB", "zH",
-)  # fmt: skip
 
 #: Smallest difference between two hanging orientations (mod 180°) that still determines a
 #: mass centre and an inertia tensor; closer pairs make Eq 17 and Eq 35 singular.

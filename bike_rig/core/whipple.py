@@ -30,6 +30,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .errors import ModelError
+from .symbols import PARAMETER_NAMES as PARAMETER_KEYS
 
 __all__ = [
     "MODE_LABELS",
@@ -50,11 +51,6 @@ __all__ = [
 ]
 
 #: The 26 benchmark parameter names (BicycleParameters' spelling, Meijaard et al. 2007).
-PARAMETER_KEYS: tuple[str, ...] = (
-    "IBxx", "IBxz", "IByy", "IBzz", "IFxx", "IFyy", "IHxx", "IHxz", "IHyy", "IHzz",
-    "IRxx", "IRyy", "c", "g", "lam", "mB", "mF", "mH", "mR", "rF", "rR", "w",
-    "xB", "xH", "zB", "zH",
-)  # fmt: skip
 
 #: Labels of the eigenvalue columns returned by :func:`eigenvalues`, in column order.
 MODE_LABELS: tuple[str, str, str, str] = ("weave", "weave", "capsize", "caster")
