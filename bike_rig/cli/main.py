@@ -27,6 +27,7 @@ from ..core.rider import PAPER_RIDER, Rider, add_rider
 from ..core.whipple import critical_speeds, eigenvalues
 from ..paths import config_file
 from . import format as fmt
+from . import simulate_cmd
 
 __all__ = ["main"]
 
@@ -216,6 +217,8 @@ def build_parser() -> argparse.ArgumentParser:
     q.add_argument("file", help="<Name>Measured.txt or <Name>Benchmark.txt")
     q.add_argument("-o", "--output", required=True, help="the YAML file to write")
     q.set_defaults(func=cmd_import_bp)
+
+    simulate_cmd.add_parser(sub)
 
     q = sub.add_parser("demo", help="the default bicycle's parameters and stability")
     q.add_argument("--bicycle", help="measurement file (default: config/bicycles/browser.yaml)")
