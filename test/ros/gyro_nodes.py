@@ -97,7 +97,7 @@ def run_subscriber(node: Node, topic: str) -> None:
     sub = node.create_subscription(
         GyroBatch, topic, lambda msg: report("MSG", batch_to_dict(msg)), QOS
     )
-    wait_until(node, lambda: node.count_publishers(topic) > 0, "a publisher")
+    wait_until(node, lambda: sub.get_publisher_count() > 0, "a publisher")
     report("MATCHED", {"count": sub.get_publisher_count()})
     rclpy.spin(node)
 

@@ -14,14 +14,17 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import IO
 
-# Hard limit for any one child, enforced by coreutils `timeout` (SIGTERM, SIGKILL 5 s later).
+# Hard limit for any one child, enforced by coreutils `timeout`: SIGTERM after CHILD_TIMEOUT_S,
+# SIGKILL KILL_AFTER_S later. timeout also starts that SIGKILL timer when it passes on our
+# SIGINT, so KILL_AFTER_S must exceed stop()'s own grace periods.
 CHILD_TIMEOUT_S = 180
+KILL_AFTER_S = 30
 
 
 class RosProcess:
     """A child process whose stdout lines the test waits for, with deadlines.
 
-    The command runs as ``timeout --foreground -k 5 CHILD_TIMEOUT_S <argv>`` in a session of
+    The command runs as ``timeout --foreground -k KILL_AFTER_S CHILD_TIMEOUT_S <argv>`` in a session of
     its own (timeout forwards SIGINT and SIGTERM to it). stderr goes to ``<log_dir>/<name>.stderr`` and is shown when an
     expectation fails. Use as a context manager, or call :meth:`stop` in a ``finally``.
     """
@@ -37,10 +40,11 @@ class RosProcess:
         self.name = name
         self.stderr_path = log_dir / f"{name}.stderr"
         self.lines: list[str] = []
+        self.stop_seconds: float | None = None
         self._queue: queue.Queue[str | None] = queue.Queue()
         timeout = shutil.which("timeout")
         # --foreground: timeout passes a signal to the child once (not to the group as well)
-        prefix = [timeout, "--foreground", "-k", "5", str(CHILD_TIMEOUT_S)] if timeout else []
+        prefix = [timeout, "--foreground", "-k", str(KILL_AFTER_S), str(CHILD_TIMEOUT_S)] if timeout else []
         self._stderr = self.stderr_path.open("wb")
         self.proc = subprocess.Popen(
             [*prefix, *argv],
@@ -71,7 +75,8 @@ class RosProcess:
         """The output so far, for assertion messages."""
         stderr = self.stderr_path.read_text(errors="replace")[-4000:]
         return (
-            f"--- {self.name} (pid {self.pid}, returncode {self.proc.poll()}) stdout:\n"
+            f"--- {self.name} (pid {self.pid}, returncode {self.proc.poll()}, "
+            f"stopped in {self.stop_seconds} s) stdout:\n"
             + "\n".join(self.lines[-40:])
             + f"\n--- {self.name} stderr (tail):\n{stderr}"
         )
@@ -108,9 +113,12 @@ class RosProcess:
     def stop(self, grace_s: float = 10.0) -> int:
         """Stop the child by PID: SIGINT, then SIGTERM, SIGKILL only as a last resort.
 
+        Safe to call again: then it only returns the exit code.
+
         Returns:
             The exit code (negative: killed by that signal).
         """
+        started = time.monotonic()
         for sig, wait_s in ((signal.SIGINT, grace_s), (signal.SIGTERM, 5.0)):
             if self.proc.poll() is not None:
                 break
@@ -124,6 +132,8 @@ class RosProcess:
             with contextlib.suppress(ProcessLookupError):
                 os.killpg(self.proc.pid, signal.SIGKILL)
         code = self.proc.wait()
+        if self.stop_seconds is None:
+            self.stop_seconds = round(time.monotonic() - started, 3)
         self._reader.join(timeout=5)
         for stream in (self.proc.stdin, self.proc.stdout):
             if stream is not None:

@@ -58,21 +58,19 @@ def test_gyro_batch_between_two_processes(
     batches_file.write_text(json.dumps(batches))
     topic = f"/bike_rig/test/gyro_{os.getpid()}"
 
-    sub = RosProcess("sub", [sys.executable, str(NODES), "sub", topic], ros_env, tmp_path)
-    pub = RosProcess(
-        "pub", [sys.executable, str(NODES), "pub", topic, str(batches_file)], ros_env, tmp_path,
-        stdin=True,
-    )
-    try:
+    sub_argv = [sys.executable, str(NODES), "sub", topic]
+    pub_argv = [sys.executable, str(NODES), "pub", topic, str(batches_file)]
+    # leaving the with-block stops both by PID, whatever happened
+    with RosProcess("sub", sub_argv, ros_env, tmp_path) as sub, \
+            RosProcess("pub", pub_argv, ros_env, tmp_path, stdin=True) as pub:
         check_env(sub.expect("ENV", STEP_TIMEOUT_S), ros_domain_id)
         check_env(pub.expect("ENV", STEP_TIMEOUT_S), ros_domain_id)
-        # both ends have discovered each other before a single sample is written
+        # both ends have matched each other before a single sample is written
         assert json.loads(sub.expect("MATCHED", STEP_TIMEOUT_S))["count"] == 1
         assert json.loads(pub.expect("MATCHED", STEP_TIMEOUT_S))["count"] == 1
         pub.send("GO")
         received = [json.loads(sub.expect("MSG", STEP_TIMEOUT_S)) for _ in batches]
         published = json.loads(pub.expect("PUBLISHED", STEP_TIMEOUT_S))
-    finally:
         pub_code = pub.stop()
         sub_code = sub.stop()
 
