@@ -66,5 +66,5 @@ bench: bench-deps
 
 clean:
 	rm -rf $(VENV) $(BENCH_DEPS) build install log *.egg-info \
-	  .mypy_cache .ruff_cache .pytest_cache
+	  .mypy_cache .ruff_cache .pytest_cache .hypothesis
 	find bike_rig test bench -name __pycache__ -type d -prune -exec rm -rf {} + 2>/dev/null || true
