@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from .. import com, inertia
-from ..benchmark import PARAMETER_NAMES
+from ..symbols import PARAMETER_NAMES
 from ..units import DEGREE, radians
 from .errors import SimulationError
 from .plan import PlannedMeasurement, measurement_plan
@@ -213,7 +213,7 @@ def true_readings(params: Mapping[str, float], rig: RigConfig) -> TrueReadings:
     """Every reading of a session on a perfect rig, from the true benchmark parameters.
 
     Args:
-        params: The 25 benchmark parameters and g (:data:`~bike_rig.core.benchmark.PARAMETER_NAMES`),
+        params: The 25 benchmark parameters and g (:data:`~bike_rig.core.symbols.PARAMETER_NAMES`),
             SI, ``lam`` in rad.
         rig: The rig: orientations, wheel fixtures, torsion and calibration rods.
 

@@ -19,9 +19,10 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from ..benchmark import PARAMETER_NAMES, compute_parameters
+from ..benchmark import compute_parameters
 from ..loader import load_input
 from ..measurements import Measurements, Origin, Reading
+from ..symbols import PARAMETER_NAMES
 from ..units import DEGREE
 from .errors import SimulationError
 from .gyro import Mode, adc_quantise, angular_rate, gyro_volts, rate_from_volts

@@ -9,6 +9,7 @@ import pytest
 import yaml
 
 from bike_rig.cli import simulate_cmd
+from bike_rig.cli.main import main
 from bike_rig.core.errors import BikeRigError, InputFileError
 from bike_rig.core.sim.errors import RigFileError
 from bike_rig.paths import config_dir, config_file
@@ -86,3 +87,15 @@ def test_negative_seed_and_impossible_bicycle(tmp_path: Path) -> None:
     args = _parse("--bicycle", str(small), "--out", str(tmp_path / "s"), "--seed", "3")
     with pytest.raises(BikeRigError, match="rear wheel pendulum arm"):
         args.func(args)
+
+
+def test_through_main_bad_rig_is_one_line_and_status_2(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    rig = tmp_path / "rig.yaml"
+    rig.write_text(config_file("rig.yaml").read_text(encoding="utf-8").replace("bits: 12", "bits: -12"), "utf-8")
+    code = main(["simulate", "--bicycle", BROWSER, "--out", str(tmp_path / "s"), "--rig", str(rig)])
+    out, err = capsys.readouterr()
+    assert code == 2 and out == ""
+    assert err.count("\n") == 1
+    assert err.startswith(f"bike-rig simulate: error: {rig}:") and "key 'adc.bits': expected a whole number" in err
+    code = main(["simulate", "--bicycle", BROWSER, "--out", str(tmp_path / "s"), "--seed", "5"])
+    assert code == 0 and (tmp_path / "s" / "session.yaml").is_file()

@@ -10,11 +10,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from bike_rig.core import com, geometry, inertia
-from bike_rig.core.benchmark import PARAMETER_NAMES, benchmark_formulas
+from bike_rig.core.benchmark import benchmark_formulas
 from bike_rig.core.sim import physics
 from bike_rig.core.sim.errors import SimulationError
 from bike_rig.core.sim.rig import RigConfig
 from bike_rig.core.sim.session import load_true_parameters
+from bike_rig.core.symbols import PARAMETER_NAMES
 from bike_rig.core.units import radians
 from bike_rig.paths import config_dir
 
