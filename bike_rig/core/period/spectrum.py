@@ -1,0 +1,119 @@
+"""Initial guess of the oscillation frequency from the spectrum, and block means.
+
+The guess only has to land inside the least-squares fit's basin (about half a spectral bin,
+1 / (2 × window length)), so it works on block means of at most ``MAX_SPECTRUM_POINTS`` points:
+a Hann-windowed, zero-padded periodogram of the detrended series, whose highest peak is refined
+by a parabola through the logarithm of its three top bins.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ["MAX_SPECTRUM_POINTS", "SpectralPeak", "block_means", "spectral_peak"]
+
+FloatArray = NDArray[np.float64]
+
+#: The periodogram uses block means of the window, at most this many: oscillations of up to
+#: a quarter of that rate are found (17 Hz in a 30 s window), far above any pendulum's.
+MAX_SPECTRUM_POINTS = 2048
+
+
+@dataclass(frozen=True)
+class SpectralPeak:
+    """The highest spectral peak of a series.
+
+    Attributes:
+        omega: Its angular frequency [rad/s].
+        prominence: Its power over the median power of the surrounding two octaves (excluding
+            the peak's own lobe) [-]: tens for noise, thousands for a clear oscillation.
+    """
+
+    omega: float
+    prominence: float
+
+
+def block_means(
+    t: FloatArray, y: FloatArray, k: int, step: float | None = None
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Means of consecutive blocks of ``k`` samples (the last block may be shorter).
+
+    Args:
+        t: Sample times [s].
+        y: Samples.
+        k: Block length.
+        step: The sample interval [s] if the samples are evenly spaced (saves a pass).
+
+    Returns:
+        Mean time of each block [s], mean sample, number of samples per block.
+    """
+    n = t.size
+    if k <= 1:
+        return t, y, np.ones(n)
+    full = n // k
+    starts = np.arange(0, n, k)
+    counts = np.full(starts.size, float(k))
+    if n > full * k:
+        counts[-1] = n - full * k
+    if step is None:
+        tb = np.add.reduceat(t, starts) / counts
+    else:
+        tb = t[0] + step * (starts + 0.5 * (counts - 1.0))
+    yb = np.add.reduceat(y, starts) / counts
+    return tb, yb, counts
+
+
+@lru_cache(maxsize=8)
+def _hann(m: int) -> FloatArray:
+    return np.hanning(m)
+
+
+def spectral_peak(t: FloatArray, y: FloatArray, even: bool = False, min_cycles: float = 1.0) -> SpectralPeak | None:
+    """The dominant oscillation of ``y(t)`` (t increasing, possibly unevenly spaced).
+
+    Args:
+        t: Sample times [s].
+        y: Samples (finite).
+        even: The samples are evenly spaced (skips the check).
+        min_cycles: Lowest frequency searched, in cycles per record.
+
+    Returns:
+        The peak, or None when the series is too short to have one.
+    """
+    n = t.size
+    duration = float(t[-1] - t[0])
+    if n < 8 or not duration > 0:
+        return None
+    k = max(1, math.ceil(n / MAX_SPECTRUM_POINTS))
+    tb, yb, _ = block_means(t, y, k, duration / (n - 1) if even else None)
+    m = tb.size
+    # put the block means on an even grid (they are already, unless the times are uneven)
+    step = float(tb[-1] - tb[0]) / (m - 1)
+    if not even:
+        grid = tb[0] + step * np.arange(m)
+        if not np.allclose(tb, grid, rtol=0.0, atol=0.01 * step):
+            yb = np.interp(grid, tb, yb)
+    x = np.linspace(-1.0, 1.0, m)
+    yb = yb - np.mean(yb) - x * (np.dot(x, yb) / np.dot(x, x))
+    nfft = 1 << (int(m - 1).bit_length() + 1)
+    spectrum = np.fft.rfft(yb * _hann(m), nfft)
+    power = spectrum.real**2 + spectrum.imag**2
+    df = 1.0 / (nfft * step)
+    lo = max(1, math.ceil(min_cycles / (duration * df)))
+    hi = min(power.size - 2, int(0.25 / (step * df)))
+    if hi <= lo:
+        return None
+    i = lo + int(np.argmax(power[lo : hi + 1]))
+    p0, p1, p2 = np.log(np.maximum(power[i - 1 : i + 2], 1e-300))
+    curvature = p0 - 2.0 * p1 + p2
+    shift = 0.5 * (p0 - p2) / curvature if curvature < 0 else 0.0
+    lobe = 2 * nfft // m + 1  # Hann main lobe half-width, in padded bins
+    around = np.r_[max(lo, i // 2) : max(lo, i - lobe), i + lobe + 1 : min(hi, 2 * i) + 1]
+    background = float(np.median(power[around])) if around.size >= 4 else 0.0
+    prominence = power[i] / background if background > 0 else math.inf
+    return SpectralPeak(omega=2.0 * math.pi * (i + max(-0.5, min(0.5, shift))) * df, prominence=float(prominence))
