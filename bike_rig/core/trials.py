@@ -1,0 +1,307 @@
+"""Trial files: one rate-gyro record of a pendulum swing each, ready for the period fitter.
+
+``read_trial(path, sample_rate_hz=None) -> Trial`` reads
+
+* **CSV** (``.csv``, ``.txt``, ``.tsv``, ``.dat``): two columns ``time, rate`` (time in s), or
+  one column ``rate`` sampled at ``sample_rate_hz``; an optional header line, ``#`` comments
+  and blank lines; separated by commas, semicolons, tabs or spaces.
+* **NumPy** ``.npy``: a 1-D array of rates (needs ``sample_rate_hz``) or an (N, 2) array of
+  ``[time, rate]`` rows.
+* **BicycleParameters' pendulum** ``.mat`` files (MATLAB v5, as its DAQ scripts wrote them):
+  ``data`` (the gyro voltages), ``ActualRate`` or ``sampleRate`` [Hz], and ``bicycle``,
+  ``part``, ``pendulum``, ``angleOrder`` (or ``angle``), ``trial``, ``notes``, which name the
+  trial (``BrowserFrameTorsionalFirst1``). With a ``time`` array the sample rate may vary and
+  the times are used.
+
+Samples stay in the file's unit (rad/s, °/s or volts: the period does not care). A file's own
+times or rate win over ``sample_rate_hz``, which is needed only when the file has neither.
+Files that cannot be used raise :class:`~bike_rig.core.errors.InputFileError` with the reason
+(and the line of a bad CSV cell, or the .mat key); bad *values* (NaN, gaps...) are left to the
+fitter, which reports them.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .errors import InputFileError
+
+__all__ = ["TEXT_SUFFIXES", "Trial", "read_trial"]
+
+FloatArray = NDArray[np.float64]
+
+#: File name endings read as delimited text.
+TEXT_SUFFIXES = (".csv", ".txt", ".tsv", ".dat")
+
+#: BicycleParameters' part names and the letter of their period keys (fork and handlebar as one).
+_PART_LETTERS = {"Rwheel": "R", "Fwheel": "F", "Frame": "B", "Fork": "H", "Handlebar": "G", "Rod": "P"}
+_ORDINALS = {"First": 1, "Second": 2, "Third": 3, "Fourth": 4, "Fifth": 5, "Sixth": 6}
+
+
+@dataclass(frozen=True)
+class Trial:
+    """One trial's samples and what is known about it.
+
+    Attributes:
+        samples: The gyro samples (float64, the file's unit).
+        sample_rate_hz: Constant sample rate [Hz], or None when ``times`` are given.
+        times: Time of each sample [s], or None for a constant rate.
+        name: The trial's name (BicycleParameters' naming when the file says, else the stem).
+        path: The file, as given.
+        bicycle: BicycleParameters ``bicycle`` (e.g. ``Browser``), if given.
+        part: ``part`` (``Rwheel``, ``Fwheel``, ``Frame``, ``Fork``, ``Handlebar``, ``Rod``...).
+        pendulum: ``pendulum`` (``Compound`` or ``Torsional``).
+        angle: ``angleOrder`` / ``angle``: the hanging orientation (``First``, ``Second``...).
+        trial: ``trial``: the repetition (``1``, ``2``...).
+        notes: ``notes``.
+    """
+
+    samples: FloatArray
+    sample_rate_hz: float | None
+    times: FloatArray | None
+    name: str
+    path: str
+    bicycle: str | None = None
+    part: str | None = None
+    pendulum: str | None = None
+    angle: str | None = None
+    trial: str | None = None
+    notes: str | None = None
+
+    @property
+    def timing(self) -> dict[str, Any]:
+        """The keyword for :func:`~bike_rig.core.period.fit_period`: ``times`` or ``sample_rate_hz``."""
+        if self.times is not None:
+            return {"times": self.times}
+        return {"sample_rate_hz": self.sample_rate_hz}
+
+    @property
+    def period_key(self) -> str | None:
+        """The measurement file's key of this period (``TtB1``, ``TcR1``...), if the file says."""
+        if self.pendulum is None or self.part not in _PART_LETTERS:
+            return None
+        kind = self.pendulum[:1].lower()
+        order = _ORDINALS.get(self.angle or "First")
+        if kind not in ("c", "t") or order is None:
+            return None
+        return f"T{kind}{_PART_LETTERS[self.part]}{order}"
+
+    @property
+    def duration(self) -> float:
+        """Time spanned by the samples [s]."""
+        if self.times is not None:
+            return float(self.times[-1] - self.times[0]) if self.times.size else 0.0
+        assert self.sample_rate_hz is not None
+        return self.samples.size / self.sample_rate_hz
+
+
+def read_trial(path: str | os.PathLike[str], sample_rate_hz: float | None = None) -> Trial:
+    """Read one trial file (CSV, ``.npy`` or BicycleParameters ``.mat``; see the module).
+
+    Args:
+        path: The file.
+        sample_rate_hz: Sample rate [Hz] for files that carry neither times nor a rate.
+
+    Returns:
+        The trial.
+
+    Raises:
+        InputFileError: The file is unreadable, has the wrong shape, a non-numeric cell, or no
+            times and no rate.
+    """
+    name = str(path)
+    if sample_rate_hz is not None and not (math.isfinite(sample_rate_hz) and sample_rate_hz > 0):
+        raise InputFileError(name, f"the sample rate must be a positive number of Hz, got {sample_rate_hz}")
+    p = Path(path)
+    if not p.is_file():
+        reason = "is a directory, not a trial file" if p.is_dir() else "no such file"
+        raise InputFileError(name, reason)
+    suffix = p.suffix.lower()
+    if suffix in TEXT_SUFFIXES:
+        return _read_text(name, p, sample_rate_hz)
+    if suffix == ".npy":
+        return _read_npy(name, p, sample_rate_hz)
+    if suffix == ".mat":
+        return _read_mat(name, p, sample_rate_hz)
+    raise InputFileError(name, f"unknown trial format {p.suffix!r} (expected {', '.join(TEXT_SUFFIXES)}, .npy or .mat)")
+
+
+def _needs_rate(name: str, sample_rate_hz: float | None, what: str) -> float:
+    if sample_rate_hz is None:
+        raise InputFileError(name, f"missing sample rate: {what} carries no times, give the rate (--rate HZ)")
+    return float(sample_rate_hz)
+
+
+def _make(
+    name: str, p: Path, samples: FloatArray, times: FloatArray | None, rate: float | None, **meta: str | None
+) -> Trial:
+    if samples.size == 0:
+        raise InputFileError(name, "no samples")
+    trial_name = p.stem
+    parts = [meta.get(k) for k in ("bicycle", "part", "pendulum", "angle", "trial")]
+    if all(parts):
+        trial_name = "".join(str(x) for x in parts)
+    return Trial(
+        samples=samples,
+        sample_rate_hz=None if times is not None else rate,
+        times=times,
+        name=trial_name,
+        path=name,
+        **meta,
+    )
+
+
+# ---------------------------------------------------------------- CSV
+
+
+def _split(line: str, delimiter: str | None) -> list[str]:
+    return [cell.strip() for cell in (line.split(delimiter) if delimiter else line.split())]
+
+
+def _read_text(name: str, p: Path, sample_rate_hz: float | None) -> Trial:
+    try:
+        text = p.read_text(encoding="utf-8-sig")
+    except UnicodeDecodeError:
+        raise InputFileError(name, "not a text file (not UTF-8)") from None
+    except OSError as exc:
+        raise InputFileError(name, f"cannot read ({exc.strerror})") from None
+    rows: list[list[float]] = []
+    delimiter: str | None = None
+    width = 0
+    header_seen = False
+    for number, raw in enumerate(text.splitlines(), start=1):
+        line = raw.strip()
+        if not line or line.startswith("#"):
+            continue
+        if not rows and not header_seen and width == 0:
+            delimiter = next((d for d in (",", ";", "\t") if d in line), None)
+        cells = _split(line, delimiter)
+        values: list[float] = []
+        for column, cell in enumerate(cells, start=1):
+            try:
+                values.append(float(cell))
+            except ValueError:
+                if not rows and not header_seen:
+                    break  # a header line
+                what = "an empty cell" if not cell else f"non-numeric value {cell!r}"
+                raise InputFileError(name, f"{what} in column {column}", line=number) from None
+        else:
+            if width == 0:
+                width = len(values)
+                if width not in (1, 2):
+                    raise InputFileError(name, f"{width} columns: expected 1 (rate) or 2 (time, rate)", line=number)
+            elif len(values) != width:
+                raise InputFileError(name, f"{len(values)} columns where the file has {width}", line=number)
+            rows.append(values)
+            continue
+        header_seen = True
+        if len(cells) not in (1, 2):
+            raise InputFileError(
+                name, f"header with {len(cells)} columns: expected 1 (rate) or 2 (time, rate)", line=number
+            )
+        width = len(cells)
+    if not rows:
+        raise InputFileError(name, "no samples")
+    data = np.array(rows, dtype=float)
+    if width == 2:
+        return _make(name, p, np.ascontiguousarray(data[:, 1]), np.ascontiguousarray(data[:, 0]), None)
+    return _make(name, p, data[:, 0].copy(), None, _needs_rate(name, sample_rate_hz, "a one-column file"))
+
+
+# ---------------------------------------------------------------- NumPy
+
+
+def _read_npy(name: str, p: Path, sample_rate_hz: float | None) -> Trial:
+    try:
+        array = np.load(p, allow_pickle=False)
+    except (ValueError, OSError, EOFError) as exc:
+        raise InputFileError(name, f"not a readable NumPy .npy file ({exc})") from None
+    if not isinstance(array, np.ndarray):
+        raise InputFileError(name, "not a single NumPy array")
+    if array.dtype.kind not in "biuf":
+        raise InputFileError(name, f"holds {array.dtype} values, not numbers")
+    if array.ndim == 2 and array.shape[1] == 1:
+        array = array[:, 0]
+    if array.ndim == 1:
+        return _make(name, p, array.astype(float), None, _needs_rate(name, sample_rate_hz, "a 1-D array"))
+    if array.ndim == 2 and array.shape[1] == 2:
+        data = array.astype(float)
+        return _make(name, p, np.ascontiguousarray(data[:, 1]), np.ascontiguousarray(data[:, 0]), None)
+    raise InputFileError(name, f"wrong shape {array.shape}: expected (N,) rates or (N, 2) rows of [time, rate]")
+
+
+# ---------------------------------------------------------------- BicycleParameters .mat
+
+
+def _text(value: object) -> str | None:
+    """A .mat field as text: strings as they are, whole numbers without a decimal point."""
+    if value is None:
+        return None
+    if isinstance(value, np.ndarray):
+        if value.size != 1:
+            return None if value.size == 0 else str(value.tolist())
+        value = value.item()
+    if isinstance(value, bytes):
+        value = value.decode("utf-8", "replace")
+    if isinstance(value, float) and value.is_integer():
+        value = int(value)
+    text = str(value).strip()
+    return text or None
+
+
+def _vector(name: str, mat: dict[str, Any], key: str) -> FloatArray:
+    value = np.asarray(mat[key])
+    if value.dtype.kind not in "biuf":
+        raise InputFileError(name, f"holds {value.dtype} values, not numbers", key=key)
+    value = np.squeeze(value)
+    if value.ndim == 0:
+        value = value.reshape(1)
+    if value.ndim != 1:
+        raise InputFileError(name, f"wrong shape {np.shape(mat[key])}: expected a vector", key=key)
+    return value.astype(float)
+
+
+def _read_mat(name: str, p: Path, sample_rate_hz: float | None) -> Trial:
+    from scipy.io import loadmat
+
+    try:
+        mat = loadmat(p, squeeze_me=True, chars_as_strings=True)
+    except NotImplementedError:
+        raise InputFileError(name, "MATLAB v7.3 (HDF5) files are not supported: save with -v7") from None
+    except (ValueError, OSError, TypeError, KeyError, IndexError, EOFError) as exc:
+        raise InputFileError(name, f"not a readable MATLAB .mat file ({exc})") from None
+    if "data" not in mat:
+        raise InputFileError(name, "no 'data' array (the gyro samples)", key="data")
+    samples = _vector(name, mat, "data")
+    times = None
+    rate = None
+    if "time" in mat:
+        times = _vector(name, mat, "time")
+        if times.size != samples.size:
+            raise InputFileError(name, f"{times.size} times for {samples.size} samples", key="time")
+    else:
+        for key in ("ActualRate", "sampleRate"):
+            if key in mat:
+                value = np.asarray(mat[key])
+                rate = float(value.reshape(-1)[0]) if value.dtype.kind in "biuf" and value.size == 1 else math.nan
+                if not (math.isfinite(rate) and rate > 0):
+                    raise InputFileError(name, f"the sample rate must be a positive number, got {mat[key]!r}", key=key)
+                break
+        else:
+            rate = _needs_rate(name, sample_rate_hz, "no 'ActualRate' or 'sampleRate' and no 'time': the file")
+    meta = {
+        "bicycle": _text(mat.get("bicycle")),
+        "part": _text(mat.get("part")),
+        "pendulum": _text(mat.get("pendulum")),
+        "angle": _text(mat.get("angleOrder", mat.get("angle"))),
+        "trial": _text(mat.get("trial")),
+        "notes": _text(mat.get("notes")),
+    }
+    return _make(name, p, samples, times, rate, **meta)
