@@ -69,7 +69,7 @@ def reading_sigma(key: str, sigma: ReadingSigma) -> float:
     raise KeyError(key)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class SimulatedTrial:
     """One pendulum trial: the gyro signal and what produced it.
 
@@ -134,7 +134,7 @@ class SessionTruth:
     scale_factor: float
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class SimulatedSession:
     """A measurement session in memory.
 
