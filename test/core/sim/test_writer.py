@@ -14,6 +14,7 @@ from bike_rig.core.io_yaml import MEASUREMENTS_FORMAT, load_yaml_document, measu
 from bike_rig.core.sim.rig import RigConfig
 from bike_rig.core.sim.session import SimulatedSession, simulate_session
 from bike_rig.core.sim.writer import TRUTH_FORMAT, write_session
+from bike_rig.core.trials import read_trial
 
 PERIOD_KEYS = ("compound_period", "torsional_period")
 
@@ -106,3 +107,12 @@ def test_truth_yaml(session: SimulatedSession, tmp_path: Path) -> None:
     assert [t["file"] for t in truth["trials"]] == [f"trials/{t.name}.npy" for t in session.trials]
     assert [t["beating"] for t in truth["trials"]] == [t.beating for t in session.trials]
     assert truth["trials"][0]["modes"][0]["period"] == session.trials[0].true_period
+
+
+def test_trial_files_read_back_with_read_trial(session: SimulatedSession, tmp_path: Path) -> None:
+    write_session(session, tmp_path)
+    for t in session.trials:
+        trial = read_trial(tmp_path / "trials" / f"{t.name}.npy")
+        assert trial.name == t.name
+        assert np.array_equal(trial.samples, t.rate)
+        assert trial.times is not None and np.array_equal(trial.times, t.time)
