@@ -211,7 +211,7 @@ def beating_flag(modulation: Modulation, max_modulation: float) -> Flag | None:
         return None
     return Flag(
         FlagCode.BEATING,
-        f"the envelope/phase wanders by {100 * modulation.depth:.0f} % of the amplitude from Eq 23 "
+        f"the envelope/phase wanders by up to {100 * modulation.depth:.0f} % of the amplitude from Eq 23 "
         f"(limit {100 * max_modulation:g} %): two close modes (swinging with the torsion?); "
         "steady the part and record again",
     )

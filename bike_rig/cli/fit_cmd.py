@@ -1,0 +1,275 @@
+"""``bike-rig fit FILE...``: the period of each pendulum trial (paper Eq 23–27), and combined.
+
+::
+
+    bike-rig fit FILE... [--json] [--plot DIR] [--rate HZ] [--strict]
+                         [--lead-in S | --start S [--stop S] | --envelope FRACTION] [--no-whole-cycles]
+                         [--min-cycles N] [--min-r2 R2] [--max-modulation M] [--max-drift D]
+
+Each FILE is a trial (CSV, ``.npy`` or a BicycleParameters pendulum ``.mat``; see
+:mod:`bike_rig.core.trials`). Without ``--json`` a table of the fits is printed, each flag
+with its reason, and, for several files, their combined period (per period key such as
+``TtB1`` when the files name one). ``--json`` prints one JSON object per file (JSON Lines)::
+
+    {"file": .., "period": .., "period_sigma": .., "valid": true, "flags": [{"code": .., "reason": ..}],
+     "r2": .., "zeta": .., "omega": .., "n_samples": .., "window": [start, stop]}
+
+(NaN as null). ``--plot DIR`` writes ``DIR/<trial name>.png``: the samples with the fit, and
+the residuals. A trial without a period is reported, not an error: the exit status is 0, or 1
+with ``--strict`` when any trial has no period. Unreadable files and bad options end with one
+line on stderr and exit status 2 (raised as :class:`~bike_rig.core.errors.BikeRigError`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import re
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..core.errors import BikeRigError, InputFileError
+from ..core.period import CombinedPeriod, PeriodFit, WindowPolicy, combine_periods, fit_period
+from ..core.trials import Trial, read_trial
+from .format import format_value_sigma
+
+__all__ = ["FitUsageError", "add_parser", "run"]
+
+
+class FitUsageError(BikeRigError):
+    """An option of ``bike-rig fit`` is invalid."""
+
+
+def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    """Register ``fit`` on ``subparsers`` (the ``bike-rig`` sub-command parser)."""
+    q = subparsers.add_parser(
+        "fit",
+        help="fit the pendulum period of trial files (Eq 23-27)",
+        description="Fit the paper's decaying oscillation (Eq 23) to each trial file and report its "
+        "period with an honest σ and quality flags; several files are also combined.",
+    )
+    q.add_argument("files", nargs="+", metavar="FILE", help="trial file: CSV (time,rate or rate), .npy or .mat")
+    q.add_argument("--json", action="store_true", help="one JSON object per file (JSON Lines)")
+    q.add_argument("--plot", metavar="DIR", help="write a PNG per trial (data, fit, residuals) into DIR")
+    q.add_argument("--rate", type=float, metavar="HZ", help="sample rate of files without times or rate")
+    q.add_argument("--strict", action="store_true", help="exit with status 1 if any trial has no period")
+    w = q.add_argument_group("window (default: the record minus a 1 s lead-in, in whole cycles)")
+    w.add_argument("--lead-in", type=float, metavar="S", help="seconds dropped at the start (default 1)")
+    w.add_argument("--start", type=float, metavar="S", help="fit from this time (s from the first sample)")
+    w.add_argument("--stop", type=float, metavar="S", help="fit up to this time (s from the first sample)")
+    w.add_argument(
+        "--envelope",
+        type=float,
+        metavar="FRACTION",
+        help="BicycleParameters' window: from the largest swing until it decays to FRACTION of it",
+    )
+    w.add_argument("--no-whole-cycles", action="store_true", help="do not cut the window to whole cycles")
+    f = q.add_argument_group("quality thresholds (a flagged trial should be redone)")
+    f.add_argument("--min-cycles", type=float, default=4.0, metavar="N", help="flag fewer cycles (default 4)")
+    f.add_argument("--min-r2", type=float, default=0.9, metavar="R2", help="flag a lower r² (default 0.9)")
+    f.add_argument(
+        "--max-modulation",
+        type=float,
+        default=0.02,
+        metavar="M",
+        help="flag beating above this relative envelope modulation (default 0.02)",
+    )
+    f.add_argument(
+        "--max-drift", type=float, default=0.5, metavar="D", help="flag a drift above D × the swing (default 0.5)"
+    )
+    q.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``bike-rig fit``; returns the exit status (0, or 1 with ``--strict`` and a trial without period)."""
+    policy = _window_policy(args)
+    options = _fit_options(args)
+    if args.rate is not None and not (math.isfinite(args.rate) and args.rate > 0):
+        raise FitUsageError(f"--rate must be a positive number of Hz, got {args.rate}")
+    plot_dir = _plot_dir(args.plot) if args.plot else None
+    trials = [read_trial(path, sample_rate_hz=args.rate) for path in args.files]  # all readable before output
+    fits = [fit_period(t.samples, **t.timing, window=policy, **options) for t in trials]
+    if args.json:
+        for trial, fit in zip(trials, fits):
+            print(json.dumps(fit_json(trial.path, fit), allow_nan=False))
+    else:
+        print(fit_table(trials, fits))
+        if len(fits) > 1:
+            print()
+            print(combined_summary(trials, fits))
+    if plot_dir is not None:
+        for name, trial, fit in zip(_plot_names(trials), trials, fits):
+            plot_fit(trial, fit, plot_dir / name)
+    if args.strict and not all(f.valid for f in fits):
+        return 1
+    return 0
+
+
+# ---------------------------------------------------------------- options
+
+
+def _window_policy(args: argparse.Namespace) -> WindowPolicy:
+    whole = not args.no_whole_cycles
+    span = args.start is not None or args.stop is not None
+    chosen = [name for name, given in (("--lead-in", args.lead_in is not None), ("--start/--stop", span),
+                                       ("--envelope", args.envelope is not None)) if given]  # fmt: skip
+    if len(chosen) > 1:
+        raise FitUsageError(f"choose one window: {' or '.join(chosen)}")
+    try:
+        if span:
+            return WindowPolicy.span(0.0 if args.start is None else args.start, args.stop, whole_cycles=whole)
+        if args.envelope is not None:
+            return WindowPolicy.envelope(args.envelope, whole_cycles=whole)
+        return WindowPolicy.lead_in(1.0 if args.lead_in is None else args.lead_in, whole_cycles=whole)
+    except ValueError as exc:
+        raise FitUsageError(f"window: {exc}") from None
+
+
+def _fit_options(args: argparse.Namespace) -> dict[str, float]:
+    options = {
+        "min_cycles": args.min_cycles,
+        "min_r2": args.min_r2,
+        "max_modulation": args.max_modulation,
+        "max_drift": args.max_drift,
+    }
+    for key, value in options.items():
+        if not math.isfinite(value) or value < 0:
+            raise FitUsageError(f"--{key.replace('_', '-')} must be a non-negative number, got {value}")
+    return options
+
+
+def _plot_dir(path: str) -> Path:
+    folder = Path(path)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputFileError(path, f"cannot create the plot folder ({exc.strerror})") from None
+    return folder
+
+
+# ---------------------------------------------------------------- output
+
+
+def _number(value: float) -> float | None:
+    return float(value) if math.isfinite(value) else None
+
+
+def fit_json(file: str, fit: PeriodFit) -> dict[str, Any]:
+    """The JSON object of one trial (NaN → None)."""
+    return {
+        "file": file,
+        "period": _number(fit.period),
+        "period_sigma": _number(fit.period_sigma),
+        "valid": fit.valid,
+        "flags": [{"code": f.code.value, "reason": f.reason} for f in fit.flags],
+        "r2": _number(fit.r2),
+        "zeta": _number(fit.zeta),
+        "omega": _number(fit.omega),
+        "n_samples": fit.n_samples,
+        "window": [fit.window[0], fit.window[1]],
+    }
+
+
+def _value_sigma(value: float, sigma: float) -> tuple[str, str]:
+    if not math.isfinite(value):
+        return "-", "-"
+    return format_value_sigma(value, sigma)
+
+
+def fit_table(trials: Sequence[Trial], fits: Sequence[PeriodFit]) -> str:
+    """One row per trial: period ± σ, r², cycles, ζ, status; the flags' reasons below."""
+    width = max(12, *(len(t.name) for t in trials))
+    head = f"{'trial':<{width}}  {'T [s]':>12}  {'σ [s]':>9}  {'r²':>6}  {'cycles':>6}  {'ζ':>8}  status"
+    rows = [head, "-" * len(head)]
+    for trial, fit in zip(trials, fits):
+        value, sigma = _value_sigma(fit.period, fit.period_sigma)
+        status = "ok" if fit.clean else ("flagged: redo" if fit.valid else "no period: redo")
+        r2 = f"{fit.r2:.4f}" if math.isfinite(fit.r2) else "-"
+        cycles = f"{fit.n_cycles:.1f}" if math.isfinite(fit.n_cycles) else "-"
+        zeta = f"{fit.zeta:.2e}" if math.isfinite(fit.zeta) else "-"
+        rows.append(f"{trial.name:<{width}}  {value:>12}  {sigma:>9}  {r2:>6}  {cycles:>6}  {zeta:>8}  {status}")
+        rows += [f"{'':<{width}}  ! {flag}" for flag in fit.flags]
+    policy = fits[0].window_policy.describe() if fits else ""
+    rows.append(f"(window: {policy}; σ robust to drift and correlated noise)")
+    return "\n".join(rows)
+
+
+def _groups(trials: Sequence[Trial]) -> dict[str, list[int]]:
+    keys = [t.period_key for t in trials]
+    if any(k is None for k in keys) or len(set(keys)) == 1:
+        return {"all trials": list(range(len(trials)))}
+    groups: dict[str, list[int]] = {}
+    for i, key in enumerate(keys):
+        groups.setdefault(str(key), []).append(i)
+    return groups
+
+
+def combined_summary(trials: Sequence[Trial], fits: Sequence[PeriodFit]) -> str:
+    """The combined period of the files (per period key when the files name different ones)."""
+    lines = []
+    for label, members in _groups(trials).items():
+        combined = combine_periods([fits[i] for i in members])
+        lines.append(_combined_line(label, combined))
+        names = {f"trial {k} ": f"trial {trials[i].name} " for k, i in enumerate(members, start=1)}
+        for note in combined.notes:
+            head = next((h for h in names if note.startswith(h)), None)
+            lines.append("  " + (names[head] + note[len(head) :] if head else note))
+    return "\n".join(lines)
+
+
+def _combined_line(label: str, c: CombinedPeriod) -> str:
+    counts = f"{c.n_used} used, {c.n_flagged} flagged, {c.n_invalid} without period"
+    if c.n_used == 0:
+        return f"combined period of {label}: none ({counts})"
+    value, sigma = format_value_sigma(c.value, c.sigma)
+    birge = f"; Birge ratio {c.birge_ratio:.2f}" if math.isfinite(c.birge_ratio) else ""
+    return f"combined period of {label}: T = {value} ± {sigma} s ({counts}{birge})"
+
+
+def _plot_names(trials: Sequence[Trial]) -> list[str]:
+    names: list[str] = []
+    for trial in trials:
+        base = re.sub(r"[^A-Za-z0-9._-]+", "_", trial.name) or "trial"
+        name, k = f"{base}.png", 2
+        while name in names:
+            name, k = f"{base}_{k}.png", k + 1
+        names.append(name)
+    return names
+
+
+def plot_fit(trial: Trial, fit: PeriodFit, path: Path) -> None:
+    """Write a PNG of the trial: samples and fit above, residuals below (matplotlib, Agg)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    t = trial.times if trial.times is not None else np.arange(trial.samples.size) / float(trial.sample_rate_hz or 1.0)
+    fig = Figure(figsize=(10, 6), layout="constrained")
+    FigureCanvasAgg(fig)
+    top, bottom = fig.subplots(2, 1, sharex=True, height_ratios=(3, 1))
+    top.plot(t, trial.samples, ".", markersize=1.5, color="0.55", label="samples")
+    if fit.valid:
+        start, stop = fit.window
+        tw = t[start:stop]
+        model = fit.predict(tw)
+        top.plot(tw, model, "-", color="C0", linewidth=1.0, label="Eq 23 fit")
+        top.axvspan(tw[0], tw[-1], color="C0", alpha=0.06, label="window")
+        bottom.plot(tw, trial.samples[start:stop] - model, ".", markersize=1.5, color="C3")
+        value, sigma = format_value_sigma(fit.period, fit.period_sigma)
+        title = f"{trial.name}: T = {value} ± {sigma} s, ζ = {fit.zeta:.2e}, r² = {fit.r2:.4f}"
+    else:
+        title = f"{trial.name}: no period"
+    if fit.flags:
+        title += "\n" + "; ".join(f.code.value for f in fit.flags)
+    top.set_title(title, fontsize=10)
+    top.set_ylabel("rate (file units)")
+    top.legend(loc="upper right", fontsize=8)
+    bottom.set_ylabel("residual")
+    bottom.set_xlabel("time [s]")
+    try:
+        fig.savefig(path, dpi=100)
+    except OSError as exc:
+        raise InputFileError(str(path), f"cannot write the plot ({exc.strerror})") from None
