@@ -26,8 +26,8 @@ from ..core.model import SigmaConvention, canonical_with_sigma
 from ..core.rider import PAPER_RIDER, Rider, add_rider
 from ..core.whipple import critical_speeds, eigenvalues
 from ..paths import config_file
+from . import fit_cmd, simulate_cmd
 from . import format as fmt
-from . import simulate_cmd
 
 __all__ = ["main"]
 
@@ -218,6 +218,7 @@ def build_parser() -> argparse.ArgumentParser:
     q.add_argument("-o", "--output", required=True, help="the YAML file to write")
     q.set_defaults(func=cmd_import_bp)
 
+    fit_cmd.add_parser(sub)
     simulate_cmd.add_parser(sub)
 
     q = sub.add_parser("demo", help="the default bicycle's parameters and stability")

@@ -47,6 +47,7 @@ from .benchmark import PARAMETER_NAMES, ParameterSet, parameters_from_values
 from .errors import InputFileError, MeasurementError
 from .io_bp import parse_value
 from .measurements import REQUIRED_KEYS, Measurements, Origin, Reading
+from .trial_periods import PeriodEvidence, period_from_trials
 
 __all__ = [
     "MEASUREMENTS_FORMAT",
@@ -151,6 +152,7 @@ class _Doc:
 
     def __init__(self, path: str, data: Any, lines: Lines):
         self.path, self.data, self.lines = path, data, lines
+        self.evidence: dict[str, PeriodEvidence] = {}
 
     def error(self, where: tuple[object, ...], reason: str) -> MeasurementError:
         line = self.lines.get(where)
@@ -192,6 +194,26 @@ class _Doc:
         return Origin(self.path, _label(where), self.lines.get(where))
 
 
+def _trial_period(doc: _Doc, where: tuple[object, ...], spec: Mapping[str, Any]) -> PeriodEvidence:
+    """A period given as ``{trials: [files], sample_rate_hz: optional}``, fitted and combined."""
+    unknown = set(spec) - {"trials", "sample_rate_hz"}
+    files = spec.get("trials")
+    if unknown or not isinstance(files, list) or not files or not all(isinstance(f, str) for f in files):
+        raise doc.error(where, "a period from trials is {trials: [file, ...], sample_rate_hz: optional}")
+    rate = spec.get("sample_rate_hz")
+    if rate is not None and (isinstance(rate, bool) or not isinstance(rate, (int, float)) or not rate > 0):
+        raise doc.error(where + ("sample_rate_hz",), f"must be a positive number, got {rate!r}")
+    base = Path(doc.path).parent
+    ev = period_from_trials([base / f for f in files], None if rate is None else float(rate))
+    if ev.combined.n_used == 0:
+        reasons = "; ".join(
+            f"{Path(f).name}: " + (", ".join(fl.reason for fl in fit.flags) or "invalid")
+            for f, fit in zip(ev.files, ev.fits)
+        )
+        raise doc.error(where, f"no usable trial, redo the measurement ({reasons})")
+    return ev
+
+
 def _number(x: Any) -> float:
     if isinstance(x, bool) or not isinstance(x, (int, float, str)):
         raise ValueError(f"not a number: {x!r}")
@@ -217,6 +239,10 @@ def _fields(
             if isinstance(n, bool) or not isinstance(n, int):
                 raise doc.error(w, f"rotations is an exact whole count, got {n!r}")
             yield flat.format(**fmt), Reading(float(n), 0.0, doc.origin(w))
+        elif key.endswith("period") and isinstance(sec[key], Mapping) and "trials" in sec[key]:
+            ev = _trial_period(doc, w, sec[key])
+            doc.evidence[flat.format(**fmt)] = ev
+            yield flat.format(**fmt), Reading(ev.value, ev.sigma, doc.origin(w))
         else:
             v, s = doc.reading(w, sec[key])
             yield flat.format(**fmt), Reading(v, s, doc.origin(w))
@@ -298,7 +324,7 @@ def measurements_from_document(path: str, data: Any, lines: Lines) -> Measuremen
     if not isinstance(name, str) or not name:
         raise doc.error(("bicycle",), "missing: the bicycle's name")
     other = top.get("other") or {}
-    return Measurements(name, readings, path, dict(doc.mapping(("other",), other)))
+    return Measurements(name, readings, path, dict(doc.mapping(("other",), other)), doc.evidence)
 
 
 def parameters_from_document(path: str, data: Any, lines: Lines) -> ParameterSet:

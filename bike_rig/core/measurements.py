@@ -34,6 +34,7 @@ import math
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from typing import Any
 
 from .errors import MeasurementError
 
@@ -110,12 +111,15 @@ class Measurements:
         path: The file they were read from.
         extras: Entries of the file that the 25 parameters do not need (e.g. rider
             geometry), kept verbatim so that nothing recorded is lost on conversion.
+        evidence: For periods computed from raw trial files: key -> the trials, their fits
+            and the combination (a :class:`bike_rig.core.trial_periods.PeriodEvidence`).
     """
 
     bicycle: str
     readings: Mapping[str, Reading]
     path: str = "<memory>"
     extras: Mapping[str, object] = field(default_factory=dict)
+    evidence: Mapping[str, Any] = field(default_factory=dict)
 
     def value(self, key: str) -> float:
         """The value of reading ``key``."""
