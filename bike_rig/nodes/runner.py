@@ -1,0 +1,78 @@
+"""One way to run a node process: rclpy set-up, the ROS environment, spinning, and a clean
+stop on SIGINT/SIGTERM, for every bike_rig node's ``main``.
+
+The process environment always gets ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`` (and keeps a
+``ROS_DOMAIN_ID`` given by the launcher or the caller), so a node started by hand is safe too.
+A user mistake (a :class:`bike_rig.core.errors.BikeRigError` while building the node, e.g. a
+bad parameter or measurement file) ends the process with one log line and exit status 2.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import sys
+from collections.abc import Callable, Sequence
+from types import FrameType
+
+import rclpy
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.node import Node
+
+from ..core.errors import BikeRigError
+from ..rosenv import ros_environment
+
+__all__ = ["EXIT_USER_ERROR", "run_node"]
+
+EXIT_USER_ERROR = 2
+
+
+def _prepare_environment() -> None:
+    env = ros_environment(os.environ)
+    for key in ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_DOMAIN_ID", "RMW_IMPLEMENTATION"):
+        os.environ[key] = env[key]
+
+
+def run_node(factory: Callable[[], Node], args: Sequence[str] | None = None) -> int:
+    """Create the node with ``factory`` and spin it until SIGINT/SIGTERM or rclpy shutdown.
+
+    Args:
+        factory: Builds the node (after ``rclpy.init``); may raise BikeRigError for user
+            mistakes.
+        args: Command-line arguments (``--ros-args ...`` are passed to rclpy).
+
+    Returns:
+        The process exit status: 0 on a clean stop, 2 on a user mistake.
+    """
+    _prepare_environment()
+    argv = list(sys.argv if args is None else args)
+    rclpy.init(args=argv)
+    stop = {"requested": False}
+
+    def request_stop(signum: int, _frame: FrameType | None) -> None:
+        stop["requested"] = True
+
+    signal.signal(signal.SIGTERM, request_stop)
+    signal.signal(signal.SIGINT, request_stop)
+    node: Node | None = None
+    try:
+        node = factory()
+        executor = SingleThreadedExecutor()
+        executor.add_node(node)
+        while rclpy.ok() and not stop["requested"] and not getattr(node, "finished", False):
+            executor.spin_once(timeout_sec=0.1)
+        closer = getattr(node, "close", None)
+        if callable(closer):
+            closer()
+        return 0
+    except BikeRigError as exc:
+        name = node.get_name() if node is not None else "bike_rig node"
+        print(f"{name}: error: {exc}", file=sys.stderr)
+        return EXIT_USER_ERROR
+    except (KeyboardInterrupt, ExternalShutdownException):
+        return 0
+    finally:
+        if node is not None:
+            node.destroy_node()
+        if rclpy.ok():
+            rclpy.shutdown()

@@ -1,0 +1,72 @@
+"""Names and quality of service of every bike_rig topic and service (no rclpy import, so the
+offline replay and the recorder's readers can use them too).
+
+QoS (REP-2003): the driver publishes reliably; consumers that must see every sample (fitter,
+recorder) subscribe reliably, live displays may use best effort. Results a late joiner must
+still get are transient-local: the whole session's trial events and periods (so a restarted
+fitter or parameter node catches up), the current trial's gyro batches, and the latest static
+readings, parameter set and model (depth 1, "latched").
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+__all__ = [
+    "EIGEN_SWEEP",
+    "GYRO",
+    "MATRICES",
+    "PARAMETERS",
+    "PERIODS",
+    "QosSpec",
+    "START_TRIAL",
+    "STATE_SPACE",
+    "STATIC_READINGS",
+    "STOP_TRIAL",
+    "TOPICS",
+    "TRIAL_EVENTS",
+]
+
+NAMESPACE = "/bike_rig"
+
+
+@dataclass(frozen=True)
+class QosSpec:
+    """A QoS profile in plain terms (converted to rclpy by :mod:`bike_rig.nodes.qos`).
+
+    Attributes:
+        reliable: Reliable (True) or best effort.
+        transient_local: Late joiners receive the last ``depth`` messages.
+        depth: History depth (KEEP_LAST).
+    """
+
+    reliable: bool
+    transient_local: bool
+    depth: int
+
+
+@dataclass(frozen=True)
+class Topic:
+    """A topic: name, ROS type and QoS."""
+
+    name: str
+    type: str
+    qos: QosSpec
+
+
+#: Gyro sample batches (50 samples each at 1 kHz: 20 per second). The transient-local depth
+#: holds more than one 30 s trial, so a restarted fitter can re-fit the trial in progress.
+GYRO = Topic(f"{NAMESPACE}/gyro", "bike_rig_msgs/msg/GyroBatch", QosSpec(True, True, 4000))
+TRIAL_EVENTS = Topic(f"{NAMESPACE}/trial_events", "bike_rig_msgs/msg/TrialEvent", QosSpec(True, True, 2000))
+PERIODS = Topic(f"{NAMESPACE}/periods", "bike_rig_msgs/msg/PeriodEstimate", QosSpec(True, True, 2000))
+STATIC_READINGS = Topic(f"{NAMESPACE}/static_readings", "bike_rig_msgs/msg/StaticReadings", QosSpec(True, True, 1))
+PARAMETERS = Topic(f"{NAMESPACE}/parameters", "bike_rig_msgs/msg/BenchmarkParameters", QosSpec(True, True, 1))
+MATRICES = Topic(f"{NAMESPACE}/model/matrices", "bike_rig_msgs/msg/CanonicalMatrices", QosSpec(True, True, 1))
+EIGEN_SWEEP = Topic(f"{NAMESPACE}/model/eigen_sweep", "bike_rig_msgs/msg/EigenSweep", QosSpec(True, True, 1))
+
+#: Every topic the recorder records.
+TOPICS: tuple[Topic, ...] = (GYRO, TRIAL_EVENTS, PERIODS, STATIC_READINGS, PARAMETERS, MATRICES, EIGEN_SWEEP)
+
+START_TRIAL = f"{NAMESPACE}/driver/start_trial"
+STOP_TRIAL = f"{NAMESPACE}/driver/stop_trial"
+STATE_SPACE = f"{NAMESPACE}/model/state_space"
