@@ -150,8 +150,9 @@ def _label(path: tuple[object, ...]) -> str:
 class _Doc:
     """A loaded YAML document with line-aware accessors raising MeasurementError."""
 
-    def __init__(self, path: str, data: Any, lines: Lines):
+    def __init__(self, path: str, data: Any, lines: Lines, static_only: bool = False):
         self.path, self.data, self.lines = path, data, lines
+        self.static_only = static_only
         self.evidence: dict[str, PeriodEvidence] = {}
 
     def error(self, where: tuple[object, ...], reason: str) -> MeasurementError:
@@ -239,6 +240,8 @@ def _fields(
             if isinstance(n, bool) or not isinstance(n, int):
                 raise doc.error(w, f"rotations is an exact whole count, got {n!r}")
             yield flat.format(**fmt), Reading(float(n), 0.0, doc.origin(w))
+        elif key.endswith("period") and doc.static_only:
+            continue  # periods come from elsewhere (live trials)
         elif key.endswith("period") and isinstance(sec[key], Mapping) and "trials" in sec[key]:
             ev = _trial_period(doc, w, sec[key])
             doc.evidence[flat.format(**fmt)] = ev
@@ -269,6 +272,8 @@ def _yaml_location(flat: str) -> tuple[str, ...]:
 
 def _check_complete(doc: _Doc, readings: Mapping[str, Reading]) -> None:
     for flat in REQUIRED_KEYS:
+        if doc.static_only and flat.startswith(("Tc", "Tt")):
+            continue
         if flat not in readings:
             where = _yaml_location(flat)
             parent = where[:-1]
@@ -281,13 +286,20 @@ def _check_complete(doc: _Doc, readings: Mapping[str, Reading]) -> None:
             )
 
 
-def measurements_from_document(path: str, data: Any, lines: Lines) -> Measurements:
+def measurements_from_document(path: str, data: Any, lines: Lines, static_only: bool = False) -> Measurements:
     """Build :class:`Measurements` from a loaded ``bike_rig-measurements/1`` document.
+
+    Args:
+        path: The file, for messages.
+        data: The loaded document.
+        lines: Line numbers (from :func:`load_yaml_document`).
+        static_only: Skip every pendulum period (they will come from live trials) and do not
+            require them.
 
     Raises:
         MeasurementError: a key is unknown, malformed or lacks its σ (with its line).
     """
-    doc = _Doc(path, data, lines)
+    doc = _Doc(path, data, lines, static_only)
     top = doc.mapping((), data)
     known = {"format", "bicycle", "attribution", "notes", "gravity", "geometry", "calibration_rod", "other"}
     known |= set(_WHEELS) | set(_PARTS)
@@ -316,6 +328,8 @@ def measurements_from_document(path: str, data: Any, lines: Lines) -> Measuremen
             w = (section, "orientations", i)
             got = dict(_fields(doc, w, o, _ORIENTATION, {"p": p, "i": i + 1}))
             for key, (flat, _u) in _ORIENTATION.items():
+                if doc.static_only and key == "torsional_period":
+                    continue
                 if flat.format(p=p, i=i + 1) not in got:
                     raise doc.error(w, f"orientation {i + 1} lacks '{key}'")
             readings.update(got)

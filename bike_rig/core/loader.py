@@ -17,7 +17,7 @@ from .io_yaml import (
 )
 from .measurements import Measurements
 
-__all__ = ["load_input", "load_measurements"]
+__all__ = ["is_period_key", "load_input", "load_measurements", "load_static_readings"]
 
 _YAML_SUFFIXES = {".yaml", ".yml"}
 
@@ -65,3 +65,29 @@ def load_measurements(path: str | Path) -> Measurements:
     if not isinstance(got, Measurements):
         raise InputFileError(str(path), "holds benchmark parameters, but raw measurements are needed here")
     return got
+
+
+def is_period_key(key: str) -> bool:
+    """True for pendulum-period keys (``Tc*``, ``Tt*``), the readings live trials provide."""
+    return key.startswith(("Tc", "Tt"))
+
+
+def load_static_readings(path: str | Path) -> Measurements:
+    """Read a measurement file's static readings only: every pendulum period is left out (the
+    live rig measures them), from our YAML (period entries, even trial lists, are skipped) or a
+    BicycleParameters ``Measured.txt`` (its ``Tc*``/``Tt*`` lines are dropped).
+
+    Raises:
+        InputFileError: the file is missing, unreadable, or holds parameters.
+    """
+    p = str(path)
+    if not Path(path).is_file():
+        raise InputFileError(p, "no such file" if not Path(path).exists() else "not a regular file")
+    if Path(path).suffix.lower() in _YAML_SUFFIXES:
+        data, lines = load_yaml_document(path)
+        if not isinstance(data, dict) or data.get("format") != MEASUREMENTS_FORMAT:
+            raise InputFileError(p, f"expected a measurement file ('format: {MEASUREMENTS_FORMAT}')")
+        return measurements_from_document(p, data, lines, static_only=True)
+    m = load_measurements(path)
+    readings = {k: r for k, r in m.readings.items() if not is_period_key(k)}
+    return Measurements(m.bicycle, readings, m.path, m.extras)
