@@ -1,0 +1,104 @@
+"""The launcher: graph files, environment of every node, signals, dead nodes."""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+import pytest
+
+from bike_rig.core.errors import InputFileError
+from bike_rig.launch import Graph, LaunchError, NodeSpec, RunningGraph, load_graph, parse_overrides
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+def _env(tmp_path: Path) -> dict[str, str]:
+    return {"FAKE_NODE_OUT": str(tmp_path), "PYTHONPATH": str(REPO)}
+
+
+def _reports(tmp_path: Path, n: int, timeout_s: float = 20.0) -> list[dict[str, object]]:
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        files = sorted(tmp_path.glob("*.json"))
+        if len(files) >= n:
+            time.sleep(0.05)
+            return [json.loads(f.read_text()) for f in files]
+        time.sleep(0.02)
+    raise AssertionError(f"only {len(list(tmp_path.glob('*.json')))} of {n} fake nodes reported")
+
+
+def test_nodes_get_localhost_and_the_runs_domain_id(tmp_path: Path) -> None:
+    graph = Graph(
+        (
+            NodeSpec("a", "test.nodes.fake_node", None, {"rate": 5.0, "name": "x y"}),
+            NodeSpec("b", "test.nodes.fake_node"),
+        )
+    )
+    with RunningGraph(graph, tmp_path / "logs", domain_id=57, env=_env(tmp_path)) as running:
+        reports = _reports(tmp_path, 2)
+        assert running.dead() == []
+        status = running.stop()
+    assert status == {"a": 0, "b": 0}
+    for r in reports:
+        assert r["env"] == {"ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST", "ROS_DOMAIN_ID": "57"}
+    args = next(r["args"] for r in reports if "-p" in r["args"])
+    assert args == ["--ros-args", "-p", "rate:=5.0", "-p", "name:=x y"]
+
+
+def test_a_dead_node_is_reported(tmp_path: Path) -> None:
+    graph = Graph((NodeSpec("ok", "test.nodes.fake_node"), NodeSpec("bad", "test.nodes.no_such_module")))
+    with RunningGraph(graph, tmp_path / "logs", env=_env(tmp_path)) as running:
+        deadline = time.monotonic() + 20
+        while not running.dead() and time.monotonic() < deadline:
+            time.sleep(0.05)
+        dead = running.dead()
+    assert [(name, code) for name, code, _ in dead] == [("bad", 1)]
+    assert "No module named test.nodes.no_such_module" in dead[0][2]
+
+
+def test_restart_after_kill(tmp_path: Path) -> None:
+    graph = Graph((NodeSpec("a", "test.nodes.fake_node"),))
+    with RunningGraph(graph, tmp_path / "logs", env=_env(tmp_path)) as running:
+        first = _reports(tmp_path, 1)
+        import os
+        import signal
+
+        os.kill(running.pid("a"), signal.SIGKILL)
+        deadline = time.monotonic() + 10
+        while not running.dead() and time.monotonic() < deadline:
+            time.sleep(0.02)
+        running.restart("a")
+        second = _reports(tmp_path, 2)
+    assert len(first) == 1 and len(second) == 2
+
+
+def test_graph_file_and_errors(tmp_path: Path) -> None:
+    (tmp_path / "p.yaml").write_text("a:\n  ros__parameters: {}\n")
+    good = tmp_path / "graph.yaml"
+    good.write_text(
+        "format: bike_rig-graph/1\nnodes:\n  - {name: a, module: test.nodes.fake_node, params: p.yaml}\n"
+        "  - {name: b, module: test.nodes.fake_node, parameters: {x: 1}}\n"
+    )
+    g = load_graph(good)
+    assert [n.name for n in g.nodes] == ["a", "b"]
+    assert g.nodes[0].params_file == (tmp_path / "p.yaml").resolve()
+    assert g.with_parameters({"b": {"y": "2"}}).nodes[1].parameters == {"x": 1, "y": "2"}
+    with pytest.raises(LaunchError, match="no node named 'c'"):
+        g.with_parameters({"c": {}})
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("format: bike_rig-graph/1\nnodes:\n  - {name: a, module: m, params: missing.yaml}\n")
+    with pytest.raises(InputFileError, match="missing.yaml not found") as err:
+        load_graph(bad)
+    assert err.value.line == 3
+    assert parse_overrides(["driver.time_scale=20", "driver.session=a.yaml"]) == {
+        "driver": {"time_scale": 20, "session": "a.yaml"}
+    }
+    with pytest.raises(LaunchError, match="NODE.NAME=VALUE"):
+        parse_overrides(["oops"])
+
+
+def test_string_parameters_that_look_like_numbers_are_quoted() -> None:
+    cmd = NodeSpec("a", "m", None, {"s": "5", "t": True, "u": "true"}).command()
+    assert cmd[-6:] == ["-p", 's:="5"', "-p", "t:=true", "-p", 'u:="true"']
