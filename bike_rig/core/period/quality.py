@@ -26,6 +26,7 @@ on the samples of the fit window, scaled to about ±1, their fitted values and r
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -51,22 +52,28 @@ ComplexArray = NDArray[np.complex128]
 #: Shortest run of equal samples considered as held (gap-filled).
 MIN_HELD_RUN = 4
 #: Pairs of consecutive samples used to estimate the noise and the quantum.
-_PAIRS = 8192
+_PAIRS = 2048
 
 
 def noise_and_quantum(y: FloatArray, residuals: FloatArray) -> tuple[float, float]:
-    """Sample-to-sample noise of the residuals, and the smallest non-zero step of ``y``.
+    """Sample-to-sample noise of the residuals, and the smallest non-zero step of the samples.
 
-    The noise is ``std(diff(r)) / sqrt(2)`` (blind to slow drift and to model error), from at
-    most ``_PAIRS`` pairs of consecutive samples spread over the window; the step is the ADC's
-    quantum when the samples are quantised (0 when all samples are equal).
+    Returns:
+        The noise ``std(diff(r)) / sqrt(2)`` (blind to slow drift and to model error) and the
+        step (the ADC's quantum when the samples are quantised; 0 when all samples are equal),
+        both from at most ``_PAIRS`` pairs of consecutive samples spread over the window (all
+        pairs when none of those differ).
     """
-    d = np.abs(np.diff(y))
-    quantum = float(np.min(d, where=d > 0, initial=np.inf)) if d.size else math.inf
     stride = max(1, (y.size - 1) // _PAIRS)
     dr = residuals[1::stride] - residuals[:-1:stride]
-    noise = float(np.std(dr)) / np.sqrt(2.0) if dr.size > 1 else 0.0
-    return noise, (quantum if math.isfinite(quantum) else 0.0)
+    dr -= np.mean(dr)
+    noise = math.sqrt(float(np.einsum("i,i->", dr, dr)) / (2.0 * dr.size)) if dr.size > 1 else 0.0
+    steps = np.abs(y[1::stride] - y[:-1:stride])
+    steps = steps[steps > 0]
+    if steps.size == 0 and stride > 1:
+        steps = np.abs(np.diff(y))
+        steps = steps[steps > 0]
+    return noise, (float(np.min(steps)) if steps.size else 0.0)
 
 
 def _clip_tolerance(noise: float, quantum: float) -> float:
@@ -80,38 +87,48 @@ def _held_tolerance(noise: float, quantum: float) -> float:
     return 4.0 * noise + 1.5 * quantum
 
 
-def _runs(mask: NDArray[np.bool_]) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
-    """Starts and stops (exclusive) of the runs of True in ``mask``."""
-    if mask.size == 0:
-        empty = np.zeros(0, dtype=np.intp)
-        return empty, empty
-    bounds = np.concatenate(([0], np.flatnonzero(mask[1:] != mask[:-1]) + 1, [mask.size]))
-    segments = bounds.size - 1  # alternating runs of True and False, starting with mask[0]
-    first = 0 if mask[0] else 1
-    return bounds[first:segments:2], bounds[first + 1 : segments + 1 : 2]
+def _run_bounds(positions: NDArray[np.intp]) -> tuple[NDArray[np.intp], NDArray[np.intp]]:
+    """First and last element of each run of consecutive integers in sorted ``positions``."""
+    ends = np.flatnonzero(positions[1:] - positions[:-1] > 1)
+    firsts = np.empty(ends.size + 1, dtype=np.intp)
+    firsts[0] = 0
+    np.add(ends, 1, out=firsts[1:])
+    lasts = np.append(ends, positions.size - 1)
+    return positions[firsts], positions[lasts]
 
 
 def clipping_flag(
-    y: FloatArray, fitted: FloatArray, noise: float, quantum: float, scale: float, offset: float
+    y: FloatArray,
+    residuals: FloatArray,
+    noise: float,
+    quantum: float,
+    extremes: tuple[float, float],
+    units: tuple[float, float] = (1.0, 0.0),
 ) -> Flag | None:
-    """Flag runs of samples stuck at the window's extreme values over which the fit arches on.
+    """Flag runs of samples stuck at the record's extreme values over which the fit arches on.
 
-    ``scale`` and ``offset`` convert ``y`` back to the samples' units for the message.
+    Args:
+        y: The samples.
+        residuals: Their residuals from the fit.
+        noise: See :func:`noise_and_quantum`.
+        quantum: See :func:`noise_and_quantum`.
+        extremes: The smallest and largest sample of the window.
+        units: (scale, offset) converting ``y`` back to the samples' units, for the message.
     """
     tol = _clip_tolerance(noise, quantum)
+    scale, offset = units
     messages = []
-    for side, extreme, sign in (("maximum", float(np.max(y)), 1.0), ("minimum", float(np.min(y)), -1.0)):
+    for side, extreme, sign in (("maximum", extremes[1], 1.0), ("minimum", extremes[0], -1.0)):
         at = np.flatnonzero(y == extreme)
-        if at.size < 3:
-            continue
-        breaks = np.flatnonzero(np.diff(at) > 1)
-        first = at[np.concatenate(([0], breaks + 1))]
-        last = at[np.concatenate((breaks, [at.size - 1]))]
+        if at.size < 3 or not np.any(at[2:] - at[:-2] == 2):
+            continue  # the common case: no three consecutive samples at the extreme
+        first, last = _run_bounds(at)
         long = last - first >= 2
         first, last = first[long], last[long]
-        rise = sign * (fitted[(first + last) // 2] - 0.5 * (fitted[first] + fitted[last]))
+        # the fitted curve y − r at the run's middle against its ends
+        rise = sign * (0.5 * (residuals[first] + residuals[last]) - residuals[(first + last) // 2])
         clipped = rise > tol
-        stuck = int(np.sum(last[clipped] - first[clipped] + 1))
+        stuck = int(np.sum(last[clipped] - first[clipped])) + int(np.count_nonzero(clipped))
         if stuck >= 3:
             messages.append(
                 f"{stuck} samples in {int(np.count_nonzero(clipped))} runs stuck at the {side} "
@@ -122,18 +139,32 @@ def clipping_flag(
     return Flag(FlagCode.CLIPPED, "; ".join(messages) + ": the sensor or ADC saturated, use a smaller swing")
 
 
-def held_flag(y: FloatArray, fitted: FloatArray, noise: float, quantum: float, times: FloatArray) -> Flag | None:
-    """Flag runs of repeated samples during which the fitted curve moves (held / gap-filled)."""
-    same = np.diff(y) == 0
-    starts, stops = _runs(same)
-    long = stops - starts >= MIN_HELD_RUN - 1
-    if not np.any(long):
-        return None
-    starts, last = starts[long], stops[long]  # runs of samples [start, last]
-    middle = (starts + last) // 2
-    moves = np.maximum(np.abs(fitted[last] - fitted[starts]), np.abs(fitted[middle] - fitted[starts]))
-    at_extreme = (y[starts] == np.max(y)) | (y[starts] == np.min(y))  # the clipping test's business
-    bad = np.flatnonzero((moves > _held_tolerance(noise, quantum)) & ~at_extreme)
+def held_flag(
+    y: FloatArray,
+    residuals: FloatArray,
+    noise: float,
+    quantum: float,
+    extremes: tuple[float, float],
+    time_of: Callable[[int], float],
+) -> Flag | None:
+    """Flag runs of repeated samples during which the fitted curve moves (held / gap-filled).
+
+    ``extremes`` are the window's smallest and largest samples (runs there are the clipping
+    test's business); ``time_of(i)`` the time of sample i, for the message.
+    """
+    same = y[1:] == y[:-1]
+    three = same[:-2] & same[1:-1]
+    three &= same[2:]  # sample i starts three equal steps (MIN_HELD_RUN = 4 equal samples)
+    candidates = np.flatnonzero(three)
+    if candidates.size == 0:
+        return None  # the common case
+    starts, last = _run_bounds(candidates)
+    last += MIN_HELD_RUN - 1  # runs of samples [start, last]
+    # the fitted curve y − r is y[start] − r inside a run: its moves are the residuals' moves
+    r0 = residuals[starts]
+    moves = np.maximum(np.abs(residuals[last] - r0), np.abs(residuals[(starts + last) // 2] - r0))
+    level = y[starts]
+    bad = np.flatnonzero((moves > _held_tolerance(noise, quantum)) & (level != extremes[0]) & (level != extremes[1]))
     if bad.size == 0:
         return None
     longest = bad[np.argmax(last[bad] - starts[bad])]
@@ -141,7 +172,7 @@ def held_flag(y: FloatArray, fitted: FloatArray, noise: float, quantum: float, t
     return Flag(
         FlagCode.GAP_FILLED,
         f"{bad.size} runs of repeated samples while the signal moves (longest: {b - a} samples at "
-        f"t = {times[a]:.3f} s): samples were held or gap-filled, record again",
+        f"t = {time_of(a):.3f} s): samples were held or gap-filled, record again",
     )
 
 
@@ -192,16 +223,16 @@ def modulation_index(deviation: ComplexArray, amplitude: FloatArray) -> Modulati
     n = deviation.size
     if n < 6:
         return Modulation(math.nan, math.nan)
-    noise2 = float(np.mean(np.abs(np.diff(deviation)) ** 2)) / 2.0  # E|noise|² per cycle
-    if not noise2 > 0:
-        noise2 = float(np.finfo(float).tiny)
+    step = deviation[1:] - deviation[:-1]
+    noise2 = max(float(np.vdot(step, step).real) / (2.0 * (n - 1)), float(np.finfo(float).tiny))  # E|noise|²
     q = _cubic_basis(n)
-    coef = q.T @ deviation
-    trend = q @ coef
-    chi2 = 2.0 * float(np.sum(np.abs(coef) ** 2)) / noise2
-    mean3 = (deviation[:-2] + deviation[1:-1] + deviation[2:]) / 3.0
-    peak3 = float(np.max(np.abs(mean3))) / math.sqrt(noise2 / 3.0)
-    depth = max(float(np.max(np.abs(trend) / amplitude)), float(np.max(np.abs(mean3) / amplitude[1:-1])))
+    coef = deviation @ q
+    chi2 = 2.0 * float(np.vdot(coef, coef).real) / noise2
+    sum3 = deviation[:-2] + deviation[1:-1]
+    sum3 += deviation[2:]
+    mean3 = np.abs(sum3) / 3.0
+    peak3 = float(np.max(mean3)) / math.sqrt(noise2 / 3.0)
+    depth = max(float(np.max(np.abs(q @ coef) / amplitude)), float(np.max(mean3 / amplitude[1:-1])))
     return Modulation(depth, max(chi2 / CHI2_LIMIT, peak3 / MA_LIMIT))
 
 

@@ -15,13 +15,21 @@ from functools import lru_cache
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["MAX_SPECTRUM_POINTS", "SpectralPeak", "block_means", "spectral_peak"]
+__all__ = [
+    "MAX_SPECTRUM_POINTS",
+    "SpectralPeak",
+    "block_means",
+    "block_sums",
+    "block_times",
+    "peak_of_blocks",
+    "spectral_peak",
+]
 
 FloatArray = NDArray[np.float64]
 
 #: The periodogram uses block means of the window, at most this many: oscillations of up to
-#: a quarter of that rate are found (17 Hz in a 30 s window), far above any pendulum's.
-MAX_SPECTRUM_POINTS = 2048
+#: a quarter of that rate are found (8.5 Hz in a 30 s window), far above any pendulum's.
+MAX_SPECTRUM_POINTS = 1024
 
 
 @dataclass(frozen=True)
@@ -52,25 +60,45 @@ def block_means(
     Returns:
         Mean time of each block [s], mean sample, number of samples per block.
     """
-    n = t.size
     if k <= 1:
-        return t, y, np.ones(n)
-    full = n // k
+        return t, y, np.ones(t.size)
+    sums, counts = block_sums(y, k)
+    return block_times(t, k, counts, step, float(t[0])), sums / counts, counts
+
+
+def block_sums(y: FloatArray, k: int) -> tuple[FloatArray, FloatArray]:
+    """Sums of consecutive blocks of ``k`` samples (the last may be shorter), and their sizes."""
+    n = y.size
     starts = np.arange(0, n, k)
     counts = np.full(starts.size, float(k))
-    if n > full * k:
-        counts[-1] = n - full * k
+    counts[-1] = n - k * (starts.size - 1)
+    return np.add.reduceat(y, starts), counts
+
+
+def block_times(
+    t: FloatArray | None, k: int, counts: FloatArray, step: float | None = None, first: float = 0.0
+) -> FloatArray:
+    """Mean time of each block of :func:`block_sums` [s]: from the times ``t``, or, for samples
+    evenly spaced by ``step`` from ``first``, computed."""
     if step is None:
-        tb = np.add.reduceat(t, starts) / counts
-    else:
-        tb = t[0] + step * (starts + 0.5 * (counts - 1.0))
-    yb = np.add.reduceat(y, starts) / counts
-    return tb, yb, counts
+        assert t is not None
+        return np.add.reduceat(t, np.arange(0, t.size, k)) / counts
+    centres = np.arange(0.0, k * counts.size, k)
+    centres += 0.5 * (counts - 1.0)
+    centres *= step
+    centres += first
+    return centres
 
 
 @lru_cache(maxsize=8)
 def _hann(m: int) -> FloatArray:
     return np.hanning(m)
+
+
+@lru_cache(maxsize=8)
+def _ramp(m: int) -> tuple[FloatArray, float]:
+    x = np.linspace(-1.0, 1.0, m)
+    return x, float(np.dot(x, x))
 
 
 def spectral_peak(t: FloatArray, y: FloatArray, even: bool = False, min_cycles: float = 1.0) -> SpectralPeak | None:
@@ -79,7 +107,7 @@ def spectral_peak(t: FloatArray, y: FloatArray, even: bool = False, min_cycles: 
     Args:
         t: Sample times [s].
         y: Samples (finite).
-        even: The samples are evenly spaced (skips the check).
+        even: The samples are evenly spaced.
         min_cycles: Lowest frequency searched, in cycles per record.
 
     Returns:
@@ -91,29 +119,45 @@ def spectral_peak(t: FloatArray, y: FloatArray, even: bool = False, min_cycles: 
         return None
     k = max(1, math.ceil(n / MAX_SPECTRUM_POINTS))
     tb, yb, _ = block_means(t, y, k, duration / (n - 1) if even else None)
+    return peak_of_blocks(tb, yb, duration, even, min_cycles)
+
+
+def peak_of_blocks(
+    tb: FloatArray, yb: FloatArray, duration: float, even: bool = False, min_cycles: float = 1.0
+) -> SpectralPeak | None:
+    """:func:`spectral_peak` of block means ``yb`` at times ``tb`` of a ``duration`` s record."""
     m = tb.size
+    if m < 8 or not duration > 0:
+        return None
     # put the block means on an even grid (they are already, unless the times are uneven)
     step = float(tb[-1] - tb[0]) / (m - 1)
     if not even:
         grid = tb[0] + step * np.arange(m)
         if not np.allclose(tb, grid, rtol=0.0, atol=0.01 * step):
             yb = np.interp(grid, tb, yb)
-    x = np.linspace(-1.0, 1.0, m)
-    yb = yb - np.mean(yb) - x * (np.dot(x, yb) / np.dot(x, x))
+    x, xx = _ramp(m)
+    detrended = yb - float(np.mean(yb))
+    detrended -= x * (float(np.dot(x, yb)) / xx)
+    detrended *= _hann(m)
     nfft = 1 << (int(m - 1).bit_length() + 1)
-    spectrum = np.fft.rfft(yb * _hann(m), nfft)
-    power = spectrum.real**2 + spectrum.imag**2
+    spectrum = np.fft.rfft(detrended, nfft)
+    power = spectrum.real**2
+    power += spectrum.imag**2
     df = 1.0 / (nfft * step)
     lo = max(1, math.ceil(min_cycles / (duration * df)))
     hi = min(power.size - 2, int(0.25 / (step * df)))
     if hi <= lo:
         return None
     i = lo + int(np.argmax(power[lo : hi + 1]))
-    p0, p1, p2 = np.log(np.maximum(power[i - 1 : i + 2], 1e-300))
+    p0, p1, p2 = (math.log(max(float(v), 1e-300)) for v in power[i - 1 : i + 2])
     curvature = p0 - 2.0 * p1 + p2
     shift = 0.5 * (p0 - p2) / curvature if curvature < 0 else 0.0
     lobe = 2 * nfft // m + 1  # Hann main lobe half-width, in padded bins
-    around = np.r_[max(lo, i // 2) : max(lo, i - lobe), i + lobe + 1 : min(hi, 2 * i) + 1]
-    background = float(np.median(power[around])) if around.size >= 4 else 0.0
-    prominence = power[i] / background if background > 0 else math.inf
-    return SpectralPeak(omega=2.0 * math.pi * (i + max(-0.5, min(0.5, shift))) * df, prominence=float(prominence))
+    around = np.concatenate((power[max(lo, i // 2) : max(lo, i - lobe)], power[i + lobe + 1 : min(hi, 2 * i) + 1]))
+    if around.size >= 4:
+        middle = around.size // 2
+        background = float(np.partition(around, middle)[middle])  # the median (upper, if even)
+    else:
+        background = 0.0
+    prominence = float(power[i]) / background if background > 0 else math.inf
+    return SpectralPeak(omega=2.0 * math.pi * (i + max(-0.5, min(0.5, shift))) * df, prominence=prominence)

@@ -22,13 +22,14 @@ samples dropped are the last, smallest ones.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from enum import Enum
 
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["WindowKind", "WindowPolicy", "DEFAULT_WINDOW", "select_window"]
+__all__ = ["WindowKind", "WindowPolicy", "DEFAULT_WINDOW", "first_at_or_after", "select_window", "select_window_even"]
 
 
 class WindowKind(str, Enum):
@@ -115,12 +116,33 @@ def select_window(t: NDArray[np.float64], y: NDArray[np.float64], policy: Window
     Returns:
         Positions into ``t``; ``start == stop`` when nothing is left.
     """
-    n = t.size
+    return _select(lambda x: int(np.searchsorted(t, x, side="left")), y, policy)
+
+
+def select_window_even(step: float, y: NDArray[np.float64], policy: WindowPolicy) -> tuple[int, int]:
+    """:func:`select_window` for samples at the times ``k · step`` [s]."""
+    return _select(lambda x: first_at_or_after(x, step, y.size), y, policy)
+
+
+def first_at_or_after(x: float, step: float, n: int) -> int:
+    """The first k in [0, n] with ``k · step >= x`` (``np.searchsorted`` on ``arange(n) * step``)."""
+    if not x > 0:
+        return 0
+    k = min(n, max(0, math.ceil(x / step)))
+    while k > 0 and (k - 1) * step >= x:
+        k -= 1
+    while k < n and k * step < x:
+        k += 1
+    return k
+
+
+def _select(search: Callable[[float], int], y: NDArray[np.float64], policy: WindowPolicy) -> tuple[int, int]:
+    n = y.size
     if policy.kind is WindowKind.LEAD_IN:
-        return int(np.searchsorted(t, policy.lead_in_s, side="left")), n
+        return search(policy.lead_in_s), n
     if policy.kind is WindowKind.SPAN:
-        start = int(np.searchsorted(t, policy.start_s, side="left"))
-        stop = n if policy.stop_s is None else int(np.searchsorted(t, policy.stop_s, side="left"))
+        start = search(policy.start_s)
+        stop = n if policy.stop_s is None else search(policy.stop_s)
         return start, max(start, stop)
     if n == 0:
         return 0, 0
