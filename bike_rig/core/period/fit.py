@@ -646,12 +646,16 @@ class _Fitter:
         s2 = sse / max(1, n - 5)  # Eq 26
 
         # the design on the block means: per-block Jacobian of the block-mean model
-        starts = np.arange(0, n, k)
-        rb = np.add.reduceat(r, starts)  # residual sum per block
-        rb *= 1.0 / units_scale
         tau_b = tb - center
         e = _block_phasors(s, tau_b, step, int(counts[0]), int(counts[-1]), uniform)
         ke = K * e
+        if uniform:  # residual sum per block (scaled): the block-mean model is exact
+            rb = yb - A
+            rb -= ke.real
+            rb *= counts
+        else:
+            rb = np.add.reduceat(r, np.arange(0, n, k))
+            rb *= 1.0 / units_scale
         nb = tb.size
         Jb = np.empty((5, nb))
         Jb[0] = 1.0
