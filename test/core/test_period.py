@@ -21,6 +21,7 @@ from bike_rig.core.period import (
     fit_period,
 )
 from bike_rig.core.period.model import alpha_omega_d, fit_variance, zeta_omega
+from bike_rig.core.period.window import first_at_or_after
 from test.core.test_period_signals import gyro_trial, quantise
 
 # ---------------------------------------------------------------- the paper's equations
@@ -170,6 +171,30 @@ def test_span_and_envelope_windows() -> None:
 def test_window_policy_rejects_nonsense(kwargs: dict[str, object], message: str) -> None:
     with pytest.raises(ValueError, match=message):
         WindowPolicy(**kwargs)  # type: ignore[arg-type]
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    rate=st.floats(0.5, 20000.0),
+    n=st.integers(1, 3000),
+    x=st.floats(-1.0, 5000.0),
+)
+def test_even_window_search_matches_searchsorted(rate: float, n: int, x: float) -> None:
+    t = np.arange(n, dtype=float) * (1.0 / rate)
+    assert first_at_or_after(x, 1.0 / rate, n) == int(np.searchsorted(t, x))
+    on_sample = float(t[n // 2])
+    assert first_at_or_after(on_sample, 1.0 / rate, n) == int(np.searchsorted(t, on_sample))
+
+
+def test_huge_and_tiny_sample_values() -> None:
+    trial = gyro_trial(12, period=1.3)
+    reference = fit_period(trial.samples, 1000.0)
+    for factor in (1e200, 1e-200, -3e150):
+        fit = fit_period(trial.samples * factor, 1000.0)
+        assert fit.clean, fit.flags
+        assert fit.period == pytest.approx(reference.period, rel=1e-9)
+        assert fit.period_sigma == pytest.approx(reference.period_sigma, rel=1e-6)
+        assert fit.A == pytest.approx(reference.A * factor, rel=1e-6)
 
 
 def test_window_with_too_few_samples_is_invalid() -> None:

@@ -3,8 +3,8 @@
 Stages
 ------
 1. **Clean-up.** Non-finite samples (and samples with non-finite timestamps) are left out and
-   flagged; the window's samples are scaled to about ±1. Bad data never raise: they give a
-   result with ``valid=False`` and a flag saying why.
+   flagged. Bad data never raise: they give a result with ``valid=False`` and a flag saying
+   why. The fit itself works on block means scaled to about ±1, so any finite input works.
 2. **Window** (:mod:`~bike_rig.core.period.window`): the policy's samples.
 3. **Initial guess** (:mod:`~bike_rig.core.period.spectrum`): the highest peak of the
    spectrum; a peak that does not stand out of its surroundings means there is no oscillation.
@@ -18,12 +18,17 @@ Stages
    blocks, ~1 % of the oscillation's information) at a small fraction of the cost. For fixed
    (ζω, ω sqrt(1 − ζ²)) Eq 23 is linear in A, B, C, which are solved for; Levenberg–Marquardt
    (``scipy.optimize.leastsq``, MINPACK) fits the two nonlinear parameters with the analytic
-   (Kaufman) Jacobian of the projected residual.
+   (Kaufman) Jacobian of the projected residual; it stops when the sum of squares falls by
+   less than 1e-4 of itself, by then the period is within 0.02 σ of the optimum.
 5. **Uneven timestamps** (``times`` with jitter or gaps, or samples left out): the block means
    are then only nearly exact, and Gauss–Newton steps on every sample, with the analytic
    Jacobian of all five parameters, finish the fit.
 6. **Residuals** of every sample give r², the residual RMS and the sample-level flags
    (:mod:`~bike_rig.core.period.quality`).
+
+For a 30 s trial at 1 kHz this takes about 0.9 ms (``bench/bench_period.py``): a few passes
+over the samples (block sums, the residuals, boolean scans for the flags), everything else on
+a few hundred block means.
 
 σ of the period
 ---------------

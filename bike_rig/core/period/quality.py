@@ -1,7 +1,8 @@
 """Quality tests of a fitted trial: clipping, held (gap-filled) samples, beating, drift.
 
-Each test returns a :class:`~bike_rig.core.period.result.Flag` with a reason, or None. All work
-on the samples of the fit window, scaled to about ±1, their fitted values and residuals.
+Each test returns a :class:`~bike_rig.core.period.result.Flag` with a reason, or None. They
+work on the samples of the fit window and their residuals (sample-level tests), or on per-cycle
+sums (beating, drift).
 
 * **Clipping** (ADC saturation): runs of at least 3 samples equal to the window's largest (or
   smallest) value, over which the fitted curve arches on beyond that value (from the run's
@@ -10,14 +11,18 @@ on the samples of the fit window, scaled to about ±1, their fitted values and r
   within a step; an offset drift shifts the curve but does not make it arch.
 * **Held samples** (a DAQ filling gaps by repeating the last value): runs of at least
   ``MIN_HELD_RUN`` equal samples, away from the extremes, over which the fitted curve moves by
-  more than the noise and quantisation allow.
-* **Beating** (paper Fig. 7): a second mode close in frequency makes the envelope and the
-  phase wander. Per cycle b, the residual is projected on the fitted oscillation, which gives
-  the cycle's relative complex amplitude deviation δ_b from Eq 23 (real part: envelope, imaginary
-  part: phase). The statistic is the largest 3-cycle moving average of |δ_b|; noise makes it
-  ~ noise / (amplitude sqrt(samples per cycle)), a second mode of relative amplitude ρ makes it
-  ~ ρ. Flagged when it exceeds ``max_modulation`` and five times its noise level (estimated
-  from the cycle-to-cycle differences of δ, which a smooth modulation hardly changes).
+  more than 4 × the noise and 1.5 quantisation steps.
+* **Beating** (paper Fig. 7): a second mode close in frequency makes the envelope and the phase
+  wander, smoothly from cycle to cycle. Per cycle, the residual is projected on the fitted
+  oscillation: the cycle's complex amplitude deviation from Eq 23 (real part: envelope,
+  imaginary part: phase). Its smooth part is measured twice — a cubic trend over the record
+  (a beat longer than the record) and 3-cycle means (faster beats) — against the noise of the
+  deviations, which their cycle-to-cycle differences give (a smooth modulation hardly changes
+  them). Flagged when the smooth part is significant (cubic χ² above ``CHI2_LIMIT`` or a
+  3-cycle mean above ``MA_LIMIT`` times its noise) and larger than ``max_modulation`` of the
+  amplitude (default 2 %). Noise alone reaches about half the significance limit; a second
+  mode of relative amplitude ρ makes a depth of about ρ. (The two-frequency fit of the paper's
+  Eq 24 is not attempted: as the paper found, it cannot tell which mode is the torsion.)
 * **Drift**: the per-cycle means of the residuals (the offset's slow wander, which Eq 23's
   constant A cannot follow), peak to peak, against the oscillation's peak to peak at the window
   centre.
