@@ -1,0 +1,233 @@
+"""core/assembly: static readings + period estimates → the parameter set; the model products."""
+
+from __future__ import annotations
+
+import math
+import random
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from bike_rig.core.assembly import (
+    AssemblyError,
+    SessionAssembly,
+    TrialPeriod,
+    assemble,
+    combine_trials,
+    compute_model,
+    period_fit,
+    required_period_keys,
+    state_space_at,
+)
+from bike_rig.core.benchmark import ComMethod, ParameterSet, compute_parameters
+from bike_rig.core.errors import GeometryError, MeasurementError, ModelError
+from bike_rig.core.loader import load_measurements, load_static_readings
+from bike_rig.core.measurements import Measurements, Reading
+from bike_rig.core.model import SigmaConvention, canonical_with_sigma
+from bike_rig.core.period import combine_periods
+from bike_rig.core.rider import PAPER_RIDER, add_rider
+from bike_rig.core.whipple import critical_speeds, eigenvalues, state_space
+from bike_rig.paths import config_file
+
+BICYCLES = ("browser", "browserins", "crescendo", "fisher", "stratos", "yellow")
+BROWSER_KEYS = (
+    "TtP1", "TcR1", "TtR1", "TcF1", "TtF1", "TcB1", "TtB1", "TtB2", "TtB3", "TcH1", "TtH1", "TtH2", "TtH3",
+)  # fmt: skip
+
+
+def bicycle(name: str) -> Path:
+    return config_file(f"bicycles/{name}.yaml")
+
+
+def file_trials(full: Measurements, keys: tuple[str, ...]) -> list[TrialPeriod]:
+    """One trial per key carrying the file's own period and σ."""
+    return [TrialPeriod(f"{k}-t1", k, full.value(k), full.readings[k].sigma, True) for k in keys]
+
+
+def assert_same_set(got: ParameterSet | None, expected: ParameterSet | None) -> None:
+    assert got is not None and expected is not None
+    gp, ep = got.parameters, expected.parameters
+    assert gp.names == ep.names
+    assert np.array_equal(gp.values, ep.values)
+    assert np.array_equal(gp.covariance, ep.covariance)
+
+
+@pytest.mark.parametrize("name", BICYCLES)
+def test_file_periods_as_trials_give_the_files_parameters_exactly(name: str) -> None:
+    full = load_measurements(bicycle(name))
+    session = SessionAssembly(load_static_readings(bicycle(name)))
+    session.add_all(file_trials(full, session.required_keys))
+    result = session.result()
+    assert result.complete and result.missing == ()
+    assert result.parameters is not None
+    assert_same_set(result.parameters, compute_parameters(full))
+    assert [(p.key, p.value, p.sigma, p.trial_ids) for p in result.periods] == [
+        (k, full.value(k), full.readings[k].sigma, (f"{k}-t1",)) for k in session.required_keys
+    ]
+
+
+def test_com_method_is_passed_on() -> None:
+    full = load_measurements(bicycle("browser"))
+    session = SessionAssembly(load_static_readings(bicycle("browser")), ComMethod.LEAST_SQUARES)
+    session.add_all(file_trials(full, session.required_keys))
+    result = session.result()
+    assert result.com_method is ComMethod.LEAST_SQUARES
+    assert_same_set(result.parameters, compute_parameters(full, ComMethod.LEAST_SQUARES))
+
+
+def test_required_keys_follow_from_the_static_readings() -> None:
+    static = load_static_readings(bicycle("browser"))
+    assert required_period_keys(static) == BROWSER_KEYS
+    # a fourth frame orientation asks for a fourth frame torsional period
+    readings = dict(static.readings)
+    readings["alphaB4"] = Reading(60.0, 0.2)
+    readings["aB4"] = Reading(0.01, 0.003)
+    four = Measurements(static.bicycle, readings, static.path)
+    keys = SessionAssembly(four).required_keys
+    assert "TtB4" in keys and len(keys) == len(BROWSER_KEYS) + 1
+
+
+def test_missing_keys_listed_in_canonical_order() -> None:
+    full = load_measurements(bicycle("browser"))
+    session = SessionAssembly(load_static_readings(bicycle("browser")))
+    assert session.result().missing == BROWSER_KEYS
+    have = ("TtB2", "TcR1", "TtP1", "TtH3")
+    session.add_all(file_trials(full, have))
+    result = session.result()
+    assert not result.complete and result.parameters is None
+    assert result.missing == tuple(k for k in BROWSER_KEYS if k not in have)
+    assert [p.key for p in result.periods] == ["TtP1", "TcR1", "TtB2", "TtH3"]
+
+
+def trial_set(full: Measurements, keys: tuple[str, ...], seed: int) -> list[TrialPeriod]:
+    """Three scattered trials per key, with distinct ids."""
+    rng = np.random.default_rng(seed)
+    out = []
+    for k in keys:
+        v, s = full.value(k), full.readings[k].sigma
+        for i in range(3):
+            out.append(TrialPeriod(f"{k}-{i}", k, v + s * rng.normal(), s * (1 + 0.5 * rng.random()), True))
+    return out
+
+
+def test_any_order_gives_identical_floats() -> None:
+    full = load_measurements(bicycle("browser"))
+    static = load_static_readings(bicycle("browser"))
+    trials = trial_set(full, BROWSER_KEYS, seed=1)
+    reference = assemble(static, trials)
+    shuffler = random.Random(7)
+    for _ in range(5):
+        shuffled = trials[:]
+        shuffler.shuffle(shuffled)
+        again = assemble(static, shuffled)
+        assert again.periods == reference.periods
+        assert_same_set(again.parameters, reference.parameters)
+
+
+def test_combination_is_combine_periods_in_trial_id_order() -> None:
+    full = load_measurements(bicycle("browser"))
+    trials = trial_set(full, ("TtB1",), seed=3)
+    combined, used = combine_trials(reversed(trials))
+
+    expected = combine_periods([period_fit(t) for t in sorted(trials, key=lambda t: t.trial_id)])
+    assert (combined.value, combined.sigma, combined.n_used) == (expected.value, expected.sigma, 3)
+    assert used == ("TtB1-0", "TtB1-1", "TtB1-2")
+
+
+def test_same_trial_id_replaces_the_earlier_estimate() -> None:
+    full = load_measurements(bicycle("browser"))
+    session = SessionAssembly(load_static_readings(bicycle("browser")))
+    session.add_all(file_trials(full, BROWSER_KEYS))
+    first = session.result()
+    wrong = TrialPeriod("TtB1-t1", "TtB1", 2.5, 1e-4, True)
+    session.add(wrong)
+    assert session.result().periods[6].value == 2.5
+    assert session.add(TrialPeriod("TtB1-t1", "TtB1", full.value("TtB1"), full.readings["TtB1"].sigma, True))
+    assert len(session.trials) == len(BROWSER_KEYS)
+    assert_same_set(session.result().parameters, first.parameters)
+    # an identical re-publication changes nothing
+    assert not session.add(session.trials[0])
+
+
+def test_flagged_and_invalid_trials_are_left_out() -> None:
+    full = load_measurements(bicycle("browser"))
+    static = load_static_readings(bicycle("browser"))
+    clean = file_trials(full, BROWSER_KEYS)
+    bad = [
+        TrialPeriod("TtB1-t2", "TtB1", 2.3, 1e-5, True, ("beating",), ("envelope modulation 5 %",)),
+        TrialPeriod("TtB1-t3", "TtB1", math.nan, math.nan, False, ("no_oscillation",), ("flat",)),
+        TrialPeriod("TtB1-t4", "TtB1", 2.2, 1e-5, False),
+        TrialPeriod("TtB1-t5", "TtB1", 2.2, 0.0, True),  # no usable σ
+    ]
+    result = assemble(static, clean + bad)
+    assert_same_set(result.parameters, compute_parameters(full))
+    tt_b1 = next(p for p in result.periods if p.key == "TtB1")
+    assert tt_b1.trial_ids == ("TtB1-t1",)
+    # only flagged trials for a key: it stays missing
+    only_bad = assemble(static, [t for t in clean if t.measurement_key != "TtB1"] + bad)
+    assert only_bad.missing == ("TtB1",)
+
+
+def test_unknown_key_or_flag_is_rejected() -> None:
+    session = SessionAssembly(load_static_readings(bicycle("browser")))
+    with pytest.raises(AssemblyError, match="'TtB4' is not a period of Browser"):
+        session.add(TrialPeriod("x", "TtB4", 2.0, 1e-4, True))
+    with pytest.raises(AssemblyError, match="unknown quality flag code 'wobbly'"):
+        session.add(TrialPeriod("y", "TtB1", 2.0, 1e-4, True, ("wobbly",), ("?",)))
+    assert session.trials == ()
+
+
+def test_bad_static_readings_fail_when_the_session_starts() -> None:
+    static = load_static_readings(bicycle("browser"))
+    readings = {k: r for k, r in static.readings.items() if k != "mR"}
+    with pytest.raises(MeasurementError, match="mR"):
+        SessionAssembly(Measurements(static.bicycle, readings, static.path))
+    readings = dict(static.readings)
+    readings["alphaB2"] = readings["alphaB1"]
+    with pytest.raises(GeometryError, match="parallel"):
+        SessionAssembly(Measurements(static.bicycle, readings, static.path))
+
+
+# ---------------------------------------------------------------------------- model products
+
+
+@pytest.fixture(scope="module")
+def browser_set() -> ParameterSet:
+    return compute_parameters(load_measurements(bicycle("browser")))
+
+
+@pytest.mark.parametrize(("rider", "convention"), [("", "correlated"), ("paper", "paper"), ("none", "correlated")])
+def test_compute_model_is_the_core_chain(browser_set: ParameterSet, rider: str, convention: str) -> None:
+    speeds = np.linspace(0.0, 10.0, 201)
+    matrices, stability = compute_model(browser_set, speeds, rider, convention)
+    ps = add_rider(browser_set, PAPER_RIDER) if rider == "paper" else browser_set
+    ms = canonical_with_sigma(ps, SigmaConvention(convention))
+    for name in ("M", "C1", "K0", "K2"):
+        assert np.array_equal(getattr(matrices.matrices, name), getattr(ms.matrices, name))
+        assert np.array_equal(getattr(matrices.sigma, name), getattr(ms.sigma, name))
+    assert matrices.rider == ("paper" if rider == "paper" else "")
+    assert matrices.bicycle == "Browser" and matrices.g == ms.g
+    sweep = eigenvalues(ms.matrices, ms.g, speeds)
+    assert np.array_equal(stability.sweep.eigenvalues, sweep.eigenvalues)
+    cs = critical_speeds(ms.matrices, ms.g)
+    assert stability.weave is not None and stability.capsize is not None
+    assert (stability.weave.speed, stability.capsize.speed) == (cs.weave, cs.capsize)
+    assert 0 < stability.weave.sigma < 0.5 and 0 < stability.capsize.sigma < 0.5
+
+
+def test_state_space_at_a_speed(browser_set: ParameterSet) -> None:
+    matrices, _ = compute_model(browser_set, [0.0])
+    st = state_space_at(matrices, 5.0)
+    a, b = state_space(matrices.matrices, 5.0, matrices.g)
+    assert np.array_equal(st.a, a) and np.array_equal(st.b, b)
+    assert np.array_equal(st.eigenvalues, eigenvalues(matrices.matrices, matrices.g, [5.0]).eigenvalues[0])
+    assert st.labels == ("weave", "weave", "capsize", "caster")
+    for bad in (-1.0, math.nan, math.inf):
+        with pytest.raises(ModelError, match="speed must be"):
+            state_space_at(matrices, bad)
+
+
+def test_unknown_rider_is_a_model_error(browser_set: ParameterSet) -> None:
+    with pytest.raises(ModelError, match="unknown rider 'tall'"):
+        compute_model(browser_set, [1.0], "tall")
