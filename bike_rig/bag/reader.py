@@ -1,0 +1,270 @@
+"""Read a bag with no ROS runtime: rosbags' reader, and bike_rig's typestore to decode.
+
+:func:`open_bag` accepts a rosbag2 bag directory (``metadata.yaml`` + storage files, MCAP or
+SQLite) or a single ``.mcap`` file, and turns every problem into one
+:class:`~bike_rig.bag.errors.BagError` that names the path and the reason: not a bag, a
+recording that did not end cleanly (use ``bike-rig bag recover``), unreadable or corrupt files.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass
+from pathlib import Path
+from types import TracebackType
+from typing import Any, NamedTuple
+
+from rosbags.interfaces import Qos
+from rosbags.rosbag2 import Reader
+from rosbags.rosbag2.errors import ReaderError
+
+from .errors import BagError, BagReadError, IncompleteBagError, NotABagError, ReplayError
+from .typestore import rig_typestore, type_hash
+
+__all__ = ["MCAP_MAGIC", "BagReader", "RawMessage", "TopicInfo", "open_bag"]
+
+MCAP_MAGIC = b"\x89MCAP0\r\n"
+
+
+class RawMessage(NamedTuple):
+    """One recorded message: topic, log (receive) time in ns since the epoch, CDR bytes."""
+
+    topic: str
+    log_time: int
+    data: bytes
+
+
+@dataclass(frozen=True)
+class TopicInfo:
+    """One topic of a bag.
+
+    Attributes:
+        name: Topic name.
+        msgtype: Full type name.
+        count: Number of messages.
+        offered_qos: The QoS profiles its publishers offered.
+        type_hash: The RIHS01 hash recorded for its type ("" if the bag has none).
+    """
+
+    name: str
+    msgtype: str
+    count: int
+    offered_qos: tuple[Qos, ...]
+    type_hash: str
+
+
+def _check_mcap_file(path: Path, shown: str) -> None:
+    """Fail early and clearly on a file that is not MCAP or has no footer."""
+    try:
+        with path.open("rb") as f:
+            head = f.read(8)
+            size = f.seek(0, 2)
+            tail = b""
+            if size >= 16:
+                f.seek(-8, 2)
+                tail = f.read(8)
+    except OSError as exc:
+        raise BagReadError(shown, f"cannot read {path.name} ({exc.strerror or exc})") from None
+    if head != MCAP_MAGIC:
+        what = "empty file" if not head else "not an MCAP file (bad magic)"
+        raise NotABagError(shown, what if path.name == Path(shown).name else f"{path.name}: {what}")
+    if tail != MCAP_MAGIC:
+        raise IncompleteBagError(
+            shown,
+            f"{path.name} has no summary or footer: the recording did not end cleanly "
+            f"(run 'bike-rig bag recover {shown}' to make it readable)",
+        )
+
+
+def _resolve(path: Path, shown: str) -> Path:
+    """The path rosbags should open, after checking what it is."""
+    if not path.exists():
+        raise BagError(shown, "no such file or directory")
+    if path.is_file() and path.name == "metadata.yaml":
+        path = path.parent
+    if path.is_dir():
+        storage = sorted(path.glob("*.mcap"))
+        if not (path / "metadata.yaml").is_file():
+            if storage or any(path.glob("*.mcap.*")):
+                raise IncompleteBagError(
+                    shown,
+                    "no metadata.yaml: the recording did not end cleanly "
+                    f"(run 'bike-rig bag recover {shown}' to make it readable)",
+                )
+            raise NotABagError(shown, "not a rosbag2 bag (no metadata.yaml and no .mcap file)")
+        for f in storage:
+            _check_mcap_file(f, shown)
+        return path
+    if path.suffix.lower() == ".mcap":
+        _check_mcap_file(path, shown)
+        return path
+    try:
+        with path.open("rb") as stream:
+            head = stream.read(8)
+    except OSError as exc:
+        raise BagReadError(shown, f"cannot read ({exc.strerror or exc})") from None
+    if head == MCAP_MAGIC:
+        raise NotABagError(shown, "an MCAP file must be named *.mcap to be read")
+    raise NotABagError(shown, "not a bag (neither a rosbag2 directory nor an MCAP file)")
+
+
+class BagReader:
+    """An open bag: its topics and its messages in log-time order.
+
+    Args:
+        path: A bag directory, its metadata.yaml, or a ``.mcap`` file.
+
+    Raises:
+        BagError: (on :meth:`open`) see the module docstring.
+    """
+
+    def __init__(self, path: str | Path) -> None:
+        self.shown = str(path)
+        self.path = Path(path)
+        self._reader: Reader | None = None
+        self.topics: dict[str, TopicInfo] = {}
+
+    def open(self) -> BagReader:
+        """Open the bag and read its index."""
+        resolved = _resolve(self.path, self.shown)
+        try:
+            reader = Reader(resolved)
+            reader.open()
+        except ReaderError as exc:
+            raise BagReadError(self.shown, f"unreadable bag ({_sentence(exc)})") from None
+        except (OSError, ValueError, KeyError, IndexError, TypeError) as exc:
+            raise BagReadError(self.shown, f"unreadable bag ({type(exc).__name__}: {_sentence(exc)})") from None
+        self._reader = reader
+        topics: dict[str, TopicInfo] = {}
+        for conn in reader.connections:
+            ext = conn.ext
+            qos = tuple(getattr(ext, "offered_qos_profiles", ()) or ())
+            prev = topics.get(conn.topic)
+            count = conn.msgcount + (prev.count if prev else 0)
+            topics[conn.topic] = TopicInfo(conn.topic, conn.msgtype, count, qos, conn.digest or "")
+        self.topics = topics
+        return self
+
+    def close(self) -> None:
+        """Close the bag's files."""
+        if self._reader is not None:
+            self._reader.close()
+            self._reader = None
+
+    def __enter__(self) -> BagReader:
+        return self.open() if self._reader is None else self
+
+    def __exit__(
+        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
+    ) -> None:
+        self.close()
+
+    @property
+    def reader(self) -> Reader:
+        """The underlying rosbags reader."""
+        if self._reader is None:
+            raise BagError(self.shown, "the bag is not open")
+        return self._reader
+
+    @property
+    def start_time(self) -> int:
+        """Log time of the first message, ns since the epoch (0 for an empty bag)."""
+        return self.reader.start_time if self.message_count else 0
+
+    @property
+    def end_time(self) -> int:
+        """Log time of the last message, ns since the epoch (0 for an empty bag)."""
+        return self.reader.end_time - 1 if self.message_count else 0
+
+    @property
+    def duration(self) -> int:
+        """Time from the first to the last message, ns."""
+        return self.end_time - self.start_time
+
+    @property
+    def message_count(self) -> int:
+        """Number of messages."""
+        return int(self.reader.message_count)
+
+    @property
+    def custom_data(self) -> dict[str, str]:
+        """metadata.yaml's ``custom_data`` (empty for a bare MCAP file)."""
+        meta = getattr(self.reader.storage, "metadata", None)
+        return dict(getattr(meta, "custom", None) or {})
+
+    @property
+    def storage_files(self) -> list[Path]:
+        """The storage files of the bag."""
+        if self.path.is_dir() or self.path.name == "metadata.yaml":
+            base = self.path if self.path.is_dir() else self.path.parent
+            files = [base / f["path"] for f in getattr(self.reader.storage, "files", [])]
+            return files or sorted(base.glob("*.mcap"))
+        return [self.path]
+
+    def messages(self, topics: Iterable[str] | None = None) -> Iterator[RawMessage]:
+        """Every message (of the given topics, all if None) in log-time order.
+
+        Raises:
+            BagReadError: A chunk is corrupt.
+        """
+        wanted = None if topics is None else set(topics)
+        conns = [c for c in self.reader.connections if wanted is None or c.topic in wanted]
+        if not conns:
+            return
+        try:
+            for conn, log_time, data in self.reader.messages(connections=conns):
+                yield RawMessage(conn.topic, log_time, data)
+        except ReaderError as exc:
+            raise BagReadError(self.shown, f"corrupt data ({_sentence(exc)})") from None
+
+    def check_type(self, topic: str) -> str:
+        """The type of a topic, after checking that the rig's typestore decodes it as recorded.
+
+        Raises:
+            ReplayError: The type is unknown to bike_rig, or was recorded with another
+                definition (a different type hash).
+        """
+        info = self.topics[topic]
+        store = rig_typestore()
+        if info.msgtype not in store.fielddefs:
+            raise ReplayError(self.shown, f"topic {topic}: type {info.msgtype} is not one of bike_rig's")
+        ours = type_hash(info.msgtype)
+        if info.type_hash and info.type_hash != ours:
+            raise ReplayError(
+                self.shown,
+                f"topic {topic}: {info.msgtype} was recorded with another definition "
+                f"(hash {info.type_hash[:19]}…, ours {ours[:19]}…)",
+            )
+        return info.msgtype
+
+    def decoded(self, topics: Iterable[str] | None = None) -> Iterator[tuple[str, int, Any]]:
+        """Every message of the given topics (all if None), deserialized, in log-time order:
+        ``(topic, log_time_ns, message)``.
+
+        Raises:
+            ReplayError: A type cannot be decoded (see :meth:`check_type`).
+            BagReadError: A message does not deserialize.
+        """
+        names = list(self.topics) if topics is None else [t for t in topics if t in self.topics]
+        types = {t: self.check_type(t) for t in names}
+        deserialize = rig_typestore().deserialize_cdr
+        for msg in self.messages(names):
+            try:
+                yield msg.topic, msg.log_time, deserialize(msg.data, types[msg.topic])
+            except Exception as exc:  # rosbags raises several kinds for bad CDR
+                raise BagReadError(
+                    self.shown, f"a {types[msg.topic]} message on {msg.topic} does not deserialize ({exc})"
+                ) from None
+
+
+def _sentence(exc: BaseException) -> str:
+    return str(exc).strip().rstrip(".") or type(exc).__name__
+
+
+def open_bag(path: str | Path) -> BagReader:
+    """Open a bag for reading (use as a context manager).
+
+    Raises:
+        BagError: not a bag, an unfinished recording, unreadable or corrupt files.
+    """
+    return BagReader(path).open()

@@ -1,0 +1,99 @@
+"""A rosbags typestore that knows bike_rig's messages, so bags can be read, written and
+replayed with no ROS runtime.
+
+It is ``get_typestore(Stores.ROS2_KILTED)`` (the standard messages of the ROS distribution the
+rig runs on) plus every ``bike_rig_msgs/msg/*.msg``, parsed with ``get_types_from_msg``. The
+``.msg`` files come from the installed interface package (``<prefix>/share/bike_rig_msgs/msg``:
+exactly what the running nodes were built from) or, when that is absent, from the source tree.
+The type hashes (RIHS01) it computes equal rosidl's ``share/bike_rig_msgs/msg/*.json``.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from functools import lru_cache
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+from .errors import BagError
+
+if TYPE_CHECKING:
+    from rosbags.typesys.store import Typestore
+
+__all__ = [
+    "MSG_PACKAGE",
+    "find_msg_dir",
+    "message_definition",
+    "msg_dir_candidates",
+    "rig_message_types",
+    "rig_typestore",
+    "type_hash",
+]
+
+MSG_PACKAGE = "bike_rig_msgs"
+
+
+def msg_dir_candidates() -> list[Path]:
+    """Where the ``.msg`` files are looked for, in order of preference.
+
+    The running interpreter's prefix, every ``AMENT_PREFIX_PATH`` entry (the ROS convention),
+    then the source tree beside the ``bike_rig`` package.
+    """
+    prefixes = [Path(sys.prefix)]
+    prefixes += [Path(p) for p in os.environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep) if p]
+    out = [p / "share" / MSG_PACKAGE / "msg" for p in prefixes]
+    out.append(Path(__file__).resolve().parents[2] / MSG_PACKAGE / "msg")
+    return list(dict.fromkeys(out))
+
+
+def find_msg_dir() -> Path:
+    """The first candidate directory that holds ``.msg`` files.
+
+    Raises:
+        BagError: None holds any (the interface package is neither installed nor beside us).
+    """
+    for d in msg_dir_candidates():
+        if d.is_dir() and any(d.glob("*.msg")):
+            return d
+    tried = ", ".join(str(d) for d in msg_dir_candidates())
+    raise BagError(MSG_PACKAGE, f"no .msg files found (looked in {tried})")
+
+
+@lru_cache(maxsize=1)
+def rig_typestore() -> Typestore:
+    """The typestore: ROS 2 Kilted's standard types plus ``bike_rig_msgs/msg/*`` (cached).
+
+    Raises:
+        BagError: The ``.msg`` files cannot be found or parsed.
+    """
+    msg_dir = find_msg_dir()
+    store = get_typestore(Stores.ROS2_KILTED)
+    types = {}
+    for path in sorted(msg_dir.glob("*.msg")):
+        try:
+            types.update(get_types_from_msg(path.read_text(encoding="utf-8"), f"{MSG_PACKAGE}/msg/{path.stem}"))
+        except Exception as exc:  # rosbags raises several kinds for a bad definition
+            raise BagError(str(path), f"cannot parse the message definition ({exc})") from None
+    store.register(types)
+    return store
+
+
+def rig_message_types() -> tuple[str, ...]:
+    """The full names of bike_rig's message types, e.g. ``bike_rig_msgs/msg/GyroBatch``."""
+    prefix = f"{MSG_PACKAGE}/msg/"
+    return tuple(sorted(name for name in rig_typestore().fielddefs if name.startswith(prefix)))
+
+
+def type_hash(msgtype: str) -> str:
+    """The RIHS01 type hash of a type, as rosidl writes it (``RIHS01_<64 hex>``)."""
+    return str(rig_typestore().hash_rihs01(msgtype))
+
+
+def message_definition(msgtype: str) -> str:
+    """The ``ros2msg`` schema text of a type: its definition followed by every dependency
+    (``====`` separator, ``MSG: pkg/Type``), as rosbag2 stores it in MCAP schemas."""
+    text, _ = rig_typestore().generate_msgdef(msgtype, ros_version=2)
+    return str(text)

@@ -1,0 +1,415 @@
+"""Write serialized (CDR) messages into a rosbag2 bag with MCAP storage, as rosbag2 does.
+
+Layout of a bag ``NAME/``::
+
+    NAME/NAME_0.mcap     MCAP, profile ``ros2``; one ``ros2msg`` schema per type (the .msg
+                         text and its dependencies), one channel per topic (message encoding
+                         ``cdr``, metadata ``offered_qos_profiles`` (YAML) and
+                         ``topic_type_hash`` (RIHS01)); messages in chunks (zstd by default),
+                         each with log time = receive time and publish time = send time; at
+                         the end a ``rosbag2`` metadata record and the full summary and footer
+    NAME/metadata.yaml   rosbag2 metadata, version 9, storage_identifier ``mcap``, written
+                         when the bag is closed
+
+The data are made durable as they arrive: the chunk in progress is closed and handed to the
+operating system at least every ``flush_period_s`` (and whenever it reaches ``chunk_size``),
+so a writer killed without warning loses at most that much of the recording, and
+:mod:`bike_rig.bag.recover` can rebuild a bag from what is on disk.
+
+Raw CDR bytes (as a raw ROS subscription delivers them, with their 4-byte encapsulation
+header) are written as they are: nothing is deserialized.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from enum import Enum
+from importlib.metadata import version as package_version
+from pathlib import Path
+from types import TracebackType
+from typing import IO, Any
+
+import yaml
+from mcap.writer import CompressionType
+from mcap.writer import Writer as McapWriter
+from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
+from rosbags.rosbag2.metadata import dump_qos_v9
+
+from .. import __version__
+from ..topics import QosSpec
+from .errors import BagError, BagExistsError
+from .typestore import message_definition, type_hash
+
+__all__ = [
+    "METADATA_VERSION",
+    "ROS_DISTRO",
+    "BagWriter",
+    "Compression",
+    "TopicCount",
+    "contract_qos",
+    "data_file_name",
+]
+
+METADATA_VERSION = 9
+"""rosbag2 metadata version written (rosbag2 writes 9 since Jazzy)."""
+
+ROS_DISTRO = "kilted"
+"""The ROS distribution the rig runs on (``ros_distro`` in metadata.yaml)."""
+
+PROFILE = "ros2"
+SCHEMA_ENCODING = "ros2msg"
+MESSAGE_ENCODING = "cdr"
+METADATA_RECORD = "rosbag2"
+
+_ZERO = QosTime(0, 0)
+
+
+class Compression(str, Enum):
+    """Compression of the MCAP chunks (every MCAP reader and Foxglove read all three)."""
+
+    ZSTD = "zstd"
+    LZ4 = "lz4"
+    NONE = "none"
+
+
+_MCAP_COMPRESSION = {
+    Compression.ZSTD: CompressionType.ZSTD,
+    Compression.LZ4: CompressionType.LZ4,
+    Compression.NONE: CompressionType.NONE,
+}
+
+
+def data_file_name(bag: Path, index: int = 0) -> str:
+    """The name of the bag's ``index``-th storage file, as rosbag2 names it: ``NAME_0.mcap``."""
+    return f"{bag.name}_{index}.mcap"
+
+
+def contract_qos(spec: QosSpec) -> Qos:
+    """A QoS of :mod:`bike_rig.topics` as rosbag2 describes an offered profile (KEEP_LAST with
+    the depth; deadline, lifespan and lease left at the system default)."""
+    return Qos(
+        QosHistory.KEEP_LAST,
+        spec.depth,
+        QosReliability.RELIABLE if spec.reliable else QosReliability.BEST_EFFORT,
+        QosDurability.TRANSIENT_LOCAL if spec.transient_local else QosDurability.VOLATILE,
+        _ZERO,
+        _ZERO,
+        QosLiveliness.SYSTEM_DEFAULT,
+        _ZERO,
+        False,
+    )
+
+
+def _qos_yaml(profiles: Sequence[Qos]) -> str:
+    """The offered QoS profiles as rosbag2 stores them in a channel's metadata (v9 YAML)."""
+    dumped = dump_qos_v9(list(profiles))
+    return yaml.safe_dump(dumped, sort_keys=False, default_flow_style=False).strip() if dumped else ""
+
+
+@dataclass
+class _Channel:
+    id: int
+    name: str
+    msgtype: str
+    type_hash: str
+    offered_qos: list[Qos]
+    count: int = 0
+
+
+@dataclass(frozen=True)
+class TopicCount:
+    """One topic of a closed bag: name, type and number of messages."""
+
+    name: str
+    msgtype: str
+    count: int
+
+
+@dataclass
+class _Stats:
+    start: int = 2**63 - 1
+    end: int = 0
+    count: int = 0
+    chunks_flushed: int = 0
+    last_flush: float = field(default_factory=time.monotonic)
+
+
+class BagWriter:
+    """A rosbag2 bag with MCAP storage, written from serialized messages.
+
+    Use as a context manager (closes on success, leaves the data file as written on an
+    exception, like a crash), or call :meth:`open` and :meth:`close`.
+
+    Args:
+        path: The bag directory to create. It must not exist.
+        compression: Chunk compression.
+        flush_period_s: Longest time a written message may stay in memory, s (> 0).
+        chunk_size: A chunk is also closed when it reaches this size, bytes.
+        custom_data: String pairs stored as ``custom_data`` in metadata.yaml.
+        fsync: Also ask the OS to write every flushed chunk to the disk (survives a power
+            cut, not only a crash of the process; slower).
+    """
+
+    def __init__(
+        self,
+        path: str | Path,
+        *,
+        compression: Compression | str = Compression.ZSTD,
+        flush_period_s: float = 0.5,
+        chunk_size: int = 1 << 20,
+        custom_data: Mapping[str, str] | None = None,
+        fsync: bool = False,
+    ) -> None:
+        self.path = Path(path)
+        try:
+            self.compression = Compression(compression)
+        except ValueError:
+            choices = ", ".join(c.value for c in Compression)
+            raise BagError(str(path), f"unknown compression {compression!r} (use {choices})") from None
+        if not flush_period_s > 0:
+            raise BagError(str(path), f"flush period must be positive, got {flush_period_s!r} s")
+        self.flush_period_s = float(flush_period_s)
+        self.chunk_size = int(chunk_size)
+        self.custom_data = dict(custom_data or {})
+        self.fsync = fsync
+        self.data_path = self.path / data_file_name(self.path)
+        self._stream: IO[bytes] | None = None
+        self._mcap: McapWriter | None = None
+        self._channels: dict[str, _Channel] = {}
+        self._schemas: dict[str, int] = {}
+        self._stats = _Stats()
+        self._closed = False
+
+    # ------------------------------------------------------------------ life cycle
+    def open(self) -> None:
+        """Create the bag directory and its MCAP file and write the MCAP header.
+
+        Raises:
+            BagExistsError: The path exists (a bag is never overwritten).
+            BagError: The directory or file cannot be created.
+        """
+        if self.path.exists() or self.path.is_symlink():
+            raise BagExistsError(str(self.path), "exists already; a bag is never overwritten (choose another output)")
+        try:
+            self.path.mkdir(parents=True)
+            self._stream = self.data_path.open("xb")
+        except FileExistsError:
+            raise BagExistsError(str(self.path), "exists already; a bag is never overwritten") from None
+        except OSError as exc:
+            raise BagError(str(self.path), f"cannot create the bag ({exc.strerror or exc})") from None
+        self._mcap = McapWriter(
+            self._stream,
+            chunk_size=self.chunk_size,
+            compression=_MCAP_COMPRESSION[self.compression],
+        )
+        self._mcap.start(profile=PROFILE, library=f"bike_rig {__version__}; mcap-python {package_version('mcap')}")
+        self._stream.flush()
+        self._stats = _Stats()
+
+    def add_topic(
+        self,
+        name: str,
+        msgtype: str,
+        *,
+        offered_qos: Sequence[Qos] = (),
+        msgdef: str | None = None,
+        rihs01: str | None = None,
+    ) -> int:
+        """Register a topic (its schema the first time its type is seen) and return its id.
+
+        Args:
+            name: Topic name.
+            msgtype: Full type name, e.g. ``bike_rig_msgs/msg/GyroBatch``.
+            offered_qos: The QoS profiles its publishers offer.
+            msgdef: The ``ros2msg`` schema text; from the rig's typestore if None.
+            rihs01: The type hash; from the rig's typestore if None.
+        """
+        mcap = self._require_open()
+        if name in self._channels:
+            raise BagError(str(self.path), f"topic {name} added twice")
+        if msgdef is None:
+            msgdef = message_definition(msgtype)
+        if rihs01 is None:
+            rihs01 = type_hash(msgtype)
+        schema_id = self._schemas.get(msgtype)
+        if schema_id is None:
+            schema_id = mcap.register_schema(msgtype, SCHEMA_ENCODING, msgdef.encode("utf-8"))
+            self._schemas[msgtype] = schema_id
+        metadata = {"offered_qos_profiles": _qos_yaml(offered_qos), "topic_type_hash": rihs01}
+        cid = mcap.register_channel(name, MESSAGE_ENCODING, schema_id, metadata)
+        self._channels[name] = _Channel(cid, name, msgtype, rihs01, list(offered_qos))
+        return cid
+
+    def has_topic(self, name: str) -> bool:
+        """Whether the topic has been added."""
+        return name in self._channels
+
+    def topic_id(self, name: str) -> int:
+        """The id :meth:`add_topic` returned for a topic."""
+        return self._channels[name].id
+
+    def write(
+        self,
+        topic: str,
+        log_time: int,
+        data: bytes,
+        publish_time: int | None = None,
+        sequence: int = 0,
+    ) -> None:
+        """Write one serialized message.
+
+        Args:
+            topic: A topic added before.
+            log_time: When it was received, ns since the epoch.
+            data: The CDR bytes, encapsulation header included.
+            publish_time: When it was sent, ns since the epoch (``log_time`` if unknown).
+            sequence: The publisher's sequence number (0 if unknown).
+        """
+        mcap = self._require_open()
+        ch = self._channels[topic]
+        mcap.add_message(
+            ch.id,
+            log_time=log_time,
+            data=data,
+            publish_time=log_time if publish_time is None else publish_time,
+            sequence=sequence & 0xFFFFFFFF,
+        )
+        ch.count += 1
+        st = self._stats
+        st.count += 1
+        if log_time < st.start:
+            st.start = log_time
+        if log_time > st.end:
+            st.end = log_time
+        self.flush_if_due()
+
+    def flush(self) -> None:
+        """Close the chunk in progress and hand everything written so far to the OS."""
+        mcap = self._require_open()
+        mcap.flush()
+        if self.fsync and self._stream is not None:
+            os.fsync(self._stream.fileno())
+        self._stats.chunks_flushed += 1
+        self._stats.last_flush = time.monotonic()
+
+    def flush_if_due(self, now: float | None = None) -> bool:
+        """Flush if the last flush is ``flush_period_s`` or more ago; True if it flushed."""
+        if self._mcap is None:
+            return False
+        now = time.monotonic() if now is None else now
+        if now - self._stats.last_flush >= self.flush_period_s:
+            self.flush()
+            return True
+        return False
+
+    def close(self) -> list[TopicCount]:
+        """Finish the MCAP file (rosbag2 metadata record, summary, footer) and write
+        metadata.yaml. Safe to call twice.
+
+        Returns:
+            Every topic with its message count, in the order added.
+        """
+        if self._closed or self._mcap is None or self._stream is None:
+            return self.topic_counts
+        info = self.metadata()
+        serialized = yaml.safe_dump(info["rosbag2_bagfile_information"], sort_keys=False)
+        self._mcap.add_metadata(METADATA_RECORD, {"serialized_metadata": serialized, "ROS_DISTRO": ROS_DISTRO})
+        self._mcap.finish()
+        self._stream.flush()
+        if self.fsync:
+            os.fsync(self._stream.fileno())
+        self._stream.close()
+        self._mcap = None
+        self._stream = None
+        tmp = self.path / "metadata.yaml.tmp"
+        tmp.write_text(yaml.safe_dump(info, sort_keys=False), encoding="utf-8")
+        tmp.replace(self.path / "metadata.yaml")
+        self._closed = True
+        return self.topic_counts
+
+    def abort(self) -> None:
+        """Stop writing without a summary or metadata.yaml (what a crash leaves, minus the
+        chunk in progress): the bag then needs :mod:`bike_rig.bag.recover`."""
+        if self._stream is not None:
+            self._stream.close()
+        self._mcap = None
+        self._stream = None
+
+    def __enter__(self) -> BagWriter:
+        self.open()
+        return self
+
+    def __exit__(
+        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
+    ) -> None:
+        if exc_type is None:
+            self.close()
+        else:
+            self.abort()
+
+    # ------------------------------------------------------------------ state
+    @property
+    def message_count(self) -> int:
+        """Messages written so far."""
+        return self._stats.count
+
+    @property
+    def topic_counts(self) -> list[TopicCount]:
+        """Every topic with its message count so far, in the order added."""
+        return [TopicCount(c.name, c.msgtype, c.count) for c in self._channels.values()]
+
+    @property
+    def chunks_flushed(self) -> int:
+        """How many times the writer has flushed."""
+        return self._stats.chunks_flushed
+
+    def metadata(self) -> dict[str, Any]:
+        """The content of metadata.yaml for what has been written so far."""
+        st = self._stats
+        start = st.start if st.count else 0
+        duration = st.end - st.start if st.count else 0
+        name = self.data_path.name
+        topics = [
+            {
+                "topic_metadata": {
+                    "name": c.name,
+                    "type": c.msgtype,
+                    "serialization_format": MESSAGE_ENCODING,
+                    "offered_qos_profiles": dump_qos_v9(c.offered_qos),
+                    "type_description_hash": c.type_hash,
+                },
+                "message_count": c.count,
+            }
+            for c in self._channels.values()
+        ]
+        return {
+            "rosbag2_bagfile_information": {
+                "version": METADATA_VERSION,
+                "storage_identifier": "mcap",
+                "duration": {"nanoseconds": duration},
+                "starting_time": {"nanoseconds_since_epoch": start},
+                "message_count": st.count,
+                "topics_with_message_count": topics,
+                "compression_format": "",
+                "compression_mode": "",
+                "relative_file_paths": [name],
+                "files": [
+                    {
+                        "path": name,
+                        "starting_time": {"nanoseconds_since_epoch": start},
+                        "duration": {"nanoseconds": duration},
+                        "message_count": st.count,
+                    }
+                ],
+                "custom_data": dict(self.custom_data) or None,
+                "ros_distro": ROS_DISTRO,
+            }
+        }
+
+    def _require_open(self) -> McapWriter:
+        if self._mcap is None:
+            raise BagError(str(self.path), "the bag is not open for writing")
+        return self._mcap

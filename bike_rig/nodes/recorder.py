@@ -1,0 +1,293 @@
+"""The recorder node: every bike_rig topic, as raw CDR, into a rosbag2 bag with MCAP storage.
+
+Subscriptions are raw (``create_subscription(..., raw=True)``): the bytes DDS delivers, with
+their CDR encapsulation header, go into the bag as they are, never deserialized. Each topic
+is subscribed with its contract QoS (:mod:`bike_rig.topics`), so transient-local topics
+(static readings, periods, parameters, model, the current trial's gyro batches) are recorded
+even when they were published before the recorder started.
+
+Per message: log time = receive time (when the recorder takes it from the middleware, so
+that log times follow the delivery order), publish time = the publisher's source stamp,
+sequence = the publication sequence number; the header stamps stay inside the messages. A
+topic's channel is created when its first message arrives, with the QoS profiles its
+publishers offer (from the ROS graph, which does not report history and depth: those are the
+topic contract's); topics that stayed silent are added, empty, when the bag closes. Chunks
+are flushed at least every ``flush_period`` s (default 0.5), so a recorder killed with SIGKILL
+loses at most that much (``bike-rig bag recover``).
+SIGINT or SIGTERM: the messages already delivered are drained, then the bag is closed
+(summary, footer, metadata.yaml).
+
+Parameters (``config/recorder.yaml``):
+
+* ``output`` (string): the bag directory to create; never overwritten. Empty: a new
+  ``bike_rig_YYYY_MM_DD-HH_MM_SS`` in the working directory.
+* ``topics`` (string array): ``["all"]`` (default) or topic names, full (``/bike_rig/gyro``)
+  or relative to ``/bike_rig`` (``gyro``, ``model/matrices``).
+* ``compression`` (string): chunk compression, ``zstd`` (default), ``lz4`` or ``none``.
+* ``flush_period`` (double, s): in (0, 1]; default 0.5.
+
+Run: ``python -m bike_rig.nodes.recorder --ros-args -p output:=session1`` (or
+``--params-file config/recorder.yaml``).
+"""
+
+from __future__ import annotations
+
+import importlib
+import os
+import signal
+import sys
+import time
+from collections.abc import Sequence
+from datetime import datetime
+from pathlib import Path
+from types import FrameType
+from typing import Any
+
+import rclpy
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.qos import QoSProfile
+from rclpy.signals import SignalHandlerOptions
+from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
+
+from .. import topics as contract
+from ..bag.writer import BagWriter, Compression, contract_qos
+from ..core.errors import BikeRigError
+from ..rosenv import ros_environment
+from .qos import profile
+
+__all__ = ["EXIT_USER_ERROR", "Recorder", "RecorderError", "main", "resolve_topics"]
+
+# rcl_interfaces ships no type information; imported by name so mypy does not look for it
+_ParameterDescriptor: Any = importlib.import_module("rcl_interfaces.msg").ParameterDescriptor
+
+EXIT_USER_ERROR = 2
+NODE_NAME = "recorder"
+DRAIN_TIMEOUT_S = 2.0
+"""Longest time spent taking already-delivered messages after a stop request."""
+DRAIN_IDLE_S = 0.05
+"""The drain ends when nothing arrives for this long."""
+
+
+class RecorderError(BikeRigError):
+    """A recorder parameter is invalid."""
+
+
+def resolve_topics(names: Sequence[str]) -> tuple[contract.Topic, ...]:
+    """The topics to record for the ``topics`` parameter.
+
+    Raises:
+        RecorderError: An unknown topic name.
+    """
+    if not names or list(names) == ["all"]:
+        return contract.TOPICS
+    by_name = {t.name: t for t in contract.TOPICS}
+    out: list[contract.Topic] = []
+    for raw in names:
+        name = raw if raw.startswith("/") else f"{contract.NAMESPACE}/{raw}"
+        topic = by_name.get(name)
+        if topic is None:
+            known = ", ".join(t.name.removeprefix(contract.NAMESPACE + "/") for t in contract.TOPICS)
+            raise RecorderError(f"parameter 'topics': unknown topic {raw!r} (known: all, {known})")
+        if topic not in out:
+            out.append(topic)
+    return tuple(out)
+
+
+def _message_class(msgtype: str) -> Any:
+    package, _, name = msgtype.split("/")
+    return getattr(importlib.import_module(f"{package}.msg"), name)
+
+
+def _enum(enum: Any, value: Any, unknown: Any) -> Any:
+    try:
+        return enum(int(value))
+    except (ValueError, TypeError):
+        return unknown
+
+
+def _time(duration: Any) -> QosTime:
+    ns = int(duration.nanoseconds)
+    return QosTime(ns // 1_000_000_000, ns % 1_000_000_000)
+
+
+def offered_qos(qos: QoSProfile, contract_depth: int | None = None) -> Qos:
+    """An rclpy QoS profile (as the graph reports a publisher's) in rosbag2's terms.
+
+    The graph does not carry history and depth (it reports UNKNOWN and 0); when
+    ``contract_depth`` is given they are filled in as the topic contract's KEEP_LAST depth.
+    """
+    history = _enum(QosHistory, qos.history, QosHistory.UNKNOWN)
+    depth = int(qos.depth)
+    if history in (QosHistory.UNKNOWN, QosHistory.SYSTEM_DEFAULT) and contract_depth is not None:
+        history, depth = QosHistory.KEEP_LAST, contract_depth
+    return Qos(
+        history,
+        depth,
+        _enum(QosReliability, qos.reliability, QosReliability.UNKNOWN),
+        _enum(QosDurability, qos.durability, QosDurability.UNKNOWN),
+        _time(qos.deadline),
+        _time(qos.lifespan),
+        _enum(QosLiveliness, qos.liveliness, QosLiveliness.UNKNOWN),
+        _time(qos.liveliness_lease_duration),
+        bool(qos.avoid_ros_namespace_conventions),
+    )
+
+
+def default_output(now: datetime | None = None) -> str:
+    """rosbag2's default bag name for a recording started now."""
+    return (now or datetime.now()).strftime("bike_rig_%Y_%m_%d-%H_%M_%S")
+
+
+class Recorder(Node):
+    """Records the rig's topics into a bag (see the module docstring)."""
+
+    def __init__(self) -> None:
+        super().__init__(NODE_NAME)
+        output = self._param("output", "", "bag directory to create (never overwritten); empty: bike_rig_<time>")
+        names = self._param("topics", ["all"], "topics to record: ['all'] or names (full or relative to /bike_rig)")
+        compression = self._param("compression", Compression.ZSTD.value, "chunk compression: zstd, lz4 or none")
+        flush_period = self._param("flush_period", 0.5, "longest time a received message stays in memory, s (0, 1]")
+        if not 0.0 < float(flush_period) <= 1.0:
+            raise RecorderError(f"parameter 'flush_period' must be in (0, 1] s, got {flush_period!r}")
+        self.topics = resolve_topics([str(n) for n in names])
+        self.writer = BagWriter(
+            Path(str(output) or default_output()),
+            compression=str(compression),
+            flush_period_s=float(flush_period),
+            custom_data={"recorder": f"bike_rig.nodes.recorder, node {self.get_fully_qualified_name()}"},
+        )
+        self.writer.open()
+        self.received = 0
+        self.errors = 0
+        self._closed = False
+        for topic in self.topics:
+            self.create_subscription(
+                _message_class(topic.type), topic.name, self._callback(topic), profile(topic), raw=True
+            )
+        self.get_logger().info(
+            f"recording {len(self.topics)} topics to {self.writer.path} "
+            f"(chunks flushed every {self.writer.flush_period_s:g} s, {self.writer.compression.value})"
+        )
+
+    def _param(self, name: str, default: Any, description: str) -> Any:
+        descriptor = _ParameterDescriptor(description=description, read_only=True, dynamic_typing=True)
+        value = self.declare_parameter(name, default, descriptor).value
+        if isinstance(default, float) and isinstance(value, int) and not isinstance(value, bool):
+            value = float(value)
+        if isinstance(default, list) and isinstance(value, str):
+            value = [value]
+        if type(value) is not type(default):
+            kind = {str: "a string", float: "a number", list: "a list of strings"}[type(default)]
+            raise RecorderError(f"parameter {name!r} must be {kind}, got {value!r}")
+        return value
+
+    def _callback(self, topic: contract.Topic) -> Any:
+        def on_message(data: bytes, info: Any) -> None:
+            # never let an exception escape into the executor (see shared/notes §4)
+            try:
+                self._record(topic, data, info)
+            except Exception as exc:
+                self.errors += 1
+                if self.errors <= 10:
+                    self.get_logger().error(f"{topic.name}: message not recorded: {exc!r}")
+
+        return on_message
+
+    def _record(self, topic: contract.Topic, data: bytes, info: Any) -> None:
+        # The time the message is taken, not the middleware's per-sample arrival stamp: a
+        # reliable reader holds samples back until a lost one is repaired, so arrival stamps
+        # can run backwards in delivery order, and bag readers sort by log time.
+        received = time.time_ns()
+        sent = int(info.get("source_timestamp") or 0) or received
+        sequence = int(info.get("publication_sequence_number") or 0)
+        if not self.writer.has_topic(topic.name):
+            self._add_channel(topic, first=True)
+        self.writer.write(topic.name, received, bytes(data), sent, sequence)
+        self.received += 1
+
+    def _add_channel(self, topic: contract.Topic, first: bool) -> None:
+        publishers = self.get_publishers_info_by_topic(topic.name)
+        qos = [offered_qos(p.qos_profile, topic.qos.depth) for p in publishers] or [contract_qos(topic.qos)]
+        self.writer.add_topic(topic.name, topic.type, offered_qos=qos)
+        if first:
+            self.get_logger().info(f"recording {topic.name} ({len(publishers)} publisher(s))")
+
+    def tick(self) -> None:
+        """Flush the chunk in progress if it is due (called by the spin loop)."""
+        try:
+            self.writer.flush_if_due()
+        except Exception as exc:
+            self.errors += 1
+            self.get_logger().error(f"flush failed: {exc!r}")
+
+    def close(self) -> None:
+        """Add the silent topics and close the bag (summary, footer, metadata.yaml)."""
+        if self._closed:
+            return
+        self._closed = True
+        for topic in self.topics:
+            if not self.writer.has_topic(topic.name):
+                self._add_channel(topic, first=False)
+        counts = self.writer.close()
+        summary = ", ".join(f"{c.name} {c.count}" for c in counts)
+        self.get_logger().info(f"closed {self.writer.path}: {self.writer.message_count} messages ({summary})")
+        if self.errors:
+            self.get_logger().error(f"{self.errors} message(s) could not be recorded")
+
+
+def _spin_until_idle(executor: SingleThreadedExecutor, node: Recorder) -> None:
+    deadline = time.monotonic() + DRAIN_TIMEOUT_S
+    while time.monotonic() < deadline:
+        before = node.received
+        executor.spin_once(timeout_sec=DRAIN_IDLE_S)
+        if node.received == before:
+            return
+
+
+def main(args: Sequence[str] | None = None) -> int:
+    """Run the recorder until SIGINT/SIGTERM; returns the exit status (2 on a user mistake)."""
+    env = ros_environment(os.environ)
+    for key in ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_DOMAIN_ID", "RMW_IMPLEMENTATION"):
+        os.environ[key] = env[key]
+    argv = list(sys.argv if args is None else args)
+    # our own handlers (not rclpy's, which would shut the context down before the drain)
+    rclpy.init(args=argv, signal_handler_options=SignalHandlerOptions.NO)
+    stop = {"requested": False}
+
+    def request_stop(signum: int, _frame: FrameType | None) -> None:
+        stop["requested"] = True
+
+    for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+        signal.signal(sig, request_stop)
+    node: Recorder | None = None
+    executor: SingleThreadedExecutor | None = None
+    try:
+        node = Recorder()
+        executor = SingleThreadedExecutor()
+        executor.add_node(node)
+        while rclpy.ok() and not stop["requested"]:
+            executor.spin_once(timeout_sec=0.1)
+            node.tick()
+        if rclpy.ok():
+            _spin_until_idle(executor, node)
+        node.close()
+        return 0
+    except BikeRigError as exc:
+        print(f"{NODE_NAME}: error: {exc}", file=sys.stderr)
+        return EXIT_USER_ERROR
+    except (KeyboardInterrupt, ExternalShutdownException):
+        if node is not None:
+            node.close()
+        return 0
+    finally:
+        if executor is not None:
+            executor.shutdown(timeout_sec=1.0)
+        if node is not None:
+            node.destroy_node()
+        if rclpy.ok():
+            rclpy.shutdown()
+
+
+if __name__ == "__main__":
+    sys.exit(main())

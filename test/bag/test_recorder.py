@@ -1,0 +1,161 @@
+"""The recorder as a real process over DDS: a publisher process (the rig's stand-in) and the
+recorder, both with the run's domain id on loopback; the bag is checked with rosbags."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import pytest
+import yaml
+
+from bike_rig.bag.reader import open_bag
+from bike_rig.bag.recover import recover_bag, scan_mcap
+from bike_rig.topics import EIGEN_SWEEP, GYRO, MATRICES, PARAMETERS, PERIODS, STATIC_READINGS, TOPICS, TRIAL_EVENTS
+from test.bag.rig_publisher import seed_of
+from test.bag.samples import as_plain, make_message
+from test.ros.processes import RosProcess
+
+pytestmark = pytest.mark.ros
+
+REPO = Path(__file__).resolve().parents[2]
+PUBLISHER = Path(__file__).with_name("rig_publisher.py")
+STEP_TIMEOUT_S = 60.0
+TYPES = {t.name: t.type for t in TOPICS}
+
+
+def _env(ros_env: dict[str, str]) -> dict[str, str]:
+    return {**ros_env, "PYTHONPATH": str(REPO)}
+
+
+def _publisher(tmp_path: Path, env: dict[str, str], spec: dict[str, Any]) -> RosProcess:
+    spec_file = tmp_path / "spec.json"
+    spec_file.write_text(json.dumps(spec))
+    return RosProcess("publisher", [sys.executable, str(PUBLISHER), str(spec_file)], env, tmp_path, stdin=True)
+
+
+def _recorder(tmp_path: Path, env: dict[str, str], bag: Path, *params: str) -> RosProcess:
+    argv = [sys.executable, "-m", "bike_rig.nodes.recorder", "--ros-args", "-p", f"output:={bag}"]
+    for p in params:
+        argv += ["-p", p]
+    return RosProcess("recorder", argv, env, tmp_path)
+
+
+def _wait_for_data(bag: Path, expected: dict[str, int], recorder: RosProcess, timeout_s: float = 30.0) -> None:
+    """Wait until the recorder's flushed chunks hold the expected number of messages per topic
+    (the recorder flushes at least every 0.5 s, so no stop is needed to see them)."""
+    data = bag / f"{bag.name}_0.mcap"
+    deadline = time.monotonic() + timeout_s
+    counts: dict[str, int] = {}
+    while time.monotonic() < deadline:
+        if data.exists():
+            scan = scan_mcap(data)
+            topic = {cid: ch.topic for cid, ch in scan.channels.items()}
+            counts = {}
+            for m in scan.messages:
+                counts[topic[m.channel_id]] = counts.get(topic[m.channel_id], 0) + 1
+            if all(counts.get(k, 0) >= n for k, n in expected.items()):
+                return
+        assert recorder.proc.poll() is None, recorder.describe()
+        time.sleep(0.1)
+    raise AssertionError(f"recorded {counts}, expected {expected}\n{recorder.describe()}")
+
+
+def test_recorder_records_every_topic_exactly_and_in_order(
+    ros_env: dict[str, str], tmp_path: Path
+) -> None:
+    env = _env(ros_env)
+    bag = tmp_path / "session"
+    early = {STATIC_READINGS.name: 1, PERIODS.name: 3}  # latched, published before the recorder starts
+    live = {GYRO.name: 400, TRIAL_EVENTS.name: 6, PERIODS.name: 4, PARAMETERS.name: 1, MATRICES.name: 1,
+            EIGEN_SWEEP.name: 1}
+    spec = {"early": early, "live": live, "rate_hz": 200.0}  # 200 gyro batches/s: the 10 kHz stress rate
+    expected = {name: early.get(name, 0) + live.get(name, 0) for name in TYPES}
+    with _publisher(tmp_path, env, spec) as pub:
+        pub.expect("EARLY", STEP_TIMEOUT_S)
+        with _recorder(tmp_path, env, bag) as rec:
+            pub.expect("MATCHED", STEP_TIMEOUT_S)
+            pub.send("GO")
+            published = json.loads(pub.expect("PUBLISHED", STEP_TIMEOUT_S))
+            _wait_for_data(bag, expected, rec)
+            code = rec.stop()
+        assert code == 0, rec.describe()
+        assert "closed" in rec.stderr_path.read_text()
+    assert published["counts"] == expected
+
+    with open_bag(bag) as b:
+        assert {n: t.count for n, t in b.topics.items()} == expected
+        by_topic: dict[str, list[tuple[int, Any]]] = {n: [] for n in TYPES}
+        for name, log_time, msg in b.decoded():
+            by_topic[name].append((log_time, msg))
+        raw = list(b.messages([GYRO.name]))
+    for name, got in by_topic.items():
+        want = [as_plain(make_message(TYPES[name], seed_of(name, k))) for k in range(expected[name])]
+        plain = [as_plain(m) for _, m in got]
+        if name == GYRO.name:  # the publisher sets first_index and the stamp
+            assert [p["first_index"] for p in plain] == list(range(expected[name]))
+            stamps = [p["header"]["stamp"]["sec"] * 10**9 + p["header"]["stamp"]["nanosec"] for p in plain]
+            assert stamps == published["gyro_stamps"]
+            # log time = receive time: after the publisher stamped it
+            assert all(lt >= st for (lt, _), st in zip(got, stamps))
+            for p, w in zip(plain, want):
+                p.pop("header"), w.pop("header"), p.pop("first_index"), w.pop("first_index")
+        assert plain == want, name  # content intact and in publication order
+    assert all(len(m.data) > 4 and m.data[:2] == b"\x00\x01" for m in raw)  # CDR LE encapsulation
+
+    meta = yaml.safe_load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+    qos = {t["topic_metadata"]["name"]: t["topic_metadata"]["offered_qos_profiles"]
+           for t in meta["topics_with_message_count"]}
+    assert qos[STATIC_READINGS.name][0]["durability"] == "transient_local"
+    assert qos[GYRO.name][0]["reliability"] == "reliable"
+
+
+def test_recorder_refuses_to_overwrite_a_bag(ros_env: dict[str, str], tmp_path: Path) -> None:
+    bag = tmp_path / "exists"
+    bag.mkdir()
+    with _recorder(tmp_path, _env(ros_env), bag) as rec:
+        code = rec.proc.wait(timeout=STEP_TIMEOUT_S)
+    assert code == 2
+    err = rec.stderr_path.read_text().strip().splitlines()
+    assert err[-1] == f"recorder: error: {bag}: exists already; a bag is never overwritten (choose another output)"
+
+
+def test_bag_of_a_killed_recorder_is_recovered_missing_at_most_a_second(
+    ros_env: dict[str, str], tmp_path: Path
+) -> None:
+    env = _env(ros_env)
+    bag = tmp_path / "killed"
+    spec = {"early": {STATIC_READINGS.name: 1}, "live": {GYRO.name: 0}, "rate_hz": 200.0, "until_stop": True}
+    with _publisher(tmp_path, env, spec) as pub:
+        pub.expect("EARLY", STEP_TIMEOUT_S)
+        with _recorder(tmp_path, env, bag, "topics:=[gyro, static_readings]") as rec:
+            pub.expect("MATCHED", STEP_TIMEOUT_S)
+            pub.send("GO")
+            _wait_for_data(bag, {GYRO.name: 300}, rec)
+            killed_at = time.time_ns()
+            os.killpg(rec.pid, signal.SIGKILL)  # the recorder's own process group: timeout + python
+            assert rec.stop() == -signal.SIGKILL
+        pub.send("STOP")
+        published = json.loads(pub.expect("PUBLISHED", STEP_TIMEOUT_S))
+    assert not (bag / "metadata.yaml").exists()
+
+    recovery = recover_bag(bag)
+    assert not recovery.was_complete
+    counts = {t.name: t.count for t in recovery.topics}
+    with open_bag(recovery.output) as b:
+        assert {n: t.count for n, t in b.topics.items()} == counts
+        gyro = [m for _, _, m in b.decoded([GYRO.name])]
+    stamps = published["gyro_stamps"]
+    # a gap-free prefix of what was published ...
+    assert [m.first_index for m in gyro] == list(range(len(gyro)))
+    assert counts[STATIC_READINGS.name] == 1
+    # ... holding everything published up to a second before the kill
+    before = sum(1 for s in stamps if s < killed_at - 1_000_000_000)
+    assert len(gyro) >= before, (len(gyro), before, len(stamps))
+    last = gyro[-1].header.stamp.sec * 10**9 + gyro[-1].header.stamp.nanosec
+    assert killed_at - last < 1_000_000_000
