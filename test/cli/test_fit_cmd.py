@@ -1,7 +1,7 @@
 """``bike-rig fit``: JSON Lines, table, combined period, plots, exit statuses and user errors.
 
-Until ``fit`` is wired into ``bike_rig.cli.main`` the command runs through a parser built here
-exactly as ``main`` builds its sub-commands (and catches ``BikeRigError`` the same way).
+Through ``bike_rig.cli.main.main``; one test also runs the sub-command on a bare parser built
+with ``fit_cmd.add_parser``, as any other entry point would.
 """
 
 from __future__ import annotations
@@ -18,14 +18,15 @@ import pytest
 from scipy.io import savemat
 
 from bike_rig.cli import fit_cmd
+from bike_rig.cli.main import main
 from bike_rig.core.errors import BikeRigError
 from test.core.test_period_signals import coupled_trial, gyro_trial
 
 JSON_KEYS = {"file", "period", "period_sigma", "valid", "flags", "r2", "zeta", "omega", "n_samples", "window"}
 
 
-def bike_rig(argv: Sequence[str]) -> int:
-    """``bike-rig`` with the fit sub-command, as ``bike_rig.cli.main.main`` runs it."""
+def bare_parser_run(argv: Sequence[str]) -> int:
+    """``fit`` on a parser of its own (``add_parser`` + ``run``), errors caught as ``main`` does."""
     parser = argparse.ArgumentParser(prog="bike-rig")
     fit_cmd.add_parser(parser.add_subparsers(dest="command", required=True))
     args = parser.parse_args(list(argv))
@@ -37,7 +38,7 @@ def bike_rig(argv: Sequence[str]) -> int:
 
 
 def run(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
-    code = bike_rig(argv)
+    code = main(list(argv))
     out, err = capsys.readouterr()
     return code, out, err
 
@@ -203,13 +204,8 @@ def test_file_errors_stop_before_any_output(
     assert code == 2 and "cannot create the plot folder" in err
 
 
-def test_wired_into_main(capsys: pytest.CaptureFixture[str], trials: list[Path]) -> None:
-    from bike_rig.cli import main as cli_main
-
-    parser = cli_main.build_parser()
-    commands = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction)).choices
-    if "fit" not in commands:
-        pytest.skip("'fit' is not wired into bike_rig.cli.main yet")
-    assert cli_main.main(["fit", str(trials[0]), "--json"]) == 0
+def test_add_parser_and_run_on_a_bare_parser(capsys: pytest.CaptureFixture[str], trials: list[Path]) -> None:
+    assert bare_parser_run(["fit", str(trials[0]), "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["valid"] is True
-    assert cli_main.main(["fit", str(trials[0]), "--rate", "-1"]) == 2
+    assert bare_parser_run(["fit", str(trials[0]), "--rate", "-1"]) == 2
+    assert capsys.readouterr().err.startswith("bike-rig fit: error: --rate must be a positive number")
