@@ -14,8 +14,9 @@ import os
 import sys
 from functools import lru_cache
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
+import numpy as np
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 from .errors import BagError
@@ -28,6 +29,7 @@ __all__ = [
     "find_msg_dir",
     "message_definition",
     "msg_dir_candidates",
+    "new_message",
     "rig_message_types",
     "rig_typestore",
     "type_hash",
@@ -97,3 +99,37 @@ def message_definition(msgtype: str) -> str:
     (``====`` separator, ``MSG: pkg/Type``), as rosbag2 stores it in MCAP schemas."""
     text, _ = rig_typestore().generate_msgdef(msgtype, ros_version=2)
     return str(text)
+
+
+_NUMPY_TYPES = {
+    "bool": np.bool_, "byte": np.uint8, "char": np.uint8, "int8": np.int8, "uint8": np.uint8,
+    "int16": np.int16, "uint16": np.uint16, "int32": np.int32, "uint32": np.uint32,
+    "int64": np.int64, "uint64": np.uint64, "float32": np.float32, "float64": np.float64,
+}  # fmt: skip
+
+
+def _default(nodetype: int, spec: Any) -> Any:
+    if nodetype == 1:  # a base type
+        name = spec[0]
+        if name == "string" or name == "wstring":
+            return ""
+        if name == "bool":
+            return False
+        return 0.0 if name.startswith("float") else 0
+    if nodetype == 2:  # a message
+        return new_message(spec)
+    (inner_type, inner_spec), length = spec
+    n = length if nodetype == 3 else 0  # fixed array or sequence
+    if inner_type == 1 and inner_spec[0] in _NUMPY_TYPES:
+        return np.zeros(n, dtype=_NUMPY_TYPES[inner_spec[0]])
+    return [_default(inner_type, inner_spec) for _ in range(n)]
+
+
+def new_message(msgtype: str, **fields: Any) -> Any:
+    """A message of the rig's typestore with every field at its default (zeros, empty strings
+    and sequences, nested messages likewise), then ``fields`` set."""
+    store = rig_typestore()
+    _, defs = store.fielddefs[msgtype]
+    values = {name: _default(nodetype, spec) for name, (nodetype, spec) in defs}
+    values.update(fields)
+    return store.types[msgtype](**values)

@@ -1,0 +1,215 @@
+"""A recorded session, read back from a bag: trials (their events and gyro batches), static
+readings, and the live results (period estimates, parameter set, model) the graph published.
+
+Messages are the dataclasses rosbags deserializes into (:mod:`bike_rig.bag.typestore`), with
+the same fields as the rclpy messages, so the nodes' ROS-free functions take them as they are.
+Gyro batches are kept per trial in the order they were received (log time).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from .. import topics
+from .errors import NoRigTopicsError
+from .reader import BagReader, TopicInfo
+
+__all__ = ["ABORT", "START", "STOP", "RecordedSession", "RecordedTrial", "read_session"]
+
+#: TrialEvent kinds (bike_rig_msgs/msg/TrialEvent).
+START, STOP, ABORT = 0, 1, 2
+
+
+@dataclass
+class RecordedTrial:
+    """One trial as recorded.
+
+    Attributes:
+        trial_id: The trial's id.
+        start: Its START event, or None.
+        stop: Its first STOP or ABORT event, or None.
+        batches: Its GyroBatch messages, in receiving order (duplicates included).
+        estimates: The PeriodEstimate messages published for it, in receiving order.
+    """
+
+    trial_id: str
+    start: Any | None = None
+    stop: Any | None = None
+    batches: list[Any] = field(default_factory=list)
+    estimates: list[Any] = field(default_factory=list)
+
+    @property
+    def event(self) -> Any | None:
+        """The START event, else the STOP/ABORT (what describes the trial)."""
+        return self.start if self.start is not None else self.stop
+
+    @property
+    def measurement_key(self) -> str:
+        """The measurement the trial contributes to ("" when no event and no estimate says)."""
+        if self.event is not None:
+            return str(self.event.measurement_key)
+        return str(self.estimates[-1].measurement_key) if self.estimates else ""
+
+    @property
+    def state(self) -> str:
+        """``complete`` (START and STOP), ``aborted``, ``open`` (no STOP recorded),
+        ``no start`` (a STOP without START) or ``unannounced`` (batches without events)."""
+        if self.stop is not None and int(self.stop.kind) == ABORT:
+            return "aborted"
+        if self.start is not None:
+            return "complete" if self.stop is not None else "open"
+        return "no start" if self.stop is not None else "unannounced"
+
+    @property
+    def samples(self) -> int:
+        """Samples recorded (batches with the same first index counted once)."""
+        seen: dict[int, int] = {}
+        for b in self.batches:
+            seen.setdefault(int(b.first_index), len(b.rates))
+        return sum(seen.values())
+
+    @property
+    def duplicates(self) -> int:
+        """Batches recorded again with a first index seen before."""
+        return len(self.batches) - len({int(b.first_index) for b in self.batches})
+
+    @property
+    def announced(self) -> int | None:
+        """Samples the driver announced on STOP/ABORT (None without one)."""
+        return None if self.stop is None else int(self.stop.sample_count)
+
+    @property
+    def sample_rate_hz(self) -> float:
+        """The trial's sample rate, Hz (from its events, else its batches; NaN if unknown)."""
+        if self.event is not None and float(self.event.sample_rate_hz) > 0:
+            return float(self.event.sample_rate_hz)
+        return float(self.batches[0].sample_rate_hz) if self.batches else float("nan")
+
+    @property
+    def estimate(self) -> Any | None:
+        """The last PeriodEstimate published for it (the one consumers keep), or None."""
+        return self.estimates[-1] if self.estimates else None
+
+
+@dataclass
+class RecordedSession:
+    """Everything a bag holds of a session.
+
+    Attributes:
+        path: The bag, as given.
+        topics: Every topic of the bag.
+        start_time: Log time of the first message, ns.
+        end_time: Log time of the last message, ns.
+        message_count: Messages in the bag.
+        storage_files: The bag's storage files.
+        trials: The trials by id, in the order they were first heard of.
+        static_readings: The last StaticReadings message, or None.
+        parameters: Every BenchmarkParameters message, in order.
+        matrices: Every CanonicalMatrices message, in order.
+        eigen_sweeps: Every EigenSweep message, in order.
+        stray_batches: Gyro batches outside any trial (empty trial id).
+    """
+
+    path: str
+    topics: dict[str, TopicInfo]
+    start_time: int
+    end_time: int
+    message_count: int
+    storage_files: list[Path]
+    trials: dict[str, RecordedTrial] = field(default_factory=dict)
+    static_readings: Any | None = None
+    parameters: list[Any] = field(default_factory=list)
+    matrices: list[Any] = field(default_factory=list)
+    eigen_sweeps: list[Any] = field(default_factory=list)
+    stray_batches: int = 0
+
+    @property
+    def duration(self) -> int:
+        """From the first to the last message, ns."""
+        return self.end_time - self.start_time
+
+    @property
+    def bicycle(self) -> str:
+        """The bicycle's name, from the static readings or the parameter sets ("" if none)."""
+        for msg in [self.static_readings, *reversed(self.parameters), *reversed(self.matrices)]:
+            if msg is not None and str(msg.bicycle):
+                return str(msg.bicycle)
+        return ""
+
+    @property
+    def final_parameters(self) -> Any | None:
+        """The last BenchmarkParameters message, or None."""
+        return self.parameters[-1] if self.parameters else None
+
+    @property
+    def final_matrices(self) -> Any | None:
+        """The last CanonicalMatrices message, or None."""
+        return self.matrices[-1] if self.matrices else None
+
+    @property
+    def final_eigen_sweep(self) -> Any | None:
+        """The last EigenSweep message, or None."""
+        return self.eigen_sweeps[-1] if self.eigen_sweeps else None
+
+    def trial(self, trial_id: str) -> RecordedTrial:
+        """The trial with this id (created empty when first heard of)."""
+        t = self.trials.get(trial_id)
+        if t is None:
+            t = self.trials[trial_id] = RecordedTrial(trial_id)
+        return t
+
+
+def _add(session: RecordedSession, topic: str, msg: Any) -> None:
+    if topic == topics.GYRO.name:
+        tid = str(msg.trial_id)
+        if tid:
+            session.trial(tid).batches.append(msg)
+        else:
+            session.stray_batches += 1
+    elif topic == topics.TRIAL_EVENTS.name:
+        t = session.trial(str(msg.trial_id))
+        kind = int(msg.kind)
+        if kind == START and t.start is None:
+            t.start = msg
+        elif kind in (STOP, ABORT) and t.stop is None:
+            t.stop = msg
+    elif topic == topics.PERIODS.name:
+        session.trial(str(msg.trial_id)).estimates.append(msg)
+    elif topic == topics.STATIC_READINGS.name:
+        session.static_readings = msg
+    elif topic == topics.PARAMETERS.name:
+        session.parameters.append(msg)
+    elif topic == topics.MATRICES.name:
+        session.matrices.append(msg)
+    elif topic == topics.EIGEN_SWEEP.name:
+        session.eigen_sweeps.append(msg)
+
+
+def read_session(path: str | Path, which: Iterable[str] | None = None) -> RecordedSession:
+    """Read a session from a bag.
+
+    Args:
+        path: The bag (directory, metadata.yaml or .mcap file).
+        which: The rig topics to read (all of them if None).
+
+    Raises:
+        BagError: The bag cannot be read (see :func:`bike_rig.bag.reader.open_bag`).
+        NoRigTopicsError: It holds none of the rig's topics.
+        ReplayError: A rig topic was recorded with another message definition.
+    """
+    with BagReader(path) as bag:
+        rig = [t.name for t in topics.TOPICS if t.name in bag.topics]
+        if not rig:
+            names = ", ".join(t.name for t in topics.TOPICS)
+            found = ", ".join(sorted(bag.topics)) or "no topics at all"
+            raise NoRigTopicsError(bag.shown, f"holds none of bike_rig's topics ({names}); it has {found}")
+        session = RecordedSession(
+            bag.shown, dict(bag.topics), bag.start_time, bag.end_time, bag.message_count, bag.storage_files
+        )
+        wanted = rig if which is None else [t for t in rig if t in set(which)]
+        for topic, _, msg in bag.decoded(wanted):
+            _add(session, topic, msg)
+    return session

@@ -1,0 +1,24 @@
+"""Simulated sessions for the bag tests (simulated once per run)."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import pytest
+
+from bike_rig.core.sim import SimulatedSession, load_rig, load_true_parameters, simulate_session
+from bike_rig.paths import config_file
+
+
+def short_session(seed: int = 7, duration_s: float = 12.0) -> SimulatedSession:
+    """The Browser measured on the paper's rig, with shorter trials (still ≥ 8 cycles each)."""
+    name, truth = load_true_parameters(config_file("bicycles/browser.yaml"))
+    rig = load_rig(config_file("rig.yaml"))
+    rig = dataclasses.replace(rig, trials=dataclasses.replace(rig.trials, durations=(duration_s,)))
+    return simulate_session(truth, rig, seed=seed, bicycle=name)
+
+
+@pytest.fixture(scope="session")
+def session() -> SimulatedSession:
+    """A whole simulated Browser session with 12 s trials."""
+    return short_session()
