@@ -1,0 +1,233 @@
+"""A recorded session replayed as a gyro source: the raw gyro stream and the trial events of a
+rosbag2 bag (MCAP or SQLite), read with rosbags (no ROS runtime).
+
+The bag's ``/bike_rig/gyro`` (``bike_rig_msgs/msg/GyroBatch``) and ``/bike_rig/trial_events``
+(``bike_rig_msgs/msg/TrialEvent``) messages are replayed in the order they were recorded, paced
+by their recording (log) times and ``time_scale``. Events keep their recorded rig-time stamps;
+trial ids, keys and sample counts (STOP's ``sample_count`` as the driver announced it, so a
+recording that lost samples still shows the loss) are passed on unchanged. Batches of a trial
+whose START is not in the bag (a recording that began mid-trial), and batches outside any
+trial, are skipped and counted.
+
+Messages are decoded with a rosbags typestore of ``bike_rig_msgs`` built from its ``.msg``
+files (:func:`bike_rig_typestore`).
+"""
+
+from __future__ import annotations
+
+import importlib
+import logging
+import math
+import os
+import sys
+from collections.abc import Iterator, Mapping
+from functools import cache
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..topics import GYRO, TRIAL_EVENTS
+from .base import (
+    NS_PER_S,
+    GyroSource,
+    Parameters,
+    RigClock,
+    SampleBlock,
+    SourceEvent,
+    TrialInfo,
+    TrialStarted,
+    TrialStopped,
+)
+from .errors import SourceConfigError, SourceIOError
+
+__all__ = ["BagSource", "bike_rig_typestore", "msg_directory"]
+
+_log = logging.getLogger(__name__)
+
+_START, _STOP, _ABORT = 0, 1, 2
+
+
+def msg_directory() -> Path:
+    """The folder of ``bike_rig_msgs``' ``.msg`` files: installed in the ROS prefix (the venv's
+    ``share/``, or any ``AMENT_PREFIX_PATH`` entry), else the source tree's.
+
+    Raises:
+        FileNotFoundError: None of them holds GyroBatch.msg.
+    """
+    prefixes = [Path(sys.prefix)] + [Path(p) for p in os.environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep) if p]
+    candidates = [p / "share" / "bike_rig_msgs" / "msg" for p in prefixes]
+    candidates.append(Path(__file__).resolve().parents[2] / "bike_rig_msgs" / "msg")
+    for c in candidates:
+        if (c / "GyroBatch.msg").is_file():
+            return c
+    raise FileNotFoundError(f"bike_rig_msgs .msg files not found in {', '.join(map(str, candidates))}")
+
+
+@cache
+def bike_rig_typestore() -> Any:
+    """A rosbags typestore (ROS 2 Kilted) with every ``bike_rig_msgs`` message registered:
+    :func:`bike_rig.bag.typestore.rig_typestore` when that module is there, else one built
+    here the same way."""
+    try:
+        shared: Any = importlib.import_module("bike_rig.bag.typestore")
+    except ImportError:
+        return _private_typestore()
+    return shared.rig_typestore()
+
+
+def _private_typestore() -> Any:
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    store = get_typestore(Stores.ROS2_KILTED)
+    types: dict[str, Any] = {}
+    for path in sorted(msg_directory().glob("*.msg")):
+        types.update(get_types_from_msg(path.read_text(encoding="utf-8"), f"bike_rig_msgs/msg/{path.stem}"))
+    store.register(types)
+    return store
+
+
+def _stamp_ns(msg: Any) -> int:
+    return int(msg.header.stamp.sec) * NS_PER_S + int(msg.header.stamp.nanosec)
+
+
+class BagSource(GyroSource):
+    """Replays a bag's gyro batches and trial events (see the module docstring).
+
+    Args:
+        path: The bag (its directory, or a single ``.mcap`` file).
+        clock: Paces the replay (``time_scale``; ``math.inf``: no pacing).
+        gyro_topic: Topic of the batches.
+        events_topic: Topic of the trial events.
+
+    Raises:
+        SourceConfigError: No such bag, unreadable, or without the two topics.
+    """
+
+    name = "bag"
+
+    def __init__(
+        self,
+        path: str | Path,
+        clock: RigClock | None = None,
+        gyro_topic: str = GYRO.name,
+        events_topic: str = TRIAL_EVENTS.name,
+    ):
+        from rosbags.rosbag2 import Reader
+
+        self.path = str(path)
+        self.clock = clock or RigClock()
+        if not Path(path).exists():
+            raise SourceConfigError("bag", "bag", "no such bag (a rosbag2 directory or .mcap file)", self.path)
+        try:
+            self._reader = Reader(Path(path))
+            self._reader.open()
+        except Exception as exc:  # rosbags raises several kinds; all mean "unreadable"
+            raise SourceConfigError("bag", "bag", f"cannot be read as a rosbag2 bag: {exc}", self.path) from None
+        wanted = {gyro_topic: GYRO.type, events_topic: TRIAL_EVENTS.type}
+        found = {c.topic: c for c in self._reader.connections if c.topic in wanted}
+        for topic, msgtype in wanted.items():
+            if topic not in found:
+                topics = ", ".join(sorted({c.topic for c in self._reader.connections})) or "none"
+                self._reader.close()
+                raise SourceConfigError("bag", "bag", f"holds no {topic} topic (its topics: {topics})", self.path)
+            if found[topic].msgtype != msgtype:
+                self._reader.close()
+                raise SourceConfigError(
+                    "bag", "bag", f"topic {topic} holds {found[topic].msgtype}, expected {msgtype}", self.path
+                )
+        self._store = bike_rig_typestore()
+        self._gyro_topic = gyro_topic
+        self._messages: Iterator[tuple[Any, int, bytes]] = self._reader.messages(connections=list(found.values()))
+        self._pending: tuple[Any, int, bytes] | None = None
+        self._first_log_ns: int | None = None
+        self._finished = False
+        self._open_trials: set[str] = set()
+        self.skipped_batches = 0
+        self.trials_seen = 0
+
+    @classmethod
+    def from_parameters(cls, parameters: Mapping[str, Any]) -> BagSource:
+        """Parameters: ``bag`` (the bag's path) and ``time_scale``."""
+        p = Parameters("bag", parameters)
+        path = p.text("bag")
+        if not path:
+            raise p.error("bag", "the bag source needs the path of a recorded bag", "")
+        time_scale = p.number("time_scale", 1.0, low=0.0, high=1000.0)
+        return cls(path, RigClock(None, time_scale))
+
+    def describe(self) -> str:
+        return f"bag: {self.path}, time scale {self.clock.time_scale:g}"
+
+    @property
+    def finished(self) -> bool:
+        return self._finished
+
+    def poll(self) -> list[SourceEvent]:
+        events: list[SourceEvent] = []
+        if self._finished:
+            return events
+        now = self.clock.now_ns()
+        elapsed = now - self.clock.start_ns
+        while True:
+            if self._pending is None:
+                try:
+                    self._pending = next(self._messages, None)
+                except Exception as exc:  # a corrupt chunk, a vanished file
+                    raise SourceIOError(f"bag source: reading {self.path} failed: {exc}") from None
+                if self._pending is None:
+                    self._finished = True
+                    self.close()
+                    if self.skipped_batches:
+                        skipped = self.skipped_batches
+                        _log.warning("bag %s: %d batches outside a recorded trial skipped", self.path, skipped)
+                    break
+            connection, log_ns, raw = self._pending
+            if self._first_log_ns is None:
+                self._first_log_ns = log_ns
+            if not math.isinf(elapsed) and log_ns - self._first_log_ns > elapsed:
+                break
+            self._pending = None
+            event = self._convert(connection, raw)
+            if event is not None:
+                events.append(event)
+        return events
+
+    def _convert(self, connection: Any, raw: bytes) -> SourceEvent | None:
+        msg = self._store.deserialize_cdr(raw, connection.msgtype)
+        if connection.topic == self._gyro_topic:
+            if msg.trial_id not in self._open_trials:
+                self.skipped_batches += 1
+                return None
+            volts = np.array(msg.raw_volts, dtype=np.float64) if len(msg.raw_volts) else None
+            return SampleBlock(msg.trial_id, int(msg.first_index), np.array(msg.rates, dtype=np.float64), volts)
+        if msg.kind == _START:
+            self._open_trials.add(msg.trial_id)
+            self.trials_seen += 1
+            info = TrialInfo(
+                trial_id=msg.trial_id,
+                part=msg.part,
+                pendulum=msg.pendulum,
+                orientation=int(msg.orientation),
+                repeat=int(msg.repeat),
+                measurement_key=msg.measurement_key,
+                sample_rate_hz=float(msg.sample_rate_hz),
+                note=msg.note,
+            )
+            return TrialStarted(info, _stamp_ns(msg))
+        if msg.kind in (_STOP, _ABORT):
+            if msg.trial_id not in self._open_trials:
+                _log.warning("bag %s: STOP of trial %s without its START skipped", self.path, msg.trial_id)
+                return None
+            self._open_trials.discard(msg.trial_id)
+            return TrialStopped(msg.trial_id, int(msg.sample_count), _stamp_ns(msg), aborted=msg.kind == _ABORT)
+        _log.warning("bag %s: trial event of unknown kind %d skipped", self.path, msg.kind)
+        return None
+
+    def close(self) -> None:
+        reader = getattr(self, "_reader", None)
+        if reader is not None and getattr(reader, "isopen", True):
+            try:
+                reader.close()
+            except Exception:  # closing twice or a half-open reader
+                pass

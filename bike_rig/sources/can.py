@@ -1,0 +1,443 @@
+"""A CAN rate gyro as a gyro source, through python-can.
+
+The gyro sends its samples in frames of one CAN id: ``samples_per_frame`` samples each, as
+``sample_format`` (``int16``, ``int32`` or ``float32``) in ``byte_order`` (``little`` or
+``big``), oldest first; a sample is ``count * scale + offset`` rad/s. Frames of other ids are
+ignored; a frame of the gyro's id with the wrong length is counted and dropped (a lost frame
+shows up as fewer samples than the trial's duration asks for). Classic frames carry up to 8
+bytes; with ``can_fd`` up to 64 (``samples_per_frame × sample size`` must be a CAN FD data
+length: 0–8, 12, 16, 20, 24, 32, 48 or 64).
+
+The bus is ``can.Bus(interface=can_interface, channel=can_channel, fd=can_fd)`` with a
+receive filter on the gyro's id (and ``bitrate`` when ``can_bitrate`` > 0). SocketCAN needs a
+kernel with CAN support (this project's build machines have none: use ``virtual`` there);
+``udp_multicast`` is refused because it sends traffic off the machine. A trial starts with the
+first sample received after ``start_trial`` and is stamped with the receive time of its first
+frame (minus the frame's earlier samples at the nominal rate); later samples at
+``index / sample_rate_hz`` from it.
+
+:class:`SimulatedCanGyro` is a stand-in gyro that sends frames of the same layout on a
+``virtual`` bus from a thread. python-can's virtual bus connects buses *of one process* only,
+so a test either reads it with a :class:`CanSource` in the same process, or asks the driver
+node to run one inside its own process (``can_simulated_gyro_period_s`` > 0: a test and demo
+option, refused for any interface but ``virtual``).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import threading
+import time
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ..core.sim.gyro import Mode, angular_rate
+from .base import NS_PER_S, FloatArray, Parameters, StreamingSource
+from .errors import SourceConfigError, SourceIOError, SourceUnavailableError
+
+if TYPE_CHECKING:
+    import can as can_module
+
+__all__ = [
+    "FD_LENGTHS",
+    "CanFrameLayout",
+    "CanSource",
+    "SimulatedCanGyro",
+    "array_samples",
+    "damped_samples",
+]
+
+_log = logging.getLogger(__name__)
+
+#: The data lengths a CAN FD frame can have, bytes.
+FD_LENGTHS = (0, 1, 2, 3, 4, 5, 6, 7, 8, 12, 16, 20, 24, 32, 48, 64)
+_FORMATS = {"int16": "i2", "int32": "i4", "float32": "f4"}
+#: Interfaces refused whatever the kernel: they send traffic off the machine.
+_REFUSED = {"udp_multicast": "it multicasts on the network; no traffic may leave the machine"}
+#: Most frames read per poll (keeps the driver responsive if a bus floods it).
+_MAX_FRAMES_PER_READ = 50_000
+
+
+@dataclass(frozen=True)
+class CanFrameLayout:
+    """How the gyro packs its samples into frames.
+
+    Attributes:
+        can_id: Arbitration id of the gyro's frames.
+        extended_id: 29-bit (True) or 11-bit id.
+        sample_format: ``int16``, ``int32`` or ``float32``.
+        byte_order: ``little`` or ``big``.
+        samples_per_frame: Samples in each frame.
+        scale: rad/s per count.
+        offset: rad/s added after scaling.
+        fd: CAN FD frames.
+    """
+
+    can_id: int
+    extended_id: bool = False
+    sample_format: str = "int16"
+    byte_order: str = "little"
+    samples_per_frame: int = 4
+    scale: float = 1e-4
+    offset: float = 0.0
+    fd: bool = False
+
+    @property
+    def dtype(self) -> np.dtype[Any]:
+        """The samples' numpy dtype, with its byte order."""
+        return np.dtype(("<" if self.byte_order == "little" else ">") + _FORMATS[self.sample_format])
+
+    @property
+    def frame_bytes(self) -> int:
+        """Data length of one frame, bytes."""
+        return self.samples_per_frame * self.dtype.itemsize
+
+    def problems(self) -> list[tuple[str, str, object]]:
+        """What is wrong with the layout, as (parameter, reason, value)."""
+        out: list[tuple[str, str, object]] = []
+        if self.sample_format not in _FORMATS:
+            out.append(("sample_format", f"expected one of {', '.join(_FORMATS)}", self.sample_format))
+            return out
+        if self.byte_order not in ("little", "big"):
+            out.append(("byte_order", "expected little or big", self.byte_order))
+        top = 0x1FFFFFFF if self.extended_id else 0x7FF
+        if not 0 <= self.can_id <= top:
+            kind = "a 29-bit" if self.extended_id else "an 11-bit (set can_extended_id for 29 bits)"
+            out.append(("can_id", f"must be {kind} id, 0..0x{top:X}", self.can_id))
+        n = self.frame_bytes
+        if self.samples_per_frame < 1:
+            out.append(("samples_per_frame", "must be >= 1", self.samples_per_frame))
+        elif not self.fd and n > 8:
+            out.append(
+                ("samples_per_frame", f"{n} bytes of {self.sample_format} exceed a classic frame's 8 (set can_fd)",
+                 self.samples_per_frame)
+            )  # fmt: skip
+        elif self.fd and n not in FD_LENGTHS:
+            out.append(
+                ("samples_per_frame", f"{n} bytes is not a CAN FD data length ({', '.join(map(str, FD_LENGTHS))})",
+                 self.samples_per_frame)
+            )  # fmt: skip
+        if not (math.isfinite(self.scale) and self.scale != 0):
+            out.append(("scale", "must be a finite, non-zero number of rad/s per count", self.scale))
+        if not math.isfinite(self.offset):
+            out.append(("offset", "must be finite", self.offset))
+        return out
+
+    def decode(self, data: bytes | bytearray) -> FloatArray:
+        """The samples of one frame's data, rad/s."""
+        counts = np.frombuffer(bytes(data), dtype=self.dtype)
+        return counts.astype(np.float64) * self.scale + self.offset
+
+    def encode(self, rates: FloatArray) -> bytes:
+        """One frame's data for ``samples_per_frame`` rates (integers rounded and saturated)."""
+        counts = (np.asarray(rates, dtype=np.float64) - self.offset) / self.scale
+        if self.dtype.kind == "i":
+            info = np.iinfo(self.dtype)
+            counts = np.clip(np.rint(counts), info.min, info.max)
+        return counts.astype(self.dtype).tobytes()
+
+
+def layout_from_parameters(p: Parameters) -> CanFrameLayout:
+    """The frame layout from the driver's parameters.
+
+    Raises:
+        SourceConfigError: A layout parameter is wrong.
+    """
+    layout = CanFrameLayout(
+        can_id=p.integer("can_id", 0x100, low=0),
+        extended_id=p.flag("can_extended_id", False),
+        sample_format=p.choice("sample_format", tuple(_FORMATS), "int16"),
+        byte_order=p.choice("byte_order", ("little", "big"), "little"),
+        samples_per_frame=p.integer("samples_per_frame", 4, low=1, high=64),
+        scale=p.number("scale", 1e-4),
+        offset=p.number("offset", 0.0),
+        fd=p.flag("can_fd", False),
+    )
+    for name, reason, value in layout.problems():
+        raise p.error(name, reason, value)
+    return layout
+
+
+def _import_can() -> Any:
+    try:
+        import can
+    except ImportError as exc:
+        raise SourceUnavailableError(
+            "can", "source", f"python-can is not installed ({exc}); install python-can", "can"
+        ) from None
+    return can
+
+
+def open_bus(interface: str, channel: str, layout: CanFrameLayout, bitrate: int = 0) -> can_module.BusABC:
+    """A python-can bus filtered on the gyro's id.
+
+    Raises:
+        SourceConfigError: An unknown or refused interface.
+        SourceUnavailableError: The interface cannot be opened here (no kernel support, no
+            device, missing vendor library).
+    """
+    can = _import_can()
+    if interface in _REFUSED:
+        raise SourceConfigError("can", "can_interface", f"refused: {_REFUSED[interface]}", interface)
+    if interface not in can.interfaces.VALID_INTERFACES:
+        known = ", ".join(sorted(can.interfaces.VALID_INTERFACES))
+        reason = f"unknown python-can interface; expected one of {known}"
+        raise SourceConfigError("can", "can_interface", reason, interface)
+    mask = 0x1FFFFFFF if layout.extended_id else 0x7FF
+    kwargs: dict[str, Any] = {
+        "interface": interface,
+        "channel": channel,
+        "fd": layout.fd,
+        "can_filters": [{"can_id": layout.can_id, "can_mask": mask, "extended": layout.extended_id}],
+    }
+    if bitrate > 0:
+        kwargs["bitrate"] = bitrate
+    try:
+        return can.Bus(**kwargs)
+    except (can.CanError, OSError, ValueError, ImportError) as exc:
+        hint = " (this kernel has no CAN support: use can_interface 'virtual')" if interface == "socketcan" else ""
+        raise SourceUnavailableError(
+            "can", "can_interface", f"cannot open channel {channel!r}: {exc}{hint}", interface
+        ) from None
+
+
+class CanSource(StreamingSource):
+    """A CAN gyro; trials on request (see the module docstring).
+
+    Args:
+        bus: An open python-can bus (filtered on the gyro's id, or not).
+        layout: The frame layout.
+        sample_rate_hz: The gyro's sample rate, Hz.
+        label: What it reads, for the log.
+        simulated_gyro: A stand-in gyro to stop on :meth:`close` (test and demo option).
+    """
+
+    name = "can"
+
+    def __init__(
+        self,
+        bus: can_module.BusABC,
+        layout: CanFrameLayout,
+        sample_rate_hz: float,
+        label: str = "CAN gyro",
+        simulated_gyro: SimulatedCanGyro | None = None,
+    ):
+        super().__init__(sample_rate_hz)
+        self.bus = bus
+        self.layout = layout
+        self.label = label
+        self.simulated_gyro = simulated_gyro
+        self.malformed_frames = 0
+        self._closed = False
+
+    @classmethod
+    def from_parameters(cls, parameters: Mapping[str, Any]) -> CanSource:
+        """Parameters: ``can_interface``, ``can_channel``, ``can_bitrate``, ``can_id``,
+        ``can_extended_id``, ``can_fd``, ``sample_format``, ``byte_order``,
+        ``samples_per_frame``, ``scale``, ``offset``, ``sample_rate_hz``, and for tests and
+        demos ``can_simulated_gyro_period_s`` (> 0: run a :class:`SimulatedCanGyro` of that
+        period on the virtual bus, paced by ``time_scale``)."""
+        p = Parameters("can", parameters)
+        interface = p.text("can_interface", "virtual")
+        channel = p.text("can_channel", "bike_rig")
+        bitrate = p.integer("can_bitrate", 0, low=0)
+        rate = p.number("sample_rate_hz", 1000.0, low=0.0)
+        layout = layout_from_parameters(p)
+        period = p.number("can_simulated_gyro_period_s", 0.0, low=0.0, strict_low=False)
+        gyro = None
+        if period > 0:
+            if interface != "virtual":
+                raise p.error(
+                    "can_simulated_gyro_period_s",
+                    f"a simulated gyro runs on the 'virtual' interface only, not {interface!r}",
+                    period,
+                )
+            time_scale = p.number("time_scale", 1.0, low=0.0, high=1000.0)
+            gyro = SimulatedCanGyro(layout, channel, damped_samples(period, rate), rate, time_scale=time_scale)
+        bus = open_bus(interface, channel, layout, bitrate)
+        label = f"{interface}:{channel} id 0x{layout.can_id:X} {layout.samples_per_frame}×{layout.sample_format}"
+        if gyro is not None:
+            gyro.start()
+            label += f" (simulated gyro, period {period:g} s)"
+        return cls(bus, layout, rate, label, gyro)
+
+    def describe(self) -> str:
+        return f"can: {self.label} at {self.sample_rate_hz:g} Hz"
+
+    def read_available(self) -> tuple[FloatArray, FloatArray | None, int]:
+        chunks: list[FloatArray] = []
+        first_ns = 0
+        expected = self.layout.frame_bytes
+        for _ in range(_MAX_FRAMES_PER_READ):
+            try:
+                msg = self.bus.recv(timeout=0.0)
+            except Exception as exc:  # any backend failure is an I/O error here
+                raise SourceIOError(f"can source: reading {self.label} failed: {exc}") from None
+            if msg is None:
+                break
+            if msg.arbitration_id != self.layout.can_id or msg.is_extended_id != self.layout.extended_id:
+                continue
+            if msg.is_error_frame or msg.is_remote_frame:
+                continue
+            if len(msg.data) != expected:
+                self.malformed_frames += 1
+                if self.malformed_frames in (1, 10, 100, 1000) or self.malformed_frames % 10000 == 0:
+                    _log.warning(
+                        "can source: %d malformed frame(s) of id 0x%X dropped (last: %d bytes, expected %d)",
+                        self.malformed_frames, self.layout.can_id, len(msg.data), expected,
+                    )  # fmt: skip
+                continue
+            if not chunks:
+                earlier = (self.layout.samples_per_frame - 1) / self.sample_rate_hz
+                first_ns = round((float(msg.timestamp) - earlier) * NS_PER_S)
+            chunks.append(self.layout.decode(msg.data))
+        if not chunks:
+            return np.empty(0), None, 0
+        return np.concatenate(chunks), None, first_ns
+
+    def close(self) -> None:
+        if self._closed:
+            return
+        self._closed = True
+        if self.simulated_gyro is not None:
+            self.simulated_gyro.stop()
+        self.bus.shutdown()
+
+
+SampleFunction = Callable[[int, int], FloatArray | None]
+
+
+def array_samples(rates: FloatArray) -> SampleFunction:
+    """A sample function that plays ``rates`` once, then ends."""
+    data = np.asarray(rates, dtype=np.float64)
+
+    def samples(start: int, n: int) -> FloatArray | None:
+        return data[start : start + n] if start < data.size else None
+
+    return samples
+
+
+def damped_samples(
+    period_s: float,
+    sample_rate_hz: float,
+    damping_ratio: float = 0.001,
+    amplitude_rad: float = 0.01,
+    noise_rad_s: float = 1e-4,
+    seed: int = 0,
+) -> SampleFunction:
+    """An endless, lightly damped pendulum (Eq 23's motion) with white rate noise.
+
+    Args:
+        period_s: Undamped period of the pendulum, s (the observed one is
+            ``period_s / sqrt(1 - damping_ratio**2)``).
+        sample_rate_hz: Hz.
+        damping_ratio: ζ.
+        amplitude_rad: Initial angle amplitude, rad.
+        noise_rad_s: Standard deviation of the white noise per sample, rad/s.
+        seed: Seed of the noise.
+    """
+    mode = (Mode(period_s, damping_ratio, amplitude_rad, 0.3),)
+    rng = np.random.default_rng(seed)
+
+    def samples(start: int, n: int) -> FloatArray:
+        t = np.arange(start, start + n, dtype=np.float64) / sample_rate_hz
+        return angular_rate(t, mode) + noise_rad_s * rng.standard_normal(n)
+
+    return samples
+
+
+class SimulatedCanGyro:
+    """A stand-in CAN gyro: a thread that sends ``samples`` in frames of ``layout`` on a
+    python-can bus (``virtual`` by default), ``time_scale`` times faster than real time
+    (``math.inf``: as fast as it can).
+
+    Args:
+        layout: Frame layout (the reader's).
+        channel: The bus channel.
+        samples: ``samples(start, n)`` gives the rates of samples ``start`` to ``start + n``
+            (None or fewer at the end of the signal).
+        sample_rate_hz: Nominal rate, Hz.
+        time_scale: Speed-up over real time.
+        interface: python-can interface.
+    """
+
+    def __init__(
+        self,
+        layout: CanFrameLayout,
+        channel: str,
+        samples: SampleFunction,
+        sample_rate_hz: float,
+        *,
+        time_scale: float = 1.0,
+        interface: str = "virtual",
+    ):
+        self.layout = layout
+        self.channel = channel
+        self.samples = samples
+        self.sample_rate_hz = sample_rate_hz
+        self.time_scale = time_scale
+        self.interface = interface
+        self.frames_sent = 0
+        self.samples_sent = 0
+        self.error: BaseException | None = None
+        self._stop = threading.Event()
+        self._done = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="simulated-can-gyro", daemon=True)
+        self._bus = open_bus(interface, channel, layout)
+
+    def start(self) -> SimulatedCanGyro:
+        """Start sending."""
+        self._thread.start()
+        return self
+
+    @property
+    def done(self) -> bool:
+        """True once the signal has ended (or sending failed)."""
+        return self._done.is_set()
+
+    def wait(self, timeout: float | None = None) -> bool:
+        """Wait until the signal has ended; True if it has."""
+        return self._done.wait(timeout)
+
+    def stop(self) -> None:
+        """Stop sending and release the bus (idempotent)."""
+        self._stop.set()
+        if self._thread.is_alive():
+            self._thread.join(timeout=5.0)
+        self._bus.shutdown()
+
+    def _run(self) -> None:
+        import can
+
+        spf = self.layout.samples_per_frame
+        frame_s = spf / self.sample_rate_hz / self.time_scale
+        t0 = time.monotonic()
+        try:
+            while not self._stop.is_set():
+                if math.isinf(self.time_scale):
+                    due = self.frames_sent + 1000
+                else:
+                    due = int((time.monotonic() - t0) / frame_s) + 1
+                while self.frames_sent < due and not self._stop.is_set():
+                    rates = self.samples(self.samples_sent, spf)
+                    if rates is None or len(rates) < spf:
+                        return
+                    msg = can.Message(
+                        arbitration_id=self.layout.can_id,
+                        is_extended_id=self.layout.extended_id,
+                        is_fd=self.layout.fd,
+                        data=self.layout.encode(rates),
+                    )
+                    self._bus.send(msg)
+                    self.frames_sent += 1
+                    self.samples_sent += spf
+                if not math.isinf(self.time_scale):
+                    self._stop.wait(min(0.002, frame_s))
+        except BaseException as exc:  # reported through .error, never lost
+            self.error = exc
+        finally:
+            self._done.set()

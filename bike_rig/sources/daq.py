@@ -1,0 +1,163 @@
+"""An analog rate gyro on an NI data-acquisition device (the paper's NI USB-6008), through
+NI-DAQmx (optional extra: ``pip install nidaqmx`` and NI's NI-DAQmx driver).
+
+A continuous voltage task on ``daq_channel`` (e.g. ``Dev1/ai0``) samples at
+``sample_rate_hz``; the gyro's rate is ``(V − daq_zero_rate_v) / daq_scale_v_per_rad_s`` and
+the raw volts are passed on too. Trials are recorded on request (start/stop). The samples of
+each read are stamped backwards from the read's wall-clock time at the nominal rate, so the
+trial's start stamp is good to about one poll period.
+
+``nidaqmx`` is imported when the source is opened, so the package is needed only by those who
+use it; when it or the NI driver is missing, the error says which.
+"""
+
+from __future__ import annotations
+
+import importlib
+import time
+from collections.abc import Mapping
+from types import ModuleType
+from typing import Any
+
+import numpy as np
+
+from .base import NS_PER_S, FloatArray, Parameters, StreamingSource
+from .errors import SourceConfigError, SourceIOError, SourceUnavailableError
+
+__all__ = ["TERMINALS", "DaqSource", "import_nidaqmx"]
+
+#: ``daq_terminal`` values and the ``nidaqmx.constants.TerminalConfiguration`` member names
+#: (current name first, then the pre-0.6 spelling).
+TERMINALS: dict[str, tuple[str, ...]] = {
+    "differential": ("DIFF", "DIFFERENTIAL"),
+    "rse": ("RSE",),
+    "nrse": ("NRSE",),
+    "pseudo_differential": ("PSEUDO_DIFF", "PSEUDODIFFERENTIAL"),
+    "default": ("DEFAULT",),
+}
+
+
+def import_nidaqmx() -> ModuleType:
+    """The ``nidaqmx`` module.
+
+    Raises:
+        SourceUnavailableError: It is not installed.
+    """
+    try:
+        return importlib.import_module("nidaqmx")
+    except ImportError as exc:
+        raise SourceUnavailableError(
+            "daq",
+            "source",
+            f"the daq source needs the 'nidaqmx' package and NI's NI-DAQmx driver ({exc}); "
+            "install them (pip install nidaqmx) or choose another source",
+            "daq",
+        ) from None
+
+
+def _constants(nidaqmx: ModuleType) -> Any:
+    constants = getattr(nidaqmx, "constants", None)
+    return constants if constants is not None else importlib.import_module("nidaqmx.constants")
+
+
+class DaqSource(StreamingSource):
+    """An NI-DAQmx analog input (see the module docstring).
+
+    Args:
+        task: A started continuous ``nidaqmx.Task`` with one voltage channel.
+        sample_rate_hz: Its sample rate, Hz.
+        scale_v_per_rad_s: The gyro's scale factor, V / (rad/s).
+        zero_rate_v: Its output at zero rate, V.
+        read_all: ``nidaqmx.constants.READ_ALL_AVAILABLE``.
+        label: What it reads, for the log.
+    """
+
+    name = "daq"
+
+    def __init__(
+        self,
+        task: Any,
+        sample_rate_hz: float,
+        scale_v_per_rad_s: float,
+        zero_rate_v: float,
+        read_all: int = -1,
+        label: str = "NI-DAQmx",
+    ):
+        super().__init__(sample_rate_hz)
+        self.task = task
+        self.scale_v_per_rad_s = scale_v_per_rad_s
+        self.zero_rate_v = zero_rate_v
+        self.read_all = read_all
+        self.label = label
+        self._closed = False
+
+    @classmethod
+    def from_parameters(cls, parameters: Mapping[str, Any]) -> DaqSource:
+        """Parameters: ``daq_channel``, ``daq_terminal``, ``daq_min_v``, ``daq_max_v``,
+        ``daq_scale_v_per_rad_s``, ``daq_zero_rate_v``, ``daq_buffer_s``, ``sample_rate_hz``."""
+        p = Parameters("daq", parameters)
+        channel = p.text("daq_channel", "Dev1/ai0")
+        if not channel:
+            raise p.error("daq_channel", "expected a physical channel such as Dev1/ai0", channel)
+        terminal = p.choice("daq_terminal", tuple(TERMINALS), "differential")
+        low = p.number("daq_min_v", -5.0)
+        high = p.number("daq_max_v", 5.0)
+        if not low < high:
+            raise p.error("daq_max_v", f"must be above daq_min_v ({low:g} V)", high)
+        rate = p.number("sample_rate_hz", 1000.0, low=0.0)
+        scale = p.number("daq_scale_v_per_rad_s", 1.1459156)
+        if scale == 0:
+            raise p.error("daq_scale_v_per_rad_s", "must not be zero", scale)
+        zero = p.number("daq_zero_rate_v", 2.5)
+        buffer_s = p.number("daq_buffer_s", 10.0, low=0.0)
+        nidaqmx = import_nidaqmx()
+        constants = _constants(nidaqmx)
+        names = TERMINALS[terminal]
+        config = next((getattr(constants.TerminalConfiguration, n) for n in names
+                       if hasattr(constants.TerminalConfiguration, n)), None)  # fmt: skip
+        if config is None:
+            raise p.error("daq_terminal", "this nidaqmx has no such terminal configuration", terminal)
+        try:
+            task = nidaqmx.Task()
+        except Exception as exc:  # DaqNotFoundError & co: the driver is missing
+            raise SourceUnavailableError(
+                "daq",
+                "daq_channel",
+                f"cannot create an NI-DAQmx task ({type(exc).__name__}: {exc}); is NI's NI-DAQmx driver installed?",
+                channel,
+            ) from None
+        try:
+            task.ai_channels.add_ai_voltage_chan(channel, terminal_config=config, min_val=low, max_val=high)
+            task.timing.cfg_samp_clk_timing(
+                rate, sample_mode=constants.AcquisitionType.CONTINUOUS, samps_per_chan=max(2, round(buffer_s * rate))
+            )
+            task.start()
+        except Exception as exc:  # DaqError: no such device/channel, rate too high...
+            task.close()
+            raise SourceConfigError("daq", "daq_channel", f"NI-DAQmx refused the task: {exc}", channel) from None
+        label = f"{channel} ({terminal}, {low:g}..{high:g} V)"
+        return cls(task, rate, scale, zero, int(constants.READ_ALL_AVAILABLE), label)
+
+    def describe(self) -> str:
+        return f"daq: {self.label} at {self.sample_rate_hz:g} Hz"
+
+    def read_available(self) -> tuple[FloatArray, FloatArray | None, int]:
+        try:
+            data = self.task.read(number_of_samples_per_channel=self.read_all, timeout=0.0)
+        except Exception as exc:  # buffer overflow, device removed
+            raise SourceIOError(f"daq source: reading {self.label} failed: {exc}") from None
+        now_ns = time.time_ns()
+        volts = np.asarray(data, dtype=np.float64).reshape(-1)
+        if volts.size == 0:
+            return np.empty(0), None, 0
+        first_ns = now_ns - round((volts.size - 1) * NS_PER_S / self.sample_rate_hz)
+        return (volts - self.zero_rate_v) / self.scale_v_per_rad_s, volts, first_ns
+
+    def close(self) -> None:
+        if self._closed:
+            return
+        self._closed = True
+        try:
+            self.task.stop()
+        finally:
+            self.task.close()

@@ -1,0 +1,33 @@
+"""Small simulated sessions for the source and node tests (short trials, one per period)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from bike_rig.core.sim import SimulatedSession, load_rig, load_true_parameters, simulate_session, write_session
+from bike_rig.paths import config_file
+
+#: Duration of every trial of the small rig, s.
+TRIAL_S = 6.0
+BICYCLE = config_file("bicycles/benchmark.yaml")
+
+
+def small_rig(directory: Path, duration_s: float = TRIAL_S, **trials: Any) -> Path:
+    """A rig file like ``config/rig.yaml`` with one short trial per period and no beating."""
+    data = yaml.safe_load(config_file("rig.yaml").read_text(encoding="utf-8"))
+    data["trials"].update({"per_measurement": 1, "duration": duration_s, **trials})
+    data.pop("coupled_swing", None)
+    directory.mkdir(parents=True, exist_ok=True)
+    path = directory / "rig_small.yaml"
+    path.write_text(yaml.safe_dump(data, sort_keys=False), encoding="utf-8")
+    return path
+
+
+def small_session(directory: Path, seed: int = 3) -> tuple[SimulatedSession, Path]:
+    """A small session simulated and written to ``directory/session``; (session, session.yaml)."""
+    name, truth = load_true_parameters(BICYCLE)
+    session = simulate_session(truth, load_rig(small_rig(directory)), seed, name)
+    return session, write_session(session, directory / "session", volts=True)
