@@ -1,0 +1,206 @@
+"""The model node: each complete parameter set → canonical matrices, eigenvalue sweep, stability.
+
+It subscribes to ``/bike_rig/parameters`` (reliable, transient-local: started late, it still
+gets the current set) and, for every complete set, computes with
+:func:`bike_rig.core.assembly.compute_model` and publishes, latched (reliable, transient-local,
+depth 1):
+
+* ``/bike_rig/model/matrices`` (``CanonicalMatrices``): M, C1, K0, K2 with σ;
+* ``/bike_rig/model/eigen_sweep`` (``EigenSweep``): eigenvalues at ``speed_count`` speeds from
+  ``speed_min`` to ``speed_max``, mode labels, and the weave and capsize speeds with σ (NaN and
+  ``has_* = false`` when the bicycle has none).
+
+Both carry the parameter set's header stamp, so a consumer can tell which set they belong to.
+Incomplete sets are ignored (the last model stays published).
+
+It serves ``/bike_rig/model/state_space`` (``StateSpace``): A, B and the eigenvalues at a
+requested speed, for the node's rider (``rider: ""``), no rider (``"none"``) or the paper's
+(``"paper"``); ``ok = false`` with a reason before any parameter set arrived, for a speed that
+is not a finite number ≥ 0, or for an unknown rider.
+
+Parameters (``config/model.yaml``, node name ``model``), all read-only:
+
+* ``rider`` (string): ``""`` (none, default) or ``"paper"`` (Table 1 rider in the rear frame).
+* ``sigma_convention`` (string): ``correlated`` (default) or ``paper`` (independent
+  parameters, the paper's Table 3); for the matrices' and the critical speeds' σ.
+* ``speed_min``, ``speed_max`` (double, m/s): the sweep's range, default 0 to 10.
+* ``speed_count`` (integer): number of speeds, default 201.
+
+Run: ``python -m bike_rig.nodes.model --ros-args --params-file config/model.yaml``.
+"""
+
+from __future__ import annotations
+
+import importlib
+import sys
+import time
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from rclpy.exceptions import ParameterException
+from rclpy.node import Node
+
+from .. import topics
+from ..core.assembly import ModelMatrices, compute_model, rider_by_name, state_space_at
+from ..core.benchmark import ParameterSet
+from ..core.errors import BikeRigError
+from ..core.model import SigmaConvention
+from ..messages import (
+    fill_canonical_matrices,
+    fill_eigen_sweep,
+    fill_state_space_error,
+    fill_state_space_response,
+    parameter_set_from_msg,
+)
+from .qos import profile
+from .runner import run_node
+
+__all__ = ["MAX_SPEED_COUNT", "NODE_NAME", "ModelNode", "ModelNodeError", "main"]
+
+NODE_NAME = "model"
+#: Largest number of speeds in the sweep (the EigenSweep message grows with it).
+MAX_SPEED_COUNT = 100_000
+
+_msgs: Any = importlib.import_module("bike_rig_msgs.msg")
+_srvs: Any = importlib.import_module("bike_rig_msgs.srv")
+_rcl: Any = importlib.import_module("rcl_interfaces.msg")
+
+
+class ModelNodeError(BikeRigError):
+    """A parameter of the model node is invalid."""
+
+
+def _declare(node: Node, name: str, default: Any, description: str, **constraints: Any) -> Any:
+    """Declare a read-only parameter with its description and constraints; return its value.
+
+    Raises:
+        ModelNodeError: the value given has the wrong type or is out of range.
+    """
+    descriptor = _rcl.ParameterDescriptor(description=description, read_only=True, **constraints)
+    try:
+        return node.declare_parameter(name, default, descriptor).value
+    except ParameterException as exc:
+        raise ModelNodeError(f"parameter '{name}': {exc}") from None
+
+
+class ModelNode(Node):
+    """Parameter sets → canonical matrices, eigen sweep, state space (see the module docstring)."""
+
+    def __init__(self) -> None:
+        super().__init__(NODE_NAME)
+        speed_range = _rcl.FloatingPointRange(from_value=0.0, to_value=1000.0, step=0.0)
+        rider = _declare(
+            self, "rider", "", "Rider lumped into the rear frame: '' (none) or 'paper' (Table 1).",
+            additional_constraints="one of: '', paper",
+        )  # fmt: skip
+        convention = _declare(
+            self, "sigma_convention", SigmaConvention.CORRELATED.value,
+            "Sigma of the matrices and critical speeds: 'correlated' (full parameter covariance) or "
+            "'paper' (parameters independent, the paper's Table 3).",
+            additional_constraints="one of: correlated, paper",
+        )  # fmt: skip
+        speed_min = _declare(
+            self, "speed_min", 0.0, "Lowest speed of the eigenvalue sweep, m/s.", floating_point_range=[speed_range]
+        )
+        speed_max = _declare(
+            self, "speed_max", 10.0, "Highest speed of the eigenvalue sweep, m/s.", floating_point_range=[speed_range]
+        )
+        speed_count = _declare(
+            self, "speed_count", 201, "Number of equally spaced speeds in the eigenvalue sweep.",
+            integer_range=[_rcl.IntegerRange(from_value=1, to_value=MAX_SPEED_COUNT, step=1)],
+        )  # fmt: skip
+        try:
+            rider_by_name(str(rider))
+        except BikeRigError as exc:
+            raise ModelNodeError(f"parameter 'rider': {exc}") from None
+        if str(rider) == "none":
+            rider = ""
+        try:
+            self._convention = SigmaConvention(str(convention))
+        except ValueError:
+            raise ModelNodeError(
+                f"parameter 'sigma_convention': expected 'correlated' or 'paper', got '{convention}'"
+            ) from None
+        if not float(speed_min) <= float(speed_max):
+            raise ModelNodeError(f"parameters 'speed_min' {speed_min} > 'speed_max' {speed_max}")
+        if int(speed_count) == 1 and float(speed_min) != float(speed_max):
+            raise ModelNodeError("parameter 'speed_count' is 1: set speed_min = speed_max")
+        self._rider = str(rider)
+        self._speeds = np.linspace(float(speed_min), float(speed_max), int(speed_count))
+
+        self._parameter_set: ParameterSet | None = None
+        self._models: dict[str, ModelMatrices] = {}
+        self._matrices_pub = self.create_publisher(
+            _msgs.CanonicalMatrices, topics.MATRICES.name, profile(topics.MATRICES)
+        )
+        self._sweep_pub = self.create_publisher(_msgs.EigenSweep, topics.EIGEN_SWEEP.name, profile(topics.EIGEN_SWEEP))
+        self.create_subscription(
+            _msgs.BenchmarkParameters, topics.PARAMETERS.name, self._on_parameters, profile(topics.PARAMETERS)
+        )
+        self.create_service(_srvs.StateSpace, topics.STATE_SPACE, self._on_state_space)
+        self.get_logger().info(
+            f"waiting for parameter sets on {topics.PARAMETERS.name}; rider '{self._rider}', "
+            f"sigma {self._convention.value}, {self._speeds.size} speeds {self._speeds[0]:g}..{self._speeds[-1]:g} m/s"
+        )
+
+    def _on_parameters(self, msg: Any) -> None:
+        if not msg.complete:
+            self.get_logger().info(f"{msg.bicycle}: parameter set incomplete (missing {', '.join(msg.missing)})")
+            return
+        started = time.perf_counter()
+        try:
+            ps = parameter_set_from_msg(msg, topics.PARAMETERS.name)
+            matrices, stability = compute_model(ps, self._speeds, self._rider, self._convention)
+        except BikeRigError as exc:
+            self.get_logger().error(f"{msg.bicycle}: parameter set not usable: {exc}")
+            return
+        self._parameter_set = ps
+        self._models = {self._rider: matrices}
+        out_m = fill_canonical_matrices(_msgs.CanonicalMatrices(), matrices)
+        out_s = fill_eigen_sweep(_msgs.EigenSweep(), stability)
+        out_m.header.stamp = msg.header.stamp
+        out_s.header.stamp = msg.header.stamp
+        self._matrices_pub.publish(out_m)
+        self._sweep_pub.publish(out_s)
+        elapsed_ms = 1e3 * (time.perf_counter() - started)
+
+        def speed(s: Any) -> str:
+            return "none" if s is None else f"{s.speed:.4f} ± {s.sigma:.2g} m/s"
+
+        self.get_logger().info(
+            f"{ps.bicycle}{' + ' + self._rider + ' rider' if self._rider else ''}: model published in "
+            f"{elapsed_ms:.1f} ms; weave {speed(stability.weave)}, capsize {speed(stability.capsize)}"
+        )
+
+    def _model(self, rider: str) -> ModelMatrices:
+        """The matrices for ``rider`` ('' = none) from the current set, computed once per set."""
+        assert self._parameter_set is not None
+        if rider not in self._models:
+            matrices, _ = compute_model(self._parameter_set, self._speeds[:1], rider, self._convention)
+            self._models[rider] = matrices
+        return self._models[rider]
+
+    def _on_state_space(self, request: Any, response: Any) -> Any:
+        requested = str(request.rider)
+        rider = self._rider if requested == "" else ("" if requested == "none" else requested)
+        if self._parameter_set is None:
+            return fill_state_space_error(
+                response, f"no parameter set yet: waiting for a complete set on {topics.PARAMETERS.name}"
+            )
+        try:
+            rider_by_name(rider)
+            state = state_space_at(self._model(rider), float(request.speed))
+        except BikeRigError as exc:
+            return fill_state_space_error(response, str(exc))
+        label = f"{self._parameter_set.bicycle}" + (f" + {rider} rider" if rider else "")
+        return fill_state_space_response(response, state, f"{label} at {state.speed:g} m/s")
+
+
+def main(args: Sequence[str] | None = None) -> int:
+    """Run the model node until SIGINT/SIGTERM (exit 2 on a bad parameter)."""
+    return run_node(ModelNode, args)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
