@@ -177,7 +177,7 @@ class ParameterNode(Node):
         self._dirty = False
         self._last_evaluation = time.monotonic()
         periods = self._session.periods()
-        key = (len(self._session.missing()) == 0, _provenance(periods))
+        key = (len(periods) == len(self._session.required_keys), _provenance(periods))
         if key == self._published and not force:
             return
         try:
