@@ -37,6 +37,11 @@ setup(
     entry_points={
         "console_scripts": [
             "bike-rig = bike_rig.cli.main:main",
+            "bike-rig-driver = bike_rig.nodes.driver:main",
+            "bike-rig-fitter = bike_rig.nodes.fitter:main",
+            "bike-rig-parameter = bike_rig.nodes.parameter:main",
+            "bike-rig-model = bike_rig.nodes.model:main",
+            "bike-rig-recorder = bike_rig.nodes.recorder:main",
         ],
     },
 )

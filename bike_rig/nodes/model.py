@@ -199,7 +199,7 @@ class ModelNode(Node):
 
 def main(args: Sequence[str] | None = None) -> int:
     """Run the model node until SIGINT/SIGTERM (exit 2 on a bad parameter)."""
-    return run_node(ModelNode, args)
+    return run_node(ModelNode, args, name="model")
 
 
 if __name__ == "__main__":

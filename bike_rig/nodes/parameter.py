@@ -211,7 +211,7 @@ class ParameterNode(Node):
 
 def main(args: Sequence[str] | None = None) -> int:
     """Run the parameter node until SIGINT/SIGTERM (exit 2 on a bad measurement file)."""
-    return run_node(ParameterNode, args)
+    return run_node(ParameterNode, args, name="parameter")
 
 
 if __name__ == "__main__":

@@ -33,13 +33,14 @@ def _prepare_environment() -> None:
         os.environ[key] = env[key]
 
 
-def run_node(factory: Callable[[], Node], args: Sequence[str] | None = None) -> int:
+def run_node(factory: Callable[[], Node], args: Sequence[str] | None = None, name: str = "bike_rig node") -> int:
     """Create the node with ``factory`` and spin it until SIGINT/SIGTERM or rclpy shutdown.
 
     Args:
         factory: Builds the node (after ``rclpy.init``); may raise BikeRigError for user
             mistakes.
         args: Command-line arguments (``--ros-args ...`` are passed to rclpy).
+        name: The node's name for an error raised before the node exists.
 
     Returns:
         The process exit status: 0 on a clean stop, 2 on a user mistake.
@@ -66,8 +67,8 @@ def run_node(factory: Callable[[], Node], args: Sequence[str] | None = None) -> 
             closer()
         return 0
     except BikeRigError as exc:
-        name = node.get_name() if node is not None else "bike_rig node"
-        print(f"{name}: error: {exc}", file=sys.stderr)
+        label = node.get_name() if node is not None else name
+        print(f"{label}: error: {exc}", file=sys.stderr)
         return EXIT_USER_ERROR
     except (KeyboardInterrupt, ExternalShutdownException):
         return 0

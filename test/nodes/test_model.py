@@ -180,4 +180,4 @@ def test_bad_model_parameter_is_one_error_line_and_status_2(node_env: dict[str, 
     argv = [sys.executable, "-m", "bike_rig.nodes.model", "--ros-args", "-p", "speed_min:=5.0", "-p", "speed_max:=1.0"]
     done = subprocess.run(argv, env=node_env, capture_output=True, text=True, timeout=60)
     assert done.returncode == 2
-    assert done.stderr.strip().splitlines() == ["bike_rig node: error: parameters 'speed_min' 5.0 > 'speed_max' 1.0"]
+    assert done.stderr.strip().splitlines() == ["model: error: parameters 'speed_min' 5.0 > 'speed_max' 1.0"]
