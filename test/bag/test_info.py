@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-import argparse
+import contextlib
+import io
 import json
 import math
 from pathlib import Path
@@ -14,8 +15,7 @@ from bike_rig.bag.info import summarize
 from bike_rig.bag.simulated import SimulatedMessage, write_simulated_bag
 from bike_rig.bag.typestore import new_message
 from bike_rig.bag.writer import BagWriter
-from bike_rig.cli import bag_cmd
-from bike_rig.core.errors import BikeRigError
+from bike_rig.cli.main import main
 from bike_rig.core.sim import SimulatedSession
 from bike_rig.topics import EIGEN_SWEEP, GYRO, PARAMETERS, PERIODS, TOPICS, TRIAL_EVENTS
 
@@ -23,21 +23,10 @@ NS = 1_000_000_000
 
 
 def run_cli(*argv: str) -> tuple[int, str, str]:
-    """``bike-rig bag ...`` as main.py runs it: BikeRigError → one line, status 2."""
-    parser = argparse.ArgumentParser(prog="bike-rig")
-    sub = parser.add_subparsers(dest="command", required=True)
-    bag_cmd.add_parser(sub)
-    args = parser.parse_args(argv)
-    import contextlib
-    import io
-
+    """``bike-rig ...`` through the real entry point: (status, stdout, stderr)."""
     out, err = io.StringIO(), io.StringIO()
     with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        try:
-            code = int(args.func(args))
-        except BikeRigError as exc:
-            print(f"bike-rig {args.command}: error: {exc}", file=err)
-            code = 2
+        code = main(list(argv))
     return code, out.getvalue(), err.getvalue()
 
 
