@@ -57,9 +57,6 @@ def period_from_trials(files: Sequence[Path], sample_rate_hz: float | None = Non
     fits = []
     for f in files:
         trial = read_trial(f, sample_rate_hz=sample_rate_hz)
-        if trial.times is not None:
-            fits.append(fit_period(trial.samples, times=trial.times))
-        else:
-            fits.append(fit_period(trial.samples, sample_rate_hz=trial.sample_rate_hz))
+        fits.append(fit_period(trial.samples, **trial.timing))
     combined = combine_periods(fits)
     return PeriodEvidence(tuple(str(f) for f in files), tuple(fits), combined)

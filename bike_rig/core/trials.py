@@ -33,7 +33,7 @@ from numpy.typing import NDArray
 
 from .errors import InputFileError
 
-__all__ = ["TEXT_SUFFIXES", "Trial", "read_trial"]
+__all__ = ["TEXT_SUFFIXES", "Trial", "read_trial", "uniform_sample_rate"]
 
 FloatArray = NDArray[np.float64]
 
@@ -77,9 +77,17 @@ class Trial:
 
     @property
     def timing(self) -> dict[str, Any]:
-        """The keyword for :func:`~bike_rig.core.period.fit_period`: ``times`` or ``sample_rate_hz``."""
+        """The keyword for :func:`~bike_rig.core.period.fit_period`: ``times`` or ``sample_rate_hz``.
+
+        Evenly spaced time stamps (every step within 1e-6 of the mean step, or within the
+        stamps' float resolution) are given as their
+        sample rate, the way the live fitter fits a stream: a file and a live stream of the same
+        samples then get the same fit. The rate is snapped to 6 decimals when it is that close
+        to such a value (e.g. 1000.0 Hz from a time column written as i / 1000).
+        """
         if self.times is not None:
-            return {"times": self.times}
+            rate = uniform_sample_rate(self.times)
+            return {"times": self.times} if rate is None else {"sample_rate_hz": rate}
         return {"sample_rate_hz": self.sample_rate_hz}
 
     @property
@@ -305,3 +313,18 @@ def _read_mat(name: str, p: Path, sample_rate_hz: float | None) -> Trial:
         "notes": _text(mat.get("notes")),
     }
     return _make(name, p, samples, times, rate, **meta)
+
+
+def uniform_sample_rate(times: NDArray[np.float64]) -> float | None:
+    """The sample rate of evenly spaced time stamps [Hz], or None if they are not evenly spaced."""
+    if times.size < 3 or not np.all(np.isfinite(times)):
+        return None
+    steps = np.diff(times)
+    mean = float(times[-1] - times[0]) / (times.size - 1)
+    # allowed deviation: 1e-6 of a step, or the stamps' own float resolution (epoch times)
+    tolerance = max(1e-6 * mean, 4.0 * float(np.spacing(np.max(np.abs(times[[0, -1]])))))
+    if not mean > 0 or float(np.max(np.abs(steps - mean))) > tolerance:
+        return None
+    rate = 1.0 / mean
+    snapped = round(rate, 6)
+    return snapped if abs(rate - snapped) <= 1e-9 * rate else rate

@@ -227,3 +227,16 @@ def test_missing_directory_and_unknown_files(tmp_path: Path) -> None:
     with pytest.raises(InputFileError, match="positive number of Hz"):
         read_trial(_write(tmp_path / "r.csv", "1\n"), sample_rate_hz=0.0)
     assert read_trial(str(_write(tmp_path / "s.CSV", "1\n2\n")), 10.0).samples.size == 2
+
+
+def test_evenly_spaced_time_stamps_are_fitted_by_their_rate() -> None:
+    """A file and a live stream of the same samples get the same fit: even time stamps become
+    a sample rate (snapped to 1000.0 here), jittered ones stay time stamps."""
+    from bike_rig.core.trials import uniform_sample_rate
+
+    t = np.arange(30000) / 1000.0
+    assert uniform_sample_rate(t) == 1000.0
+    assert uniform_sample_rate(t + 1.7e9) is not None  # epoch stamps: float resolution allowed
+    jittered = t + np.random.default_rng(1).normal(0, 1e-5, t.size)
+    assert uniform_sample_rate(jittered) is None
+    assert uniform_sample_rate(np.array([0.0, 0.001])) is None  # too short to tell
