@@ -1,0 +1,380 @@
+"""The driver node: reads the rate gyro through one gyro source and publishes its trials.
+
+Parameter ``source`` chooses the backend (:mod:`bike_rig.sources`): ``sim`` (the simulated rig
+walking a session plan), ``can`` (a CAN gyro, python-can), ``bag`` (a recorded session
+replayed) or ``daq`` (NI-DAQmx). Every parameter is declared with a description and range,
+read-only, and can come from ``config/driver.yaml`` (``--ros-args --params-file``).
+
+Published (reliable, transient-local, :mod:`bike_rig.topics`):
+
+* ``/bike_rig/trial_events`` (TrialEvent): START before a trial's first batch (stamped with its
+  first sample's rig time), STOP (or ABORT) after its last with ``sample_count``;
+* ``/bike_rig/gyro`` (GyroBatch): ``samples_per_batch`` samples each (the last of a trial may
+  be shorter), ``first_index`` their index in the trial, stamped with the rig time of their
+  first sample, ``trial start + first_index / rate``.
+
+Services: ``/bike_rig/driver/start_trial`` (StartTrial) and ``/bike_rig/driver/stop_trial``
+(StopTrial), honoured by the hardware backends (the sim and bag backends walk their own plan
+and decline). When a plan is finished the driver logs it and keeps running, so that late
+joiners still get the topics' history — or exits (``exit_when_done``, after the subscribers
+have acknowledged everything, up to 10 s).
+"""
+
+from __future__ import annotations
+
+import array
+import importlib
+import sys
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from rclpy.duration import Duration
+from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
+from rclpy.node import Node
+
+from ..sources import (
+    BACKENDS,
+    GyroSource,
+    SampleBlock,
+    SourceEvent,
+    TrialInfo,
+    TrialRequest,
+    TrialRequestError,
+    TrialStarted,
+    TrialStopped,
+    open_source,
+    sample_stamp_ns,
+)
+from ..sources.base import FloatArray
+from ..sources.errors import SourceConfigError, SourceError
+from ..topics import GYRO, START_TRIAL, STOP_TRIAL, TRIAL_EVENTS
+from .qos import profile
+
+__all__ = ["PARAMETERS", "DriverNode", "Parameter", "main"]
+
+# bike_rig_msgs and rcl_interfaces ship no type information: imported by name
+_msgs: Any = importlib.import_module("bike_rig_msgs.msg")
+_srvs: Any = importlib.import_module("bike_rig_msgs.srv")
+_rcl: Any = importlib.import_module("rcl_interfaces.msg")
+
+NODE_NAME = "driver"
+#: Longest wait for the subscribers' acknowledgements before exiting (``exit_when_done``).
+ACK_TIMEOUT_S = 10.0
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """A node parameter: name, default (its type), description, range, allowed strings."""
+
+    name: str
+    default: Any
+    description: str
+    range: tuple[float, float] | None = None
+    choices: tuple[str, ...] = field(default=())
+
+
+PARAMETERS: tuple[Parameter, ...] = (
+    # common
+    Parameter("source", "sim", "gyro source backend", choices=tuple(BACKENDS)),
+    Parameter("frame_id", "gyro", "frame_id of the gyro batches"),
+    Parameter("samples_per_batch", 50, "samples per GyroBatch (the last of a trial may hold fewer)", (1, 10_000)),
+    Parameter("poll_period_s", 0.01, "how often the source is read, s (wall clock)", (0.001, 1.0)),
+    Parameter("exit_when_done", False, "exit when the sim/bag plan is finished (else keep running)"),
+    Parameter("wait_for_subscribers", 0, "start streaming once the gyro topic has this many subscribers", (0, 100)),
+    Parameter("time_scale", 1.0, "sim/bag (and the simulated CAN gyro): rig seconds per wall second", (0.001, 1000.0)),
+    # sim
+    Parameter("session", "", "sim: session.yaml written by 'bike-rig simulate' (streamed in plan order)"),
+    Parameter("bicycle", "", "sim: bicycle file whose session is simulated in memory (instead of session)"),
+    Parameter("rig", "", "sim: rig description for 'bicycle' ('' = config/rig.yaml)"),
+    Parameter("seed", 0, "sim: seed of the in-memory simulation", (0, 2**31 - 1)),
+    Parameter("pause_between_trials_s", 1.0, "sim: rig time between trials, s", (0.0, 3600.0)),
+    Parameter("start_time_s", 0.0, "sim: rig time of the first trial's start, s since the epoch (0 = now)",
+              (0.0, 1e10)),  # fmt: skip
+    # bag
+    Parameter("bag", "", "bag: the recorded bag to replay (rosbag2 directory or .mcap file)"),
+    # can
+    Parameter("can_interface", "virtual", "can: python-can interface (socketcan only where the kernel has CAN)"),
+    Parameter("can_channel", "bike_rig", "can: channel (e.g. can0, or a virtual bus name)"),
+    Parameter("can_bitrate", 0, "can: bit rate, bit/s (0 = the interface's setting)", (0, 8_000_000)),
+    Parameter("can_id", 0x100, "can: arbitration id of the gyro's frames", (0, 0x1FFFFFFF)),
+    Parameter("can_extended_id", False, "can: 29-bit id"),
+    Parameter("can_fd", False, "can: CAN FD frames (up to 64 bytes)"),
+    Parameter("sample_format", "int16", "can: sample encoding", choices=("int16", "int32", "float32")),
+    Parameter("byte_order", "little", "can: byte order of the samples", choices=("little", "big")),
+    Parameter("samples_per_frame", 4, "can: samples in each frame", (1, 64)),
+    Parameter("scale", 1e-4, "can: rad/s per count"),
+    Parameter("offset", 0.0, "can: rad/s added after scaling"),
+    Parameter("sample_rate_hz", 1000.0, "can/daq: the gyro's sample rate, Hz", (1e-3, 1e6)),
+    Parameter("can_simulated_gyro_period_s", 0.0,
+              "can, test/demo only: > 0 runs a simulated gyro of this period on the virtual bus in this process",
+              (0.0, 1e3)),  # fmt: skip
+    # daq
+    Parameter("daq_channel", "Dev1/ai0", "daq: NI-DAQmx physical channel"),
+    Parameter("daq_terminal", "differential", "daq: terminal configuration",
+              choices=("differential", "rse", "nrse", "pseudo_differential", "default")),  # fmt: skip
+    Parameter("daq_min_v", -5.0, "daq: input range low, V"),
+    Parameter("daq_max_v", 5.0, "daq: input range high, V"),
+    Parameter("daq_scale_v_per_rad_s", 1.1459156, "daq: gyro scale factor, V per rad/s"),
+    Parameter("daq_zero_rate_v", 2.5, "daq: gyro output at zero rate, V"),
+    Parameter("daq_buffer_s", 10.0, "daq: acquisition buffer, s", (0.01, 3600.0)),
+)
+
+
+def _descriptor(p: Parameter) -> Any:
+    desc = _rcl.ParameterDescriptor(description=p.description, read_only=True)
+    if p.choices:
+        desc.additional_constraints = "one of: " + ", ".join(p.choices)
+    if p.range is not None and isinstance(p.default, float):
+        desc.floating_point_range = [_rcl.FloatingPointRange(from_value=float(p.range[0]), to_value=float(p.range[1]))]
+    elif p.range is not None and isinstance(p.default, int) and not isinstance(p.default, bool):
+        desc.integer_range = [_rcl.IntegerRange(from_value=int(p.range[0]), to_value=int(p.range[1]), step=1)]
+    return desc
+
+
+def _as_array(values: FloatArray) -> array.array[float]:
+    out = array.array("d")
+    out.frombytes(np.ascontiguousarray(values, dtype=np.float64).tobytes())
+    return out
+
+
+@dataclass
+class _Trial:
+    """A trial being published: its batching state."""
+
+    info: TrialInfo
+    start_ns: int
+    published: int = 0
+    rates: list[FloatArray] = field(default_factory=list)
+    volts: list[FloatArray | None] = field(default_factory=list)
+    first: int = 0
+    buffered: int = 0
+
+
+class DriverNode(Node):
+    """The driver (see the module docstring); ``finished`` turns true to end the process."""
+
+    def __init__(self) -> None:
+        super().__init__(NODE_NAME)
+        self.values = self._declare()
+        self.batch_size = int(self.values["samples_per_batch"])
+        self.frame_id = str(self.values["frame_id"])
+        self.exit_when_done = bool(self.values["exit_when_done"])
+        self.wait_for = int(self.values["wait_for_subscribers"])
+        self.source: GyroSource = open_source(self.values["source"], self.values)
+        self.gyro_pub = self.create_publisher(_msgs.GyroBatch, GYRO.name, profile(GYRO))
+        self.events_pub = self.create_publisher(_msgs.TrialEvent, TRIAL_EVENTS.name, profile(TRIAL_EVENTS))
+        self.start_srv = self.create_service(_srvs.StartTrial, START_TRIAL, self._on_start_trial)
+        self.stop_srv = self.create_service(_srvs.StopTrial, STOP_TRIAL, self._on_stop_trial)
+        self.finished = False
+        self._trials: dict[str, _Trial] = {}
+        self._streaming = self.wait_for == 0
+        self._done_logged = False
+        self._errors = 0
+        self.trials_published = 0
+        self.samples_published = 0
+        self.timer = self.create_timer(float(self.values["poll_period_s"]), self._on_timer)
+        waiting = f"; waiting for {self.wait_for} gyro subscriber(s)" if self.wait_for else ""
+        self.get_logger().info(f"driver ready: {self.source.describe()}{waiting}")
+
+    def _declare(self) -> dict[str, Any]:
+        values: dict[str, Any] = {}
+        for p in PARAMETERS:
+            try:
+                value = self.declare_parameter(p.name, p.default, _descriptor(p)).value
+            except InvalidParameterTypeException:
+                kind = type(p.default).__name__.replace("float", "double (e.g. 20.0)").replace("str", "string")
+                raise SourceConfigError("driver", p.name, f"expected a {kind}", where="driver") from None
+            except InvalidParameterValueException:
+                low, high = p.range or (float("nan"), float("nan"))
+                reason = f"must be within [{low:g}, {high:g}]"
+                raise SourceConfigError("driver", p.name, reason, where="driver") from None
+            if p.choices and value not in p.choices:
+                raise SourceConfigError("driver", p.name, f"expected one of {', '.join(p.choices)}", value,
+                                        where="driver")  # fmt: skip
+            values[p.name] = value
+        return values
+
+    # ------------------------------------------------------------------ timer
+    def _on_timer(self) -> None:
+        try:
+            if not self._streaming:
+                if self.gyro_pub.get_subscription_count() < self.wait_for:
+                    return
+                self._streaming = True
+                self.get_logger().info(f"{self.gyro_pub.get_subscription_count()} gyro subscriber(s): streaming")
+            self._publish_events(self.source.poll())
+            if self.source.finished and not self._done_logged:
+                self._done_logged = True
+                self.get_logger().info(
+                    f"plan finished: {self.trials_published} trials, {self.samples_published} samples published"
+                    + ("; exiting" if self.exit_when_done else "; still serving the topics' history")
+                )
+                if self.exit_when_done:
+                    self._wait_for_acks()
+                    self.finished = True
+        except SourceError as exc:
+            self._errors += 1
+            if self._errors in (1, 10, 100) or self._errors % 1000 == 0:
+                self.get_logger().error(f"{exc} (error {self._errors})")
+        except Exception as exc:  # a callback must never raise: log and keep running
+            self._errors += 1
+            if self._errors in (1, 10, 100) or self._errors % 1000 == 0:
+                self.get_logger().error(f"reading the {self.source.name} source failed: {exc!r}")
+
+    def _wait_for_acks(self) -> None:
+        timeout = Duration(seconds=ACK_TIMEOUT_S)
+        for pub in (self.events_pub, self.gyro_pub):
+            if pub.get_subscription_count() and not pub.wait_for_all_acked(timeout):
+                self.get_logger().warning(f"{pub.topic_name}: unacknowledged after {ACK_TIMEOUT_S} s")
+
+    # ------------------------------------------------------------------ publishing
+    def _publish_events(self, events: list[SourceEvent]) -> None:
+        for ev in events:
+            if isinstance(ev, SampleBlock):
+                self._on_block(ev)
+            elif isinstance(ev, TrialStarted):
+                self._on_started(ev)
+            elif isinstance(ev, TrialStopped):
+                self._on_stopped(ev)
+
+    def _event(self, info: TrialInfo, kind: int, stamp_ns: int, sample_count: int = 0) -> Any:
+        msg = _msgs.TrialEvent()
+        msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(stamp_ns, 1_000_000_000)
+        msg.header.frame_id = self.frame_id
+        msg.kind = kind
+        msg.trial_id = info.trial_id
+        msg.part = info.part
+        msg.pendulum = info.pendulum
+        msg.orientation = info.orientation
+        msg.repeat = info.repeat
+        msg.measurement_key = info.measurement_key
+        msg.sample_rate_hz = float(info.sample_rate_hz)
+        msg.sample_count = sample_count
+        msg.note = info.note
+        return msg
+
+    def _on_started(self, ev: TrialStarted) -> None:
+        if ev.info.trial_id in self._trials:
+            self.get_logger().warning(f"trial {ev.info.trial_id} started twice; the second START is ignored")
+            return
+        self._trials[ev.info.trial_id] = _Trial(ev.info, ev.stamp_ns)
+        self.events_pub.publish(self._event(ev.info, _msgs.TrialEvent.START, ev.stamp_ns))
+        self.get_logger().info(f"trial {ev.info.trial_id} ({ev.info.measurement_key}) started")
+
+    def _on_block(self, block: SampleBlock) -> None:
+        t = self._trials.get(block.trial_id)
+        if t is None:
+            self.get_logger().warning(f"samples of trial {block.trial_id!r}, which has not started, dropped")
+            return
+        if t.buffered and block.first_index != t.first + t.buffered:
+            self._flush(t)  # a gap: the next batch starts at the block's own index
+        if not t.buffered:
+            t.first = block.first_index
+        t.rates.append(block.rates)
+        t.volts.append(block.raw_volts)
+        t.buffered += block.rates.size
+        if t.buffered >= self.batch_size:
+            rates = np.concatenate(t.rates)
+            volts = None if any(v is None for v in t.volts) else np.concatenate([v for v in t.volts if v is not None])
+            full = (t.buffered // self.batch_size) * self.batch_size
+            for a in range(0, full, self.batch_size):
+                self._publish_batch(t, t.first + a, rates[a : a + self.batch_size],
+                                    None if volts is None else volts[a : a + self.batch_size])  # fmt: skip
+            t.rates = [rates[full:]] if full < rates.size else []
+            t.volts = [None if volts is None else volts[full:]] if full < rates.size else []
+            t.first += full
+            t.buffered -= full
+
+    def _flush(self, t: _Trial) -> None:
+        if not t.buffered:
+            return
+        rates = np.concatenate(t.rates)
+        volts = None if any(v is None for v in t.volts) else np.concatenate([v for v in t.volts if v is not None])
+        self._publish_batch(t, t.first, rates, volts)
+        t.rates, t.volts, t.first, t.buffered = [], [], t.first + t.buffered, 0
+
+    def _publish_batch(self, t: _Trial, first: int, rates: FloatArray, volts: FloatArray | None) -> None:
+        msg = _msgs.GyroBatch()
+        stamp = sample_stamp_ns(t.start_ns, first, t.info.sample_rate_hz)
+        msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(stamp, 1_000_000_000)
+        msg.header.frame_id = self.frame_id
+        msg.trial_id = t.info.trial_id
+        msg.first_index = first
+        msg.sample_rate_hz = float(t.info.sample_rate_hz)
+        msg.rates = _as_array(rates)
+        if volts is not None:
+            msg.raw_volts = _as_array(volts)
+        self.gyro_pub.publish(msg)
+        t.published += rates.size
+        self.samples_published += rates.size
+
+    def _on_stopped(self, ev: TrialStopped) -> None:
+        t = self._trials.pop(ev.trial_id, None)
+        if t is None:
+            self.get_logger().warning(f"STOP of trial {ev.trial_id!r}, which has not started, dropped")
+            return
+        self._flush(t)
+        kind = _msgs.TrialEvent.ABORT if ev.aborted else _msgs.TrialEvent.STOP
+        self.events_pub.publish(self._event(t.info, kind, ev.stamp_ns, ev.sample_count))
+        self.trials_published += 1
+        how = "aborted" if ev.aborted else "stopped"
+        self.get_logger().info(f"trial {ev.trial_id} {how}: {t.published} samples published")
+        if t.published != ev.sample_count:
+            self.get_logger().warning(
+                f"trial {ev.trial_id}: {t.published} samples published, the source reports {ev.sample_count}"
+            )
+
+    # ------------------------------------------------------------------ services
+    def _on_start_trial(self, request: Any, response: Any) -> Any:
+        try:
+            info = self.source.start_trial(
+                TrialRequest(
+                    part=request.part,
+                    pendulum=request.pendulum,
+                    orientation=int(request.orientation),
+                    repeat=int(request.repeat),
+                    measurement_key=request.measurement_key,
+                    duration_s=float(request.duration_s),
+                    note=request.note,
+                )
+            )
+            response.accepted, response.trial_id = True, info.trial_id
+            duration = f"{request.duration_s:g} s" if request.duration_s > 0 else "until stopped"
+            response.message = f"recording trial {info.trial_id} ({info.measurement_key}), {duration}"
+            self.get_logger().info(response.message)
+        except TrialRequestError as exc:
+            response.accepted, response.message = False, str(exc)
+        except Exception as exc:  # never raise out of a callback
+            response.accepted, response.message = False, f"start failed: {exc!r}"
+            self.get_logger().error(response.message)
+        return response
+
+    def _on_stop_trial(self, request: Any, response: Any) -> Any:
+        try:
+            stopped = self.source.stop_trial(request.trial_id, bool(request.abort))
+            self._publish_events(self.source.poll())  # the STOP goes out before the response
+            response.accepted = True
+            how = "aborted" if stopped.aborted else "stopped"
+            response.message = f"trial {stopped.trial_id} {how} after {stopped.sample_count} samples"
+        except TrialRequestError as exc:
+            response.accepted, response.message = False, str(exc)
+        except Exception as exc:
+            response.accepted, response.message = False, f"stop failed: {exc!r}"
+            self.get_logger().error(response.message)
+        return response
+
+    def close(self) -> None:
+        """Release the source (called by the runner on the way out)."""
+        self.source.close()
+
+
+def main(args: list[str] | None = None) -> int:
+    """Run the driver node (``--ros-args --params-file config/driver.yaml`` and ``-p`` work)."""
+    from .runner import run_node
+
+    return run_node(DriverNode, args)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,270 @@
+"""The driver node as a real process on the run's own domain: a simulated session, a CAN gyro
+(simulated inside the driver's process: python-can's virtual bus does not cross processes)
+driven through the StartTrial/StopTrial services, a recorded bag; and bad parameters, which end
+the process with one line and status 2.
+
+The test process watches the topics with an rclpy node of its own (:class:`Probe`, its own
+context, the same domain, LOCALHOST discovery) and waits for messages, never for time.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import subprocess
+import sys
+import time
+import uuid
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+import rclpy
+from rclpy.context import Context
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.signals import SignalHandlerOptions
+
+from bike_rig.nodes.fitter import fit_trial
+from bike_rig.nodes.qos import profile
+from bike_rig.paths import config_file
+from bike_rig.topics import GYRO, START_TRIAL, STOP_TRIAL, TRIAL_EVENTS, Topic
+from test.ros.processes import RosProcess
+from test.sources.support import small_session
+from test.sources.test_bag import RATE as BAG_RATE
+from test.sources.test_bag import recorded_session
+
+pytestmark = pytest.mark.ros
+
+msgs: Any = pytest.importorskip("bike_rig_msgs.msg")
+srvs: Any = pytest.importorskip("bike_rig_msgs.srv")
+
+STEP_TIMEOUT_S = 60.0
+START_S = 1_700_000_000.0
+START, STOP, ABORT = 0, 1, 2
+
+
+def node_command(module: str, *parameters: str, params_file: str | None = None) -> list[str]:
+    """``python -m MODULE --ros-args [--params-file F] -p ...``."""
+    cmd = [sys.executable, "-m", module, "--ros-args"]
+    if params_file:
+        cmd += ["--params-file", params_file]
+    for p in parameters:
+        cmd += ["-p", p]
+    return cmd
+
+
+class Probe:
+    """An rclpy node in the test process, in its own context on the run's domain."""
+
+    def __init__(self, domain_id: int):
+        self.context = Context()
+        rclpy.init(context=self.context, domain_id=domain_id, signal_handler_options=SignalHandlerOptions.NO)
+        self.node = rclpy.create_node(f"probe_{uuid.uuid4().hex[:8]}", context=self.context)
+        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor.add_node(self.node)
+        self.received: dict[str, list[Any]] = {}
+
+    def subscribe(self, topic: Topic, msg_type: Any) -> list[Any]:
+        """Keep every message of ``topic`` (reliable, transient-local, as the contract says)."""
+        got = self.received.setdefault(topic.name, [])
+        self.node.create_subscription(msg_type, topic.name, got.append, profile(topic))
+        return got
+
+    def publisher(self, topic: Topic, msg_type: Any) -> Any:
+        """A publisher with the topic's QoS."""
+        return self.node.create_publisher(msg_type, topic.name, profile(topic))
+
+    def spin_until(self, condition: Callable[[], bool], timeout: float, what: str,
+                   describe: Callable[[], str] = lambda: "") -> None:  # fmt: skip
+        """Spin until ``condition()``; fail after ``timeout`` s."""
+        deadline = time.monotonic() + timeout
+        while not condition():
+            if time.monotonic() > deadline:
+                raise AssertionError(f"no {what} within {timeout} s\n{describe()}")
+            self.executor.spin_once(timeout_sec=0.02)
+
+    def call(self, client: Any, request: Any, timeout: float = STEP_TIMEOUT_S) -> Any:
+        """A service call, waiting for the service first."""
+        self.spin_until(client.service_is_ready, timeout, f"service {client.srv_name}")
+        future = client.call_async(request)
+        self.spin_until(future.done, timeout, f"response of {client.srv_name}")
+        return future.result()
+
+    def close(self) -> None:
+        self.executor.shutdown()
+        self.node.destroy_node()
+        rclpy.shutdown(context=self.context)
+
+
+@contextlib.contextmanager
+def open_probe(ros_env: dict[str, str], ros_domain_id: int, monkeypatch: pytest.MonkeyPatch) -> Iterator[Probe]:
+    """A :class:`Probe` with this process's ROS variables set as the run's (LOCALHOST discovery,
+    the run's domain) for its lifetime."""
+    for key in ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_DOMAIN_ID", "RMW_IMPLEMENTATION"):
+        monkeypatch.setenv(key, ros_env[key])
+    monkeypatch.delenv("ROS_LOCALHOST_ONLY", raising=False)
+    p = Probe(ros_domain_id)
+    try:
+        yield p
+    finally:
+        p.close()
+
+
+@pytest.fixture
+def probe(ros_env: dict[str, str], ros_domain_id: int, monkeypatch: pytest.MonkeyPatch) -> Iterator[Probe]:
+    """The test's own ROS node."""
+    with open_probe(ros_env, ros_domain_id, monkeypatch) as p:
+        yield p
+
+
+def stamp_ns(msg: Any) -> int:
+    return int(msg.header.stamp.sec) * 1_000_000_000 + int(msg.header.stamp.nanosec)
+
+
+def by_trial(batches: list[Any]) -> dict[str, list[Any]]:
+    out: dict[str, list[Any]] = {}
+    for b in batches:
+        out.setdefault(b.trial_id, []).append(b)
+    return out
+
+
+def wait_exit(proc: RosProcess, timeout: float = STEP_TIMEOUT_S) -> int:
+    try:
+        return proc.proc.wait(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        raise AssertionError(f"{proc.name} did not exit within {timeout} s\n{proc.describe()}") from None
+
+
+def test_sim_session_is_published_trial_by_trial_in_rig_time(
+    probe: Probe, ros_env: dict[str, str], tmp_path: Path
+) -> None:
+    session, path = small_session(tmp_path)
+    events = probe.subscribe(TRIAL_EVENTS, msgs.TrialEvent)
+    batches = probe.subscribe(GYRO, msgs.GyroBatch)
+    pause = 0.1
+    cmd = node_command(
+        "bike_rig.nodes.driver", "source:=sim", f"session:={path}", "time_scale:=50.0",
+        f"pause_between_trials_s:={pause}", f"start_time_s:={START_S}", "wait_for_subscribers:=1",
+        "exit_when_done:=true", params_file=str(config_file("driver.yaml")),
+    )  # fmt: skip
+    n_trials = len(session.trials)
+    with RosProcess("driver", cmd, ros_env, tmp_path) as driver:
+        probe.spin_until(lambda: sum(e.kind == STOP for e in events) == n_trials, STEP_TIMEOUT_S,
+                         "STOP of every trial", driver.describe)  # fmt: skip
+        total = sum(t.rate.size for t in session.trials)
+        probe.spin_until(lambda: sum(len(b.rates) for b in batches) == total, STEP_TIMEOUT_S, "every sample",
+                         driver.describe)  # fmt: skip
+        assert wait_exit(driver) == 0, driver.describe()  # exit_when_done, after the acks
+    log = driver.stderr_path.read_text()
+    assert f"plan finished: {n_trials} trials, {total} samples published; exiting" in log
+
+    starts = [e for e in events if e.kind == START]
+    stops = [e for e in events if e.kind == STOP]
+    assert [e.trial_id for e in starts] == [e.trial_id for e in stops] == [t.name for t in session.trials]
+    grouped = by_trial(batches)
+    expected_start = round(START_S * 1e9)
+    for start, stop, truth in zip(starts, stops, session.trials):
+        n = truth.rate.size
+        assert start.measurement_key == stop.measurement_key == truth.key
+        assert start.sample_rate_hz == 1000.0 and start.sample_count == 0 and stop.sample_count == n
+        assert stamp_ns(start) == expected_start
+        assert stamp_ns(stop) == expected_start + round(n * 1e6)
+        got = grouped[truth.name]
+        assert [b.first_index for b in got] == list(range(0, n, 50))
+        assert all(len(b.rates) == 50 and b.sample_rate_hz == 1000.0 for b in got)
+        assert [stamp_ns(b) for b in got] == [expected_start + round(i * 1e6) for i in range(0, n, 50)]
+        assert np.array_equal(np.concatenate([np.asarray(b.rates) for b in got]), truth.rate)  # bit for bit
+        assert np.array_equal(np.concatenate([np.asarray(b.raw_volts) for b in got]), truth.volts)
+        expected_start = stamp_ns(stop) + round(pause * 1e9)
+
+
+def test_can_gyro_trials_through_the_services(probe: Probe, ros_env: dict[str, str], tmp_path: Path) -> None:
+    events = probe.subscribe(TRIAL_EVENTS, msgs.TrialEvent)
+    batches = probe.subscribe(GYRO, msgs.GyroBatch)
+    period = 0.8
+    cmd = node_command(
+        "bike_rig.nodes.driver", "source:=can", "can_interface:=virtual", f"can_channel:=test-{uuid.uuid4().hex[:8]}",
+        "can_id:=42", "sample_format:=int16", "byte_order:=big", "samples_per_frame:=4", "scale:=1.0e-5",
+        "sample_rate_hz:=1000.0", f"can_simulated_gyro_period_s:={period}", "time_scale:=10.0",
+    )  # fmt: skip
+    start_client = probe.node.create_client(srvs.StartTrial, START_TRIAL)
+    stop_client = probe.node.create_client(srvs.StopTrial, STOP_TRIAL)
+
+    def start(duration_s: float, orientation: int = 1) -> Any:
+        request = srvs.StartTrial.Request(part="fork", pendulum="torsional", orientation=orientation,
+                                          duration_s=duration_s, note="test")  # fmt: skip
+        return probe.call(start_client, request)
+
+    with RosProcess("driver", cmd, ros_env, tmp_path) as driver:
+        first = start(8.0)
+        assert first.accepted and first.trial_id == "fork_torsional_o1_t1", first.message
+        busy = start(1.0, orientation=2)
+        assert not busy.accepted and "fork_torsional_o1_t1 is running" in busy.message
+        probe.spin_until(lambda: any(e.kind == STOP for e in events), STEP_TIMEOUT_S, "the STOP", driver.describe)
+        second = start(0.0, orientation=2)  # until stopped
+        assert second.accepted and second.trial_id == "fork_torsional_o2_t1"
+        probe.spin_until(lambda: any(b.trial_id == second.trial_id for b in batches), STEP_TIMEOUT_S, "samples")
+        stopped = probe.call(stop_client, srvs.StopTrial.Request(trial_id=second.trial_id, abort=True))
+        assert stopped.accepted and "aborted" in stopped.message
+        probe.spin_until(lambda: any(e.kind == ABORT for e in events), STEP_TIMEOUT_S, "the ABORT")
+        again = probe.call(stop_client, srvs.StopTrial.Request(trial_id="", abort=False))
+        assert not again.accepted and "no trial is running" in again.message
+        assert driver.proc.poll() is None
+    assert driver.proc.returncode == 0, driver.describe()
+
+    start_ev = next(e for e in events if e.kind == START and e.trial_id == first.trial_id)
+    stop_ev = next(e for e in events if e.kind == STOP)
+    assert (start_ev.measurement_key, start_ev.note, stop_ev.sample_count) == ("TtH1", "test", 8000)
+    mine = [b for b in batches if b.trial_id == first.trial_id]
+    result = fit_trial(mine, start_ev, stop_ev)
+    truth = period / math.sqrt(1 - 0.001**2)
+    assert result.n_samples == 8000 and result.flags == ()
+    assert abs(result.period - truth) < 3 * result.period_sigma, (result.period, truth, result.period_sigma)
+    abort_ev = next(e for e in events if e.kind == ABORT)
+    assert abort_ev.sample_count == sum(len(b.rates) for b in batches if b.trial_id == second.trial_id) > 0
+
+
+def test_bag_replay_publishes_the_recorded_trials(probe: Probe, ros_env: dict[str, str], tmp_path: Path) -> None:
+    bag, a, b = recorded_session(tmp_path)
+    events = probe.subscribe(TRIAL_EVENTS, msgs.TrialEvent)
+    batches = probe.subscribe(GYRO, msgs.GyroBatch)
+    cmd = node_command("bike_rig.nodes.driver", "source:=bag", f"bag:={bag}", "time_scale:=100.0",
+                       "wait_for_subscribers:=1")  # fmt: skip
+    with RosProcess("driver", cmd, ros_env, tmp_path) as driver:
+        probe.spin_until(lambda: len(events) == 4 and sum(len(x.rates) for x in batches) == 180, STEP_TIMEOUT_S,
+                         "the recorded trials", driver.describe)  # fmt: skip
+        probe.spin_until(lambda: "plan finished" in driver.stderr_path.read_text(), STEP_TIMEOUT_S, "the end")
+        assert driver.proc.poll() is None  # still serving the history
+    assert driver.proc.returncode == 0, driver.describe()
+    assert [(e.kind, e.trial_id, e.sample_count) for e in events] == [(0, "t1", 0), (1, "t1", 123), (0, "t2", 0),
+                                                                      (2, "t2", 60)]  # fmt: skip
+    grouped = by_trial(batches)
+    assert [(x.first_index, len(x.rates)) for x in grouped["t1"]] == [(0, 50), (50, 50), (100, 20)]
+    assert np.array_equal(np.concatenate([np.asarray(x.rates) for x in grouped["t1"]]), a)
+    assert np.array_equal(np.concatenate([np.asarray(x.rates) for x in grouped["t2"]]), b)
+    assert np.array_equal(np.concatenate([np.asarray(x.raw_volts) for x in grouped["t2"]]), 2.5 + b / 3)
+    assert all(x.sample_rate_hz == BAG_RATE for x in batches)
+
+
+@pytest.mark.parametrize(
+    ("parameters", "message"),
+    [
+        (["source:=nope"], "driver: parameter 'source' = 'nope': expected one of sim, can, bag, daq"),
+        (["source:=sim", "session:=/nowhere/session.yaml"],
+         "sim source: parameter 'session' = '/nowhere/session.yaml': no such file"),
+        (["source:=sim", "time_scale:=20"], "driver: parameter 'time_scale': expected a double (e.g. 20.0)"),
+        (["source:=sim", "time_scale:=5000.0"], "driver: parameter 'time_scale': must be within [0.001, 1000]"),
+        (["source:=can", "samples_per_frame:=8"],
+         "can source: parameter 'samples_per_frame' = 8: 16 bytes of int16 exceed a classic frame's 8 (set can_fd)"),
+        (["source:=daq"], "daq source: parameter 'source' = 'daq': the daq source needs the 'nidaqmx' package"),
+    ],
+)  # fmt: skip
+def test_bad_parameters_end_in_one_line(parameters: list[str], message: str, ros_env: dict[str, str]) -> None:
+    cmd = node_command("bike_rig.nodes.driver", *parameters, params_file=str(config_file("driver.yaml")))
+    done = subprocess.run(["timeout", "-k", "5", "60", *cmd], env=ros_env, capture_output=True, text=True, timeout=90)
+    assert done.returncode == 2, done.stderr
+    lines = done.stderr.strip().splitlines()
+    assert len(lines) == 1 and message in lines[0], done.stderr
+    assert "Traceback" not in done.stderr

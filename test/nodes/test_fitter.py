@@ -1,0 +1,421 @@
+"""The fitter: its ROS-free assembly and fit (``fit_trial``, what the replay uses) and its
+bookkeeping (``FitterState``); then the node as a real process: behind a real driver process
+every trial of a small simulated session gets a PeriodEstimate identical to ``fit_trial`` on the
+same samples; bad input from a test publisher is logged and flagged and the node keeps serving;
+after a restart it re-fits the trial in progress from the transient-local history."""
+
+from __future__ import annotations
+
+import json
+import math
+import struct
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from types import SimpleNamespace
+from typing import Any
+
+import numpy as np
+import pytest
+
+from bike_rig.core.period import FitOptions, WindowPolicy, fit_period
+from bike_rig.nodes.fitter import FitterState, TrialFit, TrialFitOptions, fit_trial
+from bike_rig.paths import config_file
+from bike_rig.topics import GYRO, PERIODS, TRIAL_EVENTS
+from test.nodes.test_driver import STEP_TIMEOUT_S, Probe, msgs, node_command, open_probe
+from test.ros.processes import RosProcess
+from test.sources.support import small_session
+
+RATE = 1000.0
+N = 8000
+T0 = 1_700_000_000_000_000_000
+
+
+# ---------------------------------------------------------------------- ROS-free
+
+
+@dataclass
+class Stamp:
+    sec: int = 0
+    nanosec: int = 0
+
+
+@dataclass
+class Header:
+    stamp: Stamp = field(default_factory=Stamp)
+
+
+@dataclass
+class Batch:
+    trial_id: str
+    first_index: int
+    rates: np.ndarray
+    sample_rate_hz: float = RATE
+    header: Header = field(default_factory=Header)
+
+
+def event(kind: int, trial_id: str = "t", count: int = 0, key: str = "TtB1", ns: int = T0) -> Any:
+    header = Header(Stamp(ns // 1_000_000_000, ns % 1_000_000_000))
+    return SimpleNamespace(kind=kind, trial_id=trial_id, measurement_key=key, sample_rate_hz=RATE,
+                           sample_count=count, header=header)  # fmt: skip
+
+
+def signal(n: int = N, period: float = 1.0, seed: int = 1) -> np.ndarray:
+    t = np.arange(n) / RATE
+    rng = np.random.default_rng(seed)
+    return 0.05 * np.exp(-0.006 * t) * np.sin(2 * np.pi * t / period + 0.4) + 0.01 + 1e-4 * rng.standard_normal(n)
+
+
+def batches_of(rates: np.ndarray, trial_id: str = "t", size: int = 50) -> list[Batch]:
+    return [Batch(trial_id, a, rates[a : a + size]) for a in range(0, rates.size, size)]
+
+
+def same(a: float, b: float) -> bool:
+    """Identical floats (NaN equals NaN)."""
+    return struct.pack("<d", a) == struct.pack("<d", b)
+
+
+def test_a_clean_trial_is_fit_period_of_its_samples() -> None:
+    rates = signal()
+    result = fit_trial(batches_of(rates), event(0, count=0), event(1, count=N))
+    direct = fit_period(rates, sample_rate_hz=RATE)
+    assert result.valid and result.flags == () and result.flag_reasons == ()
+    assert same(result.period, direct.period) and same(result.period_sigma, direct.period_sigma)
+    assert (result.n_samples, result.n_expected) == (N, N)
+    assert (result.window_start, result.window_stop) == direct.window
+    assert result.measurement_key == "TtB1" and result.stamp_ns == T0
+    assert abs(result.period - 1.0) < 5 * result.period_sigma
+
+
+def test_order_and_duplicates_do_not_matter() -> None:
+    rates = signal()
+    batches = batches_of(rates)
+    shuffled = list(batches)
+    np.random.default_rng(3).shuffle(shuffled)  # type: ignore[arg-type]
+    shuffled += batches[:7]  # duplicates, ignored
+    a = fit_trial(batches, event(0), event(1, count=N))
+    b = fit_trial(shuffled, event(0), event(1, count=N))
+    assert same(a.period, b.period) and a.flags == b.flags == () and b.n_samples == N
+
+
+def test_gaps_are_flagged_and_fitted_on_the_true_times() -> None:
+    rates = signal()
+    kept = [b for b in batches_of(rates) if b.first_index not in (1000, 1050, 4000)]
+    result = fit_trial(kept, event(0), event(1, count=N + 0))
+    assert result.flags[0] == "gap"
+    assert "150 samples missing in 2 gap(s): [1000, 1100), [4000, 4050)" in result.flag_reasons[0]
+    index = np.concatenate([np.arange(b.first_index, b.first_index + 50) for b in kept])
+    direct = fit_period(np.concatenate([b.rates for b in kept]), times=index / RATE)
+    assert same(result.period, direct.period) and result.n_samples == N - 150
+    lost_end = fit_trial(batches_of(rates)[:-2], event(0), event(1, count=N))
+    assert lost_end.flags[0] == "gap" and "[7900, 8000)" in lost_end.flag_reasons[0]
+
+
+def test_oversized_truncated_and_non_finite() -> None:
+    rates = signal()
+    options = TrialFitOptions(max_trial_samples=6000, max_batch_samples=100)
+    batches = batches_of(rates)
+    batches.insert(5, Batch("t", 20_000, np.zeros(500)))
+    batches[10].rates = batches[10].rates.copy()
+    batches[10].rates[3] = math.nan
+    result = fit_trial(batches, event(0), event(1, count=N), options)
+    assert result.flags[:2] == ("oversized_batch", "truncated")
+    reason = "1 batch(es) larger than max_batch_samples 100 rejected (first: 500 samples at index 20000)"
+    assert reason in result.flag_reasons[0]
+    assert "2000 samples dropped" in result.flag_reasons[1]
+    assert "non_finite" in result.flags and result.n_samples == 6000 and result.valid
+    assert json.loads(result.fit_options_json)["max_trial_samples"] == 6000
+
+
+def test_missing_events_and_disagreeing_rates() -> None:
+    rates = signal()
+    assert fit_trial(batches_of(rates), None, event(1, count=N)).flags[0] == "no_start"
+    assert fit_trial(batches_of(rates), event(0), None).flags[0] == "no_stop"
+    ghost = fit_trial(batches_of(rates, "ghost")[:3], None, None)
+    assert ghost.flags[0] == "unknown_trial" and ghost.trial_id == "ghost" and not ghost.valid
+    assert fit_trial(batches_of(rates), event(0), event(2, count=N)).flags[0] == "aborted"
+    odd = batches_of(rates)
+    odd[4].sample_rate_hz = 999.0
+    mismatch = fit_trial(odd, event(0), event(1, count=N))
+    assert mismatch.flags[0] == "rate_mismatch" and "999, 1000 Hz" in mismatch.flag_reasons[0]
+    empty = fit_trial([], event(0), event(1, count=0))
+    assert not empty.valid and empty.n_samples == 0 and "empty" in empty.flags
+
+
+def test_options_round_trip_through_json() -> None:
+    options = TrialFitOptions(FitOptions(WindowPolicy.span(0.5, 7.25, whole_cycles=False), 3.0, 0.8, 0.1, 0.25),
+                              1234, 56)  # fmt: skip
+    assert TrialFitOptions.from_json(options.to_json()) == options
+    assert TrialFitOptions.from_json(TrialFitOptions().to_json()) == TrialFitOptions()
+
+
+class Log:
+    def __init__(self) -> None:
+        self.lines: list[str] = []
+
+    def info(self, message: str) -> None:
+        self.lines.append("I " + message)
+
+    def warning(self, message: str) -> None:
+        self.lines.append("W " + message)
+
+
+class Clock:
+    def __init__(self) -> None:
+        self.now = 0.0
+
+    def __call__(self) -> float:
+        return self.now
+
+
+def state(**kw: Any) -> tuple[FitterState, Log, Clock]:
+    log, clock = Log(), Clock()
+    return FitterState(TrialFitOptions(), log, clock=clock, **{"grace_s": 1.0, **kw}), log, clock
+
+
+def feed(s: FitterState, batches: Sequence[Batch]) -> list[TrialFit]:
+    out: list[TrialFit] = []
+    for b in batches:
+        out += s.on_batch(b, T0 + round(b.first_index * 1e6))
+    return out
+
+
+def test_state_fits_on_stop_whatever_the_order_of_the_two_topics() -> None:
+    rates = signal()
+    s, log, clock = state()
+    batches = batches_of(rates)
+    assert feed(s, batches[:10]) == []  # before the START: kept
+    assert s.on_event(event(0)) == []
+    assert feed(s, batches[10:-3]) == []
+    assert s.on_event(event(1, count=N)) == []  # STOP before the last batches: waits
+    done = feed(s, batches[-3:])
+    assert len(done) == 1 and same(done[0].period, fit_trial(batches, event(0), event(1, count=N)).period)
+    assert done[0].flags == () and not [line for line in log.lines if line.startswith("W")]
+    assert feed(s, batches[:1]) == []  # a late duplicate of a finished trial: ignored
+
+
+def test_state_gives_up_waiting_after_grace_and_reports_unknown_trials() -> None:
+    rates = signal()
+    s, log, clock = state()
+    s.on_event(event(0))
+    feed(s, batches_of(rates)[:-1])
+    assert s.on_event(event(1, count=N)) == []
+    feed(s, batches_of(rates, "ghost")[:2])
+    clock.now = 0.9
+    assert s.poll() == []
+    assert s.poll(live=False) == []
+    clock.now = 1.0
+    results = {r.trial_id: r for r in s.poll()}
+    assert results["t"].flags[0] == "gap" and results["ghost"].flags[0] == "unknown_trial"
+    assert any(line.startswith("W trial ghost (?): no period") and "unknown_trial" in line for line in log.lines)
+
+
+def test_state_bounds_the_open_trials() -> None:
+    s, log, _ = state(max_open_trials=2)
+    out = []
+    for i in range(3):
+        out += s.on_event(event(0, trial_id=f"t{i}"))
+        out += feed(s, batches_of(signal(200), f"t{i}"))
+    assert [r.trial_id for r in out] == ["t0"] and out[0].flags[0] == "no_stop"
+    assert "more than 2 trials without STOP" in log.lines[0]
+
+
+def test_state_does_not_republish_trials_older_than_the_gyro_history() -> None:
+    rates = signal()
+    s, log, clock = state()
+    # history after a restart: trial "old" lost its batches, "new" is complete
+    s.on_event(event(0, "old", ns=T0 - 10**10))
+    s.on_event(event(1, "old", count=N, ns=T0 - 2 * 10**9))
+    s.on_event(event(0, "new", ns=T0))
+    feed(s, batches_of(rates, "new"))
+    out = s.on_event(event(1, "new", count=N, ns=T0 + 8 * 10**9))
+    clock.now = 5.0
+    out += s.poll()
+    assert [r.trial_id for r in out] == ["new"] and s.suppressed == 1
+    assert any("old: began before the oldest gyro batch received" in line for line in log.lines)
+
+
+# ---------------------------------------------------------------------- real processes
+
+
+def expected_fields(result: TrialFit) -> dict[str, Any]:
+    return {k: getattr(result, k) for k in (
+        "trial_id", "measurement_key", "n_samples", "n_expected", "window_start", "window_stop", "valid",
+        "flags", "flag_reasons", "fit_options_json")}  # fmt: skip
+
+
+def assert_identical(estimate: Any, result: TrialFit) -> None:
+    """A PeriodEstimate equals a fit_trial result: every float bit for bit."""
+    for name in ("period", "period_sigma", "zeta", "omega", "r2", "residual_rms"):
+        assert same(getattr(estimate, name), getattr(result, name)), (result.trial_id, name)
+    got = {k: getattr(estimate, k) for k in expected_fields(result)}
+    got["flags"], got["flag_reasons"] = tuple(got["flags"]), tuple(got["flag_reasons"])
+    assert got == expected_fields(result)
+    assert estimate.header.stamp.sec * 1_000_000_000 + estimate.header.stamp.nanosec == result.stamp_ns
+
+
+def test_every_trial_of_a_session_through_driver_and_fitter(
+    probe: Probe, ros_env: dict[str, str], tmp_path: Path
+) -> None:
+    session, path = small_session(tmp_path)
+    periods = probe.subscribe(PERIODS, msgs.PeriodEstimate)
+    fitter_cmd = node_command("bike_rig.nodes.fitter", params_file=str(config_file("fitter.yaml")))
+    driver_cmd = node_command(
+        "bike_rig.nodes.driver", "source:=sim", f"session:={path}", "time_scale:=50.0",
+        "pause_between_trials_s:=0.1", "start_time_s:=1700000000.0", "wait_for_subscribers:=1",
+        params_file=str(config_file("driver.yaml")),
+    )  # fmt: skip
+    with RosProcess("fitter", fitter_cmd, ros_env, tmp_path) as fitter, \
+            RosProcess("driver", driver_cmd, ros_env, tmp_path) as driver:
+        probe.spin_until(lambda: len(periods) == len(session.trials), STEP_TIMEOUT_S, "every trial's period",
+                         lambda: fitter.describe() + driver.describe())  # fmt: skip
+        assert fitter.proc.poll() is None and driver.proc.poll() is None
+    assert (fitter.proc.returncode, driver.proc.returncode) == (0, 0)
+
+    options = TrialFitOptions.from_json(periods[0].fit_options_json)
+    assert options == TrialFitOptions()  # config/fitter.yaml holds the defaults
+    start_ns = T0
+    for estimate, truth in zip(periods, session.trials):
+        n = truth.rate.size
+        stop_ns = start_ns + round(n * 1e6)
+        start = SimpleNamespace(kind=0, trial_id=truth.name, measurement_key=truth.key, sample_rate_hz=RATE,
+                                sample_count=0, header=Header(Stamp(*divmod(start_ns, 10**9))))  # fmt: skip
+        stop = SimpleNamespace(kind=1, trial_id=truth.name, measurement_key=truth.key, sample_rate_hz=RATE,
+                               sample_count=n, header=Header(Stamp(*divmod(stop_ns, 10**9))))  # fmt: skip
+        expected = fit_trial(batches_of(truth.rate, truth.name), start, stop, options)
+        assert_identical(estimate, expected)
+        assert estimate.n_samples == estimate.n_expected == n
+        start_ns = stop_ns + 100_000_000
+
+
+def synthetic_trial(trial_id: str, seed: int, n: int = N) -> tuple[Any, list[Any], Any]:
+    """START, GyroBatch messages and STOP of a clean trial, as rclpy messages."""
+    rates = signal(n, seed=seed)
+    start = msgs.TrialEvent(kind=0, trial_id=trial_id, part="frame", pendulum="compound", measurement_key="TcB1",
+                            sample_rate_hz=RATE, sample_count=0)  # fmt: skip
+    batches = []
+    for a in range(0, n, 50):
+        b = msgs.GyroBatch(trial_id=trial_id, first_index=a, sample_rate_hz=RATE)
+        b.rates = rates[a : a + 50].tolist()
+        batches.append(b)
+    stop = msgs.TrialEvent(kind=1, trial_id=trial_id, part="frame", pendulum="compound", measurement_key="TcB1",
+                           sample_rate_hz=RATE, sample_count=n)  # fmt: skip
+    return start, batches, stop
+
+
+@pytest.fixture
+def probe(ros_env: dict[str, str], ros_domain_id: int, monkeypatch: pytest.MonkeyPatch) -> Iterator[Probe]:
+    """The test's own ROS node (see test_driver)."""
+    with open_probe(ros_env, ros_domain_id, monkeypatch) as p:
+        yield p
+
+
+@pytest.fixture
+def talker(probe: Probe) -> tuple[Probe, Any, Any, list[Any]]:
+    """The probe as a driver stand-in: publishers of events and batches, the periods received."""
+    events = probe.publisher(TRIAL_EVENTS, msgs.TrialEvent)
+    gyro = probe.publisher(GYRO, msgs.GyroBatch)
+    periods = probe.subscribe(PERIODS, msgs.PeriodEstimate)
+    return probe, events, gyro, periods
+
+
+def wait_matched(probe: Probe, fitter: RosProcess, *publishers: Any) -> None:
+    probe.spin_until(lambda: all(p.get_subscription_count() > 0 for p in publishers), STEP_TIMEOUT_S,
+                     "the fitter's subscriptions", fitter.describe)  # fmt: skip
+
+
+def test_bad_input_is_logged_flagged_and_the_fitter_keeps_serving(
+    talker: tuple[Probe, Any, Any, list[Any]], ros_env: dict[str, str], tmp_path: Path
+) -> None:
+    probe, events, gyro, periods = talker
+    cmd = node_command("bike_rig.nodes.fitter", "grace_s:=0.3", "max_batch_samples:=1000")
+    options = TrialFitOptions(max_batch_samples=1000)
+
+    def by_id(trial_id: str) -> Any:
+        probe.spin_until(lambda: any(p.trial_id == trial_id for p in periods), STEP_TIMEOUT_S,
+                         f"the period of {trial_id}", fitter.describe)  # fmt: skip
+        return next(p for p in periods if p.trial_id == trial_id)
+
+    with RosProcess("fitter", cmd, ros_env, tmp_path) as fitter:
+        wait_matched(probe, fitter, events, gyro)
+        # a batch with NaN
+        start, batches, stop = synthetic_trial("nan_trial", 1)
+        rates = list(batches[7].rates)
+        rates[11] = math.nan
+        batches[7].rates = rates
+        for m in (start, *batches, stop):
+            (events if isinstance(m, msgs.TrialEvent) else gyro).publish(m)
+        nan = by_id("nan_trial")
+        assert nan.valid and "non_finite" in nan.flags
+        assert_identical(nan, fit_trial(batches, start, stop, options))
+
+        # batches of a trial nobody announced
+        _, ghost, _ = synthetic_trial("ghost", 2, n=200)
+        for m in ghost:
+            gyro.publish(m)
+        assert list(by_id("ghost").flags)[:1] == ["unknown_trial"]
+
+        # a STOP without START
+        _, _, lonely = synthetic_trial("lonely", 3)
+        events.publish(lonely)
+        assert list(by_id("lonely").flags)[:2] == ["no_start", "gap"]
+
+        # an oversized batch (and a duplicate and a lost batch)
+        start, batches, stop = synthetic_trial("big", 4)
+        huge = msgs.GyroBatch(trial_id="big", first_index=2000, sample_rate_hz=RATE)
+        huge.rates = [0.0] * 5000
+        sent = [*batches[:30], huge, batches[12], *batches[31:]]  # batch 30 lost, 12 twice
+        for m in (start, *sent, stop):
+            (events if isinstance(m, msgs.TrialEvent) else gyro).publish(m)
+        big = by_id("big")
+        assert list(big.flags)[:2] == ["oversized_batch", "gap"] and big.n_samples == N - 50
+        assert "50 samples missing in 1 gap(s): [1500, 1550)" in big.flag_reasons[1]
+        assert_identical(big, fit_trial(sent, start, stop, options))
+
+        # and a good trial afterwards
+        start, batches, stop = synthetic_trial("good", 5)
+        for m in (start, *batches, stop):
+            (events if isinstance(m, msgs.TrialEvent) else gyro).publish(m)
+        good = by_id("good")
+        assert good.valid and list(good.flags) == [] and good.n_samples == N
+        assert_identical(good, fit_trial(batches, start, stop, options))
+        assert fitter.proc.poll() is None
+    assert fitter.proc.returncode == 0, fitter.describe()
+    log = fitter.stderr_path.read_text()
+    for line in ("trial nan_trial: 1 NaN/infinite samples in the batch at index 350",
+                 "trial ghost (?): no period, 200/0 samples; flags: unknown_trial",
+                 "trial lonely: STOP without START",
+                 "trial big: batch of 5000 samples at index 2000 rejected (max_batch_samples 1000)",
+                 "trial big: duplicate batch at index 600 ignored"):  # fmt: skip
+        assert line in log, log
+
+
+def test_a_restarted_fitter_refits_the_trial_in_progress(
+    talker: tuple[Probe, Any, Any, list[Any]], ros_env: dict[str, str], tmp_path: Path
+) -> None:
+    probe, events, gyro, periods = talker
+    cmd = node_command("bike_rig.nodes.fitter", "grace_s:=0.5")
+    done_a, batches_a, stop_a = synthetic_trial("a", 6)
+    start_b, batches_b, stop_b = synthetic_trial("b", 7)
+    with RosProcess("fitter1", cmd, ros_env, tmp_path) as fitter:
+        wait_matched(probe, fitter, events, gyro)
+        for m in (done_a, *batches_a, stop_a, start_b, *batches_b[:70]):
+            (events if isinstance(m, msgs.TrialEvent) else gyro).publish(m)
+        probe.spin_until(lambda: len(periods) == 1, STEP_TIMEOUT_S, "the period of a", fitter.describe)
+    assert fitter.proc.returncode == 0
+    for m in batches_b[70:120]:  # while no fitter runs
+        gyro.publish(m)
+    with RosProcess("fitter2", cmd, ros_env, tmp_path) as fitter:
+        wait_matched(probe, fitter, events, gyro)
+        for m in (*batches_b[120:], stop_b):
+            (events if isinstance(m, msgs.TrialEvent) else gyro).publish(m)
+        probe.spin_until(lambda: any(p.trial_id == "b" for p in periods), STEP_TIMEOUT_S, "the period of b",
+                         fitter.describe)  # fmt: skip
+    b = next(p for p in periods if p.trial_id == "b")
+    assert_identical(b, fit_trial(batches_b, start_b, stop_b))
+    assert b.n_samples == N and list(b.flags) == []
+    expected_a = fit_trial(batches_a, done_a, stop_a)
+    of_a = [p for p in periods if p.trial_id == "a"]  # the first fitter's, and the second's re-fit
+    assert len(of_a) >= 1
+    for estimate in of_a:
+        assert_identical(estimate, expected_a)
