@@ -10,6 +10,7 @@ import argparse
 import json
 import math
 import sys
+import time
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -157,7 +158,34 @@ def cmd_import_bp(args: argparse.Namespace) -> int:
 
 
 def cmd_demo(args: argparse.Namespace) -> int:
-    path = args.bicycle or str(config_file(DEFAULT_BICYCLE))
+    if args.offline:
+        return _demo_offline(args.bicycle or str(config_file(DEFAULT_BICYCLE)))
+    from ..demo import format_speed, run_demo
+
+    out = Path(args.out) if args.out else Path("bike_rig_demo") / time.strftime("%Y%m%d-%H%M%S")
+    result = run_demo(
+        out,
+        Path(args.bicycle) if args.bicycle else None,
+        seed=args.seed,
+        time_scale=args.time_scale,
+        progress=lambda line: print(line, flush=True),
+    )
+    ps = result.session.parameters
+    assert ps is not None
+    print()
+    print(fmt.parameter_table(ps))
+    print()
+    st = result.stability
+    print(f"weave speed:   {format_speed(st.weave)}")
+    print(f"capsize speed: {format_speed(st.capsize)}")
+    print()
+    redo = f"; trials to redo: {', '.join(sorted(result.invalid))}" if result.invalid else ""
+    print(f"{result.periods} of {result.trials} trials fitted live in {result.wall_s:.1f} s{redo}")
+    print(f"bag: {result.bag}  (bike-rig bag info {result.bag}; bike-rig replay {result.bag})")
+    return 0
+
+
+def _demo_offline(path: str) -> int:
     ps = _parameters(path, "centroid")
     ms = canonical_with_sigma(ps)
     cs = critical_speeds(ms.matrices, ms.g)
@@ -223,8 +251,15 @@ def build_parser() -> argparse.ArgumentParser:
     run_cmd.add_parser(sub)
     simulate_cmd.add_parser(sub)
 
-    q = sub.add_parser("demo", help="the default bicycle's parameters and stability")
-    q.add_argument("--bicycle", help="measurement file (default: config/bicycles/browser.yaml)")
+    q = sub.add_parser(
+        "demo",
+        help="a whole simulated rig session through the live ROS graph: parameters, stability, bag",
+    )
+    q.add_argument("--bicycle", help="the true bicycle (default: config/bicycles/browser.yaml)")
+    q.add_argument("--out", help="new directory for the session, bag and logs (default: ./bike_rig_demo/<time>)")
+    q.add_argument("--seed", type=int, default=1, help="seed of the simulated session (default 1)")
+    q.add_argument("--time-scale", type=float, default=25.0, help="rig seconds per wall second (default 25)")
+    q.add_argument("--offline", action="store_true", help="no ROS: compute the bicycle file's parameters directly")
     q.set_defaults(func=cmd_demo)
     return p
 

@@ -93,7 +93,7 @@ def test_import_bp(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
 
 
 def test_demo_prints_parameters_and_speeds(capsys: pytest.CaptureFixture[str]) -> None:
-    code, out, _ = run(capsys, "demo")
+    code, out, _ = run(capsys, "demo", "--offline")
     assert code == 0
     assert "Browser: benchmark parameters" in out
     assert "weave speed:" in out and "capsize speed:" in out
