@@ -1,6 +1,11 @@
 """A simulated session written as the rig would have recorded it, without ROS: for tests,
 benchmarks and demonstrations of the bag tools.
 
+:func:`live_results` adds what the live graph publishes from such a stream, computed with the
+nodes' own ROS-free functions: the fitter's ``PeriodEstimate`` per trial (on its STOP), the
+parameter node's ``BenchmarkParameters`` after each estimate (incomplete until every period
+is there), and the model node's ``CanonicalMatrices`` and ``EigenSweep`` for the complete set.
+
 The messages follow the driver's conventions (``bike_rig.nodes.driver``): a latched
 ``StaticReadings`` first (what the parameter node publishes from the measurement file), then
 per trial a START event stamped with the first sample's rig time, ``GyroBatch`` messages of
@@ -20,14 +25,27 @@ from typing import Any
 import numpy as np
 
 from .. import topics
+from ..core.assembly import SessionAssembly, compute_model
+from ..core.benchmark import ComMethod
 from ..core.measurements import Measurements
+from ..core.model import SigmaConvention
 from ..core.sim import SimulatedSession
 from ..core.sim.plan import PlannedMeasurement
-from ..messages import fill_static_readings, set_stamp
+from ..messages import (
+    fill_benchmark_parameters,
+    fill_canonical_matrices,
+    fill_eigen_sweep,
+    fill_static_readings,
+    parameter_set_from_msg,
+    set_stamp,
+    static_readings_from_msg,
+    trial_period_from_msg,
+)
+from ..nodes.fitter import TrialFit, TrialFitOptions, fit_trial
 from .typestore import new_message, rig_typestore
 from .writer import BagWriter, Compression, contract_qos
 
-__all__ = ["SimulatedMessage", "simulated_messages", "write_simulated_bag"]
+__all__ = ["SimulatedMessage", "live_results", "period_estimate", "simulated_messages", "write_simulated_bag"]
 
 NS = 1_000_000_000
 STATIC_TYPE = topics.STATIC_READINGS.type
@@ -131,3 +149,84 @@ def write_simulated_bag(
             data = store.serialize_cdr(m.message, types[m.topic])
             w.write(m.topic, m.log_time, bytes(data))
     return Path(path)
+
+
+def period_estimate(r: TrialFit) -> Any:
+    """The ``PeriodEstimate`` the fitter node publishes for a result (its ``estimate``)."""
+    msg = new_message(topics.PERIODS.type)
+    set_stamp(msg, r.stamp_ns)
+    msg.trial_id = r.trial_id
+    msg.measurement_key = r.measurement_key
+    msg.period = r.period
+    msg.period_sigma = r.period_sigma
+    msg.zeta = r.zeta
+    msg.omega = r.omega
+    msg.r2 = r.r2
+    msg.residual_rms = r.residual_rms
+    msg.n_samples = r.n_samples
+    msg.n_expected = r.n_expected
+    msg.window_start = r.window_start
+    msg.window_stop = r.window_stop
+    msg.valid = r.valid
+    msg.flags = list(r.flags)
+    msg.flag_reasons = list(r.flag_reasons)
+    msg.fit_options_json = r.fit_options_json
+    return msg
+
+
+def live_results(
+    stream: Iterable[SimulatedMessage],
+    fit_options: TrialFitOptions | None = None,
+    com_method: ComMethod = ComMethod.CENTROID,
+    rider: str = "",
+    convention: SigmaConvention = SigmaConvention.CORRELATED,
+    speeds: Any = None,
+    delay_ns: int = 5_000_000,
+) -> list[SimulatedMessage]:
+    """What the fitter, parameter and model nodes publish for a recorded input stream.
+
+    Args:
+        stream: The static readings, trial events and gyro batches (e.g.
+            :func:`simulated_messages`), in log-time order.
+        fit_options: The fitter's options (its defaults if None).
+        com_method: The parameter node's mass-centre method.
+        rider: The model node's rider.
+        convention: The model node's σ convention.
+        speeds: The model node's sweep speeds, m/s (0 to 10 m/s, 201 speeds if None).
+        delay_ns: How long after its input each result is logged.
+    """
+    options = fit_options or TrialFitOptions()
+    sweep_speeds = np.linspace(0.0, 10.0, 201) if speeds is None else np.asarray(speeds, dtype=float)
+    batches: dict[str, list[Any]] = {}
+    starts: dict[str, Any] = {}
+    assembly: SessionAssembly | None = None
+    out: list[SimulatedMessage] = []
+    for m in stream:
+        msg = m.message
+        if m.topic == topics.STATIC_READINGS.name:
+            assembly = SessionAssembly(static_readings_from_msg(msg), com_method, origin=topics.PERIODS.name)
+        elif m.topic == topics.GYRO.name:
+            batches.setdefault(str(msg.trial_id), []).append(msg)
+        elif m.topic == topics.TRIAL_EVENTS.name and int(msg.kind) == 0:
+            starts[str(msg.trial_id)] = msg
+        elif m.topic == topics.TRIAL_EVENTS.name:
+            tid = str(msg.trial_id)
+            estimate = period_estimate(fit_trial(batches.pop(tid, []), starts.pop(tid, None), msg, options))
+            t = m.log_time + delay_ns
+            out.append(SimulatedMessage(topics.PERIODS.name, t, estimate))
+            if assembly is None:
+                continue
+            assembly.add(trial_period_from_msg(estimate))
+            result = assembly.result()
+            params = fill_benchmark_parameters(new_message(topics.PARAMETERS.type), result)
+            set_stamp(params, t + delay_ns)
+            out.append(SimulatedMessage(topics.PARAMETERS.name, t + delay_ns, params))
+            if result.complete:
+                matrices, stability = compute_model(parameter_set_from_msg(params), sweep_speeds, rider, convention)
+                for topic, filled in (
+                    (topics.MATRICES, fill_canonical_matrices(new_message(topics.MATRICES.type), matrices)),
+                    (topics.EIGEN_SWEEP, fill_eigen_sweep(new_message(topics.EIGEN_SWEEP.type), stability)),
+                ):
+                    set_stamp(filled, t + delay_ns)
+                    out.append(SimulatedMessage(topic.name, t + 2 * delay_ns, filled))
+    return out

@@ -1,0 +1,97 @@
+"""Offline replay of a whole recorded session: bag → every trial refitted → parameters → weave
+and capsize speeds, with no ROS runtime (target: ≤ 1 s wall).
+
+The bag is a simulated Browser session (paper Table 2, column B) on the shipped rig (13
+periods × 3 trials of 30 s at 1 kHz, 50-sample gyro batches: 23,400 batches), written as the
+recorder would hold it, together with what the live fitter, parameter and model nodes publish
+from it (computed with their own functions). Prints:
+
+* writing the bag (raw CDR → MCAP with zstd chunks): messages/s and MB/s;
+* the replay (:func:`bike_rig.bag.replay.replay_bag`, imports warm): median wall time of a few
+  runs and its parts (open + decode every message, fit every trial, assembly + model);
+* the same in a fresh interpreter (imports included);
+* whether the replay equals the live results (relative 1e-12).
+"""
+
+from __future__ import annotations
+
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from bike_rig.bag.replay import replay_bag, replay_session
+from bike_rig.bag.session import read_session
+from bike_rig.bag.simulated import live_results, simulated_messages, write_simulated_bag
+from bike_rig.core.sim import load_rig, load_true_parameters, simulate_session
+from bike_rig.paths import config_file
+
+TARGET_S = 1.0
+REPEAT = 5
+REPO = Path(__file__).resolve().parents[1]
+
+
+def main() -> int:
+    rig = load_rig(config_file("rig.yaml"))
+    bicycle, truth = load_true_parameters(config_file("bicycles/browser.yaml"))
+    session = simulate_session(truth, rig, 1, bicycle)
+    extra = live_results(simulated_messages(session))
+    n_messages = sum(1 for _ in simulated_messages(session)) + len(extra)
+    with tempfile.TemporaryDirectory() as tmp:
+        t0 = time.perf_counter()
+        bag = write_simulated_bag(Path(tmp) / "session", session, extra=extra)
+        write_s = time.perf_counter() - t0
+        size = sum(f.stat().st_size for f in bag.iterdir())
+        samples = sum(len(t.rate) for t in session.trials)
+        print(f"bag: {bicycle}, {len(session.trials)} trials of 30 s at {rig.adc.sample_rate:g} Hz "
+              f"({samples:,} samples), {n_messages:,} messages, {size / 1e6:.1f} MB (zstd chunks)")  # fmt: skip
+        print(f"write (serialize + MCAP):  {write_s:6.2f} s   {n_messages / write_s:9,.0f} msg/s  "
+              f"{size / 1e6 / write_s:5.1f} MB/s")  # fmt: skip
+
+        replay_bag(bag)  # warm-up (imports, typestore)
+        totals, reads, computes = [], [], []
+        result = None
+        for _ in range(REPEAT):
+            t0 = time.perf_counter()
+            recorded = read_session(bag)
+            t1 = time.perf_counter()
+            result = replay_session(recorded)
+            t2 = time.perf_counter()
+            totals.append(t2 - t0)
+            reads.append(t1 - t0)
+            computes.append(t2 - t1)
+        assert result is not None and result.stability is not None
+        median = statistics.median(totals)
+        print(f"replay (warm, median of {REPEAT}): {1e3 * median:6.0f} ms  (target <= {1e3 * TARGET_S:.0f} ms)")
+        print(f"  open + decode {recorded.message_count:,} messages: {1e3 * statistics.median(reads):6.0f} ms")
+        print(f"  fit {len(result.trials)} trials + assembly + model:  {1e3 * statistics.median(computes):6.0f} ms")
+        weave, capsize = result.stability.weave, result.stability.capsize
+        assert weave is not None and capsize is not None
+        print(f"  weave {weave.speed:.4f} ± {weave.sigma:.4f} m/s, "
+              f"capsize {capsize.speed:.4f} ± {capsize.sigma:.4f} m/s")  # fmt: skip
+        live = result.live
+        worst = live.worst
+        print(f"  vs live results: {'identical' if live.identical else 'DIFFERENT'} "
+              f"(largest relative difference {worst.max_relative if worst else float('nan'):.1e})")  # fmt: skip
+
+        code = (
+            "import time, sys; t0 = time.perf_counter()\n"
+            "from bike_rig.bag.replay import replay_bag\n"
+            f"r = replay_bag({str(bag)!r})\n"
+            "print(f'{time.perf_counter() - t0:.3f}', 'rclpy' in sys.modules)\n"
+        )
+        t0 = time.perf_counter()
+        out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=REPO)
+        process_s = time.perf_counter() - t0
+        inner, rclpy_loaded = out.stdout.split()
+        print(f"fresh interpreter: {float(inner):.2f} s imports + replay, {process_s:.2f} s process wall "
+              f"(rclpy imported: {rclpy_loaded})")  # fmt: skip
+    ok = median <= TARGET_S and live.identical
+    print(f"replay of a full session: {'OK' if ok else 'MISSED'}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,234 @@
+"""``bike-rig replay BAG``: recompute a recorded session offline, or play it back into a graph.
+
+::
+
+    bike-rig replay BAG [--json] [--default-fit] [--lead-in S | --start S [--stop S] | --envelope F]
+                        [--no-whole-cycles] [--min-cycles N] [--min-r2 R2] [--max-modulation M]
+                        [--max-drift D] [--com-method centroid|lstsq] [--rider none|paper]
+                        [--sigma correlated|paper]
+    bike-rig replay BAG --republish [--rate-scale X] [--wait S]
+
+Offline (no ROS runtime): every trial is fitted again from its gyro batches and events with the
+fitter's own function and the fit options recorded with its period estimate, the periods are
+combined and the parameters computed with the parameter node's assembly (static readings from
+the bag's StaticReadings message), and the model with the model node's function (its rider, σ
+convention and speeds as recorded). It prints the 25 parameters with σ, the weave and capsize
+speeds, the trials, and whether the results equal what the live graph published (relative
+1e-12). The fit options and the other settings can be overridden to see their effect.
+
+``--json`` prints one object: ``bike-rig params --json``'s ``bicycle`` and ``parameters``, plus
+``weave_speed``, ``capsize_speed`` (null when absent), their ``*_sigma``, ``complete``,
+``missing``, ``periods``, ``trials``, ``settings``, ``live`` (the comparison) and ``notes``.
+
+``--republish`` instead plays the raw recorded stream (gyro batches, trial events, static
+readings) back into a live ROS graph, with the original timing divided by ``--rate-scale``.
+
+Exit status: 0; 1 when the session is incomplete (a period without any usable trial); 2 with
+one line on stderr for a bad bag or option.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from typing import Any
+
+from ..bag.replay import FitOverrides, ReplayResult, ReplaySettings, replay_bag, result_json
+from ..core.benchmark import ComMethod
+from ..core.errors import BikeRigError
+from ..core.model import SigmaConvention
+from ..core.period import WindowPolicy
+from . import format as fmt
+
+__all__ = ["ReplayUsageError", "add_parser", "replay_text", "run"]
+
+
+class ReplayUsageError(BikeRigError):
+    """An option of ``bike-rig replay`` is invalid."""
+
+
+def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    """Register ``replay`` on ``subparsers`` (``bike-rig``'s sub-commands)."""
+    q = subparsers.add_parser(
+        "replay",
+        help="recompute a recorded session offline (or --republish it into a live graph)",
+        description="Recompute every trial's period, the parameters and the weave and capsize speeds "
+        "from a bag, offline, with the live nodes' own functions and recorded settings, and compare "
+        "with what the live graph published.",
+    )
+    q.add_argument("bag", metavar="BAG", help="bag directory (or its .mcap file)")
+    q.add_argument("--json", action="store_true", help="one JSON object on standard output")
+    f = q.add_argument_group("fit settings (default: those recorded with each trial's period estimate)")
+    f.add_argument("--default-fit", action="store_true", help="start from the fitter's defaults, not the recorded")
+    f.add_argument("--lead-in", type=float, metavar="S", help="window: the record minus its first S seconds")
+    f.add_argument("--start", type=float, metavar="S", help="window: from S seconds after the first sample")
+    f.add_argument("--stop", type=float, metavar="S", help="window: up to S seconds after the first sample")
+    f.add_argument("--envelope", type=float, metavar="F", help="window: from the largest swing until it decays to F")
+    f.add_argument("--no-whole-cycles", action="store_true", help="do not cut the window to whole cycles")
+    f.add_argument("--min-cycles", type=float, metavar="N", help="flag fewer cycles")
+    f.add_argument("--min-r2", type=float, metavar="R2", help="flag a lower r²")
+    f.add_argument("--max-modulation", type=float, metavar="M", help="flag beating above this modulation")
+    f.add_argument("--max-drift", type=float, metavar="D", help="flag a drift above D × the swing")
+    s = q.add_argument_group("parameters and model (default: as the live graph ran)")
+    s.add_argument("--com-method", choices=[m.value for m in ComMethod], help="mass-centre method")
+    s.add_argument("--rider", choices=["none", "paper"], help="rider lumped into the rear frame")
+    s.add_argument("--sigma", choices=[c.value for c in SigmaConvention], help="σ convention")
+    r = q.add_argument_group("republish into a live graph (rclpy)")
+    r.add_argument("--republish", action="store_true", help="play gyro, trial events and static readings back")
+    r.add_argument("--rate-scale", type=float, default=1.0, metavar="X", help="X times the original speed (default 1)")
+    r.add_argument("--wait", type=float, default=5.0, metavar="S",
+                   help="wait up to S s for subscribers before playing (default 5)")  # fmt: skip
+    q.set_defaults(func=run)
+
+
+def _window(args: argparse.Namespace) -> WindowPolicy | None:
+    span = args.start is not None or args.stop is not None
+    chosen = [name for name, given in (("--lead-in", args.lead_in is not None), ("--start/--stop", span),
+                                       ("--envelope", args.envelope is not None)) if given]  # fmt: skip
+    if len(chosen) > 1:
+        raise ReplayUsageError(f"choose one window: {' or '.join(chosen)}")
+    whole = not args.no_whole_cycles
+    try:
+        if span:
+            return WindowPolicy.span(0.0 if args.start is None else args.start, args.stop, whole_cycles=whole)
+        if args.envelope is not None:
+            return WindowPolicy.envelope(args.envelope, whole_cycles=whole)
+        if args.lead_in is not None:
+            return WindowPolicy.lead_in(args.lead_in, whole_cycles=whole)
+    except ValueError as exc:
+        raise ReplayUsageError(f"window: {exc}") from None
+    return None
+
+
+def settings_from_args(args: argparse.Namespace) -> ReplaySettings:
+    """The replay settings the options ask for."""
+    for name in ("min_cycles", "min_r2", "max_modulation", "max_drift"):
+        value = getattr(args, name)
+        if value is not None and not (math.isfinite(value) and value >= 0):
+            raise ReplayUsageError(f"--{name.replace('_', '-')} must be a non-negative number, got {value}")
+    fit = FitOverrides(
+        window=_window(args),
+        whole_cycles=False if args.no_whole_cycles else None,
+        min_cycles=args.min_cycles,
+        min_r2=args.min_r2,
+        max_modulation=args.max_modulation,
+        max_drift=args.max_drift,
+        use_defaults=args.default_fit,
+    )
+    return ReplaySettings(
+        fit=fit,
+        com_method=None if args.com_method is None else ComMethod(args.com_method),
+        rider=None if args.rider is None else ("" if args.rider == "none" else args.rider),
+        sigma_convention=None if args.sigma is None else SigmaConvention(args.sigma),
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``bike-rig replay``; returns the exit status."""
+    if args.republish:
+        return _republish(args)
+    result = replay_bag(args.bag, settings_from_args(args))
+    if args.json:
+        print(json.dumps(result_json(result), indent=2, allow_nan=False))
+    else:
+        print(replay_text(result))
+    return 0 if result.complete else 1
+
+
+def _republish(args: argparse.Namespace) -> int:
+    if not (math.isfinite(args.rate_scale) and args.rate_scale > 0):
+        raise ReplayUsageError(f"--rate-scale must be a positive number, got {args.rate_scale}")
+    if not (math.isfinite(args.wait) and args.wait >= 0):
+        raise ReplayUsageError(f"--wait must be a non-negative number of seconds, got {args.wait}")
+    from ..bag.republish import republish  # rclpy only here
+
+    stats = republish(args.bag, rate_scale=args.rate_scale, wait_s=args.wait)
+    if args.json:
+        print(json.dumps(stats.to_dict(), indent=2))
+    else:
+        print(stats.describe())
+    return 0 if not stats.interrupted else 130
+
+
+# ---------------------------------------------------------------- text
+
+
+def _vs(value: float, sigma: float) -> str:
+    if not math.isfinite(value):
+        return "-"
+    v, s = fmt.format_value_sigma(value, sigma)
+    return f"{v} ± {s}"
+
+
+def _trials_table(result: ReplayResult) -> str:
+    w = max(len("trial"), *(len(t.trial_id) for t in result.trials))
+    head = f"{'trial':<{w}}  {'key':<5}  {'period [s]':>20}  {'samples':>7}  {'used':<4}  {'live':<9}  flags"
+    rows = [head, "-" * len(head)]
+    for t in result.trials:
+        p = t.period
+        if t.recorded is None:
+            live = "-"
+        elif p.valid == t.recorded.valid and p.flags == t.recorded.flags and (
+            p.period == t.recorded.period or (math.isnan(p.period) and math.isnan(t.recorded.period))
+        ):
+            live = "same"
+        else:
+            live = "differs"
+        flags = ", ".join(p.flags) + (f" ({t.note})" if t.note else "")
+        rows.append(f"{t.trial_id:<{w}}  {p.measurement_key or '-':<5}  {_vs(p.period, p.period_sigma):>20}  "
+                    f"{p.n_samples:>7}  {'yes' if t.used else 'no':<4}  {live:<9}  {flags}")  # fmt: skip
+    return "\n".join(rows)
+
+
+def _speed(s: Any) -> str:
+    return "none" if s is None else f"{_vs(s.speed, s.sigma)} m/s"
+
+
+def replay_text(result: ReplayResult) -> str:
+    """The ``replay`` report: trials, parameters, critical speeds, comparison with live."""
+    out = [f"{result.bicycle}: replay of {result.bag}"]
+    over = " (fit settings overridden)" if result.fit_overridden else ""
+    out.append(f"settings: com method {result.com_method.value}, rider '{result.rider or 'none'}', "
+               f"σ {result.sigma_convention.value}{over}")  # fmt: skip
+    out += ["", _trials_table(result), ""]
+    ps = result.parameters
+    if ps is None:
+        out.append("incomplete: no usable trial for " + ", ".join(result.session.missing))
+    else:
+        out.append(fmt.parameter_table(ps))
+        out.append("")
+        rider = f" (with the {result.rider} rider)" if result.rider else ""
+        st = result.stability
+        assert st is not None
+        out.append(f"weave speed{rider}:   {_speed(st.weave)}")
+        out.append(f"capsize speed{rider}: {_speed(st.capsize)}")
+    out += [f"note: {n}" for n in result.notes]
+    out.append("")
+    out.append(_live_text(result))
+    return "\n".join(out)
+
+
+def _live_text(result: ReplayResult) -> str:
+    live = result.live
+    if not live.differences:
+        return "live results: none recorded to compare with (" + ", ".join(live.missing) + ")"
+    worst = live.worst
+    assert worst is not None
+    others = [d.what for d in live.differences if not d.what.startswith("trial ")]
+    compared = ([f"{live.compared_trials} trial fits"] if live.compared_trials else []) + others
+    if live.identical:
+        text = (f"live results: identical (largest relative difference {worst.max_relative:.1e}; "
+                f"compared: {', '.join(compared)})")  # fmt: skip
+    else:
+        bad = [d for d in live.differences if not d.identical]
+        text = f"live results: DIFFER in {len(bad)} of {len(live.differences)} comparisons"
+        if result.fit_overridden:
+            text += " (expected: the fit settings are overridden)"
+        text += "".join(f"\n  {d.what}: {d.detail or f'relative {d.max_relative:.1e}'}" for d in bad[:10])
+        if len(bad) > 10:
+            text += f"\n  ... and {len(bad) - 10} more"
+    if live.missing:
+        text += "\n  not compared: " + ", ".join(live.missing)
+    return text
+
