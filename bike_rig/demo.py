@@ -127,6 +127,7 @@ def run_demo(
     timeout_s: float = 600.0,
     progress: Callable[[str], None] = print,
     rig: Path | None = None,
+    on_progress: Callable[[RunningGraph, int], None] | None = None,
 ) -> DemoResult:
     """Run the whole simulated session through the live graph.
 
@@ -139,6 +140,8 @@ def run_demo(
         timeout_s: Give up after this long (wall), s.
         progress: Where progress lines go.
         rig: The rig description (default: ``config/rig.yaml``).
+        on_progress: Called with the running graph and the number of trials fitted so far,
+            after every poll (fault-injection tests kill and restart nodes from it).
 
     Raises:
         DemoError: a node died, or the session did not complete in time.
@@ -176,7 +179,7 @@ def run_demo(
         )
         monitor = _Monitor(progress)
         try:
-            final = _wait(monitor, running, n_trials, t0 + timeout_s)
+            final = _wait(monitor, running, n_trials, t0 + timeout_s, on_progress)
         finally:
             monitor.close()
         status = running.stop()
@@ -202,12 +205,20 @@ def run_demo(
     return result
 
 
-def _wait(monitor: _Monitor, running: RunningGraph, n_trials: int, deadline: float) -> tuple[Any, Any]:
+def _wait(
+    monitor: _Monitor,
+    running: RunningGraph,
+    n_trials: int,
+    deadline: float,
+    on_progress: Callable[[RunningGraph, int], None] | None = None,
+) -> tuple[Any, Any]:
     """Spin until every trial has a period and the model of the final parameter set is out."""
     announced = False
     all_in: float | None = None  # when the last trial's period arrived
     while time.monotonic() < deadline:
         monitor.spin(0.05)
+        if on_progress is not None:
+            on_progress(running, len(monitor.periods))
         dead = running.dead()
         if dead:
             name, code, tail = dead[0]

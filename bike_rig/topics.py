@@ -55,8 +55,11 @@ class Topic:
 
 
 #: Gyro sample batches (50 samples each at 1 kHz: 20 per second). The transient-local depth
-#: holds more than one 30 s trial, so a restarted fitter can re-fit the trial in progress.
-GYRO = Topic(f"{NAMESPACE}/gyro", "bike_rig_msgs/msg/GyroBatch", QosSpec(True, True, 4000))
+#: holds a whole session (50,000 batches: 42 min of 1 kHz trials, ~25 MB in the driver), so a
+#: restarted fitter re-fits every trial of the session and re-publishes its period: the
+#: transient-local history of the periods topic lives in the fitter and dies with it, and a
+#: restarted parameter node gets every period back from the new fitter.
+GYRO = Topic(f"{NAMESPACE}/gyro", "bike_rig_msgs/msg/GyroBatch", QosSpec(True, True, 50_000))
 TRIAL_EVENTS = Topic(f"{NAMESPACE}/trial_events", "bike_rig_msgs/msg/TrialEvent", QosSpec(True, True, 2000))
 PERIODS = Topic(f"{NAMESPACE}/periods", "bike_rig_msgs/msg/PeriodEstimate", QosSpec(True, True, 2000))
 STATIC_READINGS = Topic(f"{NAMESPACE}/static_readings", "bike_rig_msgs/msg/StaticReadings", QosSpec(True, True, 1))

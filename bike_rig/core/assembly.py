@@ -342,7 +342,8 @@ class SessionAssembly:
         return tuple(self._trials[k] for k in sorted(self._trials))
 
     def add(self, trial: TrialPeriod) -> bool:
-        """Take one period estimate; one with a trial id seen before replaces the earlier one.
+        """Take one period estimate; one with a trial id seen before replaces the earlier one,
+        unless it was fitted from fewer samples (then the earlier one is kept).
 
         Returns:
             Whether anything changed (False for an identical re-publication).
@@ -357,7 +358,12 @@ class SessionAssembly:
                 f"of {self.static.bicycle} (expected one of {', '.join(self._keys)})"
             )
         period_fit(trial)  # reject unknown flag codes now
-        if self._trials.get(trial.trial_id) == trial:
+        earlier = self._trials.get(trial.trial_id)
+        if earlier == trial:
+            return False
+        if earlier is not None and trial.n_samples < earlier.n_samples:
+            # a trial's samples are fixed, so a re-fit can only differ by missing data (e.g. a
+            # restarted fitter that no longer has the whole trial): never trade down
             return False
         self._trials[trial.trial_id] = trial
         return True

@@ -509,6 +509,11 @@ class FitterState:
             samples in all); beyond it the one heard of least recently is fitted as it is (flag
             ``no_stop`` or ``unknown_trial``).
         clock: Monotonic seconds.
+        history_grace_s: After the publishers were matched, how long nothing incomplete is given
+            up on and no trial is evicted for being open: a (re)started fitter receives the
+            transient-local history of both topics, and Fast DDS delivers it to a late reader
+            only at the writers' next heartbeat (up to ~3 s), batches and events in no common
+            order. Only the sample budget bounds memory meanwhile.
     """
 
     def __init__(
@@ -518,10 +523,12 @@ class FitterState:
         grace_s: float = 1.0,
         max_open_trials: int = 4,
         clock: Callable[[], float] = time.monotonic,
+        history_grace_s: float = 10.0,
     ):
         self.options = options
         self.log = log
         self.grace_s = grace_s
+        self.history_grace_s = history_grace_s
         self.max_open_trials = max_open_trials
         self.clock = clock
         self.open: dict[str, _Open] = {}
@@ -609,6 +616,8 @@ class FitterState:
         if not live:
             return []
         now = self.clock()
+        if now - self.matched_at < self.history_grace_s:
+            return []  # the transient-local history may still be arriving
         out: list[TrialFit | None] = []
         for t in list(self.open.values()):
             if t.stop is not None:
@@ -627,9 +636,10 @@ class FitterState:
         wait ``grace_s`` at most), and at most that many trials' worth of samples in all."""
         limit = self.max_open_trials
         budget = limit * self.options.max_trial_samples
+        in_history = self.clock() - self.matched_at < self.history_grace_s
         while True:
             running = [t for t in self.open.values() if t.stop is None]
-            if len(running) > limit:
+            if len(running) > limit and not in_history:
                 victim = min(running, key=lambda t: t.seen_s)
                 why = f"more than {limit} trials without STOP"
             elif sum(t.acc.kept for t in self.open.values()) > budget:
@@ -696,8 +706,8 @@ class FitterNode:
 
         self.node: Node = Node("fitter")
         self._estimate_type = PeriodEstimate
-        options, grace, max_open = self._parameters()
-        self.state = FitterState(options, self.node.get_logger(), grace, max_open)
+        options, grace, max_open, history_grace = self._parameters()
+        self.state = FitterState(options, self.node.get_logger(), grace, max_open, history_grace_s=history_grace)
         # (events first: when both are ready, the executor takes them in creation order)
         self.events_sub = self.node.create_subscription(TrialEvent, TRIAL_EVENTS.name, self._on_event,
                                                         profile(TRIAL_EVENTS))  # fmt: skip
@@ -707,7 +717,7 @@ class FitterNode:
         self.timer = self.node.create_timer(0.05, self._on_timer)
         self.node.get_logger().info(f"fitting trials with {options.to_json()}")
 
-    def _parameters(self) -> tuple[TrialFitOptions, float, int]:
+    def _parameters(self) -> tuple[TrialFitOptions, float, int, float]:
         rcl: Any = importlib.import_module("rcl_interfaces.msg")
         FloatingPointRange, IntegerRange, ParameterDescriptor = (
             rcl.FloatingPointRange, rcl.IntegerRange, rcl.ParameterDescriptor
@@ -724,6 +734,13 @@ class FitterNode:
             ("max_batch_samples", d.max_batch_samples, "a larger gyro batch is rejected and flagged", (1, 2**31)),
             ("max_open_trials", 4, "trials buffered at once (started but not stopped)", (1, 1000)),
             ("grace_s", 1.0, "how long a STOP waits for missing batches, and batches for their START, s", (0.0, 60.0)),
+            (
+                "history_grace_s",
+                10.0,
+                "after matching, how long the transient-local history may take to arrive (nothing incomplete is "
+                "fitted meanwhile), s",
+                (0.0, 600.0),
+            ),
             ("window", w.kind.value, "fit window policy: lead_in, span or envelope", None),
             ("lead_in_s", w.lead_in_s, "lead_in window: seconds dropped at the start", (0.0, big)),
             ("span_start_s", w.start_s, "span window: first time kept, s from the first sample", (0.0, big)),
@@ -748,14 +765,15 @@ class FitterNode:
                 values[name] = self.node.declare_parameter(name, default, desc).value
             except InvalidParameterTypeException:
                 kind = type(default).__name__.replace("float", "double (e.g. 1.0)").replace("str", "string")
-                raise SourceConfigError("fitter", name, f"expected a {kind}", where="fitter") from None
+                raise SourceConfigError("fitter", name, f"expected a {kind}", where="") from None
             except InvalidParameterValueException:
                 low, high = bounds or (math.nan, math.nan)
-                raise SourceConfigError("fitter", name, f"must be within [{low:g}, {high:g}]", where="fitter") from None
+                shown = (f"{int(low)}, {int(high)}" if isinstance(default, int) else f"{low:g}, {high:g}")
+                raise SourceConfigError("fitter", name, f"must be within [{shown}]", where="") from None
         kinds = tuple(k.value for k in WindowKind)
         if values["window"] not in kinds:
             raise SourceConfigError("fitter", "window", f"expected one of {', '.join(kinds)}", values["window"],
-                                    where="fitter")  # fmt: skip
+                                    where="")  # fmt: skip
         try:
             kind = WindowKind(values["window"])
             window = WindowPolicy(
@@ -773,8 +791,8 @@ class FitterNode:
                 values["max_batch_samples"],
             )  # fmt: skip
         except ValueError as exc:
-            raise SourceConfigError("fitter", "window", str(exc), values["window"], where="fitter") from None
-        return options, float(values["grace_s"]), int(values["max_open_trials"])
+            raise SourceConfigError("fitter", "window", str(exc), values["window"], where="") from None
+        return options, float(values["grace_s"]), int(values["max_open_trials"]), float(values["history_grace_s"])
 
     # ------------------------------------------------------------------ callbacks (never raise)
     def _on_batch(self, msg: Any) -> None:
@@ -831,7 +849,7 @@ def main(args: list[str] | None = None) -> int:
     """Run the fitter node (``--ros-args --params-file config/fitter.yaml`` and ``-p`` work)."""
     from .runner import run_node
 
-    return run_node(lambda: FitterNode().node, args)
+    return run_node(lambda: FitterNode().node, args, name="fitter")
 
 
 if __name__ == "__main__":

@@ -231,3 +231,18 @@ def test_state_space_at_a_speed(browser_set: ParameterSet) -> None:
 def test_unknown_rider_is_a_model_error(browser_set: ParameterSet) -> None:
     with pytest.raises(ModelError, match="unknown rider 'tall'"):
         compute_model(browser_set, [1.0], "tall")
+
+
+def test_a_refit_from_fewer_samples_never_replaces_a_complete_one() -> None:
+    """A restarted fitter may re-publish an earlier trial from an incomplete history: the
+    complete estimate stays, in either order of arrival."""
+    import dataclasses
+
+    static = load_static_readings(config_file("bicycles/browser.yaml"))
+    full = TrialPeriod("t1", "TcR1", 1.3611, 4e-6, True, n_samples=30000, n_expected=30000)
+    partial = dataclasses.replace(full, period=1.37, valid=True, n_samples=12000)
+    for order in ((full, partial), (partial, full)):
+        a = SessionAssembly(static)
+        for t in order:
+            a.add(t)
+        assert a.trials == (full,)

@@ -9,6 +9,7 @@ from __future__ import annotations
 import json
 import math
 import struct
+import subprocess
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -170,7 +171,8 @@ class Clock:
 
 def state(**kw: Any) -> tuple[FitterState, Log, Clock]:
     log, clock = Log(), Clock()
-    return FitterState(TrialFitOptions(), log, clock=clock, **{"grace_s": 1.0, **kw}), log, clock
+    options = {"grace_s": 1.0, "history_grace_s": 0.0, **kw}  # steady state unless a test says otherwise
+    return FitterState(TrialFitOptions(), log, clock=clock, **options), log, clock
 
 
 def feed(s: FitterState, batches: Sequence[Batch]) -> list[TrialFit]:
@@ -208,6 +210,29 @@ def test_state_gives_up_waiting_after_grace_and_reports_unknown_trials() -> None
     results = {r.trial_id: r for r in s.poll()}
     assert results["t"].flags[0] == "gap" and results["ghost"].flags[0] == "unknown_trial"
     assert any(line.startswith("W trial ghost (?): no period") and "unknown_trial" in line for line in log.lines)
+
+
+def test_state_waits_for_the_history_after_a_restart() -> None:
+    """Right after matching, a STOP whose batches have not arrived yet is not fitted from what
+    is there (Fast DDS delivers the history late), nor are open trials evicted; once the history
+    window is over the usual grace applies."""
+    rates = signal()
+    s, log, clock = state(history_grace_s=5.0, max_open_trials=2)
+    for i in range(4):  # events of 4 trials replayed before any of their batches
+        s.on_event(event(0, trial_id=f"h{i}"))
+        s.on_event(event(1, count=N, trial_id=f"h{i}"))
+    clock.now = 4.9
+    assert s.poll() == []
+    out = []
+    for i in range(4):  # then the batches arrive: every trial complete, none evicted
+        out += feed(s, batches_of(rates, f"h{i}"))
+    assert sorted(r.trial_id for r in out) == ["h0", "h1", "h2", "h3"]
+    assert all(r.n_samples == N and not r.flags for r in out)
+    s.on_event(event(0, trial_id="late"))
+    s.on_event(event(1, count=N, trial_id="late"))
+    clock.now = 6.0
+    (late,) = s.poll()
+    assert late.trial_id == "late" and late.flags[0] == "gap"
 
 
 def test_state_bounds_the_open_trials() -> None:
@@ -419,3 +444,18 @@ def test_a_restarted_fitter_refits_the_trial_in_progress(
     assert len(of_a) >= 1
     for estimate in of_a:
         assert_identical(estimate, expected_a)
+
+
+@pytest.mark.parametrize(
+    ("parameters", "message"),
+    [
+        (["window:=foo"], "fitter: error: parameter 'window' = 'foo': expected one of lead_in, span, envelope"),
+        (["grace_s:=1"], "fitter: error: parameter 'grace_s': expected a double (e.g. 1.0)"),
+        (["max_batch_samples:=0"], "fitter: error: parameter 'max_batch_samples': must be within [1, 2147483648]"),
+    ],
+)
+def test_bad_parameters_end_in_one_line(parameters: list[str], message: str, ros_env: dict[str, str]) -> None:
+    cmd = node_command("bike_rig.nodes.fitter", *parameters, params_file=str(config_file("fitter.yaml")))
+    done = subprocess.run(["timeout", "-k", "5", "60", *cmd], env=ros_env, capture_output=True, text=True, timeout=90)
+    assert done.returncode == 2, done.stderr
+    assert done.stderr.strip().splitlines() == [message]

@@ -1,0 +1,66 @@
+"""Faults in a live session: the fitter and the parameter node are killed (SIGKILL) and restarted
+mid-session, and the session still completes with the same results as the offline core.
+
+A restarted fitter gets the session's trial events and the gyro batches still in the
+transient-local history (``bike_rig.topics``) and re-fits the trial in progress; a restarted
+parameter node gets every period estimate again.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import time
+from pathlib import Path
+
+import pytest
+import yaml
+
+from bike_rig.core.benchmark import compute_parameters
+from bike_rig.core.loader import load_measurements
+from bike_rig.core.symbols import PARAMETER_NAMES
+from bike_rig.demo import run_demo
+from bike_rig.launch import RunningGraph
+from bike_rig.paths import config_file
+
+
+def _short_rig(tmp: Path) -> Path:
+    rig = yaml.safe_load(config_file("rig.yaml").read_text())
+    rig["trials"]["duration"] = 15
+    rig.pop("coupled_swing", None)
+    path = tmp / "rig.yaml"
+    path.write_text(yaml.safe_dump(rig))
+    return path
+
+
+def test_fitter_and_parameter_node_restarted_mid_session(tmp_path: Path) -> None:
+    killed: list[tuple[str, int]] = []
+
+    def inject(running: RunningGraph, fitted: int) -> None:
+        for name, at in (("fitter", 8), ("parameter", 20)):
+            if fitted >= at and name not in {n for n, _ in killed}:
+                os.kill(running.pid(name), signal.SIGKILL)
+                deadline = time.monotonic() + 10
+                while name not in {n for n, _, _ in running.dead()} and time.monotonic() < deadline:
+                    time.sleep(0.01)
+                running.restart(name)
+                killed.append((name, fitted))
+
+    out = tmp_path / "session"
+    result = run_demo(
+        out,
+        seed=9,
+        time_scale=50.0,
+        samples_per_batch=50,
+        timeout_s=240,
+        progress=lambda _line: None,
+        rig=_short_rig(tmp_path),
+        on_progress=inject,
+    )
+    assert [n for n, _ in killed] == ["fitter", "parameter"]
+    assert result.periods == 39 and result.invalid == {}
+    offline = compute_parameters(load_measurements(out / "session" / "session.yaml")).parameters
+    ps = result.session.parameters
+    assert ps is not None
+    for name in PARAMETER_NAMES:
+        assert ps.parameters.value(name) == pytest.approx(offline.value(name), rel=1e-12, abs=0), name
