@@ -184,14 +184,15 @@ class DriverNode(Node):
                 value = self.declare_parameter(p.name, p.default, _descriptor(p)).value
             except InvalidParameterTypeException:
                 kind = type(p.default).__name__.replace("float", "double (e.g. 20.0)").replace("str", "string")
-                raise SourceConfigError("driver", p.name, f"expected a {kind}", where="driver") from None
+                raise SourceConfigError("driver", p.name, f"expected a {kind}", where="") from None
             except InvalidParameterValueException:
                 low, high = p.range or (float("nan"), float("nan"))
-                reason = f"must be within [{low:g}, {high:g}]"
-                raise SourceConfigError("driver", p.name, reason, where="driver") from None
+                shown = f"{int(low)}, {int(high)}" if isinstance(p.default, int) else f"{low:g}, {high:g}"
+                reason = f"must be within [{shown}]"
+                raise SourceConfigError("driver", p.name, reason, where="") from None
             if p.choices and value not in p.choices:
                 raise SourceConfigError("driver", p.name, f"expected one of {', '.join(p.choices)}", value,
-                                        where="driver")  # fmt: skip
+                                        where="")  # fmt: skip
             values[p.name] = value
         return values
 
@@ -373,7 +374,7 @@ def main(args: list[str] | None = None) -> int:
     """Run the driver node (``--ros-args --params-file config/driver.yaml`` and ``-p`` work)."""
     from .runner import run_node
 
-    return run_node(DriverNode, args)
+    return run_node(DriverNode, args, name=NODE_NAME)
 
 
 if __name__ == "__main__":

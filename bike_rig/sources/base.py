@@ -400,7 +400,7 @@ def source_class(name: str) -> type[GyroSource]:
     target = BACKENDS.get(name)
     if target is None:
         reason = f"unknown gyro source; expected one of {', '.join(BACKENDS)}"
-        raise SourceConfigError(name, "source", reason, name, where="driver")
+        raise SourceConfigError(name, "source", reason, name, where="")
     module_name, _, class_name = target.partition(":")
     cls: type[GyroSource] = getattr(importlib.import_module(module_name), class_name)
     return cls

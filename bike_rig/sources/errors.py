@@ -30,7 +30,8 @@ class SourceConfigError(SourceError):
         parameter: The offending parameter (a node parameter name).
         reason: Why it cannot be used.
         value: The value given, if it helps (shown with ``repr``).
-        where: What is configured, if not ``"<source> source"`` (e.g. ``"driver"``).
+        where: What is configured, if not ``"<source> source"``; "" for nothing (a node's own
+            parameter, which the node's name already introduces).
     """
 
     def __init__(self, source: str, parameter: str, reason: str, value: object = None, where: str | None = None):
@@ -39,7 +40,8 @@ class SourceConfigError(SourceError):
         self.reason = reason
         self.value = value
         shown = "" if value is None else f" = {value!r}"
-        super().__init__(f"{where or f'{source} source'}: parameter '{parameter}'{shown}: {reason}")
+        prefix = f"{source} source: " if where is None else (f"{where}: " if where else "")
+        super().__init__(f"{prefix}parameter '{parameter}'{shown}: {reason}")
 
 
 class SourceUnavailableError(SourceConfigError):

@@ -22,7 +22,7 @@ def test_every_backend_is_a_gyro_source() -> None:
 
 
 def test_unknown_backend_is_one_clear_error() -> None:
-    with pytest.raises(SourceConfigError, match=r"^driver: parameter 'source' = 'serial': unknown gyro source; "
+    with pytest.raises(SourceConfigError, match=r"^parameter 'source' = 'serial': unknown gyro source; "
                        r"expected one of sim, can, bag, daq$"):  # fmt: skip
         open_source("serial")
 
