@@ -22,7 +22,6 @@ Units: SI (periods in s, speeds in m/s, eigenvalues in 1/s); degrees only in ``g
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
@@ -177,11 +176,6 @@ def combine_trials(trials: Iterable[TrialPeriod]) -> tuple[CombinedPeriod, tuple
     ordered = sorted(trials, key=lambda t: t.trial_id)
     combined = combine_periods([period_fit(t) for t in ordered])
     used = tuple(t.trial_id for t in ordered if t.usable)
-    if combined.n_used == 1:
-        (only,) = (t for t in ordered if t.usable)
-        combined = dataclasses.replace(
-            combined, value=only.period, sigma=only.period_sigma, sigma_internal=only.period_sigma
-        )
     return combined, used
 
 

@@ -53,8 +53,11 @@ def combine_periods(fits: Sequence[PeriodFit], include_flagged: bool = False) ->
     periods = np.array([f.period for f in used])
     sigmas = np.array([f.period_sigma for f in used])
     weights = 1.0 / sigmas**2
-    value = float(np.sum(weights * periods) / np.sum(weights))
-    sigma_internal = float(1.0 / math.sqrt(float(np.sum(weights))))
+    if len(used) == 1:  # the trial itself, bit for bit (w T / w and 1/sqrt(1/σ²) round)
+        value, sigma_internal = float(periods[0]), float(sigmas[0])
+    else:
+        value = float(np.sum(weights * periods) / np.sum(weights))
+        sigma_internal = float(1.0 / math.sqrt(float(np.sum(weights))))
     chi2 = float(np.sum(weights * (periods - value) ** 2))
     dof = len(used) - 1
     birge = math.sqrt(chi2 / dof) if dof > 0 else math.nan
