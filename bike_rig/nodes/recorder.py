@@ -150,6 +150,9 @@ class Recorder(Node):
         flush_period = self._param("flush_period", 0.5, "longest time a received message stays in memory, s (0, 1]")
         if not 0.0 < float(flush_period) <= 1.0:
             raise RecorderError(f"parameter 'flush_period' must be in (0, 1] s, got {flush_period!r}")
+        if compression not in {c.value for c in Compression}:
+            choices = ", ".join(c.value for c in Compression)
+            raise RecorderError(f"parameter 'compression' must be one of {choices}, got {compression!r}")
         self.topics = resolve_topics([str(n) for n in names])
         self.writer = BagWriter(
             Path(str(output) or default_output()),

@@ -159,3 +159,20 @@ def test_bag_of_a_killed_recorder_is_recovered_missing_at_most_a_second(
     assert len(gyro) >= before, (len(gyro), before, len(stamps))
     last = gyro[-1].header.stamp.sec * 10**9 + gyro[-1].header.stamp.nanosec
     assert killed_at - last < 1_000_000_000
+
+
+@pytest.mark.parametrize(
+    ("param", "reason"),
+    [
+        ("topics:=[gyro, nope]", "parameter 'topics': unknown topic 'nope' (known: all, gyro, trial_events,"),
+        ("compression:=gzip", "parameter 'compression' must be one of zstd, lz4, none, got 'gzip'"),
+        ("flush_period:=2.0", "parameter 'flush_period' must be in (0, 1] s, got 2.0"),
+    ],
+)
+def test_bad_parameters_end_in_one_line(ros_env: dict[str, str], tmp_path: Path, param: str, reason: str) -> None:
+    bag = tmp_path / "bag"
+    with _recorder(tmp_path, _env(ros_env), bag, param) as rec:
+        code = rec.proc.wait(timeout=STEP_TIMEOUT_S)
+    assert code == 2
+    assert rec.stderr_path.read_text().strip().splitlines()[-1].startswith(f"recorder: error: {reason}")
+    assert not bag.exists()
