@@ -35,6 +35,7 @@ from typing import Any
 
 import numpy as np
 
+from .. import topics
 from ..core.assembly import (
     AssemblyError,
     ModelMatrices,
@@ -45,6 +46,7 @@ from ..core.assembly import (
     compute_model,
 )
 from ..core.benchmark import ComMethod, ParameterSet
+from ..core.measurements import Measurements
 from ..core.model import SigmaConvention
 from ..core.period import WindowPolicy
 from ..messages import (
@@ -153,7 +155,7 @@ class ReplayedTrial:
         period: What the parameter node takes from it.
         options_from: Where the fit options came from: ``recorded`` (this trial's estimate),
             ``session`` (the session's other estimates), ``default`` or ``override``.
-        recorded: The live estimate of the trial, or None.
+        recorded: The live estimate of the trial (the one the parameter node kept), or None.
         used: It entered its key's combination.
         note: Why the assembly left it out ("" when it did not).
     """
@@ -300,10 +302,37 @@ def _session_options(session: RecordedSession) -> TrialFitOptions | None:
     return _options(text, "a period estimate", session.path)
 
 
-def _fit(t: RecordedTrial, session_options: TrialFitOptions | None, overrides: FitOverrides, bag: str) -> ReplayedTrial:
-    est = t.estimate
-    if est is not None and str(est.fit_options_json):
-        options, source = _options(str(est.fit_options_json), f"trial {t.trial_id}", bag), "recorded"
+def _live_estimates(session: RecordedSession, static: Measurements, method: ComMethod) -> dict[str, TrialPeriod]:
+    """The estimate of each trial the live parameter node kept: every recorded PeriodEstimate
+    goes through a :class:`SessionAssembly` in the order received (its rules decide which one
+    of a trial's re-publications stays)."""
+    live = SessionAssembly(static, method, origin=topics.PERIODS.name)
+    for t in session.trials.values():
+        for msg in t.estimates:
+            try:
+                live.add(trial_period_from_msg(msg))
+            except (AssemblyError, MessageError):
+                continue
+    kept = {p.trial_id: p for p in live.trials}
+    # trials whose estimates the assembly refused (e.g. an unknown key): their last one
+    for t in session.trials.values():
+        if t.trial_id not in kept and t.estimate is not None:
+            try:
+                kept[t.trial_id] = trial_period_from_msg(t.estimate)
+            except MessageError:
+                continue
+    return kept
+
+
+def _fit(
+    t: RecordedTrial,
+    recorded: TrialPeriod | None,
+    session_options: TrialFitOptions | None,
+    overrides: FitOverrides,
+    bag: str,
+) -> ReplayedTrial:
+    if recorded is not None and recorded.fit_options_json:
+        options, source = _options(recorded.fit_options_json, f"trial {t.trial_id}", bag), "recorded"
     elif session_options is not None:
         options, source = session_options, "session"
     else:
@@ -311,12 +340,6 @@ def _fit(t: RecordedTrial, session_options: TrialFitOptions | None, overrides: F
     if overrides.active:
         options, source = overrides.apply(options), "override"
     fit = fit_trial(t.batches, t.start, t.stop, options)
-    recorded = None
-    if est is not None:
-        try:
-            recorded = trial_period_from_msg(est)
-        except MessageError:
-            recorded = None
     return ReplayedTrial(t.trial_id, fit, trial_period(fit), source, recorded)
 
 
@@ -379,7 +402,9 @@ def replay_session(session: RecordedSession, settings: ReplaySettings | None = N
     convention = settings.sigma_convention or live_convention or SigmaConvention.CORRELATED
 
     session_options = _session_options(session)
-    fitted = [_fit(t, session_options, settings.fit, bag) for t in session.trials.values()]
+    live_estimates = _live_estimates(session, static, method)
+    fitted = [_fit(t, live_estimates.get(t.trial_id), session_options, settings.fit, bag)
+              for t in session.trials.values()]  # fmt: skip
     assembly = SessionAssembly(static, method, origin=f"{bag} (replayed fits)")
     notes: list[str] = []
     rejected: dict[str, str] = {}
