@@ -353,7 +353,8 @@ def test_bad_input_is_logged_flagged_and_the_fitter_keeps_serving(
     talker: tuple[Probe, Any, Any, list[Any]], ros_env: dict[str, str], tmp_path: Path
 ) -> None:
     probe, events, gyro, periods = talker
-    cmd = node_command("bike_rig.nodes.fitter", "grace_s:=0.3", "max_batch_samples:=1000")
+    # (history_grace_s: the fitter starts before any history exists, so nothing late is expected)
+    cmd = node_command("bike_rig.nodes.fitter", "grace_s:=0.3", "history_grace_s:=0.3", "max_batch_samples:=1000")
     options = TrialFitOptions(max_batch_samples=1000)
 
     def by_id(trial_id: str) -> Any:
@@ -428,6 +429,9 @@ def test_a_restarted_fitter_refits_the_trial_in_progress(
             (events if isinstance(m, msgs.TrialEvent) else gyro).publish(m)
         probe.spin_until(lambda: len(periods) == 1, STEP_TIMEOUT_S, "the period of a", fitter.describe)
     assert fitter.proc.returncode == 0
+    # the first fitter is gone from the graph before the second one is waited for
+    probe.spin_until(lambda: events.get_subscription_count() == 0 and gyro.get_subscription_count() == 0,
+                     STEP_TIMEOUT_S, "the first fitter to leave")  # fmt: skip
     for m in batches_b[70:120]:  # while no fitter runs
         gyro.publish(m)
     with RosProcess("fitter2", cmd, ros_env, tmp_path) as fitter:
