@@ -13,6 +13,8 @@ from typing import Any
 
 import pytest
 import yaml
+from mcap.reader import make_reader
+from mcap_ros2.decoder import DecoderFactory
 
 from bike_rig.bag.reader import open_bag
 from bike_rig.bag.recover import recover_bag, scan_mcap
@@ -107,6 +109,16 @@ def test_recorder_records_every_topic_exactly_and_in_order(
                 p.pop("header"), w.pop("header"), p.pop("first_index"), w.pop("first_index")
         assert plain == want, name  # content intact and in publication order
     assert all(len(m.data) > 4 and m.data[:2] == b"\x00\x01" for m in raw)  # CDR LE encapsulation
+
+    # mcap's own reader decodes every message from the embedded ros2msg schemas
+    with (bag / "session_0.mcap").open("rb") as f:
+        reader = make_reader(f, decoder_factories=[DecoderFactory()])
+        assert reader.get_header().profile == "ros2"
+        decoded: dict[str, int] = {}
+        for schema, channel, _, _ in reader.iter_decoded_messages():
+            assert (schema.encoding, channel.message_encoding) == ("ros2msg", "cdr")
+            decoded[channel.topic] = decoded.get(channel.topic, 0) + 1
+    assert decoded == {k: v for k, v in expected.items() if v}
 
     meta = yaml.safe_load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
     qos = {t["topic_metadata"]["name"]: t["topic_metadata"]["offered_qos_profiles"]
