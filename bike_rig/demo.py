@@ -95,7 +95,12 @@ class _Monitor:
             self.started.add(msg.trial_id)
 
     def _period(self, msg: Any) -> None:
-        if msg.trial_id in self.periods:
+        earlier = self.periods.get(msg.trial_id)
+        if earlier is not None:
+            # a re-publication (restarted fitter): keep the estimate from the most samples, as
+            # the parameter node does (bike_rig.core.assembly)
+            if msg.n_samples > earlier.n_samples:
+                self.periods[msg.trial_id] = msg
             return
         self.periods[msg.trial_id] = msg
         state = "ok" if msg.valid and not msg.flags else "REDO: " + "; ".join(msg.flag_reasons or ["no period"])

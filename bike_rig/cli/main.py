@@ -27,7 +27,7 @@ from ..core.model import SigmaConvention, canonical_with_sigma
 from ..core.rider import PAPER_RIDER, Rider, add_rider
 from ..core.whipple import critical_speeds, eigenvalues
 from ..paths import config_file
-from . import bag_cmd, fit_cmd, run_cmd, simulate_cmd
+from . import bag_cmd, fit_cmd, replay_cmd, run_cmd, simulate_cmd
 from . import format as fmt
 
 __all__ = ["main"]
@@ -248,6 +248,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     fit_cmd.add_parser(sub)
     bag_cmd.add_parser(sub)
+    replay_cmd.add_parser(sub)
     run_cmd.add_parser(sub)
     simulate_cmd.add_parser(sub)
 

@@ -119,3 +119,20 @@ def test_every_period_saw_all_its_samples(live: tuple[DemoResult, Path]) -> None
         assert e.n_samples == e.n_expected == 15000, e.trial_id
         assert e.valid and list(e.flags) == []
     assert np.all(np.isfinite([e.period for e in estimates]))
+
+
+def test_offline_replay_is_identical_to_the_live_run(live: tuple[DemoResult, Path]) -> None:
+    """``bike-rig replay`` recomputes the session from the bag with no ROS runtime and gets
+    exactly what the live graph published (same fit settings: recorded in the bag)."""
+    from bike_rig.bag.replay import compare_with_live, replay_bag
+    from bike_rig.bag.session import read_session
+
+    result, _ = live
+    replayed = replay_bag(result.bag)
+    comparison = compare_with_live(replayed, read_session(result.bag))
+    assert comparison.compared_trials == 39 and comparison.missing == ()
+    assert comparison.identical, comparison.worst
+    ps, live_ps = replayed.session.parameters, result.session.parameters
+    assert ps is not None and live_ps is not None
+    for name in PARAMETER_NAMES:
+        assert ps.parameters.value(name) == live_ps.parameters.value(name), name
