@@ -41,7 +41,7 @@ from ..messages import (
     static_readings_from_msg,
     trial_period_from_msg,
 )
-from ..nodes.fitter import TrialFit, TrialFitOptions, fit_trial
+from ..nodes.fitter import TrialFit, TrialFitOptions, fill_period_estimate, fit_trial
 from .typestore import new_message, rig_typestore
 from .writer import BagWriter, Compression, contract_qos
 
@@ -152,26 +152,8 @@ def write_simulated_bag(
 
 
 def period_estimate(r: TrialFit) -> Any:
-    """The ``PeriodEstimate`` the fitter node publishes for a result (its ``estimate``)."""
-    msg = new_message(topics.PERIODS.type)
-    set_stamp(msg, r.stamp_ns)
-    msg.trial_id = r.trial_id
-    msg.measurement_key = r.measurement_key
-    msg.period = r.period
-    msg.period_sigma = r.period_sigma
-    msg.zeta = r.zeta
-    msg.omega = r.omega
-    msg.r2 = r.r2
-    msg.residual_rms = r.residual_rms
-    msg.n_samples = r.n_samples
-    msg.n_expected = r.n_expected
-    msg.window_start = r.window_start
-    msg.window_stop = r.window_stop
-    msg.valid = r.valid
-    msg.flags = list(r.flags)
-    msg.flag_reasons = list(r.flag_reasons)
-    msg.fit_options_json = r.fit_options_json
-    return msg
+    """The ``PeriodEstimate`` the fitter node publishes for a result."""
+    return fill_period_estimate(new_message(topics.PERIODS.type), r)
 
 
 def live_results(

@@ -61,6 +61,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "FitterNode",
+    "fill_period_estimate",
     "FitterState",
     "GyroBatchLike",
     "TrialAccumulator",
@@ -682,6 +683,29 @@ class FitterState:
             self.log.info(line)
 
 
+def fill_period_estimate(msg: Any, r: TrialFit) -> Any:
+    """Fill a ``PeriodEstimate`` message (rclpy or rosbags) with a result, and return it: what
+    the fitter node publishes, and what a simulated recording holds."""
+    msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(r.stamp_ns, 1_000_000_000)
+    msg.trial_id = r.trial_id
+    msg.measurement_key = r.measurement_key
+    msg.period = r.period
+    msg.period_sigma = r.period_sigma
+    msg.zeta = r.zeta
+    msg.omega = r.omega
+    msg.r2 = r.r2
+    msg.residual_rms = r.residual_rms
+    msg.n_samples = r.n_samples
+    msg.n_expected = r.n_expected
+    msg.window_start = r.window_start
+    msg.window_stop = r.window_stop
+    msg.valid = r.valid
+    msg.flags = list(r.flags)
+    msg.flag_reasons = list(r.flag_reasons)
+    msg.fit_options_json = r.fit_options_json
+    return msg
+
+
 # ---------------------------------------------------------------------- the ROS node
 
 
@@ -824,25 +848,7 @@ class FitterNode:
 
     def estimate(self, r: TrialFit) -> Any:
         """The PeriodEstimate message of a result."""
-        msg = self._estimate_type()
-        msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(r.stamp_ns, 1_000_000_000)
-        msg.trial_id = r.trial_id
-        msg.measurement_key = r.measurement_key
-        msg.period = r.period
-        msg.period_sigma = r.period_sigma
-        msg.zeta = r.zeta
-        msg.omega = r.omega
-        msg.r2 = r.r2
-        msg.residual_rms = r.residual_rms
-        msg.n_samples = r.n_samples
-        msg.n_expected = r.n_expected
-        msg.window_start = r.window_start
-        msg.window_stop = r.window_stop
-        msg.valid = r.valid
-        msg.flags = list(r.flags)
-        msg.flag_reasons = list(r.flag_reasons)
-        msg.fit_options_json = r.fit_options_json
-        return msg
+        return fill_period_estimate(self._estimate_type(), r)
 
 
 def main(args: list[str] | None = None) -> int:
