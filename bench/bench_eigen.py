@@ -22,13 +22,11 @@ import importlib
 import itertools
 import math
 import os
-import statistics
 import sys
-import time
-from collections.abc import Callable
 from typing import Any
 
 import numpy as np
+from timing import median_ms  # bench/timing.py
 
 from bike_rig.core.whipple import (
     canonical_matrices,
@@ -47,17 +45,6 @@ BENCHMARK: dict[str, float] = {
     "IHxx": 0.05892, "IHyy": 0.06, "IHzz": 0.00708, "IHxz": -0.00756,
     "rF": 0.35, "mF": 3.0, "IFxx": 0.1405, "IFyy": 0.28,
 }  # fmt: skip
-
-
-def median_ms(fn: Callable[[], object], repeat: int) -> float:
-    """Median wall time of ``fn`` in ms, after one warm-up call."""
-    fn()
-    times = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return 1e3 * statistics.median(times)
 
 
 def worst_distance(a: np.ndarray, b: np.ndarray) -> float:

@@ -83,9 +83,7 @@ class Bench:
             lambda: self.events.get_subscription_count() > 0 and self.gyro.get_subscription_count() > 0,
             MATCH_TIMEOUT_S, "fitter subscriptions",
         )  # fmt: skip
-        self.spin_until(
-            lambda: self.node.count_publishers(PERIODS.name) > 0, MATCH_TIMEOUT_S, "fitter publisher"
-        )
+        self.spin_until(lambda: self.node.count_publishers(PERIODS.name) > 0, MATCH_TIMEOUT_S, "fitter publisher")
 
     def event(self, kind: int, trial_id: str, rate: float, count: int = 0) -> Any:
         return msgs.TrialEvent(kind=kind, trial_id=trial_id, part="frame", pendulum="compound",

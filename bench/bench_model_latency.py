@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import os
 import signal
-import statistics
 import subprocess
 import sys
 import time
@@ -26,6 +25,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from timing import median_ms  # bench/timing.py
 
 from bike_rig import topics
 from bike_rig.core.assembly import SessionAssembly, TrialPeriod, compute_model
@@ -54,16 +54,6 @@ def percentiles(values_ms: Sequence[float]) -> str:
         f"median {np.median(arr):6.2f} ms   p95 {np.percentile(arr, 95):6.2f} ms   "
         f"max {arr.max():6.2f} ms   (n = {arr.size})"
     )
-
-
-def median_ms(fn: Callable[[], object], repeat: int = 100) -> float:
-    fn()
-    times = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return 1e3 * statistics.median(times)
 
 
 class Graph:
@@ -207,7 +197,7 @@ def main() -> int:
     assert ps is not None
     speeds = np.linspace(0.0, 10.0, 201)
     print("in-process core calls (median):")
-    print(f"  SessionAssembly.result (13 keys, combine + compute_parameters): {median_ms(session.result):6.2f} ms")
+    print(f"  SessionAssembly.result (13 keys, combine + compute_parameters): {median_ms(session.result, 100):6.2f} ms")
     print(f"  compute_model (201 speeds, correlated σ, speed σ):              "
           f"{median_ms(lambda: compute_model(ps, speeds)):6.2f} ms")  # fmt: skip
     print(f"  compute_model with the paper rider:                             "

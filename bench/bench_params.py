@@ -9,11 +9,10 @@ Both sides start from a parsed raw file (parsing is timed separately for ours).
 
 from __future__ import annotations
 
-import statistics
 import sys
-import time
-from collections.abc import Callable
 from pathlib import Path
+
+from timing import median_ms  # bench/timing.py
 
 from bike_rig.core.benchmark import PARAMETER_NAMES, compute_parameters
 from bike_rig.core.io_bp import read_bp_measured
@@ -22,16 +21,6 @@ from bike_rig.core.model import canonical_with_sigma
 
 SHARED = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "bicycleparameters"
 BIKES = ("Browser", "Browserins", "Crescendo", "Fisher", "Stratos", "Yellow")
-
-
-def median_ms(fn: Callable[[], object], repeat: int = 200) -> float:
-    fn()  # warm-up
-    times = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return 1e3 * statistics.median(times)
 
 
 def main() -> int:

@@ -16,16 +16,14 @@ from __future__ import annotations
 
 import math
 import os
-import statistics
 import sys
-import time
-from collections.abc import Callable
 from types import SimpleNamespace
 from typing import Any
 
 os.environ.setdefault("MPLBACKEND", "Agg")  # BicycleParameters imports pyplot
 
 import numpy as np
+from timing import median_ms  # bench/timing.py
 
 from bike_rig.core.period import fit_period
 
@@ -49,16 +47,6 @@ def simulated_trial(seed: int = 1, rate_hz: float = RATE_HZ, duration: float = D
     y += lsb * rng.standard_normal(t.size) + np.cumsum(rng.standard_normal(t.size)) * (3 * lsb / math.sqrt(t.size))
     code = np.clip(np.round((y + full_scale) / lsb), 0, 4095)
     return code * lsb - full_scale
-
-
-def median_ms(fn: Callable[[], object], repeat: int) -> float:
-    fn()  # warm-up
-    times = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return 1e3 * statistics.median(times)
 
 
 def _bicycleparameters_period() -> Any:
