@@ -112,7 +112,7 @@ def simulated_messages(
             batch.header.frame_id = frame_id
             # a batch is published once its last sample is taken
             yield SimulatedMessage(topics.GYRO.name, _stamp_of(t0, stop_at - 1, rate) + latency_ns, batch)
-        end = _stamp_of(t0, n - 1, rate)
+        end = _stamp_of(t0, n, rate)  # just after the last sample, as the driver stamps STOP
         stop = new_message(EVENT_TYPE, kind=1, sample_count=n, **fields)
         set_stamp(stop, end)
         stop.header.frame_id = frame_id
