@@ -10,23 +10,20 @@ whose START is not in the bag (a recording that began mid-trial), and batches ou
 trial, are skipped and counted.
 
 Messages are decoded with a rosbags typestore of ``bike_rig_msgs`` built from its ``.msg``
-files (:func:`bike_rig_typestore`).
+files (:func:`bike_rig.bag.typestore.rig_typestore`).
 """
 
 from __future__ import annotations
 
-import importlib
 import logging
 import math
-import os
-import sys
 from collections.abc import Iterator, Mapping
-from functools import cache
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from ..bag.typestore import rig_typestore
 from ..topics import GYRO, TRIAL_EVENTS
 from .base import (
     NS_PER_S,
@@ -41,50 +38,11 @@ from .base import (
 )
 from .errors import SourceConfigError, SourceIOError
 
-__all__ = ["BagSource", "bike_rig_typestore", "msg_directory"]
+__all__ = ["BagSource"]
 
 _log = logging.getLogger(__name__)
 
 _START, _STOP, _ABORT = 0, 1, 2
-
-
-def msg_directory() -> Path:
-    """The folder of ``bike_rig_msgs``' ``.msg`` files: installed in the ROS prefix (the venv's
-    ``share/``, or any ``AMENT_PREFIX_PATH`` entry), else the source tree's.
-
-    Raises:
-        FileNotFoundError: None of them holds GyroBatch.msg.
-    """
-    prefixes = [Path(sys.prefix)] + [Path(p) for p in os.environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep) if p]
-    candidates = [p / "share" / "bike_rig_msgs" / "msg" for p in prefixes]
-    candidates.append(Path(__file__).resolve().parents[2] / "bike_rig_msgs" / "msg")
-    for c in candidates:
-        if (c / "GyroBatch.msg").is_file():
-            return c
-    raise FileNotFoundError(f"bike_rig_msgs .msg files not found in {', '.join(map(str, candidates))}")
-
-
-@cache
-def bike_rig_typestore() -> Any:
-    """A rosbags typestore (ROS 2 Kilted) with every ``bike_rig_msgs`` message registered:
-    :func:`bike_rig.bag.typestore.rig_typestore` when that module is there, else one built
-    here the same way."""
-    try:
-        shared: Any = importlib.import_module("bike_rig.bag.typestore")
-    except ImportError:
-        return _private_typestore()
-    return shared.rig_typestore()
-
-
-def _private_typestore() -> Any:
-    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
-
-    store = get_typestore(Stores.ROS2_KILTED)
-    types: dict[str, Any] = {}
-    for path in sorted(msg_directory().glob("*.msg")):
-        types.update(get_types_from_msg(path.read_text(encoding="utf-8"), f"bike_rig_msgs/msg/{path.stem}"))
-    store.register(types)
-    return store
 
 
 def _stamp_ns(msg: Any) -> int:
@@ -136,7 +94,7 @@ class BagSource(GyroSource):
                 raise SourceConfigError(
                     "bag", "bag", f"topic {topic} holds {found[topic].msgtype}, expected {msgtype}", self.path
                 )
-        self._store = bike_rig_typestore()
+        self._store: Any = rig_typestore()
         self._gyro_topic = gyro_topic
         self._messages: Iterator[tuple[Any, int, bytes]] = self._reader.messages(connections=list(found.values()))
         self._pending: tuple[Any, int, bytes] | None = None

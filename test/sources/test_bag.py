@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 from rosbags.rosbag2 import StoragePlugin, Writer
 
+from bike_rig.bag.typestore import rig_typestore
 from bike_rig.sources import (
     RigClock,
     SampleBlock,
@@ -22,7 +23,7 @@ from bike_rig.sources import (
     drain,
     open_source,
 )
-from bike_rig.sources.bag import BagSource, bike_rig_typestore
+from bike_rig.sources.bag import BagSource
 from bike_rig.topics import GYRO, PERIODS, TRIAL_EVENTS
 
 T0 = 1_700_000_000_000_000_000
@@ -33,7 +34,7 @@ class BagBuilder:
     """Messages for a test bag, written in the order they are added (log time 10 ms apart)."""
 
     def __init__(self) -> None:
-        self.ts = bike_rig_typestore()
+        self.ts = rig_typestore()
         self.items: list[tuple[str, str, Any]] = []
 
     def header(self, ns: int) -> Any:
