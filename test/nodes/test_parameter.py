@@ -34,6 +34,8 @@ pytestmark = pytest.mark.ros
 REPO = Path(__file__).resolve().parents[2]
 BROWSER = config_file("bicycles/browser.yaml")
 STEP_TIMEOUT_S = 30.0
+#: A service request not answered within this long is sent again (see Probe.call), s.
+RESEND_S = 2.0
 BROWSER_KEYS = (
     "TtP1", "TcR1", "TtR1", "TcF1", "TtF1", "TcB1", "TtB1", "TtB2", "TtB3", "TcH1", "TtH1", "TtH2", "TtH3",
 )  # fmt: skip
@@ -57,6 +59,7 @@ class Probe:
         self.executor.add_node(self.node)
         self.inbox: dict[str, list[Any]] = {}
         self._publishers: dict[str, Any] = {}
+        self._clients: dict[str, Any] = {}
 
     def listen(self, topic: topics.Topic, msg_type: Any) -> list[Any]:
         """Subscribe with the topic's QoS; the returned list fills as messages arrive."""
@@ -99,12 +102,29 @@ class Probe:
         return next(m for m in box if condition(m))
 
     def call(self, srv_type: Any, name: str, request: Any, timeout: float = STEP_TIMEOUT_S) -> Any:
-        client = self.node.create_client(srv_type, name)
+        """Call an (idempotent) service and return its response.
+
+        ``service_is_ready()`` only means the request path is matched: the server's response
+        writer may not have matched this client's reader yet, and DDS then drops the response
+        (volatile). So a request not answered within ``RESEND_S`` is sent again, until
+        ``timeout``.
+        """
+        client = self._clients.get(name)
+        if client is None:
+            client = self._clients[name] = self.node.create_client(srv_type, name)
         self.wait_for(lambda: client.service_is_ready(), f"service {name}", timeout)
-        future = client.call_async(request)
-        self.wait_for(future.done, f"a response from {name}", timeout)
-        self.node.destroy_client(client)
-        return future.result()
+        deadline = time.monotonic() + timeout
+        while True:
+            future = client.call_async(request)
+            try:
+                wait = min(RESEND_S, max(0.0, deadline - time.monotonic()))
+                self.wait_for(future.done, f"a response from {name}", wait)
+            except AssertionError:
+                client.remove_pending_request(future)
+                if time.monotonic() >= deadline:
+                    raise AssertionError(f"timed out after {timeout} s waiting for a response from {name}") from None
+                continue
+            return future.result()
 
     def __enter__(self) -> Probe:
         return self
