@@ -39,7 +39,13 @@ from .benchmark import ParameterSet
 from .model import MatrixSet, SigmaConvention, canonical_with_sigma
 from .symbols import PARAMETER_NAMES
 from .uncertain import COMPLEX_STEP
-from .whipple import CriticalSpeeds, canonical_matrices, characteristic_polynomial, critical_speeds
+from .whipple import (
+    CriticalSpeeds,
+    canonical_matrices,
+    characteristic_polynomial,
+    critical_speeds,
+    hurwitz_determinant,
+)
 
 __all__ = [
     "CrossingKind",
@@ -102,13 +108,7 @@ def _criterion(coef: NDArray[Any], v: float, kind: CrossingKind) -> tuple[NDArra
     da = coef @ dpowers
     if kind is CrossingKind.REAL:
         return a[..., 0], da[..., 0]
-    a0, a1, a2, a3, a4 = (a[..., k] for k in range(5))
-    d0, d1, d2, d3, d4 = (da[..., k] for k in range(5))
-    h = a3 * a2 * a1 - a4 * a1 * a1 - a0 * a3 * a3
-    dh = (
-        d3 * a2 * a1 + a3 * d2 * a1 + a3 * a2 * d1
-        - d4 * a1 * a1 - 2.0 * a4 * a1 * d1 - d0 * a3 * a3 - 2.0 * a0 * a3 * d3
-    )  # fmt: skip
+    h, dh = hurwitz_determinant([a[..., k] for k in range(5)], [da[..., k] for k in range(5)])
     return h, dh
 
 

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -45,12 +45,11 @@ __all__ = [
     "characteristic_polynomial",
     "critical_speeds",
     "eigenvalues",
+    "hurwitz_determinant",
     "quartic_roots",
     "stable_speed_range",
     "state_space",
 ]
-
-#: The 26 benchmark parameter names (BicycleParameters' spelling, Meijaard et al. 2007).
 
 #: Labels of the eigenvalue columns returned by :func:`eigenvalues`, in column order.
 MODE_LABELS: tuple[str, str, str, str] = ("weave", "weave", "capsize", "caster")
@@ -975,8 +974,12 @@ def _eval_a(rows: list[list[float]], v: float) -> tuple[list[float], list[float]
     return vals, ders
 
 
-def _hurwitz(a: list[float], da: list[float]) -> tuple[float, float]:
-    """``H = a3 a2 a1 - a4 a1² - a0 a3²`` and ``dH/dv`` from the ``a_k`` and their derivatives."""
+def hurwitz_determinant(a: Sequence[Any], da: Sequence[Any]) -> tuple[Any, Any]:
+    """``H = a3 a2 a1 - a4 a1² - a0 a3²`` and ``dH/dv`` from the ``a_k`` and their derivatives.
+
+    An oscillatory pair of the quartic ``a4 s⁴ + … + a0`` crosses the imaginary axis where
+    ``H = 0`` (Routh–Hurwitz). Element-wise: the ``a_k`` may be floats or arrays.
+    """
     a0, a1, a2, a3, a4 = a
     d0, d1, d2, d3, d4 = da
     h = a3 * a2 * a1 - a4 * a1 * a1 - a0 * a3 * a3
@@ -1052,7 +1055,7 @@ def _oscillatory_crossing(rows: list[list[float]], v0: float) -> Crossing | None
     The rate is ``Re(-(∂p/∂v)/(∂p/∂s))`` at ``s = iω`` (implicit function theorem on the
     characteristic polynomial ``p(s, v)``).
     """
-    v = _newton(lambda x: _hurwitz(*_eval_a(rows, x)), v0)
+    v = _newton(lambda x: hurwitz_determinant(*_eval_a(rows, x)), v0)
     a, da = _eval_a(rows, v)
     if a[3] == 0.0 or a[1] / a[3] <= 0.0:
         return None  # H = 0 without a purely imaginary pair (e.g. a pair of opposite reals)
@@ -1105,7 +1108,7 @@ def critical_speeds(matrices: CanonicalMatrices, g: float, v_max: float = math.i
 def _is_stable(rows: list[list[float]], v: float) -> bool:
     """Liénard–Chipart test at one speed: all ``a_k > 0`` (with ``a4 = 1``) and ``H > 0``."""
     a, da = _eval_a(rows, v)
-    return all(x > 0.0 for x in a) and _hurwitz(a, da)[0] > 0.0
+    return all(x > 0.0 for x in a) and hurwitz_determinant(a, da)[0] > 0.0
 
 
 def stable_speed_range(
@@ -1130,7 +1133,7 @@ def stable_speed_range(
     rows = _poly_rows(matrices, g)
     real, osc = _candidates(rows)
     split = [_newton(lambda x: (_eval_a(rows, x)[0][0], _eval_a(rows, x)[1][0]), v) for v in real]
-    split += [_newton(lambda x: _hurwitz(*_eval_a(rows, x)), v) for v in osc]
+    split += [_newton(lambda x: hurwitz_determinant(*_eval_a(rows, x)), v) for v in osc]
     edges = [0.0, *sorted(v for v in split if 0.0 < v < v_max), v_max]
     out: list[tuple[float, float]] = []
     for lo, hi in itertools.pairwise(edges):
