@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 
@@ -54,9 +54,8 @@ def parameter_table(ps: ParameterSet) -> str:
     return "\n".join(rows)
 
 
-def com_summary(coms: dict[str, ComEstimate] | object) -> str:
+def com_summary(coms: Mapping[str, ComEstimate]) -> str:
     """One line per part: both mass-centre solutions' σ and which is more accurate."""
-    assert isinstance(coms, dict)
     names = {"B": "rear frame", "H": "fork/handlebar"}
     lines = ["mass centres (x, z) [m], centroid Eq 17-19 vs least squares Eq 20:"]
     for part, est in coms.items():

@@ -19,10 +19,10 @@ import numpy as np
 
 from ..core.benchmark import ComMethod, ParameterSet, compute_parameters
 from ..core.errors import BikeRigError, InputFileError
-from ..core.io_bp import dump_bp_parameter_yaml, read_bp_text
+from ..core.io_bp import dump_bp_parameter_yaml
 from ..core.io_yaml import ATTRIBUTION, dump_measurements_yaml, dump_parameters_yaml, load_yaml_document
 from ..core.loader import load_input
-from ..core.measurements import Measurements
+from ..core.measurements import Measurements, validate
 from ..core.model import SigmaConvention, canonical_with_sigma
 from ..core.rider import PAPER_RIDER, Rider, add_rider
 from ..core.whipple import critical_speeds, eigenvalues
@@ -142,18 +142,16 @@ def cmd_model(args: argparse.Namespace) -> int:
 
 
 def cmd_import_bp(args: argparse.Namespace) -> int:
-    entries = read_bp_text(args.file)  # fails early and clearly on unreadable files
     got = load_input(args.file)
     if isinstance(got, Measurements):
-        from ..core.measurements import validate
-
         validate(got)
         text = dump_measurements_yaml(got, ATTRIBUTION)
+        what = f"measurements, {len(got.readings)} readings and {len(got.extras)} other entries"
     else:
         text = dump_parameters_yaml(got, ATTRIBUTION)
+        what = f"parameters, {len(got.parameters.names)} values"
     Path(args.output).write_text(text, encoding="utf-8")
-    kind = "measurements" if isinstance(got, Measurements) else "parameters"
-    print(f"wrote {args.output}: {got.bicycle} {kind}, {len(entries)} entries read", file=sys.stderr)
+    print(f"wrote {args.output}: {got.bicycle} {what}", file=sys.stderr)
     return 0
 
 
