@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import importlib
 import itertools
-import math
 import os
 import sys
 from typing import Any
@@ -28,23 +27,22 @@ from typing import Any
 import numpy as np
 from timing import median_ms  # bench/timing.py
 
+from bike_rig.core.benchmark import ParameterSet
+from bike_rig.core.loader import load_input
 from bike_rig.core.whipple import (
     canonical_matrices,
     critical_speeds,
     eigenvalues,
     state_space,
 )
+from bike_rig.paths import config_file
 
 N_SPEEDS = 100_000
-G = 9.81
-BENCHMARK: dict[str, float] = {
-    "w": 1.02, "c": 0.08, "lam": math.pi / 10, "g": G,
-    "rR": 0.3, "mR": 2.0, "IRxx": 0.0603, "IRyy": 0.12,
-    "xB": 0.3, "zB": -0.9, "mB": 85.0, "IBxx": 9.2, "IByy": 11.0, "IBzz": 2.8, "IBxz": 2.4,
-    "xH": 0.9, "zH": -0.7, "mH": 4.0,
-    "IHxx": 0.05892, "IHyy": 0.06, "IHzz": 0.00708, "IHxz": -0.00756,
-    "rF": 0.35, "mF": 3.0, "IFxx": 0.1405, "IFyy": 0.28,
-}  # fmt: skip
+#: The Meijaard et al. (2007) benchmark bicycle, as shipped in config/bicycles/benchmark.yaml.
+_SHIPPED = load_input(config_file("bicycles/benchmark.yaml"))
+assert isinstance(_SHIPPED, ParameterSet)
+BENCHMARK: dict[str, float] = _SHIPPED.values()
+G = BENCHMARK["g"]
 
 
 def worst_distance(a: np.ndarray, b: np.ndarray) -> float:
