@@ -27,7 +27,7 @@ from ..core.model import SigmaConvention, canonical_with_sigma
 from ..core.rider import PAPER_RIDER, Rider, add_rider
 from ..core.whipple import critical_speeds, eigenvalues
 from ..paths import config_file
-from . import bag_cmd, fit_cmd, replay_cmd, run_cmd, simulate_cmd
+from . import bag_cmd, budget_cmd, fit_cmd, plot_cmd, replay_cmd, report_cmd, run_cmd, simulate_cmd
 from . import format as fmt
 
 __all__ = ["main"]
@@ -249,6 +249,9 @@ def build_parser() -> argparse.ArgumentParser:
     replay_cmd.add_parser(sub)
     run_cmd.add_parser(sub)
     simulate_cmd.add_parser(sub)
+    plot_cmd.add_parser(sub)
+    budget_cmd.add_parser(sub)
+    report_cmd.add_parser(sub)
 
     q = sub.add_parser(
         "demo",

@@ -24,11 +24,14 @@ class PeriodEvidence:
         files: The trial files, as resolved paths.
         fits: One ``PeriodFit`` per file (see :mod:`bike_rig.core.period`).
         combined: The ``CombinedPeriod`` of the usable fits.
+        trials: The samples read from each file (a :class:`bike_rig.core.trials.Trial` each),
+            for plots of the fits.
     """
 
     files: tuple[str, ...]
     fits: tuple[Any, ...]
     combined: Any
+    trials: tuple[Any, ...] = ()
 
     @property
     def value(self) -> float:
@@ -55,8 +58,10 @@ def period_from_trials(files: Sequence[Path], sample_rate_hz: float | None = Non
     from .trials import read_trial
 
     fits = []
+    trials = []
     for f in files:
         trial = read_trial(f, sample_rate_hz=sample_rate_hz)
+        trials.append(trial)
         fits.append(fit_period(trial.samples, **trial.timing))
     combined = combine_periods(fits)
-    return PeriodEvidence(tuple(str(f) for f in files), tuple(fits), combined)
+    return PeriodEvidence(tuple(str(f) for f in files), tuple(fits), combined, tuple(trials))

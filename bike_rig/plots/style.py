@@ -1,0 +1,71 @@
+"""Shared look and output of every figure: a new Agg figure, colours per bicycle and per mode,
+and writing a figure to PNG/SVG files or to an embeddable ``data:`` URI.
+
+matplotlib is imported here and in the figure modules only, never by the core.
+"""
+
+from __future__ import annotations
+
+import base64
+import io
+from collections.abc import Sequence
+from pathlib import Path
+
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+from ..core.errors import InputFileError
+
+__all__ = [
+    "FORMATS",
+    "MODE_COLOURS",
+    "bicycle_colour",
+    "data_uri",
+    "new_figure",
+    "save_figure",
+]
+
+#: File formats a figure can be written in.
+FORMATS = ("png", "svg")
+#: Resolution of PNG output, dots per inch.
+PNG_DPI = 110
+#: One colour per mode label of :data:`bike_rig.core.whipple.MODE_LABELS`.
+MODE_COLOURS = {"weave": "C0", "capsize": "C3", "caster": "C2"}
+_CYCLE = ("C0", "C1", "C2", "C3", "C4", "C5", "C6", "C7", "C8", "C9")
+
+
+def new_figure(width_in: float = 8.0, height_in: float = 5.0) -> Figure:
+    """A figure with an Agg canvas and constrained layout, size in inches."""
+    fig = Figure(figsize=(width_in, height_in), layout="constrained")
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def bicycle_colour(index: int) -> str:
+    """The colour of the ``index``-th bicycle of a figure (matplotlib's default cycle)."""
+    return _CYCLE[index % len(_CYCLE)]
+
+
+def save_figure(fig: Figure, stem: Path, formats: Sequence[str] = FORMATS) -> list[Path]:
+    """Write ``fig`` as ``stem.<format>`` for each format.
+
+    Raises:
+        InputFileError: A file cannot be written (names the file and the reason).
+    """
+    written: list[Path] = []
+    for fmt in formats:
+        path = stem.with_name(f"{stem.name}.{fmt}")
+        try:
+            fig.savefig(path, format=fmt, dpi=PNG_DPI)
+        except OSError as exc:
+            raise InputFileError(str(path), f"cannot write the figure ({exc.strerror})") from None
+        written.append(path)
+    return written
+
+
+def data_uri(fig: Figure, fmt: str = "png") -> str:
+    """The figure as a ``data:image/...;base64,`` URI (for a self-contained HTML page)."""
+    buf = io.BytesIO()
+    fig.savefig(buf, format=fmt, dpi=PNG_DPI)
+    mime = "image/svg+xml" if fmt == "svg" else f"image/{fmt}"
+    return f"data:{mime};base64,{base64.b64encode(buf.getvalue()).decode('ascii')}"

@@ -1,0 +1,263 @@
+"""What the figures, the budget and the report are about: one bicycle from any accepted input.
+
+:func:`load_subject` opens
+
+* a **measurement file** (our YAML or BicycleParameters' ``Measured.txt``): the parameters are
+  computed with their link to every raw reading (so the uncertainty budget can rank readings);
+  periods given as raw trial files bring their samples and fits along;
+* a **parameter file** (our YAML, BicycleParameters' ``Benchmark.txt`` or parameter-set YAML):
+  the 25 parameters with σ, no raw readings, no trials;
+* a **session bag** (a rosbag2 directory, its ``metadata.yaml`` or an ``.mcap`` file): the
+  session is replayed offline (:func:`bike_rig.bag.replay.replay_bag`), every trial with its
+  samples, fit, flags and times, and a timeline of what was measured when.
+
+Nothing here imports rclpy or matplotlib.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .core.benchmark import ComMethod, ParameterSet, compute_parameters
+from .core.errors import BikeRigError, InputFileError
+from .core.loader import load_input
+from .core.measurements import Measurements
+from .core.period import PeriodFit
+
+__all__ = [
+    "SubjectError",
+    "Subject",
+    "TimelineEntry",
+    "TrialRecord",
+    "is_bag_path",
+    "load_subject",
+    "load_subjects",
+]
+
+FloatArray = NDArray[np.float64]
+
+
+class SubjectError(BikeRigError):
+    """An input cannot be turned into a bicycle's parameters (e.g. an incomplete session bag)."""
+
+    def __init__(self, path: str, reason: str) -> None:
+        self.path = path
+        self.reason = reason
+        super().__init__(f"{path}: {reason}")
+
+
+@dataclass(frozen=True)
+class TrialRecord:
+    """One pendulum trial: its samples, its fit and what became of it.
+
+    Attributes:
+        trial_id: The trial's id (bags) or its file's name (measurement files).
+        key: The period it measures (``TtB1``, ``TcR1``...).
+        fit: The core's fit of Eq 23 (period, σ, ζ, r², window, flags with reasons).
+        used: It entered its key's combined period.
+        note: Why it was left out, beyond its flags ("" when nothing to say).
+        samples: The gyro samples (rad/s for the rig; a file's own unit otherwise), or None.
+        sample_rate_hz: Their rate, Hz (None when ``times`` are given).
+        times: Time of each sample, s from the trial's first sample, or None (constant rate).
+        start_s: When the trial started, s since the session's first message (bags), else None.
+        stop_s: When it stopped, s since the session's first message (bags), else None.
+        source: The trial file, or the bag.
+    """
+
+    trial_id: str
+    key: str
+    fit: PeriodFit
+    used: bool
+    note: str
+    samples: FloatArray | None
+    sample_rate_hz: float | None
+    times: FloatArray | None
+    start_s: float | None
+    stop_s: float | None
+    source: str
+
+    def sample_times(self) -> FloatArray | None:
+        """Time of every sample, s from the first (None without samples)."""
+        if self.samples is None:
+            return None
+        if self.times is not None:
+            return self.times - self.times[0]
+        rate = self.sample_rate_hz if self.sample_rate_hz else 1.0
+        return np.arange(self.samples.size, dtype=float) / float(rate)
+
+
+@dataclass(frozen=True)
+class TimelineEntry:
+    """Something that happened in a recorded session.
+
+    Attributes:
+        time_s: s since the session's first message.
+        what: What happened, e.g. ``trial frame_o1_t2 (TtB1) started``.
+    """
+
+    time_s: float
+    what: str
+
+
+@dataclass(frozen=True)
+class Subject:
+    """One bicycle, ready to plot and report.
+
+    Attributes:
+        name: The bicycle's name.
+        path: The input, as given.
+        kind: ``measurements``, ``parameters`` or ``bag``.
+        parameters: The 26 benchmark parameters with covariance, without a rider; ``raw`` is set
+            when the input held raw readings (measurement files and bags).
+        measurements: The raw readings (None for a parameter file).
+        trials: Every trial, in session (or file) order; empty for a parameter file.
+        timeline: For a bag, what was measured when, by time; else empty.
+        notes: What a reader should know (e.g. trials left out of a replay).
+        duration_s: For a bag, the session's length, s; else None.
+    """
+
+    name: str
+    path: str
+    kind: str
+    parameters: ParameterSet
+    measurements: Measurements | None
+    trials: tuple[TrialRecord, ...] = ()
+    timeline: tuple[TimelineEntry, ...] = ()
+    notes: tuple[str, ...] = ()
+    duration_s: float | None = None
+
+
+def is_bag_path(path: str | Path) -> bool:
+    """Whether ``path`` names a bag: a directory, a ``metadata.yaml`` or an ``.mcap`` file."""
+    p = Path(path)
+    return p.is_dir() or p.name == "metadata.yaml" or p.suffix.lower() == ".mcap"
+
+
+def _file_trials(m: Measurements) -> tuple[TrialRecord, ...]:
+    out: list[TrialRecord] = []
+    for key, ev in m.evidence.items():
+        trials = list(getattr(ev, "trials", ())) or [None] * len(ev.fits)
+        for path, fit, trial in zip(ev.files, ev.fits, trials):
+            out.append(
+                TrialRecord(
+                    trial_id=Path(path).name,
+                    key=str(key),
+                    fit=fit,
+                    used=bool(fit.clean),
+                    note="",
+                    samples=None if trial is None else np.asarray(trial.samples, dtype=float),
+                    sample_rate_hz=None if trial is None else trial.sample_rate_hz,
+                    times=None if trial is None or trial.times is None else np.asarray(trial.times, dtype=float),
+                    start_s=None,
+                    stop_s=None,
+                    source=str(path),
+                )
+            )
+    return tuple(out)
+
+
+def _batch_samples(batches: list[Any]) -> tuple[FloatArray | None, float | None]:
+    """A recorded trial's samples in index order, each first index once."""
+    if not batches:
+        return None, None
+    seen: dict[int, Any] = {}
+    for b in batches:
+        seen.setdefault(int(b.first_index), b)
+    parts = [np.asarray(seen[k].rates, dtype=float) for k in sorted(seen)]
+    rate = float(batches[0].sample_rate_hz)
+    return np.concatenate(parts), rate if rate > 0 else None
+
+
+def _stamp_s(msg: Any, t0_ns: int) -> float | None:
+    if msg is None:
+        return None
+    stamp = msg.header.stamp
+    ns = int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
+    return (ns - t0_ns) / 1e9 if ns > 0 else None
+
+
+def _bag_subject(path: str) -> Subject:
+    from .bag.replay import replay_session
+    from .bag.session import read_session
+    from .core.assembly import merged_readings
+    from .messages import static_readings_from_msg
+
+    session = read_session(path)
+    result = replay_session(session)
+    if result.parameters is None:
+        missing = ", ".join(result.session.missing) or "unknown"
+        raise SubjectError(path, f"the session is incomplete: no usable trial for {missing}")
+    t0 = int(session.start_time)
+    records: list[TrialRecord] = []
+    timeline: list[TimelineEntry] = []
+    for r in result.trials:
+        rec = session.trials.get(r.trial_id)
+        samples, rate = _batch_samples(rec.batches) if rec is not None else (None, None)
+        start = _stamp_s(rec.start, t0) if rec is not None else None
+        stop = _stamp_s(rec.stop, t0) if rec is not None else None
+        key = r.fit.measurement_key or (rec.measurement_key if rec is not None else "")
+        records.append(
+            TrialRecord(r.trial_id, key, r.fit.fit, r.used, r.note, samples, rate, None, start, stop, path)
+        )
+        if start is not None:
+            timeline.append(TimelineEntry(start, f"trial {r.trial_id} ({key}) started"))
+        if stop is not None:
+            state = "aborted" if rec is not None and rec.state == "aborted" else "stopped"
+            timeline.append(TimelineEntry(stop, f"trial {r.trial_id} ({key}) {state}"))
+    if session.static_readings is not None:
+        t = _stamp_s(session.static_readings, t0)
+        if t is not None:
+            timeline.append(TimelineEntry(max(t, 0.0), "static readings published"))
+    for msg in session.parameters:
+        t = _stamp_s(msg, t0)
+        if t is not None:
+            timeline.append(TimelineEntry(t, "parameter set published"))
+    timeline.sort(key=lambda e: e.time_s)
+    periods = {k.key: (k.value, k.sigma) for k in result.session.periods}
+    static = static_readings_from_msg(session.static_readings)
+    measurements = merged_readings(static, periods, f"{path} (replayed trials)")
+    return Subject(
+        name=result.bicycle or Path(path).stem,
+        path=path,
+        kind="bag",
+        parameters=result.parameters,
+        measurements=measurements,
+        trials=tuple(records),
+        timeline=tuple(timeline),
+        notes=tuple(result.notes),
+        duration_s=session.duration / 1e9,
+    )
+
+
+def load_subject(path: str | Path, com_method: ComMethod | str = ComMethod.CENTROID) -> Subject:
+    """Open one input (measurement file, parameter file or session bag) as a :class:`Subject`.
+
+    Args:
+        path: The input.
+        com_method: Mass-centre method for raw readings (the paper's centroid by default; a
+            bag is replayed with the method its live parameter set names).
+
+    Raises:
+        BikeRigError: The input is missing, unreadable, invalid, or (a bag) incomplete; the
+            message names the file and the reason.
+    """
+    p = str(path)
+    if not Path(path).exists():
+        raise InputFileError(p, "no such file or directory")
+    if is_bag_path(path):
+        return _bag_subject(p)
+    got = load_input(path)
+    if isinstance(got, Measurements):
+        ps = compute_parameters(got, ComMethod(com_method))
+        return Subject(got.bicycle, p, "measurements", ps, got, _file_trials(got))
+    return Subject(got.bicycle, p, "parameters", got, None)
+
+
+def load_subjects(paths: list[str], com_method: ComMethod | str = ComMethod.CENTROID) -> list[Subject]:
+    """:func:`load_subject` for each path, in order."""
+    return [load_subject(p, com_method) for p in paths]
