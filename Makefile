@@ -1,5 +1,9 @@
 # bike_rig: make demo | make test | make lint | make bench | make clean
 #
+# The tests also need Debian's chromium (/usr/bin/chromium) for the report's render test:
+# tools/setup_chromium.sh installs it with apt-get before pytest runs, and does nothing when
+# it is there.
+#
 # Every target that runs code first brings the project-local .venv up to date with
 # tools/setup_venv.sh (ROS 2 Kilted wheels, bike_rig_msgs built with cmake into the venv,
 # bike_rig installed with `pip install .`). That step is idempotent and keyed on the hashes
@@ -30,13 +34,16 @@ unexport ROS_LOCALHOST_ONLY ROS_STATIC_PEERS
 PYTEST_TIMEOUT_S := 1800
 BENCH_TIMEOUT_S := 1800
 
-.PHONY: venv bench-deps demo test lint typecheck pytest bench clean
+.PHONY: venv bench-deps chromium demo test lint typecheck pytest bench clean
 
 venv:
 	@tools/setup_venv.sh
 
 bench-deps:
 	@tools/setup_venv.sh --bench
+
+chromium:
+	@tools/setup_chromium.sh
 
 demo: venv
 	$(BIN)/bike-rig demo
@@ -48,12 +55,14 @@ typecheck: venv
 	$(BIN)/mypy bike_rig
 
 pytest: venv
+	@tools/setup_chromium.sh
 	timeout -k 30 $(PYTEST_TIMEOUT_S) $(BIN)/python -m pytest
 
 # in this order: ruff, mypy, pytest (each stops the run on failure)
 test: venv
 	$(BIN)/ruff check $(LINT_PATHS)
 	$(BIN)/mypy bike_rig
+	@tools/setup_chromium.sh
 	timeout -k 30 $(PYTEST_TIMEOUT_S) $(BIN)/python -m pytest
 
 # bicycleparameters lives only in .bench-deps/ (put on PYTHONPATH here), never in the test env
