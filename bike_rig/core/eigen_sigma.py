@@ -143,7 +143,7 @@ def eigenvalues_with_sigma(
     sweep = eigenvalues(ms.matrices, ms.g, speeds)
     params = ps.parameters if convention is SigmaConvention.CORRELATED else ps.parameters.independent()
     grad = eigenvalue_gradient(ps.parameters.as_dict(), sweep.speeds, sweep.eigenvalues)
-    finite = np.isfinite(grad).all(axis=2)
+    finite: NDArray[np.bool_] = np.asarray(np.isfinite(grad).all(axis=2))
     g_re = np.where(finite[..., None], grad.real, 0.0)
     g_im = np.where(finite[..., None], grad.imag, 0.0)
     s_re = _quadratic_form(g_re, params.covariance)
