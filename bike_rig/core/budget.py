@@ -1,0 +1,322 @@
+"""Uncertainty budget: which measurement dominates the σ of each parameter and critical speed.
+
+For every output ``y`` (the 25 benchmark parameters, and the weave and capsize speeds when the
+bicycle has them) the first-order variance (paper Eq 3) is split over the inputs:
+
+* **raw readings** (a measurement file or a session bag, ``ps.raw`` set): the inputs are the
+  uncertain readings, every period and every static reading (the columns of
+  ``ps.raw.jacobian``). They are independent (diagonal covariance), so with the sensitivity
+  ``s_j = ∂y/∂x_j`` and the reading's σ_j
+
+      σ_y² = Σ_j (s_j σ_j)²,   share_j = (s_j σ_j)² / σ_y²,   contribution_j = |s_j| σ_j.
+
+  A parameter's sensitivities are its row of ``ps.raw.jacobian``; a speed's are
+  ``∂v/∂p @ ps.raw.jacobian`` with ``∂v/∂p`` from the implicit function theorem
+  (:func:`bike_rig.core.speed_sigma.critical_speeds_with_sigma`).
+* **parameters** (a parameter file, ``ps.raw`` None): the inputs are the 26 parameters with
+  the parameter covariance. A parameter file gives independent σ, so each parameter's budget is
+  itself (share 1) and the speeds split over the parameters as above.
+
+**Correlated inputs.** When the input covariance has off-diagonal terms (e.g. a parameter file
+with a rider added, whose rear-frame parameters ``mB, xB, zB, IB**`` all depend on ``mB``),
+a share per single input is not defined: the cross terms ``2 s_i s_j Σ_ij`` belong to no one
+input and can be negative. The inputs are then grouped into the connected blocks of the
+covariance (inputs linked by a non-zero correlation, transitively), each block is one budget
+input named by its members joined with ``+`` (e.g. ``IBxx+IBxz+IByy+IBzz+mB+xB+zB``), and its
+share is ``s_G Σ_GG s_Gᵀ / σ_y²`` with contribution ``sqrt(s_G Σ_GG s_Gᵀ)``. Blocks are
+mutually independent, so shares are non-negative and sum to 1 exactly, and a diagonal
+covariance gives the single-input formula above. Raw readings are always independent, so
+measurement files and bags never need grouping.
+
+An output with σ = 0 (e.g. the benchmark parameter file, which carries no σ) has no shares.
+A critical speed at a double root has no derivative: its σ is NaN and it has no shares.
+
+Units: every value, σ and contribution is in the output's SI unit (:data:`OUTPUT_UNITS`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .benchmark import ParameterSet
+from .errors import BikeRigError
+from .speed_sigma import CriticalSpeedsWithSigma, SpeedWithSigma, critical_speeds_with_sigma
+from .symbols import PARAMETER_NAMES
+
+__all__ = [
+    "BUDGET_PARAMETERS",
+    "CAPSIZE",
+    "OUTPUT_UNITS",
+    "WEAVE",
+    "BudgetError",
+    "BudgetShare",
+    "InputImportance",
+    "OutputBudget",
+    "UncertaintyBudget",
+    "budget_json",
+    "input_ranking",
+    "uncertainty_budget",
+]
+
+FloatArray = NDArray[np.float64]
+
+#: Output names of the two critical speeds.
+WEAVE = "weave speed"
+CAPSIZE = "capsize speed"
+
+#: The 25 benchmark parameters (PARAMETER_NAMES without g), the budget's parameter outputs.
+BUDGET_PARAMETERS: tuple[str, ...] = tuple(n for n in PARAMETER_NAMES if n != "g")
+
+#: SI unit of every parameter (and g) and of the two speeds.
+OUTPUT_UNITS: dict[str, str] = {
+    **{n: "kg m²" for n in PARAMETER_NAMES if n.startswith("I")},
+    **{n: "kg" for n in ("mB", "mF", "mH", "mR")},
+    **{n: "m" for n in ("c", "rF", "rR", "w", "xB", "xH", "zB", "zH")},
+    "lam": "rad",
+    "g": "m/s²",
+    WEAVE: "m/s",
+    CAPSIZE: "m/s",
+}
+
+#: Input kinds (:attr:`UncertaintyBudget.input_kind`).
+RAW_READINGS = "raw readings"
+PARAMETERS = "parameters"
+
+#: Relative size below which an off-diagonal covariance entry is taken as round-off, not a
+#: correlation (|Σ_ij| ≤ this × σ_i σ_j).
+CORRELATION_FLOOR = 1e-12
+
+
+class BudgetError(BikeRigError):
+    """A budget was asked for something it does not hold (e.g. an unknown output)."""
+
+
+@dataclass(frozen=True)
+class BudgetShare:
+    """One input's part of an output's variance.
+
+    Attributes:
+        input: Raw reading key (``TtB1``, ``alphaB2``...) or parameter name; a group of
+            correlated inputs is named by its members joined with ``+``.
+        share: Fraction of the output's first-order variance, 0..1.
+        contribution: ``|∂output/∂input| σ_input`` (for a group ``sqrt(s Σ sᵀ)``), in the
+            output's unit.
+    """
+
+    input: str
+    share: float
+    contribution: float
+
+
+@dataclass(frozen=True)
+class OutputBudget:
+    """The variance budget of one output.
+
+    Attributes:
+        output: Parameter name, or ``"weave speed"`` / ``"capsize speed"``.
+        value: Its value, in ``unit``.
+        sigma: First-order σ (square root of the summed variance), in ``unit``; NaN for a
+            speed at a double root.
+        unit: SI unit of value, σ and contributions (e.g. ``"kg m²"``, ``"m/s"``).
+        shares: Every input with share > 0, largest first (empty when σ is 0 or NaN).
+    """
+
+    output: str
+    value: float
+    sigma: float
+    unit: str
+    shares: tuple[BudgetShare, ...]
+
+
+@dataclass(frozen=True)
+class UncertaintyBudget:
+    """A bicycle's uncertainty budget.
+
+    Attributes:
+        bicycle: The bicycle's name (with the rider's, when one was added).
+        input_kind: ``"raw readings"`` (measurement file, bag) or ``"parameters"``
+            (parameter file).
+        inputs: Every input considered (budget input names, see :class:`BudgetShare`), in
+            the order of the propagation; inputs with σ = 0 included.
+        outputs: The 25 parameters in PARAMETER_NAMES order, then the weave and capsize
+            speeds when the bicycle has them.
+    """
+
+    bicycle: str
+    input_kind: str
+    inputs: tuple[str, ...]
+    outputs: tuple[OutputBudget, ...]
+
+    def output(self, name: str) -> OutputBudget:
+        """The budget of output ``name`` (a parameter name, ``"weave speed"`` or ``"capsize speed"``).
+
+        Raises:
+            BudgetError: No such output (e.g. a speed the bicycle does not have).
+        """
+        for o in self.outputs:
+            if o.output == name:
+                return o
+        known = ", ".join(o.output for o in self.outputs)
+        raise BudgetError(f"the budget of {self.bicycle} has no output '{name}' (it has: {known})")
+
+    def top(self, name: str, n: int = 5) -> tuple[BudgetShare, ...]:
+        """The ``n`` largest shares of output ``name``."""
+        return self.output(name).shares[: max(n, 0)]
+
+
+@dataclass(frozen=True)
+class InputImportance:
+    """How much one input matters over several outputs (what to measure better).
+
+    Attributes:
+        input: The budget input.
+        mean_share: Its share averaged over the outputs considered that have σ > 0 (0..1).
+        leads: The outputs where it has the largest share.
+    """
+
+    input: str
+    mean_share: float
+    leads: tuple[str, ...]
+
+
+def _groups(covariance: FloatArray) -> list[list[int]]:
+    """Connected blocks of inputs linked by non-negligible covariance, in first-index order."""
+    n = covariance.shape[0]
+    s = np.sqrt(np.clip(np.diag(covariance), 0.0, None))
+    linked = np.abs(covariance) > CORRELATION_FLOOR * np.outer(s, s)
+    np.fill_diagonal(linked, False)
+    seen = [False] * n
+    out: list[list[int]] = []
+    for start in range(n):
+        if seen[start]:
+            continue
+        block, stack = [], [start]
+        seen[start] = True
+        while stack:
+            i = stack.pop()
+            block.append(i)
+            for j in np.flatnonzero(linked[i]):
+                if not seen[j]:
+                    seen[j] = True
+                    stack.append(int(j))
+        out.append(sorted(block))
+    return out
+
+
+def _output_budget(
+    name: str, value: float, sens: FloatArray, covariance: FloatArray, groups: list[list[int]], labels: list[str]
+) -> OutputBudget:
+    unit = OUTPUT_UNITS[name]
+    if not np.all(np.isfinite(sens)):
+        return OutputBudget(name, value, math.nan, unit, ())
+    parts = np.array([float(sens[g] @ covariance[np.ix_(g, g)] @ sens[g]) for g in groups])
+    parts = np.clip(parts, 0.0, None)  # a group's variance is ≥ 0 (round-off of a PSD block)
+    total = float(parts.sum())
+    if not total > 0.0:
+        return OutputBudget(name, value, 0.0, unit, ())
+    order = sorted((k for k in range(len(groups)) if parts[k] > 0.0), key=lambda k: -parts[k])
+    shares = tuple(BudgetShare(labels[k], float(parts[k] / total), math.sqrt(float(parts[k]))) for k in order)
+    return OutputBudget(name, value, math.sqrt(total), unit, shares)
+
+
+def _speeds(ps: ParameterSet) -> list[tuple[str, SpeedWithSigma]]:
+    cs: CriticalSpeedsWithSigma = critical_speeds_with_sigma(ps)
+    out = []
+    for name, sp in ((WEAVE, cs.weave), (CAPSIZE, cs.capsize)):
+        if sp is not None:
+            out.append((name, sp))
+    return out
+
+
+def uncertainty_budget(ps: ParameterSet) -> UncertaintyBudget:
+    """Rank every input by its share of the variance of each parameter and critical speed.
+
+    Args:
+        ps: The parameter set (pass ``add_rider(ps, PAPER_RIDER)`` for bicycle plus rider).
+            With ``ps.raw`` the inputs are the raw readings, else the 26 parameters.
+
+    Returns:
+        The budget: 25 parameters (PARAMETER_NAMES order without g), then the weave and
+        capsize speeds when they exist.
+    """
+    values = ps.parameters.as_dict()
+    rows = [PARAMETER_NAMES.index(n) for n in BUDGET_PARAMETERS]
+    if ps.raw is not None:
+        kind, names = RAW_READINGS, list(ps.raw.names)
+        covariance = np.asarray(ps.raw.covariance, dtype=float)
+        to_input = np.asarray(ps.raw.jacobian, dtype=float)  # ∂p/∂x, (26, n)
+    else:
+        kind, names = PARAMETERS, list(PARAMETER_NAMES)
+        covariance = np.asarray(ps.parameters.covariance, dtype=float)
+        to_input = np.eye(len(PARAMETER_NAMES))
+    groups = _groups(covariance)
+    labels = ["+".join(names[i] for i in g) for g in groups]
+    outputs = [
+        _output_budget(n, values[n], to_input[r], covariance, groups, labels) for n, r in zip(BUDGET_PARAMETERS, rows)
+    ]
+    for name, sp in _speeds(ps):
+        grad = sp.gradient if sp.gradient is not None else np.full(len(PARAMETER_NAMES), math.nan)
+        outputs.append(_output_budget(name, sp.speed, grad @ to_input, covariance, groups, labels))
+    return UncertaintyBudget(ps.bicycle, kind, tuple(labels), tuple(outputs))
+
+
+def input_ranking(b: UncertaintyBudget, outputs: Sequence[str] | None = None) -> tuple[InputImportance, ...]:
+    """The inputs ranked by their mean share over ``outputs``: the measurements to improve first.
+
+    Args:
+        b: The budget.
+        outputs: Output names to average over (default: all of the budget's outputs); outputs
+            with σ = 0 or NaN are skipped.
+
+    Returns:
+        Every input with a non-zero mean share, largest first.
+
+    Raises:
+        BudgetError: An output name is unknown.
+    """
+    chosen = [b.output(n) for n in outputs] if outputs is not None else list(b.outputs)
+    counted = [o for o in chosen if o.shares]
+    total: dict[str, float] = {}
+    leads: dict[str, list[str]] = {}
+    for o in counted:
+        for s in o.shares:
+            total[s.input] = total.get(s.input, 0.0) + s.share
+        leads.setdefault(o.shares[0].input, []).append(o.output)
+    n = max(len(counted), 1)
+    ranked = sorted(total, key=lambda k: -total[k])
+    return tuple(InputImportance(k, total[k] / n, tuple(leads.get(k, ()))) for k in ranked)
+
+
+def _num(x: float) -> float | None:
+    return float(x) if math.isfinite(x) else None
+
+
+def budget_json(b: UncertaintyBudget) -> dict[str, Any]:
+    """The budget as one JSON-ready object (NaN as None).
+
+    ``{"bicycle", "input_kind", "inputs": [...], "outputs": [{"output", "value", "sigma",
+    "unit", "shares": [{"input", "share", "contribution"}]}]}``
+    """
+    return {
+        "bicycle": b.bicycle,
+        "input_kind": b.input_kind,
+        "inputs": list(b.inputs),
+        "outputs": [
+            {
+                "output": o.output,
+                "value": _num(o.value),
+                "sigma": _num(o.sigma),
+                "unit": o.unit,
+                "shares": [
+                    {"input": s.input, "share": _num(s.share), "contribution": _num(s.contribution)} for s in o.shares
+                ],
+            }
+            for o in b.outputs
+        ],
+    }
