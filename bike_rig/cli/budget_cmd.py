@@ -1,19 +1,166 @@
-"""``bike-rig budget``: placeholder, being built (issue 5)."""
+"""``bike-rig budget INPUT``: which measurement to improve (the uncertainty budget, issue 5).
+
+::
+
+    bike-rig budget INPUT [--json] [--rider none|paper] [--top N] [--com-method centroid|lstsq] [-o FILE]
+
+INPUT is a measurement file, a parameter file or a session bag
+(:func:`bike_rig.subjects.load_subject`). For each of the 25 parameters and the weave and
+capsize speeds the inputs (raw readings, or the parameters for a parameter file) are ranked by
+their share of the output's first-order variance (:mod:`bike_rig.core.budget`). The text shows
+which inputs matter most overall and for the speeds, then per output ``value ± σ`` and the top
+N inputs with share (%) and contribution (output unit). ``--json`` prints one object::
+
+    {"bicycle": .., "input_kind": "raw readings"|"parameters", "inputs": [..],
+     "outputs": [{"output": .., "value": .., "sigma": .., "unit": .., "shares": [{"input": ..,
+     "share": .., "contribution": ..}]}]}
+
+with every share (not only the top N). Bad inputs and options end in one line on stderr and exit
+status 2 (:class:`~bike_rig.core.errors.BikeRigError`).
+"""
 
 from __future__ import annotations
 
 import argparse
+import json
+from pathlib import Path
 from typing import Any
 
-__all__ = ["add_parser"]
+from ..core.benchmark import ComMethod
+from ..core.budget import (
+    BUDGET_PARAMETERS,
+    CAPSIZE,
+    PARAMETERS,
+    WEAVE,
+    OutputBudget,
+    UncertaintyBudget,
+    budget_json,
+    input_ranking,
+    uncertainty_budget,
+)
+from ..core.errors import BikeRigError, InputFileError
+from ..core.rider import PAPER_RIDER, add_rider
+from ..subjects import load_subject
+from .format import format_value_sigma
+
+__all__ = ["BudgetUsageError", "add_parser", "budget_text", "run"]
+
+#: Inputs named in each "measure better" line of the text summary.
+SUMMARY_INPUTS = 5
 
 
-def run(args: argparse.Namespace) -> int:
-    """Not built yet."""
-    raise NotImplementedError("bike-rig budget is being built")
+class BudgetUsageError(BikeRigError):
+    """An option of ``bike-rig budget`` is invalid."""
 
 
 def add_parser(sub: Any) -> None:
-    """Register ``bike-rig budget``."""
-    q = sub.add_parser("budget", help="(being built)")
+    """Register ``bike-rig budget`` on the ``bike-rig`` sub-command parser."""
+    q = sub.add_parser(
+        "budget",
+        help="uncertainty budget: the raw readings ranked by their share of each σ",
+        description="For each of the 25 benchmark parameters and the weave and capsize speeds, rank the "
+        "raw measurements (every reading, every period) by their share of the output's variance, so you "
+        "know what to measure better. A parameter file has no raw readings: its parameters are the inputs.",
+    )
+    q.add_argument("input", metavar="INPUT", help="measurement file, parameter file or session bag")
+    q.add_argument("--json", action="store_true", help="one JSON object with every share on standard output")
+    q.add_argument("--rider", choices=["none", "paper"], default="none", help="add the paper's rigid rider (Table 1)")
+    q.add_argument("--top", type=int, default=5, metavar="N", help="inputs shown per output in the table (default 5)")
+    q.add_argument(
+        "--com-method",
+        choices=[m.value for m in ComMethod],
+        default=ComMethod.CENTROID.value,
+        help="mass-centre method: centroid of the line intersections (paper, default) or least squares",
+    )
+    q.add_argument("-o", "--output", metavar="FILE", help="write to this file instead of standard output")
     q.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``bike-rig budget``; returns the exit status (0)."""
+    if args.top < 1:
+        raise BudgetUsageError(f"--top N needs N >= 1, got {args.top}")
+    subject = load_subject(args.input, args.com_method)
+    ps = subject.parameters
+    if args.rider == "paper":
+        ps = add_rider(ps, PAPER_RIDER)
+    b = uncertainty_budget(ps)
+    if args.json:
+        text = json.dumps(budget_json(b), indent=2, allow_nan=False)
+    else:
+        text = budget_text(b, args.top, source=subject.path)
+    _emit(text, args.output)
+    return 0
+
+
+def _percent(share: float) -> str:
+    return f"{100.0 * share:.1f} %"
+
+
+def _ranking_line(label: str, b: UncertaintyBudget, outputs: list[str] | None) -> str | None:
+    ranked = input_ranking(b, outputs)[:SUMMARY_INPUTS]
+    if not ranked:
+        return None
+    return f"{label}: " + ", ".join(f"{r.input} {_percent(r.mean_share)}" for r in ranked)
+
+
+def _output_block(o: OutputBudget, top: int) -> list[str]:
+    value, sigma = format_value_sigma(o.value, o.sigma)
+    lines = [f"{o.output} [{o.unit}]: {value} ± {sigma}"]
+    if not o.shares:
+        why = "σ is 0: no uncertainty to share" if o.sigma == 0 else "σ not defined (a double root)"
+        lines.append(f"    ({why})")
+        return lines
+    for s in o.shares[:top]:
+        lines.append(f"    {s.input:<24}{_percent(s.share):>9}   {s.contribution:.2g} {o.unit}")
+    rest = len(o.shares) - top
+    if rest > 0:
+        lines.append(
+            f"    ... {rest} more input{'s' if rest > 1 else ''}, {_percent(sum(s.share for s in o.shares[top:]))}"
+        )
+    return lines
+
+
+def budget_text(b: UncertaintyBudget, top: int = 5, source: str | None = None) -> str:
+    """The budget as a readable text table.
+
+    Args:
+        b: The budget.
+        top: Inputs shown per output.
+        source: The input file, named in the heading.
+
+    Returns:
+        A heading, the inputs to measure better (mean share over all outputs and over the
+        critical speeds), then per output ``value ± σ`` and its ``top`` inputs with share (%)
+        and contribution (output unit).
+    """
+    what = f"{len(b.inputs)} raw readings" if b.input_kind != PARAMETERS else "the 26 parameters"
+    origin = f" (from {source})" if source else ""
+    lines = [f"{b.bicycle}: uncertainty budget over {what}{origin}"]
+    if b.input_kind == PARAMETERS:
+        lines.append(
+            "a parameter file has no raw readings: the inputs are the parameters themselves "
+            "(correlated parameters are grouped with '+')"
+        )
+    speeds = [o.output for o in b.outputs if o.output in (WEAVE, CAPSIZE)]
+    summary = [
+        _ranking_line("measure better first (mean share over all outputs)", b, None),
+        _ranking_line("for the critical speeds", b, speeds) if speeds else None,
+    ]
+    got = [s for s in summary if s is not None]
+    lines += got if got else ["no output has a σ: nothing to rank"]
+    order = speeds + list(BUDGET_PARAMETERS)
+    for name in order:
+        lines.append("")
+        lines += _output_block(b.output(name), top)
+    return "\n".join(lines)
+
+
+def _emit(text: str, output: str | None) -> None:
+    if output:
+        try:
+            Path(output).write_text(text + "\n", encoding="utf-8")
+        except OSError as exc:
+            raise InputFileError(output, f"cannot write ({exc.strerror})") from None
+    else:
+        print(text)

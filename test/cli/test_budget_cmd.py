@@ -1,0 +1,92 @@
+"""``bike-rig budget``: the text table, the JSON object, the rider and the user errors."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import pytest
+
+from bike_rig.cli.main import main
+from bike_rig.core.benchmark import compute_parameters
+from bike_rig.core.budget import BUDGET_PARAMETERS, CAPSIZE, WEAVE, uncertainty_budget
+from bike_rig.core.loader import load_measurements
+from bike_rig.core.rider import PAPER_RIDER, add_rider
+from bike_rig.paths import config_file
+
+BROWSER = str(config_file("bicycles/browser.yaml"))
+BENCHMARK = str(config_file("bicycles/benchmark.yaml"))
+
+
+def run_json(capsys: pytest.CaptureFixture[str], *args: str) -> dict:
+    assert main(["budget", *args, "--json"]) == 0
+    return json.loads(capsys.readouterr().out)
+
+
+def test_json_is_the_whole_budget(capsys: pytest.CaptureFixture[str]) -> None:
+    data = run_json(capsys, BROWSER)
+    assert data["bicycle"] == "Browser" and data["input_kind"] == "raw readings"
+    assert "TtB1" in data["inputs"] and "alphaB2" in data["inputs"]
+    names = [o["output"] for o in data["outputs"]]
+    assert names == [*BUDGET_PARAMETERS, WEAVE, CAPSIZE]
+    for o in data["outputs"]:
+        assert math.fsum(s["share"] for s in o["shares"]) == pytest.approx(1.0, abs=1e-12)
+    weave = data["outputs"][names.index(WEAVE)]
+    assert weave["unit"] == "m/s" and weave["sigma"] > 0
+    # The same numbers as the core's budget.
+    core = uncertainty_budget(compute_parameters(load_measurements(BROWSER))).output(WEAVE)
+    assert weave["sigma"] == core.sigma and weave["shares"][0]["input"] == core.shares[0].input
+
+
+def test_rider_and_com_method_change_the_budget(capsys: pytest.CaptureFixture[str]) -> None:
+    bare = run_json(capsys, BROWSER)
+    ridden = run_json(capsys, BROWSER, "--rider", "paper")
+    lstsq = run_json(capsys, BROWSER, "--com-method", "lstsq")
+    assert ridden["bicycle"] == f"Browser + {PAPER_RIDER.name}"
+    want = uncertainty_budget(add_rider(compute_parameters(load_measurements(BROWSER)), PAPER_RIDER))
+    assert ridden["outputs"][-2]["value"] == want.output(WEAVE).value
+    assert ridden["outputs"][-2]["value"] != bare["outputs"][-2]["value"]
+    xb = BUDGET_PARAMETERS.index("xB")
+    assert lstsq["outputs"][xb]["value"] != bare["outputs"][xb]["value"]
+
+
+def test_text_table(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["budget", BROWSER, "--top", "2"]) == 0
+    out = capsys.readouterr().out
+    lines = out.splitlines()
+    assert lines[0].startswith("Browser: uncertainty budget over 40 raw readings")
+    assert lines[1].startswith("measure better first")
+    heading = next(i for i, line in enumerate(lines) if line.startswith("weave speed [m/s]: "))
+    block = lines[heading + 1 : heading + 4]
+    assert [line.startswith("    ") for line in block] == [True, True, True]
+    assert block[2].lstrip().startswith("...")  # only the top 2, then the rest summed
+    top = uncertainty_budget(compute_parameters(load_measurements(BROWSER))).output(WEAVE).shares[0]
+    assert block[0].split()[0] == top.input and f"{100 * top.share:.1f} %" in block[0]
+    for name in BUDGET_PARAMETERS:
+        assert any(line.startswith(f"{name} [") for line in lines), name
+
+
+def test_parameter_file_and_output_file(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    target = tmp_path / "budget.txt"
+    assert main(["budget", BENCHMARK, "-o", str(target)]) == 0
+    assert capsys.readouterr().out == ""
+    text = target.read_text(encoding="utf-8")
+    assert "over the 26 parameters" in text and "no output has a σ" in text
+    data = run_json(capsys, BENCHMARK)
+    assert data["input_kind"] == "parameters" and all(o["shares"] == [] for o in data["outputs"])
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["no-such-file.yaml"], "no-such-file.yaml: no such file or directory"),
+        ([BROWSER, "--top", "0"], "--top N needs N >= 1"),
+    ],
+)
+def test_user_errors_are_one_line(capsys: pytest.CaptureFixture[str], args: list[str], message: str) -> None:
+    assert main(["budget", *args]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    assert captured.err.count("\n") == 1 and captured.err.startswith("bike-rig budget: error: ")
+    assert message in captured.err
