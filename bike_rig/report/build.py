@@ -1,0 +1,151 @@
+"""Assemble a report: numbers, figures and sections into one self-contained HTML page.
+
+:func:`build_report` makes the page in memory; :func:`write_report` writes it as
+``DIR/index.html`` (figures embedded as PNG ``data:`` URIs, so the one file is the whole report;
+no network is needed to view it).
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from ..core.benchmark import ComMethod
+from ..subjects import Subject, load_subject
+from . import sections
+from .errors import ReportOutputError
+from .figures import REPORT_DPI, ReportFigure, draw_figures, figure_specs
+from .html import page
+from .results import ReportResults, compute_results
+
+__all__ = ["REPORT_FILE", "Report", "WrittenReport", "build_report", "report_input", "write_report"]
+
+#: The report's file name inside the output directory.
+REPORT_FILE = "index.html"
+
+
+@dataclass(frozen=True)
+class Report:
+    """A built report.
+
+    Attributes:
+        subject: The bicycle it is about.
+        results: Its numbers.
+        figures: Its figures, drawn or with the reason they are not.
+        html: The page.
+        seconds: Wall time to build it (numbers, figures, page), s.
+    """
+
+    subject: Subject
+    results: ReportResults
+    figures: tuple[ReportFigure, ...]
+    html: str
+    seconds: float
+
+    @property
+    def drawn(self) -> int:
+        """How many figures the page embeds."""
+        return sum(f.uri is not None for f in self.figures)
+
+
+@dataclass(frozen=True)
+class WrittenReport:
+    """A report on disk.
+
+    Attributes:
+        path: The HTML file.
+        report: What it holds.
+        seconds: Wall time from opening the input to the written file, s.
+    """
+
+    path: Path
+    report: Report
+    seconds: float
+
+
+def build_report(
+    subject: Subject, generated: str | None = None, dpi: float = REPORT_DPI, workers: int | None = None
+) -> Report:
+    """The report of one bicycle.
+
+    Args:
+        subject: The bicycle (:func:`bike_rig.subjects.load_subject`).
+        generated: The creation time printed on the page (default: now, UTC, to the second).
+        dpi: Resolution of the embedded figures, dots per inch.
+        workers: Processes to draw the figures in (default: one per CPU, at most
+            :data:`~.figures.MAX_WORKERS`; see :func:`~.figures.draw_figures`).
+    """
+    t0 = time.perf_counter()
+    when = generated or dt.datetime.now(dt.UTC).strftime("%Y-%m-%d %H:%M:%S UTC")
+    results = compute_results(subject)
+    figures = draw_figures(figure_specs(subject, results), dpi, workers)
+    drawn = sum(f.uri is not None for f in figures)
+    body = [
+        sections.header_section(subject, results, drawn, when),
+        sections.parameters_section(results),
+        sections.matrices_section(results),
+        sections.speeds_section(results),
+        sections.budget_section(results),
+        sections.trials_section(subject),
+        sections.timeline_section(subject),
+        sections.readings_section(subject),
+        sections.figures_section(figures),
+    ]
+    text = page(f"{subject.name}: bicycle parameter report", body, drawn)
+    return Report(subject, results, figures, text, time.perf_counter() - t0)
+
+
+def write_report(
+    subject: Subject, out_dir: str | Path, generated: str | None = None, workers: int | None = None
+) -> WrittenReport:
+    """Build the report of ``subject`` and write it as ``out_dir/index.html``.
+
+    The directory is created if needed; an existing report in it is replaced.
+
+    Raises:
+        ReportOutputError: The directory cannot be created or the file cannot be written.
+    """
+    t0 = time.perf_counter()
+    report = build_report(subject, generated, workers=workers)
+    path = _write(Path(out_dir), report.html)
+    return WrittenReport(path, report, time.perf_counter() - t0)
+
+
+def report_input(
+    path: str | Path,
+    out_dir: str | Path,
+    com_method: ComMethod | str = ComMethod.CENTROID,
+    workers: int | None = None,
+) -> WrittenReport:
+    """Open an input (measurement file, parameter file or session bag) and write its report.
+
+    Raises:
+        BikeRigError: The input cannot be read (names the file and the reason), or
+            :class:`ReportOutputError` for the output.
+    """
+    t0 = time.perf_counter()
+    out = Path(out_dir)
+    _check_out_dir(out)
+    subject = load_subject(path, com_method)
+    written = write_report(subject, out, workers=workers)
+    return WrittenReport(written.path, written.report, time.perf_counter() - t0)
+
+
+def _check_out_dir(out: Path) -> None:
+    if out.exists() and not out.is_dir():
+        raise ReportOutputError(str(out), "exists and is not a directory")
+
+
+def _write(out: Path, text: str) -> Path:
+    _check_out_dir(out)
+    target = out / REPORT_FILE
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        tmp = target.with_name(f".{REPORT_FILE}.tmp")
+        tmp.write_text(text, encoding="utf-8")
+        tmp.replace(target)
+    except OSError as exc:
+        raise ReportOutputError(str(exc.filename or target), f"cannot write the report ({exc.strerror})") from None
+    return target

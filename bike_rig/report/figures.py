@@ -1,0 +1,286 @@
+"""The report's figures: which ones, drawn by :mod:`bike_rig.plots`, embedded as PNG data URIs.
+
+For every input: the side view, eigenvalues against speed (paper Figs 13/16), the root locus
+(Fig 14), the weave and capsize eigenvectors (Fig 15) and the Bode diagram of steer torque →
+roll angle (Figs 17/18), without and with the paper's rider. With trials: the trial-quality
+overview and one fit figure per trial (data, fit, residuals).
+
+The figure modules are imported when a figure is drawn. A figure whose module is not
+installed, or that cannot be drawn for this bicycle (a :class:`BikeRigError`, e.g. no such
+mode), is listed with the reason instead of an image; any other exception is a bug and
+propagates.
+
+Rendering is the report's main cost: the fit figures are drawn smaller than the plots'
+defaults and every figure is rasterised at :data:`REPORT_DPI`.
+"""
+
+from __future__ import annotations
+
+import base64
+import io
+import multiprocessing as mp
+import os
+import time
+from collections.abc import Callable, Sequence
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass
+from functools import partial
+
+from matplotlib.figure import Figure
+
+from ..core.errors import BikeRigError
+from ..subjects import Subject, TrialRecord
+from .results import ReportResults
+
+__all__ = [
+    "MAX_WORKERS",
+    "REPORT_DPI",
+    "FigureSpec",
+    "ReportFigure",
+    "default_workers",
+    "draw_figures",
+    "figure_specs",
+    "png_data_uri",
+]
+
+#: Resolution of the embedded PNGs, dots per inch.
+REPORT_DPI = 80
+#: Most processes the figures are drawn in.
+MAX_WORKERS = 4
+#: Fewer figures than this are drawn in this process (a pool costs more than it saves).
+MIN_PARALLEL = 4
+#: Size of each trial's fit figure, inches (the plot's default is 10 × 6).
+FIT_FIGURE_SIZE_IN = (8.0, 4.0)
+#: The Bode diagram's speeds, m/s (the paper's Figs 17/18 compare bicycles at several).
+BODE_SPEED = 5.0
+
+
+@dataclass(frozen=True)
+class FigureSpec:
+    """A figure to draw.
+
+    Attributes:
+        key: Its id on the page (``fig-<key>``).
+        title: Heading.
+        caption: What it shows.
+        draw: Draws it (imports its module).
+        size_in: (width, height) to draw it at, inches; None keeps the plot's own size.
+    """
+
+    key: str
+    title: str
+    caption: str
+    draw: Callable[[], Figure]
+    size_in: tuple[float, float] | None = None
+
+
+@dataclass(frozen=True)
+class ReportFigure:
+    """A drawn (or undrawable) figure.
+
+    Attributes:
+        key: Its id on the page.
+        title: Heading.
+        caption: What it shows.
+        uri: The PNG as a ``data:image/png;base64,`` URI, or None when not drawn.
+        unavailable: Why it was not drawn ("" when it was).
+        seconds: Time taken to draw and encode it, s.
+    """
+
+    key: str
+    title: str
+    caption: str
+    uri: str | None
+    unavailable: str
+    seconds: float
+
+
+def png_data_uri(fig: Figure, dpi: float = REPORT_DPI) -> str:
+    """``fig`` as a PNG ``data:`` URI at ``dpi``."""
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=dpi)
+    return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode("ascii")
+
+
+def _eigen(subject: Subject, rider: str) -> Figure:
+    from ..plots.eigen import eigen_vs_speed
+
+    return eigen_vs_speed([subject], rider=rider)
+
+
+def _locus(subject: Subject, rider: str) -> Figure:
+    from ..plots.locus import root_locus
+
+    return root_locus([subject], rider=rider)
+
+
+def _mode(subject: Subject, mode: str, speed: float, rider: str) -> Figure:
+    from ..plots.modes import eigenvector_figure
+
+    return eigenvector_figure([subject], mode=mode, speed=speed, rider=rider)
+
+
+def _bode(subject: Subject, speed: float, rider: str) -> Figure:
+    from ..plots.bode import bode_figure
+
+    return bode_figure([subject], speed=speed, rider=rider)
+
+
+def _side(subject: Subject) -> Figure:
+    from ..plots.sideview import side_view
+
+    return side_view([subject])
+
+
+def _overview(subject: Subject) -> Figure:
+    from ..plots.trials import trial_overview
+
+    return trial_overview(subject)
+
+
+def _fit(trial: TrialRecord) -> Figure:
+    from ..plots.trials import fit_figure
+
+    return fit_figure(trial)
+
+
+def _mode_speed(results: ReportResults) -> float:
+    """A speed to show the mode shapes at, m/s: inside the stable range, else 5 m/s."""
+    for lo, hi in results.bare.stable:
+        return 0.5 * (lo + min(hi, lo + 4.0))
+    return 5.0
+
+
+def figure_specs(subject: Subject, results: ReportResults) -> list[FigureSpec]:
+    """Every figure of the report of ``subject``, in page order."""
+    rider_name = results.rider.rider.name if results.rider.rider is not None else "rider"
+    v_mode = round(_mode_speed(results), 1)
+    specs = [
+        FigureSpec(
+            "side-view",
+            "Side view",
+            "Wheels, steer axis and mass centres with their uncertainty ellipses (magnified as stated).",
+            partial(_side, subject),
+        )
+    ]
+    for rider, label in (("", "without rider"), ("paper", f"with the {rider_name}")):
+        suffix = "-rider" if rider else ""
+        specs += [
+            FigureSpec(
+                f"eigen{suffix}",
+                f"Eigenvalues against speed, {label}",
+                "Real and imaginary parts of the eigenvalues with σ bands; weave and capsize speeds marked "
+                "(paper Figs 13 and 16).",
+                partial(_eigen, subject, rider),
+            ),
+            FigureSpec(
+                f"locus{suffix}",
+                f"Root locus, {label}",
+                "Eigenvalues in the complex plane with speed as the parameter (paper Fig 14).",
+                partial(_locus, subject, rider),
+            ),
+        ]
+    for mode in ("weave", "capsize"):
+        specs.append(
+            FigureSpec(
+                f"mode-{mode}",
+                f"{mode.capitalize()} eigenvector at {v_mode:g} m/s, without rider",
+                "Components of the mode's eigenvector as phasors (paper Fig 15).",
+                partial(_mode, subject, mode, v_mode, ""),
+            )
+        )
+    for rider, label in (("", "without rider"), ("paper", f"with the {rider_name}")):
+        specs.append(
+            FigureSpec(
+                "bode-rider" if rider else "bode",
+                f"Steer torque to roll angle at {BODE_SPEED:g} m/s, {label}",
+                "Bode magnitude and phase (paper Figs 17 and 18).",
+                partial(_bode, subject, BODE_SPEED, rider),
+            )
+        )
+    if subject.trials:
+        specs.append(
+            FigureSpec(
+                "trial-overview",
+                "Trial quality",
+                "Each trial's period against its key's combined period, its r² and its cycles.",
+                partial(_overview, subject),
+            )
+        )
+        for k, t in enumerate(subject.trials):
+            specs.append(
+                FigureSpec(
+                    f"fit-{k + 1}",
+                    f"Trial {t.trial_id} ({t.key})",
+                    "Samples with the Eq 23 fit over its window, and the residuals.",
+                    partial(_fit, t),
+                    FIT_FIGURE_SIZE_IN,
+                )
+            )
+    return specs
+
+
+def _unavailable(exc: BaseException) -> str | None:
+    """Why a figure could not be drawn, or None if ``exc`` is a bug to re-raise."""
+    if isinstance(exc, ModuleNotFoundError) and (exc.name or "").startswith("bike_rig.plots"):
+        return f"not available: {exc.name} is not installed"
+    if isinstance(exc, BikeRigError):
+        return f"cannot be drawn: {exc}"
+    return None
+
+
+def _draw_one(spec: FigureSpec, dpi: float) -> ReportFigure:
+    t0 = time.perf_counter()
+    try:
+        fig = spec.draw()
+    except (ModuleNotFoundError, BikeRigError) as exc:
+        why = _unavailable(exc)
+        if why is None:
+            raise
+        return ReportFigure(spec.key, spec.title, spec.caption, None, why, time.perf_counter() - t0)
+    if spec.size_in is not None:
+        fig.set_size_inches(*spec.size_in)
+    return ReportFigure(spec.key, spec.title, spec.caption, png_data_uri(fig, dpi), "", time.perf_counter() - t0)
+
+
+#: The specs of the pool's worker process (inherited through fork, never pickled).
+_WORKER_SPECS: Sequence[FigureSpec] = ()
+
+
+def _worker_init(specs: Sequence[FigureSpec]) -> None:
+    global _WORKER_SPECS
+    _WORKER_SPECS = specs
+
+
+def _worker_draw(index: int, dpi: float) -> ReportFigure:
+    return _draw_one(_WORKER_SPECS[index], dpi)
+
+
+def default_workers() -> int:
+    """Processes to draw with: the CPUs this process may use, at most :data:`MAX_WORKERS`."""
+    try:
+        cpus = len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        cpus = os.cpu_count() or 1
+    return max(1, min(cpus, MAX_WORKERS))
+
+
+def draw_figures(
+    specs: Sequence[FigureSpec], dpi: float = REPORT_DPI, workers: int | None = None
+) -> tuple[ReportFigure, ...]:
+    """Draw and encode each figure, in order (see the module docstring for failures).
+
+    Args:
+        specs: The figures.
+        dpi: Resolution of the PNGs, dots per inch.
+        workers: Processes to draw in (default :func:`default_workers`). With more than one,
+            and at least :data:`MIN_PARALLEL` figures, the figures are drawn in forked worker
+            processes (each inherits the specs, so nothing large is pickled; each returns its
+            PNG); otherwise, or where ``fork`` is not available, in this process.
+    """
+    n = default_workers() if workers is None else max(1, workers)
+    if n == 1 or len(specs) < MIN_PARALLEL or "fork" not in mp.get_all_start_methods():
+        return tuple(_draw_one(s, dpi) for s in specs)
+    ctx = mp.get_context("fork")
+    with ProcessPoolExecutor(min(n, len(specs)), mp_context=ctx, initializer=_worker_init, initargs=(specs,)) as pool:
+        return tuple(pool.map(_worker_draw, range(len(specs)), [dpi] * len(specs)))

@@ -1,0 +1,82 @@
+"""The numbers a report shows, computed once: per rider variant the parameters, canonical
+matrices with σ, critical speeds with σ and the stable speed range; the uncertainty budget.
+
+Nothing here draws or formats; :mod:`.sections` turns these into HTML and :mod:`.figures`
+reuses them where the figure functions accept them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from ..core.benchmark import ParameterSet
+from ..core.budget import UncertaintyBudget, uncertainty_budget
+from ..core.model import MatrixSet, SigmaConvention, canonical_with_sigma
+from ..core.rider import PAPER_RIDER, Rider, add_rider
+from ..core.speed_sigma import CriticalSpeedsWithSigma, critical_speeds_with_sigma
+from ..core.whipple import stable_speed_range
+from ..subjects import Subject
+
+__all__ = ["ReportResults", "Variant", "compute_results", "compute_variant"]
+
+
+@dataclass(frozen=True)
+class Variant:
+    """One bicycle, without or with a rider.
+
+    Attributes:
+        label: ``"without rider"`` or ``"with <rider name>"``.
+        rider: The rider, or None for the bare bicycle.
+        parameters: The parameter set (the rider lumped into the rear frame).
+        matrices: Canonical matrices M, C1, K0, K2 with σ (correlated convention).
+        speeds: Weave and capsize speeds with σ (m/s), found from ``matrices``.
+        stable: Speed intervals (m/s) where every eigenvalue has a negative real part;
+            ``high`` may be ``inf``.
+    """
+
+    label: str
+    rider: Rider | None
+    parameters: ParameterSet
+    matrices: MatrixSet
+    speeds: CriticalSpeedsWithSigma
+    stable: tuple[tuple[float, float], ...]
+
+
+@dataclass(frozen=True)
+class ReportResults:
+    """Everything numeric in a report.
+
+    Attributes:
+        bare: The bicycle alone.
+        rider: The bicycle with the paper's rigid rider (Table 1).
+        budget: The uncertainty budget of the bicycle alone.
+        rider_budget: The budget of the bicycle with the rider (only its speeds are shown).
+    """
+
+    bare: Variant
+    rider: Variant
+    budget: UncertaintyBudget
+    rider_budget: UncertaintyBudget
+
+    @property
+    def variants(self) -> tuple[Variant, Variant]:
+        """Without, then with the rider."""
+        return self.bare, self.rider
+
+
+def compute_variant(ps: ParameterSet, rider: Rider | None) -> Variant:
+    """Matrices, speeds and stable range of ``ps`` (plus ``rider`` when given)."""
+    p = add_rider(ps, rider) if rider is not None else ps
+    ms = canonical_with_sigma(p, SigmaConvention.CORRELATED)
+    cs = critical_speeds_with_sigma(p, SigmaConvention.CORRELATED, matrices=ms)
+    label = f"with {rider.name}" if rider is not None else "without rider"
+    return Variant(label, rider, p, ms, cs, stable_speed_range(ms.matrices, ms.g))
+
+
+def compute_results(subject: Subject, rider: Rider = PAPER_RIDER) -> ReportResults:
+    """All numbers of the report of ``subject`` (with ``rider`` as the rider variant)."""
+    bare = compute_variant(subject.parameters, None)
+    with_rider = compute_variant(subject.parameters, rider)
+    return ReportResults(
+        bare, with_rider, uncertainty_budget(bare.parameters), uncertainty_budget(with_rider.parameters)
+    )
