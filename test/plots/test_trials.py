@@ -1,0 +1,192 @@
+"""Trial figures: a trial's fit figure draws its samples, fit and residuals; the overview places
+every trial against its key's combined period, and shows a flagged or period-less trial as such.
+
+Numbers are read back from the figure's artists (by gid), never pixels.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
+from matplotlib.text import Annotation, Text
+
+from bike_rig.bag.simulated import write_simulated_bag
+from bike_rig.core.period import PeriodFit
+from bike_rig.core.period.result import Flag, FlagCode
+from bike_rig.core.sim import write_session
+from bike_rig.plots.trials import fit_figure, overview_data, trial_overview
+from bike_rig.subjects import Subject, TrialRecord, load_subject
+from test.bag.conftest import short_session
+
+
+@pytest.fixture(scope="module")
+def session_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A simulated Browser session (session.yaml, 39 trial files) and its bag beside it."""
+    root = tmp_path_factory.mktemp("plots_trials")
+    session = short_session()
+    write_session(session, root / "session")
+    write_simulated_bag(root / "bag", session)
+    return root
+
+
+@pytest.fixture(scope="module")
+def file_subject(session_dir: Path) -> Subject:
+    return load_subject(session_dir / "session" / "session.yaml")
+
+
+@pytest.fixture(scope="module")
+def bag_subject(session_dir: Path) -> Subject:
+    return load_subject(session_dir / "bag")
+
+
+def artist(fig: Figure, gid: str) -> object:
+    """The one artist of ``fig`` with this gid."""
+    found = fig.findobj(lambda a: a.get_gid() == gid)
+    assert len(found) == 1, f"{len(found)} artists with gid {gid!r}"
+    return found[0]
+
+
+def line(fig: Figure, gid: str) -> Line2D:
+    got = artist(fig, gid)
+    assert isinstance(got, Line2D)
+    return got
+
+
+def flagged(trial: TrialRecord, factor: float, *codes: FlagCode) -> TrialRecord:
+    """The trial left out with these flags, its period multiplied by ``factor``."""
+    flags = tuple(Flag(c, f"test {c.value}") for c in codes)
+    fit = dataclasses.replace(trial.fit, period=trial.fit.period * factor, flags=flags)
+    return dataclasses.replace(trial, fit=fit, used=False)
+
+
+def without_period(trial: TrialRecord) -> TrialRecord:
+    fit = PeriodFit.invalid((Flag(FlagCode.NO_OSCILLATION, "test: nothing"),), trial.fit.window_policy)
+    return dataclasses.replace(trial, fit=fit, used=False)
+
+
+# ------------------------------------------------------------------ fit figure
+
+
+def test_fit_figure_draws_the_samples_fit_and_residuals(bag_subject: Subject) -> None:
+    trial = bag_subject.trials[4]
+    assert trial.samples is not None and trial.sample_rate_hz
+    fig = fit_figure(trial)
+    samples = line(fig, "samples")
+    t = np.arange(trial.samples.size) / trial.sample_rate_hz
+    np.testing.assert_array_equal(samples.get_ydata(), trial.samples)
+    np.testing.assert_allclose(samples.get_xdata(), t)
+    start, stop = trial.fit.window
+    fit = line(fig, "fit")
+    np.testing.assert_allclose(fit.get_xdata(), t[start:stop])
+    np.testing.assert_allclose(fit.get_ydata(), trial.fit.predict(t[start:stop]))
+    resid = np.asarray(line(fig, "residuals").get_ydata())
+    np.testing.assert_allclose(resid, trial.samples[start:stop] - trial.fit.predict(t[start:stop]))
+    # the fit follows the data: residuals far below the signal
+    assert np.std(resid) < 0.1 * np.std(trial.samples[start:stop])
+    title = fig.axes[0].get_title()
+    assert trial.trial_id in title and trial.key in title
+    assert f"r² = {trial.fit.r2:.5f}" in title
+    sigma_digits = -math.floor(math.log10(trial.fit.period_sigma))
+    assert f"{trial.fit.period:.{sigma_digits}f} ± " in title
+    assert "rad/s" in fig.axes[0].get_ylabel()
+
+
+def test_fit_figure_of_a_flagged_trial_and_of_one_without_period(bag_subject: Subject) -> None:
+    bad = flagged(bag_subject.trials[0], 1.0, FlagCode.BEATING)
+    title = fit_figure(bad).axes[0].get_title()
+    assert "left out" in title and "beating: test beating" in title
+    none = without_period(bag_subject.trials[0])
+    fig = fit_figure(none)
+    assert "no period" in fig.axes[0].get_title() and "no_oscillation" in fig.axes[0].get_title()
+    assert not fig.findobj(lambda a: a.get_gid() == "fit")
+    line(fig, "samples")  # the data are still shown
+
+
+def test_fit_figure_without_samples_says_so(file_subject: Subject) -> None:
+    trial = dataclasses.replace(file_subject.trials[0], samples=None)
+    fig = fit_figure(trial)
+    note = artist(fig, "no-samples")
+    assert isinstance(note, Text) and "no samples" in note.get_text()
+    assert not fig.findobj(lambda a: a.get_gid() == "samples")
+    assert f"{trial.fit.r2:.5f}" in fig.axes[0].get_title()
+
+
+# ------------------------------------------------------------------ overview
+
+
+def test_overview_numbers_are_relative_to_the_weighted_mean_of_used_trials(file_subject: Subject) -> None:
+    ov = overview_data(file_subject)
+    assert not ov.time_axis
+    assert [p.x for p in ov.points] == list(range(len(file_subject.trials)))
+    assert len(ov.references) == 13
+    for ref in ov.references:
+        fits = [t.fit for t in file_subject.trials if t.key == ref.key and t.used]
+        w = np.array([1.0 / f.period_sigma**2 for f in fits])
+        mean = float(np.sum(w * [f.period for f in fits]) / np.sum(w))
+        assert ref.basis == "combined" and ref.n_used == len(fits) == 3
+        assert ref.period == pytest.approx(mean, rel=1e-12)
+        for p in ov.points:
+            if p.trial.key == ref.key:
+                assert p.deviation_ppm == pytest.approx((p.trial.fit.period - mean) / mean * 1e6, abs=1e-6)
+                assert p.sigma_ppm == pytest.approx(p.trial.fit.period_sigma / mean * 1e6)
+
+
+def test_overview_draws_used_left_out_and_period_less_trials_apart(bag_subject: Subject) -> None:
+    trials = list(bag_subject.trials)
+    trials[1] = flagged(trials[1], 1 + 2e-4, FlagCode.POOR_FIT, FlagCode.DRIFT)  # TcR1, on scale
+    trials[4] = flagged(trials[4], 1.01, FlagCode.BEATING)  # TtR1, 10 000 ppm: off the scale
+    trials[7] = without_period(trials[7])  # TcF1
+    subject = dataclasses.replace(bag_subject, trials=tuple(trials))
+    ov = overview_data(subject)
+    assert ov.time_axis
+    assert [p.x for p in ov.points] == [t.start_s for t in trials]
+    status = {p.trial.trial_id: p.status for p in ov.points}
+    assert status[trials[1].trial_id] == status[trials[4].trial_id] == "left out"
+    assert status[trials[7].trial_id] == "no period"
+    # the left-out trial is not in its key's reference: the mean of the two others
+    ref = next(r for r in ov.references if r.key == trials[1].key)
+    others = [trials[0].fit, trials[2].fit]
+    w = np.array([1 / f.period_sigma**2 for f in others])
+    assert ref.n_used == 2
+    assert ref.period == pytest.approx(np.sum(w * [f.period for f in others]) / np.sum(w), rel=1e-12)
+
+    fig = trial_overview(subject)
+    used = line(fig, "overview:used")
+    want = [(p.x, p.deviation_ppm) for p in ov.points if p.status == "used"]
+    assert len(want) == 36
+    np.testing.assert_allclose(np.column_stack([used.get_xdata(), used.get_ydata()]), want)
+    left = line(fig, "overview:left out")
+    assert list(left.get_xdata()) == [trials[1].start_s]  # the off-scale one is drawn apart
+    p1 = next(p for p in ov.points if p.trial is trials[1])
+    assert left.get_ydata()[0] == pytest.approx(p1.deviation_ppm)
+    assert p1.deviation_ppm == pytest.approx((trials[1].fit.period / ref.period - 1) * 1e6, rel=1e-9)
+    off = line(fig, f"offscale:{trials[4].trial_id}")
+    low, high = fig.axes[0].get_ylim()
+    assert off.get_xdata()[0] == trials[4].start_s and low < off.get_ydata()[0] < high
+    assert off.get_ydata()[0] > 0.9 * high  # at the top edge: the trial is 1 % long
+    gone = line(fig, "overview:no period")
+    assert list(gone.get_xdata()) == [trials[7].start_s]
+    for i, codes in ((1, "poor_fit, drift"), (4, "beating"), (7, "no_oscillation")):
+        note = artist(fig, f"flags:{trials[i].trial_id}")
+        assert isinstance(note, Annotation) and note.get_text() == codes
+    p4 = next(p for p in ov.points if p.trial is trials[4])
+    assert p4.deviation_ppm == pytest.approx(1e4, rel=2e-3)
+    assert f"{p4.deviation_ppm:+.3g} ppm" in [t.get_text() for t in fig.axes[0].texts]  # its value, written
+    # r² and cycles panels: one point per trial with a period
+    r2 = artist(fig, "overview:r2")
+    assert len(r2.get_offsets()) == 38  # type: ignore[attr-defined]
+    np.testing.assert_allclose(
+        np.asarray(r2.get_offsets())[:, 1],  # type: ignore[attr-defined]
+        [max(1 - t.fit.r2, 1e-12) for t in trials if t.fit.valid],
+    )
+
+
+def test_overview_of_a_subject_without_trials_is_refused(file_subject: Subject) -> None:
+    with pytest.raises(ValueError, match="no trials"):
+        trial_overview(dataclasses.replace(file_subject, trials=()))
