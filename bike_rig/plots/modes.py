@@ -1,0 +1,90 @@
+"""Eigenvector components of one mode at one speed, as phasors (paper Fig 15).
+
+One polar panel per bicycle. The eigenvector ``[φ, δ, φ̇, δ̇]`` is scaled so that the larger
+angle component is 1 at 0° (:func:`.model_data.mode_shape`); the angles are drawn as solid
+arrows from the origin. The rates (``λ`` times the angles) are drawn dashed and divided by
+``|λ|`` so they share the angles' scale: a rate phasor is its angle phasor turned by ``arg λ``.
+For a complex pair the member with ``Im λ > 0`` is drawn, so a component at a larger phase
+leads (reaches its peak earlier).
+
+Every phasor is a line ``(0, 0) → (phase in rad, length)`` with ``gid``
+``"<bicycle>:phasor:<component>"`` (0 roll angle, 1 steer angle, 2 roll rate, 3 steer rate).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from ..subjects import Subject
+from .eigen import panel_grid
+from .model_data import ModeShape, mode_shape
+from .style import new_figure
+
+__all__ = ["COMPONENT_COLOURS", "eigenvector_figure", "phasor_lengths"]
+
+#: Colour of each component: roll (angle and rate) and steer (angle and rate).
+COMPONENT_COLOURS = ("C0", "C3", "C0", "C3")
+_RIDER_TEXT = {"": "without rider", "paper": "with the paper's rider"}
+
+
+def phasor_lengths(shape: ModeShape) -> np.ndarray:
+    """Drawn length of each phasor: ``|angle|`` for the angles, ``|rate| / |λ|`` for the rates."""
+    scale = abs(shape.eigenvalue) or 1.0
+    mag = shape.magnitude
+    return np.concatenate([mag[:2], mag[2:] / scale])
+
+
+def eigenvector_figure(
+    subjects: Sequence[Subject],
+    mode: str = "capsize",
+    speed: float = 2.0,
+    rider: str = "",
+) -> Figure:
+    """Phasor diagram of a mode's eigenvector for one or several bicycles (paper Fig 15).
+
+    Args:
+        subjects: The bicycles, one polar panel each.
+        mode: ``weave``, ``capsize`` or ``caster`` (labels of the eigenvalue figure; inside a
+            complex capsize–caster interval ``capsize`` and ``caster`` are the same pair).
+        speed: Forward speed, m/s.
+        rider: "" (none) or "paper".
+
+    Returns:
+        The figure; each panel draws :func:`.model_data.mode_shape`.
+
+    Raises:
+        FigureInputError: No bicycles, unknown mode or bad speed.
+        ModelError: Unknown rider.
+    """
+    shapes = [mode_shape(s, mode, speed, rider) for s in subjects] if subjects else []
+    rows, cols = panel_grid(len(shapes))
+    fig = new_figure(3.6 * cols + 0.4, 3.6 * rows + 1.0)
+    axes = fig.subplots(rows, cols, squeeze=False, subplot_kw={"projection": "polar"})
+    for k, ax in enumerate(axes.flat):
+        if k >= len(shapes):
+            ax.set_visible(False)
+            continue
+        sh = shapes[k]
+        lengths = phasor_lengths(sh)
+        phases = np.angle(sh.components)
+        for i, name in enumerate(sh.names):
+            rate = i >= 2
+            ax.plot([0.0, phases[i]], [0.0, lengths[i]], color=COMPONENT_COLOURS[i], lw=1.2 if rate else 2.0,
+                    ls="--" if rate else "-", marker="o", markevery=[1], ms=3,
+                    label=f"{name} ÷ |λ|" if rate else name, gid=f"{sh.bicycle}:phasor:{i}")  # fmt: skip
+        ax.set_rmax(max(1.05, float(lengths.max()) * 1.05))
+        ax.set_rlabel_position(135)
+        ax.tick_params(labelsize=7)
+        lam = sh.eigenvalue
+        kind = "oscillatory" if sh.oscillatory else "real"
+        sign = "+" if lam.imag >= 0 else "−"
+        ax.set_title(f"{sh.bicycle}\nλ = {lam.real:.2f} {sign} {abs(lam.imag):.2f}i 1/s ({kind})", fontsize=9)
+    handles, labels = axes.flat[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside lower center", ncols=4 if cols > 1 else 2, fontsize=8, frameon=False)
+    rider_text = _RIDER_TEXT.get(shapes[0].rider, shapes[0].rider)
+    fig.suptitle(f"Eigenvector of the {mode} mode at {shapes[0].speed:g} m/s, {rider_text}\n"
+                 "(larger angle = 1 at 0°; counter-clockwise leads)", fontsize=10)  # fmt: skip
+    return fig
