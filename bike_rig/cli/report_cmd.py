@@ -1,19 +1,70 @@
-"""``bike-rig report``: placeholder, being built (issue 5)."""
+"""``bike-rig report INPUT -o DIR``: one bicycle's session report as a self-contained HTML page.
+
+INPUT is a measurement file, a parameter file or a session bag. The page ``DIR/index.html``
+embeds every figure, so the one file is the whole report and needs no network to view.
+"""
 
 from __future__ import annotations
 
 import argparse
+import sys
 from typing import Any
 
-__all__ = ["add_parser"]
+from ..core.benchmark import ComMethod
+
+__all__ = ["add_parser", "run"]
 
 
 def run(args: argparse.Namespace) -> int:
-    """Not built yet."""
-    raise NotImplementedError("bike-rig report is being built")
+    """Write the report; print where it went (stderr) and any figure that could not be drawn."""
+    from ..report import report_input
+
+    written = report_input(args.input, args.output, ComMethod(args.com_method), workers=args.jobs)
+    rep = written.report
+    for f in rep.figures:
+        if f.uri is None:
+            print(f"bike-rig report: figure '{f.title}' {f.unavailable}", file=sys.stderr)
+    print(
+        f"wrote {written.path}: {rep.subject.name} ({rep.subject.kind}), {rep.drawn} figures, "
+        f"{len(rep.subject.trials)} trials, in {written.seconds:.1f} s",
+        file=sys.stderr,
+    )
+    return 0
+
+
+def _jobs(text: str) -> int:
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"a whole number >= 1 expected, got '{text}'") from None
+    if n < 1:
+        raise argparse.ArgumentTypeError(f"a whole number >= 1 expected, got '{text}'")
+    return n
 
 
 def add_parser(sub: Any) -> None:
     """Register ``bike-rig report``."""
-    q = sub.add_parser("report", help="(being built)")
+    q = sub.add_parser(
+        "report",
+        help="a self-contained HTML report of one bicycle: parameters, matrices, speeds, budget, trials, figures",
+        description="Write DIR/index.html: the bicycle and its source, the 25 parameters with σ (Table 2), the "
+        "canonical matrices with σ (Table 3) and the weave and capsize speeds with σ, without and with the "
+        "paper's rider, the uncertainty budget, every trial with its fit and flags, a bag's timeline, and "
+        "every figure (embedded, no network needed).",
+    )
+    q.add_argument("input", help="measurement file, parameter file or session bag (directory, metadata.yaml, .mcap)")
+    q.add_argument("-o", "--output", required=True, metavar="DIR", help="directory to write index.html into")
+    q.add_argument(
+        "--com-method",
+        choices=[m.value for m in ComMethod],
+        default=ComMethod.CENTROID.value,
+        help="mass-centre method for raw readings: centroid (paper, default) or least squares",
+    )
+    q.add_argument(
+        "-j",
+        "--jobs",
+        type=_jobs,
+        default=None,
+        help="processes to draw the figures in (default: one per CPU, at most 4)",
+    )
     q.set_defaults(func=run)

@@ -1,0 +1,154 @@
+"""The report renders in headless Chromium with every figure loaded.
+
+Debian's ``chromium`` (``/usr/bin/chromium``) is installed by the test set-up
+(``tools/setup_chromium.sh``, run by ``make test``). A harness page in ``tmp_path`` loads the
+report in an iframe (``--allow-file-access-from-files`` lets it read the frame) and, once the
+frame has loaded, writes into its own DOM how many ``<img>`` are complete with a natural width,
+which failed, and the figure count the report states; ``--dump-dom`` prints that DOM. A second
+run takes a screenshot of the report, which must not be blank.
+
+Chromium is kept off the network: no background networking, component updates, sync, QUIC or
+first-run tasks, and every host name resolves to nothing. It runs as a subprocess in its own
+session with a timeout, killed by its process group id if it overruns.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import html
+import json
+import os
+import re
+import signal
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+from matplotlib.image import imread
+
+from bike_rig.bag.simulated import write_simulated_bag
+from bike_rig.report import write_report
+from bike_rig.subjects import load_subject
+from test.bag.conftest import short_session
+
+CHROMIUM = Path("/usr/bin/chromium")
+TIMEOUT_S = 90.0
+#: Virtual time Chromium lets the page run before dumping the DOM, ms.
+VIRTUAL_TIME_MS = 20000
+#: Trials whose fit figures are in the rendered report (a few; the page layout is the same).
+TRIALS = 4
+
+FLAGS = (
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-quic",
+    "--no-first-run",
+    "--no-default-browser-check",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--disable-default-apps",
+    "--disable-extensions",
+    "--disable-breakpad",
+    "--host-resolver-rules=MAP * ~NOTFOUND",
+    "--hide-scrollbars",
+    "--mute-audio",
+)
+
+HARNESS = """<!DOCTYPE html>
+<html><head><meta charset="utf-8"><title>harness</title></head>
+<body>
+<pre id="result">pending</pre>
+<iframe id="report" src="{src}" width="1200" height="900"></iframe>
+<script>
+const frame = document.getElementById("report");
+frame.addEventListener("load", () => {{
+  const out = document.getElementById("result");
+  try {{
+    const doc = frame.contentDocument;
+    const images = Array.from(doc.images);
+    const ok = (img) => img.complete && img.naturalWidth > 0 && img.naturalHeight > 0;
+    const main = doc.getElementById("report");
+    out.textContent = JSON.stringify({{
+      title: doc.title,
+      images: images.length,
+      loaded: images.filter(ok).length,
+      failed: images.filter((img) => !ok(img)).map((img) => img.alt),
+      declared: main ? Number(main.dataset.figures) : null,
+      figures: doc.querySelectorAll("figure.report-figure img").length,
+      tables: doc.querySelectorAll("table").length,
+      height: doc.documentElement.scrollHeight,
+    }});
+  }} catch (err) {{
+    out.textContent = JSON.stringify({{error: String(err)}});
+  }}
+}});
+</script>
+</body></html>
+"""
+
+
+def run_chromium(args: list[str], profile: Path) -> str:
+    """Run headless Chromium with ``args``; its stdout. Fails the test on timeout or error."""
+    if not CHROMIUM.exists():
+        pytest.fail(f"{CHROMIUM} is missing: run tools/setup_chromium.sh (make test does)", pytrace=False)
+    cmd = [str(CHROMIUM), *FLAGS, f"--user-data-dir={profile}", *args]
+    proc = subprocess.Popen(
+        cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True, cwd=profile
+    )
+    try:
+        out, err = proc.communicate(timeout=TIMEOUT_S)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)  # its own session: the group id is its pid
+        proc.communicate()
+        pytest.fail(f"chromium did not finish within {TIMEOUT_S:g} s", pytrace=False)
+    if proc.returncode != 0:
+        pytest.fail(f"chromium exited with {proc.returncode}: {err[-2000:]}", pytrace=False)
+    return out
+
+
+@pytest.fixture(scope="module")
+def report_file(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A bag's report (model figures, trial overview, a few trial fits)."""
+    tmp = tmp_path_factory.mktemp("chromium-report")
+    subject = load_subject(write_simulated_bag(tmp / "bag", short_session()))
+    subject = dataclasses.replace(subject, trials=subject.trials[:TRIALS])
+    return write_report(subject, tmp / "report").path
+
+
+def test_report_renders_with_every_figure_loaded(report_file: Path, tmp_path: Path) -> None:
+    harness = tmp_path / "harness.html"
+    harness.write_text(HARNESS.format(src=html.escape(report_file.as_uri())), encoding="utf-8")
+    profile = tmp_path / "profile"
+    profile.mkdir()
+    dom = run_chromium(
+        ["--allow-file-access-from-files", f"--virtual-time-budget={VIRTUAL_TIME_MS}", "--dump-dom", harness.as_uri()],
+        profile,
+    )
+    m = re.search(r'<pre id="result">(.*?)</pre>', dom, re.S)
+    assert m is not None, dom[:2000]
+    result = json.loads(html.unescape(m.group(1)))
+    assert "error" not in result, result
+    assert result["title"].endswith("bicycle parameter report")
+    # 9 model figures + the trial overview + one fit per trial, all decoded
+    assert result["declared"] == 9 + 1 + TRIALS
+    assert result["images"] == result["declared"] == result["figures"]
+    assert result["loaded"] == result["declared"]
+    assert result["failed"] == []
+    assert result["tables"] >= 8
+    assert result["height"] > 5000  # laid out, not collapsed
+
+
+def test_report_screenshot_is_not_blank(report_file: Path, tmp_path: Path) -> None:
+    profile = tmp_path / "profile"
+    profile.mkdir()
+    shot = tmp_path / "shot.png"
+    run_chromium(["--window-size=1200,1600", f"--screenshot={shot}", report_file.as_uri()], profile)
+    img = np.asarray(imread(shot))
+    assert img.shape[0] == 1600 and img.shape[1] == 1200
+    grey = img[..., :3].mean(axis=2)
+    dark = float((grey < 0.5).mean())
+    assert 0.005 < dark < 0.5, dark  # text and tables on a white page
+    assert float(grey.std()) > 0.05
