@@ -40,9 +40,9 @@ paper's rider. Where the paper's words are loose, the measured numbers are pinne
   with it. That is pinned as a measured expectation; a reversed-fork pair that appears in
   ``config/bicycles`` (``<name>rev.yaml`` beside ``<name>.yaml``) is checked by
   :func:`test_reversed_fork_files`: a wider stable speed range, and for Yellow a weave-speed
-  change consistent with Table 2's within 3σ. Without such files that test is skipped with the
-  reason, not silently passed; :func:`test_reversed_pair_check_has_teeth` runs the same check on
-  parameter files written from Table 2's Y and Y* (passes) and on them swapped (fails).
+  change consistent with Table 2's within 3σ; that test always also runs the check on parameter
+  files written from Table 2's Y and Y*, and :func:`test_reversed_pair_check_has_teeth` shows it
+  fails on them swapped.
 """
 
 from __future__ import annotations
@@ -301,23 +301,25 @@ def check_reversed_pair(normal: Path, reversed_: Path) -> None:
         )
 
 
-def test_reversed_fork_files() -> None:
-    pairs = reversed_fork_pairs(config_dir() / "bicycles")
-    if not pairs:
-        pytest.skip(
-            "no reversed-fork pair (<name>rev.yaml beside <name>.yaml) in config/bicycles; Y* has no raw data "
-            "in ../shared either; the claim is checked on the paper's Table 2 by test_reversed_fork_on_the_paper_tables"
-        )
+def _table2_pair(folder: Path) -> tuple[Path, Path]:
+    """Parameter files of Table 2's Y and Y* written into ``folder``."""
+    (folder / "yellow.yaml").write_text(dump_parameters_yaml(_table2_set("Y")))
+    (folder / "yellowrev.yaml").write_text(dump_parameters_yaml(_table2_set("Y*")))
+    ((normal, reversed_),) = reversed_fork_pairs(folder)
+    return normal, reversed_
+
+
+def test_reversed_fork_files(tmp_path: Path) -> None:
+    """Every reversed-fork pair shipped in ``config/bicycles`` (none today: Y* has no raw data in
+    ``../shared``), and always the pair written from Table 2's Y and Y*."""
+    pairs = [*reversed_fork_pairs(config_dir() / "bicycles"), _table2_pair(tmp_path)]
     for normal, reversed_ in pairs:
         check_reversed_pair(normal, reversed_)
 
 
 def test_reversed_pair_check_has_teeth(tmp_path: Path) -> None:
-    """The file check passes on parameter files of Table 2's Y and Y*, and fails on them swapped."""
-    (tmp_path / "yellow.yaml").write_text(dump_parameters_yaml(_table2_set("Y")))
-    (tmp_path / "yellowrev.yaml").write_text(dump_parameters_yaml(_table2_set("Y*")))
-    ((normal, reversed_),) = reversed_fork_pairs(tmp_path)
-    check_reversed_pair(normal, reversed_)
+    """The file check fails on Table 2's Y and Y* swapped (it passes on them in order above)."""
+    normal, reversed_ = _table2_pair(tmp_path)
     with pytest.raises(AssertionError, match="stable speed range does not grow"):
         check_reversed_pair(reversed_, normal)
 
