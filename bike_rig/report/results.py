@@ -9,15 +9,21 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..core.benchmark import ParameterSet
+from ..core.benchmark import ComMethod, ParameterSet
 from ..core.budget import UncertaintyBudget, uncertainty_budget
 from ..core.model import MatrixSet, SigmaConvention, canonical_with_sigma
 from ..core.rider import PAPER_RIDER, Rider, add_rider
+from ..core.speed_mc import SpeedMonteCarlo, speed_monte_carlo, speed_monte_carlo_from_parameters
 from ..core.speed_sigma import CriticalSpeedsWithSigma, critical_speeds_with_sigma
 from ..core.whipple import stable_speed_range
 from ..subjects import Subject
 
-__all__ = ["ReportResults", "Variant", "compute_results", "compute_variant"]
+__all__ = ["MONTE_CARLO_SAMPLES", "ReportResults", "Variant", "compute_results", "compute_variant", "monte_carlo"]
+
+#: Draws of the Monte Carlo check of the speeds' σ (about 1 % standard error of a σ).
+MONTE_CARLO_SAMPLES = 4000
+#: Seed of its random draws (a report is reproducible).
+MONTE_CARLO_SEED = 0
 
 
 @dataclass(frozen=True)
@@ -51,12 +57,14 @@ class ReportResults:
         rider: The bicycle with the paper's rigid rider (Table 1).
         budget: The uncertainty budget of the bicycle alone.
         rider_budget: The budget of the bicycle with the rider (only its speeds are shown).
+        monte_carlo: Monte Carlo checks of the speeds' σ, without and with the rider.
     """
 
     bare: Variant
     rider: Variant
     budget: UncertaintyBudget
     rider_budget: UncertaintyBudget
+    monte_carlo: tuple[SpeedMonteCarlo, ...]
 
     @property
     def variants(self) -> tuple[Variant, Variant]:
@@ -73,10 +81,25 @@ def compute_variant(ps: ParameterSet, rider: Rider | None) -> Variant:
     return Variant(label, rider, p, ms, cs, stable_speed_range(ms.matrices, ms.g))
 
 
+def monte_carlo(subject: Subject, rider: Rider | None, samples: int = MONTE_CARLO_SAMPLES) -> SpeedMonteCarlo:
+    """Monte Carlo of the weave and capsize speeds: draws of the raw readings when the subject
+    has them (with its parameters' mass-centre method), else of the parameters."""
+    ps = subject.parameters
+    if subject.measurements is not None and ps.raw is not None:
+        used = {e.used for e in ps.com.values()} if ps.com else set()
+        method = used.pop() if len(used) == 1 else ComMethod.CENTROID
+        return speed_monte_carlo(subject.measurements, samples, MONTE_CARLO_SEED, method, rider)
+    return speed_monte_carlo_from_parameters(ps, samples, MONTE_CARLO_SEED, rider)
+
+
 def compute_results(subject: Subject, rider: Rider = PAPER_RIDER) -> ReportResults:
     """All numbers of the report of ``subject`` (with ``rider`` as the rider variant)."""
     bare = compute_variant(subject.parameters, None)
     with_rider = compute_variant(subject.parameters, rider)
     return ReportResults(
-        bare, with_rider, uncertainty_budget(bare.parameters), uncertainty_budget(with_rider.parameters)
+        bare,
+        with_rider,
+        uncertainty_budget(bare.parameters),
+        uncertainty_budget(with_rider.parameters),
+        (monte_carlo(subject, None), monte_carlo(subject, rider)),
     )

@@ -198,13 +198,40 @@ def _range_text(stable: tuple[tuple[float, float], ...]) -> str:
     return ", ".join(parts) + " m/s"
 
 
-def speeds_section(results: ReportResults, monte_carlo: Sequence[str] = ()) -> Raw:
-    """Weave and capsize speeds with σ and the stable speed range, without and with the rider.
+def _monte_carlo_table(results: ReportResults) -> list[str]:
+    if not results.monte_carlo:
+        return []
+    rows: list[list[str]] = []
+    for v, mc in zip(results.variants, results.monte_carlo):
+        for d in (mc.weave, mc.capsize):
+            rows.append(
+                [
+                    Raw(f'<td data-key="{esc(d.name)}">{esc(d.name)}</td>'),
+                    v.label,
+                    number_cell(d.linear_sigma, ".3g"),
+                    number_cell(d.std, ".3g"),
+                    number_cell(d.robust_std, ".3g"),
+                    number_cell(d.ratio, ".3f"),
+                    number_cell(d.mean, ".4f"),
+                    str(d.missing),
+                ]
+            )
+    mc = results.monte_carlo[0]
+    head = ["speed", "variant", "linear σ [m/s]", "Monte Carlo σ", "robust σ", "ratio", "mean [m/s]", "draws without"]
+    return [
+        table(head, rows, "monte-carlo", "table-monte-carlo", "Monte Carlo check of the speeds' σ"),
+        _p(
+            f"{mc.samples} normal draws of the {mc.input_kind} (seed {mc.seed}), each carried through the whole "
+            "chain; the ratio is the Monte Carlo σ over the linear σ (1 when the first-order σ is right). "
+            "Robust σ: half the 15.9 to 84.1 % percentile range.",
+            "note",
+        ),
+    ]
 
-    Args:
-        results: The report's numbers.
-        monte_carlo: Already-built HTML paragraphs or tables of a Monte Carlo check, if any.
-    """
+
+def speeds_section(results: ReportResults) -> Raw:
+    """Weave and capsize speeds with σ and the stable speed range, without and with the rider,
+    and the Monte Carlo check of their σ."""
     rows: list[list[str]] = []
     for name, attr in (("weave speed", "weave"), ("capsize speed", "capsize")):
         row: list[str] = [Raw(f'<td data-key="{attr}">{esc(name)}</td>')]
@@ -222,7 +249,7 @@ def speeds_section(results: ReportResults, monte_carlo: Sequence[str] = ()) -> R
             "unstable. σ to first order from the parameter covariance (implicit function theorem).",
             "note",
         ),
-        *monte_carlo,
+        *_monte_carlo_table(results),
     ]
     return section("speeds", "Critical speeds", body)
 
@@ -242,7 +269,8 @@ def _share_list(o: OutputBudget) -> Raw:
 
 def _budget_rows(b: UncertaintyBudget) -> list[list[str]]:
     rows: list[list[str]] = []
-    for o in b.outputs:
+    order = {k: i for i, k in enumerate(TABLE2_ORDER)}
+    for o in sorted(b.outputs, key=lambda o: order.get(o.output, len(order))):
         label = LABELS[o.output][0] if o.output in LABELS else o.output
         rows.append(
             [

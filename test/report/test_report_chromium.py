@@ -145,7 +145,15 @@ def test_report_screenshot_is_not_blank(report_file: Path, tmp_path: Path) -> No
     profile = tmp_path / "profile"
     profile.mkdir()
     shot = tmp_path / "shot.png"
-    run_chromium(["--window-size=1200,1600", f"--screenshot={shot}", report_file.as_uri()], profile)
+    run_chromium(
+        [
+            "--window-size=1200,1600",
+            f"--virtual-time-budget={VIRTUAL_TIME_MS}",
+            f"--screenshot={shot}",
+            report_file.as_uri(),
+        ],
+        profile,
+    )
     img = np.asarray(imread(shot))
     assert img.shape[0] == 1600 and img.shape[1] == 1200
     grey = img[..., :3].mean(axis=2)
