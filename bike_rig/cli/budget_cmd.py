@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import argparse
 import json
-from pathlib import Path
 from typing import Any
 
 from ..core.benchmark import ComMethod
@@ -38,9 +37,10 @@ from ..core.budget import (
     input_ranking,
     uncertainty_budget,
 )
-from ..core.errors import BikeRigError, InputFileError
-from ..core.rider import PAPER_RIDER, add_rider
+from ..core.errors import BikeRigError
+from ..core.rider import add_rider
 from ..subjects import load_subject
+from .common import emit, rider_from_spec
 from .format import format_value_sigma
 
 __all__ = ["BudgetUsageError", "add_parser", "budget_text", "run"]
@@ -64,7 +64,9 @@ def add_parser(sub: Any) -> None:
     )
     q.add_argument("input", metavar="INPUT", help="measurement file, parameter file or session bag")
     q.add_argument("--json", action="store_true", help="one JSON object with every share on standard output")
-    q.add_argument("--rider", choices=["none", "paper"], default="none", help="add the paper's rigid rider (Table 1)")
+    q.add_argument(
+        "--rider", default="none", help="'paper' for the paper's rigid rider (Table 1), or a rider YAML file"
+    )
     q.add_argument("--top", type=int, default=5, metavar="N", help="inputs shown per output in the table (default 5)")
     q.add_argument(
         "--com-method",
@@ -82,14 +84,15 @@ def run(args: argparse.Namespace) -> int:
         raise BudgetUsageError(f"--top N needs N >= 1, got {args.top}")
     subject = load_subject(args.input, args.com_method)
     ps = subject.parameters
-    if args.rider == "paper":
-        ps = add_rider(ps, PAPER_RIDER)
+    rider = rider_from_spec(args.rider)
+    if rider is not None:
+        ps = add_rider(ps, rider)
     b = uncertainty_budget(ps)
     if args.json:
         text = json.dumps(budget_json(b), indent=2, allow_nan=False)
     else:
         text = budget_text(b, args.top, source=subject.path)
-    _emit(text, args.output)
+    emit(text, args.output)
     return 0
 
 
@@ -154,13 +157,3 @@ def budget_text(b: UncertaintyBudget, top: int = 5, source: str | None = None) -
         lines.append("")
         lines += _output_block(b.output(name), top)
     return "\n".join(lines)
-
-
-def _emit(text: str, output: str | None) -> None:
-    if output:
-        try:
-            Path(output).write_text(text + "\n", encoding="utf-8")
-        except OSError as exc:
-            raise InputFileError(output, f"cannot write ({exc.strerror})") from None
-    else:
-        print(text)

@@ -30,8 +30,6 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from ..core.errors import BikeRigError, InputFileError
 from ..core.period import CombinedPeriod, PeriodFit, WindowPolicy, combine_periods, fit_period
 from ..core.trials import Trial, read_trial
@@ -242,34 +240,27 @@ def _plot_names(trials: Sequence[Trial]) -> list[str]:
 
 
 def plot_fit(trial: Trial, fit: PeriodFit, path: Path) -> None:
-    """Write a PNG of the trial: samples and fit above, residuals below (matplotlib, Agg)."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
+    """Write a PNG of the trial: samples and fit above, residuals below
+    (:func:`bike_rig.plots.trials.fit_figure`).
 
-    t = trial.times if trial.times is not None else np.arange(trial.samples.size) / float(trial.sample_rate_hz or 1.0)
-    fig = Figure(figsize=(10, 6), layout="constrained")
-    FigureCanvasAgg(fig)
-    top, bottom = fig.subplots(2, 1, sharex=True, height_ratios=(3, 1))
-    top.plot(t, trial.samples, ".", markersize=1.5, color="0.55", label="samples")
-    if fit.valid:
-        start, stop = fit.window
-        tw = t[start:stop]
-        model = fit.predict(tw)
-        top.plot(tw, model, "-", color="C0", linewidth=1.0, label="Eq 23 fit")
-        top.axvspan(tw[0], tw[-1], color="C0", alpha=0.06, label="window")
-        bottom.plot(tw, trial.samples[start:stop] - model, ".", markersize=1.5, color="C3")
-        value, sigma = format_value_sigma(fit.period, fit.period_sigma)
-        title = f"{trial.name}: T = {value} ± {sigma} s, ζ = {fit.zeta:.2e}, r² = {fit.r2:.4f}"
-    else:
-        title = f"{trial.name}: no period"
-    if fit.flags:
-        title += "\n" + "; ".join(f.code.value for f in fit.flags)
-    top.set_title(title, fontsize=10)
-    top.set_ylabel("rate (file units)")
-    top.legend(loc="upper right", fontsize=8)
-    bottom.set_ylabel("residual")
-    bottom.set_xlabel("time [s]")
-    try:
-        fig.savefig(path, dpi=100)
-    except OSError as exc:
-        raise InputFileError(str(path), f"cannot write the plot ({exc.strerror})") from None
+    Raises:
+        InputFileError: The PNG cannot be written.
+    """
+    from ..plots.style import save_figure
+    from ..plots.trials import fit_figure
+    from ..subjects import TrialRecord
+
+    record = TrialRecord(
+        trial_id=trial.name,
+        key=trial.period_key or "",
+        fit=fit,
+        used=fit.clean,
+        note="",
+        samples=trial.samples,
+        sample_rate_hz=trial.sample_rate_hz,
+        times=trial.times,
+        start_s=None,
+        stop_s=None,
+        source=trial.path,
+    )
+    save_figure(fit_figure(record), path.with_suffix(""), ("png",))

@@ -18,17 +18,18 @@ from typing import Any
 import numpy as np
 
 from ..core.benchmark import ComMethod, ParameterSet, compute_parameters
-from ..core.errors import BikeRigError, InputFileError
+from ..core.errors import BikeRigError
 from ..core.io_bp import dump_bp_parameter_yaml
-from ..core.io_yaml import ATTRIBUTION, dump_measurements_yaml, dump_parameters_yaml, load_yaml_document
+from ..core.io_yaml import ATTRIBUTION, dump_measurements_yaml, dump_parameters_yaml
 from ..core.loader import load_input
 from ..core.measurements import Measurements, validate
 from ..core.model import SigmaConvention, canonical_with_sigma
-from ..core.rider import PAPER_RIDER, Rider, add_rider
+from ..core.rider import PAPER_RIDER, add_rider
 from ..core.whipple import critical_speeds, eigenvalues
 from ..paths import config_file
 from . import bag_cmd, budget_cmd, fit_cmd, plot_cmd, replay_cmd, report_cmd, run_cmd, simulate_cmd
 from . import format as fmt
+from .common import UsageError, emit, rider_from_spec
 
 __all__ = ["main"]
 
@@ -36,35 +37,11 @@ EXIT_USER_ERROR = 2
 DEFAULT_BICYCLE = "bicycles/browser.yaml"
 
 
-class UsageError(BikeRigError):
-    """A command-line argument is invalid."""
-
-
 def _parameters(path: str, com_method: str) -> ParameterSet:
     got = load_input(path)
     if isinstance(got, Measurements):
         return compute_parameters(got, ComMethod(com_method))
     return got
-
-
-def _rider(spec: str | None) -> Rider | None:
-    if spec is None:
-        return None
-    if spec == "paper":
-        return PAPER_RIDER
-    data, lines = load_yaml_document(spec)
-    keys = ("mass", "x", "z", "Ixx", "Iyy", "Izz", "Ixz")
-    if not isinstance(data, dict):
-        raise InputFileError(spec, f"a rider file is a mapping of {', '.join(keys)}")
-    values = {}
-    for k in keys:
-        v = data.get(k)
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-            raise InputFileError(spec, f"needs a number ({v!r} given)", key=k, line=lines.get((k,)))
-        values[k] = float(v)
-    if values["mass"] <= 0:
-        raise InputFileError(spec, "rider mass must be positive", key="mass", line=lines.get(("mass",)))
-    return Rider(name=str(data.get("name", Path(spec).stem)), **values)
 
 
 def _speeds(spec: Sequence[str] | None) -> np.ndarray:
@@ -99,7 +76,7 @@ def cmd_params(args: argparse.Namespace) -> int:
         text = dump_parameters_yaml(ps)
     else:
         text = fmt.parameter_table(ps)
-    _emit(text, args.output)
+    emit(text, args.output)
     return 0
 
 
@@ -119,7 +96,7 @@ def _model_json(ms: Any, cs: Any, speeds: np.ndarray, eig: Any) -> dict[str, Any
 
 def cmd_model(args: argparse.Namespace) -> int:
     ps = _parameters(args.file, args.com_method)
-    rider = _rider(args.rider)
+    rider = rider_from_spec(args.rider)
     if rider is not None:
         ps = add_rider(ps, rider)
     speeds = _speeds(args.speeds)
@@ -127,7 +104,7 @@ def cmd_model(args: argparse.Namespace) -> int:
     cs = critical_speeds(ms.matrices, ms.g)
     eig = eigenvalues(ms.matrices, ms.g, speeds)
     if args.json:
-        _emit(json.dumps(_model_json(ms, cs, speeds, eig), indent=2), args.output)
+        emit(json.dumps(_model_json(ms, cs, speeds, eig), indent=2), args.output)
         return 0
     text = "\n\n".join(
         [
@@ -137,7 +114,7 @@ def cmd_model(args: argparse.Namespace) -> int:
             fmt.eigen_table(speeds.tolist(), eig.eigenvalues, eig.labels),
         ]
     )
-    _emit(text, args.output)
+    emit(text, args.output)
     return 0
 
 
@@ -198,16 +175,6 @@ def _demo_offline(path: str) -> int:
     print("with the paper's rigid rider (Table 1):")
     print(fmt.speeds_summary(rider_cs))
     return 0
-
-
-def _emit(text: str, output: str | None) -> None:
-    if output:
-        try:
-            Path(output).write_text(text + "\n", encoding="utf-8")
-        except OSError as exc:
-            raise InputFileError(output, f"cannot write ({exc.strerror})") from None
-    else:
-        print(text)
 
 
 def build_parser() -> argparse.ArgumentParser:

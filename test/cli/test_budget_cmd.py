@@ -90,3 +90,17 @@ def test_user_errors_are_one_line(capsys: pytest.CaptureFixture[str], args: list
     assert captured.out == ""
     assert captured.err.count("\n") == 1 and captured.err.startswith("bike-rig budget: error: ")
     assert message in captured.err
+
+
+def test_rider_file_gives_the_same_budget_as_its_values(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    r = PAPER_RIDER
+    path = tmp_path / "rider.yaml"
+    path.write_text(
+        f"name: {r.name}\nmass: {r.mass!r}\nx: {r.x!r}\nz: {r.z!r}\n"
+        f"Ixx: {r.Ixx!r}\nIyy: {r.Iyy!r}\nIzz: {r.Izz!r}\nIxz: {r.Ixz!r}\n"
+    )
+    assert run_json(capsys, BROWSER, "--rider", str(path)) == run_json(capsys, BROWSER, "--rider", "paper")
+    path.write_text("mass: heavy\n")
+    assert main(["budget", BROWSER, "--rider", str(path)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "rider.yaml" in err[0] and "needs a number" in err[0]
