@@ -10,8 +10,9 @@ installed, or that cannot be drawn for this bicycle (a :class:`BikeRigError`, e.
 mode), is listed with the reason instead of an image; any other exception is a bug and
 propagates.
 
-Rendering is the report's main cost: the fit figures are drawn smaller than the plots'
-defaults and every figure is rasterised at :data:`REPORT_DPI`.
+Rendering is the report's main cost: the figures are drawn in forked worker processes
+(:func:`draw_figures`), the model figures rasterised at :data:`REPORT_DPI` and the many fit
+figures smaller than the plot's default, at :data:`FIT_DPI`.
 """
 
 from __future__ import annotations
@@ -33,6 +34,7 @@ from ..subjects import Subject, TrialRecord
 from .results import ReportResults
 
 __all__ = [
+    "FIT_DPI",
     "MAX_WORKERS",
     "REPORT_DPI",
     "FigureSpec",
@@ -44,7 +46,9 @@ __all__ = [
 ]
 
 #: Resolution of the embedded PNGs, dots per inch.
-REPORT_DPI = 80
+REPORT_DPI = 100
+#: Resolution of the trials' fit figures (many, and simple), dots per inch.
+FIT_DPI = 75
 #: Most processes the figures are drawn in.
 MAX_WORKERS = 4
 #: Fewer figures than this are drawn in this process (a pool costs more than it saves).
@@ -65,6 +69,7 @@ class FigureSpec:
         caption: What it shows.
         draw: Draws it (imports its module).
         size_in: (width, height) to draw it at, inches; None keeps the plot's own size.
+        dpi: Its resolution, dots per inch; None for the report's.
     """
 
     key: str
@@ -72,6 +77,7 @@ class FigureSpec:
     caption: str
     draw: Callable[[], Figure]
     size_in: tuple[float, float] | None = None
+    dpi: float | None = None
 
 
 @dataclass(frozen=True)
@@ -215,6 +221,7 @@ def figure_specs(subject: Subject, results: ReportResults) -> list[FigureSpec]:
                     "Samples with the Eq 23 fit over its window, and the residuals.",
                     partial(_fit, t),
                     FIT_FIGURE_SIZE_IN,
+                    FIT_DPI,
                 )
             )
     return specs
@@ -240,7 +247,9 @@ def _draw_one(spec: FigureSpec, dpi: float) -> ReportFigure:
         return ReportFigure(spec.key, spec.title, spec.caption, None, why, time.perf_counter() - t0)
     if spec.size_in is not None:
         fig.set_size_inches(*spec.size_in)
-    return ReportFigure(spec.key, spec.title, spec.caption, png_data_uri(fig, dpi), "", time.perf_counter() - t0)
+    return ReportFigure(
+        spec.key, spec.title, spec.caption, png_data_uri(fig, spec.dpi or dpi), "", time.perf_counter() - t0
+    )
 
 
 #: The specs of the pool's worker process (inherited through fork, never pickled).
