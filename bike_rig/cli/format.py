@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping, Sequence
 
 import numpy as np
@@ -10,33 +9,18 @@ import numpy as np
 from ..core.benchmark import PARAMETER_NAMES, ComEstimate, ParameterSet
 from ..core.model import MatrixSet
 from ..core.whipple import CriticalSpeeds
+from ..textfmt import LABELS, TABLE2_ORDER, format_value_sigma
 
-__all__ = ["format_value_sigma", "parameter_table", "matrix_table", "speeds_summary", "eigen_table"]
+__all__ = [
+    "LABELS",
+    "TABLE2_ORDER",
+    "eigen_table",
+    "format_value_sigma",
+    "matrix_table",
+    "parameter_table",
+    "speeds_summary",
+]
 
-#: Display label and unit of each parameter (paper Table 2 order).
-LABELS: dict[str, tuple[str, str]] = {
-    "w": ("w", "m"), "c": ("c", "m"), "lam": ("λ", "rad"), "g": ("g", "m/s²"),
-    "rR": ("r_R", "m"), "mR": ("m_R", "kg"), "IRxx": ("I_Rxx", "kg m²"), "IRyy": ("I_Ryy", "kg m²"),
-    "xB": ("x_B", "m"), "zB": ("z_B", "m"), "mB": ("m_B", "kg"), "IBxx": ("I_Bxx", "kg m²"),
-    "IBxz": ("I_Bxz", "kg m²"), "IByy": ("I_Byy", "kg m²"), "IBzz": ("I_Bzz", "kg m²"),
-    "xH": ("x_H", "m"), "zH": ("z_H", "m"), "mH": ("m_H", "kg"), "IHxx": ("I_Hxx", "kg m²"),
-    "IHxz": ("I_Hxz", "kg m²"), "IHyy": ("I_Hyy", "kg m²"), "IHzz": ("I_Hzz", "kg m²"),
-    "rF": ("r_F", "m"), "mF": ("m_F", "kg"), "IFxx": ("I_Fxx", "kg m²"), "IFyy": ("I_Fyy", "kg m²"),
-}  # fmt: skip
-TABLE2_ORDER = tuple(LABELS)
-
-
-def format_value_sigma(value: float, sigma: float) -> tuple[str, str]:
-    """Value and σ as the paper prints them: σ to one significant digit, the value to match.
-
-    With σ = 0 (exact or unknown) the value gets 6 significant digits.
-    """
-    if not sigma > 0 or not math.isfinite(sigma):
-        return f"{value:.6g}", "0" if sigma == 0 else "nan"
-    decimals = max(0, -math.floor(math.log10(sigma)))
-    if round(sigma, decimals) >= 10 ** (1 - decimals):  # σ rounded up to the next decade
-        decimals = max(0, decimals - 1)
-    return f"{value:.{decimals}f}", f"{sigma:.{decimals}f}"
 
 
 def parameter_table(ps: ParameterSet) -> str:

@@ -14,9 +14,9 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Patch
 from numpy.typing import NDArray
 
-from ..cli.format import format_value_sigma
 from ..core.period import FitOptions, combine_periods
 from ..subjects import Subject, TrialRecord, is_bag_path
+from ..textfmt import format_value_sigma
 from .style import new_figure
 
 __all__ = [

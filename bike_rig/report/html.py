@@ -13,16 +13,21 @@ import html
 import math
 from collections.abc import Iterable, Sequence
 
+from ..textfmt import format_value_sigma
+
 __all__ = [
     "Raw",
     "esc",
-    "format_value_sigma",
     "number_cell",
     "page",
     "section",
     "table",
     "value_sigma_cells",
 ]
+
+
+#: Significant digits of every σ on the page (one more than the paper's tables print).
+SIGMA_DIGITS = 2
 
 
 class Raw(str):
@@ -41,32 +46,6 @@ def _attr(value: float | None) -> str:
     return repr(float(value))
 
 
-def format_value_sigma(value: float, sigma: float | None, digits: int = 2) -> tuple[str, str]:
-    """Value and σ for print: σ to ``digits`` significant digits, the value to the same place.
-
-    Args:
-        value: The value (any unit).
-        sigma: Its standard uncertainty, same unit; None, 0, NaN or inf when unknown.
-        digits: Significant digits of σ.
-
-    Returns:
-        ``(value, sigma)`` texts; without a usable σ the value gets 6 significant digits and σ
-        is ``"0"`` (exactly zero) or ``"–"``.
-    """
-    if not math.isfinite(value):
-        return str(value), "–"
-    if sigma is None or not math.isfinite(sigma) or sigma <= 0.0:
-        return f"{value:.6g}", "0" if sigma == 0.0 else "–"
-    decimals = digits - 1 - math.floor(math.log10(sigma))
-    if round(sigma, decimals) >= 10.0 ** (digits - decimals):  # σ rounded up to the next decade
-        decimals -= 1
-    if decimals > 0:
-        return f"{value:.{decimals}f}", f"{sigma:.{decimals}f}"
-    # σ ≥ 10**(digits-1): round both to tens, hundreds...
-    scale = 10.0 ** (-decimals)
-    return f"{round(value / scale) * scale:.0f}", f"{round(sigma / scale) * scale:.0f}"
-
-
 def value_sigma_cells(value: float | None, sigma: float | None, unit: str = "") -> Raw:
     """Two ``<td>``: the value and its σ (rounded, see :func:`format_value_sigma`).
 
@@ -75,7 +54,7 @@ def value_sigma_cells(value: float | None, sigma: float | None, unit: str = "") 
     """
     if value is None:
         return Raw('<td class="num" data-value="none">none</td><td class="num sigma"></td>')
-    v, s = format_value_sigma(value, sigma)
+    v, s = format_value_sigma(value, sigma, digits=SIGMA_DIGITS)
     data = f' data-value="{_attr(value)}" data-sigma="{_attr(sigma)}"'
     u = f" {esc(unit)}" if unit else ""
     return Raw(f'<td class="num"{data}>{esc(v)}{u}</td><td class="num sigma"{data}>{esc(s)}</td>')

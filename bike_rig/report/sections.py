@@ -13,11 +13,11 @@ import math
 from collections.abc import Sequence
 
 from .. import __version__
-from ..cli.format import LABELS, TABLE2_ORDER
 from ..core.budget import CAPSIZE, PARAMETERS, WEAVE, OutputBudget, UncertaintyBudget, input_ranking
 from ..core.model import MATRIX_NAMES
 from ..core.speed_sigma import SpeedWithSigma
 from ..subjects import Subject, TrialRecord
+from ..textfmt import LABELS, TABLE2_ORDER
 from .figures import ReportFigure
 from .html import Raw, esc, number_cell, section, table, value_sigma_cells
 from .results import ReportResults, Variant

@@ -24,7 +24,6 @@ import pytest
 from matplotlib.figure import Figure
 
 from bike_rig.bag.simulated import write_simulated_bag
-from bike_rig.cli.format import TABLE2_ORDER
 from bike_rig.core.benchmark import PARAMETER_NAMES
 from bike_rig.core.budget import uncertainty_budget
 from bike_rig.core.errors import BikeRigError, ModelError
@@ -37,8 +36,8 @@ from bike_rig.core.whipple import stable_speed_range
 from bike_rig.paths import config_file
 from bike_rig.report import REPORT_FILE, Report, ReportOutputError, build_report, write_report
 from bike_rig.report.figures import FigureSpec, draw_figures
-from bike_rig.report.html import format_value_sigma
 from bike_rig.subjects import Subject, load_subject
+from bike_rig.textfmt import TABLE2_ORDER, format_value_sigma
 from test.bag.conftest import short_session
 
 BROWSER = config_file("bicycles/browser.yaml")
@@ -468,6 +467,19 @@ def test_write_report(tmp_path: Path, measurement_report: Built) -> None:
     ],
 )
 def test_format_value_sigma(value: float, sigma: float, expected: tuple[str, str]) -> None:
+    assert format_value_sigma(value, sigma, digits=2) == expected
+
+
+@pytest.mark.parametrize(
+    ("value", "sigma", "expected"),
+    [
+        (0.341234, 0.00123, ("0.341", "0.001")),  # the paper's tables: σ to one digit
+        (1.0, 0.0996, ("1.0", "0.1")),
+        (102.78, 0.46, ("102.8", "0.5")),
+        (1234.5, 56.0, ("1230", "60")),
+    ],
+)
+def test_format_value_sigma_paper_style(value: float, sigma: float, expected: tuple[str, str]) -> None:
     assert format_value_sigma(value, sigma) == expected
 
 

@@ -1,0 +1,48 @@
+"""How numbers with σ and parameter names are written for people (terminal tables, figures and
+the HTML report alike)."""
+
+from __future__ import annotations
+
+import math
+
+__all__ = ["LABELS", "TABLE2_ORDER", "format_value_sigma"]
+
+#: Display label and unit of each benchmark parameter (paper Table 2 order).
+LABELS: dict[str, tuple[str, str]] = {
+    "w": ("w", "m"), "c": ("c", "m"), "lam": ("λ", "rad"), "g": ("g", "m/s²"),
+    "rR": ("r_R", "m"), "mR": ("m_R", "kg"), "IRxx": ("I_Rxx", "kg m²"), "IRyy": ("I_Ryy", "kg m²"),
+    "xB": ("x_B", "m"), "zB": ("z_B", "m"), "mB": ("m_B", "kg"), "IBxx": ("I_Bxx", "kg m²"),
+    "IBxz": ("I_Bxz", "kg m²"), "IByy": ("I_Byy", "kg m²"), "IBzz": ("I_Bzz", "kg m²"),
+    "xH": ("x_H", "m"), "zH": ("z_H", "m"), "mH": ("m_H", "kg"), "IHxx": ("I_Hxx", "kg m²"),
+    "IHxz": ("I_Hxz", "kg m²"), "IHyy": ("I_Hyy", "kg m²"), "IHzz": ("I_Hzz", "kg m²"),
+    "rF": ("r_F", "m"), "mF": ("m_F", "kg"), "IFxx": ("I_Fxx", "kg m²"), "IFyy": ("I_Fyy", "kg m²"),
+}  # fmt: skip
+#: The parameters in the order of the paper's Table 2.
+TABLE2_ORDER = tuple(LABELS)
+
+
+def format_value_sigma(value: float, sigma: float | None, digits: int = 1) -> tuple[str, str]:
+    """Value and σ for print: σ to ``digits`` significant digits, the value to the same place
+    (``digits=1`` is how the paper prints its tables).
+
+    Args:
+        value: The value (any unit).
+        sigma: Its standard uncertainty, same unit; None, 0, NaN or inf when unknown.
+        digits: Significant digits of σ.
+
+    Returns:
+        ``(value, sigma)`` texts; without a usable σ the value gets 6 significant digits and σ
+        is ``"0"`` (exactly zero) or ``"–"``.
+    """
+    if not math.isfinite(value):
+        return str(value), "–"
+    if sigma is None or not math.isfinite(sigma) or sigma <= 0.0:
+        return f"{value:.6g}", "0" if sigma == 0.0 else "–"
+    decimals = digits - 1 - math.floor(math.log10(sigma))
+    if round(sigma, decimals) >= 10.0 ** (digits - decimals):  # σ rounded up to the next decade
+        decimals -= 1
+    if decimals > 0:
+        return f"{value:.{decimals}f}", f"{sigma:.{decimals}f}"
+    # σ ≥ 10**(digits-1): round both to units, tens, hundreds...
+    scale = 10.0 ** (-decimals)
+    return f"{round(value / scale) * scale:.0f}", f"{round(sigma / scale) * scale:.0f}"
