@@ -509,6 +509,12 @@ def compute_model(
     )
 
 
+#: Speeds above the asked one over which :func:`state_space_at` tracks the modes to label them, m/s.
+LABEL_SWEEP_SPAN = 10.0
+#: Speeds in that sweep.
+LABEL_SWEEP_COUNT = 201
+
+
 @dataclass(frozen=True)
 class StateSpaceAt:
     """``ẋ = A x + B u`` at one speed (the fields of a ``StateSpace`` response).
@@ -538,6 +544,8 @@ def state_space_at(model: ModelMatrices, speed: float) -> StateSpaceAt:
     if not (math.isfinite(v) and v >= 0.0):
         raise ModelError(f"speed must be a finite number >= 0 m/s, got {speed}")
     a, b = state_space(model.matrices, v, model.g)
-    sweep = eigenvalues(model.matrices, model.g, [v])
+    # Labels come from the structure at the highest speed of a sweep and are carried back along
+    # the tracks; one speed alone would name the low-speed capsize–caster pair "weave".
+    sweep = eigenvalues(model.matrices, model.g, np.linspace(v, v + LABEL_SWEEP_SPAN, LABEL_SWEEP_COUNT))
     return StateSpaceAt(v, np.asarray(a, dtype=float), np.asarray(b, dtype=float), sweep.eigenvalues[0], sweep.labels)
 

@@ -246,3 +246,15 @@ def test_a_refit_from_fewer_samples_never_replaces_a_complete_one() -> None:
         for t in order:
             a.add(t)
         assert a.trials == (full,)
+
+
+def test_state_space_at_labels_modes_as_the_sweep_does(browser_set: ParameterSet) -> None:
+    """At 1 m/s the Browser's capsize and caster roots form a complex pair and the weave roots
+    are real: the labels must be the tracked sweep's, not those of the structure at 1 m/s."""
+    matrices, stability = compute_model(browser_set, np.linspace(0.0, 10.0, 201))
+    for i in (10, 20, 50, 120):  # 0.5, 1, 2.5 and 6 m/s
+        st = state_space_at(matrices, float(stability.sweep.speeds[i]))
+        assert st.labels == stability.sweep.labels
+        np.testing.assert_allclose(st.eigenvalues, stability.sweep.eigenvalues[i], rtol=1e-9, atol=1e-9)
+    weave_at_1 = state_space_at(matrices, 1.0).eigenvalues[:2]
+    assert np.all(weave_at_1.imag == 0) and np.all(weave_at_1.real > 0)  # two real unstable roots
