@@ -16,6 +16,7 @@ Nothing here imports rclpy or matplotlib.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -36,7 +37,6 @@ __all__ = [
     "TrialRecord",
     "is_bag_path",
     "load_subject",
-    "load_subjects",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -80,15 +80,6 @@ class TrialRecord:
     start_s: float | None
     stop_s: float | None
     source: str
-
-    def sample_times(self) -> FloatArray | None:
-        """Time of every sample, s from the first (None without samples)."""
-        if self.samples is None:
-            return None
-        if self.times is not None:
-            return self.times - self.times[0]
-        rate = self.sample_rate_hz if self.sample_rate_hz else 1.0
-        return np.arange(self.samples.size, dtype=float) / float(rate)
 
 
 @dataclass(frozen=True)
@@ -161,18 +152,6 @@ def _file_trials(m: Measurements) -> tuple[TrialRecord, ...]:
     return tuple(out)
 
 
-def _batch_samples(batches: list[Any]) -> tuple[FloatArray | None, float | None]:
-    """A recorded trial's samples in index order, each first index once."""
-    if not batches:
-        return None, None
-    seen: dict[int, Any] = {}
-    for b in batches:
-        seen.setdefault(int(b.first_index), b)
-    parts = [np.asarray(seen[k].rates, dtype=float) for k in sorted(seen)]
-    rate = float(batches[0].sample_rate_hz)
-    return np.concatenate(parts), rate if rate > 0 else None
-
-
 def _stamp_s(msg: Any, t0_ns: int) -> float | None:
     if msg is None:
         return None
@@ -181,14 +160,14 @@ def _stamp_s(msg: Any, t0_ns: int) -> float | None:
     return (ns - t0_ns) / 1e9 if ns > 0 else None
 
 
-def _bag_subject(path: str) -> Subject:
-    from .bag.replay import replay_session
+def _bag_subject(path: str, com_method: ComMethod | None) -> Subject:
+    from .bag.replay import ReplaySettings, replay_session
     from .bag.session import read_session
     from .core.assembly import merged_readings
     from .messages import static_readings_from_msg
 
     session = read_session(path)
-    result = replay_session(session)
+    result = replay_session(session, ReplaySettings(com_method=com_method))
     if result.parameters is None:
         missing = ", ".join(result.session.missing) or "unknown"
         raise SubjectError(path, f"the session is incomplete: no usable trial for {missing}")
@@ -197,12 +176,14 @@ def _bag_subject(path: str) -> Subject:
     timeline: list[TimelineEntry] = []
     for r in result.trials:
         rec = session.trials.get(r.trial_id)
-        samples, rate = _batch_samples(rec.batches) if rec is not None else (None, None)
+        rate = r.fit.sample_rate_hz if math.isfinite(r.fit.sample_rate_hz) and r.fit.sample_rate_hz > 0 else None
         start = _stamp_s(rec.start, t0) if rec is not None else None
         stop = _stamp_s(rec.stop, t0) if rec is not None else None
         key = r.fit.measurement_key or (rec.measurement_key if rec is not None else "")
         records.append(
-            TrialRecord(r.trial_id, key, r.fit.fit, r.used, r.note, samples, rate, None, start, stop, path)
+            TrialRecord(
+                r.trial_id, key, r.fit.fit, r.used, r.note, r.fit.samples, rate, r.fit.sample_times, start, stop, path
+            )
         )
         if start is not None:
             timeline.append(TimelineEntry(start, f"trial {r.trial_id} ({key}) started"))
@@ -234,13 +215,13 @@ def _bag_subject(path: str) -> Subject:
     )
 
 
-def load_subject(path: str | Path, com_method: ComMethod | str = ComMethod.CENTROID) -> Subject:
+def load_subject(path: str | Path, com_method: ComMethod | str | None = None) -> Subject:
     """Open one input (measurement file, parameter file or session bag) as a :class:`Subject`.
 
     Args:
         path: The input.
-        com_method: Mass-centre method for raw readings (the paper's centroid by default; a
-            bag is replayed with the method its live parameter set names).
+        com_method: Mass-centre method for raw readings. None: the paper's centroid for a
+            file, and for a bag the method its live parameter set names.
 
     Raises:
         BikeRigError: The input is missing, unreadable, invalid, or (a bag) incomplete; the
@@ -249,15 +230,11 @@ def load_subject(path: str | Path, com_method: ComMethod | str = ComMethod.CENTR
     p = str(path)
     if not Path(path).exists():
         raise InputFileError(p, "no such file or directory")
+    method = None if com_method is None else ComMethod(com_method)
     if is_bag_path(path):
-        return _bag_subject(p)
+        return _bag_subject(p, method)
     got = load_input(path)
     if isinstance(got, Measurements):
-        ps = compute_parameters(got, ComMethod(com_method))
+        ps = compute_parameters(got, method or ComMethod.CENTROID)
         return Subject(got.bicycle, p, "measurements", ps, got, _file_trials(got))
     return Subject(got.bicycle, p, "parameters", got, None)
-
-
-def load_subjects(paths: list[str], com_method: ComMethod | str = ComMethod.CENTROID) -> list[Subject]:
-    """:func:`load_subject` for each path, in order."""
-    return [load_subject(p, com_method) for p in paths]

@@ -71,8 +71,8 @@ def add_parser(sub: Any) -> None:
     q.add_argument(
         "--com-method",
         choices=[m.value for m in ComMethod],
-        default=ComMethod.CENTROID.value,
-        help="mass-centre method: centroid of the line intersections (paper, default) or least squares",
+        default=None,
+        help="mass-centre method for raw readings: centroid (paper) or lstsq (default: centroid; a bag: as recorded)",
     )
     q.add_argument("-o", "--output", metavar="FILE", help="write to this file instead of standard output")
     q.set_defaults(func=run)

@@ -342,7 +342,8 @@ def add_parser(sub: Any) -> None:
                    help=f"the mode of the modes figure (default {DEFAULT_MODE})")  # fmt: skip
     q.add_argument("--input", help=f"input of the bode figure: {', '.join(INPUTS)} (default {INPUTS[1]})")
     q.add_argument("--output", help=f"output of the bode figure: {', '.join(OUTPUTS)} (default {OUTPUTS[0]})")
-    q.add_argument("--com-method", choices=[m.value for m in ComMethod], default=ComMethod.CENTROID.value,
-                   help="mass-centre method for raw readings (default centroid, as the paper)")  # fmt: skip
+    q.add_argument("--com-method", choices=[m.value for m in ComMethod], default=None,
+                   help="mass-centre method for raw readings: centroid (paper) or lstsq "
+                        "(default: centroid; a bag: as recorded)")  # fmt: skip
     q.add_argument("--timings", action="store_true", help="print how long each figure took on standard error")
     q.set_defaults(func=run)

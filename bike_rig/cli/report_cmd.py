@@ -19,7 +19,7 @@ def run(args: argparse.Namespace) -> int:
     """Write the report; print where it went (stderr) and any figure that could not be drawn."""
     from ..report import report_input
 
-    written = report_input(args.input, args.output, ComMethod(args.com_method), workers=args.jobs)
+    written = report_input(args.input, args.output, args.com_method, workers=args.jobs)
     rep = written.report
     for f in rep.figures:
         if f.uri is None:
@@ -57,8 +57,8 @@ def add_parser(sub: Any) -> None:
     q.add_argument(
         "--com-method",
         choices=[m.value for m in ComMethod],
-        default=ComMethod.CENTROID.value,
-        help="mass-centre method for raw readings: centroid (paper, default) or least squares",
+        default=None,
+        help="mass-centre method for raw readings: centroid (paper) or lstsq (default: centroid; a bag: as recorded)",
     )
     q.add_argument(
         "-j",

@@ -214,6 +214,9 @@ class TrialFit:
         stamp_ns: Rig time of the STOP event (else START, else 0), ns.
         sample_rate_hz: The rate the fit used, Hz.
         fit: The core's full result.
+        samples: The samples fitted: the kept batches in index order, without overlaps.
+        sample_times: Their times when they are not contiguous (sample index / rate, s: the
+            time axis the fit used), else None (the fit's axis is then position / rate).
     """
 
     trial_id: str
@@ -235,6 +238,8 @@ class TrialFit:
     stamp_ns: int
     sample_rate_hz: float
     fit: PeriodFit
+    samples: FloatArray | None = None
+    sample_times: FloatArray | None = None
 
 
 def _stamp_ns(event: TrialEventLike | None) -> int:
@@ -410,6 +415,7 @@ class TrialAccumulator:
             "max_modulation": options.fit.max_modulation,
             "max_drift": options.fit.max_drift,
         }
+        times: FloatArray | None = None
         if not (math.isfinite(rate) and rate > 0):
             flags.append(("bad_rate", f"no usable sample rate ({rate!r} Hz): nothing was fitted"))
             fit = PeriodFit.invalid((), options.fit.window, n_samples=n)
@@ -417,7 +423,8 @@ class TrialAccumulator:
             fit = fit_period(samples, sample_rate_hz=rate, **kwargs)
         else:
             index = np.concatenate([np.arange(a, a + r.size) for a, r in zip(starts, chunks)])
-            fit = fit_period(samples, times=index / rate, **kwargs)
+            times = index / rate
+            fit = fit_period(samples, times=times, **kwargs)
 
         # the window in sample indices
         w0, w1 = fit.window
@@ -451,6 +458,8 @@ class TrialAccumulator:
             stamp_ns=_stamp_ns(stop) or _stamp_ns(start),
             sample_rate_hz=rate,
             fit=fit,
+            samples=samples,
+            sample_times=times,
         )
 
 

@@ -116,7 +116,7 @@ def write_report(
 def report_input(
     path: str | Path,
     out_dir: str | Path,
-    com_method: ComMethod | str = ComMethod.CENTROID,
+    com_method: ComMethod | str | None = None,
     workers: int | None = None,
 ) -> WrittenReport:
     """Open an input (measurement file, parameter file or session bag) and write its report.
