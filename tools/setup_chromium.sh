@@ -34,15 +34,17 @@ if [[ $(id -u) -ne 0 ]]; then
 fi
 
 export DEBIAN_FRONTEND=noninteractive
-install() { "${SUDO[@]}" apt-get install -y --no-install-recommends chromium; }
+# wait (up to 5 min) for another apt/dpkg run to release its lock instead of failing at once
+APT=(apt-get -o DPkg::Lock::Timeout=300)
+install() { "${SUDO[@]}" "${APT[@]}" install -y --no-install-recommends chromium; }
 
 log "installing Debian's chromium (apt-get install --no-install-recommends chromium)"
 out=$(mktemp)
 trap 'rm -f "$out"' EXIT
 if ! install >"$out" 2>&1; then
-  if grep -qE "Unable to locate package|has no installation candidate|Failed to fetch|404" "$out"; then
+  if grep -qE "Unable to locate package|has no installation candidate|Failed to fetch|404 +Not Found" "$out"; then
     log "package lists missing or stale: apt-get update, then install again"
-    "${SUDO[@]}" apt-get update >"$out" 2>&1 || { tail -n 20 "$out" >&2; fail "apt-get update failed"; }
+    "${SUDO[@]}" "${APT[@]}" update >"$out" 2>&1 || { tail -n 20 "$out" >&2; fail "apt-get update failed"; }
     install >"$out" 2>&1 || { tail -n 20 "$out" >&2; fail "apt-get install chromium failed"; }
   else
     tail -n 20 "$out" >&2

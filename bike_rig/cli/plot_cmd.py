@@ -47,6 +47,7 @@ from ..core.benchmark import ComMethod
 from ..core.errors import BikeRigError, InputFileError
 from ..core.frequency import INPUTS, OUTPUTS
 from ..core.whipple import MODE_LABELS
+from ..plots.model_data import MAX_SPEED
 
 if TYPE_CHECKING:
     from ..subjects import Subject
@@ -130,8 +131,8 @@ def options_from_args(args: argparse.Namespace) -> PlotOptions:
     Raises:
         PlotUsageError: An invalid option, named with the reason.
     """
-    if args.speed is not None and not (math.isfinite(args.speed) and args.speed >= 0):
-        raise PlotUsageError(f"--speed must be a finite number >= 0 m/s, got {args.speed}")
+    if args.speed is not None and not (math.isfinite(args.speed) and 0 <= args.speed <= MAX_SPEED):
+        raise PlotUsageError(f"--speed must be a finite number from 0 to {MAX_SPEED:g} m/s, got {args.speed}")
     return PlotOptions(
         formats=parse_formats(args.format),
         riders=_RIDERS[args.rider],
@@ -168,8 +169,10 @@ def _parse_speeds(spec: Sequence[str] | None) -> NDArray[np.float64] | None:
         start, stop, n = float(spec[0]), float(spec[1]), int(spec[2])
     except ValueError:
         raise PlotUsageError(f"--speeds START STOP N: numbers expected, got {' '.join(spec)}") from None
-    if not (math.isfinite(start) and math.isfinite(stop)) or start < 0 or start >= stop or n < 2:
-        raise PlotUsageError(f"--speeds START STOP N needs 0 <= START < STOP and N >= 2, got {' '.join(spec)}")
+    if not (math.isfinite(start) and math.isfinite(stop)) or start < 0 or start >= stop or stop > MAX_SPEED or n < 2:
+        raise PlotUsageError(
+            f"--speeds START STOP N needs 0 <= START < STOP <= {MAX_SPEED:g} m/s and N >= 2, got {' '.join(spec)}"
+        )
     return np.linspace(start, stop, n)
 
 

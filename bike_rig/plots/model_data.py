@@ -39,6 +39,7 @@ from ..core.whipple import MODE_LABELS, CanonicalMatrices, characteristic_coeffi
 from ..subjects import Subject
 
 __all__ = [
+    "MAX_SPEED",
     "COMPLEX_TOL",
     "COMPONENTS",
     "DEFAULT_OMEGA",
@@ -215,20 +216,25 @@ def _mode_columns(label: str) -> list[int]:
     return [j for j, name in enumerate(MODE_LABELS) if name == label]
 
 
+#: Highest speed a figure accepts, m/s (far beyond any bicycle; the model's polynomials in v
+#: would overflow long before float64 does at its own limit).
+MAX_SPEED = 100.0
+
+
 def _speeds(speeds: ArrayLike | None) -> FloatArray:
-    """Sorted, distinct, finite speeds ≥ 0 (m/s), or the default sweep."""
+    """Sorted, distinct, finite speeds in [0, MAX_SPEED] (m/s), or the default sweep."""
     if speeds is None:
         return DEFAULT_SPEEDS.copy()
     arr = np.asarray(speeds, dtype=float).ravel()
-    if arr.size < 2 or not np.all(np.isfinite(arr)) or np.any(arr < 0.0):
-        raise FigureInputError("speeds must be at least two finite numbers >= 0 m/s")
+    if arr.size < 2 or not np.all(np.isfinite(arr)) or np.any(arr < 0.0) or np.any(arr > MAX_SPEED):
+        raise FigureInputError(f"speeds must be at least two finite numbers from 0 to {MAX_SPEED:g} m/s")
     return np.unique(arr)
 
 
 def _speed(speed: float) -> float:
     v = float(speed)
-    if not (math.isfinite(v) and v >= 0.0):
-        raise FigureInputError(f"speed must be a finite number >= 0 m/s, got {speed}")
+    if not (math.isfinite(v) and 0.0 <= v <= MAX_SPEED):
+        raise FigureInputError(f"speed must be a finite number from 0 to {MAX_SPEED:g} m/s, got {speed}")
     return v
 
 

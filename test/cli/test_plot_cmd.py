@@ -110,6 +110,8 @@ def test_all_skips_trial_figures_of_inputs_without_trials(
         (["plot", "fits", BROWSER], f"{BROWSER}: no trials to plot: its periods are numbers, not trial files"),
         (["plot", "bode", BROWSER, "--input", "pedal torque"], "--input: unknown 'pedal torque'"),
         (["plot", "eigen", BROWSER, "--speeds", "5", "1", "3"], "--speeds START STOP N needs"),
+        (["plot", "eigen", BROWSER, "--speeds", "0", "1e6", "5"], "STOP <= 100 m/s"),
+        (["plot", "bode", BROWSER, "--speed", "1e300"], "--speed must be a finite number from 0 to 100 m/s"),
         (["plot", "side", "missing.yaml"], "missing.yaml: no such file or directory"),
     ],
 )

@@ -7,18 +7,22 @@ frame has loaded, writes into its own DOM how many ``<img>`` are complete with a
 which failed, and the figure count the report states; ``--dump-dom`` prints that DOM. A second
 run takes a screenshot of the report, which must not be blank.
 
-Chromium is kept off the network: no background networking, component updates, sync, QUIC or
-first-run tasks, and every host name resolves to nothing. It runs as a subprocess in its own
+Chromium is kept off the network: where the user may (root, as in CI) it runs in a network
+namespace of its own with no interface (``unshare --net``); in any case with no background
+networking, component updates, sync, QUIC, first-run tasks or proxy, and every host name
+resolving to nothing. It runs as a subprocess in its own
 session with a timeout, killed by its process group id if it overruns.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import functools
 import html
 import json
 import os
 import re
+import shutil
 import signal
 import subprocess
 from pathlib import Path
@@ -53,6 +57,7 @@ FLAGS = (
     "--disable-extensions",
     "--disable-breakpad",
     "--host-resolver-rules=MAP * ~NOTFOUND",
+    "--no-proxy-server",
     "--hide-scrollbars",
     "--mute-audio",
 )
@@ -90,11 +95,22 @@ frame.addEventListener("load", () => {{
 """
 
 
+@functools.cache
+def _no_network() -> tuple[str, ...]:
+    """``unshare --net --`` where this user may make a network namespace (root: CI), so Chromium
+    has no network interface at all; elsewhere the flags above keep it off the network."""
+    unshare = shutil.which("unshare")
+    if unshare is None:
+        return ()
+    probe = subprocess.run([unshare, "--net", "--", "true"], capture_output=True, timeout=10)
+    return (unshare, "--net", "--") if probe.returncode == 0 else ()
+
+
 def run_chromium(args: list[str], profile: Path) -> str:
     """Run headless Chromium with ``args``; its stdout. Fails the test on timeout or error."""
     if not CHROMIUM.exists():
         pytest.fail(f"{CHROMIUM} is missing: run tools/setup_chromium.sh (make test does)", pytrace=False)
-    cmd = [str(CHROMIUM), *FLAGS, f"--user-data-dir={profile}", *args]
+    cmd = [*_no_network(), str(CHROMIUM), *FLAGS, f"--user-data-dir={profile}", *args]
     proc = subprocess.Popen(
         cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True, cwd=profile
     )
