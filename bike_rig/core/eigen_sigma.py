@@ -35,9 +35,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from .benchmark import ParameterSet
 from .model import SigmaConvention, canonical_with_sigma
-from .symbols import PARAMETER_NAMES
+from .speed_sigma import perturbed_coefficients
 from .uncertain import COMPLEX_STEP
-from .whipple import EigenSweep, canonical_matrices, characteristic_polynomial, eigenvalues
+from .whipple import EigenSweep, eigenvalues
 
 __all__ = ["BRANCH_POINT_MARGIN", "EigenSigma", "eigenvalue_gradient", "eigenvalues_with_sigma"]
 
@@ -71,10 +71,7 @@ class EigenSigma:
 
 def _coefficient_gradient(values: dict[str, float]) -> tuple[FloatArray, FloatArray]:
     """Characteristic-polynomial coefficients ``c[k, j]`` (s^k v^j) and ``∂c/∂p`` (26, 5, 5)."""
-    n = len(PARAMETER_NAMES)
-    step = np.eye(n) * COMPLEX_STEP
-    args = {name: values[name] + 1j * step[k] for k, name in enumerate(PARAMETER_NAMES)}
-    coef = np.asarray(characteristic_polynomial(canonical_matrices(args), args["g"]).coefficients)
+    coef = perturbed_coefficients(values)
     return coef[0].real.copy(), coef.imag / COMPLEX_STEP
 
 

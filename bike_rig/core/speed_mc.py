@@ -36,7 +36,14 @@ from .measurements import Measurements
 from .rider import Rider, add_rider, combine_rear_frame
 from .speed_sigma import SpeedWithSigma, critical_speeds_with_sigma
 from .symbols import PARAMETER_NAMES
-from .whipple import CanonicalMatrices, canonical_matrices, characteristic_polynomial, hurwitz_determinant
+from .whipple import (
+    CanonicalMatrices,
+    canonical_matrices,
+    characteristic_polynomial,
+    hurwitz_determinant,
+    hurwitz_quadratic,
+    pair_crossing_rate,
+)
 
 __all__ = [
     "DEFAULT_SAMPLES",
@@ -180,12 +187,8 @@ def critical_speeds_batch(matrices: CanonicalMatrices, g: Any) -> tuple[FloatArr
         raise MonteCarloError(f"critical_speeds_batch needs matrices of shape (N, 2, 2), got {matrices.M.shape}")
     with np.errstate(all="ignore"):
         c = coef / coef[:, 4:5, 0:1]  # a4 = 1
-        e00, e02, e04 = c[:, 0, 0], c[:, 0, 2], c[:, 0, 4]
-        e10, e12, e20, e22, e3 = c[:, 1, 1], c[:, 1, 3], c[:, 2, 0], c[:, 2, 2], c[:, 3, 1]
-        q2 = e3 * e22 * e12 - e12 * e12 - e3 * e3 * e04
-        q1 = e3 * (e20 * e12 + e22 * e10) - 2.0 * e10 * e12 - e3 * e3 * e02
-        q0 = e3 * e20 * e10 - e10 * e10 - e3 * e3 * e00
-        u_real, u_osc = _quadratic_roots(e04, e02, e00), _quadratic_roots(q2, q1, q0)
+        q2, q1, q0 = hurwitz_quadratic(np.moveaxis(c, 0, -1))  # c[k][j] of every bicycle at once
+        u_real, u_osc = _quadratic_roots(c[:, 0, 4], c[:, 0, 2], c[:, 0, 0]), _quadratic_roots(q2, q1, q0)
         v_real = _polish(c, np.where(u_real > 0.0, np.sqrt(u_real), np.nan), oscillatory=False)
         v_osc = _polish(c, np.where(u_osc > 0.0, np.sqrt(u_osc), np.nan), oscillatory=True)
         # Capsize: a real root through s = 0 with rate -a0'(v)/a1(v) > 0.
@@ -195,15 +198,8 @@ def critical_speeds_batch(matrices: CanonicalMatrices, g: Any) -> tuple[FloatArr
         # Weave: a pair through ±iω, ω² = a1/a3 > 0, with Re(-(∂p/∂v)/(∂p/∂s)) < 0.
         a, da = _a(c, v_osc)
         w2 = a[1] / a[3]
-        s = 1j * np.sqrt(np.where(w2 > 0.0, w2, np.nan))
-        dp_ds = np.zeros_like(s)  # ∂p/∂s and ∂p/∂v of p(s, v) = Σ a_k(v) s^k at s = iω
-        dp_dv = np.zeros_like(s)
-        for k in range(5):
-            dp_dv = dp_dv + da[k] * s**k
-            if k:
-                dp_ds = dp_ds + k * a[k] * s ** (k - 1)
-        rate_w = np.real(-dp_dv / dp_ds)
-        weave = _lowest(v_osc, (v_osc > 0.0) & (a[3] != 0.0) & (w2 > 0.0) & (dp_ds != 0) & (rate_w < 0.0))
+        rate_w = pair_crossing_rate(a, da, np.sqrt(np.where(w2 > 0.0, w2, np.nan)))
+        weave = _lowest(v_osc, (v_osc > 0.0) & (a[3] != 0.0) & (w2 > 0.0) & np.isfinite(rate_w) & (rate_w < 0.0))
     return np.where(np.isfinite(weave), weave, np.nan), np.where(np.isfinite(capsize), capsize, np.nan)
 
 

@@ -53,6 +53,7 @@ __all__ = [
     "SpeedWithSigma",
     "critical_speed_gradient",
     "critical_speeds_with_sigma",
+    "perturbed_coefficients",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -100,6 +101,26 @@ class CriticalSpeedsWithSigma:
     convention: SigmaConvention
 
 
+def perturbed_coefficients(values: Mapping[str, float]) -> NDArray[np.complex128]:
+    """Characteristic-polynomial coefficients with each parameter perturbed by ``i h`` in turn.
+
+    Row ``k`` is :func:`characteristic_polynomial` of the parameters with ``p_k + i h``
+    (``h`` = :data:`COMPLEX_STEP`): its real part is the coefficients, its imaginary part / h
+    their exact derivative by ``p_k`` (complex step), for any function of them evaluated on the
+    whole complex array.
+
+    Args:
+        values: The 26 benchmark parameters (SI, ``lam`` in rad).
+
+    Returns:
+        Shape (26, 5, 5): parameter (PARAMETER_NAMES order), power of ``s``, power of ``v``.
+    """
+    n = len(PARAMETER_NAMES)
+    step = np.eye(n) * COMPLEX_STEP
+    args = {name: float(values[name]) + 1j * step[k] for k, name in enumerate(PARAMETER_NAMES)}
+    return np.asarray(characteristic_polynomial(canonical_matrices(args), args["g"]).coefficients)
+
+
 def _criterion(coef: NDArray[Any], v: float, kind: CrossingKind) -> tuple[NDArray[Any], NDArray[Any]]:
     """``F(v)`` and ``∂F/∂v`` from characteristic-polynomial coefficients ``coef[..., k, j]``."""
     powers = np.array([1.0, v, v**2, v**3, v**4])
@@ -126,10 +147,7 @@ def critical_speed_gradient(values: Mapping[str, float], speed: float, kind: Cro
     """
     kind = CrossingKind(kind)
     n = len(PARAMETER_NAMES)
-    step = np.eye(n) * COMPLEX_STEP
-    args = {name: float(values[name]) + 1j * step[k] for k, name in enumerate(PARAMETER_NAMES)}
-    matrices = canonical_matrices(args)
-    coef = np.asarray(characteristic_polynomial(matrices, args["g"]).coefficients)  # (26, 5, 5)
+    coef = perturbed_coefficients(values)
     f, _ = _criterion(coef, float(speed), kind)
     df_dp = np.asarray(f).imag / COMPLEX_STEP
     _, df_dv = _criterion(coef[0].real, float(speed), kind)

@@ -1014,6 +1014,38 @@ def _newton(func: Any, v: float) -> float:
     return v
 
 
+def hurwitz_quadratic(c: Any) -> tuple[Any, Any, Any]:
+    """``(q2, q1, q0)``: the Hurwitz determinant is ``H(v) = v² (q2 u² + q1 u + q0)``, ``u = v²``.
+
+    Args:
+        c: Characteristic-polynomial coefficients indexed ``c[k][j]`` (``s^k v^j``), as nested
+            lists of floats or as an array whose first two axes are ``k, j`` (any batch axes
+            after them), see :func:`_candidates`.
+    """
+    e00, e02, e04 = c[0][0], c[0][2], c[0][4]
+    e10, e12, e20, e22 = c[1][1], c[1][3], c[2][0], c[2][2]
+    e3, m = c[3][1], c[4][0]
+    q2 = e3 * e22 * e12 - m * e12 * e12 - e3 * e3 * e04
+    q1 = e3 * (e20 * e12 + e22 * e10) - 2.0 * m * e10 * e12 - e3 * e3 * e02
+    q0 = e3 * e20 * e10 - m * e10 * e10 - e3 * e3 * e00
+    return q2, q1, q0
+
+
+def pair_crossing_rate(a: Sequence[Any], da: Sequence[Any], omega: Any) -> Any:
+    """``d Re s/dv`` of a pair ``s = ±iω`` on the imaginary axis: ``Re(-(∂p/∂v)/(∂p/∂s))`` at
+    ``s = iω`` (implicit function theorem on ``p(s, v) = Σ a_k(v) s^k``); 1/m.
+
+    Args:
+        a: ``a_k(v)``, k = 0..4 (floats or arrays).
+        da: ``d a_k/dv``.
+        omega: ``ω`` (rad/s).
+    """
+    s = 1j * omega
+    dp_ds = sum(k * a[k] * s ** (k - 1) for k in range(1, 5))
+    dp_dv = sum(da[k] * s**k for k in range(5))
+    return (-dp_dv / dp_ds).real
+
+
 def _candidates(rows: list[list[float]]) -> tuple[list[float], list[float]]:
     """Closed-form positive roots of ``a0(v)`` and of the Hurwitz determinant ``H(v)``.
 
@@ -1025,11 +1057,8 @@ def _candidates(rows: list[list[float]]) -> tuple[list[float], list[float]]:
 
     ``v²`` times a quadratic ``q2 u² + q1 u + q0`` in ``u``.
     """
-    (e00, _, e02, _, e04), (_, e10, _, e12, _), (e20, _, e22, _, _) = rows[0], rows[1], rows[2]
-    e3, m = rows[3][1], rows[4][0]
-    q2 = e3 * e22 * e12 - m * e12 * e12 - e3 * e3 * e04
-    q1 = e3 * (e20 * e12 + e22 * e10) - 2.0 * m * e10 * e12 - e3 * e3 * e02
-    q0 = e3 * e20 * e10 - m * e10 * e10 - e3 * e3 * e00
+    (e00, _, e02, _, e04) = rows[0]
+    q2, q1, q0 = hurwitz_quadratic(rows)
     real = [math.sqrt(u) for u in _quadratic_real_roots(e04, e02, e00) if u > 0.0]
     osc = [math.sqrt(u) for u in _quadratic_real_roots(q2, q1, q0) if u > 0.0]
     return real, osc
@@ -1060,12 +1089,10 @@ def _oscillatory_crossing(rows: list[list[float]], v0: float) -> Crossing | None
     if a[3] == 0.0 or a[1] / a[3] <= 0.0:
         return None  # H = 0 without a purely imaginary pair (e.g. a pair of opposite reals)
     omega = math.sqrt(a[1] / a[3])
-    s = 1j * omega
-    dp_ds = sum(k * a[k] * s ** (k - 1) for k in range(1, 5))
-    dp_dv = sum(da[k] * s**k for k in range(5))
-    if dp_ds == 0:
-        return None
-    rate = (-dp_dv / dp_ds).real
+    try:
+        rate = float(pair_crossing_rate(a, da, omega))
+    except ZeroDivisionError:
+        return None  # ∂p/∂s = 0: a double root on the axis
     return Crossing(speed=v, kind="oscillatory", frequency=omega, rate=rate)
 
 
