@@ -19,10 +19,12 @@ paper's rider. Where the paper's words are loose, the measured numbers are pinne
   :data:`MILD_RATE` = 0.35 1/s up to 10 m/s (e-folding time > 2.9 s; measured at most 0.297 1/s,
   Browserins without rider), under a tenth of the unstable root at standstill (≥ 3.7 1/s).
 * "between about 0.5 and 3 m/s": the measured intervals (ends are double roots, found by
-  bisection on the quartic's discriminant) are in :data:`PAIR_INTERVALS`; they lie within
-  0.2–2.6 m/s. Fisher's starts at 0.22 m/s and Browserins' ends at 1.15 m/s, so "about 0.5 and
-  3" is a loose description: the test pins the measured ends (±1e-4 m/s) and checks that all
-  lie in [0.2, 3.0] m/s.
+  bisection on the quartic's discriminant, and checked against the discriminant's sign changes
+  on a dense grid) lie within 0.2–2.6 m/s (README). Fisher's starts at 0.22 m/s and
+  Browserins' ends at 1.15 m/s, so "about 0.5 and 3" is a loose description: the test checks
+  that all lie in [0.2, 3.0] m/s.
+* The weave and capsize speeds themselves agree with those of the paper's printed Table 2
+  parameters within one combined σ, without and with the rider.
 * "90 degree phase, magnitudes similar": in the pair's interval the roll angle's phase relative
   to the steer angle (eigenvector of the member with Im λ > 0) falls steadily from 96–129° just
   after the interval starts to 22–40° before it ends, passing 90° in every bicycle; |φ|/|δ| is
@@ -69,23 +71,9 @@ RIDERS = ("", "paper")
 SPEEDS = np.linspace(0.0, 10.0, 1001)
 #: "Mildly unstable": the capsize root's largest real part above the capsize speed, 1/s.
 MILD_RATE = 0.35
-#: Measured: ends (m/s) of the complex capsize–caster interval without the rider.
-PAIR_INTERVALS: Mapping[str, tuple[float, float]] = {
-    "browser": (0.51653, 1.96212),
-    "browserins": (0.49269, 1.14977),
-    "crescendo": (0.45729, 2.22176),
-    "fisher": (0.21823, 2.56428),
-    "stratos": (0.44719, 2.29663),
-    "yellow": (0.41033, 2.45257),
-}
-#: Measured: weave and capsize speeds (m/s) without / with the rider.
-CRITICAL: Mapping[tuple[str, str], tuple[float, float]] = {
-    ("browser", ""): (4.1954, 4.3501), ("browser", "paper"): (4.9935, 7.1141),
-    ("browserins", ""): (4.0327, 4.2949), ("browserins", "paper"): (5.0999, 7.1308),
-    ("crescendo", ""): (4.8046, 6.1052), ("crescendo", "paper"): (5.4401, 8.1001),
-    ("fisher", ""): (3.8040, 6.1348), ("fisher", "paper"): (5.1830, 8.4156),
-    ("stratos", ""): (3.6055, 5.3144), ("stratos", "paper"): (4.4967, 6.6918),
-    ("yellow", ""): (3.4769, 4.6842), ("yellow", "paper"): (4.3515, 6.1104),
+#: The paper's column of each bicycle in Tables 2–5.
+COLUMNS: Mapping[str, str] = {
+    "browser": "B", "browserins": "B*", "crescendo": "C", "fisher": "G", "stratos": "S", "yellow": "Y",
 }  # fmt: skip
 
 
@@ -124,7 +112,6 @@ def test_weave_pair_becomes_stable_at_the_weave_speed(
     c = curves[name, rider]
     assert c.weave is not None
     v_w = c.weave.speed
-    assert v_w == pytest.approx(CRITICAL[name, rider][0], abs=1e-4)
     ms = canonical_with_sigma(model_parameters(subjects[name], rider))
     assert critical_speeds(ms.matrices, ms.g).weave == pytest.approx(v_w, rel=1e-12)
     # Complex at the weave speed, real part crossing from + to - there.
@@ -148,7 +135,6 @@ def test_capsize_mildly_unstable_above_the_capsize_speed(
     c = curves[name, rider]
     assert c.capsize is not None and c.weave is not None
     v_c = c.capsize.speed
-    assert v_c == pytest.approx(CRITICAL[name, rider][1], abs=1e-4)
     cap = c.mode("capsize")[:, 0]
     above = (c.speeds > v_c + 1e-3) & (c.speeds <= 10.0)
     assert np.all(cap[above].real > 0.0) and not _is_complex(cap[above]).any()
@@ -161,14 +147,27 @@ def test_capsize_mildly_unstable_above_the_capsize_speed(
     assert stable.any() and np.all(c.eigenvalues[stable].real < 0.0)
 
 
+@pytest.mark.parametrize("rider", RIDERS)
+@pytest.mark.parametrize("name", BICYCLES)
+def test_speeds_agree_with_the_paper_table(curves: dict[tuple[str, str], EigenCurves], name: str, rider: str) -> None:
+    """The weave and capsize speeds drawn, from our raw readings, agree with those of the paper's
+    printed Table 2 parameters (with the same rider) within one combined σ (measured: at most
+    0.5σ, Browserins and Crescendo weave without rider; B*'s frame discrepancy barely moves them)."""
+    c = curves[name, rider]
+    paper = _table2_set(COLUMNS[name])
+    cs = critical_speeds_with_sigma(_with_rider(paper) if rider else paper)
+    for ours, theirs in ((c.weave, cs.weave), (c.capsize, cs.capsize)):
+        assert ours is not None and theirs is not None
+        assert abs(ours.speed - theirs.speed) < math.hypot(ours.sigma, theirs.sigma)
+
+
 @pytest.mark.parametrize("name", BICYCLES)
 def test_capsize_caster_complex_pair_without_rider_only(
     curves: dict[tuple[str, str], EigenCurves], subjects: dict[str, Subject], name: str
 ) -> None:
     (start, stop), *others = curves[name, ""].capsize_caster_complex
     assert not others
-    assert (start, stop) == pytest.approx(PAIR_INTERVALS[name], abs=1e-4)
-    assert 0.2 <= start < stop <= 3.0
+    assert 0.2 <= start < stop <= 3.0  # measured: 0.22–0.52 to 1.15–2.56 m/s (README)
     assert curves[name, "paper"].capsize_caster_complex == ()
     # Independently of tracking and labels: the quartic's discriminant changes sign at each
     # double root. Without the rider: the weave pair's branch point and the two ends of the
@@ -184,8 +183,10 @@ def test_capsize_caster_complex_pair_without_rider_only(
 
 
 @pytest.mark.parametrize("name", BICYCLES)
-def test_capsize_caster_pair_mode_shape(subjects: dict[str, Subject], name: str) -> None:
-    start, stop = PAIR_INTERVALS[name]
+def test_capsize_caster_pair_mode_shape(
+    curves: dict[tuple[str, str], EigenCurves], subjects: dict[str, Subject], name: str
+) -> None:
+    ((start, stop),) = curves[name, ""].capsize_caster_complex
     lead, ratio = [], []
     for v in np.linspace(start, stop, 12)[1:-1]:
         sh = mode_shape(subjects[name], "capsize", float(v))
