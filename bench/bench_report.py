@@ -17,12 +17,12 @@ one per CPU (at most 4); the single-process time is printed too.
 from __future__ import annotations
 
 import dataclasses
-import statistics
 import sys
 import tempfile
-import time
 from collections.abc import Callable
 from pathlib import Path
+
+from timing import median_ms  # bench/timing.py
 
 from bike_rig.bag.simulated import write_simulated_bag
 from bike_rig.core.sim import SimulatedSession, load_rig, load_true_parameters, simulate_session
@@ -47,13 +47,7 @@ def short_session(seed: int = 7) -> SimulatedSession:
 
 def median_s(fn: Callable[[], object], repeat: int) -> float:
     """Median wall time of ``fn`` in s over ``repeat`` calls, after one warm-up call."""
-    fn()
-    times = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return statistics.median(times)
+    return median_ms(fn, repeat) / 1e3
 
 
 def main() -> int:
