@@ -17,7 +17,7 @@ from timing import median_ms  # bench/timing.py
 from bike_rig.core.benchmark import PARAMETER_NAMES, compute_parameters
 from bike_rig.core.io_bp import read_bp_measured
 from bike_rig.core.measurements import Measurements
-from bike_rig.core.model import canonical_with_sigma
+from bike_rig.core.uncertainty.matrix_sigma import canonical_with_sigma
 
 SHARED = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "bicycleparameters"
 BIKES = ("Browser", "Browserins", "Crescendo", "Fisher", "Stratos", "Yellow")

@@ -42,11 +42,11 @@ from .core.assembly import (
 from .core.benchmark import ComMethod, ParameterSet
 from .core.errors import BikeRigError
 from .core.measurements import Measurements, Origin, Reading
-from .core.model import SigmaConvention
-from .core.speed_sigma import SpeedWithSigma
 from .core.symbols import PARAMETER_NAMES
-from .core.uncertain import UncertainVector
-from .core.whipple import CanonicalMatrices, EigenSweep
+from .core.uncertainty.matrix_sigma import SigmaConvention
+from .core.uncertainty.speed_sigma import SpeedWithSigma
+from .core.uncertainty.uncertain import UncertainVector
+from .core.whipple import EigenvalueSweep, WhippleMatrices
 
 __all__ = [
     "MessageError",
@@ -314,13 +314,13 @@ def fill_canonical_matrices(msg: Any, model: ModelMatrices) -> Any:
     return msg
 
 
-def _matrices(msg: Any, suffix: str) -> CanonicalMatrices:
+def _matrices(msg: Any, suffix: str) -> WhippleMatrices:
     mats = []
     for field in _MATRIX_FIELDS:
         data = _floats(getattr(msg, field + suffix))
         _check_length(f"CanonicalMatrices.{field}{suffix}", data.size, 4)
         mats.append(data.reshape(2, 2))
-    return CanonicalMatrices(M=mats[0], C1=mats[1], K0=mats[2], K2=mats[3])
+    return WhippleMatrices(M=mats[0], C1=mats[1], K0=mats[2], K2=mats[3])
 
 
 def model_matrices_from_msg(msg: Any) -> ModelMatrices:
@@ -381,7 +381,7 @@ def stability_sweep_from_msg(msg: Any) -> StabilitySweep:
     _check_length("EigenSweep.eigenvalues_real", re.size, speeds.size * len(labels))
     _check_length("EigenSweep.eigenvalues_imag", im.size, speeds.size * len(labels))
     values = (re + 1j * im).reshape(speeds.size, len(labels))
-    sweep = EigenSweep(speeds=speeds, eigenvalues=values, labels=labels)
+    sweep = EigenvalueSweep(speeds=speeds, eigenvalues=values, labels=labels)
     return StabilitySweep(str(msg.bicycle), str(msg.rider), sweep, _get_speed(msg, "weave"), _get_speed(msg, "capsize"))
 
 

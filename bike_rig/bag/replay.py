@@ -47,8 +47,8 @@ from ..core.assembly import (
 )
 from ..core.benchmark import ComMethod, ParameterSet
 from ..core.measurements import Measurements
-from ..core.model import SigmaConvention
 from ..core.period import WindowPolicy
+from ..core.uncertainty.matrix_sigma import SigmaConvention
 from ..messages import (
     MessageError,
     model_matrices_from_msg,

@@ -28,9 +28,9 @@ from .. import topics
 from ..core.assembly import SessionAssembly, compute_model
 from ..core.benchmark import ComMethod
 from ..core.measurements import Measurements
-from ..core.model import SigmaConvention
 from ..core.sim import SimulatedSession
 from ..core.sim.plan import PlannedMeasurement
+from ..core.uncertainty.matrix_sigma import SigmaConvention
 from ..messages import (
     fill_benchmark_parameters,
     fill_canonical_matrices,

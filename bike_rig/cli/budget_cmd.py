@@ -7,7 +7,7 @@
 INPUT is a measurement file, a parameter file or a session bag
 (:func:`bike_rig.subjects.load_subject`). For each of the 25 parameters and the weave and
 capsize speeds the inputs (raw readings, or the parameters for a parameter file) are ranked by
-their share of the output's first-order variance (:mod:`bike_rig.core.budget`). The text shows
+their share of the output's first-order variance (:mod:`bike_rig.core.uncertainty.budget`). The text shows
 which inputs matter most overall and for the speeds, then per output ``value ± σ`` and the top
 N inputs with share (%) and contribution (output unit). ``--json`` prints one object::
 
@@ -26,7 +26,9 @@ import json
 from typing import Any
 
 from ..core.benchmark import ComMethod
-from ..core.budget import (
+from ..core.errors import BikeRigError
+from ..core.rider import add_rider
+from ..core.uncertainty.budget import (
     BUDGET_PARAMETERS,
     CAPSIZE,
     PARAMETERS,
@@ -37,8 +39,6 @@ from ..core.budget import (
     input_ranking,
     uncertainty_budget,
 )
-from ..core.errors import BikeRigError
-from ..core.rider import add_rider
 from ..subjects import load_subject
 from .common import emit, rider_from_spec
 from .format import format_value_sigma

@@ -7,7 +7,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 
 from ..core.benchmark import PARAMETER_NAMES, ComEstimate, ParameterSet
-from ..core.model import MatrixSet
+from ..core.uncertainty.matrix_sigma import MatrixSet
 from ..core.whipple import CriticalSpeeds
 from ..textfmt import LABELS, TABLE2_ORDER, format_value_sigma
 

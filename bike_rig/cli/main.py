@@ -23,8 +23,8 @@ from ..core.io_bp import dump_bp_parameter_yaml
 from ..core.io_yaml import ATTRIBUTION, dump_measurements_yaml, dump_parameters_yaml
 from ..core.loader import load_input
 from ..core.measurements import Measurements, validate
-from ..core.model import SigmaConvention, canonical_with_sigma
 from ..core.rider import PAPER_RIDER, add_rider
+from ..core.uncertainty.matrix_sigma import SigmaConvention, canonical_with_sigma
 from ..core.whipple import critical_speeds, eigenvalues
 from ..paths import config_file
 from . import bag_cmd, budget_cmd, fit_cmd, plot_cmd, replay_cmd, report_cmd, run_cmd, simulate_cmd

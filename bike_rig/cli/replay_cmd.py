@@ -37,8 +37,8 @@ from typing import Any
 from ..bag.replay import FitOverrides, ReplayResult, ReplaySettings, replay_bag, result_json
 from ..core.benchmark import ComMethod
 from ..core.errors import BikeRigError
-from ..core.model import SigmaConvention
 from ..core.period import WindowPolicy
+from ..core.uncertainty.matrix_sigma import SigmaConvention
 from . import format as fmt
 
 __all__ = ["ReplayUsageError", "add_parser", "replay_text", "run"]

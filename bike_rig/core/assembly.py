@@ -33,11 +33,11 @@ from .benchmark import ComMethod, ParameterSet, check_orientations, compute_para
 from .errors import BikeRigError, ModelError
 from .loader import is_period_key
 from .measurements import Measurements, Origin, Reading, validate
-from .model import SigmaConvention, canonical_with_sigma
 from .period import CombinedPeriod, Flag, FlagCode, PeriodFit, combine_periods
 from .rider import PAPER_RIDER, Rider, add_rider
-from .speed_sigma import SpeedWithSigma, critical_speeds_with_sigma
-from .whipple import MODE_LABELS, CanonicalMatrices, EigenSweep, eigenvalues, state_space
+from .uncertainty.matrix_sigma import SigmaConvention, canonical_with_sigma
+from .uncertainty.speed_sigma import SpeedWithSigma, critical_speeds_with_sigma
+from .whipple import MODE_LABELS, EigenvalueSweep, WhippleMatrices, eigenvalues, state_space
 
 __all__ = [
     "RIDERS",
@@ -451,8 +451,8 @@ class ModelMatrices:
     bicycle: str
     rider: str
     g: float
-    matrices: CanonicalMatrices
-    sigma: CanonicalMatrices
+    matrices: WhippleMatrices
+    sigma: WhippleMatrices
     convention: SigmaConvention
 
 
@@ -470,7 +470,7 @@ class StabilitySweep:
 
     bicycle: str
     rider: str
-    sweep: EigenSweep
+    sweep: EigenvalueSweep
     weave: SpeedWithSigma | None
     capsize: SpeedWithSigma | None
 

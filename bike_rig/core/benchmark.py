@@ -20,7 +20,7 @@ from . import com, geometry, inertia
 from .errors import GeometryError
 from .measurements import Measurements, validate
 from .symbols import PARAMETER_NAMES
-from .uncertain import Propagated, UncertainVector, complex_step_jacobian, monte_carlo
+from .uncertainty.uncertain import Propagated, UncertainVector, complex_step_jacobian, monte_carlo
 from .units import radians
 
 __all__ = [

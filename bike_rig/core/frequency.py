@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .errors import ModelError
-from .whipple import CanonicalMatrices
+from .whipple import WhippleMatrices
 
 __all__ = ["INPUTS", "OUTPUTS", "Bode", "bode", "frequency_response", "output_unit"]
 
@@ -66,7 +66,7 @@ def _index(name: str, allowed: tuple[str, ...], what: str) -> int:
 
 
 def frequency_response(
-    matrices: CanonicalMatrices,
+    matrices: WhippleMatrices,
     g: float,
     speed: float,
     omega: ArrayLike,
@@ -107,7 +107,7 @@ def frequency_response(
 
 
 def bode(
-    matrices: CanonicalMatrices,
+    matrices: WhippleMatrices,
     g: float,
     speed: float,
     omega: ArrayLike,

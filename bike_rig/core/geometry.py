@@ -1,6 +1,6 @@
 """Paper section 6: wheel radii (Eq 6), steer-axis tilt (Eq 7) and trail (Eq 8).
 
-Every function is plain broadcasting numpy arithmetic (see :mod:`bike_rig.core.uncertain`):
+Every function is plain broadcasting numpy arithmetic (see :mod:`bike_rig.core.uncertainty.uncertain`):
 arguments may be floats, arrays of samples, or complex-step perturbed arrays.
 """
 

@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from .benchmark import PARAMETER_NAMES, ParameterSet
-from .uncertain import UncertainVector, complex_step_jacobian
+from .uncertainty.uncertain import UncertainVector, complex_step_jacobian
 
 __all__ = ["PAPER_RIDER", "Rider", "add_rider", "combine_rear_frame"]
 

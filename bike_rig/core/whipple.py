@@ -35,11 +35,11 @@ from .symbols import PARAMETER_NAMES as PARAMETER_KEYS
 __all__ = [
     "MODE_LABELS",
     "PARAMETER_KEYS",
-    "CanonicalMatrices",
+    "WhippleMatrices",
     "CharacteristicPolynomial",
     "CriticalSpeeds",
     "Crossing",
-    "EigenSweep",
+    "EigenvalueSweep",
     "canonical_matrices",
     "characteristic_coefficients",
     "characteristic_polynomial",
@@ -65,7 +65,7 @@ ComplexArray = NDArray[np.complex128]
 
 
 @dataclass(frozen=True)
-class CanonicalMatrices:
+class WhippleMatrices:
     """The canonical matrices of ``M q̈ + v C1 q̇ + (g K0 + v² K2) q = f``.
 
     Every array has shape ``batch_shape + (2, 2)``, rows and columns ordered [roll φ, steer δ].
@@ -189,7 +189,7 @@ def _stack2(a11: Any, a12: Any, a21: Any, a22: Any) -> Array:
     return np.stack([np.stack(e[:2], axis=-1), np.stack(e[2:], axis=-1)], axis=-2)
 
 
-def canonical_matrices(p: Mapping[str, ArrayLike]) -> CanonicalMatrices:
+def canonical_matrices(p: Mapping[str, ArrayLike]) -> WhippleMatrices:
     """Canonical matrices ``M, C1, K0, K2`` from the benchmark parameters (paper Appendix A).
 
     The computation is elementwise ``+ - * / ** sin cos`` only, so every parameter may be a
@@ -233,7 +233,7 @@ def canonical_matrices(p: Mapping[str, ArrayLike]) -> CanonicalMatrices:
     shape = np.broadcast_shapes(*(a.shape for a in q.values())) + (2, 2)
     dtype = np.result_type(*q.values(), float)  # complex for all four if any input is
     mats = [np.array(np.broadcast_to(x, shape), dtype=dtype) for x in (mass, c1, k0, k2)]
-    return CanonicalMatrices(M=mats[0], C1=mats[1], K0=mats[2], K2=mats[3])
+    return WhippleMatrices(M=mats[0], C1=mats[1], K0=mats[2], K2=mats[3])
 
 
 # --------------------------------------------------------------------------------------------
@@ -263,7 +263,7 @@ def _inverse2(a: Array) -> Array:
     return adj / _det2(a)[..., None, None]
 
 
-def state_space(matrices: CanonicalMatrices, v: ArrayLike, g: ArrayLike) -> tuple[Array, Array]:
+def state_space(matrices: WhippleMatrices, v: ArrayLike, g: ArrayLike) -> tuple[Array, Array]:
     """First-order form ``ẋ = A x + B u`` with ``x = [φ, δ, φ̇, δ̇]`` and ``u = [T_φ, T_δ]``.
 
     ``A = [[0, I], [-M⁻¹(g K0 + v² K2), -M⁻¹ v C1]]`` and ``B = [[0], [M⁻¹]]``, with the 2x2
@@ -335,7 +335,7 @@ class CharacteristicPolynomial:
         return np.asarray(a[..., ::-1])
 
 
-def characteristic_polynomial(matrices: CanonicalMatrices, g: ArrayLike) -> CharacteristicPolynomial:
+def characteristic_polynomial(matrices: WhippleMatrices, g: ArrayLike) -> CharacteristicPolynomial:
     """Coefficients of the characteristic polynomial as polynomials in the speed ``v``.
 
     Analytic in the matrix entries (complex input is allowed).
@@ -365,7 +365,7 @@ def characteristic_polynomial(matrices: CanonicalMatrices, g: ArrayLike) -> Char
     return CharacteristicPolynomial(coefficients=out)
 
 
-def characteristic_coefficients(matrices: CanonicalMatrices, g: ArrayLike, v: ArrayLike) -> Array:
+def characteristic_coefficients(matrices: WhippleMatrices, g: ArrayLike, v: ArrayLike) -> Array:
     """Quartic coefficients ``[a4, a3, a2, a1, a0]`` of ``det(M s² + v C1 s + g K0 + v² K2)``.
 
     Args:
@@ -708,7 +708,7 @@ def _label_order(z: ComplexArray) -> list[int]:
 
 
 @dataclass(frozen=True)
-class EigenSweep:
+class EigenvalueSweep:
     """Eigenvalues of the Whipple model over a set of speeds, tracked and labelled.
 
     Attributes:
@@ -741,7 +741,7 @@ class EigenSweep:
         return self.eigenvalues[:, cols]
 
 
-def _scalar_matrices(matrices: CanonicalMatrices) -> None:
+def _scalar_matrices(matrices: WhippleMatrices) -> None:
     """Check that the matrices describe one real bicycle."""
     for name in ("M", "C1", "K0", "K2"):
         mat = np.asarray(getattr(matrices, name))
@@ -796,7 +796,7 @@ def _eigenvector_block(entries: list[tuple[float, ...]], v: FloatArray, s: Compl
     return np.stack([phi, delta, s * phi, s * delta], axis=-2)
 
 
-def _eigenvectors(matrices: CanonicalMatrices, g: float, v: FloatArray, s: ComplexArray) -> ComplexArray:
+def _eigenvectors(matrices: WhippleMatrices, g: float, v: FloatArray, s: ComplexArray) -> ComplexArray:
     """State-space eigenvectors ``[q, s q]`` with ``(M s² + v C1 s + g K0 + v² K2) q = 0``.
 
     ``q`` is orthogonal to the larger row of the singular 2x2 matrix, so it is exact for a
@@ -864,7 +864,7 @@ def _gather(
     return out.T
 
 
-def eigenvalues(matrices: CanonicalMatrices, g: float, speeds: ArrayLike, vectors: bool = False) -> EigenSweep:
+def eigenvalues(matrices: WhippleMatrices, g: float, speeds: ArrayLike, vectors: bool = False) -> EigenvalueSweep:
     """Eigenvalues (1/s) of the Whipple model at many speeds, tracked and labelled.
 
     All speeds are solved at once by closed-form quartic roots of
@@ -911,7 +911,7 @@ def eigenvalues(matrices: CanonicalMatrices, g: float, speeds: ArrayLike, vector
     labels = _label_order(re[top, -1] + 1j * im[top, -1])
     values = _gather(re, im, _PERMS[:, labels], codes, order)
     vecs = _eigenvectors(matrices, float(g), v, values) if vectors else None
-    return EigenSweep(speeds=v, eigenvalues=values, labels=MODE_LABELS, eigenvectors=vecs)
+    return EigenvalueSweep(speeds=v, eigenvalues=values, labels=MODE_LABELS, eigenvectors=vecs)
 
 
 # --------------------------------------------------------------------------------------------
@@ -956,7 +956,7 @@ class CriticalSpeeds:
     crossings: tuple[Crossing, ...]
 
 
-def _poly_rows(matrices: CanonicalMatrices, g: float) -> list[list[float]]:
+def _poly_rows(matrices: WhippleMatrices, g: float) -> list[list[float]]:
     """``rows[k][j]``: coefficient of ``s^k v^j`` as Python floats (one real bicycle)."""
     _scalar_matrices(matrices)
     coef = np.asarray(characteristic_polynomial(matrices, float(g)).coefficients, dtype=float)
@@ -1103,7 +1103,7 @@ def _all_crossings(rows: list[list[float]], v_max: float) -> list[Crossing]:
     return sorted((c for c in found if c is not None and 0.0 < c.speed <= v_max), key=lambda c: c.speed)
 
 
-def critical_speeds(matrices: CanonicalMatrices, g: float, v_max: float = math.inf) -> CriticalSpeeds:
+def critical_speeds(matrices: WhippleMatrices, g: float, v_max: float = math.inf) -> CriticalSpeeds:
     """Weave and capsize speeds (m/s), from closed-form candidates polished by Newton.
 
     For ``p(s) = a4 s⁴ + a3 s³ + a2 s² + a1 s + a0``, a real root crosses ``s = 0`` where
@@ -1139,7 +1139,7 @@ def _is_stable(rows: list[list[float]], v: float) -> bool:
 
 
 def stable_speed_range(
-    matrices: CanonicalMatrices, g: float, v_max: float = math.inf
+    matrices: WhippleMatrices, g: float, v_max: float = math.inf
 ) -> tuple[tuple[float, float], ...]:
     """Speed intervals within ``(0, v_max]`` where every eigenvalue has ``Re s < 0``.
 

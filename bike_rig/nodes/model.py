@@ -45,7 +45,7 @@ from .. import topics
 from ..core.assembly import ModelMatrices, compute_model, rider_by_name, state_space_at
 from ..core.benchmark import ParameterSet
 from ..core.errors import BikeRigError
-from ..core.model import SigmaConvention
+from ..core.uncertainty.matrix_sigma import SigmaConvention
 from ..messages import (
     fill_canonical_matrices,
     fill_eigen_sweep,

@@ -4,8 +4,8 @@ Each figure of :mod:`.eigen`, :mod:`.locus`, :mod:`.modes` and :mod:`.bode` draw
 records computed here, so tests check numbers, not pixels:
 
 * :func:`eigen_curves` → :class:`EigenCurves`: tracked, labelled eigenvalues over speed with
-  the first-order σ of their real and imaginary parts (:mod:`bike_rig.core.eigen_sigma`), the
-  weave and capsize speeds with σ (:mod:`bike_rig.core.speed_sigma`), and the speed intervals
+  the first-order σ of their real and imaginary parts (:mod:`bike_rig.core.uncertainty.eigen_sigma`), the
+  weave and capsize speeds with σ (:mod:`bike_rig.core.uncertainty.speed_sigma`), and the speed intervals
   where the capsize and caster roots form a complex pair (their ends refined to the double root
   of the characteristic polynomial);
 * :func:`mode_shape` → :class:`ModeShape`: one mode's eigenvector ``[φ, δ, φ̇, δ̇]`` at one speed
@@ -29,13 +29,13 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..core.assembly import rider_by_name
 from ..core.benchmark import ParameterSet
-from ..core.eigen_sigma import eigenvalues_with_sigma
 from ..core.errors import BikeRigError, ModelError
 from ..core.frequency import INPUTS, OUTPUTS, bode, frequency_response
-from ..core.model import MatrixSet, SigmaConvention, canonical_with_sigma
 from ..core.rider import add_rider
-from ..core.speed_sigma import SpeedWithSigma, critical_speeds_with_sigma
-from ..core.whipple import MODE_LABELS, CanonicalMatrices, characteristic_coefficients, eigenvalues
+from ..core.uncertainty.eigen_sigma import eigenvalues_with_sigma
+from ..core.uncertainty.matrix_sigma import MatrixSet, SigmaConvention, canonical_with_sigma
+from ..core.uncertainty.speed_sigma import SpeedWithSigma, critical_speeds_with_sigma
+from ..core.whipple import MODE_LABELS, WhippleMatrices, characteristic_coefficients, eigenvalues
 from ..subjects import Subject
 
 __all__ = [
@@ -260,7 +260,7 @@ def quartic_discriminant(coefficients: ArrayLike) -> FloatArray:
     )  # fmt: skip
 
 
-def _branch_point(matrices: CanonicalMatrices, g: float, lo: float, hi: float) -> float:
+def _branch_point(matrices: WhippleMatrices, g: float, lo: float, hi: float) -> float:
     """The speed in ``[lo, hi]`` (m/s) where the discriminant changes sign, by bisection."""
 
     def disc(v: float) -> float:
@@ -288,7 +288,7 @@ def _is_complex(z: ComplexArray) -> NDArray[np.bool_]:
 
 
 def complex_intervals(
-    matrices: CanonicalMatrices, g: float, speeds: FloatArray, roots: ComplexArray
+    matrices: WhippleMatrices, g: float, speeds: FloatArray, roots: ComplexArray
 ) -> tuple[tuple[float, float], ...]:
     """Speed intervals (m/s) in which ``roots`` (shape (N,)) is complex.
 

@@ -21,7 +21,7 @@ from matplotlib.patches import Circle, Ellipse, Patch
 from numpy.typing import NDArray
 
 from ..core.benchmark import ParameterSet
-from ..core.uncertain import complex_step_jacobian
+from ..core.uncertainty.uncertain import complex_step_jacobian
 from ..subjects import Subject
 from .style import bicycle_colour, new_figure
 

@@ -10,11 +10,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ..core.benchmark import ComMethod, ParameterSet
-from ..core.budget import UncertaintyBudget, uncertainty_budget
-from ..core.model import MatrixSet, SigmaConvention, canonical_with_sigma
 from ..core.rider import PAPER_RIDER, Rider, add_rider
-from ..core.speed_mc import SpeedMonteCarlo, speed_monte_carlo, speed_monte_carlo_from_parameters
-from ..core.speed_sigma import CriticalSpeedsWithSigma, critical_speeds_with_sigma
+from ..core.uncertainty.budget import UncertaintyBudget, uncertainty_budget
+from ..core.uncertainty.matrix_sigma import MatrixSet, SigmaConvention, canonical_with_sigma
+from ..core.uncertainty.speed_mc import SpeedMonteCarlo, speed_monte_carlo, speed_monte_carlo_from_parameters
+from ..core.uncertainty.speed_sigma import CriticalSpeedsWithSigma, critical_speeds_with_sigma
 from ..core.whipple import stable_speed_range
 from ..subjects import Subject
 

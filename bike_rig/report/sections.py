@@ -13,9 +13,9 @@ import math
 from collections.abc import Sequence
 
 from .. import __version__
-from ..core.budget import CAPSIZE, PARAMETERS, WEAVE, OutputBudget, UncertaintyBudget, input_ranking
-from ..core.model import MATRIX_NAMES
-from ..core.speed_sigma import SpeedWithSigma
+from ..core.uncertainty.budget import CAPSIZE, PARAMETERS, WEAVE, OutputBudget, UncertaintyBudget, input_ranking
+from ..core.uncertainty.matrix_sigma import MATRIX_NAMES
+from ..core.uncertainty.speed_sigma import SpeedWithSigma
 from ..subjects import Subject, TrialRecord
 from ..textfmt import LABELS, TABLE2_ORDER
 from .figures import ReportFigure

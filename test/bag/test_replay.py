@@ -21,9 +21,9 @@ from bike_rig.bag.simulated import SimulatedMessage, live_results, simulated_mes
 from bike_rig.cli import replay_cmd
 from bike_rig.core.benchmark import compute_parameters
 from bike_rig.core.errors import BikeRigError
-from bike_rig.core.model import canonical_with_sigma
 from bike_rig.core.period import FitOptions, WindowPolicy, combine_periods, fit_period
 from bike_rig.core.sim import SimulatedSession
+from bike_rig.core.uncertainty.matrix_sigma import canonical_with_sigma
 from bike_rig.core.whipple import critical_speeds
 from bike_rig.nodes.fitter import TrialFitOptions
 from bike_rig.topics import GYRO, STATIC_READINGS, TRIAL_EVENTS

@@ -10,9 +10,9 @@ import pytest
 
 from bike_rig.cli.main import main
 from bike_rig.core.benchmark import compute_parameters
-from bike_rig.core.budget import BUDGET_PARAMETERS, CAPSIZE, WEAVE, uncertainty_budget
 from bike_rig.core.loader import load_measurements
 from bike_rig.core.rider import PAPER_RIDER, add_rider
+from bike_rig.core.uncertainty.budget import BUDGET_PARAMETERS, CAPSIZE, WEAVE, uncertainty_budget
 from bike_rig.paths import config_file
 
 BROWSER = str(config_file("bicycles/browser.yaml"))

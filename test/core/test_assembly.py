@@ -24,9 +24,9 @@ from bike_rig.core.benchmark import ComMethod, ParameterSet, compute_parameters
 from bike_rig.core.errors import GeometryError, MeasurementError, ModelError
 from bike_rig.core.loader import load_measurements, load_static_readings
 from bike_rig.core.measurements import Measurements, Reading
-from bike_rig.core.model import SigmaConvention, canonical_with_sigma
 from bike_rig.core.period import combine_periods
 from bike_rig.core.rider import PAPER_RIDER, add_rider
+from bike_rig.core.uncertainty.matrix_sigma import SigmaConvention, canonical_with_sigma
 from bike_rig.core.whipple import critical_speeds, eigenvalues, state_space
 from bike_rig.paths import config_file
 

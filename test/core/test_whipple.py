@@ -15,7 +15,7 @@ from bike_rig.core.errors import ModelError
 from bike_rig.core.whipple import (
     MODE_LABELS,
     PARAMETER_KEYS,
-    CanonicalMatrices,
+    WhippleMatrices,
     canonical_matrices,
     characteristic_coefficients,
     characteristic_polynomial,
@@ -66,7 +66,7 @@ CAPSIZE_SPEED = 6.02426201538837
 
 
 @pytest.fixture(scope="module")
-def bench() -> CanonicalMatrices:
+def bench() -> WhippleMatrices:
     return canonical_matrices(BENCHMARK)
 
 
@@ -90,7 +90,7 @@ def _tolerance(ref: NDArray[np.complex128]) -> NDArray[np.float64]:
     return np.asarray(1e-9 * scale + 1e-12 * scale**2 / gap)
 
 
-def _eigvals_of_a(m: CanonicalMatrices, speeds: NDArray[np.float64]) -> NDArray[np.complex128]:
+def _eigvals_of_a(m: WhippleMatrices, speeds: NDArray[np.float64]) -> NDArray[np.complex128]:
     a, _ = state_space(m, speeds, G)
     return np.asarray(np.linalg.eigvals(a))
 
@@ -98,7 +98,7 @@ def _eigvals_of_a(m: CanonicalMatrices, speeds: NDArray[np.float64]) -> NDArray[
 # --- canonical matrices -------------------------------------------------------------------------
 
 
-def test_canonical_matrices_match_paper(bench: CanonicalMatrices) -> None:
+def test_canonical_matrices_match_paper(bench: WhippleMatrices) -> None:
     for name, ref in REFERENCE_MATRICES.items():
         got = getattr(bench, name)
         ref_arr = np.array(ref)
@@ -157,7 +157,7 @@ def test_missing_parameter_is_a_model_error() -> None:
 # --- state space and characteristic polynomial --------------------------------------------------
 
 
-def test_state_space_shapes_and_structure(bench: CanonicalMatrices) -> None:
+def test_state_space_shapes_and_structure(bench: WhippleMatrices) -> None:
     speeds = np.array([0.0, 3.0, 7.5])
     a, b = state_space(bench, speeds, G)
     assert a.shape == (3, 4, 4)
@@ -172,7 +172,7 @@ def test_state_space_shapes_and_structure(bench: CanonicalMatrices) -> None:
     assert a_one.shape == (4, 4)
 
 
-def test_characteristic_coefficients_are_the_determinant(bench: CanonicalMatrices) -> None:
+def test_characteristic_coefficients_are_the_determinant(bench: WhippleMatrices) -> None:
     rng = np.random.default_rng(7)
     v = rng.uniform(0, 12, 25)
     s = rng.normal(size=25) + 1j * rng.normal(size=25)
@@ -190,7 +190,7 @@ def test_characteristic_coefficients_are_the_determinant(bench: CanonicalMatrice
     np.testing.assert_allclose(np.polynomial.polynomial.polyval2d(s, v, c2d), np.linalg.det(mats), rtol=1e-11)
 
 
-def test_hurwitz_determinant_is_v2_times_quadratic_in_v2(bench: CanonicalMatrices) -> None:
+def test_hurwitz_determinant_is_v2_times_quadratic_in_v2(bench: WhippleMatrices) -> None:
     # The closed-form weave candidates rest on H(v) = a3 a2 a1 - a4 a1² - a0 a3² = v² Q(v²)
     # with Q quadratic: fit Q on three speeds, predict H at others.
     def hurwitz(v: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -207,7 +207,7 @@ def test_hurwitz_determinant_is_v2_times_quadratic_in_v2(bench: CanonicalMatrice
 # --- eigenvalues --------------------------------------------------------------------------------
 
 
-def test_benchmark_eigenvalues_and_labels(bench: CanonicalMatrices) -> None:
+def test_benchmark_eigenvalues_and_labels(bench: WhippleMatrices) -> None:
     sweep = eigenvalues(bench, G, [5.0, 10.0])
     assert sweep.labels == MODE_LABELS == ("weave", "weave", "capsize", "caster")
     for row, v in enumerate((5.0, 10.0)):
@@ -219,14 +219,14 @@ def test_benchmark_eigenvalues_and_labels(bench: CanonicalMatrices) -> None:
     assert sweep.mode("caster")[0, 0].real == pytest.approx(-14.07838969279822, abs=1e-10)
 
 
-def test_benchmark_eigenvalues_at_zero_speed(bench: CanonicalMatrices) -> None:
+def test_benchmark_eigenvalues_at_zero_speed(bench: WhippleMatrices) -> None:
     zero = eigenvalues(bench, G, 0.0).eigenvalues[0]
     np.testing.assert_array_equal(zero.imag, 0.0)
     expected = [5.53094371765393, 3.13164324790656, -3.13164324790656, -5.53094371765393]
     np.testing.assert_allclose(zero.real, expected, rtol=0, atol=1e-10)
 
 
-def test_single_speeds_are_labelled_like_the_sweep(bench: CanonicalMatrices) -> None:
+def test_single_speeds_are_labelled_like_the_sweep(bench: WhippleMatrices) -> None:
     grid = np.linspace(0.0, 10.0, 2001)
     sweep = eigenvalues(bench, G, grid)
     for v in (0.0, 0.3, 2.0, 5.0, 10.0):
@@ -235,7 +235,7 @@ def test_single_speeds_are_labelled_like_the_sweep(bench: CanonicalMatrices) -> 
         np.testing.assert_allclose(single, sweep.eigenvalues[row], atol=1e-12)
 
 
-def test_dense_grid_agrees_with_eig_of_state_space(bench: CanonicalMatrices) -> None:
+def test_dense_grid_agrees_with_eig_of_state_space(bench: WhippleMatrices) -> None:
     speeds = np.linspace(0.0, 10.0, 4001)
     ours = eigenvalues(bench, G, speeds).eigenvalues
     ref = _eigvals_of_a(bench, speeds)
@@ -283,7 +283,7 @@ def test_quartic_roots_agree_with_numpy(coef: list[float], lead: float) -> None:
     assert _min_cost_distance(ours[None], ref[None])[0] <= 10 * _tolerance(ref[None])[0]
 
 
-def test_tracking_is_the_best_matching_at_every_step(bench: CanonicalMatrices) -> None:
+def test_tracking_is_the_best_matching_at_every_step(bench: WhippleMatrices) -> None:
     speeds = np.linspace(0.0, 10.0, 20001)
     ev = eigenvalues(bench, G, speeds).eigenvalues
     perms = np.array(list(itertools.permutations(range(4))))
@@ -332,7 +332,7 @@ def test_bicycle_without_weave_speed() -> None:
     assert np.all(weave.real > 0)
 
 
-def test_speeds_in_any_order(bench: CanonicalMatrices) -> None:
+def test_speeds_in_any_order(bench: WhippleMatrices) -> None:
     speeds = np.linspace(0.0, 10.0, 501)
     sorted_ev = eigenvalues(bench, G, speeds).eigenvalues
     perm = np.random.default_rng(3).permutation(speeds.size)
@@ -341,7 +341,7 @@ def test_speeds_in_any_order(bench: CanonicalMatrices) -> None:
     np.testing.assert_array_equal(shuffled.eigenvalues, sorted_ev[perm])
 
 
-def test_eigenvectors_satisfy_a_x_equals_s_x(bench: CanonicalMatrices) -> None:
+def test_eigenvectors_satisfy_a_x_equals_s_x(bench: WhippleMatrices) -> None:
     speeds = np.linspace(0.0, 10.0, 301)
     sweep = eigenvalues(bench, G, speeds, vectors=True)
     assert sweep.eigenvectors is not None
@@ -356,7 +356,7 @@ def test_eigenvectors_satisfy_a_x_equals_s_x(bench: CanonicalMatrices) -> None:
     assert eigenvalues(bench, G, speeds).eigenvectors is None
 
 
-def test_bad_inputs_raise_model_error(bench: CanonicalMatrices) -> None:
+def test_bad_inputs_raise_model_error(bench: WhippleMatrices) -> None:
     with pytest.raises(ModelError):
         eigenvalues(bench, G, [])
     with pytest.raises(ModelError):
@@ -364,7 +364,7 @@ def test_bad_inputs_raise_model_error(bench: CanonicalMatrices) -> None:
     batch = canonical_matrices({**BENCHMARK, "w": np.array([1.0, 1.1])})
     with pytest.raises(ModelError):
         eigenvalues(batch, G, [1.0])
-    singular = CanonicalMatrices(M=np.ones((2, 2)), C1=bench.C1, K0=bench.K0, K2=bench.K2)
+    singular = WhippleMatrices(M=np.ones((2, 2)), C1=bench.C1, K0=bench.K0, K2=bench.K2)
     with pytest.raises(ModelError, match="singular"):
         critical_speeds(singular, G)
     with pytest.raises(ModelError):
@@ -376,7 +376,7 @@ def test_bad_inputs_raise_model_error(bench: CanonicalMatrices) -> None:
 # --- critical speeds ----------------------------------------------------------------------------
 
 
-def test_benchmark_critical_speeds(bench: CanonicalMatrices) -> None:
+def test_benchmark_critical_speeds(bench: WhippleMatrices) -> None:
     cs = critical_speeds(bench, G)
     assert cs.weave is not None
     assert cs.capsize is not None
@@ -390,7 +390,7 @@ def test_benchmark_critical_speeds(bench: CanonicalMatrices) -> None:
     assert at_weave[0].imag == pytest.approx(cs.crossings[0].frequency, rel=1e-10)
 
 
-def test_critical_speeds_are_where_eigenvalues_change_sign(bench: CanonicalMatrices) -> None:
+def test_critical_speeds_are_where_eigenvalues_change_sign(bench: WhippleMatrices) -> None:
     cs = critical_speeds(bench, G)
     assert cs.weave is not None
     assert cs.capsize is not None

@@ -18,9 +18,9 @@ from bike_rig import topics
 from bike_rig.core.assembly import assemble
 from bike_rig.core.benchmark import ComMethod, ParameterSet
 from bike_rig.core.loader import load_static_readings
-from bike_rig.core.model import SigmaConvention, canonical_with_sigma
 from bike_rig.core.rider import PAPER_RIDER, add_rider
-from bike_rig.core.speed_sigma import critical_speeds_with_sigma
+from bike_rig.core.uncertainty.matrix_sigma import SigmaConvention, canonical_with_sigma
+from bike_rig.core.uncertainty.speed_sigma import critical_speeds_with_sigma
 from bike_rig.core.whipple import eigenvalues, state_space
 from bike_rig.messages import fill_benchmark_parameters, parameter_set_from_msg, set_stamp
 from test.nodes.test_parameter import (

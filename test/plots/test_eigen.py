@@ -3,7 +3,7 @@
 Checks that every line, band and marker of :func:`bike_rig.plots.eigen.eigen_vs_speed` equals
 :func:`bike_rig.plots.model_data.eigen_curves`, and that those equal the core's independent
 answers: the marked weave and capsize speeds are :func:`bike_rig.core.whipple.critical_speeds`,
-the bands are ±σ of :func:`bike_rig.core.eigen_sigma.eigenvalues_with_sigma`, and the ends of the
+the bands are ±σ of :func:`bike_rig.core.uncertainty.eigen_sigma.eigenvalues_with_sigma`, and the ends of the
 complex capsize–caster interval are double roots of the characteristic polynomial.
 """
 
@@ -15,9 +15,9 @@ import numpy as np
 import pytest
 from matplotlib.figure import Figure
 
-from bike_rig.core.eigen_sigma import eigenvalues_with_sigma
 from bike_rig.core.errors import BikeRigError
-from bike_rig.core.model import canonical_with_sigma
+from bike_rig.core.uncertainty.eigen_sigma import eigenvalues_with_sigma
+from bike_rig.core.uncertainty.matrix_sigma import canonical_with_sigma
 from bike_rig.core.whipple import characteristic_coefficients, critical_speeds
 from bike_rig.paths import config_dir
 from bike_rig.plots.eigen import eigen_vs_speed, panel_grid

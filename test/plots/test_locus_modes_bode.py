@@ -15,7 +15,7 @@ from matplotlib.figure import Figure
 
 from bike_rig.core.errors import BikeRigError
 from bike_rig.core.frequency import frequency_response
-from bike_rig.core.model import canonical_with_sigma
+from bike_rig.core.uncertainty.matrix_sigma import canonical_with_sigma
 from bike_rig.core.whipple import state_space
 from bike_rig.paths import config_dir
 from bike_rig.plots.bode import bode_figure

@@ -58,9 +58,9 @@ import pytest
 
 from bike_rig.core.benchmark import ParameterSet, parameters_from_values
 from bike_rig.core.io_yaml import dump_parameters_yaml
-from bike_rig.core.model import canonical_with_sigma
-from bike_rig.core.speed_sigma import critical_speeds_with_sigma
-from bike_rig.core.whipple import CanonicalMatrices, characteristic_coefficients, critical_speeds, eigenvalues
+from bike_rig.core.uncertainty.matrix_sigma import canonical_with_sigma
+from bike_rig.core.uncertainty.speed_sigma import critical_speeds_with_sigma
+from bike_rig.core.whipple import WhippleMatrices, characteristic_coefficients, critical_speeds, eigenvalues
 from bike_rig.paths import config_dir
 from bike_rig.plots.model_data import EigenCurves, eigen_curves, mode_shape, model_parameters, quartic_discriminant
 from bike_rig.subjects import Subject, load_subject
@@ -217,14 +217,14 @@ def _table2_set(column: str) -> ParameterSet:
     return parameters_from_values(f"paper Table 2 {column}", values, sigmas, "paper Table 2")
 
 
-def _printed_matrices(table: Table, column: str) -> CanonicalMatrices:
+def _printed_matrices(table: Table, column: str) -> WhippleMatrices:
     """The canonical matrices as printed in Table 3 or 5 (rounded)."""
     cells = table[column]
 
     def m(prefix: str) -> np.ndarray:
         return np.array([[cells[f"{prefix}{i}{j}"].value for j in (1, 2)] for i in (1, 2)])
 
-    return CanonicalMatrices(M=m("M"), C1=m("C1_"), K0=m("K0_"), K2=m("K2_"))
+    return WhippleMatrices(M=m("M"), C1=m("C1_"), K0=m("K0_"), K2=m("K2_"))
 
 
 def _with_rider(ps: ParameterSet) -> ParameterSet:

@@ -25,13 +25,13 @@ from matplotlib.figure import Figure
 
 from bike_rig.bag.simulated import write_simulated_bag
 from bike_rig.core.benchmark import PARAMETER_NAMES
-from bike_rig.core.budget import uncertainty_budget
 from bike_rig.core.errors import BikeRigError, ModelError
 from bike_rig.core.io_yaml import dump_parameters_yaml
-from bike_rig.core.model import MATRIX_NAMES, canonical_with_sigma
 from bike_rig.core.period.result import Flag, FlagCode
 from bike_rig.core.rider import PAPER_RIDER, add_rider
-from bike_rig.core.speed_sigma import critical_speeds_with_sigma
+from bike_rig.core.uncertainty.budget import uncertainty_budget
+from bike_rig.core.uncertainty.matrix_sigma import MATRIX_NAMES, canonical_with_sigma
+from bike_rig.core.uncertainty.speed_sigma import critical_speeds_with_sigma
 from bike_rig.core.whipple import stable_speed_range
 from bike_rig.paths import config_file
 from bike_rig.report import REPORT_FILE, Report, ReportOutputError, build_report, write_report

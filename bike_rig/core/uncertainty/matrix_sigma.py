@@ -19,9 +19,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .benchmark import PARAMETER_NAMES, ParameterSet
+from ..benchmark import PARAMETER_NAMES, ParameterSet
+from ..whipple import WhippleMatrices, canonical_matrices
 from .uncertain import UncertainVector, complex_step_jacobian
-from .whipple import CanonicalMatrices, canonical_matrices
 
 __all__ = ["MATRIX_NAMES", "MatrixSet", "SigmaConvention", "canonical_with_sigma", "coefficient_names"]
 
@@ -61,23 +61,23 @@ class MatrixSet:
 
     Attributes:
         matrices: The values.
-        sigma: σ of every entry, same layout (a :class:`CanonicalMatrices` of σ).
+        sigma: σ of every entry, same layout (a :class:`WhippleMatrices` of σ).
         coefficients: All 16 entries with their covariance (names from
             :func:`coefficient_names`).
         convention: How the σ were computed.
         g: Gravity used with K0, m/s².
     """
 
-    matrices: CanonicalMatrices
-    sigma: CanonicalMatrices
+    matrices: WhippleMatrices
+    sigma: WhippleMatrices
     coefficients: UncertainVector
     convention: SigmaConvention
     g: float
 
 
-def _as_matrices(v: NDArray[np.float64]) -> CanonicalMatrices:
+def _as_matrices(v: NDArray[np.float64]) -> WhippleMatrices:
     m = v.reshape(4, 2, 2)
-    return CanonicalMatrices(M=m[0], C1=m[1], K0=m[2], K2=m[3])
+    return WhippleMatrices(M=m[0], C1=m[1], K0=m[2], K2=m[3])
 
 
 def canonical_with_sigma(ps: ParameterSet, convention: SigmaConvention = SigmaConvention.CORRELATED) -> MatrixSet:

@@ -10,11 +10,11 @@ import pytest
 
 from bike_rig.core.benchmark import ParameterSet, compute_parameters
 from bike_rig.core.loader import load_input, load_measurements
-from bike_rig.core.model import SigmaConvention
 from bike_rig.core.rider import PAPER_RIDER, add_rider
-from bike_rig.core.speed_sigma import critical_speed_gradient, critical_speeds_with_sigma
 from bike_rig.core.symbols import PARAMETER_NAMES
-from bike_rig.core.whipple import CanonicalMatrices, canonical_matrices, critical_speeds
+from bike_rig.core.uncertainty.matrix_sigma import SigmaConvention
+from bike_rig.core.uncertainty.speed_sigma import critical_speed_gradient, critical_speeds_with_sigma
+from bike_rig.core.whipple import WhippleMatrices, canonical_matrices, critical_speeds
 from bike_rig.paths import config_file
 
 MC_SAMPLES = 4000
@@ -59,7 +59,7 @@ def monte_carlo_sigmas(ps: ParameterSet, covariance: np.ndarray, seed: int) -> t
     g = samples[:, PARAMETER_NAMES.index("g")]
     weave, capsize = [], []
     for i in range(MC_SAMPLES):
-        cs = critical_speeds(CanonicalMatrices(cm.M[i], cm.C1[i], cm.K0[i], cm.K2[i]), float(g[i]))
+        cs = critical_speeds(WhippleMatrices(cm.M[i], cm.C1[i], cm.K0[i], cm.K2[i]), float(g[i]))
         assert cs.weave is not None and cs.capsize is not None
         weave.append(cs.weave)
         capsize.append(cs.capsize)

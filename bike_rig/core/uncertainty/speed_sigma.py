@@ -35,17 +35,17 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .benchmark import ParameterSet
-from .model import MatrixSet, SigmaConvention, canonical_with_sigma
-from .symbols import PARAMETER_NAMES
-from .uncertain import COMPLEX_STEP
-from .whipple import (
+from ..benchmark import ParameterSet
+from ..symbols import PARAMETER_NAMES
+from ..whipple import (
     CriticalSpeeds,
     canonical_matrices,
     characteristic_polynomial,
     critical_speeds,
     hurwitz_determinant,
 )
+from .matrix_sigma import MatrixSet, SigmaConvention, canonical_with_sigma
+from .uncertain import COMPLEX_STEP
 
 __all__ = [
     "CrossingKind",

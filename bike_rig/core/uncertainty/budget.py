@@ -12,7 +12,7 @@ bicycle has them) the first-order variance (paper Eq 3) is split over the inputs
 
   A parameter's sensitivities are its row of ``ps.raw.jacobian``; a speed's are
   ``∂v/∂p @ ps.raw.jacobian`` with ``∂v/∂p`` from the implicit function theorem
-  (:func:`bike_rig.core.speed_sigma.critical_speeds_with_sigma`).
+  (:func:`bike_rig.core.uncertainty.speed_sigma.critical_speeds_with_sigma`).
 * **parameters** (a parameter file, ``ps.raw`` None): the inputs are the 26 parameters with
   the parameter covariance. A parameter file gives independent σ, so each parameter's budget is
   itself (share 1) and the speeds split over the parameters as above.
@@ -44,10 +44,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .benchmark import ParameterSet
-from .errors import BikeRigError
+from ..benchmark import ParameterSet
+from ..errors import BikeRigError
+from ..symbols import PARAMETER_NAMES
 from .speed_sigma import CriticalSpeedsWithSigma, SpeedWithSigma, critical_speeds_with_sigma
-from .symbols import PARAMETER_NAMES
 
 __all__ = [
     "BUDGET_PARAMETERS",

@@ -18,7 +18,12 @@ import numpy as np
 import pytest
 
 from bike_rig.core.benchmark import ParameterSet, RawPropagation, compute_parameters
-from bike_rig.core.budget import (
+from bike_rig.core.io_yaml import dump_parameters_yaml
+from bike_rig.core.loader import load_input, load_measurements
+from bike_rig.core.measurements import Measurements
+from bike_rig.core.rider import PAPER_RIDER, add_rider, combine_rear_frame
+from bike_rig.core.symbols import PARAMETER_NAMES
+from bike_rig.core.uncertainty.budget import (
     BUDGET_PARAMETERS,
     CAPSIZE,
     OUTPUT_UNITS,
@@ -29,12 +34,7 @@ from bike_rig.core.budget import (
     input_ranking,
     uncertainty_budget,
 )
-from bike_rig.core.io_yaml import dump_parameters_yaml
-from bike_rig.core.loader import load_input, load_measurements
-from bike_rig.core.measurements import Measurements
-from bike_rig.core.rider import PAPER_RIDER, add_rider, combine_rear_frame
-from bike_rig.core.speed_sigma import critical_speeds_with_sigma
-from bike_rig.core.symbols import PARAMETER_NAMES
+from bike_rig.core.uncertainty.speed_sigma import critical_speeds_with_sigma
 from bike_rig.core.whipple import canonical_matrices, critical_speeds
 from bike_rig.paths import config_file
 

@@ -9,7 +9,7 @@ import uncertainties
 
 from bike_rig.core.benchmark import PARAMETER_NAMES, benchmark_formulas, compute_parameters, monte_carlo_parameters
 from bike_rig.core.io_bp import read_bp_measured
-from bike_rig.core.uncertain import complex_step_jacobian
+from bike_rig.core.uncertainty.uncertain import complex_step_jacobian
 from test.support.paper import BICYCLE_NAMES, shared_dir
 
 

@@ -1,6 +1,6 @@
 """Monte Carlo check of the weave and capsize speeds and their linear σ.
 
-The linear σ of the critical speeds (:mod:`bike_rig.core.speed_sigma`) is first order: exact
+The linear σ of the critical speeds (:mod:`bike_rig.core.uncertainty.speed_sigma`) is first order: exact
 for small errors, but the speeds are non-linear functions of the readings. This module draws
 the inputs at random, evaluates the whole chain on every draw and compares the spread of the
 speeds with the linear σ:
@@ -30,20 +30,20 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .benchmark import ComMethod, ParameterSet, compute_parameters, monte_carlo_parameters
-from .errors import BikeRigError
-from .measurements import Measurements
-from .rider import Rider, add_rider, combine_rear_frame
-from .speed_sigma import SpeedWithSigma, critical_speeds_with_sigma
-from .symbols import PARAMETER_NAMES
-from .whipple import (
-    CanonicalMatrices,
+from ..benchmark import ComMethod, ParameterSet, compute_parameters, monte_carlo_parameters
+from ..errors import BikeRigError
+from ..measurements import Measurements
+from ..rider import Rider, add_rider, combine_rear_frame
+from ..symbols import PARAMETER_NAMES
+from ..whipple import (
+    WhippleMatrices,
     canonical_matrices,
     characteristic_polynomial,
     hurwitz_determinant,
     hurwitz_quadratic,
     pair_crossing_rate,
 )
+from .speed_sigma import SpeedWithSigma, critical_speeds_with_sigma
 
 __all__ = [
     "DEFAULT_SAMPLES",
@@ -166,7 +166,7 @@ def _lowest(v: FloatArray, keep: FloatArray) -> FloatArray:
     return np.min(np.where(keep, v, np.inf), axis=-1)
 
 
-def critical_speeds_batch(matrices: CanonicalMatrices, g: Any) -> tuple[FloatArray, FloatArray]:
+def critical_speeds_batch(matrices: WhippleMatrices, g: Any) -> tuple[FloatArray, FloatArray]:
     """Weave and capsize speeds (m/s) of many bicycles at once.
 
     The vectorised form of :func:`bike_rig.core.whipple.critical_speeds` (``v_max`` = ∞): the

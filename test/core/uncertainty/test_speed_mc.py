@@ -23,15 +23,15 @@ from bike_rig.core.io_yaml import dump_parameters_yaml
 from bike_rig.core.loader import load_input, load_measurements
 from bike_rig.core.measurements import Measurements
 from bike_rig.core.rider import PAPER_RIDER, Rider, combine_rear_frame
-from bike_rig.core.speed_mc import (
+from bike_rig.core.symbols import PARAMETER_NAMES
+from bike_rig.core.uncertainty.speed_mc import (
     MonteCarloError,
     SpeedDraws,
     critical_speeds_batch,
     speed_monte_carlo,
     speed_monte_carlo_from_parameters,
 )
-from bike_rig.core.symbols import PARAMETER_NAMES
-from bike_rig.core.whipple import CanonicalMatrices, canonical_matrices, critical_speeds
+from bike_rig.core.whipple import WhippleMatrices, canonical_matrices, critical_speeds
 from bike_rig.paths import config_file
 
 BICYCLES = ("browser", "browserins", "crescendo", "fisher", "stratos", "yellow")
@@ -90,11 +90,11 @@ def test_exact_parameters_give_no_spread() -> None:
         assert d.std == pytest.approx(0.0, abs=1e-12) and math.isnan(d.ratio)
 
 
-def loop_speeds(matrices: CanonicalMatrices, g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def loop_speeds(matrices: WhippleMatrices, g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Reference: whipple.critical_speeds one draw at a time."""
     weave, capsize = [], []
     for i in range(g.size):
-        one = CanonicalMatrices(matrices.M[i], matrices.C1[i], matrices.K0[i], matrices.K2[i])
+        one = WhippleMatrices(matrices.M[i], matrices.C1[i], matrices.K0[i], matrices.K2[i])
         cs = critical_speeds(one, float(g[i]))
         weave.append(math.nan if cs.weave is None else cs.weave)
         capsize.append(math.nan if cs.capsize is None else cs.capsize)

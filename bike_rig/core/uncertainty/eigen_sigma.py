@@ -33,11 +33,11 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .benchmark import ParameterSet
-from .model import SigmaConvention, canonical_with_sigma
+from ..benchmark import ParameterSet
+from ..whipple import EigenvalueSweep, eigenvalues
+from .matrix_sigma import SigmaConvention, canonical_with_sigma
 from .speed_sigma import perturbed_coefficients
 from .uncertain import COMPLEX_STEP
-from .whipple import EigenSweep, eigenvalues
 
 __all__ = ["BRANCH_POINT_MARGIN", "EigenSigma", "eigenvalue_gradient", "eigenvalues_with_sigma"]
 
@@ -62,7 +62,7 @@ class EigenSigma:
         convention: Which parameter covariance gave the σ.
     """
 
-    sweep: EigenSweep
+    sweep: EigenvalueSweep
     sigma_real: FloatArray
     sigma_imag: FloatArray
     gradient: ComplexArray
