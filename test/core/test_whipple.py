@@ -443,11 +443,11 @@ def test_random_critical_speeds_are_real_crossings(factors: dict[str, float]) ->
 
 def test_many_segment_gather_matches_slices(monkeypatch: pytest.MonkeyPatch) -> None:
     # Few permutation segments are copied by slices, many by fancy indexing: same result.
-    from bike_rig.core import whipple
+    from bike_rig.core.whipple import modes
 
     m = canonical_matrices({**BENCHMARK, "lam": 0.13})
     speeds = np.random.default_rng(5).permutation(np.linspace(0.0, 12.0, 3001))
     by_slices = eigenvalues(m, G, speeds).eigenvalues
-    monkeypatch.setattr(whipple, "_MAX_SEGMENTS", 0)
+    monkeypatch.setattr(modes, "_MAX_SEGMENTS", 0)
     by_index = eigenvalues(m, G, speeds).eigenvalues
     np.testing.assert_array_equal(by_index, by_slices)
