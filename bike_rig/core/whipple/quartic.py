@@ -189,7 +189,10 @@ def quartic_roots(coefficients: ArrayLike) -> ComplexArray:
     Closed form (Ferrari with the real non-negative resolvent root), then two guarded Newton
     steps per root; no iteration over elements. Errors are near those of a backward-stable
     method: about ``1e-15 · |root scale|`` for well-separated roots, growing to
-    ``~1e-8 · scale`` at double roots.
+    ``~1e-8 · scale`` at double roots. Not backward stable where one root is about 1e3 times or
+    more the other three (coefficients spread over many decades): there the small roots can be
+    off by up to ``~1e-6 · scale`` (test/core/test_quartic.py marks this as a known limit);
+    the bicycles' quartics are far from that.
 
     Args:
         coefficients: Real array of shape ``(..., 5)``, descending powers (``numpy.roots``
@@ -218,7 +221,8 @@ def _newton_polish(coef: FloatArray, z: ComplexArray, steps: int = 2) -> Complex
 
     A step is kept only where it lowers ``|p(z)|`` (so double roots cannot be thrown off).
     Ferrari's depressed form loses accuracy when ``|a3/a4|`` is large against some roots;
-    this restores backward stability for general quartics. The speed sweep does not need it
+    this restores backward stability for most general quartics (not where one root is ~1e3
+    times the other three, see :func:`quartic_roots`). The speed sweep does not need it
     (bicycle quartics are well scaled) and skips it for speed.
     """
     c = coef[:, :, None]
