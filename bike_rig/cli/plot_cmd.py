@@ -44,10 +44,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..core.benchmark import ComMethod
-from ..core.errors import BikeRigError, InputFileError
+from ..core.errors import BikeRigError
 from ..core.frequency import INPUTS, OUTPUTS
 from ..core.whipple import MODE_LABELS
 from ..plots.model_data import MAX_SPEED
+from ..plots.output import check_out_dir, slug, trial_name, unique_names
+from ..plots.registry import FIGURES, KINDS, FigureKind, Scope, figure_stem
 
 if TYPE_CHECKING:
     from ..subjects import Subject
@@ -70,18 +72,16 @@ __all__ = [
     "unique_names",
 ]
 
-#: Every figure kind, in the order ``all`` draws them.
-KINDS: tuple[str, ...] = ("eigen", "locus", "modes", "bode", "side", "trials", "fits")
-#: Kinds drawn from the Whipple model, once per rider asked for.
-MODEL_KINDS: tuple[str, ...] = ("eigen", "locus", "modes", "bode")
+#: Kinds drawn from the Whipple model, once per rider asked for (:data:`KINDS`: every kind, in
+#: the order ``all`` draws them; both from :data:`bike_rig.plots.registry.FIGURES`).
+MODEL_KINDS: tuple[str, ...] = tuple(k.name for k in FIGURES.values() if k.per_rider)
 #: Kinds that need trials (a session bag, or a measurement file whose periods are trial files).
-TRIAL_KINDS: tuple[str, ...] = ("trials", "fits")
+TRIAL_KINDS: tuple[str, ...] = tuple(k.name for k in FIGURES.values() if k.needs_trials)
 #: Speed of the ``modes`` and ``bode`` figures unless ``--speed`` is given, m/s (the paper's
 #: Figs 15, 17 and 18: inside the capsize–caster complex-pair range of the rider-less bicycles).
 DEFAULT_SPEED = 2.0
 #: Mode of the ``modes`` figure unless ``--mode`` is given (Fig 15: the capsize–caster pair).
 DEFAULT_MODE = "capsize"
-_TRIAL_SUFFIXES = (".npy", ".csv", ".mat", ".txt")
 _RIDERS = {"none": ("",), "paper": ("paper",), "both": ("", "paper")}
 
 
@@ -186,53 +186,6 @@ def _pair_name(value: str | None, allowed: Sequence[str], option: str) -> str | 
     return name
 
 
-def slug(name: str) -> str:
-    """``name`` in lower case with anything but letters, digits, ``-`` and ``.`` made ``-``."""
-    s = re.sub(r"[^a-z0-9.\-]+", "-", name.lower()).strip("-")
-    return s or "bicycle"
-
-
-def _trial_name(trial_id: str) -> str:
-    """A trial's id without its file's extension (``frame_compound_t1.npy`` → ``frame_compound_t1``)."""
-    p = Path(trial_id)
-    return p.stem if p.suffix.lower() in _TRIAL_SUFFIXES else trial_id
-
-
-def unique_names(names: Sequence[str]) -> list[str]:
-    """File-name forms (:func:`slug`) of ``names``, made distinct with ``-2``, ``-3``..."""
-    out: list[str] = []
-    for name in names:
-        base = slug(name)
-        name, k = base, 2
-        while name in out:
-            name, k = f"{base}-{k}", k + 1
-        out.append(name)
-    return out
-
-
-def figure_stem(out_dir: Path, kind: str, bicycle: str = "", rider: str = "", trial: str = "") -> Path:
-    """``out_dir/<kind>[_<bicycle>][_<trial>][_rider]`` (``fits`` files are named ``fit_...``)."""
-    parts = ["fit" if kind == "fits" else kind]
-    if bicycle:
-        parts.append(bicycle)
-    if trial:
-        parts.append(slug(trial))
-    if rider:
-        parts.append("rider")
-    return out_dir / "_".join(parts)
-
-
-def _check_out_dir(path: str) -> Path:
-    out = Path(path)
-    if out.exists() and not out.is_dir():
-        raise InputFileError(str(out), "exists and is not a directory")
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise InputFileError(str(out), f"cannot create the directory ({exc.strerror or exc})") from None
-    return out
-
-
 def _no_trials_reason(subject: Subject) -> str:
     if subject.kind == "parameters":
         return "it is a parameter file, which holds no trials"
@@ -241,48 +194,39 @@ def _no_trials_reason(subject: Subject) -> str:
     return "it has no trials"
 
 
-def _model_jobs(kind: str, subjects: list[Subject], opts: PlotOptions, out: Path) -> Iterator[FigureJob]:
-    for rider in opts.riders:
-        stem = figure_stem(out, kind, rider=rider)
-        if kind == "eigen":
-            from ..plots.eigen import eigen_vs_speed
-
-            yield FigureJob(stem, partial(eigen_vs_speed, subjects, rider=rider, speeds=opts.speeds))
-        elif kind == "locus":
-            from ..plots.locus import root_locus
-
-            yield FigureJob(stem, partial(root_locus, subjects, rider=rider, speeds=opts.speeds))
-        elif kind == "modes":
-            from ..plots.modes import eigenvector_figure
-
-            yield FigureJob(stem, partial(eigenvector_figure, subjects, mode=opts.mode, speed=opts.speed, rider=rider))
-        else:
-            from ..plots.bode import bode_figure
-
-            draw = partial(bode_figure, subjects, speed=opts.speed, rider=rider, input=opts.input, output=opts.output)
-            yield FigureJob(stem, draw)
+def _kind_jobs(kind: FigureKind, subjects: list[Subject], opts: PlotOptions, out: Path) -> Iterator[FigureJob]:
+    """The figures of one kind: one of every input (per rider), or one per input or trial."""
+    draw = kind.drawer()  # imported here, so a figure's time (--timings) is its drawing only
+    options = {name: getattr(opts, name) for name in kind.options if name != "rider"}
+    if kind.scope is Scope.BICYCLES:
+        for rider in opts.riders if kind.per_rider else ("",):
+            ridden = {"rider": rider} if kind.per_rider else {}
+            yield FigureJob(figure_stem(out, kind.name, rider=rider), partial(draw, subjects, **ridden, **options))
+        return
+    for subject, bicycle in zip(subjects, unique_names([s.name for s in subjects]), strict=True):
+        if kind.scope is Scope.SUBJECT:
+            if subject.trials:
+                yield FigureJob(figure_stem(out, kind.name, bicycle), partial(draw, subject, **options))
+            continue
+        names = unique_names([trial_name(t.trial_id) for t in subject.trials])
+        for trial, name in zip(subject.trials, names, strict=True):
+            yield FigureJob(figure_stem(out, kind.name, bicycle, trial=name), partial(draw, trial, **options))
 
 
 def figure_jobs(kinds: Sequence[str], subjects: list[Subject], opts: PlotOptions, out: Path) -> Iterator[FigureJob]:
-    """Every figure of ``kinds`` (inputs without trials give no ``trials``/``fits`` figure)."""
-    slugs = unique_names([s.name for s in subjects])
+    """Every figure of ``kinds`` (inputs without trials give no ``trials``/``fits`` figure).
+
+    Args:
+        kinds: Names of :data:`bike_rig.plots.registry.FIGURES`, in drawing order.
+        subjects: The inputs.
+        opts: The checked options.
+        out: The output directory.
+
+    Yields:
+        One job per figure, in order.
+    """
     for kind in kinds:
-        if kind in MODEL_KINDS:
-            yield from _model_jobs(kind, subjects, opts, out)
-        elif kind == "side":
-            from ..plots.sideview import side_view
-
-            yield FigureJob(figure_stem(out, "side"), partial(side_view, subjects))
-        else:
-            from ..plots.trials import fit_figure, trial_overview
-
-            for subject, bicycle in zip(subjects, slugs):
-                if kind == "trials" and subject.trials:
-                    yield FigureJob(figure_stem(out, "trials", bicycle), partial(trial_overview, subject))
-                elif kind == "fits":
-                    names = unique_names([_trial_name(t.trial_id) for t in subject.trials])
-                    for trial, name in zip(subject.trials, names):
-                        yield FigureJob(figure_stem(out, "fits", bicycle, trial=name), partial(fit_figure, trial))
+        yield from _kind_jobs(FIGURES[kind], subjects, opts, out)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -293,7 +237,7 @@ def run(args: argparse.Namespace) -> int:
     if args.kind not in (*KINDS, "all"):
         raise PlotUsageError(f"unknown figure kind '{args.kind}' (expected one of: {', '.join(KINDS)}, all)")
     opts = options_from_args(args)
-    out = _check_out_dir(args.out)
+    out = check_out_dir(args.out)
     subjects = [load_subject(p, args.com_method) for p in args.inputs]
     kinds = KINDS if args.kind == "all" else (args.kind,)
     for subject in subjects:
@@ -327,8 +271,7 @@ def add_parser(sub: Any) -> None:
     q.add_argument(
         "kind",
         metavar="KIND",
-        help="eigen (eigenvalues vs speed), locus (root locus), modes (eigenvector of a mode), bode, "
-        "side (side view), trials (trial-quality overview), fits (one figure per trial), or all",
+        help=", ".join(f"{k.name} ({k.help})" if k.help else k.name for k in FIGURES.values()) + ", or all",
     )
     q.add_argument("inputs", metavar="INPUT", nargs="+", help="measurement file, parameter file or session bag")
     q.add_argument("-o", "--out", metavar="DIR", required=True, help="directory for the figures (created if missing)")

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..core.benchmark import ComMethod
+from ..plots.output import check_out_dir
 from ..subjects import Subject, load_subject
 from . import sections
 from .errors import ReportOutputError
@@ -126,20 +127,14 @@ def report_input(
             :class:`ReportOutputError` for the output.
     """
     t0 = time.perf_counter()
-    out = Path(out_dir)
-    _check_out_dir(out)
+    out = check_out_dir(out_dir, ReportOutputError, create=False)  # before the input: nothing written for a bad one
     subject = load_subject(path, com_method)
     written = write_report(subject, out, workers=workers)
     return WrittenReport(written.path, written.report, time.perf_counter() - t0)
 
 
-def _check_out_dir(out: Path) -> None:
-    if out.exists() and not out.is_dir():
-        raise ReportOutputError(str(out), "exists and is not a directory")
-
-
 def _write(out: Path, text: str) -> Path:
-    _check_out_dir(out)
+    check_out_dir(out, ReportOutputError, create=False)
     target = out / REPORT_FILE
     try:
         out.mkdir(parents=True, exist_ok=True)

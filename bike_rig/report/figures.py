@@ -1,9 +1,11 @@
 """The report's figures: which ones, drawn by :mod:`bike_rig.plots`, embedded as PNG data URIs.
 
-For every input: the side view, eigenvalues against speed (paper Figs 13/16), the root locus
-(Fig 14), the weave and capsize eigenvectors (Fig 15) and the Bode diagram of steer torque →
-roll angle (Figs 17/18), without and with the paper's rider. With trials: the trial-quality
-overview and one fit figure per trial (data, fit, residuals).
+The figures are the report entries of the figure registry (:mod:`bike_rig.plots.registry`),
+which ``bike-rig plot`` draws from too. For every input: the side view, eigenvalues against
+speed (paper Figs 13/16), the root locus (Fig 14), the weave and capsize eigenvectors (Fig 15)
+and the Bode diagram of steer torque → roll angle (Figs 17/18), without and with the paper's
+rider. With trials: the trial-quality overview and one fit figure per trial (data, fit,
+residuals).
 
 The figure modules are imported when a figure is drawn. A figure whose module is not
 installed, or that cannot be drawn for this bicycle (a :class:`BikeRigError`, e.g. no such
@@ -26,11 +28,13 @@ from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from functools import partial
+from typing import Any
 
 from matplotlib.figure import Figure
 
 from ..core.errors import BikeRigError
-from ..subjects import Subject, TrialRecord
+from ..plots.registry import FIT_DPI, STABLE_SPEED, FigureKind, ReportEntry, Scope, report_entries
+from ..subjects import Subject
 from .results import ReportResults
 
 __all__ = [
@@ -47,16 +51,10 @@ __all__ = [
 
 #: Resolution of the embedded PNGs, dots per inch.
 REPORT_DPI = 100
-#: Resolution of the trials' fit figures (many, and simple), dots per inch.
-FIT_DPI = 75
 #: Most processes the figures are drawn in.
 MAX_WORKERS = 4
 #: Fewer figures than this are drawn in this process (a pool costs more than it saves).
 MIN_PARALLEL = 4
-#: Size of each trial's fit figure, inches (the plot's default is 10 × 6).
-FIT_FIGURE_SIZE_IN = (8.0, 4.0)
-#: The Bode diagram's speeds, m/s (the paper's Figs 17/18 compare bicycles at several).
-BODE_SPEED = 5.0
 
 
 @dataclass(frozen=True)
@@ -108,48 +106,6 @@ def png_data_uri(fig: Figure, dpi: float = REPORT_DPI) -> str:
     return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode("ascii")
 
 
-def _eigen(subject: Subject, rider: str) -> Figure:
-    from ..plots.eigen import eigen_vs_speed
-
-    return eigen_vs_speed([subject], rider=rider)
-
-
-def _locus(subject: Subject, rider: str) -> Figure:
-    from ..plots.locus import root_locus
-
-    return root_locus([subject], rider=rider)
-
-
-def _mode(subject: Subject, mode: str, speed: float, rider: str) -> Figure:
-    from ..plots.modes import eigenvector_figure
-
-    return eigenvector_figure([subject], mode=mode, speed=speed, rider=rider)
-
-
-def _bode(subject: Subject, speed: float, rider: str) -> Figure:
-    from ..plots.bode import bode_figure
-
-    return bode_figure([subject], speed=speed, rider=rider)
-
-
-def _side(subject: Subject) -> Figure:
-    from ..plots.sideview import side_view
-
-    return side_view([subject])
-
-
-def _overview(subject: Subject) -> Figure:
-    from ..plots.trials import trial_overview
-
-    return trial_overview(subject)
-
-
-def _fit(trial: TrialRecord) -> Figure:
-    from ..plots.trials import fit_figure
-
-    return fit_figure(trial)
-
-
 def _mode_speed(results: ReportResults) -> float:
     """A speed to show the mode shapes at, m/s: inside the stable range, else 5 m/s."""
     for lo, hi in results.bare.stable:
@@ -157,73 +113,48 @@ def _mode_speed(results: ReportResults) -> float:
     return 5.0
 
 
+def _spec(kind: FigureKind, entry: ReportEntry, target: Any, options: dict[str, Any], **fields: Any) -> FigureSpec:
+    """``entry`` of ``kind`` drawn for ``target`` with ``options``; ``fields`` fill its key and title."""
+    return FigureSpec(
+        entry.key.format(**fields),
+        entry.title.format(**fields),
+        entry.caption,
+        partial(kind.draw, target, **options),
+        entry.size_in,
+        entry.dpi,
+    )
+
+
 def figure_specs(subject: Subject, results: ReportResults) -> list[FigureSpec]:
-    """Every figure of the report of ``subject``, in page order."""
+    """Every figure of the report of ``subject``, in page order.
+
+    The figures are the report entries of :data:`bike_rig.plots.registry.FIGURES`; a trial
+    kind's entry gives one figure per trial, and those of kinds drawn from trials are left out
+    for a bicycle without trials.
+
+    Args:
+        subject: The bicycle.
+        results: Its numbers (the rider's name, and the stable range for the mode shapes' speed).
+
+    Returns:
+        The specs, in page order.
+    """
     rider_name = results.rider.rider.name if results.rider.rider is not None else "rider"
-    v_mode = round(_mode_speed(results), 1)
-    specs = [
-        FigureSpec(
-            "side-view",
-            "Side view",
-            "Wheels, steer axis and mass centres with their uncertainty ellipses (magnified as stated).",
-            partial(_side, subject),
-        )
-    ]
-    for rider, label in (("", "without rider"), ("paper", f"with the {rider_name}")):
-        suffix = "-rider" if rider else ""
-        specs += [
-            FigureSpec(
-                f"eigen{suffix}",
-                f"Eigenvalues against speed, {label}",
-                "Real and imaginary parts of the eigenvalues with σ bands; weave and capsize speeds marked "
-                "(paper Figs 13 and 16).",
-                partial(_eigen, subject, rider),
-            ),
-            FigureSpec(
-                f"locus{suffix}",
-                f"Root locus, {label}",
-                "Eigenvalues in the complex plane with speed as the parameter (paper Fig 14).",
-                partial(_locus, subject, rider),
-            ),
-        ]
-    for mode in ("weave", "capsize"):
-        specs.append(
-            FigureSpec(
-                f"mode-{mode}",
-                f"{mode.capitalize()} eigenvector at {v_mode:g} m/s, without rider",
-                "Components of the mode's eigenvector as phasors (paper Fig 15).",
-                partial(_mode, subject, mode, v_mode, ""),
-            )
-        )
-    for rider, label in (("", "without rider"), ("paper", f"with the {rider_name}")):
-        specs.append(
-            FigureSpec(
-                "bode-rider" if rider else "bode",
-                f"Steer torque to roll angle at {BODE_SPEED:g} m/s, {label}",
-                "Bode magnitude and phase (paper Figs 17 and 18).",
-                partial(_bode, subject, BODE_SPEED, rider),
-            )
-        )
-    if subject.trials:
-        specs.append(
-            FigureSpec(
-                "trial-overview",
-                "Trial quality",
-                "Each trial's period against its key's combined period, its r² and its cycles.",
-                partial(_overview, subject),
-            )
-        )
-        for k, t in enumerate(subject.trials):
-            specs.append(
-                FigureSpec(
-                    f"fit-{k + 1}",
-                    f"Trial {t.trial_id} ({t.key})",
-                    "Samples with the Eq 23 fit over its window, and the residuals.",
-                    partial(_fit, t),
-                    FIT_FIGURE_SIZE_IN,
-                    FIT_DPI,
-                )
-            )
+    stable_speed = round(_mode_speed(results), 1)
+    specs: list[FigureSpec] = []
+    for kind, entry in report_entries():
+        options = {k: stable_speed if v == STABLE_SPEED else v for k, v in entry.options.items()}
+        rider = "without rider" if not options.get("rider") else f"with the {rider_name}"
+        if kind.scope is Scope.TRIAL:
+            specs += [
+                _spec(kind, entry, t, options, n=k + 1, trial_id=t.trial_id, key=t.key)
+                for k, t in enumerate(subject.trials)
+            ]
+        elif kind.scope is Scope.SUBJECT:
+            if subject.trials:
+                specs.append(_spec(kind, entry, subject, options, rider=rider, speed=options.get("speed")))
+        else:
+            specs.append(_spec(kind, entry, [subject], options, rider=rider, speed=options.get("speed")))
     return specs
 
 
