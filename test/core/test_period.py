@@ -20,7 +20,7 @@ from bike_rig.core.period import (
     damped_period,
     fit_period,
 )
-from bike_rig.core.period.model import alpha_omega_d, fit_variance, zeta_omega
+from bike_rig.core.period.oscillation import alpha_omega_d, fit_variance, zeta_omega
 from bike_rig.core.period.window import first_at_or_after
 from test.core.test_period_signals import gyro_trial, quantise
 

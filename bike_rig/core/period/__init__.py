@@ -46,7 +46,7 @@ from __future__ import annotations
 
 from .combine import combine_periods
 from .fit import FitOptions, fit_period
-from .model import damped_oscillation, damped_period
+from .oscillation import damped_oscillation, damped_period
 from .result import CombinedPeriod, Flag, FlagCode, PeriodFit
 from .window import DEFAULT_WINDOW, WindowKind, WindowPolicy
 

@@ -73,7 +73,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import leastsq
 from scipy.special import stdtrit
 
-from .model import TWO_PI, damped_cosine, damped_cosine_even, zeta_omega
+from .oscillation import TWO_PI, damped_cosine, damped_cosine_even, zeta_omega
 from .quality import beating_flag, clipping_flag, drift_flag, held_flag, modulation_index, noise_and_quantum
 from .result import Flag, FlagCode, PeriodFit
 from .spectrum import MAX_SPECTRUM_POINTS, block_sums, block_times, peak_of_blocks

@@ -130,7 +130,7 @@ class PeriodFit:
 
     def predict(self, t: ArrayLike) -> NDArray[np.float64]:
         """Eq 23 with the fitted parameters at times ``t`` on the trial's time axis [s]."""
-        from .model import damped_oscillation
+        from .oscillation import damped_oscillation
 
         tt = np.asarray(t, dtype=float) - self.t_ref
         if not self.valid:
