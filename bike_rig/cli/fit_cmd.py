@@ -34,6 +34,7 @@ from ..core.errors import BikeRigError, InputFileError
 from ..core.period import CombinedPeriod, PeriodFit, WindowPolicy, combine_periods, fit_period
 from ..core.trials import Trial, read_trial
 from .format import format_value_sigma
+from .options import add_threshold_options, add_window_options, thresholds_from_args, window_from_args
 
 __all__ = ["FitUsageError", "add_parser", "run"]
 
@@ -55,30 +56,8 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     q.add_argument("--plot", metavar="DIR", help="write a PNG per trial (data, fit, residuals) into DIR")
     q.add_argument("--rate", type=float, metavar="HZ", help="sample rate of files without times or rate")
     q.add_argument("--strict", action="store_true", help="exit with status 1 if any trial has no period")
-    w = q.add_argument_group("window (default: the record minus a 1 s lead-in, in whole cycles)")
-    w.add_argument("--lead-in", type=float, metavar="S", help="seconds dropped at the start (default 1)")
-    w.add_argument("--start", type=float, metavar="S", help="fit from this time (s from the first sample)")
-    w.add_argument("--stop", type=float, metavar="S", help="fit up to this time (s from the first sample)")
-    w.add_argument(
-        "--envelope",
-        type=float,
-        metavar="FRACTION",
-        help="BicycleParameters' window: from the largest swing until it decays to FRACTION of it",
-    )
-    w.add_argument("--no-whole-cycles", action="store_true", help="do not cut the window to whole cycles")
-    f = q.add_argument_group("quality thresholds (a flagged trial should be redone)")
-    f.add_argument("--min-cycles", type=float, default=4.0, metavar="N", help="flag fewer cycles (default 4)")
-    f.add_argument("--min-r2", type=float, default=0.9, metavar="R2", help="flag a lower r² (default 0.9)")
-    f.add_argument(
-        "--max-modulation",
-        type=float,
-        default=0.02,
-        metavar="M",
-        help="flag beating above this relative envelope modulation (default 0.02)",
-    )
-    f.add_argument(
-        "--max-drift", type=float, default=0.5, metavar="D", help="flag a drift above D × the swing (default 0.5)"
-    )
+    add_window_options(q.add_argument_group("window (default: the record minus a 1 s lead-in, in whole cycles)"))
+    add_threshold_options(q.add_argument_group("quality thresholds (a flagged trial should be redone)"))
     q.set_defaults(func=run)
 
 
@@ -111,33 +90,14 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _window_policy(args: argparse.Namespace) -> WindowPolicy:
-    whole = not args.no_whole_cycles
-    span = args.start is not None or args.stop is not None
-    chosen = [name for name, given in (("--lead-in", args.lead_in is not None), ("--start/--stop", span),
-                                       ("--envelope", args.envelope is not None)) if given]  # fmt: skip
-    if len(chosen) > 1:
-        raise FitUsageError(f"choose one window: {' or '.join(chosen)}")
-    try:
-        if span:
-            return WindowPolicy.span(0.0 if args.start is None else args.start, args.stop, whole_cycles=whole)
-        if args.envelope is not None:
-            return WindowPolicy.envelope(args.envelope, whole_cycles=whole)
-        return WindowPolicy.lead_in(1.0 if args.lead_in is None else args.lead_in, whole_cycles=whole)
-    except ValueError as exc:
-        raise FitUsageError(f"window: {exc}") from None
+    """The window of the options; without one, the record minus a 1 s lead-in."""
+    window = window_from_args(args, FitUsageError)
+    return window or WindowPolicy.lead_in(1.0, whole_cycles=not args.no_whole_cycles)
 
 
 def _fit_options(args: argparse.Namespace) -> dict[str, float]:
-    options = {
-        "min_cycles": args.min_cycles,
-        "min_r2": args.min_r2,
-        "max_modulation": args.max_modulation,
-        "max_drift": args.max_drift,
-    }
-    for key, value in options.items():
-        if not math.isfinite(value) or value < 0:
-            raise FitUsageError(f"--{key.replace('_', '-')} must be a non-negative number, got {value}")
-    return options
+    """The quality thresholds of the options (each has a default, so none is None)."""
+    return {key: float(value) for key, value in thresholds_from_args(args, FitUsageError).items() if value is not None}
 
 
 def _plot_dir(path: str) -> Path:

@@ -37,9 +37,9 @@ from typing import Any
 from ..bag.replay import FitOverrides, ReplayResult, ReplaySettings, replay_bag, result_json
 from ..core.benchmark import ComMethod
 from ..core.errors import BikeRigError
-from ..core.period import WindowPolicy
 from ..core.uncertainty.matrix_sigma import SigmaConvention
 from . import format as fmt
+from .options import add_threshold_options, add_window_options, thresholds_from_args, window_from_args
 
 __all__ = ["ReplayUsageError", "add_parser", "replay_text", "run"]
 
@@ -61,15 +61,8 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     q.add_argument("--json", action="store_true", help="one JSON object on standard output")
     f = q.add_argument_group("fit settings (default: those recorded with each trial's period estimate)")
     f.add_argument("--default-fit", action="store_true", help="start from the fitter's defaults, not the recorded")
-    f.add_argument("--lead-in", type=float, metavar="S", help="window: the record minus its first S seconds")
-    f.add_argument("--start", type=float, metavar="S", help="window: from S seconds after the first sample")
-    f.add_argument("--stop", type=float, metavar="S", help="window: up to S seconds after the first sample")
-    f.add_argument("--envelope", type=float, metavar="F", help="window: from the largest swing until it decays to F")
-    f.add_argument("--no-whole-cycles", action="store_true", help="do not cut the window to whole cycles")
-    f.add_argument("--min-cycles", type=float, metavar="N", help="flag fewer cycles")
-    f.add_argument("--min-r2", type=float, metavar="R2", help="flag a lower r²")
-    f.add_argument("--max-modulation", type=float, metavar="M", help="flag beating above this modulation")
-    f.add_argument("--max-drift", type=float, metavar="D", help="flag a drift above D × the swing")
+    add_window_options(f, overrides=True)
+    add_threshold_options(f, overrides=True)
     s = q.add_argument_group("parameters and model (default: as the live graph ran)")
     s.add_argument("--com-method", choices=[m.value for m in ComMethod], help="mass-centre method")
     s.add_argument("--rider", choices=["none", "paper"], help="rider lumped into the rear frame")
@@ -82,38 +75,26 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     q.set_defaults(func=run)
 
 
-def _window(args: argparse.Namespace) -> WindowPolicy | None:
-    span = args.start is not None or args.stop is not None
-    chosen = [name for name, given in (("--lead-in", args.lead_in is not None), ("--start/--stop", span),
-                                       ("--envelope", args.envelope is not None)) if given]  # fmt: skip
-    if len(chosen) > 1:
-        raise ReplayUsageError(f"choose one window: {' or '.join(chosen)}")
-    whole = not args.no_whole_cycles
-    try:
-        if span:
-            return WindowPolicy.span(0.0 if args.start is None else args.start, args.stop, whole_cycles=whole)
-        if args.envelope is not None:
-            return WindowPolicy.envelope(args.envelope, whole_cycles=whole)
-        if args.lead_in is not None:
-            return WindowPolicy.lead_in(args.lead_in, whole_cycles=whole)
-    except ValueError as exc:
-        raise ReplayUsageError(f"window: {exc}") from None
-    return None
-
-
 def settings_from_args(args: argparse.Namespace) -> ReplaySettings:
-    """The replay settings the options ask for."""
-    for name in ("min_cycles", "min_r2", "max_modulation", "max_drift"):
-        value = getattr(args, name)
-        if value is not None and not (math.isfinite(value) and value >= 0):
-            raise ReplayUsageError(f"--{name.replace('_', '-')} must be a non-negative number, got {value}")
+    """The replay settings the options ask for.
+
+    Args:
+        args: The parsed options of ``bike-rig replay``.
+
+    Returns:
+        The settings; an option not given keeps what was recorded.
+
+    Raises:
+        ReplayUsageError: An invalid fit window or threshold.
+    """
+    thresholds = thresholds_from_args(args, ReplayUsageError)
     fit = FitOverrides(
-        window=_window(args),
+        window=window_from_args(args, ReplayUsageError),
         whole_cycles=False if args.no_whole_cycles else None,
-        min_cycles=args.min_cycles,
-        min_r2=args.min_r2,
-        max_modulation=args.max_modulation,
-        max_drift=args.max_drift,
+        min_cycles=thresholds["min_cycles"],
+        min_r2=thresholds["min_r2"],
+        max_modulation=thresholds["max_modulation"],
+        max_drift=thresholds["max_drift"],
         use_defaults=args.default_fit,
     )
     return ReplaySettings(
