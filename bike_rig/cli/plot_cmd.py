@@ -48,7 +48,7 @@ from ..core.errors import BikeRigError
 from ..core.frequency import INPUTS, OUTPUTS
 from ..core.whipple import MODE_LABELS
 from ..plots.model_data import MAX_SPEED
-from ..plots.output import check_out_dir, slug, trial_name, unique_names
+from ..plots.output import check_out_dir, trial_name, unique_names
 from ..plots.registry import FIGURES, KINDS, FigureKind, Scope, figure_stem
 
 if TYPE_CHECKING:
@@ -58,7 +58,6 @@ __all__ = [
     "DEFAULT_MODE",
     "DEFAULT_SPEED",
     "KINDS",
-    "MODEL_KINDS",
     "FigureJob",
     "PlotOptions",
     "PlotUsageError",
@@ -68,14 +67,11 @@ __all__ = [
     "options_from_args",
     "parse_formats",
     "run",
-    "slug",
     "unique_names",
 ]
 
-#: Kinds drawn from the Whipple model, once per rider asked for (:data:`KINDS`: every kind, in
-#: the order ``all`` draws them; both from :data:`bike_rig.plots.registry.FIGURES`).
-MODEL_KINDS: tuple[str, ...] = tuple(k.name for k in FIGURES.values() if k.per_rider)
-#: Kinds that need trials (a session bag, or a measurement file whose periods are trial files).
+#: Kinds that need trials (a session bag, or a measurement file whose periods are trial files);
+#: :data:`KINDS` is every kind, in the order ``all`` draws them (:data:`bike_rig.plots.registry.FIGURES`).
 TRIAL_KINDS: tuple[str, ...] = tuple(k.name for k in FIGURES.values() if k.needs_trials)
 #: Speed of the ``modes`` and ``bode`` figures unless ``--speed`` is given, m/s (the paper's
 #: Figs 15, 17 and 18: inside the capsize–caster complex-pair range of the rider-less bicycles).

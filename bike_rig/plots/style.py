@@ -1,13 +1,11 @@
 """Shared look and output of every figure: a new Agg figure, colours per bicycle and per mode,
-and writing a figure to PNG/SVG files or to an embeddable ``data:`` URI.
+and writing a figure to PNG/SVG files.
 
 matplotlib is imported here and in the figure modules only, never by the core.
 """
 
 from __future__ import annotations
 
-import base64
-import io
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -20,7 +18,6 @@ __all__ = [
     "FORMATS",
     "MODE_COLOURS",
     "bicycle_colour",
-    "data_uri",
     "new_figure",
     "save_figure",
 ]
@@ -62,10 +59,3 @@ def save_figure(fig: Figure, stem: Path, formats: Sequence[str] = FORMATS) -> li
         written.append(path)
     return written
 
-
-def data_uri(fig: Figure, fmt: str = "png") -> str:
-    """The figure as a ``data:image/...;base64,`` URI (for a self-contained HTML page)."""
-    buf = io.BytesIO()
-    fig.savefig(buf, format=fmt, dpi=PNG_DPI)
-    mime = "image/svg+xml" if fmt == "svg" else f"image/{fmt}"
-    return f"data:{mime};base64,{base64.b64encode(buf.getvalue()).decode('ascii')}"
