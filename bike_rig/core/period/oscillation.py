@@ -6,21 +6,31 @@ frequency ``omega_d = ω sqrt(1 − ζ²)`` [rad/s]: Eq 23 is then
 ``T = 2π / omega_d`` and its variance needs only the variance of ``omega_d``. The map
 ``(alpha, omega_d) ↔ (ζ, ω)`` is one-to-one for ``|ζ| < 1``, so this is the same fit and, to
 first order, the same propagated σ as the paper's.
+
+The mean over a block of k evenly spaced samples of ``exp(s t)`` is exactly
+``g_k(s) exp(s t̄)`` (:func:`block_gain`, :func:`block_phasors`), so block means of Eq 23 follow
+Eq 23 with the same parameters.
 """
 
 from __future__ import annotations
 
+import cmath
 import math
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 __all__ = [
+    "TWO_PI",
+    "alpha_omega_d",
+    "block_gain",
+    "block_phasors",
+    "damped_cosine",
+    "damped_cosine_even",
     "damped_oscillation",
     "damped_period",
     "fit_variance",
     "zeta_omega",
-    "alpha_omega_d",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -100,3 +110,51 @@ def damped_cosine_even(tau0: float, step: float, n: int, s: complex, K: complex,
     left = np.stack([coarse.real, -coarse.imag, np.full(rows, A)], axis=1)  # rows × 3
     right = np.stack([fine.real, fine.imag, np.ones(m)])  # 3 × m
     return (left @ right).ravel()[:n]
+
+
+def block_phasors(s: complex, tau: FloatArray, step: float, k: int, k_last: int, even: bool) -> ComplexArray:
+    """Means of ``exp(s t)`` over blocks of k samples (the last of k_last) centred at ``tau``.
+
+    They are ``g_k(s) exp(s τ)`` (:func:`block_gain`), exact for evenly spaced samples
+    (``even``; ``step`` the interval). Then the blocks of equal length are evenly spaced too,
+    and the phasors come from short tables and one outer product when there are many.
+
+    Args:
+        s: ``−ζω + iω sqrt(1 − ζ²)`` [1/s].
+        tau: Block centres [s].
+        step: Sample interval [s].
+        k: Samples per block.
+        k_last: Samples in the last block.
+        even: Whether the samples (and so the blocks) are evenly spaced.
+
+    Returns:
+        The block means of ``exp(s t)`` [-], one per block.
+    """
+    n = tau.size
+    gain = block_gain(s, k, step)
+    if even and n >= 64:
+        m = int(math.isqrt(n - 1)) + 1
+        spacing = k * step
+        fine = np.exp((s * spacing) * np.arange(m))
+        coarse = np.exp(s * (tau[0] + (spacing * m) * np.arange(-(-n // m))))
+        coarse *= gain
+        z = np.multiply.outer(coarse, fine).ravel()[:n]
+        z[-1] = cmath.exp(s * tau[-1]) * block_gain(s, k_last, step)  # the last block: its own centre and length
+        return z
+    z = np.exp(s * tau)
+    z *= gain
+    if k_last != k:
+        z[-1] *= block_gain(s, k_last, step) / gain
+    return z
+
+
+def block_gain(s: complex, k: int, step: float) -> complex:
+    """``g_k(s) = sinh(k s Δt/2) / (k sinh(s Δt/2))`` [-], ``Δt = step`` [s].
+
+    The mean of ``exp(s t)`` over a block of k samples ``Δt`` apart, relative to its value at
+    the block's centre (``s`` in 1/s).
+    """
+    x = s * step
+    if k <= 1 or abs(x) < 1e-12:
+        return 1.0 + 0j
+    return cmath.sinh(k * x / 2) / (k * cmath.sinh(x / 2))
