@@ -124,6 +124,12 @@ class PlotOptions:
 def options_from_args(args: argparse.Namespace) -> PlotOptions:
     """Check every option (before any input is loaded).
 
+    Args:
+        args: The parsed arguments of ``bike-rig plot``.
+
+    Returns:
+        The checked options, defaults filled in.
+
     Raises:
         PlotUsageError: An invalid option, named with the reason.
     """
@@ -142,6 +148,12 @@ def options_from_args(args: argparse.Namespace) -> PlotOptions:
 
 def parse_formats(spec: str) -> tuple[str, ...]:
     """``"png,svg"`` → ``("png", "svg")`` (each once, in order).
+
+    Args:
+        spec: Comma-separated formats, as given to ``--format``.
+
+    Returns:
+        The formats, lower case, each once.
 
     Raises:
         PlotUsageError: An unknown or empty format.
@@ -226,7 +238,19 @@ def figure_jobs(kinds: Sequence[str], subjects: list[Subject], opts: PlotOptions
 
 
 def run(args: argparse.Namespace) -> int:
-    """Draw the figures and print each written file; returns the exit status (errors raise)."""
+    """Draw the figures and print each written file.
+
+    Args:
+        args: The parsed arguments of ``bike-rig plot``.
+
+    Returns:
+        The exit status, 0 (errors raise).
+
+    Raises:
+        PlotUsageError: A user mistake, before anything is drawn.
+        InputFileError: An input cannot be read, or the output directory or a file cannot be
+            written.
+    """
     from ..plots.style import save_figure
     from ..subjects import load_subject
 
@@ -257,7 +281,11 @@ def run(args: argparse.Namespace) -> int:
 
 
 def add_parser(sub: Any) -> None:
-    """Register ``bike-rig plot``."""
+    """Register ``bike-rig plot``.
+
+    Args:
+        sub: ``bike-rig``'s sub-command parsers (``add_subparsers()``).
+    """
     q = sub.add_parser(
         "plot",
         help="figures: eigenvalues, root locus, mode shapes, Bode, side view, trial fits and overview",

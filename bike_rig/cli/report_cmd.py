@@ -16,7 +16,14 @@ __all__ = ["add_parser", "run"]
 
 
 def run(args: argparse.Namespace) -> int:
-    """Write the report; print where it went (stderr) and any figure that could not be drawn."""
+    """Write the report; print where it went (stderr) and any figure that could not be drawn.
+
+    Args:
+        args: The parsed arguments of ``bike-rig report``.
+
+    Returns:
+        The exit status, 0 (errors raise).
+    """
     from ..report import report_input
 
     written = report_input(args.input, args.output, args.com_method, workers=args.jobs)
@@ -43,7 +50,11 @@ def _jobs(text: str) -> int:
 
 
 def add_parser(sub: Any) -> None:
-    """Register ``bike-rig report``."""
+    """Register ``bike-rig report``.
+
+    Args:
+        sub: ``bike-rig``'s sub-command parsers (``add_subparsers()``).
+    """
     q = sub.add_parser(
         "report",
         help="a self-contained HTML report of one bicycle: parameters, matrices, speeds, budget, trials, figures",

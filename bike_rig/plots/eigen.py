@@ -37,7 +37,17 @@ _RIDER_TEXT = {"": "without rider", "paper": "with the paper's rider"}
 
 
 def panel_grid(n: int) -> tuple[int, int]:
-    """Rows and columns of a grid of ``n`` panels (up to 3 per row)."""
+    """Rows and columns of a grid of panels, up to 3 per row.
+
+    Args:
+        n: The number of panels (one per bicycle).
+
+    Returns:
+        (rows, columns).
+
+    Raises:
+        FigureInputError: ``n`` < 1.
+    """
     if n < 1:
         raise FigureInputError("a figure needs at least one bicycle")
     cols = min(n, 3)

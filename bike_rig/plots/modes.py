@@ -31,7 +31,15 @@ _RIDER_TEXT = {"": "without rider", "paper": "with the paper's rider"}
 
 
 def phasor_lengths(shape: ModeShape) -> np.ndarray:
-    """Drawn length of each phasor: ``|angle|`` for the angles, ``|rate| / |λ|`` for the rates."""
+    """Drawn length of each phasor: ``|angle|`` for the angles, ``|rate| / |λ|`` for the rates.
+
+    Args:
+        shape: The mode's eigenvector.
+
+    Returns:
+        Shape (4,): roll and steer angle (rad), then roll and steer rate over ``|λ|`` (rad), per
+        unit reference angle.
+    """
     scale = abs(shape.eigenvalue) or 1.0
     mag = shape.magnitude
     return np.concatenate([mag[:2], mag[2:] / scale])

@@ -133,11 +133,15 @@ class FigureKind:
     def drawer(self) -> Callable[..., Figure]:
         """Import and return the drawing function.
 
+        Returns:
+            The function (see :attr:`function`).
+
         Raises:
             ModuleNotFoundError: Its module is not installed (``name`` is the module's).
         """
         module, function = self.function.split(":")
-        return getattr(importlib.import_module(f"{__package__}.{module}"), function)  # type: ignore[no-any-return]
+        drawer: Callable[..., Figure] = getattr(importlib.import_module(f"{__package__}.{module}"), function)
+        return drawer
 
     def draw(self, target: Any, **options: Any) -> Figure:
         """Draw one figure.

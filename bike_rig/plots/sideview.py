@@ -1,6 +1,8 @@
-"""Side view of one or several bicycles in the benchmark geometry: wheels, ground, steer axis and
-the mass centres of the rear wheel, the frame B, the fork H, the front wheel and the whole
-bicycle, each with its uncertainty ellipse propagated from the parameter covariance.
+"""Side view of one or several bicycles in the benchmark geometry.
+
+Wheels, ground, steer axis and the mass centres of the rear wheel, the frame B, the fork H, the
+front wheel and the whole bicycle, each with its uncertainty ellipse propagated from the
+parameter covariance.
 
 The benchmark frame has x forward and z **down**, origin at the rear contact point; the figure
 draws height ``y = -z`` upward. Mass-centre uncertainties are millimetres on a metre-sized
@@ -93,6 +95,12 @@ def mass_centres(ps: ParameterSet) -> tuple[MassCentre, ...]:
 
     The covariance is ``J Σ Jᵀ`` with ``Σ`` the full parameter covariance, so correlations
     between (for example) xB and zB from the hanging-line intersection are kept.
+
+    Args:
+        ps: The bicycle's parameters with their covariance.
+
+    Returns:
+        One :class:`MassCentre` per :data:`MASS_CENTRE_LABELS` key, in that order (m, m²).
     """
     pv = ps.parameters
     names = tuple(pv.names)
@@ -111,6 +119,13 @@ def ellipse_axes(covariance: FloatArray, n_sigma: float = ELLIPSE_SIGMA) -> tupl
     """Semi-major axis, semi-minor axis (m) and angle of the major axis (degrees from +x).
 
     From the eigen-decomposition of the 2×2 ``covariance`` (m²): semi-axes ``n_sigma √λ``.
+
+    Args:
+        covariance: The (x, y) covariance, m².
+        n_sigma: The ellipse's size in standard deviations.
+
+    Returns:
+        (semi-major axis m, semi-minor axis m, angle of the major axis in degrees from +x).
     """
     vals, vecs = np.linalg.eigh(np.asarray(covariance, dtype=float))
     vals = np.clip(vals, 0.0, None)
@@ -120,7 +135,14 @@ def ellipse_axes(covariance: FloatArray, n_sigma: float = ELLIPSE_SIGMA) -> tupl
 
 
 def ellipse_magnification(largest_semi_axis_m: float) -> float:
-    """The factor (1, 2, 5 × 10ⁿ, at least 1) that draws the largest semi-axis at about 6 cm."""
+    """The factor (1, 2, 5 × 10ⁿ, at least 1) that draws the largest semi-axis at about 6 cm.
+
+    Args:
+        largest_semi_axis_m: The largest semi-axis of the figure's ellipses, m.
+
+    Returns:
+        The magnification (1 for a zero or non-finite axis).
+    """
     if not largest_semi_axis_m > 0 or not math.isfinite(largest_semi_axis_m):
         return 1.0
     want = _TARGET_SEMI_AXIS_M / largest_semi_axis_m

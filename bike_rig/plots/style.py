@@ -1,5 +1,6 @@
-"""Shared look and output of every figure: a new Agg figure, colours per bicycle and per mode,
-and writing a figure to PNG/SVG files.
+"""Shared look and output of every figure.
+
+A new Agg figure, colours per bicycle and per mode, and writing a figure to PNG/SVG files.
 
 matplotlib is imported here and in the figure modules only, never by the core.
 """
@@ -32,19 +33,42 @@ _CYCLE = ("C0", "C1", "C2", "C3", "C4", "C5", "C6", "C7", "C8", "C9")
 
 
 def new_figure(width_in: float = 8.0, height_in: float = 5.0) -> Figure:
-    """A figure with an Agg canvas and constrained layout, size in inches."""
+    """A figure with an Agg canvas and constrained layout.
+
+    Args:
+        width_in: Width, inches.
+        height_in: Height, inches.
+
+    Returns:
+        The empty figure.
+    """
     fig = Figure(figsize=(width_in, height_in), layout="constrained")
     FigureCanvasAgg(fig)
     return fig
 
 
 def bicycle_colour(index: int) -> str:
-    """The colour of the ``index``-th bicycle of a figure (matplotlib's default cycle)."""
+    """The colour of a bicycle of a figure (matplotlib's default cycle).
+
+    Args:
+        index: The bicycle's 0-based place in the figure.
+
+    Returns:
+        A matplotlib colour (``C0``...``C9``, repeating).
+    """
     return _CYCLE[index % len(_CYCLE)]
 
 
 def save_figure(fig: Figure, stem: Path, formats: Sequence[str] = FORMATS) -> list[Path]:
-    """Write ``fig`` as ``stem.<format>`` for each format.
+    """Write ``fig`` as ``stem.<format>`` for each format (PNG at :data:`PNG_DPI`).
+
+    Args:
+        fig: The figure.
+        stem: The path without its extension.
+        formats: Formats of :data:`FORMATS`, in order.
+
+    Returns:
+        The files written, in the order of ``formats``.
 
     Raises:
         InputFileError: A file cannot be written (names the file and the reason).

@@ -77,6 +77,9 @@ def build_report(
         dpi: Resolution of the embedded figures, dots per inch.
         workers: Processes to draw the figures in (default: one per CPU, at most
             :data:`~.figures.MAX_WORKERS`; see :func:`~.figures.draw_figures`).
+
+    Returns:
+        The report, its page in memory.
     """
     t0 = time.perf_counter()
     when = generated or dt.datetime.now(dt.UTC).strftime("%Y-%m-%d %H:%M:%S UTC")
@@ -105,6 +108,15 @@ def write_report(
 
     The directory is created if needed; an existing report in it is replaced.
 
+    Args:
+        subject: The bicycle.
+        out_dir: The output directory.
+        generated: The creation time printed on the page (default: now).
+        workers: Processes to draw the figures in (default: one per CPU, at most 4).
+
+    Returns:
+        Where it went, with the report.
+
     Raises:
         ReportOutputError: The directory cannot be created or the file cannot be written.
     """
@@ -121,6 +133,18 @@ def report_input(
     workers: int | None = None,
 ) -> WrittenReport:
     """Open an input (measurement file, parameter file or session bag) and write its report.
+
+    The output directory is checked before the input is opened, and nothing is written for an
+    input that cannot be read.
+
+    Args:
+        path: The input.
+        out_dir: The output directory.
+        com_method: Mass-centre method for raw readings (default: centroid; a bag: as recorded).
+        workers: Processes to draw the figures in (default: one per CPU, at most 4).
+
+    Returns:
+        Where it went, with the report; its time counts from opening the input.
 
     Raises:
         BikeRigError: The input cannot be read (names the file and the reason), or

@@ -100,7 +100,15 @@ class ReportFigure:
 
 
 def png_data_uri(fig: Figure, dpi: float = REPORT_DPI) -> str:
-    """``fig`` as a PNG ``data:`` URI at ``dpi``."""
+    """A figure as a PNG ``data:`` URI, for a self-contained page.
+
+    Args:
+        fig: The figure.
+        dpi: Resolution, dots per inch.
+
+    Returns:
+        ``data:image/png;base64,...``.
+    """
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=dpi)
     return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode("ascii")
@@ -197,7 +205,11 @@ def _worker_draw(index: int, dpi: float) -> ReportFigure:
 
 
 def default_workers() -> int:
-    """Processes to draw with: the CPUs this process may use, at most :data:`MAX_WORKERS`."""
+    """Processes to draw with: the CPUs this process may use, at most :data:`MAX_WORKERS`.
+
+    Returns:
+        The number of processes, at least 1.
+    """
     try:
         cpus = len(os.sched_getaffinity(0))
     except AttributeError:  # not on Linux
@@ -217,6 +229,13 @@ def draw_figures(
             and at least :data:`MIN_PARALLEL` figures, the figures are drawn in forked worker
             processes (each inherits the specs, so nothing large is pickled; each returns its
             PNG); otherwise, or where ``fork`` is not available, in this process.
+
+    Returns:
+        One :class:`ReportFigure` per spec, in order.
+
+    Raises:
+        Exception: Whatever a figure raised that is a bug (not a missing figure module or a
+            :class:`BikeRigError`), re-raised here.
     """
     n = default_workers() if workers is None else max(1, workers)
     if n == 1 or len(specs) < MIN_PARALLEL or "fork" not in mp.get_all_start_methods():
