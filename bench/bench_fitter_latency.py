@@ -35,8 +35,8 @@ from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.signals import SignalHandlerOptions
 
-from bike_rig.nodes.qos import profile
 from bike_rig.rosenv import remove_stale_fastdds_segments, ros_environment, unique_domain_id
+from bike_rig.rosqos import profile
 from bike_rig.topics import GYRO, PERIODS, TRIAL_EVENTS
 
 msgs: Any = importlib.import_module("bike_rig_msgs.msg")

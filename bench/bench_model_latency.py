@@ -28,10 +28,12 @@ import numpy as np
 from timing import median_ms  # bench/timing.py
 
 from bike_rig import topics
-from bike_rig.core.assembly import SessionAssembly, TrialPeriod, compute_model
 from bike_rig.core.loader import load_measurements, load_static_readings
 from bike_rig.messages import fill_benchmark_parameters, fill_period_estimate, set_stamp
 from bike_rig.paths import config_file
+from bike_rig.pipeline.assemble import SessionAssembly
+from bike_rig.pipeline.fit import TrialFit
+from bike_rig.pipeline.model import compute_model
 from bike_rig.rosenv import remove_stale_fastdds_segments, ros_environment, unique_domain_id
 
 REPO = Path(__file__).resolve().parents[1]
@@ -43,9 +45,9 @@ PAUSE_S = 0.1
 KEYS = ("TtP1", "TcR1", "TtR1", "TcF1", "TtF1", "TcB1", "TtB1", "TtB2", "TtB3", "TcH1", "TtH1", "TtH2", "TtH3")
 
 
-def trials(scale: float = 1.0) -> list[TrialPeriod]:
+def trials(scale: float = 1.0) -> list[TrialFit]:
     full = load_measurements(BROWSER)
-    return [TrialPeriod(f"{k}_t1", k, full.value(k) * scale, full.readings[k].sigma, True) for k in KEYS]
+    return [TrialFit.from_period(f"{k}_t1", k, full.value(k) * scale, full.readings[k].sigma, True) for k in KEYS]
 
 
 def percentiles(values_ms: Sequence[float]) -> str:
@@ -99,7 +101,7 @@ class Graph:
 
 def model_latency(graph: Graph) -> tuple[float, list[float]]:
     """Parameter set published → matrices and sweep received, per set (ms)."""
-    from bike_rig.nodes.qos import profile
+    from bike_rig.rosqos import profile
     from bike_rig_msgs.msg import BenchmarkParameters, CanonicalMatrices, EigenSweep
 
     received: dict[int, list[int]] = {}
@@ -143,7 +145,7 @@ def chain_latency(graph: Graph) -> tuple[list[float], list[float]]:
     Trials are spaced by PAUSE_S (live trials come tens of seconds apart; the parameter node
     evaluates an estimate after a quiet spell at once, a burst together).
     """
-    from bike_rig.nodes.qos import profile
+    from bike_rig.rosqos import profile
     from bike_rig_msgs.msg import BenchmarkParameters, EigenSweep, PeriodEstimate
 
     params: list[tuple[int, int]] = []  # (stamp, received) of complete sets
@@ -178,7 +180,7 @@ def chain_latency(graph: Graph) -> tuple[list[float], list[float]]:
         pause_until = time.monotonic() + PAUSE_S
         graph.spin_until(lambda pause_until=pause_until: time.monotonic() > pause_until, "pause")
         n = len(params)
-        better = TrialPeriod(f"TcR1_x{i:03d}", "TcR1", full.value("TcR1") * (1 + 1e-6 * (i + 1)), 1e-6, True)
+        better = TrialFit.from_period(f"TcR1_x{i:03d}", "TcR1", full.value("TcR1") * (1 + 1e-6 * (i + 1)), 1e-6, True)
         t0 = time.time_ns()
         pub.publish(fill_period_estimate(PeriodEstimate(), better))
         graph.spin_until(lambda n=n: len(params) > n and params[n][0] in models, "new set and its model")

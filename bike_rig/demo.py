@@ -20,12 +20,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from .core.assembly import SessionParameters, StabilitySweep
 from .core.errors import BikeRigError
 from .core.sim import load_rig, simulate_session, write_session
 from .core.sim.session import load_true_parameters
 from .launch import RunningGraph, load_graph
 from .paths import config_file
+from .pipeline.assemble import SessionParameters
+from .pipeline.model import StabilitySweep
 from .rosenv import ros_environment
 
 __all__ = ["DemoError", "DemoResult", "run_demo"]
@@ -69,7 +70,7 @@ class _Monitor:
         from bike_rig_msgs.msg import BenchmarkParameters, EigenSweep, PeriodEstimate, TrialEvent
 
         from . import messages, topics
-        from .nodes.qos import profile
+        from .rosqos import profile
 
         self.rclpy = rclpy
         self.messages = messages
@@ -98,7 +99,7 @@ class _Monitor:
         earlier = self.periods.get(msg.trial_id)
         if earlier is not None:
             # a re-publication (restarted fitter): keep the estimate from the most samples, as
-            # the parameter node does (bike_rig.core.assembly)
+            # the parameter node does (bike_rig.pipeline.assemble)
             if msg.n_samples > earlier.n_samples:
                 self.periods[msg.trial_id] = msg
             return

@@ -16,10 +16,10 @@ Nothing here imports rclpy or matplotlib.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -29,12 +29,16 @@ from .core.errors import BikeRigError, InputFileError
 from .core.loader import load_input
 from .core.measurements import Measurements
 from .core.period import PeriodFit
+from .core.trials import Trial
+from .pipeline.fit import TrialFit
+from .pipeline.offline import SessionTrial
 
 __all__ = [
     "SubjectError",
     "Subject",
     "TimelineEntry",
-    "TrialRecord",
+    "SessionTrial",
+    "file_trial",
     "is_bag_path",
     "load_subject",
 ]
@@ -49,37 +53,6 @@ class SubjectError(BikeRigError):
         self.path = path
         self.reason = reason
         super().__init__(f"{path}: {reason}")
-
-
-@dataclass(frozen=True)
-class TrialRecord:
-    """One pendulum trial: its samples, its fit and what became of it.
-
-    Attributes:
-        trial_id: The trial's id (bags) or its file's name (measurement files).
-        key: The period it measures (``TtB1``, ``TcR1``...).
-        fit: The core's fit of Eq 23 (period, σ, ζ, r², window, flags with reasons).
-        used: It entered its key's combined period.
-        note: Why it was left out, beyond its flags ("" when nothing to say).
-        samples: The gyro samples (rad/s for the rig; a file's own unit otherwise), or None.
-        sample_rate_hz: Their rate, Hz (None when ``times`` are given).
-        times: Time of each sample, s from the trial's first sample, or None (constant rate).
-        start_s: When the trial started, s since the session's first message (bags), else None.
-        stop_s: When it stopped, s since the session's first message (bags), else None.
-        source: The trial file, or the bag.
-    """
-
-    trial_id: str
-    key: str
-    fit: PeriodFit
-    used: bool
-    note: str
-    samples: FloatArray | None
-    sample_rate_hz: float | None
-    times: FloatArray | None
-    start_s: float | None
-    stop_s: float | None
-    source: str
 
 
 @dataclass(frozen=True)
@@ -117,7 +90,7 @@ class Subject:
     kind: str
     parameters: ParameterSet
     measurements: Measurements | None
-    trials: tuple[TrialRecord, ...] = ()
+    trials: tuple[SessionTrial, ...] = ()
     timeline: tuple[TimelineEntry, ...] = ()
     notes: tuple[str, ...] = ()
     duration_s: float | None = None
@@ -129,42 +102,39 @@ def is_bag_path(path: str | Path) -> bool:
     return p.is_dir() or p.name == "metadata.yaml" or p.suffix.lower() == ".mcap"
 
 
-def _file_trials(m: Measurements) -> tuple[TrialRecord, ...]:
-    out: list[TrialRecord] = []
+def file_trial(trial: Trial | None, fit: PeriodFit, key: str, name: str, source: str) -> SessionTrial:
+    """A trial read from a file (``trial``: its samples, None when not kept) and its fit."""
+    result = TrialFit(
+        trial_id=name,
+        measurement_key=key,
+        fit=fit,
+        n_samples=int(fit.n_samples),
+        window=fit.window,
+        sample_rate_hz=math.nan if trial is None or trial.sample_rate_hz is None else trial.sample_rate_hz,
+        samples=None if trial is None else np.asarray(trial.samples, dtype=float),
+        sample_times=None if trial is None or trial.times is None else np.asarray(trial.times, dtype=float),
+    )
+    return SessionTrial(result, used=bool(fit.clean), source=source)
+
+
+def _file_trials(m: Measurements) -> tuple[SessionTrial, ...]:
+    out: list[SessionTrial] = []
     for key, ev in m.evidence.items():
         trials = list(getattr(ev, "trials", ())) or [None] * len(ev.fits)
         for path, fit, trial in zip(ev.files, ev.fits, trials):
-            out.append(
-                TrialRecord(
-                    trial_id=Path(path).name,
-                    key=str(key),
-                    fit=fit,
-                    used=bool(fit.clean),
-                    note="",
-                    samples=None if trial is None else np.asarray(trial.samples, dtype=float),
-                    sample_rate_hz=None if trial is None else trial.sample_rate_hz,
-                    times=None if trial is None or trial.times is None else np.asarray(trial.times, dtype=float),
-                    start_s=None,
-                    stop_s=None,
-                    source=str(path),
-                )
-            )
+            out.append(file_trial(trial, fit, str(key), Path(path).name, str(path)))
     return tuple(out)
 
 
-def _stamp_s(msg: Any, t0_ns: int) -> float | None:
-    if msg is None:
-        return None
-    stamp = msg.header.stamp
-    ns = int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
-    return (ns - t0_ns) / 1e9 if ns > 0 else None
+def _stamp_s(ns: int | None, t0_ns: int) -> float | None:
+    return (ns - t0_ns) / 1e9 if ns is not None and ns > 0 else None
 
 
 def _bag_subject(path: str, com_method: ComMethod | None) -> Subject:
     from .bag.replay import ReplaySettings, replay_session
     from .bag.session import read_session
-    from .core.assembly import merged_readings
-    from .messages import static_readings_from_msg
+    from .messages import stamp_ns, static_readings_from_msg
+    from .pipeline.assemble import merged_readings
 
     session = read_session(path)
     result = replay_session(session, ReplaySettings(com_method=com_method))
@@ -172,34 +142,31 @@ def _bag_subject(path: str, com_method: ComMethod | None) -> Subject:
         missing = ", ".join(result.session.missing) or "unknown"
         raise SubjectError(path, f"the session is incomplete: no usable trial for {missing}")
     t0 = int(session.start_time)
-    records: list[TrialRecord] = []
+    records: list[SessionTrial] = []
     timeline: list[TimelineEntry] = []
     for r in result.trials:
         rec = session.trials.get(r.trial_id)
-        rate = r.fit.sample_rate_hz if math.isfinite(r.fit.sample_rate_hz) and r.fit.sample_rate_hz > 0 else None
-        start = _stamp_s(rec.start, t0) if rec is not None else None
-        stop = _stamp_s(rec.stop, t0) if rec is not None else None
-        key = r.fit.measurement_key or (rec.measurement_key if rec is not None else "")
-        records.append(
-            TrialRecord(
-                r.trial_id, key, r.fit.fit, r.used, r.note, r.fit.samples, rate, r.fit.sample_times, start, stop, path
-            )
-        )
+        start = _stamp_s(rec.start.stamp_ns if rec is not None and rec.start else None, t0)
+        stop = _stamp_s(rec.stop.stamp_ns if rec is not None and rec.stop else None, t0)
+        key = r.key or (rec.measurement_key if rec is not None else "")
+        fitted = r.result if key == r.key else dataclasses.replace(r.result, measurement_key=key)
+        records.append(dataclasses.replace(r, result=fitted, start_s=start, stop_s=stop, source=path))
         if start is not None:
             timeline.append(TimelineEntry(start, f"trial {r.trial_id} ({key}) started"))
         if stop is not None:
             state = "aborted" if rec is not None and rec.state == "aborted" else "stopped"
             timeline.append(TimelineEntry(stop, f"trial {r.trial_id} ({key}) {state}"))
     if session.static_readings is not None:
-        t = _stamp_s(session.static_readings, t0)
+        t = _stamp_s(stamp_ns(session.static_readings.header), t0)
         if t is not None:
             timeline.append(TimelineEntry(max(t, 0.0), "static readings published"))
     for msg in session.parameters:
-        t = _stamp_s(msg, t0)
+        t = _stamp_s(stamp_ns(msg.header), t0)
         if t is not None:
             timeline.append(TimelineEntry(t, "parameter set published"))
     timeline.sort(key=lambda e: e.time_s)
     periods = {k.key: (k.value, k.sigma) for k in result.session.periods}
+    assert session.static_readings is not None  # the replay needs it
     static = static_readings_from_msg(session.static_readings)
     measurements = merged_readings(static, periods, f"{path} (replayed trials)")
     return Subject(

@@ -15,20 +15,14 @@ import numpy as np
 import pytest
 
 from bike_rig import messages as conv
-from bike_rig.core.assembly import (
-    ModelMatrices,
-    SessionParameters,
-    StabilitySweep,
-    StateSpaceAt,
-    TrialPeriod,
-    assemble,
-    compute_model,
-    state_space_at,
-)
 from bike_rig.core.benchmark import compute_parameters
 from bike_rig.core.loader import load_measurements, load_static_readings
 from bike_rig.core.measurements import Measurements
 from bike_rig.paths import config_file
+from bike_rig.pipeline.assemble import SessionParameters, assemble
+from bike_rig.pipeline.errors import AssemblyError
+from bike_rig.pipeline.fit import TrialFit
+from bike_rig.pipeline.model import ModelMatrices, StabilitySweep, StateSpaceAt, compute_model, state_space_at
 
 REPO = Path(__file__).resolve().parents[1]
 MSG_DIR = REPO / "bike_rig_msgs" / "msg"
@@ -118,23 +112,23 @@ def static() -> Measurements:
 
 
 @pytest.fixture(scope="module")
-def trials() -> list[TrialPeriod]:
+def trials() -> list[TrialFit]:
     full = load_measurements(BROWSER)
     out = []
     for k in ("TtP1", "TcR1", "TtR1", "TcF1", "TtF1", "TcB1", "TtB1", "TtB2", "TtB3", "TcH1", "TtH1", "TtH2", "TtH3"):
         v, s = full.value(k), full.readings[k].sigma
-        out += [TrialPeriod(f"{k}_t{i}", k, v * (1 + 1e-6 * i), s, True) for i in (1, 2)]
+        out += [TrialFit.from_period(f"{k}_t{i}", k, v * (1 + 1e-6 * i), s, True) for i in (1, 2)]
     return out
 
 
 @pytest.fixture(scope="module")
-def complete(static: Measurements, trials: list[TrialPeriod]) -> SessionParameters:
-    flagged = TrialPeriod("TtB1_t3", "TtB1", 2.2, 1e-5, True, ("beating",), ("modulation",))
+def complete(static: Measurements, trials: list[TrialFit]) -> SessionParameters:
+    flagged = TrialFit.from_period("TtB1_t3", "TtB1", 2.2, 1e-5, True, ("beating",), ("modulation",))
     return assemble(static, [*trials, flagged])
 
 
 @pytest.fixture(scope="module")
-def incomplete(static: Measurements, trials: list[TrialPeriod]) -> SessionParameters:
+def incomplete(static: Measurements, trials: list[TrialFit]) -> SessionParameters:
     return assemble(static, [t for t in trials if t.measurement_key not in ("TtB3", "TcH1")], "lstsq")
 
 
@@ -144,10 +138,10 @@ def model(complete: SessionParameters) -> tuple[ModelMatrices, StabilitySweep]:
     return compute_model(complete.parameters, np.linspace(0.0, 10.0, 21), "paper", "paper")
 
 
-def full_trial() -> TrialPeriod:
-    return TrialPeriod(
-        trial_id="frame_torsional_o2_t3", measurement_key="TtB2", period=2.3767175, period_sigma=2.4e-5,
-        valid=True, flags=("beating", "drift"), flag_reasons=("5 % modulation", "offset drift"), zeta=0.0012,
+def full_trial() -> TrialFit:
+    return TrialFit.from_period(
+        "frame_torsional_o2_t3", "TtB2", 2.3767175, 2.4e-5,
+        True, flags=("beating", "drift"), flag_reasons=("5 % modulation", "offset drift"), zeta=0.0012,
         omega=2.6436, r2=0.9993, residual_rms=0.0031, n_samples=29_876, n_expected=30_000, window=(1000, 28_000),
         fit_options_json='{"min_cycles": 4.0}', stamp_ns=1_700_000_123_456_789_012,
     )  # fmt: skip
@@ -207,16 +201,19 @@ def make_response(request: pytest.FixtureRequest) -> Callable[[str], Any]:
 def test_period_estimate_round_trip(make_msg: Callable[[str], Any]) -> None:
     trial = full_trial()
     msg = conv.fill_period_estimate(make_msg("PeriodEstimate"), trial)
-    assert conv.trial_period_from_msg(msg) == trial
+    assert conv.trial_fit_from_msg(msg) == trial
 
 
 def test_invalid_period_estimate_keeps_its_nans(make_msg: Callable[[str], Any]) -> None:
-    trial = TrialPeriod("t9", "TcR1", math.nan, math.nan, False, ("no_oscillation",), ("flat signal",))
-    back = conv.trial_period_from_msg(conv.fill_period_estimate(make_msg("PeriodEstimate"), trial))
-    assert math.isnan(back.period) and math.isnan(back.period_sigma) and math.isnan(back.zeta)
-    assert dataclasses.replace(back, period=0.0, period_sigma=0.0, zeta=0.0, omega=0.0, r2=0.0, residual_rms=0.0) == (
-        dataclasses.replace(trial, period=0.0, period_sigma=0.0, zeta=0.0, omega=0.0, r2=0.0, residual_rms=0.0)
-    )
+    trial = TrialFit.from_period("t9", "TcR1", math.nan, math.nan, False, ("no_oscillation",), ("flat signal",))
+    back = conv.trial_fit_from_msg(conv.fill_period_estimate(make_msg("PeriodEstimate"), trial))
+    assert math.isnan(back.period) and math.isnan(back.period_sigma) and math.isnan(back.fit.zeta)
+
+    def zeroed(t: TrialFit) -> TrialFit:
+        fit = dataclasses.replace(t.fit, period=0.0, period_sigma=0.0, zeta=0.0, omega=0.0, r2=0.0, residual_rms=0.0)
+        return dataclasses.replace(t, fit=fit)
+
+    assert zeroed(back) == zeroed(trial)
 
 
 def test_static_readings_round_trip(make_msg: Callable[[str], Any], static: Measurements) -> None:
@@ -231,11 +228,11 @@ def test_static_readings_round_trip(make_msg: Callable[[str], Any], static: Meas
 
 
 def test_static_readings_from_a_message_assemble_identically(
-    make_msg: Callable[[str], Any], static: Measurements, trials: list[TrialPeriod], complete: SessionParameters
+    make_msg: Callable[[str], Any], static: Measurements, trials: list[TrialFit], complete: SessionParameters
 ) -> None:
     """Replay's path: the recorded static readings + trials give the live node's floats."""
     back = conv.static_readings_from_msg(conv.fill_static_readings(make_msg("StaticReadings"), static))
-    flagged = TrialPeriod("TtB1_t3", "TtB1", 2.2, 1e-5, True, ("beating",), ("modulation",))
+    flagged = TrialFit.from_period("TtB1_t3", "TtB1", 2.2, 1e-5, True, ("beating",), ("modulation",))
     assert_sessions_equal(assemble(back, [*trials, flagged]), complete)
 
 
@@ -254,15 +251,16 @@ def test_benchmark_parameters_round_trip(
     assert_sessions_equal(conv.session_parameters_from_msg(msg), session)
 
 
-def test_parameter_set_from_msg_reorders_names(make_msg: Callable[[str], Any]) -> None:
+def test_benchmark_parameters_from_msg_reorders_names(make_msg: Callable[[str], Any]) -> None:
     ps = compute_parameters(load_measurements(BROWSER))
     msg = make_msg("BenchmarkParameters")
     order = list(reversed(range(26)))
+    msg.com_method = "centroid"
     msg.complete = True
     msg.names = [ps.parameters.names[i] for i in order]
     msg.values = [float(ps.parameters.values[i]) for i in order]
     msg.covariance = [float(x) for x in ps.parameters.covariance[np.ix_(order, order)].ravel()]
-    back = conv.parameter_set_from_msg(msg)
+    back = conv.session_parameters_from_msg(msg).complete_parameters()
     assert back.parameters.names == ps.parameters.names
     assert np.array_equal(back.parameters.values, ps.parameters.values)
     assert np.array_equal(back.parameters.covariance, ps.parameters.covariance)
@@ -270,15 +268,16 @@ def test_parameter_set_from_msg_reorders_names(make_msg: Callable[[str], Any]) -
 
 def test_bad_benchmark_parameters_are_message_errors(make_msg: Callable[[str], Any]) -> None:
     msg = make_msg("BenchmarkParameters")
+    msg.com_method = "centroid"
     msg.missing = ["TtB3"]
-    with pytest.raises(conv.MessageError, match="incomplete.*TtB3"):
-        conv.parameter_set_from_msg(msg)
+    with pytest.raises(AssemblyError, match="incomplete.*TtB3"):
+        conv.session_parameters_from_msg(msg).complete_parameters()
     msg.complete = True
     msg.names = ["IBxx"]
     msg.values = [1.0]
     msg.covariance = [1.0]
     with pytest.raises(conv.MessageError, match="not the 26 benchmark parameters"):
-        conv.parameter_set_from_msg(msg)
+        conv.session_parameters_from_msg(msg)
     msg.period_keys = ["TtB1"]
     msg.period_values = [2.0]
     msg.period_sigmas = [1e-4]
@@ -349,7 +348,7 @@ def test_rosbags_reads_what_rclpy_wrote(
 
     cases: list[tuple[str, Any, Callable[[Any], None]]] = [
         ("PeriodEstimate", conv.fill_period_estimate(rclpy_msg("PeriodEstimate"), full_trial()),
-         lambda m: assert_equal_trial(conv.trial_period_from_msg(m))),
+         lambda m: assert_equal_trial(conv.trial_fit_from_msg(m))),
         ("BenchmarkParameters", conv.fill_benchmark_parameters(rclpy_msg("BenchmarkParameters"), complete),
          lambda m: assert_sessions_equal(conv.session_parameters_from_msg(m), complete)),
         ("CanonicalMatrices", conv.fill_canonical_matrices(rclpy_msg("CanonicalMatrices"), model[0]),
@@ -395,7 +394,7 @@ def test_rosbags_messages_can_be_filled(typestore: Any, complete: SessionParamet
     import bike_rig_msgs.msg as msgs
 
     for name, fill, read, record, check in (
-        ("PeriodEstimate", conv.fill_period_estimate, conv.trial_period_from_msg, full_trial(), None),
+        ("PeriodEstimate", conv.fill_period_estimate, conv.trial_fit_from_msg, full_trial(), None),
         ("BenchmarkParameters", conv.fill_benchmark_parameters, conv.session_parameters_from_msg, complete,
          assert_sessions_equal),
     ):  # fmt: skip
@@ -408,7 +407,7 @@ def test_rosbags_messages_can_be_filled(typestore: Any, complete: SessionParamet
             check(back, record)
 
 
-def assert_equal_trial(got: TrialPeriod) -> None:
+def assert_equal_trial(got: TrialFit) -> None:
     assert got == full_trial()
 
 

@@ -13,7 +13,7 @@ from bike_rig.bag.simulated import simulated_messages
 from bike_rig.bag.typestore import rig_typestore
 from bike_rig.bag.writer import BagWriter, contract_qos
 from bike_rig.core.sim import SimulatedSession
-from bike_rig.subjects import TrialRecord, load_subject
+from bike_rig.subjects import SessionTrial, load_subject
 from test.bag.conftest import short_session
 
 GAPPED = "rear_wheel_compound_t1"  # loses a batch
@@ -38,19 +38,19 @@ def _write(path: Path, session: SimulatedSession) -> Path:
 
 
 @pytest.fixture(scope="module")
-def damaged(tmp_path_factory: pytest.TempPathFactory) -> dict[str, TrialRecord]:
+def damaged(tmp_path_factory: pytest.TempPathFactory) -> dict[str, SessionTrial]:
     bag = _write(tmp_path_factory.mktemp("bags") / "damaged", short_session())
     return {t.trial_id: t for t in load_subject(bag).trials}
 
 
-def _window_residual_rms(t: TrialRecord) -> float:
+def _window_residual_rms(t: SessionTrial) -> float:
     assert t.samples is not None
     axis = t.times if t.times is not None else np.arange(t.samples.size) / float(t.sample_rate_hz or 1.0)
     a, b = t.fit.window
     return float(np.sqrt(np.mean((t.samples[a:b] - t.fit.predict(axis[a:b])) ** 2)))
 
 
-def test_the_fit_is_drawn_on_the_samples_and_axis_it_was_fitted_on(damaged: dict[str, TrialRecord]) -> None:
+def test_the_fit_is_drawn_on_the_samples_and_axis_it_was_fitted_on(damaged: dict[str, SessionTrial]) -> None:
     gapped, overlapped = damaged[GAPPED], damaged[OVERLAPPED]
     assert gapped.times is not None and gapped.samples is not None
     assert gapped.samples.size == 12000 - 50 and np.all(np.diff(gapped.times) > 0)

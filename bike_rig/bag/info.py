@@ -10,7 +10,6 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
-from ..messages import stamp_ns
 from .reader import TopicInfo
 from .session import RecordedSession, RecordedTrial, read_session
 
@@ -164,7 +163,7 @@ def _trial(t: RecordedTrial) -> TrialSummary:
     if est is not None:
         p, s = float(est.period), float(est.period_sigma)
         usable = bool(valid and not flags and math.isfinite(p) and p > 0 and math.isfinite(s) and s > 0)
-    start_ns = 0 if t.start is None else stamp_ns(t.start.header)
+    start_ns = 0 if t.start is None else t.start.stamp_ns
     return TrialSummary(
         trial_id=t.trial_id,
         measurement_key=t.measurement_key,

@@ -14,13 +14,12 @@ from pathlib import Path
 from typing import Any
 
 from .. import topics
+from ..messages import MessageError, sample_batch_from_msg, trial_event_from_msg
+from ..pipeline.acquire import SampleBatch, TrialEventKind, TrialEventRecord
 from .errors import NoRigTopicsError
 from .reader import BagReader, TopicInfo
 
-__all__ = ["ABORT", "START", "STOP", "RecordedSession", "RecordedTrial", "read_session"]
-
-#: TrialEvent kinds (bike_rig_msgs/msg/TrialEvent).
-START, STOP, ABORT = 0, 1, 2
+__all__ = ["RecordedSession", "RecordedTrial", "read_session"]
 
 
 @dataclass
@@ -31,18 +30,18 @@ class RecordedTrial:
         trial_id: The trial's id.
         start: Its START event, or None.
         stop: Its first STOP or ABORT event, or None.
-        batches: Its GyroBatch messages, in receiving order (duplicates included).
+        batches: Its gyro batches, in receiving order (duplicates included).
         estimates: The PeriodEstimate messages published for it, in receiving order.
     """
 
     trial_id: str
-    start: Any | None = None
-    stop: Any | None = None
-    batches: list[Any] = field(default_factory=list)
+    start: TrialEventRecord | None = None
+    stop: TrialEventRecord | None = None
+    batches: list[SampleBatch] = field(default_factory=list)
     estimates: list[Any] = field(default_factory=list)
 
     @property
-    def event(self) -> Any | None:
+    def event(self) -> TrialEventRecord | None:
         """The START event, else the STOP/ABORT (what describes the trial)."""
         return self.start if self.start is not None else self.stop
 
@@ -57,7 +56,7 @@ class RecordedTrial:
     def state(self) -> str:
         """``complete`` (START and STOP), ``aborted``, ``open`` (no STOP recorded),
         ``no start`` (a STOP without START) or ``unannounced`` (batches without events)."""
-        if self.stop is not None and int(self.stop.kind) == ABORT:
+        if self.stop is not None and self.stop.kind is TrialEventKind.ABORT:
             return "aborted"
         if self.start is not None:
             return "complete" if self.stop is not None else "open"
@@ -164,18 +163,22 @@ class RecordedSession:
 
 def _add(session: RecordedSession, topic: str, msg: Any) -> None:
     if topic == topics.GYRO.name:
-        tid = str(msg.trial_id)
-        if tid:
-            session.trial(tid).batches.append(msg)
+        batch = sample_batch_from_msg(msg)
+        if batch.trial_id:
+            session.trial(batch.trial_id).batches.append(batch)
         else:
             session.stray_batches += 1
     elif topic == topics.TRIAL_EVENTS.name:
         t = session.trial(str(msg.trial_id))
-        kind = int(msg.kind)
-        if kind == START and t.start is None:
-            t.start = msg
-        elif kind in (STOP, ABORT) and t.stop is None:
-            t.stop = msg
+        try:
+            event = trial_event_from_msg(msg)
+        except MessageError:
+            return  # an unknown kind: neither starts nor ends the trial
+        if event.kind is TrialEventKind.START:
+            if t.start is None:
+                t.start = event
+        elif t.stop is None:
+            t.stop = event
     elif topic == topics.PERIODS.name:
         session.trial(str(msg.trial_id)).estimates.append(msg)
     elif topic == topics.STATIC_READINGS.name:

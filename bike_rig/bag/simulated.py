@@ -25,7 +25,6 @@ from typing import Any
 import numpy as np
 
 from .. import topics
-from ..core.assembly import SessionAssembly, compute_model
 from ..core.benchmark import ComMethod
 from ..core.measurements import Measurements
 from ..core.sim import SimulatedSession
@@ -35,19 +34,23 @@ from ..messages import (
     fill_benchmark_parameters,
     fill_canonical_matrices,
     fill_eigen_sweep,
+    fill_gyro_batch,
+    fill_period_estimate,
     fill_static_readings,
-    parameter_set_from_msg,
+    fill_trial_event,
+    sample_batch_from_msg,
     set_stamp,
     static_readings_from_msg,
-    trial_period_from_msg,
+    trial_event_from_msg,
 )
-from ..nodes.fitter import TrialFit, TrialFitOptions, fill_period_estimate, fit_trial
+from ..pipeline.acquire import NS_PER_S, SampleBatch, TrialEventKind, TrialEventRecord, sample_stamp_ns
+from ..pipeline.fit import TrialFit, TrialFitOptions, fit_trial
+from ..pipeline.offline import DEFAULT_SPEEDS, GraphSettings, OfflineGraph, TrialInput
 from .typestore import new_message, rig_typestore
 from .writer import BagWriter, Compression, contract_qos
 
 __all__ = ["SimulatedMessage", "live_results", "period_estimate", "simulated_messages", "write_simulated_bag"]
 
-NS = 1_000_000_000
 STATIC_TYPE = topics.STATIC_READINGS.type
 EVENT_TYPE = topics.TRIAL_EVENTS.type
 BATCH_TYPE = topics.GYRO.type
@@ -66,58 +69,54 @@ def _static(session: SimulatedSession) -> Measurements:
     return Measurements(session.bicycle, dict(session.readings), session.label)
 
 
-def _stamp_of(start_ns: int, index: int, rate: float) -> int:
-    return start_ns + round(index * 1e9 / rate)
+def _event_message(event: TrialEventRecord) -> Any:
+    return fill_trial_event(new_message(EVENT_TYPE), event)
 
 
 def simulated_messages(
     session: SimulatedSession,
-    start_ns: int = 1_800_000_000 * NS,
+    start_ns: int = 1_800_000_000 * NS_PER_S,
     samples_per_batch: int = 50,
     pause_s: float = 10.0,
     latency_ns: int = 300_000,
     frame_id: str = "gyro",
 ) -> Iterator[SimulatedMessage]:
-    """The session's messages in log-time order: static readings, then every trial's START,
-    batches and STOP (see the module docstring)."""
+    """The session's messages in log-time order (see the module docstring).
+
+    First the static readings, then every trial's START, batches and STOP.
+    """
     static = fill_static_readings(new_message(STATIC_TYPE), _static(session))
     set_stamp(static, start_ns)
     yield SimulatedMessage(topics.STATIC_READINGS.name, start_ns + latency_ns, static)
     planned: dict[str, PlannedMeasurement] = {m.key: m for m in session.plan}
-    t0 = start_ns + int(pause_s * NS)
+    t0 = start_ns + int(pause_s * NS_PER_S)
     for trial in session.trials:
         m = planned[trial.key]
         rate = float(trial.sample_rate)
         n = int(trial.rate.size)
-        fields = {
-            "trial_id": trial.name, "part": m.part, "pendulum": m.pendulum, "orientation": m.orientation or 0,
-            "repeat": trial.trial, "measurement_key": trial.key, "sample_rate_hz": rate,
-        }  # fmt: skip
-        start = new_message(EVENT_TYPE, kind=0, **fields)
-        set_stamp(start, t0)
-        start.header.frame_id = frame_id
-        yield SimulatedMessage(topics.TRIAL_EVENTS.name, t0 + latency_ns // 2, start)
+        start = TrialEventRecord(
+            TrialEventKind.START, trial.name, trial.key, m.part, m.pendulum, m.orientation or 0, trial.trial, rate,
+            stamp_ns=t0, frame_id=frame_id,
+        )  # fmt: skip
+        yield SimulatedMessage(topics.TRIAL_EVENTS.name, t0 + latency_ns // 2, _event_message(start))
         for first in range(0, n, samples_per_batch):
             stop_at = min(n, first + samples_per_batch)
-            batch = new_message(
-                BATCH_TYPE,
-                trial_id=trial.name,
-                first_index=first,
-                sample_rate_hz=rate,
+            batch = SampleBatch(
+                trial.name, first, rate,
                 rates=np.ascontiguousarray(trial.rate[first:stop_at], dtype=np.float64),
                 raw_volts=np.ascontiguousarray(trial.volts[first:stop_at], dtype=np.float64),
-            )
-            stamp = _stamp_of(t0, first, rate)
-            set_stamp(batch, stamp)
-            batch.header.frame_id = frame_id
+                stamp_ns=sample_stamp_ns(t0, first, rate), frame_id=frame_id,
+            )  # fmt: skip
             # a batch is published once its last sample is taken
-            yield SimulatedMessage(topics.GYRO.name, _stamp_of(t0, stop_at - 1, rate) + latency_ns, batch)
-        end = _stamp_of(t0, n, rate)  # just after the last sample, as the driver stamps STOP
-        stop = new_message(EVENT_TYPE, kind=1, sample_count=n, **fields)
-        set_stamp(stop, end)
-        stop.header.frame_id = frame_id
-        yield SimulatedMessage(topics.TRIAL_EVENTS.name, end + latency_ns + 1000, stop)
-        t0 = end + int(pause_s * NS)
+            log_time = sample_stamp_ns(t0, stop_at - 1, rate) + latency_ns
+            yield SimulatedMessage(topics.GYRO.name, log_time, fill_gyro_batch(new_message(BATCH_TYPE), batch))
+        end = sample_stamp_ns(t0, n, rate)  # just after the last sample, as the driver stamps STOP
+        stop = TrialEventRecord(
+            TrialEventKind.STOP, trial.name, trial.key, m.part, m.pendulum, m.orientation or 0, trial.trial, rate,
+            sample_count=n, stamp_ns=end, frame_id=frame_id,
+        )  # fmt: skip
+        yield SimulatedMessage(topics.TRIAL_EVENTS.name, end + latency_ns + 1000, _event_message(stop))
+        t0 = end + int(pause_s * NS_PER_S)
 
 
 def write_simulated_bag(
@@ -156,6 +155,12 @@ def period_estimate(r: TrialFit) -> Any:
     return fill_period_estimate(new_message(topics.PERIODS.type), r)
 
 
+def _published(topic: topics.Topic, record: Any, fill: Any, stamp_ns: int, log_time: int) -> SimulatedMessage:
+    msg = fill(new_message(topic.type), record)
+    set_stamp(msg, stamp_ns)
+    return SimulatedMessage(topic.name, log_time, msg)
+
+
 def live_results(
     stream: Iterable[SimulatedMessage],
     fit_options: TrialFitOptions | None = None,
@@ -167,6 +172,9 @@ def live_results(
 ) -> list[SimulatedMessage]:
     """What the fitter, parameter and model nodes publish for a recorded input stream.
 
+    The stream's messages become records and go trial by trial through the offline runner
+    (:meth:`bike_rig.pipeline.offline.OfflineGraph.step`).
+
     Args:
         stream: The static readings, trial events and gyro batches (e.g.
             :func:`simulated_messages`), in log-time order.
@@ -177,38 +185,37 @@ def live_results(
         speeds: The model node's sweep speeds, m/s (0 to 10 m/s, 201 speeds if None).
         delay_ns: How long after its input each result is logged.
     """
-    options = fit_options or TrialFitOptions()
-    sweep_speeds = np.linspace(0.0, 10.0, 201) if speeds is None else np.asarray(speeds, dtype=float)
-    batches: dict[str, list[Any]] = {}
-    starts: dict[str, Any] = {}
-    assembly: SessionAssembly | None = None
+    settings = GraphSettings(
+        fit_options=fit_options or TrialFitOptions(), com_method=com_method, rider=rider, convention=convention,
+        speeds=DEFAULT_SPEEDS.copy() if speeds is None else np.asarray(speeds, dtype=float),
+    )  # fmt: skip
+    batches: dict[str, list[SampleBatch]] = {}
+    starts: dict[str, TrialEventRecord] = {}
+    graph: OfflineGraph | None = None
     out: list[SimulatedMessage] = []
     for m in stream:
-        msg = m.message
         if m.topic == topics.STATIC_READINGS.name:
-            assembly = SessionAssembly(static_readings_from_msg(msg), com_method, origin=topics.PERIODS.name)
+            graph = OfflineGraph(static_readings_from_msg(m.message), settings, origin=topics.PERIODS.name)
         elif m.topic == topics.GYRO.name:
-            batches.setdefault(str(msg.trial_id), []).append(msg)
-        elif m.topic == topics.TRIAL_EVENTS.name and int(msg.kind) == 0:
-            starts[str(msg.trial_id)] = msg
+            batch = sample_batch_from_msg(m.message)
+            batches.setdefault(batch.trial_id, []).append(batch)
         elif m.topic == topics.TRIAL_EVENTS.name:
-            tid = str(msg.trial_id)
-            estimate = period_estimate(fit_trial(batches.pop(tid, []), starts.pop(tid, None), msg, options))
-            t = m.log_time + delay_ns
-            out.append(SimulatedMessage(topics.PERIODS.name, t, estimate))
-            if assembly is None:
+            event = trial_event_from_msg(m.message)
+            if event.kind is TrialEventKind.START:
+                starts[event.trial_id] = event
                 continue
-            assembly.add(trial_period_from_msg(estimate))
-            result = assembly.result()
-            params = fill_benchmark_parameters(new_message(topics.PARAMETERS.type), result)
-            set_stamp(params, t + delay_ns)
-            out.append(SimulatedMessage(topics.PARAMETERS.name, t + delay_ns, params))
-            if result.complete:
-                matrices, stability = compute_model(parameter_set_from_msg(params), sweep_speeds, rider, convention)
-                for topic, filled in (
-                    (topics.MATRICES, fill_canonical_matrices(new_message(topics.MATRICES.type), matrices)),
-                    (topics.EIGEN_SWEEP, fill_eigen_sweep(new_message(topics.EIGEN_SWEEP.type), stability)),
-                ):
-                    set_stamp(filled, t + delay_ns)
-                    out.append(SimulatedMessage(topic.name, t + 2 * delay_ns, filled))
+            tid = event.trial_id
+            trial = TrialInput(tid, starts.pop(tid, None), event, batches.pop(tid, []))
+            t = m.log_time + delay_ns
+            if graph is None:
+                fitted = fit_trial(trial.batches, trial.start, trial.stop, settings.fit_options)
+                out.append(SimulatedMessage(topics.PERIODS.name, t, period_estimate(fitted)))
+                continue
+            step = graph.step(trial)
+            out.append(SimulatedMessage(topics.PERIODS.name, t, period_estimate(step.trial)))
+            stamp = t + delay_ns
+            out.append(_published(topics.PARAMETERS, step.session, fill_benchmark_parameters, stamp, stamp))
+            if step.matrices is not None and step.stability is not None:
+                out.append(_published(topics.MATRICES, step.matrices, fill_canonical_matrices, stamp, stamp + delay_ns))
+                out.append(_published(topics.EIGEN_SWEEP, step.stability, fill_eigen_sweep, stamp, stamp + delay_ns))
     return out

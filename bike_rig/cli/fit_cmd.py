@@ -44,7 +44,11 @@ class FitUsageError(BikeRigError):
 
 
 def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    """Register ``fit`` on ``subparsers`` (the ``bike-rig`` sub-command parser)."""
+    """Register ``fit``.
+
+    Args:
+        subparsers: ``bike-rig``'s sub-command parsers (``add_subparsers()``).
+    """
     q = subparsers.add_parser(
         "fit",
         help="fit the pendulum period of trial files (Eq 23-27)",
@@ -62,7 +66,18 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run ``bike-rig fit``; returns the exit status (0, or 1 with ``--strict`` and a trial without period)."""
+    """Run ``bike-rig fit``.
+
+    Args:
+        args: The parsed arguments of ``bike-rig fit``.
+
+    Returns:
+        The exit status: 0, or 1 with ``--strict`` when a trial has no period.
+
+    Raises:
+        FitUsageError: An invalid option.
+        InputFileError: A trial file cannot be read, or a plot cannot be written.
+    """
     policy = _window_policy(args)
     options = _fit_options(args)
     if args.rate is not None and not (math.isfinite(args.rate) and args.rate > 0):
@@ -117,7 +132,15 @@ def _number(value: float) -> float | None:
 
 
 def fit_json(file: str, fit: PeriodFit) -> dict[str, Any]:
-    """The JSON object of one trial (NaN → None)."""
+    """The JSON object of one trial (NaN → None).
+
+    Args:
+        file: The trial file, as given.
+        fit: Its fit.
+
+    Returns:
+        The object of the module docstring (period and σ in s, ω in rad/s, window in samples).
+    """
     return {
         "file": file,
         "period": _number(fit.period),
@@ -139,7 +162,15 @@ def _value_sigma(value: float, sigma: float) -> tuple[str, str]:
 
 
 def fit_table(trials: Sequence[Trial], fits: Sequence[PeriodFit]) -> str:
-    """One row per trial: period ± σ, r², cycles, ζ, status; the flags' reasons below."""
+    """One row per trial: period ± σ (s), r², cycles, ζ, status; the flags' reasons below.
+
+    Args:
+        trials: The trials.
+        fits: Their fits, in the same order.
+
+    Returns:
+        The table, its last line the window policy.
+    """
     width = max(12, *(len(t.name) for t in trials))
     head = f"{'trial':<{width}}  {'T [s]':>12}  {'σ [s]':>9}  {'r²':>6}  {'cycles':>6}  {'ζ':>8}  status"
     rows = [head, "-" * len(head)]
@@ -167,7 +198,15 @@ def _groups(trials: Sequence[Trial]) -> dict[str, list[int]]:
 
 
 def combined_summary(trials: Sequence[Trial], fits: Sequence[PeriodFit]) -> str:
-    """The combined period of the files (per period key when the files name different ones)."""
+    """The combined period of the files (per period key when the files name different ones).
+
+    Args:
+        trials: The trials.
+        fits: Their fits, in the same order.
+
+    Returns:
+        One line per group (T ± σ in s, counts, Birge ratio), each followed by its notes.
+    """
     lines = []
     for label, members in _groups(trials).items():
         combined = combine_periods([fits[i] for i in members])
@@ -200,27 +239,21 @@ def _plot_names(trials: Sequence[Trial]) -> list[str]:
 
 
 def plot_fit(trial: Trial, fit: PeriodFit, path: Path) -> None:
-    """Write a PNG of the trial: samples and fit above, residuals below
-    (:func:`bike_rig.plots.trials.fit_figure`).
+    """Write a PNG of the trial: samples and fit above, residuals below.
+
+    The figure is :func:`bike_rig.plots.trials.fit_figure`'s.
+
+    Args:
+        trial: The trial.
+        fit: Its fit.
+        path: The PNG file (its extension is replaced by ``.png``).
 
     Raises:
         InputFileError: The PNG cannot be written.
     """
     from ..plots.style import save_figure
     from ..plots.trials import fit_figure
-    from ..subjects import TrialRecord
+    from ..subjects import file_trial
 
-    record = TrialRecord(
-        trial_id=trial.name,
-        key=trial.period_key or "",
-        fit=fit,
-        used=fit.clean,
-        note="",
-        samples=trial.samples,
-        sample_rate_hz=trial.sample_rate_hz,
-        times=trial.times,
-        start_s=None,
-        stop_s=None,
-        source=trial.path,
-    )
+    record = file_trial(trial, fit, trial.period_key or "", trial.name, str(trial.path))
     save_figure(fit_figure(record), path.with_suffix(""), ("png",))

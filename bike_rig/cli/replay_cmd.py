@@ -147,16 +147,16 @@ def _trials_table(result: ReplayResult) -> str:
     head = f"{'trial':<{w}}  {'key':<5}  {'period [s]':>20}  {'samples':>7}  {'used':<4}  {'live':<9}  flags"
     rows = [head, "-" * len(head)]
     for t in result.trials:
-        p = t.period
+        p = t.result
         if t.recorded is None:
             live = "-"
-        elif p.valid == t.recorded.valid and p.flags == t.recorded.flags and (
+        elif p.valid == t.recorded.valid and p.flag_codes == t.recorded.flag_codes and (
             p.period == t.recorded.period or (math.isnan(p.period) and math.isnan(t.recorded.period))
         ):
             live = "same"
         else:
             live = "differs"
-        flags = ", ".join(p.flags) + (f" ({t.note})" if t.note else "")
+        flags = ", ".join(p.flag_codes) + (f" ({t.note})" if t.note else "")
         rows.append(f"{t.trial_id:<{w}}  {p.measurement_key or '-':<5}  {_vs(p.period, p.period_sigma):>20}  "
                     f"{p.n_samples:>7}  {'yes' if t.used else 'no':<4}  {live:<9}  {flags}")  # fmt: skip
     return "\n".join(rows)

@@ -2,7 +2,7 @@
 
 It subscribes to ``/bike_rig/parameters`` (reliable, transient-local: started late, it still
 gets the current set) and, for every complete set, computes with
-:func:`bike_rig.core.assembly.compute_model` and publishes, latched (reliable, transient-local,
+:func:`bike_rig.pipeline.assemble.compute_model` and publishes, latched (reliable, transient-local,
 depth 1):
 
 * ``/bike_rig/model/matrices`` (``CanonicalMatrices``): M, C1, K0, K2 with σ;
@@ -38,11 +38,9 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
-from rclpy.exceptions import ParameterException
 from rclpy.node import Node
 
 from .. import topics
-from ..core.assembly import ModelMatrices, compute_model, rider_by_name, state_space_at
 from ..core.benchmark import ParameterSet
 from ..core.errors import BikeRigError
 from ..core.uncertainty.matrix_sigma import SigmaConvention
@@ -51,12 +49,15 @@ from ..messages import (
     fill_eigen_sweep,
     fill_state_space_error,
     fill_state_space_response,
-    parameter_set_from_msg,
+    session_parameters_from_msg,
 )
-from .qos import profile
+from ..params import ParamSpec
+from ..pipeline.model import ModelMatrices, compute_model, rider_by_name, state_space_at
+from ..rosqos import profile
+from .params import NodeParameterError, declare_parameters, parameter_error
 from .runner import run_node
 
-__all__ = ["MAX_SPEED_COUNT", "NODE_NAME", "ModelNode", "ModelNodeError", "main"]
+__all__ = ["MAX_SPEED_COUNT", "NODE_NAME", "PARAMETERS", "ModelNode", "main"]
 
 NODE_NAME = "model"
 #: Largest number of speeds in the sweep (the EigenSweep message grows with it).
@@ -64,24 +65,21 @@ MAX_SPEED_COUNT = 100_000
 
 _msgs: Any = importlib.import_module("bike_rig_msgs.msg")
 _srvs: Any = importlib.import_module("bike_rig_msgs.srv")
-_rcl: Any = importlib.import_module("rcl_interfaces.msg")
 
-
-class ModelNodeError(BikeRigError):
-    """A parameter of the model node is invalid."""
-
-
-def _declare(node: Node, name: str, default: Any, description: str, **constraints: Any) -> Any:
-    """Declare a read-only parameter with its description and constraints; return its value.
-
-    Raises:
-        ModelNodeError: the value given has the wrong type or is out of range.
-    """
-    descriptor = _rcl.ParameterDescriptor(description=description, read_only=True, **constraints)
-    try:
-        return node.declare_parameter(name, default, descriptor).value
-    except ParameterException as exc:
-        raise ModelNodeError(f"parameter '{name}': {exc}") from None
+#: The model node's parameters (``config/model.yaml``).
+PARAMETERS: tuple[ParamSpec, ...] = (
+    ParamSpec("rider", "", "Rider lumped into the rear frame: '' (none) or 'paper' (Table 1).",
+              constraints="one of: '', paper"),  # fmt: skip
+    ParamSpec(
+        "sigma_convention", SigmaConvention.CORRELATED.value,
+        "Sigma of the matrices and critical speeds: 'correlated' (full parameter covariance) or "
+        "'paper' (parameters independent, the paper's Table 3).",
+        choices=tuple(c.value for c in SigmaConvention),
+    ),  # fmt: skip
+    ParamSpec("speed_min", 0.0, "Lowest speed of the eigenvalue sweep, m/s.", (0.0, 1000.0)),
+    ParamSpec("speed_max", 10.0, "Highest speed of the eigenvalue sweep, m/s.", (0.0, 1000.0)),
+    ParamSpec("speed_count", 201, "Number of equally spaced speeds in the eigenvalue sweep.", (1, MAX_SPEED_COUNT)),
+)
 
 
 class ModelNode(Node):
@@ -89,45 +87,22 @@ class ModelNode(Node):
 
     def __init__(self) -> None:
         super().__init__(NODE_NAME)
-        speed_range = _rcl.FloatingPointRange(from_value=0.0, to_value=1000.0, step=0.0)
-        rider = _declare(
-            self, "rider", "", "Rider lumped into the rear frame: '' (none) or 'paper' (Table 1).",
-            additional_constraints="one of: '', paper",
-        )  # fmt: skip
-        convention = _declare(
-            self, "sigma_convention", SigmaConvention.CORRELATED.value,
-            "Sigma of the matrices and critical speeds: 'correlated' (full parameter covariance) or "
-            "'paper' (parameters independent, the paper's Table 3).",
-            additional_constraints="one of: correlated, paper",
-        )  # fmt: skip
-        speed_min = _declare(
-            self, "speed_min", 0.0, "Lowest speed of the eigenvalue sweep, m/s.", floating_point_range=[speed_range]
-        )
-        speed_max = _declare(
-            self, "speed_max", 10.0, "Highest speed of the eigenvalue sweep, m/s.", floating_point_range=[speed_range]
-        )
-        speed_count = _declare(
-            self, "speed_count", 201, "Number of equally spaced speeds in the eigenvalue sweep.",
-            integer_range=[_rcl.IntegerRange(from_value=1, to_value=MAX_SPEED_COUNT, step=1)],
-        )  # fmt: skip
+        values = declare_parameters(self, PARAMETERS)
+        rider = values["rider"]
+        speed_min, speed_max, speed_count = values["speed_min"], values["speed_max"], values["speed_count"]
         try:
-            rider_by_name(str(rider))
+            rider_by_name(rider)
         except BikeRigError as exc:
-            raise ModelNodeError(f"parameter 'rider': {exc}") from None
-        if str(rider) == "none":
+            raise parameter_error("rider", str(exc)) from None
+        if rider == "none":
             rider = ""
-        try:
-            self._convention = SigmaConvention(str(convention))
-        except ValueError:
-            raise ModelNodeError(
-                f"parameter 'sigma_convention': expected 'correlated' or 'paper', got '{convention}'"
-            ) from None
-        if not float(speed_min) <= float(speed_max):
-            raise ModelNodeError(f"parameters 'speed_min' {speed_min} > 'speed_max' {speed_max}")
-        if int(speed_count) == 1 and float(speed_min) != float(speed_max):
-            raise ModelNodeError("parameter 'speed_count' is 1: set speed_min = speed_max")
+        self._convention = SigmaConvention(values["sigma_convention"])
+        if not speed_min <= speed_max:
+            raise NodeParameterError(f"parameters 'speed_min' {speed_min} > 'speed_max' {speed_max}")
+        if speed_count == 1 and speed_min != speed_max:
+            raise NodeParameterError("parameter 'speed_count' is 1: set speed_min = speed_max")
         self._rider = str(rider)
-        self._speeds = np.linspace(float(speed_min), float(speed_max), int(speed_count))
+        self._speeds = np.linspace(speed_min, speed_max, speed_count)
 
         self._parameter_set: ParameterSet | None = None
         self._models: dict[str, ModelMatrices] = {}
@@ -150,7 +125,7 @@ class ModelNode(Node):
             return
         started = time.perf_counter()
         try:
-            ps = parameter_set_from_msg(msg, topics.PARAMETERS.name)
+            ps = session_parameters_from_msg(msg, topics.PARAMETERS.name).complete_parameters()
             matrices, stability = compute_model(ps, self._speeds, self._rider, self._convention)
         except BikeRigError as exc:
             self.get_logger().error(f"{msg.bicycle}: parameter set not usable: {exc}")

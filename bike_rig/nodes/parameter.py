@@ -4,7 +4,7 @@ On start it loads the bicycle's static readings (a measurement file, bike_rig YA
 BicycleParameters ``Measured.txt``; any periods in it are ignored) and publishes them, latched,
 on ``/bike_rig/static_readings``. It subscribes to ``/bike_rig/periods`` (reliable,
 transient-local: a restarted node receives the whole session's estimates again) and feeds every
-estimate to :class:`bike_rig.core.assembly.SessionAssembly`, which dedupes by trial id and
+estimate to :class:`bike_rig.pipeline.assemble.SessionAssembly`, which dedupes by trial id and
 combines the valid, unflagged trials of each measurement key.
 
 On ``/bike_rig/parameters`` (reliable, transient-local, depth 1) it publishes:
@@ -40,41 +40,51 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from rclpy.exceptions import ParameterException
 from rclpy.node import Node
 
 from .. import topics
-from ..core.assembly import AssemblyError, KeyPeriod, SessionAssembly, SessionParameters
 from ..core.benchmark import ComMethod
 from ..core.errors import BikeRigError
 from ..core.loader import load_static_readings
-from ..messages import fill_benchmark_parameters, fill_static_readings, trial_period_from_msg
+from ..messages import MessageError, fill_benchmark_parameters, fill_static_readings, trial_fit_from_msg
+from ..params import ParamSpec
 from ..paths import config_file
-from .qos import profile
+from ..pipeline.assemble import KeyPeriod, SessionAssembly, SessionParameters
+from ..pipeline.errors import AssemblyError
+from ..rosqos import profile
+from .params import NodeParameterError, declare_parameters
 from .runner import run_node
 
-__all__ = ["EVALUATE_PERIOD_S", "NODE_NAME", "ParameterNode", "ParameterNodeError", "main", "resolve_measurements"]
+__all__ = ["EVALUATE_PERIOD_S", "NODE_NAME", "PARAMETERS", "ParameterNode", "main", "resolve_measurements"]
 
 NODE_NAME = "parameter"
 #: Estimates are evaluated at most this often, s (later ones of a burst together).
 EVALUATE_PERIOD_S = 0.05
 
 _msgs: Any = importlib.import_module("bike_rig_msgs.msg")
-_rcl: Any = importlib.import_module("rcl_interfaces.msg")
 
-
-class ParameterNodeError(BikeRigError):
-    """A parameter of the parameter node is invalid."""
+#: The parameter node's parameters (``config/parameter.yaml``).
+PARAMETERS: tuple[ParamSpec, ...] = (
+    ParamSpec(
+        "measurements", "",
+        "Measurement file with the bicycle's static readings (bike_rig YAML or BicycleParameters "
+        "Measured.txt); periods in it are ignored. Relative paths are also looked up in the config folder.",
+    ),  # fmt: skip
+    ParamSpec("com_method", ComMethod.CENTROID.value, "Mass-centre method: 'centroid' (paper Eq 17-19) or 'lstsq' "
+              "(Eq 20).", choices=tuple(m.value for m in ComMethod)),  # fmt: skip
+    ParamSpec("status_period", 5.0, "While incomplete, re-publish and log the missing periods this often, s.",
+              (0.5, 3600.0)),  # fmt: skip
+)
 
 
 def resolve_measurements(value: str) -> Path:
     """The measurement file named by the ``measurements`` parameter.
 
     Raises:
-        ParameterNodeError: the parameter is empty.
+        NodeParameterError: the parameter is empty.
     """
     if not value.strip():
-        raise ParameterNodeError(
+        raise NodeParameterError(
             "parameter 'measurements' is required: the bicycle's measurement file "
             "(e.g. -p measurements:=bicycles/browser.yaml)"
         )
@@ -82,20 +92,6 @@ def resolve_measurements(value: str) -> Path:
     if not path.exists() and not path.is_absolute() and config_file(value).exists():
         return config_file(value)
     return path
-
-
-def _declare(node: Node, name: str, default: Any, description: str, **constraints: Any) -> Any:
-    """Declare a read-only parameter with its description and constraints; return its value.
-
-    Raises:
-        ParameterNodeError: the value given (command line or parameter file) has the wrong
-            type or is out of range.
-    """
-    descriptor = _rcl.ParameterDescriptor(description=description, read_only=True, **constraints)
-    try:
-        return node.declare_parameter(name, default, descriptor).value
-    except ParameterException as exc:
-        raise ParameterNodeError(f"parameter '{name}': {exc}") from None
 
 
 def _provenance(periods: Sequence[KeyPeriod]) -> tuple[tuple[str, float, float, tuple[str, ...]], ...]:
@@ -107,34 +103,10 @@ class ParameterNode(Node):
 
     def __init__(self) -> None:
         super().__init__(NODE_NAME)
-        measurements = _declare(
-            self,
-            "measurements",
-            "",
-            "Measurement file with the bicycle's static readings (bike_rig YAML or BicycleParameters "
-            "Measured.txt); periods in it are ignored. Relative paths are also looked up in the config folder.",
-        )
-        com_method = _declare(
-            self,
-            "com_method",
-            ComMethod.CENTROID.value,
-            "Mass-centre method: 'centroid' (paper Eq 17-19) or 'lstsq' (Eq 20).",
-            additional_constraints="one of: centroid, lstsq",
-        )
-        status_period = _declare(
-            self,
-            "status_period",
-            5.0,
-            "While incomplete, re-publish and log the missing periods this often, s.",
-            floating_point_range=[_rcl.FloatingPointRange(from_value=0.5, to_value=3600.0, step=0.0)],
-        )
-        try:
-            method = ComMethod(str(com_method))
-        except ValueError:
-            raise ParameterNodeError(
-                f"parameter 'com_method': expected 'centroid' or 'lstsq', got '{com_method}'"
-            ) from None
-        path = resolve_measurements(str(measurements))
+        values = declare_parameters(self, PARAMETERS)
+        method = ComMethod(values["com_method"])
+        status_period = values["status_period"]
+        path = resolve_measurements(values["measurements"])
         static = load_static_readings(path)
         self._session = SessionAssembly(static, method, origin=topics.PERIODS.name)
         document = path.read_text(encoding="utf-8", errors="replace")
@@ -164,9 +136,9 @@ class ParameterNode(Node):
 
     def _on_period(self, msg: Any) -> None:
         try:
-            trial = trial_period_from_msg(msg)
+            trial = trial_fit_from_msg(msg)
             self._dirty |= self._session.add(trial)
-        except AssemblyError as exc:
+        except (AssemblyError, MessageError) as exc:
             self.get_logger().warning(f"period estimate ignored: {exc}")
         if time.monotonic() - self._last_evaluation >= EVALUATE_PERIOD_S:
             self._evaluate()

@@ -1,5 +1,7 @@
-"""Trial figures: one trial's fit (data, Eq 23 fit over the window, residuals) and a session's
-trial-quality overview (every trial's period against its key's combined period, r², cycles).
+"""Trial figures: one trial's fit, and a session's trial-quality overview.
+
+The fit figure shows the data, the Eq 23 fit over the window and the residuals; the overview
+every trial's period against its key's combined period, r² and cycles.
 """
 
 from __future__ import annotations
@@ -15,7 +17,7 @@ from matplotlib.patches import Patch
 from numpy.typing import NDArray
 
 from ..core.period import FitOptions, combine_periods
-from ..subjects import Subject, TrialRecord, is_bag_path
+from ..subjects import SessionTrial, Subject, is_bag_path
 from ..textfmt import format_value_sigma
 from .style import new_figure
 
@@ -45,15 +47,29 @@ _MIN_RANGE_PPM = 10.0
 _RANGE_MARGIN = 1.6
 
 
-def trial_status(trial: TrialRecord) -> str:
-    """``used``, ``left out`` (a period, but not in the combined one) or ``no period``."""
+def trial_status(trial: SessionTrial) -> str:
+    """A trial's status in its session.
+
+    Args:
+        trial: The trial.
+
+    Returns:
+        ``used``, ``left out`` (a period, but not in the combined one) or ``no period``.
+    """
     if not trial.fit.valid:
         return "no period"
     return "used" if trial.used else "left out"
 
 
-def fit_title(trial: TrialRecord) -> str:
-    """Title of a trial's fit figure: id, key, T ± σ (s), ζ, r², cycles, status and flags."""
+def fit_title(trial: SessionTrial) -> str:
+    """Title of a trial's fit figure.
+
+    Args:
+        trial: The trial.
+
+    Returns:
+        Id, key, T ± σ (s), ζ, r², cycles, status and flags.
+    """
     fit = trial.fit
     head = f"{trial.trial_id} ({trial.key})"
     if fit.valid:
@@ -72,7 +88,7 @@ def fit_title(trial: TrialRecord) -> str:
     return "\n".join(lines)
 
 
-def _time_axis(trial: TrialRecord) -> FloatArray:
+def _time_axis(trial: SessionTrial) -> FloatArray:
     """Each sample's time on the fit's own time axis (what ``fit.predict`` expects), s."""
     assert trial.samples is not None
     if trial.times is not None:
@@ -81,7 +97,7 @@ def _time_axis(trial: TrialRecord) -> FloatArray:
     return np.arange(trial.samples.size, dtype=float) / float(rate)
 
 
-def fit_figure(trial: TrialRecord) -> Figure:
+def fit_figure(trial: SessionTrial) -> Figure:
     """One trial: samples with the Eq 23 fit over its window (top), residuals (bottom).
 
     Without samples (a period given as a number, or a trial whose samples were not recorded)
@@ -162,7 +178,7 @@ class OverviewPoint:
         sigma_ppm: σ_T / T_ref, ppm (NaN without a period).
     """
 
-    trial: TrialRecord
+    trial: SessionTrial
     status: str
     x: float
     deviation_ppm: float
@@ -184,7 +200,7 @@ class TrialOverview:
     time_axis: bool
 
 
-def _reference(key: str, trials: Sequence[TrialRecord]) -> KeyReference:
+def _reference(key: str, trials: Sequence[SessionTrial]) -> KeyReference:
     used = [t.fit for t in trials if t.used and t.fit.valid]
     if used:
         cp = combine_periods(used, include_flagged=True)
@@ -199,13 +215,19 @@ def _reference(key: str, trials: Sequence[TrialRecord]) -> KeyReference:
 def overview_data(subject: Subject) -> TrialOverview:
     """Every trial's period relative to its key's reference period (see :class:`KeyReference`).
 
+    Args:
+        subject: A bicycle with trials.
+
+    Returns:
+        The overview's numbers, one point per trial.
+
     Raises:
         ValueError: The subject has no trials.
     """
     trials = subject.trials
     if not trials:
         raise ValueError(f"{subject.path}: no trials")
-    keys: dict[str, list[TrialRecord]] = {}
+    keys: dict[str, list[SessionTrial]] = {}
     for t in trials:
         keys.setdefault(t.key, []).append(t)
     refs = {k: _reference(k, ts) for k, ts in keys.items()}

@@ -16,7 +16,7 @@ from .. import __version__
 from ..core.uncertainty.budget import CAPSIZE, PARAMETERS, WEAVE, OutputBudget, UncertaintyBudget, input_ranking
 from ..core.uncertainty.matrix_sigma import MATRIX_NAMES
 from ..core.uncertainty.speed_sigma import SpeedWithSigma
-from ..subjects import Subject, TrialRecord
+from ..subjects import SessionTrial, Subject
 from ..textfmt import LABELS, TABLE2_ORDER
 from .figures import ReportFigure
 from .html import Raw, esc, number_cell, section, table, value_sigma_cells
@@ -337,7 +337,7 @@ def budget_section(results: ReportResults) -> Raw:
     return section("budget", "Uncertainty budget", body)
 
 
-def _flags_cell(t: TrialRecord) -> Raw:
+def _flags_cell(t: SessionTrial) -> Raw:
     if not t.fit.flags:
         return Raw('<td class="flags"></td>')
     items = "".join(
@@ -351,7 +351,7 @@ def _time_cell(t: float | None) -> Raw:
     return number_cell(t, ".1f") if t is not None else Raw("<td></td>")
 
 
-def _trial_rows(trials: Sequence[TrialRecord]) -> list[list[str]]:
+def _trial_rows(trials: Sequence[SessionTrial]) -> list[list[str]]:
     rows: list[list[str]] = []
     for t in trials:
         f = t.fit

@@ -15,8 +15,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from bike_rig.bag.compare import relative_difference
 from bike_rig.bag.errors import NoRigTopicsError, ReplayError
-from bike_rig.bag.replay import FitOverrides, ReplaySettings, relative_difference, replay_bag
+from bike_rig.bag.replay import FitOverrides, ReplaySettings, replay_bag
 from bike_rig.bag.simulated import SimulatedMessage, live_results, simulated_messages, write_simulated_bag
 from bike_rig.cli import replay_cmd
 from bike_rig.core.benchmark import compute_parameters
@@ -25,7 +26,7 @@ from bike_rig.core.period import FitOptions, WindowPolicy, combine_periods, fit_
 from bike_rig.core.sim import SimulatedSession
 from bike_rig.core.uncertainty.matrix_sigma import canonical_with_sigma
 from bike_rig.core.whipple import critical_speeds
-from bike_rig.nodes.fitter import TrialFitOptions
+from bike_rig.pipeline.fit import TrialFitOptions
 from bike_rig.topics import GYRO, STATIC_READINGS, TRIAL_EVENTS
 
 REPO = Path(__file__).resolve().parents[2]
@@ -70,8 +71,8 @@ def test_replay_equals_the_offline_core_path(session: SimulatedSession, raw_bag:
     # the core path: fit each trial's samples, combine each key's trials, compute the parameters
     fits = {t.name: fit_period(t.rate, sample_rate_hz=t.sample_rate) for t in session.trials}
     for r in result.trials:
-        assert r.fit.fit.period == fits[r.trial_id].period
-        assert r.fit.fit.period_sigma == fits[r.trial_id].period_sigma
+        assert r.result.fit.period == fits[r.trial_id].period
+        assert r.result.fit.period_sigma == fits[r.trial_id].period_sigma
         assert r.options_from == "default"
     periods = {}
     for m in session.plan:
@@ -96,7 +97,7 @@ def test_replay_equals_the_offline_core_path(session: SimulatedSession, raw_bag:
 def test_replay_reproduces_the_recorded_live_results(live_bag: Path) -> None:
     result = replay_bag(live_bag)
     assert {t.options_from for t in result.trials} == {"recorded"}
-    assert all(json.loads(t.period.fit_options_json)["window"]["lead_in_s"] == 1.5 for t in result.trials)
+    assert all(json.loads(t.result.fit_options_json)["window"]["lead_in_s"] == 1.5 for t in result.trials)
     live = result.live
     assert live.compared_trials == len(result.trials) and not live.missing
     compared = {d.what for d in live.differences}
@@ -112,7 +113,7 @@ def test_other_fit_settings_are_used_and_reported_as_different(live_bag: Path) -
     settings = ReplaySettings(fit=FitOverrides(window=WindowPolicy.lead_in(3.0)))
     result = replay_bag(live_bag, settings)
     assert {t.options_from for t in result.trials} == {"override"}
-    assert all(t.fit.fit.window_policy.lead_in_s == 3.0 for t in result.trials)
+    assert all(t.result.fit.window_policy.lead_in_s == 3.0 for t in result.trials)
     assert not result.live.identical
     code, out, _ = run_cli("replay", str(live_bag), "--lead-in", "2", "--min-r2", "0.95")
     assert code == 0

@@ -6,22 +6,24 @@ after a restart it re-fits the trial in progress from the transient-local histor
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import struct
 import subprocess
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass, field
 from pathlib import Path
-from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
 import pytest
 
+from bike_rig import messages
 from bike_rig.core.period import FitOptions, WindowPolicy, fit_period
-from bike_rig.nodes.fitter import FitterState, TrialFit, TrialFitOptions, fit_trial
 from bike_rig.paths import config_file
+from bike_rig.pipeline.acquire import SampleBatch, TrialEventKind, TrialEventRecord
+from bike_rig.pipeline.fit import TrialFit, TrialFitOptions, fit_trial
+from bike_rig.pipeline.fit_state import FitterState
 from bike_rig.topics import GYRO, PERIODS, TRIAL_EVENTS
 from test.nodes.test_driver import STEP_TIMEOUT_S, Probe, msgs, node_command, open_probe
 from test.ros.processes import RosProcess
@@ -35,30 +37,12 @@ T0 = 1_700_000_000_000_000_000
 # ---------------------------------------------------------------------- ROS-free
 
 
-@dataclass
-class Stamp:
-    sec: int = 0
-    nanosec: int = 0
+def Batch(trial_id: str, first_index: int, rates: np.ndarray, sample_rate_hz: float = RATE) -> SampleBatch:
+    return SampleBatch(trial_id, first_index, sample_rate_hz, np.asarray(rates, dtype=np.float64))
 
 
-@dataclass
-class Header:
-    stamp: Stamp = field(default_factory=Stamp)
-
-
-@dataclass
-class Batch:
-    trial_id: str
-    first_index: int
-    rates: np.ndarray
-    sample_rate_hz: float = RATE
-    header: Header = field(default_factory=Header)
-
-
-def event(kind: int, trial_id: str = "t", count: int = 0, key: str = "TtB1", ns: int = T0) -> Any:
-    header = Header(Stamp(ns // 1_000_000_000, ns % 1_000_000_000))
-    return SimpleNamespace(kind=kind, trial_id=trial_id, measurement_key=key, sample_rate_hz=RATE,
-                           sample_count=count, header=header)  # fmt: skip
+def event(kind: int, trial_id: str = "t", count: int = 0, key: str = "TtB1", ns: int = T0) -> TrialEventRecord:
+    return TrialEventRecord(TrialEventKind(kind), trial_id, key, sample_rate_hz=RATE, sample_count=count, stamp_ns=ns)
 
 
 def signal(n: int = N, period: float = 1.0, seed: int = 1) -> np.ndarray:
@@ -67,7 +51,7 @@ def signal(n: int = N, period: float = 1.0, seed: int = 1) -> np.ndarray:
     return 0.05 * np.exp(-0.006 * t) * np.sin(2 * np.pi * t / period + 0.4) + 0.01 + 1e-4 * rng.standard_normal(n)
 
 
-def batches_of(rates: np.ndarray, trial_id: str = "t", size: int = 50) -> list[Batch]:
+def batches_of(rates: np.ndarray, trial_id: str = "t", size: int = 50) -> list[SampleBatch]:
     return [Batch(trial_id, a, rates[a : a + size]) for a in range(0, rates.size, size)]
 
 
@@ -80,10 +64,10 @@ def test_a_clean_trial_is_fit_period_of_its_samples() -> None:
     rates = signal()
     result = fit_trial(batches_of(rates), event(0, count=0), event(1, count=N))
     direct = fit_period(rates, sample_rate_hz=RATE)
-    assert result.valid and result.flags == () and result.flag_reasons == ()
+    assert result.valid and result.flag_codes == () and result.flag_reasons == ()
     assert same(result.period, direct.period) and same(result.period_sigma, direct.period_sigma)
     assert (result.n_samples, result.n_expected) == (N, N)
-    assert (result.window_start, result.window_stop) == direct.window
+    assert result.window == direct.window
     assert result.measurement_key == "TtB1" and result.stamp_ns == T0
     assert abs(result.period - 1.0) < 5 * result.period_sigma
 
@@ -96,20 +80,20 @@ def test_order_and_duplicates_do_not_matter() -> None:
     shuffled += batches[:7]  # duplicates, ignored
     a = fit_trial(batches, event(0), event(1, count=N))
     b = fit_trial(shuffled, event(0), event(1, count=N))
-    assert same(a.period, b.period) and a.flags == b.flags == () and b.n_samples == N
+    assert same(a.period, b.period) and a.flag_codes == b.flag_codes == () and b.n_samples == N
 
 
 def test_gaps_are_flagged_and_fitted_on_the_true_times() -> None:
     rates = signal()
     kept = [b for b in batches_of(rates) if b.first_index not in (1000, 1050, 4000)]
     result = fit_trial(kept, event(0), event(1, count=N + 0))
-    assert result.flags[0] == "gap"
+    assert result.flag_codes[0] == "gap"
     assert "150 samples missing in 2 gap(s): [1000, 1100), [4000, 4050)" in result.flag_reasons[0]
     index = np.concatenate([np.arange(b.first_index, b.first_index + 50) for b in kept])
     direct = fit_period(np.concatenate([b.rates for b in kept]), times=index / RATE)
     assert same(result.period, direct.period) and result.n_samples == N - 150
     lost_end = fit_trial(batches_of(rates)[:-2], event(0), event(1, count=N))
-    assert lost_end.flags[0] == "gap" and "[7900, 8000)" in lost_end.flag_reasons[0]
+    assert lost_end.flag_codes[0] == "gap" and "[7900, 8000)" in lost_end.flag_reasons[0]
 
 
 def test_oversized_truncated_and_non_finite() -> None:
@@ -117,30 +101,31 @@ def test_oversized_truncated_and_non_finite() -> None:
     options = TrialFitOptions(max_trial_samples=6000, max_batch_samples=100)
     batches = batches_of(rates)
     batches.insert(5, Batch("t", 20_000, np.zeros(500)))
-    batches[10].rates = batches[10].rates.copy()
-    batches[10].rates[3] = math.nan
+    poisoned = batches[10].rates.copy()
+    poisoned[3] = math.nan
+    batches[10] = dataclasses.replace(batches[10], rates=poisoned)
     result = fit_trial(batches, event(0), event(1, count=N), options)
-    assert result.flags[:2] == ("oversized_batch", "truncated")
+    assert result.flag_codes[:2] == ("oversized_batch", "truncated")
     reason = "1 batch(es) larger than max_batch_samples 100 rejected (first: 500 samples at index 20000)"
     assert reason in result.flag_reasons[0]
     assert "2000 samples dropped" in result.flag_reasons[1]
-    assert "non_finite" in result.flags and result.n_samples == 6000 and result.valid
+    assert "non_finite" in result.flag_codes and result.n_samples == 6000 and result.valid
     assert json.loads(result.fit_options_json)["max_trial_samples"] == 6000
 
 
 def test_missing_events_and_disagreeing_rates() -> None:
     rates = signal()
-    assert fit_trial(batches_of(rates), None, event(1, count=N)).flags[0] == "no_start"
-    assert fit_trial(batches_of(rates), event(0), None).flags[0] == "no_stop"
+    assert fit_trial(batches_of(rates), None, event(1, count=N)).flag_codes[0] == "no_start"
+    assert fit_trial(batches_of(rates), event(0), None).flag_codes[0] == "no_stop"
     ghost = fit_trial(batches_of(rates, "ghost")[:3], None, None)
-    assert ghost.flags[0] == "unknown_trial" and ghost.trial_id == "ghost" and not ghost.valid
-    assert fit_trial(batches_of(rates), event(0), event(2, count=N)).flags[0] == "aborted"
+    assert ghost.flag_codes[0] == "unknown_trial" and ghost.trial_id == "ghost" and not ghost.valid
+    assert fit_trial(batches_of(rates), event(0), event(2, count=N)).flag_codes[0] == "aborted"
     odd = batches_of(rates)
-    odd[4].sample_rate_hz = 999.0
+    odd[4] = dataclasses.replace(odd[4], sample_rate_hz=999.0)
     mismatch = fit_trial(odd, event(0), event(1, count=N))
-    assert mismatch.flags[0] == "rate_mismatch" and "999, 1000 Hz" in mismatch.flag_reasons[0]
+    assert mismatch.flag_codes[0] == "rate_mismatch" and "999, 1000 Hz" in mismatch.flag_reasons[0]
     empty = fit_trial([], event(0), event(1, count=0))
-    assert not empty.valid and empty.n_samples == 0 and "empty" in empty.flags
+    assert not empty.valid and empty.n_samples == 0 and "empty" in empty.flag_codes
 
 
 def test_options_round_trip_through_json() -> None:
@@ -175,7 +160,7 @@ def state(**kw: Any) -> tuple[FitterState, Log, Clock]:
     return FitterState(TrialFitOptions(), log, clock=clock, **options), log, clock
 
 
-def feed(s: FitterState, batches: Sequence[Batch]) -> list[TrialFit]:
+def feed(s: FitterState, batches: Sequence[SampleBatch]) -> list[TrialFit]:
     out: list[TrialFit] = []
     for b in batches:
         out += s.on_batch(b, T0 + round(b.first_index * 1e6))
@@ -192,7 +177,7 @@ def test_state_fits_on_stop_whatever_the_order_of_the_two_topics() -> None:
     assert s.on_event(event(1, count=N)) == []  # STOP before the last batches: waits
     done = feed(s, batches[-3:])
     assert len(done) == 1 and same(done[0].period, fit_trial(batches, event(0), event(1, count=N)).period)
-    assert done[0].flags == () and not [line for line in log.lines if line.startswith("W")]
+    assert done[0].flag_codes == () and not [line for line in log.lines if line.startswith("W")]
     assert feed(s, batches[:1]) == []  # a late duplicate of a finished trial: ignored
 
 
@@ -208,7 +193,7 @@ def test_state_gives_up_waiting_after_grace_and_reports_unknown_trials() -> None
     assert s.poll(live=False) == []
     clock.now = 1.0
     results = {r.trial_id: r for r in s.poll()}
-    assert results["t"].flags[0] == "gap" and results["ghost"].flags[0] == "unknown_trial"
+    assert results["t"].flag_codes[0] == "gap" and results["ghost"].flag_codes[0] == "unknown_trial"
     assert any(line.startswith("W trial ghost (?): no period") and "unknown_trial" in line for line in log.lines)
 
 
@@ -227,12 +212,12 @@ def test_state_waits_for_the_history_after_a_restart() -> None:
     for i in range(4):  # then the batches arrive: every trial complete, none evicted
         out += feed(s, batches_of(rates, f"h{i}"))
     assert sorted(r.trial_id for r in out) == ["h0", "h1", "h2", "h3"]
-    assert all(r.n_samples == N and not r.flags for r in out)
+    assert all(r.n_samples == N and not r.flag_codes for r in out)
     s.on_event(event(0, trial_id="late"))
     s.on_event(event(1, count=N, trial_id="late"))
     clock.now = 6.0
     (late,) = s.poll()
-    assert late.trial_id == "late" and late.flags[0] == "gap"
+    assert late.trial_id == "late" and late.flag_codes[0] == "gap"
 
 
 def test_state_bounds_the_open_trials() -> None:
@@ -241,7 +226,7 @@ def test_state_bounds_the_open_trials() -> None:
     for i in range(3):
         out += s.on_event(event(0, trial_id=f"t{i}"))
         out += feed(s, batches_of(signal(200), f"t{i}"))
-    assert [r.trial_id for r in out] == ["t0"] and out[0].flags[0] == "no_stop"
+    assert [r.trial_id for r in out] == ["t0"] and out[0].flag_codes[0] == "no_stop"
     assert "more than 2 trials without STOP" in log.lines[0]
 
 
@@ -264,15 +249,18 @@ def test_state_does_not_republish_trials_older_than_the_gyro_history() -> None:
 
 
 def expected_fields(result: TrialFit) -> dict[str, Any]:
-    return {k: getattr(result, k) for k in (
-        "trial_id", "measurement_key", "n_samples", "n_expected", "window_start", "window_stop", "valid",
-        "flags", "flag_reasons", "fit_options_json")}  # fmt: skip
+    return {
+        "trial_id": result.trial_id, "measurement_key": result.measurement_key, "n_samples": result.n_samples,
+        "n_expected": result.n_expected, "window_start": result.window[0], "window_stop": result.window[1],
+        "valid": result.valid, "flags": result.flag_codes, "flag_reasons": result.flag_reasons,
+        "fit_options_json": result.fit_options_json,
+    }  # fmt: skip
 
 
 def assert_identical(estimate: Any, result: TrialFit) -> None:
     """A PeriodEstimate equals a fit_trial result: every float bit for bit."""
     for name in ("period", "period_sigma", "zeta", "omega", "r2", "residual_rms"):
-        assert same(getattr(estimate, name), getattr(result, name)), (result.trial_id, name)
+        assert same(getattr(estimate, name), getattr(result.fit, name)), (result.trial_id, name)
     got = {k: getattr(estimate, k) for k in expected_fields(result)}
     got["flags"], got["flag_reasons"] = tuple(got["flags"]), tuple(got["flag_reasons"])
     assert got == expected_fields(result)
@@ -303,14 +291,18 @@ def test_every_trial_of_a_session_through_driver_and_fitter(
     for estimate, truth in zip(periods, session.trials):
         n = truth.rate.size
         stop_ns = start_ns + round(n * 1e6)
-        start = SimpleNamespace(kind=0, trial_id=truth.name, measurement_key=truth.key, sample_rate_hz=RATE,
-                                sample_count=0, header=Header(Stamp(*divmod(start_ns, 10**9))))  # fmt: skip
-        stop = SimpleNamespace(kind=1, trial_id=truth.name, measurement_key=truth.key, sample_rate_hz=RATE,
-                               sample_count=n, header=Header(Stamp(*divmod(stop_ns, 10**9))))  # fmt: skip
+        start = event(0, truth.name, key=truth.key, ns=start_ns)
+        stop = event(1, truth.name, count=n, key=truth.key, ns=stop_ns)
         expected = fit_trial(batches_of(truth.rate, truth.name), start, stop, options)
         assert_identical(estimate, expected)
         assert estimate.n_samples == estimate.n_expected == n
         start_ns = stop_ns + 100_000_000
+
+
+def fit_messages(batches: Sequence[Any], start: Any, stop: Any, options: TrialFitOptions | None = None) -> TrialFit:
+    """``fit_trial`` of rclpy messages, converted as the fitter node converts them."""
+    records = [messages.sample_batch_from_msg(b) for b in batches]
+    return fit_trial(records, messages.trial_event_from_msg(start), messages.trial_event_from_msg(stop), options)
 
 
 def synthetic_trial(trial_id: str, seed: int, n: int = N) -> tuple[Any, list[Any], Any]:
@@ -373,7 +365,7 @@ def test_bad_input_is_logged_flagged_and_the_fitter_keeps_serving(
             (events if isinstance(m, msgs.TrialEvent) else gyro).publish(m)
         nan = by_id("nan_trial")
         assert nan.valid and "non_finite" in nan.flags
-        assert_identical(nan, fit_trial(batches, start, stop, options))
+        assert_identical(nan, fit_messages(batches, start, stop, options))
 
         # batches of a trial nobody announced
         _, ghost, _ = synthetic_trial("ghost", 2, n=200)
@@ -396,7 +388,7 @@ def test_bad_input_is_logged_flagged_and_the_fitter_keeps_serving(
         big = by_id("big")
         assert list(big.flags)[:2] == ["oversized_batch", "gap"] and big.n_samples == N - 50
         assert "50 samples missing in 1 gap(s): [1500, 1550)" in big.flag_reasons[1]
-        assert_identical(big, fit_trial(sent, start, stop, options))
+        assert_identical(big, fit_messages(sent, start, stop, options))
 
         # and a good trial afterwards
         start, batches, stop = synthetic_trial("good", 5)
@@ -404,7 +396,7 @@ def test_bad_input_is_logged_flagged_and_the_fitter_keeps_serving(
             (events if isinstance(m, msgs.TrialEvent) else gyro).publish(m)
         good = by_id("good")
         assert good.valid and list(good.flags) == [] and good.n_samples == N
-        assert_identical(good, fit_trial(batches, start, stop, options))
+        assert_identical(good, fit_messages(batches, start, stop, options))
         assert fitter.proc.poll() is None
     assert fitter.proc.returncode == 0, fitter.describe()
     log = fitter.stderr_path.read_text()
@@ -441,9 +433,9 @@ def test_a_restarted_fitter_refits_the_trial_in_progress(
         probe.spin_until(lambda: any(p.trial_id == "b" for p in periods), STEP_TIMEOUT_S, "the period of b",
                          fitter.describe)  # fmt: skip
     b = next(p for p in periods if p.trial_id == "b")
-    assert_identical(b, fit_trial(batches_b, start_b, stop_b))
+    assert_identical(b, fit_messages(batches_b, start_b, stop_b))
     assert b.n_samples == N and list(b.flags) == []
-    expected_a = fit_trial(batches_a, done_a, stop_a)
+    expected_a = fit_messages(batches_a, done_a, stop_a)
     of_a = [p for p in periods if p.trial_id == "a"]  # the first fitter's, and the second's re-fit
     assert len(of_a) >= 1
     for estimate in of_a:

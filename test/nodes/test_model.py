@@ -15,14 +15,14 @@ import numpy as np
 import pytest
 
 from bike_rig import topics
-from bike_rig.core.assembly import assemble
 from bike_rig.core.benchmark import ComMethod, ParameterSet
 from bike_rig.core.loader import load_static_readings
 from bike_rig.core.rider import PAPER_RIDER, add_rider
 from bike_rig.core.uncertainty.matrix_sigma import SigmaConvention, canonical_with_sigma
 from bike_rig.core.uncertainty.speed_sigma import critical_speeds_with_sigma
 from bike_rig.core.whipple import eigenvalues, state_space
-from bike_rig.messages import fill_benchmark_parameters, parameter_set_from_msg, set_stamp
+from bike_rig.messages import fill_benchmark_parameters, session_parameters_from_msg, set_stamp
+from bike_rig.pipeline.assemble import assemble
 from test.nodes.test_parameter import (
     BROWSER,
     REPO,
@@ -167,7 +167,7 @@ def test_late_model_node_gets_the_parameter_nodes_set(
             matrices = probe.wait_message(topics.MATRICES, lambda m: True, "matrices from the late model", nodes)
             sweep = probe.wait_message(topics.EIGEN_SWEEP, lambda m: True, "eigen sweep from the late model", nodes)
             assert stamp_of(matrices) == stamp_of(sweep) == stamp_of(params)
-            ps = parameter_set_from_msg(params)
+            ps = session_parameters_from_msg(params).complete_parameters()
             assert np.array_equal(ps.parameters.values, offline_set().parameters.values)
             speeds = np.linspace(0.0, 5.0, 11)
             assert_model_equals_core(matrices, sweep, ps, "paper", SigmaConvention.PAPER, speeds)

@@ -21,12 +21,13 @@ import rclpy
 from rclpy.executors import SingleThreadedExecutor
 
 from bike_rig import topics
-from bike_rig.core.assembly import SessionParameters, TrialPeriod, assemble
 from bike_rig.core.benchmark import compute_parameters
 from bike_rig.core.loader import load_measurements, load_static_readings
 from bike_rig.messages import fill_period_estimate, session_parameters_from_msg, static_readings_from_msg
-from bike_rig.nodes.qos import profile
+from bike_rig.rosqos import profile
 from bike_rig.paths import config_file
+from bike_rig.pipeline.assemble import SessionParameters, assemble
+from bike_rig.pipeline.fit import TrialFit
 from test.ros.processes import RosProcess
 
 pytestmark = pytest.mark.ros
@@ -167,14 +168,14 @@ def start_node(module: str, name: str, env: Mapping[str, str], log_dir: Path, *r
     return RosProcess(name, argv, env, log_dir)
 
 
-def browser_trials() -> list[TrialPeriod]:
+def browser_trials() -> list[TrialFit]:
     """One trial per key with the Browser file's own period and σ."""
     full = load_measurements(BROWSER)
-    return [TrialPeriod(f"{k}_t1", k, full.value(k), full.readings[k].sigma, True, stamp_ns=i) for i, k in
+    return [TrialFit.from_period(f"{k}_t1", k, full.value(k), full.readings[k].sigma, True, stamp_ns=i) for i, k in
             enumerate(BROWSER_KEYS)]  # fmt: skip
 
 
-def publish_trials(probe: Probe, trials: Sequence[TrialPeriod], matched: bool = False) -> None:
+def publish_trials(probe: Probe, trials: Sequence[TrialFit], matched: bool = False) -> None:
     """Publish period estimates (transient local: later subscribers get them too)."""
     from bike_rig_msgs.msg import PeriodEstimate
 
@@ -200,9 +201,9 @@ def test_late_parameter_node_assembles_the_browser_set(probe: Probe, node_env: d
     full = load_measurements(BROWSER)
     clean = browser_trials()
     noise = [
-        TrialPeriod("TtB1_t2", "TtB1", 2.6, 1e-5, True, ("beating",), ("envelope modulation",)),  # flagged
-        TrialPeriod("TcH1_t2", "TcH1", float("nan"), float("nan"), False, ("no_oscillation",), ("flat",)),
-        TrialPeriod("TtR1_t1", "TtR1", 0.9, 1e-6, True),  # replaced by the clean TtR1_t1 below
+        TrialFit.from_period("TtB1_t2", "TtB1", 2.6, 1e-5, True, ("beating",), ("envelope modulation",)),  # flagged
+        TrialFit.from_period("TcH1_t2", "TcH1", float("nan"), float("nan"), False, ("no_oscillation",), ("flat",)),
+        TrialFit.from_period("TtR1_t1", "TtR1", 0.9, 1e-6, True),  # replaced by the clean TtR1_t1 below
     ]
     # the estimates are out before the node starts: it must get them all (transient local)
     publish_trials(probe, [*noise, *clean])
@@ -233,7 +234,7 @@ def test_late_parameter_node_assembles_the_browser_set(probe: Probe, node_env: d
         assert first.com_method == "centroid"
 
         # a better trial arrives: a new set with the combined period, as offline
-        better = TrialPeriod("TcR1_t2", "TcR1", full.value("TcR1") + 2e-6, 2e-6, True)
+        better = TrialFit.from_period("TcR1_t2", "TcR1", full.value("TcR1") + 2e-6, 2e-6, True)
         publish_trials(probe, [better], matched=True)
         second = probe.wait_message(
             topics.PARAMETERS, lambda m: m.complete and "TcR1:TcR1_t2" in m.trial_ids, "the improved set", [node]
@@ -257,7 +258,7 @@ def test_incomplete_session_reports_what_is_missing(
         assert start.com_method == "lstsq" and start.bicycle == "Browser"
 
         have = [t for t in browser_trials() if t.measurement_key not in ("TtB3", "TcH1")]
-        flagged = TrialPeriod("TtB3_t1", "TtB3", 1.84, 1e-5, True, ("drift",), ("offset drift",))
+        flagged = TrialFit.from_period("TtB3_t1", "TtB3", 1.84, 1e-5, True, ("drift",), ("offset drift",))
         publish_trials(probe, [*have, flagged], matched=True)
         status = probe.wait_message(
             topics.PARAMETERS, lambda m: len(m.missing) == 2, "the status with two keys missing", [node]

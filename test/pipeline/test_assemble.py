@@ -9,17 +9,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bike_rig.core.assembly import (
-    AssemblyError,
-    SessionAssembly,
-    TrialPeriod,
-    assemble,
-    combine_trials,
-    compute_model,
-    period_fit,
-    required_period_keys,
-    state_space_at,
-)
 from bike_rig.core.benchmark import ComMethod, ParameterSet, compute_parameters
 from bike_rig.core.errors import GeometryError, MeasurementError, ModelError
 from bike_rig.core.loader import load_measurements, load_static_readings
@@ -29,6 +18,10 @@ from bike_rig.core.rider import PAPER_RIDER, add_rider
 from bike_rig.core.uncertainty.matrix_sigma import SigmaConvention, canonical_with_sigma
 from bike_rig.core.whipple import critical_speeds, eigenvalues, state_space
 from bike_rig.paths import config_file
+from bike_rig.pipeline.assemble import SessionAssembly, assemble, combine_trials, required_period_keys
+from bike_rig.pipeline.errors import AssemblyError, FlagCodeError
+from bike_rig.pipeline.fit import TrialFit
+from bike_rig.pipeline.model import compute_model, state_space_at
 
 BICYCLES = ("browser", "browserins", "crescendo", "fisher", "stratos", "yellow")
 BROWSER_KEYS = (
@@ -40,9 +33,9 @@ def bicycle(name: str) -> Path:
     return config_file(f"bicycles/{name}.yaml")
 
 
-def file_trials(full: Measurements, keys: tuple[str, ...]) -> list[TrialPeriod]:
+def file_trials(full: Measurements, keys: tuple[str, ...]) -> list[TrialFit]:
     """One trial per key carrying the file's own period and σ."""
-    return [TrialPeriod(f"{k}-t1", k, full.value(k), full.readings[k].sigma, True) for k in keys]
+    return [TrialFit.from_period(f"{k}-t1", k, full.value(k), full.readings[k].sigma, True) for k in keys]
 
 
 def assert_same_set(got: ParameterSet | None, expected: ParameterSet | None) -> None:
@@ -100,14 +93,14 @@ def test_missing_keys_listed_in_canonical_order() -> None:
     assert [p.key for p in result.periods] == ["TtP1", "TcR1", "TtB2", "TtH3"]
 
 
-def trial_set(full: Measurements, keys: tuple[str, ...], seed: int) -> list[TrialPeriod]:
+def trial_set(full: Measurements, keys: tuple[str, ...], seed: int) -> list[TrialFit]:
     """Three scattered trials per key, with distinct ids."""
     rng = np.random.default_rng(seed)
     out = []
     for k in keys:
         v, s = full.value(k), full.readings[k].sigma
         for i in range(3):
-            out.append(TrialPeriod(f"{k}-{i}", k, v + s * rng.normal(), s * (1 + 0.5 * rng.random()), True))
+            out.append(TrialFit.from_period(f"{k}-{i}", k, v + s * rng.normal(), s * (1 + 0.5 * rng.random()), True))
     return out
 
 
@@ -130,7 +123,7 @@ def test_combination_is_combine_periods_in_trial_id_order() -> None:
     trials = trial_set(full, ("TtB1",), seed=3)
     combined, used = combine_trials(reversed(trials))
 
-    expected = combine_periods([period_fit(t) for t in sorted(trials, key=lambda t: t.trial_id)])
+    expected = combine_periods([t.fit for t in sorted(trials, key=lambda t: t.trial_id)])
     assert (combined.value, combined.sigma, combined.n_used) == (expected.value, expected.sigma, 3)
     assert used == ("TtB1-0", "TtB1-1", "TtB1-2")
 
@@ -140,10 +133,10 @@ def test_same_trial_id_replaces_the_earlier_estimate() -> None:
     session = SessionAssembly(load_static_readings(bicycle("browser")))
     session.add_all(file_trials(full, BROWSER_KEYS))
     first = session.result()
-    wrong = TrialPeriod("TtB1-t1", "TtB1", 2.5, 1e-4, True)
+    wrong = TrialFit.from_period("TtB1-t1", "TtB1", 2.5, 1e-4, True)
     session.add(wrong)
     assert session.result().periods[6].value == 2.5
-    assert session.add(TrialPeriod("TtB1-t1", "TtB1", full.value("TtB1"), full.readings["TtB1"].sigma, True))
+    assert session.add(TrialFit.from_period("TtB1-t1", "TtB1", full.value("TtB1"), full.readings["TtB1"].sigma, True))
     assert len(session.trials) == len(BROWSER_KEYS)
     assert_same_set(session.result().parameters, first.parameters)
     # an identical re-publication changes nothing
@@ -155,10 +148,10 @@ def test_flagged_and_invalid_trials_are_left_out() -> None:
     static = load_static_readings(bicycle("browser"))
     clean = file_trials(full, BROWSER_KEYS)
     bad = [
-        TrialPeriod("TtB1-t2", "TtB1", 2.3, 1e-5, True, ("beating",), ("envelope modulation 5 %",)),
-        TrialPeriod("TtB1-t3", "TtB1", math.nan, math.nan, False, ("no_oscillation",), ("flat",)),
-        TrialPeriod("TtB1-t4", "TtB1", 2.2, 1e-5, False),
-        TrialPeriod("TtB1-t5", "TtB1", 2.2, 0.0, True),  # no usable σ
+        TrialFit.from_period("TtB1-t2", "TtB1", 2.3, 1e-5, True, ("beating",), ("envelope modulation 5 %",)),
+        TrialFit.from_period("TtB1-t3", "TtB1", math.nan, math.nan, False, ("no_oscillation",), ("flat",)),
+        TrialFit.from_period("TtB1-t4", "TtB1", 2.2, 1e-5, False),
+        TrialFit.from_period("TtB1-t5", "TtB1", 2.2, 0.0, True),  # no usable σ
     ]
     result = assemble(static, clean + bad)
     assert_same_set(result.parameters, compute_parameters(full))
@@ -172,9 +165,9 @@ def test_flagged_and_invalid_trials_are_left_out() -> None:
 def test_unknown_key_or_flag_is_rejected() -> None:
     session = SessionAssembly(load_static_readings(bicycle("browser")))
     with pytest.raises(AssemblyError, match="'TtB4' is not a period of Browser"):
-        session.add(TrialPeriod("x", "TtB4", 2.0, 1e-4, True))
-    with pytest.raises(AssemblyError, match="unknown quality flag code 'wobbly'"):
-        session.add(TrialPeriod("y", "TtB1", 2.0, 1e-4, True, ("wobbly",), ("?",)))
+        session.add(TrialFit.from_period("x", "TtB4", 2.0, 1e-4, True))
+    with pytest.raises(FlagCodeError, match="unknown quality flag code 'wobbly'"):
+        session.add(TrialFit.from_period("y", "TtB1", 2.0, 1e-4, True, ("wobbly",), ("?",)))
     assert session.trials == ()
 
 
@@ -239,8 +232,8 @@ def test_a_refit_from_fewer_samples_never_replaces_a_complete_one() -> None:
     import dataclasses
 
     static = load_static_readings(config_file("bicycles/browser.yaml"))
-    full = TrialPeriod("t1", "TcR1", 1.3611, 4e-6, True, n_samples=30000, n_expected=30000)
-    partial = dataclasses.replace(full, period=1.37, valid=True, n_samples=12000)
+    full = TrialFit.from_period("t1", "TcR1", 1.3611, 4e-6, True, n_samples=30000, n_expected=30000)
+    partial = dataclasses.replace(full, fit=dataclasses.replace(full.fit, period=1.37, valid=True), n_samples=12000)
     for order in ((full, partial), (partial, full)):
         a = SessionAssembly(static)
         for t in order:

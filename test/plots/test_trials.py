@@ -21,7 +21,7 @@ from bike_rig.core.period import PeriodFit
 from bike_rig.core.period.result import Flag, FlagCode
 from bike_rig.core.sim import write_session
 from bike_rig.plots.trials import fit_figure, overview_data, trial_overview
-from bike_rig.subjects import Subject, TrialRecord, load_subject
+from bike_rig.subjects import SessionTrial, Subject, load_subject
 from test.bag.conftest import short_session
 
 
@@ -58,16 +58,16 @@ def line(fig: Figure, gid: str) -> Line2D:
     return got
 
 
-def flagged(trial: TrialRecord, factor: float, *codes: FlagCode) -> TrialRecord:
+def flagged(trial: SessionTrial, factor: float, *codes: FlagCode) -> SessionTrial:
     """The trial left out with these flags, its period multiplied by ``factor``."""
     flags = tuple(Flag(c, f"test {c.value}") for c in codes)
     fit = dataclasses.replace(trial.fit, period=trial.fit.period * factor, flags=flags)
-    return dataclasses.replace(trial, fit=fit, used=False)
+    return dataclasses.replace(trial, result=dataclasses.replace(trial.result, fit=fit), used=False)
 
 
-def without_period(trial: TrialRecord) -> TrialRecord:
+def without_period(trial: SessionTrial) -> SessionTrial:
     fit = PeriodFit.invalid((Flag(FlagCode.NO_OSCILLATION, "test: nothing"),), trial.fit.window_policy)
-    return dataclasses.replace(trial, fit=fit, used=False)
+    return dataclasses.replace(trial, result=dataclasses.replace(trial.result, fit=fit), used=False)
 
 
 # ------------------------------------------------------------------ fit figure
@@ -109,7 +109,8 @@ def test_fit_figure_of_a_flagged_trial_and_of_one_without_period(bag_subject: Su
 
 
 def test_fit_figure_without_samples_says_so(file_subject: Subject) -> None:
-    trial = dataclasses.replace(file_subject.trials[0], samples=None)
+    first = file_subject.trials[0]
+    trial = dataclasses.replace(first, result=dataclasses.replace(first.result, samples=None))
     fig = fit_figure(trial)
     note = artist(fig, "no-samples")
     assert isinstance(note, Text) and "no samples" in note.get_text()

@@ -47,11 +47,12 @@ from __future__ import annotations
 from .combine import combine_periods
 from .fit import FitOptions, fit_period
 from .oscillation import damped_oscillation, damped_period
-from .result import CombinedPeriod, Flag, FlagCode, PeriodFit
+from .result import TRIAL_FLAG_CODES, CombinedPeriod, Flag, FlagCode, PeriodFit
 from .window import DEFAULT_WINDOW, WindowKind, WindowPolicy
 
 __all__ = [
     "DEFAULT_WINDOW",
+    "TRIAL_FLAG_CODES",
     "CombinedPeriod",
     "FitOptions",
     "Flag",

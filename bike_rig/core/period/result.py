@@ -11,7 +11,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .window import DEFAULT_WINDOW, WindowPolicy
 
-__all__ = ["FlagCode", "Flag", "PeriodFit", "CombinedPeriod"]
+__all__ = ["TRIAL_FLAG_CODES", "CombinedPeriod", "Flag", "FlagCode", "PeriodFit"]
 
 
 class FlagCode(str, Enum):
@@ -41,6 +41,39 @@ class FlagCode(str, Enum):
     GAP_FILLED = "gap_filled"
     #: The slow drift of the offset is large against the oscillation.
     DRIFT = "drift"
+
+    # Trial-level codes: how the trial's samples were received (set by the fitting stage,
+    # :mod:`bike_rig.pipeline.fit`, before the fit's own flags).
+    #: Gyro batches of a trial never announced (no START, no STOP).
+    UNKNOWN_TRIAL = "unknown_trial"
+    #: A STOP without a START: what the trial measured is unknown.
+    NO_START = "no_start"
+    #: The trial never stopped: fitted as far as it was received.
+    NO_STOP = "no_stop"
+    #: The trial was aborted.
+    ABORTED = "aborted"
+    #: Batches larger than the limit were rejected.
+    OVERSIZED_BATCH = "oversized_batch"
+    #: Samples beyond the per-trial limit were dropped.
+    TRUNCATED = "truncated"
+    #: Samples of batches overlapping earlier ones were dropped.
+    OVERLAP = "overlap"
+    #: Samples are missing.
+    GAP = "gap"
+    #: More samples arrived than the driver announced.
+    SAMPLE_COUNT = "sample_count"
+    #: The batches' (or the START event's) sample rates disagree.
+    RATE_MISMATCH = "rate_mismatch"
+    #: No usable sample rate: nothing was fitted.
+    BAD_RATE = "bad_rate"
+
+
+#: The trial-level codes, which come before a fit's own flags.
+TRIAL_FLAG_CODES: frozenset[FlagCode] = frozenset({
+    FlagCode.UNKNOWN_TRIAL, FlagCode.NO_START, FlagCode.NO_STOP, FlagCode.ABORTED, FlagCode.OVERSIZED_BATCH,
+    FlagCode.TRUNCATED, FlagCode.OVERLAP, FlagCode.GAP, FlagCode.SAMPLE_COUNT, FlagCode.RATE_MISMATCH,
+    FlagCode.BAD_RATE,
+})  # fmt: skip
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,314 @@
+"""Parameter assembly, the third stage: static readings + trial results → the 25 parameters.
+
+The live rig measures the static readings (masses, lengths, angles) once, from a measurement
+file, and the pendulum periods trial by trial. :class:`SessionAssembly` holds the static
+readings, takes trial results one by one (a trial published again under the same trial id
+replaces the earlier one), combines the usable trials of each measurement key with
+:func:`combine_trials`, says which keys are still missing, and, once every key has a period,
+computes the 25 benchmark parameters with :func:`~bike_rig.core.benchmark.compute_parameters`.
+
+Live (the parameter node) and offline (:mod:`bike_rig.pipeline.offline`) use these same
+functions on the same numbers, so a replayed recording gives bit-identical results.
+Everything is deterministic: the same estimates, received in any order, give identical floats
+(trials are combined in trial-id order and the readings are always in one canonical order).
+Units: SI (periods in s); degrees only in ``gamma`` and ``alpha*`` readings.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
+
+from ..core.benchmark import ComMethod, ParameterSet, check_orientations, compute_parameters
+from ..core.loader import is_period_key
+from ..core.measurements import Measurements, Origin, Reading, validate
+from ..core.period import CombinedPeriod, PeriodFit, combine_periods
+from .errors import AssemblyError
+from .fit import TrialFit
+
+__all__ = [
+    "KeyPeriod",
+    "SessionAssembly",
+    "SessionParameters",
+    "assemble",
+    "combine_trials",
+    "merged_readings",
+    "required_period_keys",
+]
+
+
+def combine_trials(trials: Iterable[TrialFit]) -> tuple[CombinedPeriod, tuple[str, ...]]:
+    """Combine the trials of one measurement key, in trial-id order, with :func:`combine_periods`.
+
+    Valid, unflagged trials are averaged (weights 1/σ², σ inflated by the Birge ratio when
+    they scatter); flagged and invalid ones are left out. When exactly one trial is usable its
+    own period and σ are returned bit for bit (the weighted mean of one value, without the
+    rounding of ``w T / w``), so a file's ``value ± σ`` given as one trial reproduces the file.
+    A trial marked valid without a finite positive period counts as invalid.
+
+    Returns:
+        The combination and the ids of the trials used (sorted).
+    """
+    ordered = sorted(trials, key=lambda t: t.trial_id)
+    combined = combine_periods([_combinable(t) for t in ordered])
+    used = tuple(t.trial_id for t in ordered if t.usable)
+    return combined, used
+
+
+def _combinable(trial: TrialFit) -> PeriodFit:
+    """The trial's fit as :func:`combine_periods` takes it: every flag on it, valid only with a period."""
+    f = trial.fit
+    valid = f.valid and math.isfinite(f.period) and f.period > 0.0
+    if valid == f.valid and not trial.trial_flags:
+        return f
+    return dataclasses.replace(f, valid=valid, flags=trial.flags)
+
+
+# --------------------------------------------------------------------------------------------
+# Readings: static + periods, in one canonical order
+# --------------------------------------------------------------------------------------------
+
+
+def _anchors(static: Mapping[str, Reading]) -> dict[str, list[str]]:
+    """Period keys placed after each static key (the order of a measurement file)."""
+    anchors: dict[str, list[str]] = {"dP": ["TtP1"], "lR": ["TcR1", "TtR1"], "lF": ["TcF1", "TtF1"]}
+    anchors["mB"] = ["TcB1"]
+    anchors["mH"] = ["TcH1"]
+    for part in "BH":
+        for i in _orientations(static, part):
+            anchors.setdefault(f"a{part}{i}", []).append(f"Tt{part}{i}")
+    return anchors
+
+
+def _orientations(static: Mapping[str, Reading], part: str) -> list[int]:
+    found = set()
+    for key in static:
+        for prefix in ("alpha", "a"):
+            rest = key[len(prefix) + 1 :]
+            if key.startswith(f"{prefix}{part}") and rest.isdigit():
+                found.add(int(rest))
+    return sorted(found)
+
+
+def required_period_keys(static: Measurements) -> tuple[str, ...]:
+    """Every ``Tc*``/``Tt*`` key the static readings imply, in canonical order.
+
+    The wheels' compound and torsional periods, the frame's and fork's compound periods, one
+    torsional period per hanging orientation (``alpha<part><i>``/``a<part><i>``) and the
+    calibration rod's torsional period.
+    """
+    anchors = _anchors(static.readings)
+    order = [k for key in static.readings for k in anchors.get(key, [])]
+    rest = [k for keys in anchors.values() for k in keys if k not in order]
+    return tuple(order + rest)
+
+
+def merged_readings(static: Measurements, periods: Mapping[str, tuple[float, float]], origin: str) -> Measurements:
+    """Static readings plus periods, each period right after the reading it belongs with.
+
+    The order is that of :func:`bike_rig.core.loader.load_measurements` for a bike_rig YAML
+    file, so that the parameters (their covariance too) are bit-identical to the file's.
+
+    Args:
+        static: The static readings.
+        periods: ``{key: (value, sigma)}`` in s.
+        origin: Where the periods came from (for error messages).
+    """
+    anchors = _anchors(static.readings)
+    readings: dict[str, Reading] = {}
+    for key, reading in static.readings.items():
+        if is_period_key(key):
+            continue
+        readings[key] = reading
+        for pkey in anchors.get(key, []):
+            if pkey in periods:
+                readings[pkey] = _period_reading(pkey, periods[pkey], origin)
+    for pkey, vs in periods.items():
+        readings.setdefault(pkey, _period_reading(pkey, vs, origin))
+    return Measurements(static.bicycle, readings, static.path, static.extras)
+
+
+def _period_reading(key: str, vs: tuple[float, float], origin: str) -> Reading:
+    return Reading(float(vs[0]), float(vs[1]), Origin(origin, key))
+
+
+# --------------------------------------------------------------------------------------------
+# The session
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class KeyPeriod:
+    """One measurement key's combined period and where it came from.
+
+    Attributes:
+        key: The measurement key, e.g. ``"TtB2"``.
+        value: Combined period, s.
+        sigma: Its σ, s.
+        trial_ids: The trials combined (sorted).
+    """
+
+    key: str
+    value: float
+    sigma: float
+    trial_ids: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class SessionParameters:
+    """The state of a session: the parameter set when complete, what is missing otherwise.
+
+    Attributes:
+        bicycle: The bicycle's name.
+        com_method: Mass-centre method used.
+        periods: Every key that has a combined period, in canonical order.
+        missing: Keys without a usable trial yet, in canonical order.
+        parameters: The parameter set, None while incomplete.
+    """
+
+    bicycle: str
+    com_method: ComMethod
+    periods: tuple[KeyPeriod, ...]
+    missing: tuple[str, ...]
+    parameters: ParameterSet | None = None
+
+    @property
+    def complete(self) -> bool:
+        """Every period is there and the parameters are computed."""
+        return self.parameters is not None
+
+    def complete_parameters(self) -> ParameterSet:
+        """The parameter set.
+
+        Raises:
+            AssemblyError: the session is incomplete (the message names the missing keys).
+        """
+        if self.parameters is None:
+            raise AssemblyError(f"the parameter set is incomplete (missing: {', '.join(self.missing)})")
+        return self.parameters
+
+
+@dataclass
+class SessionAssembly:
+    """Static readings plus the period estimates received so far.
+
+    Args:
+        static: The static readings (:func:`bike_rig.core.loader.load_static_readings`);
+            period readings in it are ignored. They are checked here, with every period
+            still to come.
+        com_method: Mass-centre method for :func:`compute_parameters`.
+        origin: Named as the source of the periods in error messages.
+
+    Raises:
+        MeasurementError: a static reading is missing or impossible.
+        GeometryError: hanging orientations are degenerate.
+    """
+
+    static: Measurements
+    com_method: ComMethod = ComMethod.CENTROID
+    origin: str = "period estimates"
+    _trials: dict[str, TrialFit] = field(default_factory=dict, init=False, repr=False)
+    _keys: tuple[str, ...] = field(default=(), init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        self.com_method = ComMethod(self.com_method)
+        readings = {k: r for k, r in self.static.readings.items() if not is_period_key(k)}
+        self.static = Measurements(self.static.bicycle, readings, self.static.path, self.static.extras)
+        self._keys = required_period_keys(self.static)
+        # check the static part now: placeholder periods stand in for those still to come
+        probe = merged_readings(self.static, {k: (1.0, 0.0) for k in self._keys}, self.origin)
+        validate(probe)
+        check_orientations(probe)
+
+    @property
+    def required_keys(self) -> tuple[str, ...]:
+        """Every period key this bicycle needs, canonical order."""
+        return self._keys
+
+    @property
+    def trials(self) -> tuple[TrialFit, ...]:
+        """The trials held (one per trial id), sorted by trial id."""
+        return tuple(self._trials[k] for k in sorted(self._trials))
+
+    def add(self, trial: TrialFit) -> bool:
+        """Take one period estimate; one with a trial id seen before replaces the earlier one,
+        unless it was fitted from fewer samples (then the earlier one is kept).
+
+        Returns:
+            Whether anything changed (False for an identical re-publication).
+
+        Raises:
+            AssemblyError: the measurement key is not one of this bicycle's period keys; the
+                estimate is then not kept.
+        """
+        if trial.measurement_key not in self._keys:
+            raise AssemblyError(
+                f"trial '{trial.trial_id}': measurement key '{trial.measurement_key}' is not a period "
+                f"of {self.static.bicycle} (expected one of {', '.join(self._keys)})"
+            )
+        earlier = self._trials.get(trial.trial_id)
+        if earlier == trial:
+            return False
+        if earlier is not None and trial.n_samples < earlier.n_samples:
+            # a trial's samples are fixed, so a re-fit can only differ by missing data (e.g. a
+            # restarted fitter that no longer has the whole trial): never trade down
+            return False
+        self._trials[trial.trial_id] = trial
+        return True
+
+    def add_all(self, trials: Iterable[TrialFit]) -> None:
+        """:meth:`add` each trial in turn."""
+        for t in trials:
+            self.add(t)
+
+    def combined(self, key: str) -> tuple[CombinedPeriod, tuple[str, ...]]:
+        """The combination of ``key``'s trials (:func:`combine_trials`)."""
+        return combine_trials(t for t in self._trials.values() if t.measurement_key == key)
+
+    def periods(self) -> tuple[KeyPeriod, ...]:
+        """Every key with a usable combined period, in canonical order."""
+        out = []
+        for key in self._keys:
+            comb, used = self.combined(key)
+            if comb.n_used > 0:
+                out.append(KeyPeriod(key, comb.value, comb.sigma, used))
+        return tuple(out)
+
+    def missing(self) -> tuple[str, ...]:
+        """Keys without a usable trial, in canonical order."""
+        have = {p.key for p in self.periods()}
+        return tuple(k for k in self._keys if k not in have)
+
+    def result(self) -> SessionParameters:
+        """The parameter set if every period is there, else what is missing.
+
+        Raises:
+            MeasurementError: a combined reading is impossible (cannot happen for usable
+                trials: their periods and σ are finite and positive).
+        """
+        periods = self.periods()
+        have = {p.key for p in periods}
+        missing = tuple(k for k in self._keys if k not in have)
+        parameters = None
+        if not missing:
+            merged = merged_readings(self.static, {p.key: (p.value, p.sigma) for p in periods}, self.origin)
+            parameters = compute_parameters(merged, self.com_method)
+        return SessionParameters(self.static.bicycle, self.com_method, periods, missing, parameters)
+
+
+def assemble(
+    static: Measurements,
+    trials: Iterable[TrialFit],
+    com_method: ComMethod | str = ComMethod.CENTROID,
+    origin: str = "period estimates",
+) -> SessionParameters:
+    """One-shot :class:`SessionAssembly` (offline replay): add every trial, return the result.
+
+    Raises:
+        AssemblyError: a trial's key cannot be used (as :meth:`SessionAssembly.add`).
+    """
+    session = SessionAssembly(static, ComMethod(com_method), origin)
+    session.add_all(trials)
+    return session.result()

@@ -1,0 +1,167 @@
+"""The model, the fourth stage: a parameter set → what the model node publishes.
+
+:func:`compute_model` turns a parameter set into the canonical matrices with σ, the eigenvalue
+sweep and the weave and capsize speeds with σ; :func:`state_space_at` gives A, B and the
+labelled eigenvalues at one speed. The model node and the offline runner call these same
+functions. Units: SI (speeds in m/s, eigenvalues in 1/s).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ..core.benchmark import ParameterSet
+from ..core.errors import ModelError
+from ..core.rider import PAPER_RIDER, Rider, add_rider
+from ..core.uncertainty.matrix_sigma import SigmaConvention, canonical_with_sigma
+from ..core.uncertainty.speed_sigma import SpeedWithSigma, critical_speeds_with_sigma
+from ..core.whipple import MODE_LABELS, EigenvalueSweep, WhippleMatrices, eigenvalues, state_space
+
+__all__ = [
+    "RIDERS",
+    "ModelMatrices",
+    "StabilitySweep",
+    "StateSpaceAt",
+    "compute_model",
+    "rider_by_name",
+    "state_space_at",
+]
+
+FloatArray = NDArray[np.float64]
+
+#: Riders the live model knows by name ("" is no rider).
+RIDERS: Mapping[str, Rider | None] = {"": None, "paper": PAPER_RIDER}
+
+
+def rider_by_name(name: str) -> Rider | None:
+    """The rider called ``name`` ("" or "none": no rider; "paper": Table 1).
+
+    Raises:
+        ModelError: an unknown name.
+    """
+    key = "" if name == "none" else name
+    if key not in RIDERS:
+        raise ModelError(f"unknown rider '{name}': expected '', 'none' or 'paper'")
+    return RIDERS[key]
+
+
+@dataclass(frozen=True)
+class ModelMatrices:
+    """Canonical matrices with σ of one bicycle (the fields of a ``CanonicalMatrices`` message).
+
+    Attributes:
+        bicycle: The bicycle's name (without the rider).
+        rider: "" or "paper".
+        g: Gravity, m/s².
+        matrices: M (kg m²), C1 (kg m), K0 (kg m), K2 (kg).
+        sigma: σ of every entry, same layout.
+        convention: How σ were computed.
+    """
+
+    bicycle: str
+    rider: str
+    g: float
+    matrices: WhippleMatrices
+    sigma: WhippleMatrices
+    convention: SigmaConvention
+
+
+@dataclass(frozen=True)
+class StabilitySweep:
+    """Eigenvalues over speeds and the critical speeds (the fields of an ``EigenSweep`` message).
+
+    Attributes:
+        bicycle: The bicycle's name (without the rider).
+        rider: "" or "paper".
+        sweep: Speeds (m/s), eigenvalues (1/s, shape (N, 4)) and mode labels.
+        weave: Weave speed with σ (m/s), None when absent.
+        capsize: Capsize speed with σ (m/s), None when absent.
+    """
+
+    bicycle: str
+    rider: str
+    sweep: EigenvalueSweep
+    weave: SpeedWithSigma | None
+    capsize: SpeedWithSigma | None
+
+
+def _with_rider(ps: ParameterSet, rider: str) -> ParameterSet:
+    r = rider_by_name(rider)
+    return ps if r is None else add_rider(ps, r)
+
+
+def compute_model(
+    ps: ParameterSet,
+    speeds: ArrayLike,
+    rider: str = "",
+    convention: SigmaConvention | str = SigmaConvention.CORRELATED,
+) -> tuple[ModelMatrices, StabilitySweep]:
+    """The model products of a parameter set.
+
+    Args:
+        ps: The bicycle's parameter set (without rider).
+        speeds: Speeds of the eigenvalue sweep, m/s.
+        rider: "" (none) or "paper" (lumped into the rear frame, σ carried through).
+        convention: σ convention of the matrices and the critical speeds.
+
+    Raises:
+        ModelError: unknown rider, bad speeds or a singular mass matrix.
+    """
+    convention = SigmaConvention(convention)
+    name = "" if rider == "none" else rider
+    full = _with_rider(ps, name)
+    ms = canonical_with_sigma(full, convention)
+    sweep = eigenvalues(ms.matrices, ms.g, speeds)
+    cs = critical_speeds_with_sigma(full, convention, ms)
+    return (
+        ModelMatrices(ps.bicycle, name, ms.g, ms.matrices, ms.sigma, convention),
+        StabilitySweep(ps.bicycle, name, sweep, cs.weave, cs.capsize),
+    )
+
+
+#: Speeds above the asked one over which :func:`state_space_at` tracks the modes to label them, m/s.
+LABEL_SWEEP_SPAN = 10.0
+#: Speeds in that sweep.
+LABEL_SWEEP_COUNT = 201
+
+
+@dataclass(frozen=True)
+class StateSpaceAt:
+    """``ẋ = A x + B u`` at one speed (the fields of a ``StateSpace`` response).
+
+    Attributes:
+        speed: m/s.
+        a: A, shape (4, 4) (1/s, 1/s²).
+        b: B, shape (4, 2) (1/(kg m²)).
+        eigenvalues: Shape (4,), 1/s, columns as ``labels``.
+        labels: Mode of each eigenvalue.
+    """
+
+    speed: float
+    a: FloatArray
+    b: FloatArray
+    eigenvalues: NDArray[np.complex128]
+    labels: tuple[str, ...] = MODE_LABELS
+
+
+def state_space_at(model: ModelMatrices, speed: float) -> StateSpaceAt:
+    """A, B and the labelled eigenvalues of ``model`` at ``speed``.
+
+    Raises:
+        ModelError: the speed is not a finite number ≥ 0 m/s.
+    """
+    v = float(speed)
+    if not (math.isfinite(v) and v >= 0.0):
+        raise ModelError(f"speed must be a finite number >= 0 m/s, got {speed}")
+    a, b = state_space(model.matrices, v, model.g)
+    # Labels come from the structure at the highest speed of a sweep and are carried back along
+    # the tracks; one speed alone would name the low-speed capsize–caster pair "weave".
+    sweep = eigenvalues(model.matrices, model.g, np.linspace(v, v + LABEL_SWEEP_SPAN, LABEL_SWEEP_COUNT))
+    return StateSpaceAt(v, np.asarray(a, dtype=float), np.asarray(b, dtype=float), sweep.eigenvalues[0], sweep.labels)
+
+
