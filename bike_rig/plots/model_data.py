@@ -110,7 +110,13 @@ class EigenCurves:
     capsize_caster_complex: tuple[tuple[float, float], ...]
 
     def mode(self, label: str) -> ComplexArray:
-        """The columns of one mode, shape (N, k) (k = 2 for weave).
+        """The columns of one mode.
+
+        Args:
+            label: A mode label of :data:`bike_rig.core.whipple.MODE_LABELS`.
+
+        Returns:
+            Its eigenvalues, 1/s, shape (N, k) (k = 2 for weave).
 
         Raises:
             FigureInputError: Unknown mode label.
@@ -201,7 +207,14 @@ def _rider_key(rider: str) -> str:
 
 
 def model_parameters(subject: Subject, rider: str = "") -> ParameterSet:
-    """The subject's parameter set, with the named rider added ("" or "none": none; "paper").
+    """The subject's parameter set, with the named rider added.
+
+    Args:
+        subject: The bicycle.
+        rider: "" or "none" (no rider), or "paper" (Table 1, lumped into the rear frame).
+
+    Returns:
+        The parameters with σ.
 
     Raises:
         ModelError: Unknown rider.
@@ -248,6 +261,12 @@ def quartic_discriminant(coefficients: ArrayLike) -> FloatArray:
 
     Zero exactly where two roots coincide; negative when the quartic has two real roots and one
     complex pair, positive with four real roots or two complex pairs.
+
+    Args:
+        coefficients: The quartic's coefficients along the last axis, highest power first.
+
+    Returns:
+        The discriminant, one per quartic (the leading axes' shape).
     """
     co = np.asarray(coefficients, dtype=float)
     a, b, c, d, e = (co[..., k] for k in range(5))
@@ -294,6 +313,15 @@ def complex_intervals(
 
     Each end between two sweep speeds is refined to the double root of the characteristic
     polynomial (the sign change of :func:`quartic_discriminant`) between them.
+
+    Args:
+        matrices: The bicycle's Whipple matrices.
+        g: Gravity, m/s².
+        speeds: The sweep's speeds, m/s, increasing.
+        roots: One root's track over ``speeds``, 1/s.
+
+    Returns:
+        (start, stop) pairs, m/s, in order.
     """
     flag = _is_complex(roots)
     out: list[tuple[float, float]] = []
@@ -326,6 +354,9 @@ def eigen_curves(
         speeds: Speeds, m/s (at least two, ≥ 0; sorted and made distinct); default
             :data:`DEFAULT_SPEEDS`.
         convention: σ convention (``correlated`` keeps the parameter correlations).
+
+    Returns:
+        The curves (see :class:`EigenCurves`).
 
     Raises:
         ModelError: Unknown rider or a singular mass matrix.
@@ -363,6 +394,15 @@ def mode_shape(subject: Subject, mode: str = "capsize", speed: float = 2.0, ride
     The labels are those of :func:`eigen_curves` (tracked from 0 m/s to at least 10 m/s), so
     "capsize" inside a complex capsize–caster interval is that oscillatory pair; for a complex
     pair the member with ``Im λ ≥ 0`` is used (a phase > 0 then means the component leads).
+
+    Args:
+        subject: The bicycle.
+        mode: A mode label of :data:`bike_rig.core.whipple.MODE_LABELS`.
+        speed: m/s.
+        rider: "" or "none" (no rider), or "paper".
+
+    Returns:
+        The eigenvector, scaled to its larger angle (see :class:`ModeShape`).
 
     Raises:
         FigureInputError: Unknown mode, or a speed that is not a finite number ≥ 0.
@@ -402,6 +442,17 @@ def bode_curves(
     omega: ArrayLike | None = None,
 ) -> BodeCurves:
     """Magnitude (dB) and unwrapped phase (deg) of ``input → output`` at one speed.
+
+    Args:
+        subject: The bicycle.
+        speed: m/s.
+        rider: "" or "none" (no rider), or "paper".
+        input: One of :data:`bike_rig.core.frequency.INPUTS`.
+        output: One of :data:`bike_rig.core.frequency.OUTPUTS`.
+        omega: Frequencies, rad/s (all > 0); default :data:`DEFAULT_OMEGA`.
+
+    Returns:
+        The response (see :class:`BodeCurves`).
 
     Raises:
         FigureInputError: Unknown input or output, bad speed or frequencies.
