@@ -27,7 +27,6 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..core.assembly import rider_by_name
 from ..core.benchmark import ParameterSet
 from ..core.errors import BikeRigError, ModelError
 from ..core.frequency import INPUTS, OUTPUTS, bode, frequency_response
@@ -36,6 +35,7 @@ from ..core.uncertainty.eigen_sigma import eigenvalues_with_sigma
 from ..core.uncertainty.matrix_sigma import MatrixSet, SigmaConvention, canonical_with_sigma
 from ..core.uncertainty.speed_sigma import SpeedWithSigma, critical_speeds_with_sigma
 from ..core.whipple import MODE_LABELS, WhippleMatrices, characteristic_coefficients, eigenvalues
+from ..pipeline.model import rider_by_name
 from ..subjects import Subject
 
 __all__ = [
