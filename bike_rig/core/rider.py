@@ -3,20 +3,63 @@
 The rider is a rigid body fixed to the rear frame; the combined rear frame has the summed
 mass, the mass-weighted mass centre, and the inertia of both parts about the new mass centre
 (parallel-axis theorem). Broadcasting arithmetic only, so σ propagate by the complex step.
+
+The rider choice of every entry point (command line, nodes, figures, report) is resolved here,
+by :func:`resolve_rider`: no rider (``None``, ``""`` or ``"none"``), the paper's rider
+(``"paper"``, Table 1) or a rider YAML file; :func:`rider_key` is the choice's name in records.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from .benchmark import PARAMETER_NAMES, ParameterSet
+from .errors import BikeRigError, InputFileError
+from .io_yaml import load_yaml_document
 from .uncertainty.uncertain import UncertainVector, complex_step_jacobian
 
-__all__ = ["PAPER_RIDER", "Rider", "add_rider", "combine_rear_frame"]
+__all__ = [
+    "NO_RIDER",
+    "PAPER",
+    "PAPER_RIDER",
+    "Rider",
+    "RiderError",
+    "add_rider",
+    "combine_rear_frame",
+    "load_rider",
+    "resolve_rider",
+    "rider_key",
+]
+
+#: The record name of "no rider".
+NO_RIDER = ""
+#: The name of the paper's rider (Table 1).
+PAPER = "paper"
+#: The keys of a rider file, in kg, m and kg m² (benchmark frame).
+RIDER_FILE_KEYS = ("mass", "x", "z", "Ixx", "Iyy", "Izz", "Ixz")
+
+
+class RiderError(BikeRigError):
+    """The rider choice is unknown, or its rider file cannot be read or lacks a number."""
+
+    def __init__(self, reason: str, path: str | None = None, key: str | None = None, line: int | None = None):
+        """The error; with a ``path`` its message reads like :class:`InputFileError`'s.
+
+        Args:
+            reason: What is wrong.
+            path: The rider file, if the error is in one.
+            key: The offending key of the file, if there is one.
+            line: Its 1-based line number, if known.
+        """
+        self.reason, self.path, self.key, self.line = reason, path, key, line
+        where = ""
+        if path is not None:
+            where = path + (f":{line}" if line is not None else "") + (f": key '{key}'" if key is not None else "")
+        super().__init__(f"{where}: {reason}" if where else reason)
 
 
 @dataclass(frozen=True)
@@ -92,6 +135,72 @@ def add_rider(ps: ParameterSet, rider: Rider) -> ParameterSet:
     return ParameterSet(f"{ps.bicycle} + {rider.name}", params, ps.source, raw, ps.com)
 
 
-def rider_inertia_matrix(r: Rider) -> np.ndarray[Any, np.dtype[np.float64]]:
-    """The rider's 3 × 3 inertia tensor as printed in Table 1."""
-    return np.array([[r.Ixx, 0.0, r.Ixz], [0.0, r.Iyy, 0.0], [r.Ixz, 0.0, r.Izz]])
+def rider_key(spec: str | Path | None, files: bool = True) -> str:
+    """The rider choice's name in records: ``""`` (no rider), ``"paper"`` or the rider file's path.
+
+    Args:
+        spec: ``None``, ``""`` or ``"none"`` (no rider), ``"paper"`` (Table 1), or the path of a
+            rider YAML file.
+        files: Whether a rider file may be named (else only the names above are known).
+
+    Raises:
+        RiderError: ``files`` is false and ``spec`` is none of the names.
+    """
+    if spec is None or spec in (NO_RIDER, "none"):
+        return NO_RIDER
+    if spec == PAPER:
+        return PAPER
+    if not files:
+        raise RiderError(f"unknown rider '{spec}': expected '', 'none' or 'paper'")
+    return str(spec)
+
+
+def resolve_rider(spec: str | Path | None, files: bool = True) -> Rider | None:
+    """The rider chosen by ``spec``: the one place a rider choice is turned into a rider.
+
+    Args:
+        spec: ``None``, ``""`` or ``"none"`` (no rider), ``"paper"`` (:data:`PAPER_RIDER`,
+            Table 1), or the path of a rider YAML file (:func:`load_rider`).
+        files: Whether a rider file may be named (else only the names above are known).
+
+    Returns:
+        The rider, or ``None`` for no rider.
+
+    Raises:
+        RiderError: An unknown name (``files`` false), or a rider file that is missing,
+            unreadable or lacks a number.
+    """
+    key = rider_key(spec, files)
+    if key == NO_RIDER:
+        return None
+    if key == PAPER:
+        return PAPER_RIDER
+    return load_rider(key)
+
+
+def load_rider(path: str | Path) -> Rider:
+    """A rider from a YAML file: a mapping of ``mass, x, z, Ixx, Iyy, Izz, Ixz``.
+
+    In kg, m and kg m² (benchmark frame: x forward from the rear contact, z down); an optional
+    ``name`` labels it (default: the file's stem).
+
+    Raises:
+        RiderError: The file is missing, unreadable or not YAML, or lacks a number (with the
+            file, key and line), or the mass is not positive.
+    """
+    spec = str(path)
+    try:
+        data, lines = load_yaml_document(spec)
+    except InputFileError as exc:
+        raise RiderError(exc.reason, exc.path, exc.key, exc.line) from None
+    if not isinstance(data, dict):
+        raise RiderError(f"a rider file is a mapping of {', '.join(RIDER_FILE_KEYS)}", spec)
+    values = {}
+    for k in RIDER_FILE_KEYS:
+        v = data.get(k)
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            raise RiderError(f"needs a number ({v!r} given)", spec, key=k, line=lines.get((k,)))
+        values[k] = float(v)
+    if values["mass"] <= 0:
+        raise RiderError("rider mass must be positive", spec, key="mass", line=lines.get(("mass",)))
+    return Rider(name=str(data.get("name", Path(spec).stem)), **values)
