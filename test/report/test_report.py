@@ -229,7 +229,8 @@ def _flagged(subject: Subject) -> Subject:
     trials = list(subject.trials)
     t = trials[FLAGGED]
     fit = dataclasses.replace(t.fit, flags=(Flag(FlagCode.BEATING, FLAG_REASON),))
-    trials[FLAGGED] = dataclasses.replace(t, fit=fit, used=False, note="left out: <flagged>")
+    result = dataclasses.replace(t.result, fit=fit)
+    trials[FLAGGED] = dataclasses.replace(t, result=result, used=False, note="left out: <flagged>")
     return dataclasses.replace(subject, name="Browser <b>& Co</b>", trials=tuple(trials))
 
 
