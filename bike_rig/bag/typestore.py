@@ -30,7 +30,6 @@ __all__ = [
     "message_definition",
     "msg_dir_candidates",
     "new_message",
-    "rig_message_types",
     "rig_typestore",
     "type_hash",
 ]
@@ -81,12 +80,6 @@ def rig_typestore() -> Typestore:
             raise BagError(str(path), f"cannot parse the message definition ({exc})") from None
     store.register(types)
     return store
-
-
-def rig_message_types() -> tuple[str, ...]:
-    """The full names of bike_rig's message types, e.g. ``bike_rig_msgs/msg/GyroBatch``."""
-    prefix = f"{MSG_PACKAGE}/msg/"
-    return tuple(sorted(name for name in rig_typestore().fielddefs if name.startswith(prefix)))
 
 
 def type_hash(msgtype: str) -> str:

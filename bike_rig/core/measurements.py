@@ -39,7 +39,6 @@ from typing import Any
 from .errors import MeasurementError
 
 __all__ = [
-    "DEGREE_KEYS",
     "Measurements",
     "Origin",
     "Reading",
@@ -56,8 +55,6 @@ REQUIRED_KEYS: tuple[str, ...] = (
     "mB", "TcB1", "mH", "TcH1",
     "mP", "lP", "dP", "TtP1",
 )  # fmt: skip
-#: Keys whose readings are in degrees (the only ones).
-DEGREE_KEYS = re.compile(r"^(gamma|alpha[BH]\d+)$")
 #: Keys that must be strictly positive.
 _POSITIVE = re.compile(r"^(g|w|n[RF]|d[RF]|m[RFBHP]|l[RFP]|dP|T[ct][RFBHP]\d+)$")
 #: Exact counts.

@@ -1,4 +1,4 @@
-"""Initial guess of the oscillation frequency from the spectrum, and block means.
+"""Initial guess of the oscillation frequency from the spectrum, and the block sums it uses.
 
 The guess only has to land inside the least-squares fit's basin (about half a spectral bin,
 1 / (2 × window length)), so it works on block means of at most ``MAX_SPECTRUM_POINTS`` points:
@@ -18,11 +18,9 @@ from numpy.typing import NDArray
 __all__ = [
     "MAX_SPECTRUM_POINTS",
     "SpectralPeak",
-    "block_means",
     "block_sums",
     "block_times",
     "peak_of_blocks",
-    "spectral_peak",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -44,26 +42,6 @@ class SpectralPeak:
 
     omega: float
     prominence: float
-
-
-def block_means(
-    t: FloatArray, y: FloatArray, k: int, step: float | None = None
-) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """Means of consecutive blocks of ``k`` samples (the last block may be shorter).
-
-    Args:
-        t: Sample times [s].
-        y: Samples.
-        k: Block length.
-        step: The sample interval [s] if the samples are evenly spaced (saves a pass).
-
-    Returns:
-        Mean time of each block [s], mean sample, number of samples per block.
-    """
-    if k <= 1:
-        return t, y, np.ones(t.size)
-    sums, counts = block_sums(y, k)
-    return block_times(t, k, counts, step, float(t[0])), sums / counts, counts
 
 
 def block_sums(y: FloatArray, k: int) -> tuple[FloatArray, FloatArray]:
@@ -101,31 +79,21 @@ def _ramp(m: int) -> tuple[FloatArray, float]:
     return x, float(np.dot(x, x))
 
 
-def spectral_peak(t: FloatArray, y: FloatArray, even: bool = False, min_cycles: float = 1.0) -> SpectralPeak | None:
-    """The dominant oscillation of ``y(t)`` (t increasing, possibly unevenly spaced).
+def peak_of_blocks(
+    tb: FloatArray, yb: FloatArray, duration: float, even: bool = False, min_cycles: float = 1.0
+) -> SpectralPeak | None:
+    """The dominant oscillation of block means ``yb`` at times ``tb`` of a ``duration`` s record.
 
     Args:
-        t: Sample times [s].
-        y: Samples (finite).
-        even: The samples are evenly spaced.
+        tb: Block times [s], increasing (possibly unevenly spaced).
+        yb: Block means (finite).
+        duration: The record's length [s].
+        even: The blocks are evenly spaced.
         min_cycles: Lowest frequency searched, in cycles per record.
 
     Returns:
         The peak, or None when the series is too short to have one.
     """
-    n = t.size
-    duration = float(t[-1] - t[0])
-    if n < 8 or not duration > 0:
-        return None
-    k = max(1, math.ceil(n / MAX_SPECTRUM_POINTS))
-    tb, yb, _ = block_means(t, y, k, duration / (n - 1) if even else None)
-    return peak_of_blocks(tb, yb, duration, even, min_cycles)
-
-
-def peak_of_blocks(
-    tb: FloatArray, yb: FloatArray, duration: float, even: bool = False, min_cycles: float = 1.0
-) -> SpectralPeak | None:
-    """:func:`spectral_peak` of block means ``yb`` at times ``tb`` of a ``duration`` s record."""
     m = tb.size
     if m < 8 or not duration > 0:
         return None
