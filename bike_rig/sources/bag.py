@@ -24,9 +24,11 @@ from typing import Any
 import numpy as np
 
 from ..bag.typestore import rig_typestore
+from ..params import ParamSpec
+from ..pipeline.acquire import NS_PER_S
 from ..topics import GYRO, TRIAL_EVENTS
 from .base import (
-    NS_PER_S,
+    TIME_SCALE,
     GyroSource,
     Parameters,
     RigClock,
@@ -63,6 +65,10 @@ class BagSource(GyroSource):
     """
 
     name = "bag"
+    PARAMETERS = (
+        ParamSpec("bag", "", "bag: the recorded bag to replay (rosbag2 directory or .mcap file)"),
+        TIME_SCALE,
+    )
 
     def __init__(
         self,
@@ -107,11 +113,11 @@ class BagSource(GyroSource):
     @classmethod
     def from_parameters(cls, parameters: Mapping[str, Any]) -> BagSource:
         """Parameters: ``bag`` (the bag's path) and ``time_scale``."""
-        p = Parameters("bag", parameters)
+        p = Parameters(cls.name, parameters, cls.PARAMETERS)
         path = p.text("bag")
         if not path:
             raise p.error("bag", "the bag source needs the path of a recorded bag", "")
-        time_scale = p.number("time_scale", 1.0, low=0.0, high=1000.0)
+        time_scale = p.number("time_scale")
         return cls(path, RigClock(None, time_scale))
 
     def describe(self) -> str:

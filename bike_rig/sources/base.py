@@ -11,14 +11,21 @@ abstract bus, backends chosen by a string)::
 simulated rig and the bag replay pace themselves on a clock (faster than real time with
 ``time_scale``), hardware backends return what the hardware has delivered. Times are RIG
 times, in integer nanoseconds since the epoch: a trial's samples are at
-``stamp_ns + round(index * 1e9 / sample_rate_hz)`` (:func:`sample_stamp_ns`).
+``stamp_ns + round(index * 1e9 / sample_rate_hz)`` (:func:`bike_rig.pipeline.acquire.sample_stamp_ns`).
 
 Backends, chosen by name (:data:`BACKENDS`, :func:`open_source`): ``sim`` (the simulated rig
 walking a session plan), ``can`` (a CAN gyro through python-can), ``bag`` (a recorded session
-replayed from a rosbag2 MCAP bag) and ``daq`` (an NI-DAQmx analog input). Each is built from a
-mapping of parameters (the driver node's parameters; unknown names are ignored) by its
-``from_parameters`` and raises :class:`~bike_rig.sources.errors.SourceConfigError` naming the
-parameter, its value and the reason when one is wrong.
+replayed from a rosbag2 MCAP bag) and ``daq`` (an NI-DAQmx analog input). Each backend owns its
+parameters, as python-can's backends own their arguments: its class lists them in
+:attr:`GyroSource.PARAMETERS` (:class:`~bike_rig.params.ParamSpec`: name, default, description,
+range, choices), the driver node declares every backend's, and the backend's
+``from_parameters`` reads them from a mapping (the driver's parameters; unknown names are
+ignored) through :class:`Parameters`, which checks them against the same specs and raises
+:class:`~bike_rig.sources.errors.SourceConfigError` naming the parameter, its value and the
+reason when one is wrong.
+
+A new backend is one module with a :class:`GyroSource` subclass (``name``, ``PARAMETERS``,
+``from_parameters``, ``poll``) plus one line in :data:`BACKENDS`.
 
 The simulated rig and the bag walk their own plan (:attr:`GyroSource.finished` turns true at
 its end); hardware backends record trials on request (:meth:`GyroSource.start_trial`,
@@ -31,7 +38,7 @@ import importlib
 import math
 import time
 from abc import ABC, abstractmethod
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from types import TracebackType
 from typing import Any, ClassVar, TypeAlias
@@ -40,10 +47,15 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..core.sim.plan import PART_LETTERS, PlannedMeasurement
+from ..params import ParamSpec, ParamValue, ParamValueError, merge_specs
+from ..pipeline.acquire import NS_PER_S, sample_stamp_ns
 from .errors import SourceConfigError, TrialRequestError
 
 __all__ = [
     "BACKENDS",
+    "MAX_TIME_SCALE",
+    "SAMPLE_RATE",
+    "TIME_SCALE",
     "GyroSource",
     "Parameters",
     "RigClock",
@@ -54,19 +66,17 @@ __all__ = [
     "TrialRequest",
     "TrialStarted",
     "TrialStopped",
+    "backend_parameters",
     "drain",
     "open_source",
-    "sample_stamp_ns",
     "source_class",
     "trial_info_for",
 ]
 
 FloatArray = NDArray[np.float64]
 
-NS_PER_S = 1_000_000_000
-
 #: Backend name -> "module:class" (imported on first use, so that a missing optional library
-#: only matters for the backend that needs it).
+#: only matters for the backend that needs it). A new backend is one line here.
 BACKENDS: dict[str, str] = {
     "sim": "bike_rig.sources.sim:SimSource",
     "can": "bike_rig.sources.can:CanSource",
@@ -75,6 +85,17 @@ BACKENDS: dict[str, str] = {
 }
 
 PENDULUMS = ("compound", "torsional")
+
+#: Largest ``time_scale``: 1000 × 1 kHz is 20,000 batches per second, the most a reliable
+#: subscriber keeps up with.
+MAX_TIME_SCALE = 1000.0
+
+#: Pacing of the backends that replay or simulate (sim, bag, the simulated CAN gyro).
+TIME_SCALE = ParamSpec(
+    "time_scale", 1.0, "sim/bag (and the simulated CAN gyro): rig seconds per wall second", (0.001, MAX_TIME_SCALE)
+)
+#: The sample rate of the hardware gyros (can, daq), Hz.
+SAMPLE_RATE = ParamSpec("sample_rate_hz", 1000.0, "can/daq: the gyro's sample rate, Hz", (1e-3, 1e6))
 
 
 @dataclass(frozen=True)
@@ -165,11 +186,6 @@ class TrialRequest:
     note: str = ""
 
 
-def sample_stamp_ns(start_ns: int, index: int, sample_rate_hz: float) -> int:
-    """Rig time of sample ``index`` of a trial whose first sample is at ``start_ns`` [ns]."""
-    return start_ns + round(index * NS_PER_S / sample_rate_hz)
-
-
 def trial_info_for(request: TrialRequest, sample_rate_hz: float, used_ids: set[str] | frozenset[str]) -> TrialInfo:
     """The trial a request describes, with a trial id not in ``used_ids``.
 
@@ -212,69 +228,62 @@ def trial_info_for(request: TrialRequest, sample_rate_hz: float, used_ids: set[s
 
 
 class Parameters:
-    """Typed access to a backend's parameters, raising :class:`SourceConfigError` that names
-    the source, the parameter, its value and the reason."""
+    """Typed access to a backend's parameters, checked against its specs.
 
-    def __init__(self, source: str, values: Mapping[str, Any]):
+    Each value is the mapping's, or the spec's default when the mapping lacks the name; it is
+    checked with :meth:`~bike_rig.params.ParamSpec.validate` (type, range, choices), and a bad
+    one raises :class:`SourceConfigError` naming the source, the parameter, its value and the
+    reason (e.g. ``sim source: parameter 'time_scale' = 5000.0: must be <= 1000``).
+
+    Args:
+        source: The backend's name, for the messages.
+        values: The parameters given (unknown names are ignored).
+        specs: The backend's parameter specs (:attr:`GyroSource.PARAMETERS`).
+    """
+
+    def __init__(self, source: str, values: Mapping[str, Any], specs: Iterable[ParamSpec]):
         self.source = source
         self.values = values
+        self.specs = {s.name: s for s in specs}
 
     def error(self, name: str, reason: str, value: object = None) -> SourceConfigError:
         """The error for parameter ``name``."""
         return SourceConfigError(self.source, name, reason, value)
 
-    def text(self, name: str, default: str = "") -> str:
-        """A string parameter (stripped)."""
-        value = self.values.get(name, default)
-        if not isinstance(value, str):
-            raise self.error(name, "expected a string", value)
-        return value.strip()
+    def _read(self, name: str, kind: str) -> ParamValue:
+        spec = self.specs.get(name)
+        if spec is None or spec.kind != kind:
+            raise KeyError(f"the {self.source} source declares no {kind} parameter {name!r}")
+        value = self.values.get(name, spec.default)
+        if isinstance(value, str):
+            value = value.strip()
+        try:
+            return spec.validate(value)
+        except ParamValueError as exc:
+            raise self.error(name, exc.reason, value) from None
 
-    def choice(self, name: str, choices: Sequence[str], default: str) -> str:
-        """A string parameter that must be one of ``choices``."""
-        value = self.text(name, default)
-        if value not in choices:
-            raise self.error(name, f"expected one of {', '.join(choices)}", value)
+    def text(self, name: str) -> str:
+        """A string parameter, stripped (one of its spec's choices, if it has any)."""
+        value = self._read(name, "string")
+        assert isinstance(value, str)
         return value
 
-    def number(
-        self,
-        name: str,
-        default: float,
-        *,
-        low: float | None = None,
-        high: float | None = None,
-        strict_low: bool = True,
-    ) -> float:
-        """A finite float parameter within [low, high] (low excluded when ``strict_low``)."""
-        value = self.values.get(name, default)
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise self.error(name, "expected a number", value)
-        x = float(value)
-        if not math.isfinite(x):
-            raise self.error(name, "must be finite", value)
-        if low is not None and (x <= low if strict_low else x < low):
-            raise self.error(name, f"must be {'>' if strict_low else '>='} {low:g}", value)
-        if high is not None and x > high:
-            raise self.error(name, f"must be <= {high:g}", value)
-        return x
-
-    def integer(self, name: str, default: int, *, low: int | None = None, high: int | None = None) -> int:
-        """An integer parameter within [low, high]."""
-        value = self.values.get(name, default)
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise self.error(name, "expected a whole number", value)
-        if low is not None and value < low:
-            raise self.error(name, f"must be >= {low}", value)
-        if high is not None and value > high:
-            raise self.error(name, f"must be <= {high}", value)
+    def number(self, name: str) -> float:
+        """A finite float parameter within its spec's range (an integer is accepted)."""
+        value = self._read(name, "double")
+        assert isinstance(value, float)
         return value
 
-    def flag(self, name: str, default: bool) -> bool:
+    def integer(self, name: str) -> int:
+        """An integer parameter within its spec's range."""
+        value = self._read(name, "integer")
+        assert isinstance(value, int)
+        return value
+
+    def flag(self, name: str) -> bool:
         """A boolean parameter."""
-        value = self.values.get(name, default)
-        if not isinstance(value, bool):
-            raise self.error(name, "expected true or false", value)
+        value = self._read(name, "bool")
+        assert isinstance(value, bool)
         return value
 
 
@@ -330,13 +339,15 @@ class RigClock:
 class GyroSource(ABC):
     """One rate gyro, trial by trial (see the module docstring).
 
-    Subclasses set :attr:`name` and :attr:`supports_requests` and implement :meth:`poll` and
-    :meth:`from_parameters`; plan-walking sources override :attr:`finished`, hardware sources
+    Subclasses set :attr:`name`, :attr:`PARAMETERS` and :attr:`supports_requests` and
+    implement :meth:`poll` and :meth:`from_parameters`; plan-walking sources override :attr:`finished`, hardware sources
     :meth:`start_trial` and :meth:`stop_trial` (or derive from :class:`StreamingSource`).
     """
 
     #: The backend's name (``sim``, ``can``, ``bag``, ``daq``).
     name: ClassVar[str] = ""
+    #: The backend's parameters (the driver node declares them; :class:`Parameters` reads them).
+    PARAMETERS: ClassVar[tuple[ParamSpec, ...]] = ()
     #: Whether trials are recorded on request (hardware) rather than from a plan.
     supports_requests: ClassVar[bool] = False
 
@@ -404,6 +415,15 @@ def source_class(name: str) -> type[GyroSource]:
     module_name, _, class_name = target.partition(":")
     cls: type[GyroSource] = getattr(importlib.import_module(module_name), class_name)
     return cls
+
+
+def backend_parameters() -> tuple[ParamSpec, ...]:
+    """Every registered backend's parameter specs, each name once (the driver declares them).
+
+    Raises:
+        ValueError: Two backends specify one parameter differently (a programming error).
+    """
+    return merge_specs(*(source_class(name).PARAMETERS for name in BACKENDS))
 
 
 def open_source(name: str, parameters: Mapping[str, Any] | None = None, **kwargs: Any) -> GyroSource:

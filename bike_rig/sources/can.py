@@ -36,7 +36,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..core.sim.gyro import Mode, angular_rate
-from .base import NS_PER_S, FloatArray, Parameters, StreamingSource
+from ..params import ParamSpec
+from ..pipeline.acquire import NS_PER_S
+from .base import SAMPLE_RATE, TIME_SCALE, FloatArray, Parameters, StreamingSource
 from .errors import SourceConfigError, SourceIOError, SourceUnavailableError
 
 if TYPE_CHECKING:
@@ -142,20 +144,20 @@ class CanFrameLayout:
 
 
 def layout_from_parameters(p: Parameters) -> CanFrameLayout:
-    """The frame layout from the driver's parameters.
+    """The frame layout from the driver's parameters (read with :attr:`CanSource.PARAMETERS`).
 
     Raises:
         SourceConfigError: A layout parameter is wrong.
     """
     layout = CanFrameLayout(
-        can_id=p.integer("can_id", 0x100, low=0),
-        extended_id=p.flag("can_extended_id", False),
-        sample_format=p.choice("sample_format", tuple(_FORMATS), "int16"),
-        byte_order=p.choice("byte_order", ("little", "big"), "little"),
-        samples_per_frame=p.integer("samples_per_frame", 4, low=1, high=64),
-        scale=p.number("scale", 1e-4),
-        offset=p.number("offset", 0.0),
-        fd=p.flag("can_fd", False),
+        can_id=p.integer("can_id"),
+        extended_id=p.flag("can_extended_id"),
+        sample_format=p.text("sample_format"),
+        byte_order=p.text("byte_order"),
+        samples_per_frame=p.integer("samples_per_frame"),
+        scale=p.number("scale"),
+        offset=p.number("offset"),
+        fd=p.flag("can_fd"),
     )
     for name, reason, value in layout.problems():
         raise p.error(name, reason, value)
@@ -217,6 +219,24 @@ class CanSource(StreamingSource):
     """
 
     name = "can"
+    PARAMETERS = (
+        ParamSpec("can_interface", "virtual", "can: python-can interface (socketcan only where the kernel has CAN)"),
+        ParamSpec("can_channel", "bike_rig", "can: channel (e.g. can0, or a virtual bus name)"),
+        ParamSpec("can_bitrate", 0, "can: bit rate, bit/s (0 = the interface's setting)", (0, 8_000_000)),
+        ParamSpec("can_id", 0x100, "can: arbitration id of the gyro's frames", (0, 0x1FFFFFFF)),
+        ParamSpec("can_extended_id", False, "can: 29-bit id"),
+        ParamSpec("can_fd", False, "can: CAN FD frames (up to 64 bytes)"),
+        ParamSpec("sample_format", "int16", "can: sample encoding", choices=tuple(_FORMATS)),
+        ParamSpec("byte_order", "little", "can: byte order of the samples", choices=("little", "big")),
+        ParamSpec("samples_per_frame", 4, "can: samples in each frame", (1, 64)),
+        ParamSpec("scale", 1e-4, "can: rad/s per count"),
+        ParamSpec("offset", 0.0, "can: rad/s added after scaling"),
+        SAMPLE_RATE,
+        ParamSpec("can_simulated_gyro_period_s", 0.0,
+                  "can, test/demo only: > 0 runs a simulated gyro of this period on the virtual bus in this process",
+                  (0.0, 1e3)),  # fmt: skip
+        TIME_SCALE,
+    )
 
     def __init__(
         self,
@@ -241,13 +261,13 @@ class CanSource(StreamingSource):
         ``samples_per_frame``, ``scale``, ``offset``, ``sample_rate_hz``, and for tests and
         demos ``can_simulated_gyro_period_s`` (> 0: run a :class:`SimulatedCanGyro` of that
         period on the virtual bus, paced by ``time_scale``)."""
-        p = Parameters("can", parameters)
-        interface = p.text("can_interface", "virtual")
-        channel = p.text("can_channel", "bike_rig")
-        bitrate = p.integer("can_bitrate", 0, low=0)
-        rate = p.number("sample_rate_hz", 1000.0, low=0.0)
+        p = Parameters(cls.name, parameters, cls.PARAMETERS)
+        interface = p.text("can_interface")
+        channel = p.text("can_channel")
+        bitrate = p.integer("can_bitrate")
+        rate = p.number("sample_rate_hz")
         layout = layout_from_parameters(p)
-        period = p.number("can_simulated_gyro_period_s", 0.0, low=0.0, strict_low=False)
+        period = p.number("can_simulated_gyro_period_s")
         gyro = None
         if period > 0:
             if interface != "virtual":
@@ -256,7 +276,7 @@ class CanSource(StreamingSource):
                     f"a simulated gyro runs on the 'virtual' interface only, not {interface!r}",
                     period,
                 )
-            time_scale = p.number("time_scale", 1.0, low=0.0, high=1000.0)
+            time_scale = p.number("time_scale")
             gyro = SimulatedCanGyro(layout, channel, damped_samples(period, rate), rate, time_scale=time_scale)
         bus = open_bus(interface, channel, layout, bitrate)
         label = f"{interface}:{channel} id 0x{layout.can_id:X} {layout.samples_per_frame}×{layout.sample_format}"

@@ -21,7 +21,9 @@ from typing import Any
 
 import numpy as np
 
-from .base import NS_PER_S, FloatArray, Parameters, StreamingSource
+from ..params import ParamSpec
+from ..pipeline.acquire import NS_PER_S
+from .base import SAMPLE_RATE, FloatArray, Parameters, StreamingSource
 from .errors import SourceConfigError, SourceIOError, SourceUnavailableError
 
 __all__ = ["TERMINALS", "DaqSource", "import_nidaqmx"]
@@ -73,6 +75,16 @@ class DaqSource(StreamingSource):
     """
 
     name = "daq"
+    PARAMETERS = (
+        ParamSpec("daq_channel", "Dev1/ai0", "daq: NI-DAQmx physical channel"),
+        ParamSpec("daq_terminal", "differential", "daq: terminal configuration", choices=tuple(TERMINALS)),
+        ParamSpec("daq_min_v", -5.0, "daq: input range low, V"),
+        ParamSpec("daq_max_v", 5.0, "daq: input range high, V"),
+        ParamSpec("daq_scale_v_per_rad_s", 1.1459156, "daq: gyro scale factor, V per rad/s"),
+        ParamSpec("daq_zero_rate_v", 2.5, "daq: gyro output at zero rate, V"),
+        ParamSpec("daq_buffer_s", 10.0, "daq: acquisition buffer, s", (0.01, 3600.0)),
+        SAMPLE_RATE,
+    )
 
     def __init__(
         self,
@@ -95,21 +107,21 @@ class DaqSource(StreamingSource):
     def from_parameters(cls, parameters: Mapping[str, Any]) -> DaqSource:
         """Parameters: ``daq_channel``, ``daq_terminal``, ``daq_min_v``, ``daq_max_v``,
         ``daq_scale_v_per_rad_s``, ``daq_zero_rate_v``, ``daq_buffer_s``, ``sample_rate_hz``."""
-        p = Parameters("daq", parameters)
-        channel = p.text("daq_channel", "Dev1/ai0")
+        p = Parameters(cls.name, parameters, cls.PARAMETERS)
+        channel = p.text("daq_channel")
         if not channel:
             raise p.error("daq_channel", "expected a physical channel such as Dev1/ai0", channel)
-        terminal = p.choice("daq_terminal", tuple(TERMINALS), "differential")
-        low = p.number("daq_min_v", -5.0)
-        high = p.number("daq_max_v", 5.0)
+        terminal = p.text("daq_terminal")
+        low = p.number("daq_min_v")
+        high = p.number("daq_max_v")
         if not low < high:
             raise p.error("daq_max_v", f"must be above daq_min_v ({low:g} V)", high)
-        rate = p.number("sample_rate_hz", 1000.0, low=0.0)
-        scale = p.number("daq_scale_v_per_rad_s", 1.1459156)
+        rate = p.number("sample_rate_hz")
+        scale = p.number("daq_scale_v_per_rad_s")
         if scale == 0:
             raise p.error("daq_scale_v_per_rad_s", "must not be zero", scale)
-        zero = p.number("daq_zero_rate_v", 2.5)
-        buffer_s = p.number("daq_buffer_s", 10.0, low=0.0)
+        zero = p.number("daq_zero_rate_v")
+        buffer_s = p.number("daq_buffer_s")
         nidaqmx = import_nidaqmx()
         constants = _constants(nidaqmx)
         names = TERMINALS[terminal]

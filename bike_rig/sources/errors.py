@@ -8,6 +8,7 @@ why, in one line, so that a node can end with that line and exit status 2.
 from __future__ import annotations
 
 from ..core.errors import BikeRigError
+from ..params import parameter_message
 
 __all__ = [
     "SourceConfigError",
@@ -39,9 +40,8 @@ class SourceConfigError(SourceError):
         self.parameter = parameter
         self.reason = reason
         self.value = value
-        shown = "" if value is None else f" = {value!r}"
         prefix = f"{source} source: " if where is None else (f"{where}: " if where else "")
-        super().__init__(f"{prefix}parameter '{parameter}'{shown}: {reason}")
+        super().__init__(prefix + parameter_message(parameter, reason, value))
 
 
 class SourceUnavailableError(SourceConfigError):

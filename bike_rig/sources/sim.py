@@ -35,9 +35,11 @@ from ..core.sim import SimulatedSession, load_rig, load_true_parameters, simulat
 from ..core.sim.plan import PlannedMeasurement
 from ..core.sim.writer import VOLTS_DIR
 from ..core.trials import read_trial
+from ..params import ParamSpec
 from ..paths import config_file
+from ..pipeline.acquire import NS_PER_S, sample_stamp_ns
 from .base import (
-    NS_PER_S,
+    TIME_SCALE,
     FloatArray,
     GyroSource,
     Parameters,
@@ -47,15 +49,11 @@ from .base import (
     TrialInfo,
     TrialStarted,
     TrialStopped,
-    sample_stamp_ns,
 )
 from .errors import SourceConfigError
 
-__all__ = ["MAX_TIME_SCALE", "PlannedTrial", "SimSource", "session_file_trials", "simulated_trials"]
+__all__ = ["PlannedTrial", "SimSource", "session_file_trials", "simulated_trials"]
 
-#: Largest ``time_scale`` the node accepts: 1000 × 1 kHz is 20,000 batches per second, the most
-#: a reliable subscriber keeps up with.
-MAX_TIME_SCALE = 1000.0
 #: Largest block one poll yields per trial (the driver cuts blocks into batches anyway).
 MAX_BLOCK = 10_000
 
@@ -224,6 +222,16 @@ class SimSource(GyroSource):
     """
 
     name = "sim"
+    PARAMETERS = (
+        ParamSpec("session", "", "sim: session.yaml written by 'bike-rig simulate' (streamed in plan order)"),
+        ParamSpec("bicycle", "", "sim: bicycle file whose session is simulated in memory (instead of session)"),
+        ParamSpec("rig", "", "sim: rig description for 'bicycle' ('' = config/rig.yaml)"),
+        ParamSpec("seed", 0, "sim: seed of the in-memory simulation", (0, 2**31 - 1)),
+        ParamSpec("pause_between_trials_s", 1.0, "sim: rig time between trials, s", (0.0, 3600.0)),
+        ParamSpec("start_time_s", 0.0, "sim: rig time of the first trial's start, s since the epoch (0 = now)",
+                  (0.0, 1e10)),  # fmt: skip
+        TIME_SCALE,
+    )
 
     def __init__(
         self,
@@ -247,12 +255,12 @@ class SimSource(GyroSource):
     def from_parameters(cls, parameters: Mapping[str, Any]) -> SimSource:
         """Parameters: ``session`` or ``bicycle`` (+ ``rig``, ``seed``), ``time_scale``,
         ``pause_between_trials_s``, ``start_time_s`` (see the module docstring)."""
-        p = Parameters("sim", parameters)
+        p = Parameters(cls.name, parameters, cls.PARAMETERS)
         session = p.text("session")
         bicycle = p.text("bicycle")
-        time_scale = p.number("time_scale", 1.0, low=0.0, high=MAX_TIME_SCALE)
-        pause = p.number("pause_between_trials_s", 1.0, low=0.0, strict_low=False)
-        start_s = p.number("start_time_s", 0.0, low=0.0, strict_low=False)
+        time_scale = p.number("time_scale")
+        pause = p.number("pause_between_trials_s")
+        start_s = p.number("start_time_s")
         clock = RigClock(round(start_s * NS_PER_S) if start_s > 0 else None, time_scale)
         if session and bicycle:
             reason = f"give either 'session' ({session}) or 'bicycle' (+ 'rig', 'seed'), not both"
@@ -267,7 +275,7 @@ class SimSource(GyroSource):
                 "",
             )
         rig_path = p.text("rig") or str(config_file("rig.yaml"))
-        seed = p.integer("seed", 0, low=0)
+        seed = p.integer("seed")
         try:
             name, truth = load_true_parameters(bicycle)
         except BikeRigError as exc:

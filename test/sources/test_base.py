@@ -6,7 +6,8 @@ import math
 
 import pytest
 
-from bike_rig.sources import BACKENDS, RigClock, SourceConfigError, TrialRequest, open_source, sample_stamp_ns
+from bike_rig.pipeline.acquire import sample_stamp_ns
+from bike_rig.sources import BACKENDS, RigClock, SourceConfigError, TrialRequest, open_source
 from bike_rig.sources.base import GyroSource, trial_info_for
 from bike_rig.sources.errors import TrialRequestError
 

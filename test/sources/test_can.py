@@ -160,7 +160,7 @@ def test_trials_on_request_start_and_stop() -> None:
         ({"sample_format": "int8"}, SourceConfigError,
          r"'sample_format' = 'int8': expected one of int16, int32, float32$"),
         ({"scale": 0.0}, SourceConfigError, r"'scale' = 0.0: must be a finite, non-zero number"),
-        ({"sample_rate_hz": -1.0}, SourceConfigError, r"'sample_rate_hz' = -1.0: must be > 0$"),
+        ({"sample_rate_hz": -1.0}, SourceConfigError, r"'sample_rate_hz' = -1.0: must be >= 0.001$"),
         ({"can_interface": "socketcan", "can_channel": "can_nonexistent0"}, SourceUnavailableError,
          r"^can source: parameter 'can_interface' = 'socketcan': cannot open channel 'can_nonexistent0': "),
         ({"can_interface": "socketcan", "can_simulated_gyro_period_s": 1.0}, SourceConfigError,

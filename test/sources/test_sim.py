@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from bike_rig.core.sim.plan import measurement_plan
+from bike_rig.pipeline.acquire import sample_stamp_ns
 from bike_rig.sources import (
     RigClock,
     SampleBlock,
@@ -21,7 +22,6 @@ from bike_rig.sources import (
     TrialStopped,
     drain,
     open_source,
-    sample_stamp_ns,
 )
 from bike_rig.sources.sim import SimSource, session_file_trials
 from test.sources.support import BICYCLE, TRIAL_S, small_rig, small_session
@@ -149,7 +149,7 @@ def test_sim_declines_trial_requests(tmp_path: Path) -> None:
         ({"bicycle": "nowhere.yaml"}, r"^sim source: parameter 'bicycle' = 'nowhere.yaml': nowhere.yaml: "),
         ({"bicycle": str(BICYCLE), "rig": "norig.yaml"}, r"^sim source: parameter 'rig' = 'norig.yaml': norig.yaml: "),
         ({"bicycle": str(BICYCLE), "seed": -1}, r"^sim source: parameter 'seed' = -1: must be >= 0$"),
-        ({"session": "S", "time_scale": 0.0}, r"^sim source: parameter 'time_scale' = 0.0: must be > 0$"),
+        ({"session": "S", "time_scale": 0.0}, r"^sim source: parameter 'time_scale' = 0.0: must be >= 0.001$"),
         ({"session": "S", "time_scale": 5000.0}, r"^sim source: parameter 'time_scale' = 5000.0: must be <= 1000$"),
         ({"session": "S", "pause_between_trials_s": -1.0}, r"'pause_between_trials_s' = -1.0: must be >= 0$"),
         ({"session": 3}, r"^sim source: parameter 'session' = 3: expected a string$"),
