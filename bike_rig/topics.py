@@ -32,7 +32,7 @@ NAMESPACE = "/bike_rig"
 
 @dataclass(frozen=True)
 class QosSpec:
-    """A QoS profile in plain terms (converted to rclpy by :mod:`bike_rig.nodes.qos`).
+    """A QoS profile in plain terms (converted to rclpy by :mod:`bike_rig.rosqos`).
 
     Attributes:
         reliable: Reliable (True) or best effort.

@@ -107,7 +107,7 @@ def republish(
     from rclpy.node import Node
     from rclpy.signals import SignalHandlerOptions
 
-    from ..nodes.qos import profile
+    from ..rosqos import profile
 
     env = ros_environment(os.environ)
     for key in ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_DOMAIN_ID", "RMW_IMPLEMENTATION"):

@@ -2,8 +2,10 @@
 
 Parameter ``source`` chooses the backend (:mod:`bike_rig.sources`): ``sim`` (the simulated rig
 walking a session plan), ``can`` (a CAN gyro, python-can), ``bag`` (a recorded session
-replayed) or ``daq`` (NI-DAQmx). Every parameter is declared with a description and range,
-read-only, and can come from ``config/driver.yaml`` (``--ros-args --params-file``).
+replayed) or ``daq`` (NI-DAQmx). The driver declares its own parameters
+(:data:`COMMON_PARAMETERS`) and every backend's (each backend class's ``PARAMETERS``), all
+read-only with a description and range (:mod:`bike_rig.nodes.params`); they can come from
+``config/driver.yaml`` (``--ros-args --params-file``).
 
 Published (reliable, transient-local, :mod:`bike_rig.topics`):
 
@@ -30,9 +32,11 @@ from typing import Any
 
 import numpy as np
 from rclpy.duration import Duration
-from rclpy.exceptions import InvalidParameterTypeException, InvalidParameterValueException
 from rclpy.node import Node
 
+from ..params import ParamSpec, merge_specs
+from ..pipeline.acquire import sample_stamp_ns
+from ..rosqos import profile
 from ..sources import (
     BACKENDS,
     GyroSource,
@@ -43,93 +47,43 @@ from ..sources import (
     TrialRequestError,
     TrialStarted,
     TrialStopped,
+    backend_parameters,
     open_source,
-    sample_stamp_ns,
 )
 from ..sources.base import FloatArray
-from ..sources.errors import SourceConfigError, SourceError
+from ..sources.errors import SourceError
 from ..topics import GYRO, START_TRIAL, STOP_TRIAL, TRIAL_EVENTS
-from .qos import profile
+from .params import declare_parameters
 
-__all__ = ["PARAMETERS", "DriverNode", "Parameter", "main"]
+__all__ = ["COMMON_PARAMETERS", "DriverNode", "driver_parameters", "main"]
 
-# bike_rig_msgs and rcl_interfaces ship no type information: imported by name
+# bike_rig_msgs ships no type information: imported by name
 _msgs: Any = importlib.import_module("bike_rig_msgs.msg")
 _srvs: Any = importlib.import_module("bike_rig_msgs.srv")
-_rcl: Any = importlib.import_module("rcl_interfaces.msg")
 
 NODE_NAME = "driver"
 #: Longest wait for the subscribers' acknowledgements before exiting (``exit_when_done``).
 ACK_TIMEOUT_S = 10.0
 
-
-@dataclass(frozen=True)
-class Parameter:
-    """A node parameter: name, default (its type), description, range, allowed strings."""
-
-    name: str
-    default: Any
-    description: str
-    range: tuple[float, float] | None = None
-    choices: tuple[str, ...] = field(default=())
-
-
-PARAMETERS: tuple[Parameter, ...] = (
-    # common
-    Parameter("source", "sim", "gyro source backend", choices=tuple(BACKENDS)),
-    Parameter("frame_id", "gyro", "frame_id of the gyro batches"),
-    Parameter("samples_per_batch", 50, "samples per GyroBatch (the last of a trial may hold fewer)", (1, 10_000)),
-    Parameter("poll_period_s", 0.01, "how often the source is read, s (wall clock)", (0.001, 1.0)),
-    Parameter("exit_when_done", False, "exit when the sim/bag plan is finished (else keep running)"),
-    Parameter("wait_for_subscribers", 0, "start streaming once the gyro topic has this many subscribers", (0, 100)),
-    Parameter("time_scale", 1.0, "sim/bag (and the simulated CAN gyro): rig seconds per wall second", (0.001, 1000.0)),
-    # sim
-    Parameter("session", "", "sim: session.yaml written by 'bike-rig simulate' (streamed in plan order)"),
-    Parameter("bicycle", "", "sim: bicycle file whose session is simulated in memory (instead of session)"),
-    Parameter("rig", "", "sim: rig description for 'bicycle' ('' = config/rig.yaml)"),
-    Parameter("seed", 0, "sim: seed of the in-memory simulation", (0, 2**31 - 1)),
-    Parameter("pause_between_trials_s", 1.0, "sim: rig time between trials, s", (0.0, 3600.0)),
-    Parameter("start_time_s", 0.0, "sim: rig time of the first trial's start, s since the epoch (0 = now)",
-              (0.0, 1e10)),  # fmt: skip
-    # bag
-    Parameter("bag", "", "bag: the recorded bag to replay (rosbag2 directory or .mcap file)"),
-    # can
-    Parameter("can_interface", "virtual", "can: python-can interface (socketcan only where the kernel has CAN)"),
-    Parameter("can_channel", "bike_rig", "can: channel (e.g. can0, or a virtual bus name)"),
-    Parameter("can_bitrate", 0, "can: bit rate, bit/s (0 = the interface's setting)", (0, 8_000_000)),
-    Parameter("can_id", 0x100, "can: arbitration id of the gyro's frames", (0, 0x1FFFFFFF)),
-    Parameter("can_extended_id", False, "can: 29-bit id"),
-    Parameter("can_fd", False, "can: CAN FD frames (up to 64 bytes)"),
-    Parameter("sample_format", "int16", "can: sample encoding", choices=("int16", "int32", "float32")),
-    Parameter("byte_order", "little", "can: byte order of the samples", choices=("little", "big")),
-    Parameter("samples_per_frame", 4, "can: samples in each frame", (1, 64)),
-    Parameter("scale", 1e-4, "can: rad/s per count"),
-    Parameter("offset", 0.0, "can: rad/s added after scaling"),
-    Parameter("sample_rate_hz", 1000.0, "can/daq: the gyro's sample rate, Hz", (1e-3, 1e6)),
-    Parameter("can_simulated_gyro_period_s", 0.0,
-              "can, test/demo only: > 0 runs a simulated gyro of this period on the virtual bus in this process",
-              (0.0, 1e3)),  # fmt: skip
-    # daq
-    Parameter("daq_channel", "Dev1/ai0", "daq: NI-DAQmx physical channel"),
-    Parameter("daq_terminal", "differential", "daq: terminal configuration",
-              choices=("differential", "rse", "nrse", "pseudo_differential", "default")),  # fmt: skip
-    Parameter("daq_min_v", -5.0, "daq: input range low, V"),
-    Parameter("daq_max_v", 5.0, "daq: input range high, V"),
-    Parameter("daq_scale_v_per_rad_s", 1.1459156, "daq: gyro scale factor, V per rad/s"),
-    Parameter("daq_zero_rate_v", 2.5, "daq: gyro output at zero rate, V"),
-    Parameter("daq_buffer_s", 10.0, "daq: acquisition buffer, s", (0.01, 3600.0)),
+#: The driver's own parameters; each backend's follow (:func:`driver_parameters`).
+COMMON_PARAMETERS: tuple[ParamSpec, ...] = (
+    ParamSpec("source", "sim", "gyro source backend", choices=tuple(BACKENDS)),
+    ParamSpec("frame_id", "gyro", "frame_id of the gyro batches"),
+    ParamSpec("samples_per_batch", 50, "samples per GyroBatch (the last of a trial may hold fewer)", (1, 10_000)),
+    ParamSpec("poll_period_s", 0.01, "how often the source is read, s (wall clock)", (0.001, 1.0)),
+    ParamSpec("exit_when_done", False, "exit when the sim/bag plan is finished (else keep running)"),
+    ParamSpec("wait_for_subscribers", 0, "start streaming once the gyro topic has this many subscribers",
+              (0, 100)),  # fmt: skip
 )
 
 
-def _descriptor(p: Parameter) -> Any:
-    desc = _rcl.ParameterDescriptor(description=p.description, read_only=True)
-    if p.choices:
-        desc.additional_constraints = "one of: " + ", ".join(p.choices)
-    if p.range is not None and isinstance(p.default, float):
-        desc.floating_point_range = [_rcl.FloatingPointRange(from_value=float(p.range[0]), to_value=float(p.range[1]))]
-    elif p.range is not None and isinstance(p.default, int) and not isinstance(p.default, bool):
-        desc.integer_range = [_rcl.IntegerRange(from_value=int(p.range[0]), to_value=int(p.range[1]), step=1)]
-    return desc
+def driver_parameters() -> tuple[ParamSpec, ...]:
+    """Every parameter the driver declares: its own, then every registered backend's.
+
+    Whichever backend ``source`` chooses, all are declared, so that one parameter file serves
+    every backend and ``ros2 param describe`` documents them all.
+    """
+    return merge_specs(COMMON_PARAMETERS, backend_parameters())
 
 
 def _as_array(values: FloatArray) -> array.array[float]:
@@ -156,7 +110,7 @@ class DriverNode(Node):
 
     def __init__(self) -> None:
         super().__init__(NODE_NAME)
-        self.values = self._declare()
+        self.values = declare_parameters(self, driver_parameters())
         self.batch_size = int(self.values["samples_per_batch"])
         self.frame_id = str(self.values["frame_id"])
         self.exit_when_done = bool(self.values["exit_when_done"])
@@ -176,25 +130,6 @@ class DriverNode(Node):
         self.timer = self.create_timer(float(self.values["poll_period_s"]), self._on_timer)
         waiting = f"; waiting for {self.wait_for} gyro subscriber(s)" if self.wait_for else ""
         self.get_logger().info(f"driver ready: {self.source.describe()}{waiting}")
-
-    def _declare(self) -> dict[str, Any]:
-        values: dict[str, Any] = {}
-        for p in PARAMETERS:
-            try:
-                value = self.declare_parameter(p.name, p.default, _descriptor(p)).value
-            except InvalidParameterTypeException:
-                kind = type(p.default).__name__.replace("float", "double (e.g. 20.0)").replace("str", "string")
-                raise SourceConfigError("driver", p.name, f"expected a {kind}", where="") from None
-            except InvalidParameterValueException:
-                low, high = p.range or (float("nan"), float("nan"))
-                shown = f"{int(low)}, {int(high)}" if isinstance(p.default, int) else f"{low:g}, {high:g}"
-                reason = f"must be within [{shown}]"
-                raise SourceConfigError("driver", p.name, reason, where="") from None
-            if p.choices and value not in p.choices:
-                raise SourceConfigError("driver", p.name, f"expected one of {', '.join(p.choices)}", value,
-                                        where="")  # fmt: skip
-            values[p.name] = value
-        return values
 
     # ------------------------------------------------------------------ timer
     def _on_timer(self) -> None:

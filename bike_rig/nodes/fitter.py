@@ -34,8 +34,8 @@ class FitterNode:
     def __init__(self) -> None:
         from rclpy.node import Node
 
-        from ..topics import GYRO, PERIODS, TRIAL_EVENTS
         from ..rosqos import profile
+        from ..topics import GYRO, PERIODS, TRIAL_EVENTS
 
         # (bike_rig_msgs ships no type information: imported by name)
         msgs: Any = importlib.import_module("bike_rig_msgs.msg")

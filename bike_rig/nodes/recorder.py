@@ -53,13 +53,12 @@ from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, Qo
 from .. import topics as contract
 from ..bag.writer import BagWriter, Compression, contract_qos
 from ..core.errors import BikeRigError
+from ..params import ParamSpec
 from ..rosenv import ros_environment
-from .qos import profile
+from ..rosqos import profile
+from .params import declare_parameters, parameter_error
 
-__all__ = ["EXIT_USER_ERROR", "Recorder", "RecorderError", "main", "resolve_topics"]
-
-# rcl_interfaces ships no type information; imported by name so mypy does not look for it
-_ParameterDescriptor: Any = importlib.import_module("rcl_interfaces.msg").ParameterDescriptor
+__all__ = ["EXIT_USER_ERROR", "PARAMETERS", "Recorder", "main", "resolve_topics"]
 
 EXIT_USER_ERROR = 2
 NODE_NAME = "recorder"
@@ -68,16 +67,24 @@ DRAIN_TIMEOUT_S = 2.0
 DRAIN_IDLE_S = 0.05
 """The drain ends when nothing arrives for this long."""
 
-
-class RecorderError(BikeRigError):
-    """A recorder parameter is invalid."""
+#: The recorder's parameters (``config/recorder.yaml``). Typed by hand on ``bike-rig run
+#: --param`` lines, ``flush_period`` also takes an integer and ``topics`` one name.
+PARAMETERS: tuple[ParamSpec, ...] = (
+    ParamSpec("output", "", "bag directory to create (never overwritten); empty: bike_rig_<time>"),
+    ParamSpec("topics", ("all",), "topics to record: ['all'] or names (full or relative to /bike_rig)",
+              loose_type=True),  # fmt: skip
+    ParamSpec("compression", Compression.ZSTD.value, "chunk compression: zstd, lz4 or none",
+              choices=tuple(c.value for c in Compression)),  # fmt: skip
+    ParamSpec("flush_period", 0.5, "longest time a received message stays in memory, s", (0.0, 1.0),
+              open_low=True, loose_type=True),  # fmt: skip
+)
 
 
 def resolve_topics(names: Sequence[str]) -> tuple[contract.Topic, ...]:
     """The topics to record for the ``topics`` parameter.
 
     Raises:
-        RecorderError: An unknown topic name.
+        NodeParameterError: An unknown topic name.
     """
     if not names or list(names) == ["all"]:
         return contract.TOPICS
@@ -88,7 +95,7 @@ def resolve_topics(names: Sequence[str]) -> tuple[contract.Topic, ...]:
         topic = by_name.get(name)
         if topic is None:
             known = ", ".join(t.name.removeprefix(contract.NAMESPACE + "/") for t in contract.TOPICS)
-            raise RecorderError(f"parameter 'topics': unknown topic {raw!r} (known: all, {known})")
+            raise parameter_error("topics", f"unknown topic {raw!r} (known: all, {known})")
         if topic not in out:
             out.append(topic)
     return tuple(out)
@@ -144,20 +151,12 @@ class Recorder(Node):
 
     def __init__(self) -> None:
         super().__init__(NODE_NAME)
-        output = self._param("output", "", "bag directory to create (never overwritten); empty: bike_rig_<time>")
-        names = self._param("topics", ["all"], "topics to record: ['all'] or names (full or relative to /bike_rig)")
-        compression = self._param("compression", Compression.ZSTD.value, "chunk compression: zstd, lz4 or none")
-        flush_period = self._param("flush_period", 0.5, "longest time a received message stays in memory, s (0, 1]")
-        if not 0.0 < float(flush_period) <= 1.0:
-            raise RecorderError(f"parameter 'flush_period' must be in (0, 1] s, got {flush_period!r}")
-        if compression not in {c.value for c in Compression}:
-            choices = ", ".join(c.value for c in Compression)
-            raise RecorderError(f"parameter 'compression' must be one of {choices}, got {compression!r}")
-        self.topics = resolve_topics([str(n) for n in names])
+        values = declare_parameters(self, PARAMETERS)
+        self.topics = resolve_topics(values["topics"])
         self.writer = BagWriter(
-            Path(str(output) or default_output()),
-            compression=str(compression),
-            flush_period_s=float(flush_period),
+            Path(values["output"] or default_output()),
+            compression=values["compression"],
+            flush_period_s=values["flush_period"],
             custom_data={"recorder": f"bike_rig.nodes.recorder, node {self.get_fully_qualified_name()}"},
         )
         self.writer.open()
@@ -172,18 +171,6 @@ class Recorder(Node):
             f"recording {len(self.topics)} topics to {self.writer.path} "
             f"(chunks flushed every {self.writer.flush_period_s:g} s, {self.writer.compression.value})"
         )
-
-    def _param(self, name: str, default: Any, description: str) -> Any:
-        descriptor = _ParameterDescriptor(description=description, read_only=True, dynamic_typing=True)
-        value = self.declare_parameter(name, default, descriptor).value
-        if isinstance(default, float) and isinstance(value, int) and not isinstance(value, bool):
-            value = float(value)
-        if isinstance(default, list) and isinstance(value, str):
-            value = [value]
-        if type(value) is not type(default):
-            kind = {str: "a string", float: "a number", list: "a list of strings"}[type(default)]
-            raise RecorderError(f"parameter {name!r} must be {kind}, got {value!r}")
-        return value
 
     def _callback(self, topic: contract.Topic) -> Any:
         def on_message(data: bytes, info: Any) -> None:

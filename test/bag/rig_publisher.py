@@ -33,7 +33,7 @@ from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.serialization import deserialize_message
 
-from bike_rig.nodes.qos import profile
+from bike_rig.rosqos import profile
 from bike_rig.topics import GYRO, TOPICS
 from test.bag.samples import make_message, serialize
 

@@ -26,9 +26,10 @@ from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.signals import SignalHandlerOptions
 
-from bike_rig.nodes.fitter import fit_trial
-from bike_rig.nodes.qos import profile
+from bike_rig.messages import sample_batch_from_msg, trial_event_from_msg
 from bike_rig.paths import config_file
+from bike_rig.pipeline.fit import fit_trial
+from bike_rig.rosqos import profile
 from bike_rig.topics import GYRO, START_TRIAL, STOP_TRIAL, TRIAL_EVENTS, Topic
 from test.ros.processes import RosProcess
 from test.sources.support import small_session
@@ -218,7 +219,8 @@ def test_can_gyro_trials_through_the_services(probe: Probe, ros_env: dict[str, s
     stop_ev = next(e for e in events if e.kind == STOP)
     assert (start_ev.measurement_key, start_ev.note, stop_ev.sample_count) == ("TtH1", "test", 8000)
     mine = [b for b in batches if b.trial_id == first.trial_id]
-    result = fit_trial(mine, start_ev, stop_ev)
+    result = fit_trial([sample_batch_from_msg(b) for b in mine], trial_event_from_msg(start_ev),
+                       trial_event_from_msg(stop_ev))  # fmt: skip
     truth = period / math.sqrt(1 - 0.001**2)
     assert result.n_samples == 8000 and result.flags == ()
     assert abs(result.period - truth) < 3 * result.period_sigma, (result.period, truth, result.period_sigma)
