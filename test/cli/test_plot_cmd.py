@@ -1,5 +1,6 @@
-"""``bike-rig plot``: every kind writes its files under the documented names and prints them;
-user mistakes end in one line and exit status 2 before anything is drawn.
+"""``bike-rig plot``: every kind writes its files under the documented names and prints them.
+
+User mistakes end in one line and exit status 2 before anything is drawn.
 """
 
 from __future__ import annotations
@@ -30,8 +31,10 @@ KEPT = "rear_wheel_compound"
 
 @pytest.fixture(scope="module")
 def small_session(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """A simulated Browser session whose rear-wheel compound period keeps its 3 trial files;
-    every other period is the mean of its trials, as a number (3 fit figures, not 39)."""
+    """A simulated Browser session whose rear-wheel compound period keeps its 3 trial files.
+
+    Every other period is the mean of its trials, as a number (3 fit figures, not 39).
+    """
     root = tmp_path_factory.mktemp("plot_cmd")
     path = write_session(short_session(), root / "session")
     full = load_subject(path)

@@ -150,9 +150,12 @@ def test_capsize_mildly_unstable_above_the_capsize_speed(
 @pytest.mark.parametrize("rider", RIDERS)
 @pytest.mark.parametrize("name", BICYCLES)
 def test_speeds_agree_with_the_paper_table(curves: dict[tuple[str, str], EigenCurves], name: str, rider: str) -> None:
-    """The weave and capsize speeds drawn, from our raw readings, agree with those of the paper's
-    printed Table 2 parameters (with the same rider) within one combined σ (measured: at most
-    0.5σ, Browserins and Crescendo weave without rider; B*'s frame discrepancy barely moves them)."""
+    """The weave and capsize speeds drawn agree with the paper's within one combined σ.
+
+    Ours are from our raw readings, the paper's from its printed Table 2 parameters (with the
+    same rider); measured: at most 0.5σ, Browserins and Crescendo weave without rider; B*'s
+    frame discrepancy barely moves them.
+    """
     c = curves[name, rider]
     paper = _table2_set(COLUMNS[name])
     cs = critical_speeds_with_sigma(_with_rider(paper) if rider else paper)
@@ -269,8 +272,10 @@ def test_reversed_fork_on_the_paper_tables() -> None:
 
 
 def test_measured_yellow_reproduces_the_paper_table() -> None:
-    """Our Yellow, from its raw readings, has Table 2's weave and capsize speeds within σ, so a
-    reversed-fork file measured the same way is comparable with Table 2's Y*."""
+    """Our Yellow, from its raw readings, has Table 2's weave and capsize speeds within σ.
+
+    So a reversed-fork file measured the same way is comparable with Table 2's Y*.
+    """
     ours = critical_speeds_with_sigma(load_subject(config_dir() / "bicycles" / "yellow.yaml").parameters)
     paper = critical_speeds_with_sigma(_table2_set("Y"))
     for a, b in ((ours.weave, paper.weave), (ours.capsize, paper.capsize)):
@@ -288,8 +293,11 @@ def reversed_fork_pairs(folder: Path) -> list[tuple[Path, Path]]:
 
 
 def check_reversed_pair(normal: Path, reversed_: Path) -> None:
-    """Reversing the fork widens the stable speed range; for Yellow the weave speed changes as
-    between Table 2's Y and Y* (within 3σ of the two files' weave speeds)."""
+    """Reversing the fork widens the stable speed range.
+
+    For Yellow the weave speed changes as between Table 2's Y and Y* (within 3σ of the two
+    files' weave speeds).
+    """
     a, b = load_subject(normal).parameters, load_subject(reversed_).parameters
     (lo_a, hi_a), (lo_b, hi_b) = _stable_range(a), _stable_range(b)
     assert hi_b - lo_b > hi_a - lo_a, f"{reversed_.name}: the stable speed range does not grow"
@@ -311,8 +319,11 @@ def _table2_pair(folder: Path) -> tuple[Path, Path]:
 
 
 def test_reversed_fork_files(tmp_path: Path) -> None:
-    """Every reversed-fork pair shipped in ``config/bicycles`` (none today: Y* has no raw data in
-    ``../shared``), and always the pair written from Table 2's Y and Y*."""
+    """Every reversed-fork pair shipped in ``config/bicycles``, and Table 2's Y and Y*.
+
+    None is shipped today (Y* has no raw data in ``../shared``); the pair written from Table 2's
+    Y and Y* is always checked.
+    """
     pairs = [*reversed_fork_pairs(config_dir() / "bicycles"), _table2_pair(tmp_path)]
     for normal, reversed_ in pairs:
         check_reversed_pair(normal, reversed_)

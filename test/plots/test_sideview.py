@@ -1,6 +1,7 @@
-"""Side view: wheels, steer axis and mass centres where the benchmark geometry puts them (z down,
-drawn up), ellipses equal to the covariance's eigen-decomposition times the magnification the
-legend states.
+"""Side view: wheels, steer axis and mass centres where the benchmark geometry puts them.
+
+z is down, drawn up; the ellipses equal the covariance's eigen-decomposition times the
+magnification the legend states.
 """
 
 from __future__ import annotations

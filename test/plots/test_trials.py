@@ -1,5 +1,7 @@
-"""Trial figures: a trial's fit figure draws its samples, fit and residuals; the overview places
-every trial against its key's combined period, and shows a flagged or period-less trial as such.
+"""Trial figures: a trial's fit figure draws its samples, fit and residuals.
+
+The overview places every trial against its key's combined period, and shows a flagged or
+period-less trial as such.
 
 Numbers are read back from the figure's artists (by gid), never pixels.
 """

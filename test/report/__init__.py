@@ -1,0 +1,1 @@
+"""Tests of the session report (:mod:`bike_rig.report`)."""

@@ -91,6 +91,7 @@ class PageParser(HTMLParser):
     """Collects tables (body rows of cells), section texts, images, tags and links."""
 
     def __init__(self) -> None:
+        """An empty page."""
         super().__init__(convert_charrefs=True)
         self.page = Page()
         self._table: str | None = None
@@ -103,6 +104,7 @@ class PageParser(HTMLParser):
         self._text: list[str] = []
 
     def handle_starttag(self, tag: str, attrs: list[tuple[str, str | None]]) -> None:
+        """Open a table, row, cell, section or flag; record the tag and its links."""
         a = {k: v or "" for k, v in attrs}
         self.page.tags.add(tag)
         for k in ("src", "href"):
@@ -131,6 +133,7 @@ class PageParser(HTMLParser):
             self._flag_text = ""
 
     def handle_endtag(self, tag: str) -> None:
+        """Close what ``tag`` opened."""
         if tag in ("td", "th") and self._cell is not None and self._row is not None:
             self._cell.text = self._cell.text.strip()
             self._row.append(self._cell)
@@ -147,6 +150,7 @@ class PageParser(HTMLParser):
             self._flag = None
 
     def handle_data(self, data: str) -> None:
+        """Add text to the page, and to the open cell, section and flag."""
         self._text.append(data)
         if self._cell is not None:
             self._cell.text += data
@@ -156,6 +160,7 @@ class PageParser(HTMLParser):
             self._flag_text += data
 
     def close(self) -> None:
+        """Finish the page's text."""
         super().close()
         self.page.text = "".join(self._text)
 
@@ -169,8 +174,10 @@ def parse(text: str) -> Page:
 
 
 def check_value_sigma(value_cell: Cell, sigma_cell: Cell, value: float, sigma: float) -> None:
-    """The cells hold ``value`` and ``sigma`` exactly (data attributes) and as rounded text:
-    σ to two significant digits, the value to the same decimal place."""
+    """The cells hold ``value`` and ``sigma`` exactly (data attributes) and as rounded text.
+
+    σ to two significant digits, the value to the same decimal place.
+    """
     assert float(value_cell.attrs["data-value"]) == value
     assert float(value_cell.attrs["data-sigma"]) == sigma
     shown_v = float(value_cell.text.split()[0])
@@ -202,6 +209,7 @@ class Built:
 
     @property
     def subject(self) -> Subject:
+        """The report's bicycle."""
         return self.report.subject
 
 

@@ -97,8 +97,11 @@ frame.addEventListener("load", () => {{
 
 @functools.cache
 def _no_network() -> tuple[str, ...]:
-    """``unshare --net --`` where this user may make a network namespace (root: CI), so Chromium
-    has no network interface at all; elsewhere the flags above keep it off the network."""
+    """``unshare --net --`` where this user may make a network namespace (root: CI), else nothing.
+
+    In its own network namespace Chromium has no network interface at all; elsewhere the flags
+    above keep it off the network.
+    """
     unshare = shutil.which("unshare")
     if unshare is None:
         return ()
