@@ -1,5 +1,6 @@
-"""Gyro sources: one interface (:class:`~bike_rig.sources.base.GyroSource`), backends chosen
-by name, python-can style::
+"""Gyro sources: one interface (:class:`~bike_rig.sources.base.GyroSource`), backends by name.
+
+Python-can style::
 
     from bike_rig.sources import open_source, drain
     with open_source("sim", session="run1/session.yaml", time_scale=20.0) as source:

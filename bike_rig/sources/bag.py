@@ -1,5 +1,7 @@
-"""A recorded session replayed as a gyro source: the raw gyro stream and the trial events of a
-rosbag2 bag (MCAP or SQLite), read with rosbags (no ROS runtime).
+"""A recorded session replayed as a gyro source.
+
+The raw gyro stream and the trial events of a rosbag2 bag (MCAP or SQLite), read with rosbags
+(no ROS runtime).
 
 The bag's ``/bike_rig/gyro`` (``bike_rig_msgs/msg/GyroBatch``) and ``/bike_rig/trial_events``
 (``bike_rig_msgs/msg/TrialEvent``) messages are replayed in the order they were recorded, paced
@@ -77,6 +79,7 @@ class BagSource(GyroSource):
         gyro_topic: str = GYRO.name,
         events_topic: str = TRIAL_EVENTS.name,
     ):
+        """Open the bag and check that it holds both topics with the rig's message types."""
         from rosbags.rosbag2 import Reader
 
         self.path = str(path)
@@ -121,13 +124,20 @@ class BagSource(GyroSource):
         return cls(path, RigClock(None, time_scale))
 
     def describe(self) -> str:
+        """The bag's path and the time scale, for the log."""
         return f"bag: {self.path}, time scale {self.clock.time_scale:g}"
 
     @property
     def finished(self) -> bool:
+        """True once the bag's last message has been replayed."""
         return self._finished
 
     def poll(self) -> list[SourceEvent]:
+        """The events whose (scaled) recording time has come, in recording order.
+
+        Raises:
+            SourceIOError: The bag became unreadable while replaying.
+        """
         events: list[SourceEvent] = []
         if self._finished:
             return events
@@ -189,6 +199,7 @@ class BagSource(GyroSource):
         return None
 
     def close(self) -> None:
+        """Close the bag (idempotent)."""
         reader = getattr(self, "_reader", None)
         if reader is not None and getattr(reader, "isopen", True):
             try:

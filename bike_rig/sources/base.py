@@ -150,9 +150,15 @@ class SampleBlock:
 
 @dataclass(frozen=True)
 class TrialStopped:
-    """A trial ends after ``sample_count`` samples; ``stamp_ns`` is the rig time just after its
-    last sample (``sample_stamp_ns(start, sample_count, rate)``); ``aborted`` when the operator
-    aborted it."""
+    """A trial ends after ``sample_count`` samples.
+
+    Attributes:
+        trial_id: The trial.
+        sample_count: Samples the trial holds.
+        stamp_ns: Rig time just after its last sample, ns
+            (``sample_stamp_ns(start, sample_count, rate)``).
+        aborted: The operator aborted it.
+    """
 
     trial_id: str
     sample_count: int
@@ -242,6 +248,7 @@ class Parameters:
     """
 
     def __init__(self, source: str, values: Mapping[str, Any], specs: Iterable[ParamSpec]):
+        """Read ``values`` for ``source`` against ``specs``."""
         self.source = source
         self.values = values
         self.specs = {s.name: s for s in specs}
@@ -304,6 +311,11 @@ class RigClock:
         monotonic: Callable[[], float] = time.monotonic,
         wall_ns: Callable[[], int] = time.time_ns,
     ):
+        """A clock that has not started yet (``monotonic`` and ``wall_ns`` for tests).
+
+        Raises:
+            ValueError: ``time_scale`` is not > 0.
+        """
         if not time_scale > 0:
             raise ValueError(f"time_scale must be > 0, got {time_scale!r}")
         self.time_scale = time_scale
@@ -394,11 +406,13 @@ class GyroSource(ABC):
         """Release the hardware or the file (idempotent)."""
 
     def __enter__(self) -> GyroSource:
+        """The source itself (closed on leaving the ``with`` block)."""
         return self
 
     def __exit__(
         self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
     ) -> None:
+        """Close the source."""
         self.close()
 
 
@@ -427,13 +441,14 @@ def backend_parameters() -> tuple[ParamSpec, ...]:
 
 
 def open_source(name: str, parameters: Mapping[str, Any] | None = None, **kwargs: Any) -> GyroSource:
-    """Open the gyro source ``name`` (``sim``, ``can``, ``bag`` or ``daq``), python-can style::
+    """Open the gyro source ``name`` (``sim``, ``can``, ``bag`` or ``daq``), python-can style.
 
-        open_source("sim", session="run1/session.yaml", time_scale=20.0)
+    For example ``open_source("sim", session="run1/session.yaml", time_scale=20.0)``.
 
     Args:
         name: The backend.
-        parameters: Its parameters (names as the driver node's); ``kwargs`` are added.
+        parameters: Its parameters (names as the driver node's).
+        **kwargs: More parameters, added to ``parameters``.
 
     Raises:
         SourceConfigError: Unknown backend, or a bad parameter.
@@ -485,6 +500,7 @@ class StreamingSource(GyroSource):
     supports_requests = True
 
     def __init__(self, sample_rate_hz: float):
+        """A source streaming at ``sample_rate_hz`` Hz, not recording."""
         self.sample_rate_hz = sample_rate_hz
         self._recording: _Recording | None = None
         self._events: list[SourceEvent] = []
@@ -499,6 +515,7 @@ class StreamingSource(GyroSource):
         """
 
     def poll(self) -> list[SourceEvent]:
+        """The events of the samples delivered since the last poll (and of requests since)."""
         self._take(*self.read_available())
         events, self._events = self._events, []
         return events
@@ -532,6 +549,11 @@ class StreamingSource(GyroSource):
         return stopped
 
     def start_trial(self, request: TrialRequest) -> TrialInfo:
+        """Record a trial from the next sample delivered on (see :meth:`GyroSource.start_trial`).
+
+        Raises:
+            TrialRequestError: A trial is running, or the request is invalid.
+        """
         if self._recording is not None:
             raise TrialRequestError(f"trial {self._recording.info.trial_id} is running; stop it first")
         info = trial_info_for(request, self.sample_rate_hz, self._used_ids)
@@ -541,6 +563,11 @@ class StreamingSource(GyroSource):
         return info
 
     def stop_trial(self, trial_id: str = "", abort: bool = False) -> TrialStopped:
+        """Stop (or abort) the running trial after the samples delivered until now.
+
+        Raises:
+            TrialRequestError: No trial, or another one, is running.
+        """
         rec = self._recording
         if rec is None:
             raise TrialRequestError("no trial is running")

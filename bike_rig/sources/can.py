@@ -246,6 +246,7 @@ class CanSource(StreamingSource):
         label: str = "CAN gyro",
         simulated_gyro: SimulatedCanGyro | None = None,
     ):
+        """Read ``bus``; no trial is recorded until :meth:`start_trial`."""
         super().__init__(sample_rate_hz)
         self.bus = bus
         self.layout = layout
@@ -256,11 +257,18 @@ class CanSource(StreamingSource):
 
     @classmethod
     def from_parameters(cls, parameters: Mapping[str, Any]) -> CanSource:
-        """Parameters: ``can_interface``, ``can_channel``, ``can_bitrate``, ``can_id``,
-        ``can_extended_id``, ``can_fd``, ``sample_format``, ``byte_order``,
-        ``samples_per_frame``, ``scale``, ``offset``, ``sample_rate_hz``, and for tests and
-        demos ``can_simulated_gyro_period_s`` (> 0: run a :class:`SimulatedCanGyro` of that
-        period on the virtual bus, paced by ``time_scale``)."""
+        """Open the bus the parameters describe (:attr:`PARAMETERS`).
+
+        ``can_interface``, ``can_channel``, ``can_bitrate``, ``can_id``, ``can_extended_id``,
+        ``can_fd``, ``sample_format``, ``byte_order``, ``samples_per_frame``, ``scale``,
+        ``offset``, ``sample_rate_hz``, and for tests and demos ``can_simulated_gyro_period_s``
+        (> 0: run a :class:`SimulatedCanGyro` of that period on the virtual bus, paced by
+        ``time_scale``).
+
+        Raises:
+            SourceConfigError: A bad parameter or layout, or a refused interface.
+            SourceUnavailableError: python-can or the interface is not available here.
+        """
         p = Parameters(cls.name, parameters, cls.PARAMETERS)
         interface = p.text("can_interface")
         channel = p.text("can_channel")
@@ -286,9 +294,18 @@ class CanSource(StreamingSource):
         return cls(bus, layout, rate, label, gyro)
 
     def describe(self) -> str:
+        """The bus, id and layout, and the sample rate, for the log."""
         return f"can: {self.label} at {self.sample_rate_hz:g} Hz"
 
     def read_available(self) -> tuple[FloatArray, FloatArray | None, int]:
+        """The samples of the gyro's frames received since the last call (at most 50,000 frames).
+
+        Returns:
+            (rates rad/s, None, receive time of the first sample in ns).
+
+        Raises:
+            SourceIOError: The bus failed.
+        """
         chunks: list[FloatArray] = []
         first_ns = 0
         expected = self.layout.frame_bytes
@@ -320,6 +337,7 @@ class CanSource(StreamingSource):
         return np.concatenate(chunks), None, first_ns
 
     def close(self) -> None:
+        """Stop the simulated gyro, if any, and shut the bus down (idempotent)."""
         if self._closed:
             return
         self._closed = True
@@ -371,9 +389,10 @@ def damped_samples(
 
 
 class SimulatedCanGyro:
-    """A stand-in CAN gyro: a thread that sends ``samples`` in frames of ``layout`` on a
-    python-can bus (``virtual`` by default), ``time_scale`` times faster than real time
-    (``math.inf``: as fast as it can).
+    """A stand-in CAN gyro: a thread that sends samples in frames on a python-can bus.
+
+    It sends ``samples`` in frames of ``layout`` on the bus (``virtual`` by default),
+    ``time_scale`` times faster than real time (``math.inf``: as fast as it can).
 
     Args:
         layout: Frame layout (the reader's).
@@ -395,6 +414,7 @@ class SimulatedCanGyro:
         time_scale: float = 1.0,
         interface: str = "virtual",
     ):
+        """A gyro that has not started sending (see :meth:`start`)."""
         self.layout = layout
         self.channel = channel
         self.samples = samples

@@ -1,5 +1,6 @@
-"""An analog rate gyro on an NI data-acquisition device (the paper's NI USB-6008), through
-NI-DAQmx (optional extra: ``pip install nidaqmx`` and NI's NI-DAQmx driver).
+"""An analog rate gyro on an NI data-acquisition device (the paper's NI USB-6008).
+
+Read through NI-DAQmx (optional extra: ``pip install nidaqmx`` and NI's NI-DAQmx driver).
 
 A continuous voltage task on ``daq_channel`` (e.g. ``Dev1/ai0``) samples at
 ``sample_rate_hz``; the gyro's rate is ``(V − daq_zero_rate_v) / daq_scale_v_per_rad_s`` and
@@ -95,6 +96,7 @@ class DaqSource(StreamingSource):
         read_all: int = -1,
         label: str = "NI-DAQmx",
     ):
+        """Read the started ``task``; no trial is recorded until :meth:`start_trial`."""
         super().__init__(sample_rate_hz)
         self.task = task
         self.scale_v_per_rad_s = scale_v_per_rad_s
@@ -105,8 +107,15 @@ class DaqSource(StreamingSource):
 
     @classmethod
     def from_parameters(cls, parameters: Mapping[str, Any]) -> DaqSource:
-        """Parameters: ``daq_channel``, ``daq_terminal``, ``daq_min_v``, ``daq_max_v``,
-        ``daq_scale_v_per_rad_s``, ``daq_zero_rate_v``, ``daq_buffer_s``, ``sample_rate_hz``."""
+        """Create and start the voltage task the parameters describe (:attr:`PARAMETERS`).
+
+        ``daq_channel``, ``daq_terminal``, ``daq_min_v``, ``daq_max_v``,
+        ``daq_scale_v_per_rad_s``, ``daq_zero_rate_v``, ``daq_buffer_s``, ``sample_rate_hz``.
+
+        Raises:
+            SourceConfigError: A bad parameter, or NI-DAQmx refused the task.
+            SourceUnavailableError: nidaqmx or NI's driver is missing.
+        """
         p = Parameters(cls.name, parameters, cls.PARAMETERS)
         channel = p.text("daq_channel")
         if not channel:
@@ -151,9 +160,18 @@ class DaqSource(StreamingSource):
         return cls(task, rate, scale, zero, int(constants.READ_ALL_AVAILABLE), label)
 
     def describe(self) -> str:
+        """The channel, terminal and input range, and the sample rate, for the log."""
         return f"daq: {self.label} at {self.sample_rate_hz:g} Hz"
 
     def read_available(self) -> tuple[FloatArray, FloatArray | None, int]:
+        """The samples acquired since the last call, stamped back from now at the nominal rate.
+
+        Returns:
+            (rates rad/s, raw volts V, epoch time of the first sample in ns).
+
+        Raises:
+            SourceIOError: The read failed (buffer overflow, device removed).
+        """
         try:
             data = self.task.read(number_of_samples_per_channel=self.read_all, timeout=0.0)
         except Exception as exc:  # buffer overflow, device removed
@@ -166,6 +184,7 @@ class DaqSource(StreamingSource):
         return (volts - self.zero_rate_v) / self.scale_v_per_rad_s, volts, first_ns
 
     def close(self) -> None:
+        """Stop and close the task (idempotent)."""
         if self._closed:
             return
         self._closed = True

@@ -1,5 +1,7 @@
-"""Errors of the gyro sources: a bad configuration, a missing library or driver, a trial
-request the source cannot honour, or a failure while reading.
+"""Errors of the gyro sources.
+
+A bad configuration, a missing library or driver, a trial request the source cannot honour, or
+a failure while reading.
 
 Every message says what (the parameter or file), where (the source and the value or path) and
 why, in one line, so that a node can end with that line and exit status 2.
@@ -36,6 +38,7 @@ class SourceConfigError(SourceError):
     """
 
     def __init__(self, source: str, parameter: str, reason: str, value: object = None, where: str | None = None):
+        """Build the one-line message ``<source> source: parameter '<name>' [= value]: reason``."""
         self.source = source
         self.parameter = parameter
         self.reason = reason
@@ -49,8 +52,11 @@ class SourceUnavailableError(SourceConfigError):
 
 
 class TrialRequestError(SourceError):
-    """A start or stop request that the source cannot honour (a trial is already running, the
-    source walks its own plan, an unknown part...). Reported to the service caller."""
+    """A start or stop request that the source cannot honour.
+
+    A trial is already running, the source walks its own plan, an unknown part... Reported to
+    the service caller.
+    """
 
 
 class SourceIOError(SourceError):

@@ -25,7 +25,7 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeAlias
 
 import numpy as np
 
@@ -91,28 +91,39 @@ def _constant_rate(times: FloatArray) -> float | None:
     return float(nearest) if abs(rate - nearest) < 1e-9 * rate else rate
 
 
-def _period_entries(data: Any) -> list[tuple[PlannedMeasurement, tuple[object, ...], Any]]:
+_Entry: TypeAlias = tuple[PlannedMeasurement, tuple[object, ...], Any]
+
+
+def _section_entries(section: str, body: Mapping[str, Any]) -> list[_Entry]:
+    """The period entries of one section (a wheel, the rod, the frame or the fork), in order."""
+    if section in _WHEELS or section == "calibration_rod":
+        return [
+            (PlannedMeasurement(section, key.removesuffix("_period")), (section, key), body[key])
+            for key in ("compound_period", "torsional_period")
+            if key in body
+        ]
+    out: list[_Entry] = []
+    if section not in _PARTS:
+        return out
+    for key, value in body.items():
+        if key == "compound_period":
+            out.append((PlannedMeasurement(section, "compound"), (section, key), value))
+        elif key == "orientations" and isinstance(value, list):
+            for i, o in enumerate(value):
+                if isinstance(o, Mapping) and "torsional_period" in o:
+                    where = (section, "orientations", i, "torsional_period")
+                    out.append((PlannedMeasurement(section, "torsional", i + 1), where, o["torsional_period"]))
+    return out
+
+
+def _period_entries(data: Any) -> list[_Entry]:
     """The period entries of a measurement document, in document order, with their place."""
-    out: list[tuple[PlannedMeasurement, tuple[object, ...], Any]] = []
+    out: list[_Entry] = []
     if not isinstance(data, Mapping):
         return out
     for section, body in data.items():
-        if not isinstance(body, Mapping):
-            continue
-        if section in _WHEELS or section == "calibration_rod":
-            for key in ("compound_period", "torsional_period"):
-                if key in body:
-                    pendulum = key.removesuffix("_period")
-                    out.append((PlannedMeasurement(section, pendulum), (section, key), body[key]))
-        elif section in _PARTS:
-            for key, value in body.items():
-                if key == "compound_period":
-                    out.append((PlannedMeasurement(section, "compound"), (section, key), value))
-                elif key == "orientations" and isinstance(value, list):
-                    for i, o in enumerate(value):
-                        if isinstance(o, Mapping) and "torsional_period" in o:
-                            where = (section, "orientations", i, "torsional_period")
-                            out.append((PlannedMeasurement(section, "torsional", i + 1), where, o["torsional_period"]))
+        if isinstance(body, Mapping):
+            out.extend(_section_entries(section, body))
     return out
 
 
@@ -121,6 +132,47 @@ def _where(path: tuple[object, ...]) -> str:
     for part in path:
         out += f"[{part}]" if isinstance(part, int) else (f".{part}" if out else str(part))
     return out
+
+
+class _TrialFileError(Exception):
+    """A trial file of a session that cannot be streamed (the message names it)."""
+
+
+def _planned_trial(session_dir: Path, name: str, planned: PlannedMeasurement, repeat: int) -> PlannedTrial:
+    """Trial file ``name`` of a session as a trial of the plan, with its raw volts if they exist.
+
+    Raises:
+        _TrialFileError: The file is unreadable or its times are not evenly spaced.
+    """
+    trial_path = session_dir / name
+    try:
+        trial = read_trial(trial_path)
+    except BikeRigError as exc:
+        raise _TrialFileError(str(exc)) from None
+    if trial.times is not None:
+        rate = _constant_rate(trial.times)
+        if rate is None:
+            raise _TrialFileError(f"{trial_path}: the times are not evenly spaced (the rig streams at one rate)")
+    else:
+        assert trial.sample_rate_hz is not None
+        rate = trial.sample_rate_hz
+    stem = trial_path.stem
+    volts_path = session_dir / VOLTS_DIR / f"{stem}.npy"
+    volts = None
+    if volts_path.is_file():
+        v = np.load(volts_path, allow_pickle=False)
+        if v.ndim == 1 and v.shape[0] == trial.samples.shape[0]:
+            volts = np.ascontiguousarray(v, dtype=np.float64)
+    info = TrialInfo(
+        trial_id=stem,
+        part=planned.part,
+        pendulum=planned.pendulum,
+        orientation=planned.orientation or 0,
+        repeat=repeat,
+        measurement_key=planned.key,
+        sample_rate_hz=rate,
+    )
+    return PlannedTrial(info, np.ascontiguousarray(trial.samples, dtype=np.float64), volts)
 
 
 def session_file_trials(session: str | Path) -> list[PlannedTrial]:
@@ -154,35 +206,10 @@ def session_file_trials(session: str | Path) -> list[PlannedTrial]:
         if not isinstance(files, list) or not files or not all(isinstance(f, str) for f in files):
             raise fail(f"{at}: expected a list of trial files")
         for repeat, name in enumerate(files, start=1):
-            trial_path = path.parent / name
             try:
-                trial = read_trial(trial_path)
-            except BikeRigError as exc:
+                trials.append(_planned_trial(path.parent, name, planned, repeat))
+            except _TrialFileError as exc:
                 raise fail(f"{at}: {exc}") from None
-            if trial.times is not None:
-                rate = _constant_rate(trial.times)
-                if rate is None:
-                    raise fail(f"{at}: {trial_path}: the times are not evenly spaced (the rig streams at one rate)")
-            else:
-                assert trial.sample_rate_hz is not None
-                rate = trial.sample_rate_hz
-            stem = trial_path.stem
-            volts_path = path.parent / VOLTS_DIR / f"{stem}.npy"
-            volts = None
-            if volts_path.is_file():
-                v = np.load(volts_path, allow_pickle=False)
-                if v.ndim == 1 and v.shape[0] == trial.samples.shape[0]:
-                    volts = np.ascontiguousarray(v, dtype=np.float64)
-            info = TrialInfo(
-                trial_id=stem,
-                part=planned.part,
-                pendulum=planned.pendulum,
-                orientation=planned.orientation or 0,
-                repeat=repeat,
-                measurement_key=planned.key,
-                sample_rate_hz=rate,
-            )
-            trials.append(PlannedTrial(info, np.ascontiguousarray(trial.samples, dtype=np.float64), volts))
     if not trials:
         raise fail("lists no trial files (periods must be given as {trials: [...]})")
     ids = [t.info.trial_id for t in trials]
@@ -240,6 +267,11 @@ class SimSource(GyroSource):
         pause_between_trials_s: float = 1.0,
         label: str = "simulated session",
     ):
+        """Walk ``trials`` in order on ``clock``.
+
+        Raises:
+            SourceConfigError: A negative or non-finite pause.
+        """
         if not (math.isfinite(pause_between_trials_s) and pause_between_trials_s >= 0):
             raise SourceConfigError("sim", "pause_between_trials_s", "must be >= 0", pause_between_trials_s)
         self.trials = tuple(trials)
@@ -253,8 +285,15 @@ class SimSource(GyroSource):
 
     @classmethod
     def from_parameters(cls, parameters: Mapping[str, Any]) -> SimSource:
-        """Parameters: ``session`` or ``bicycle`` (+ ``rig``, ``seed``), ``time_scale``,
-        ``pause_between_trials_s``, ``start_time_s`` (see the module docstring)."""
+        """The session the parameters name (:attr:`PARAMETERS`; see the module docstring).
+
+        ``session`` or ``bicycle`` (+ ``rig``, ``seed``), ``time_scale``,
+        ``pause_between_trials_s``, ``start_time_s``.
+
+        Raises:
+            SourceConfigError: A bad parameter, or a session, bicycle or rig that cannot be read
+                or simulated.
+        """
         p = Parameters(cls.name, parameters, cls.PARAMETERS)
         session = p.text("session")
         bicycle = p.text("bicycle")
@@ -292,14 +331,17 @@ class SimSource(GyroSource):
         return cls(simulated_trials(sim), clock, pause, label=label)
 
     def describe(self) -> str:
+        """What is streamed, the number of trials and the time scale, for the log."""
         scale = self.clock.time_scale
         return f"sim: {self.label}, {len(self.trials)} trials, time scale {scale:g}"
 
     @property
     def finished(self) -> bool:
+        """True once the last trial's STOP has been yielded."""
         return self._k >= len(self.trials)
 
     def poll(self) -> list[SourceEvent]:
+        """The START, sample blocks and STOP events that are due on the clock, in plan order."""
         events: list[SourceEvent] = []
         now = self.clock.now_ns()
         while self._k < len(self.trials):
