@@ -43,6 +43,7 @@ class ParamValueError(ValueError):
     """
 
     def __init__(self, reason: str):
+        """Keep ``reason`` (also the message)."""
         super().__init__(reason)
         self.reason = reason
 
@@ -101,6 +102,7 @@ class ParamSpec:
     constraints: str = ""
 
     def __post_init__(self) -> None:
+        """Check the spec itself (see Raises above)."""
         numeric = self.kind in ("integer", "double")
         if self.range is not None and not numeric:
             raise ValueError(f"parameter spec {self.name!r}: a range needs a numeric default")

@@ -109,6 +109,12 @@ class DriverNode(Node):
     """The driver (see the module docstring); ``finished`` turns true to end the process."""
 
     def __init__(self) -> None:
+        """Declare the parameters, open the source, create the topics, services and timer.
+
+        Raises:
+            NodeParameterError: A driver parameter is wrong.
+            SourceConfigError: A backend parameter is wrong, or the source cannot be opened.
+        """
         super().__init__(NODE_NAME)
         self.values = declare_parameters(self, driver_parameters())
         self.batch_size = int(self.values["samples_per_batch"])

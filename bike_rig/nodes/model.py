@@ -86,6 +86,11 @@ class ModelNode(Node):
     """Parameter sets → canonical matrices, eigen sweep, state space (see the module docstring)."""
 
     def __init__(self) -> None:
+        """Declare the parameters, create the publishers, the subscription and the service.
+
+        Raises:
+            NodeParameterError: A parameter is wrong, or the speeds are inconsistent.
+        """
         super().__init__(NODE_NAME)
         values = declare_parameters(self, PARAMETERS)
         rider = values["rider"]

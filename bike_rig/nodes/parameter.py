@@ -102,6 +102,12 @@ class ParameterNode(Node):
     """Static readings + period estimates → BenchmarkParameters (see the module docstring)."""
 
     def __init__(self) -> None:
+        """Declare the parameters, load the static readings and publish them, subscribe.
+
+        Raises:
+            NodeParameterError: A parameter is wrong or ``measurements`` is empty.
+            BikeRigError: The measurement file cannot be read.
+        """
         super().__init__(NODE_NAME)
         values = declare_parameters(self, PARAMETERS)
         method = ComMethod(values["com_method"])

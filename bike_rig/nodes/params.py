@@ -33,8 +33,11 @@ _rcl: Any = importlib.import_module("rcl_interfaces.msg")
 
 
 class NodeParameterError(BikeRigError):
-    """A node parameter that cannot be used: the wrong type, out of range, not one of the
-    choices, or inconsistent with another. The message is one line naming the parameter."""
+    """A node parameter that cannot be used.
+
+    The wrong type, out of range, not one of the choices, or inconsistent with another. The
+    message is one line naming the parameter.
+    """
 
 
 def parameter_error(name: str, reason: str, value: object = None) -> NodeParameterError:

@@ -150,6 +150,12 @@ class Recorder(Node):
     """Records the rig's topics into a bag (see the module docstring)."""
 
     def __init__(self) -> None:
+        """Declare the parameters, create the bag and subscribe to the topics (raw).
+
+        Raises:
+            NodeParameterError: A parameter is wrong (an unknown topic too).
+            BikeRigError: The bag exists already or cannot be created.
+        """
         super().__init__(NODE_NAME)
         values = declare_parameters(self, PARAMETERS)
         self.topics = resolve_topics(values["topics"])

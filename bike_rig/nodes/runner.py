@@ -1,5 +1,6 @@
-"""One way to run a node process: rclpy set-up, the ROS environment, spinning, and a clean
-stop on SIGINT/SIGTERM, for every bike_rig node's ``main``.
+"""One way to run a node process, for every bike_rig node's ``main``.
+
+rclpy set-up, the ROS environment, spinning, and a clean stop on SIGINT/SIGTERM.
 
 The process environment always gets ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`` (and keeps a
 ``ROS_DOMAIN_ID`` given by the launcher or the caller), so a node started by hand is safe too.
