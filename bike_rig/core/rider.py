@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from .benchmark import PARAMETER_NAMES, ParameterSet
-from .errors import BikeRigError, InputFileError
+from .errors import InputFileError, ModelError
 from .io_yaml import load_yaml_document
 from .uncertainty.uncertain import UncertainVector, complex_step_jacobian
 
@@ -43,7 +43,7 @@ PAPER = "paper"
 RIDER_FILE_KEYS = ("mass", "x", "z", "Ixx", "Iyy", "Izz", "Ixz")
 
 
-class RiderError(BikeRigError):
+class RiderError(ModelError):
     """The rider choice is unknown, or its rider file cannot be read or lacks a number."""
 
     def __init__(self, reason: str, path: str | None = None, key: str | None = None, line: int | None = None):

@@ -43,6 +43,7 @@ from rclpy.node import Node
 from .. import topics
 from ..core.benchmark import ParameterSet
 from ..core.errors import BikeRigError
+from ..core.rider import rider_key
 from ..core.uncertainty.matrix_sigma import SigmaConvention
 from ..messages import (
     fill_canonical_matrices,
@@ -52,7 +53,7 @@ from ..messages import (
     session_parameters_from_msg,
 )
 from ..params import ParamSpec
-from ..pipeline.model import ModelMatrices, compute_model, rider_by_name, state_space_at
+from ..pipeline.model import ModelMatrices, compute_model, state_space_at
 from ..rosqos import profile
 from .params import NodeParameterError, declare_parameters, parameter_error
 from .runner import run_node
@@ -96,7 +97,7 @@ class ModelNode(Node):
         rider = values["rider"]
         speed_min, speed_max, speed_count = values["speed_min"], values["speed_max"], values["speed_count"]
         try:
-            rider_by_name(rider)
+            rider_key(rider, files=False)
         except BikeRigError as exc:
             raise parameter_error("rider", str(exc)) from None
         if rider == "none":
@@ -169,7 +170,7 @@ class ModelNode(Node):
                 response, f"no parameter set yet: waiting for a complete set on {topics.PARAMETERS.name}"
             )
         try:
-            rider_by_name(rider)
+            rider_key(rider, files=False)
             state = state_space_at(self._model(rider), float(request.speed))
         except BikeRigError as exc:
             return fill_state_space_error(response, str(exc))

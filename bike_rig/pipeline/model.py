@@ -9,7 +9,6 @@ functions. Units: SI (speeds in m/s, eigenvalues in 1/s).
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -17,38 +16,20 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..core.benchmark import ParameterSet
 from ..core.errors import ModelError
-from ..core.rider import PAPER_RIDER, Rider, add_rider
+from ..core.rider import add_rider, resolve_rider, rider_key
 from ..core.uncertainty.matrix_sigma import SigmaConvention, canonical_with_sigma
 from ..core.uncertainty.speed_sigma import SpeedWithSigma, critical_speeds_with_sigma
 from ..core.whipple import MODE_LABELS, EigenvalueSweep, WhippleMatrices, eigenvalues, state_space
 
 __all__ = [
-    "RIDERS",
     "ModelMatrices",
     "StabilitySweep",
     "StateSpaceAt",
     "compute_model",
-    "rider_by_name",
     "state_space_at",
 ]
 
 FloatArray = NDArray[np.float64]
-
-#: Riders the live model knows by name ("" is no rider).
-RIDERS: Mapping[str, Rider | None] = {"": None, "paper": PAPER_RIDER}
-
-
-def rider_by_name(name: str) -> Rider | None:
-    """The rider called ``name`` ("" or "none": no rider; "paper": Table 1).
-
-    Raises:
-        ModelError: an unknown name.
-    """
-    key = "" if name == "none" else name
-    if key not in RIDERS:
-        raise ModelError(f"unknown rider '{name}': expected '', 'none' or 'paper'")
-    return RIDERS[key]
-
 
 @dataclass(frozen=True)
 class ModelMatrices:
@@ -91,7 +72,7 @@ class StabilitySweep:
 
 
 def _with_rider(ps: ParameterSet, rider: str) -> ParameterSet:
-    r = rider_by_name(rider)
+    r = resolve_rider(rider, files=False)
     return ps if r is None else add_rider(ps, r)
 
 
@@ -113,7 +94,7 @@ def compute_model(
         ModelError: unknown rider, bad speeds or a singular mass matrix.
     """
     convention = SigmaConvention(convention)
-    name = "" if rider == "none" else rider
+    name = rider_key(rider, files=False)
     full = _with_rider(ps, name)
     ms = canonical_with_sigma(full, convention)
     sweep = eigenvalues(ms.matrices, ms.g, speeds)

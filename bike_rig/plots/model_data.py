@@ -30,12 +30,11 @@ from numpy.typing import ArrayLike, NDArray
 from ..core.benchmark import ParameterSet
 from ..core.errors import BikeRigError, ModelError
 from ..core.frequency import INPUTS, OUTPUTS, bode, frequency_response
-from ..core.rider import add_rider
+from ..core.rider import add_rider, resolve_rider, rider_key
 from ..core.uncertainty.eigen_sigma import eigenvalues_with_sigma
 from ..core.uncertainty.matrix_sigma import MatrixSet, SigmaConvention, canonical_with_sigma
 from ..core.uncertainty.speed_sigma import SpeedWithSigma, critical_speeds_with_sigma
 from ..core.whipple import MODE_LABELS, WhippleMatrices, characteristic_coefficients, eigenvalues
-from ..pipeline.model import rider_by_name
 from ..subjects import Subject
 
 __all__ = [
@@ -202,8 +201,7 @@ class BodeCurves:
 
 def _rider_key(rider: str) -> str:
     """The rider's key, "" or "paper" (checks the name; "none" means no rider)."""
-    rider_by_name(rider)
-    return "" if rider == "none" else rider
+    return rider_key(rider, files=False)
 
 
 def model_parameters(subject: Subject, rider: str = "") -> ParameterSet:
@@ -219,7 +217,7 @@ def model_parameters(subject: Subject, rider: str = "") -> ParameterSet:
     Raises:
         ModelError: Unknown rider.
     """
-    r = rider_by_name(rider)
+    r = resolve_rider(rider, files=False)
     return subject.parameters if r is None else add_rider(subject.parameters, r)
 
 

@@ -127,7 +127,7 @@ class SpeedMonteCarlo:
 def _quadratic_roots(c2: FloatArray, c1: FloatArray, c0: FloatArray) -> FloatArray:
     """Real roots of ``c2 x² + c1 x + c0`` per row, shape (N, 2), NaN where absent.
 
-    Element-wise the same as ``whipple._quadratic_real_roots`` (cancellation-free; the degree
+    Element-wise the same as ``whipple.stability._quadratic_real_roots`` (cancellation-free; the degree
     drops where ``c2 = 0``).
     """
     out = np.full(c2.shape + (2,), np.nan)
