@@ -1,4 +1,5 @@
 """bike_rig: measure a bicycle's physical parameters on a pendulum rig (Moore et al.) and
-turn them into the Whipple benchmark model's eigenvalues."""
+turn them into the Whipple benchmark model's eigenvalues.
+"""
 
 __version__ = "0.1.0"

@@ -1,5 +1,6 @@
 """How numbers with σ and parameter names are written for people (terminal tables, figures and
-the HTML report alike)."""
+the HTML report alike).
+"""
 
 from __future__ import annotations
 

@@ -1,6 +1,7 @@
 """bike_rig.messages: core record → message → core record, with rclpy's message classes, with
 plain dataclass stand-ins shaped like rosbags' deserialised messages, and through rosbags'
-own typestore and CDR (the offline replay's path)."""
+own typestore and CDR (the offline replay's path).
+"""
 
 from __future__ import annotations
 

@@ -76,7 +76,8 @@ class LiveComparison:
 
 def relative_difference(a: Any, b: Any) -> tuple[float, int]:
     """Largest ``|a - b| / max(|a|, |b|)`` over the entries (0 where both are equal, NaN
-    included) and where it is; inf if the shapes differ or one side alone is NaN."""
+    included) and where it is; inf if the shapes differ or one side alone is NaN.
+    """
     x = np.asarray(a, dtype=np.float64).reshape(-1)
     y = np.asarray(b, dtype=np.float64).reshape(-1)
     if x.shape != y.shape:

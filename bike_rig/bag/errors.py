@@ -37,7 +37,8 @@ class NotABagError(BagError):
 
 class IncompleteBagError(BagError):
     """The recording did not end cleanly (no metadata.yaml, or an MCAP file without its
-    summary and footer): ``bike-rig bag recover`` makes it readable."""
+    summary and footer): ``bike-rig bag recover`` makes it readable.
+    """
 
 
 class BagReadError(BagError):
@@ -54,4 +55,5 @@ class NoRigTopicsError(BagError):
 
 class ReplayError(BagError):
     """The bag's contents cannot be replayed (e.g. no static readings, a type recorded with
-    another definition)."""
+    another definition).
+    """

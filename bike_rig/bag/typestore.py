@@ -89,7 +89,8 @@ def type_hash(msgtype: str) -> str:
 
 def message_definition(msgtype: str) -> str:
     """The ``ros2msg`` schema text of a type: its definition followed by every dependency
-    (``====`` separator, ``MSG: pkg/Type``), as rosbag2 stores it in MCAP schemas."""
+    (``====`` separator, ``MSG: pkg/Type``), as rosbag2 stores it in MCAP schemas.
+    """
     text, _ = rig_typestore().generate_msgdef(msgtype, ros_version=2)
     return str(text)
 
@@ -120,7 +121,8 @@ def _default(nodetype: int, spec: Any) -> Any:
 
 def new_message(msgtype: str, **fields: Any) -> Any:
     """A message of the rig's typestore with every field at its default (zeros, empty strings
-    and sequences, nested messages likewise), then ``fields`` set."""
+    and sequences, nested messages likewise), then ``fields`` set.
+    """
     store = rig_typestore()
     _, defs = store.fielddefs[msgtype]
     values = {name: _default(nodetype, spec) for name, (nodetype, spec) in defs}

@@ -89,7 +89,8 @@ def data_file_name(bag: Path, index: int = 0) -> str:
 
 def contract_qos(spec: QosSpec) -> Qos:
     """A QoS of :mod:`bike_rig.topics` as rosbag2 describes an offered profile (KEEP_LAST with
-    the depth; deadline, lifespan and lease left at the system default)."""
+    the depth; deadline, lifespan and lease left at the system default).
+    """
     return Qos(
         QosHistory.KEEP_LAST,
         spec.depth,
@@ -332,7 +333,8 @@ class BagWriter:
 
     def abort(self) -> None:
         """Stop writing without a summary or metadata.yaml (what a crash leaves, minus the
-        chunk in progress): the bag then needs :mod:`bike_rig.bag.recover`."""
+        chunk in progress): the bag then needs :mod:`bike_rig.bag.recover`.
+        """
         if self._stream is not None:
             self._stream.close()
         self._mcap = None

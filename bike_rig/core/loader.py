@@ -1,5 +1,6 @@
 """Open any accepted input file: measurements or a parameter set, in our YAML or
-BicycleParameters' formats, recognised by content."""
+BicycleParameters' formats, recognised by content.
+"""
 
 from __future__ import annotations
 

@@ -158,7 +158,8 @@ class FitterState:
 
     def poll(self, live: bool = True) -> list[TrialFit]:
         """Results whose wait has ended (call periodically). ``live``: both topics have
-        publishers; while not, nothing waiting is given up on."""
+        publishers; while not, nothing waiting is given up on.
+        """
         if not live:
             return []
         now = self.clock()
@@ -179,7 +180,8 @@ class FitterState:
     # ------------------------------------------------------------------ output
     def _evict(self, out: list[TrialFit | None]) -> list[TrialFit]:
         """Bound the memory: at most ``max_open_trials`` trials without a STOP (stopped ones
-        wait ``grace_s`` at most), and at most that many trials' worth of samples in all."""
+        wait ``grace_s`` at most), and at most that many trials' worth of samples in all.
+        """
         limit = self.max_open_trials
         budget = limit * self.options.max_trial_samples
         in_history = self.clock() - self.matched_at < self.history_grace_s

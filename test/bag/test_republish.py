@@ -1,5 +1,6 @@
 """replay --republish: a bag's raw stream played back into a live graph (real processes), and
-recorded again by the recorder: the same bytes, in the same order, with the timing scaled."""
+recorded again by the recorder: the same bytes, in the same order, with the timing scaled.
+"""
 
 from __future__ import annotations
 

@@ -78,8 +78,9 @@ def _expected_counts(out: Path) -> tuple[Counter[str], int]:
 
 
 def test_the_bag_holds_everything_published(live: tuple[DemoResult, Path]) -> None:
-    """rosbags and mcap's own reader both read the bag: profile ros2, every topic, the counts
-    published, and every sample (no loss)."""
+    """Rosbags and mcap's own reader both read the bag: profile ros2, every topic, the counts
+    published, and every sample (no loss).
+    """
     result, out = live
     expected, total_samples = _expected_counts(out)
     ts = rig_typestore()
@@ -123,7 +124,8 @@ def test_every_period_saw_all_its_samples(live: tuple[DemoResult, Path]) -> None
 
 def test_offline_replay_is_identical_to_the_live_run(live: tuple[DemoResult, Path]) -> None:
     """``bike-rig replay`` recomputes the session from the bag with no ROS runtime and gets
-    exactly what the live graph published (same fit settings: recorded in the bag)."""
+    exactly what the live graph published (same fit settings: recorded in the bag).
+    """
     from bike_rig.bag.replay import compare_with_live, replay_bag
     from bike_rig.bag.session import read_session
 

@@ -2,7 +2,8 @@
 bookkeeping (``FitterState``); then the node as a real process: behind a real driver process
 every trial of a small simulated session gets a PeriodEstimate identical to ``fit_trial`` on the
 same samples; bad input from a test publisher is logged and flagged and the node keeps serving;
-after a restart it re-fits the trial in progress from the transient-local history."""
+after a restart it re-fits the trial in progress from the transient-local history.
+"""
 
 from __future__ import annotations
 
@@ -200,7 +201,8 @@ def test_state_gives_up_waiting_after_grace_and_reports_unknown_trials() -> None
 def test_state_waits_for_the_history_after_a_restart() -> None:
     """Right after matching, a STOP whose batches have not arrived yet is not fitted from what
     is there (Fast DDS delivers the history late), nor are open trials evicted; once the history
-    window is over the usual grace applies."""
+    window is over the usual grace applies.
+    """
     rates = signal()
     s, log, clock = state(history_grace_s=5.0, max_open_trials=2)
     for i in range(4):  # events of 4 trials replayed before any of their batches

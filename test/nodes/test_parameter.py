@@ -24,10 +24,10 @@ from bike_rig import topics
 from bike_rig.core.benchmark import compute_parameters
 from bike_rig.core.loader import load_measurements, load_static_readings
 from bike_rig.messages import fill_period_estimate, session_parameters_from_msg, static_readings_from_msg
-from bike_rig.rosqos import profile
 from bike_rig.paths import config_file
 from bike_rig.pipeline.assemble import SessionParameters, assemble
 from bike_rig.pipeline.fit import TrialFit
+from bike_rig.rosqos import profile
 from test.ros.processes import RosProcess
 
 pytestmark = pytest.mark.ros

@@ -57,7 +57,8 @@ def block_times(
     t: FloatArray | None, k: int, counts: FloatArray, step: float | None = None, first: float = 0.0
 ) -> FloatArray:
     """Mean time of each block of :func:`block_sums` [s]: from the times ``t``, or, for samples
-    evenly spaced by ``step`` from ``first``, computed."""
+    evenly spaced by ``step`` from ``first``, computed.
+    """
     if step is None:
         assert t is not None
         return np.add.reduceat(t, np.arange(0, t.size, k)) / counts

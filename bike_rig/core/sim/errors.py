@@ -13,4 +13,5 @@ class RigFileError(InputFileError):
 
 class SimulationError(BikeRigError):
     """The true parameters cannot be measured on this rig (e.g. a wheel smaller than its
-    pendulum arm, or an inertia tensor that is not positive definite)."""
+    pendulum arm, or an inertia tensor that is not positive definite).
+    """

@@ -29,7 +29,8 @@ def browser_truth() -> dict[str, float]:
 @pytest.fixture
 def seed() -> int:
     """A fresh seed per test (any seed must pass: the statistical tests state their failure
-    probability), printed so that a failure can be repeated with ``BIKE_RIG_TEST_SEED``."""
+    probability), printed so that a failure can be repeated with ``BIKE_RIG_TEST_SEED``.
+    """
     fixed = os.environ.get("BIKE_RIG_TEST_SEED")
     value = int(fixed) if fixed else secrets.randbelow(2**32)
     print(f"seed = {value} (BIKE_RIG_TEST_SEED={value} repeats this run)")

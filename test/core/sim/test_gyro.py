@@ -49,7 +49,8 @@ def _gyro(**kw: float) -> Gyro:
 
 def test_white_noise_has_the_stated_density(seed: int) -> None:
     """σ per sample = density √(f_s / 2). With 400 000 samples the sample σ leaves ±1 % of it
-    with probability 4e-19 (χ²), and the mean leaves ±6 standard errors with 2e-9."""
+    with probability 4e-19 (χ²), and the mean leaves ±6 standard errors with 2e-9.
+    """
     g = _gyro(noise_density=2e-4)
     v = gyro_volts(np.zeros(400_000), g, 1000.0, 1.2, np.random.default_rng(seed))
     assert np.std((v - 2.5) / 1.2) == pytest.approx(2e-4 * np.sqrt(500.0), rel=0.01)
@@ -59,7 +60,8 @@ def test_white_noise_has_the_stated_density(seed: int) -> None:
 def test_bias_and_its_random_walk_have_the_stated_sizes(seed: int) -> None:
     """1000 independent trials of 1 s: the turn-on bias has σ = bias and the walk grows as
     drift √t. A sample variance leaves ±40 % of the truth when χ²₉₉₉ / 999 leaves [0.6, 1.4],
-    probability 7e-16 per check."""
+    probability 7e-16 per check.
+    """
     rng = np.random.default_rng(seed)
     g = _gyro(bias=0.02)
     starts = np.array([gyro_volts(np.zeros(2), g, 1000.0, 1.0, rng)[0] - 2.5 for _ in range(1000)])

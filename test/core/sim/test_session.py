@@ -55,7 +55,8 @@ def test_the_stored_rate_is_the_motion_through_gyro_and_adc(
 ) -> None:
     """Without drift and scale error, the stored rate minus the true rate is a constant bias
     plus white noise and quantisation: σ² = σ_n² + (LSB / s)² / 12. Over 13 × 30 000 samples
-    the pooled σ misses ±3 % of it with probability < 1e-30 (χ²)."""
+    the pooled σ misses ±3 % of it with probability < 1e-30 (χ²).
+    """
     gyro = replace(rig.gyro, bias_drift=0.0, scale_factor_tolerance=0.0)
     quiet = replace(rig, gyro=gyro, trials=replace(rig.trials, per_measurement=1), coupled_swing=None)
     s = simulate_session(browser_truth, quiet, seed)
@@ -88,7 +89,8 @@ def test_static_readings_scatter_with_their_stated_sigma(
     rig: RigConfig, browser_truth: dict[str, float], seed: int
 ) -> None:
     """Pooled over 100 sessions × 27 noisy readings (2 700 independent z-scores): their mean
-    leaves ±5/√2700 with probability 6e-7, their σ leaves [0.9, 1.1] with probability 1e-7 (χ²)."""
+    leaves ±5/√2700 with probability 6e-7, their σ leaves [0.9, 1.1] with probability 1e-7 (χ²).
+    """
     short = _short(rig)
     z = []
     for s in _sessions(short, browser_truth, seed, 100):
@@ -122,7 +124,8 @@ def test_beating_is_a_second_close_mode_in_the_signal(
 ) -> None:
     """Least squares of a beating trial's stored rate on [pendulum mode, second mode, bias,
     drift] gives both modes with weight 1 (the gyro's scale error aside): each weight is
-    within 6 of its standard errors (≤ 0.05) of 1; the 4 checks fail with probability 8e-9."""
+    within 6 of its standard errors (≤ 0.05) of 1; the 4 checks fail with probability 8e-9.
+    """
     swing = CoupledSwing(0.0, ("frame_torsional_o1_t1", "fork_torsional_o2_t2"), (0.05, 0.15), (0.4, 0.9))
     s = simulate_session(browser_truth, replace(rig, coupled_swing=swing), seed)
     scale = s.truth.scale_factor / rig.gyro.scale_factor

@@ -1,5 +1,6 @@
 """Linear σ with correlations: exact complex-step Jacobians vs the ``uncertainties`` package and
-vs a Monte Carlo propagation of the raw measurements."""
+vs a Monte Carlo propagation of the raw measurements.
+"""
 
 from __future__ import annotations
 
@@ -20,7 +21,8 @@ def _measured(bike: str):  # type: ignore[no-untyped-def]
 def test_covariance_matches_uncertainties_package() -> None:
     """The full 26 × 26 covariance (correlations included) equals what ``uncertainties`` gives
     when it propagates the same readings through the same formulas (its own numerical
-    derivatives via ``uncertainties.wrap``)."""
+    derivatives via ``uncertainties.wrap``).
+    """
     m = _measured("Browser")
     ours = compute_parameters(m).parameters
     keys = [k for k, r in m.readings.items() if r.sigma > 0]  # exact counts stay plain floats
