@@ -1,5 +1,7 @@
-"""The project's own launcher (there is no ``ros2 launch`` wheel): start a graph of nodes as
-separate processes, forward signals, stop them cleanly, and report a node that died.
+"""The project's own launcher (there is no ``ros2 launch`` wheel).
+
+Start a graph of nodes as separate processes, forward signals, stop them cleanly, and report a
+node that died.
 
 A graph file (``format: bike_rig-graph/1``, see ``config/graph.yaml``)::
 

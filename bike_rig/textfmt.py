@@ -1,5 +1,6 @@
-"""How numbers with σ and parameter names are written for people (terminal tables, figures and
-the HTML report alike).
+"""How numbers with σ and parameter names are written for people.
+
+The same for terminal tables, figures and the HTML report alike.
 """
 
 from __future__ import annotations
@@ -23,8 +24,10 @@ TABLE2_ORDER = tuple(LABELS)
 
 
 def format_value_sigma(value: float, sigma: float | None, digits: int = 1) -> tuple[str, str]:
-    """Value and σ for print: σ to ``digits`` significant digits, the value to the same place
-    (``digits=1`` is how the paper prints its tables).
+    """Value and σ for print.
+
+    σ to ``digits`` significant digits, the value to the same place (``digits=1`` is how the
+    paper prints its tables).
 
     Args:
         value: The value (any unit).

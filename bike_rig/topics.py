@@ -1,5 +1,6 @@
-"""Names and quality of service of every bike_rig topic and service (no rclpy import, so the
-offline replay and the recorder's readers can use them too).
+"""Names and quality of service of every bike_rig topic and service.
+
+No rclpy import, so the offline replay and the recorder's readers can use them too.
 
 QoS (REP-2003): the driver publishes reliably; consumers that must see every sample (fitter,
 recorder) subscribe reliably, live displays may use best effort. Results a late joiner must

@@ -1,6 +1,8 @@
-"""bike_rig.messages: core record → message → core record, with rclpy's message classes, with
-plain dataclass stand-ins shaped like rosbags' deserialised messages, and through rosbags'
-own typestore and CDR (the offline replay's path).
+"""Tests of bike_rig.messages: round trips between core records and messages.
+
+Core record → message → core record, with rclpy's message classes, with plain dataclass
+stand-ins shaped like rosbags' deserialised messages, and through rosbags' own typestore and CDR
+(the offline replay's path).
 """
 
 from __future__ import annotations

@@ -1,5 +1,7 @@
-"""``bike_rig.subjects``: a bag's trials come with the samples and the time axis their fit used
-(also across gaps and overlaps), and the mass-centre method reaches a replayed bag.
+"""Tests of ``bike_rig.subjects``: a bag's trials and the mass-centre method.
+
+A bag's trials come with the samples and the time axis their fit used (also across gaps and
+overlaps), and the mass-centre method reaches a replayed bag.
 """
 
 from __future__ import annotations

@@ -75,7 +75,9 @@ class LiveComparison:
 
 
 def relative_difference(a: Any, b: Any) -> tuple[float, int]:
-    """Largest ``|a - b| / max(|a|, |b|)`` over the entries (0 where both are equal, NaN
+    """Largest relative difference of two arrays, and where it is.
+
+    The largest ``|a - b| / max(|a|, |b|)`` over the entries (0 where both are equal, NaN
     included) and where it is; inf if the shapes differ or one side alone is NaN.
     """
     x = np.asarray(a, dtype=np.float64).reshape(-1)

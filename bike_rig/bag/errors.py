@@ -36,8 +36,9 @@ class NotABagError(BagError):
 
 
 class IncompleteBagError(BagError):
-    """The recording did not end cleanly (no metadata.yaml, or an MCAP file without its
-    summary and footer): ``bike-rig bag recover`` makes it readable.
+    """The recording did not end cleanly (no metadata.yaml, or an MCAP file without its summary and footer).
+
+    ``bike-rig bag recover`` makes it readable.
     """
 
 
@@ -54,6 +55,7 @@ class NoRigTopicsError(BagError):
 
 
 class ReplayError(BagError):
-    """The bag's contents cannot be replayed (e.g. no static readings, a type recorded with
-    another definition).
+    """The bag's contents cannot be replayed.
+
+    E.g. no static readings, a type recorded with another definition.
     """

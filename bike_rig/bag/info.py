@@ -1,6 +1,7 @@
-"""A summary of a recorded session (``bike-rig bag info``): the bicycle, every trial with its
-measurement key, samples and validity, every topic with its type and message count, the
-duration, and the live results the graph published.
+"""A summary of a recorded session (``bike-rig bag info``).
+
+The bicycle, every trial with its measurement key, samples and validity, every topic with its
+type and message count, the duration, and the live results the graph published.
 """
 
 from __future__ import annotations

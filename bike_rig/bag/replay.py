@@ -343,9 +343,11 @@ def _num(x: float) -> float | None:
 
 
 def result_json(result: ReplayResult) -> dict[str, Any]:
-    """The replay as one JSON object: ``bike-rig params --json``'s ``bicycle`` and
-    ``parameters`` (null when incomplete), plus ``weave_speed``, ``capsize_speed`` (null when
-    absent), their σ, ``trials``, the settings and the comparison with the live results.
+    """The replay as one JSON object.
+
+    ``bike-rig params --json``'s ``bicycle`` and ``parameters`` (null when incomplete), plus
+    ``weave_speed``, ``capsize_speed`` (null when absent), their σ, ``trials``, the settings and
+    the comparison with the live results.
     """
     ps = result.parameters
     parameters = None

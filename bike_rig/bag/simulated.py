@@ -1,5 +1,6 @@
-"""A simulated session written as the rig would have recorded it, without ROS: for tests,
-benchmarks and demonstrations of the bag tools.
+"""A simulated session written as the rig would have recorded it, without ROS.
+
+For tests, benchmarks and demonstrations of the bag tools.
 
 :func:`live_results` adds what the live graph publishes from such a stream, computed with the
 nodes' own ROS-free functions: the fitter's ``PeriodEstimate`` per trial (on its STOP), the

@@ -1,5 +1,6 @@
-"""A rosbags typestore that knows bike_rig's messages, so bags can be read, written and
-replayed with no ROS runtime.
+"""A rosbags typestore that knows bike_rig's messages.
+
+With it, bags can be read, written and replayed with no ROS runtime.
 
 It is ``get_typestore(Stores.ROS2_KILTED)`` (the standard messages of the ROS distribution the
 rig runs on) plus every ``bike_rig_msgs/msg/*.msg``, parsed with ``get_types_from_msg``. The
@@ -88,8 +89,10 @@ def type_hash(msgtype: str) -> str:
 
 
 def message_definition(msgtype: str) -> str:
-    """The ``ros2msg`` schema text of a type: its definition followed by every dependency
-    (``====`` separator, ``MSG: pkg/Type``), as rosbag2 stores it in MCAP schemas.
+    """The ``ros2msg`` schema text of a type.
+
+    Its definition followed by every dependency (``====`` separator, ``MSG: pkg/Type``), as
+    rosbag2 stores it in MCAP schemas.
     """
     text, _ = rig_typestore().generate_msgdef(msgtype, ros_version=2)
     return str(text)
@@ -120,8 +123,9 @@ def _default(nodetype: int, spec: Any) -> Any:
 
 
 def new_message(msgtype: str, **fields: Any) -> Any:
-    """A message of the rig's typestore with every field at its default (zeros, empty strings
-    and sequences, nested messages likewise), then ``fields`` set.
+    """A message of the rig's typestore with every field at its default, then ``fields`` set.
+
+    The defaults are zeros, empty strings and sequences, nested messages likewise.
     """
     store = rig_typestore()
     _, defs = store.fielddefs[msgtype]

@@ -88,8 +88,9 @@ def data_file_name(bag: Path, index: int = 0) -> str:
 
 
 def contract_qos(spec: QosSpec) -> Qos:
-    """A QoS of :mod:`bike_rig.topics` as rosbag2 describes an offered profile (KEEP_LAST with
-    the depth; deadline, lifespan and lease left at the system default).
+    """A QoS of :mod:`bike_rig.topics` as rosbag2 describes an offered profile.
+
+    KEEP_LAST with the depth; deadline, lifespan and lease left at the system default.
     """
     return Qos(
         QosHistory.KEEP_LAST,
@@ -307,8 +308,9 @@ class BagWriter:
         return False
 
     def close(self) -> list[TopicCount]:
-        """Finish the MCAP file (rosbag2 metadata record, summary, footer) and write
-        metadata.yaml. Safe to call twice.
+        """Finish the MCAP file (rosbag2 metadata record, summary, footer) and write metadata.yaml.
+
+        Safe to call twice.
 
         Returns:
             Every topic with its message count, in the order added.
@@ -332,8 +334,9 @@ class BagWriter:
         return self.topic_counts
 
     def abort(self) -> None:
-        """Stop writing without a summary or metadata.yaml (what a crash leaves, minus the
-        chunk in progress): the bag then needs :mod:`bike_rig.bag.recover`.
+        """Stop writing without a summary or metadata.yaml (what a crash leaves, minus the chunk in progress).
+
+        The bag then needs :mod:`bike_rig.bag.recover`.
         """
         if self._stream is not None:
             self._stream.close()

@@ -1,5 +1,6 @@
-"""BicycleParameters' text formats: ``<Name>Measured.txt``, ``<Name>Benchmark.txt``, and its
-parameter-set YAML.
+"""BicycleParameters' text formats.
+
+``<Name>Measured.txt``, ``<Name>Benchmark.txt``, and its parameter-set YAML.
 
 Text files hold one ``name = value+/-sigma`` per line (``#`` starts a comment; several
 comma-separated values on one line are averaged, as BicycleParameters does, with the σ of the

@@ -1,5 +1,7 @@
-"""Open any accepted input file: measurements or a parameter set, in our YAML or
-BicycleParameters' formats, recognised by content.
+"""Open any accepted input file.
+
+Measurements or a parameter set, in our YAML or BicycleParameters' formats, recognised by
+content.
 """
 
 from __future__ import annotations
@@ -74,9 +76,11 @@ def is_period_key(key: str) -> bool:
 
 
 def load_static_readings(path: str | Path) -> Measurements:
-    """Read a measurement file's static readings only: every pendulum period is left out (the
-    live rig measures them), from our YAML (period entries, even trial lists, are skipped) or a
-    BicycleParameters ``Measured.txt`` (its ``Tc*``/``Tt*`` lines are dropped).
+    """Read a measurement file's static readings only.
+
+    Every pendulum period is left out (the live rig measures them), from our YAML (period
+    entries, even trial lists, are skipped) or a BicycleParameters ``Measured.txt`` (its
+    ``Tc*``/``Tt*`` lines are dropped).
 
     Raises:
         InputFileError: the file is missing, unreadable, or holds parameters.

@@ -1,6 +1,7 @@
-"""Periods from raw trial files: a measurement file may give a period as the trials it was
-measured in, ``{trials: [t1.npy, t2.npy, t3.npy]}``; each is fitted (Eq 23–27) and the fits
-are combined into one period with σ.
+"""Periods from raw trial files.
+
+A measurement file may give a period as the trials it was measured in, ``{trials: [t1.npy,
+t2.npy, t3.npy]}``; each is fitted (Eq 23–27) and the fits are combined into one period with σ.
 
 A trial whose fit is invalid or flagged is kept in the record (with its reasons) and left out
 of the combination; if no trial is usable the reading is an error that names the trials.

@@ -1,5 +1,7 @@
-"""Converters of the result messages: ``StaticReadings``, ``BenchmarkParameters``,
-``CanonicalMatrices``, ``EigenSweep`` and the ``StateSpace`` service response.
+"""Converters of the result messages.
+
+``StaticReadings``, ``BenchmarkParameters``, ``CanonicalMatrices``, ``EigenSweep`` and the
+``StateSpace`` service response.
 
 Layouts (see ``bike_rig_msgs/msg``):
 

@@ -233,8 +233,10 @@ class SessionAssembly:
         return tuple(self._trials[k] for k in sorted(self._trials))
 
     def add(self, trial: TrialFit) -> bool:
-        """Take one period estimate; one with a trial id seen before replaces the earlier one,
-        unless it was fitted from fewer samples (then the earlier one is kept).
+        """Take one period estimate.
+
+        One with a trial id seen before replaces the earlier one, unless it was fitted from fewer
+        samples (then the earlier one is kept).
 
         Returns:
             Whether anything changed (False for an identical re-publication).

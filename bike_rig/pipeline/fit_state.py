@@ -157,8 +157,9 @@ class FitterState:
         return self._evict([])
 
     def poll(self, live: bool = True) -> list[TrialFit]:
-        """Results whose wait has ended (call periodically). ``live``: both topics have
-        publishers; while not, nothing waiting is given up on.
+        """Results whose wait has ended (call periodically).
+
+        ``live``: both topics have publishers; while not, nothing waiting is given up on.
         """
         if not live:
             return []
@@ -179,8 +180,10 @@ class FitterState:
 
     # ------------------------------------------------------------------ output
     def _evict(self, out: list[TrialFit | None]) -> list[TrialFit]:
-        """Bound the memory: at most ``max_open_trials`` trials without a STOP (stopped ones
-        wait ``grace_s`` at most), and at most that many trials' worth of samples in all.
+        """Bound the memory.
+
+        At most ``max_open_trials`` trials without a STOP (stopped ones wait ``grace_s`` at
+        most), and at most that many trials' worth of samples in all.
         """
         limit = self.max_open_trials
         budget = limit * self.options.max_trial_samples

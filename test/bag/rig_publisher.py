@@ -1,5 +1,7 @@
-"""A stand-in for the rig's nodes in recorder tests: publishes sample messages of every rig
-topic with the contract QoS. Run as a script (never collected: no ``test_`` prefix)::
+"""A stand-in for the rig's nodes in recorder tests.
+
+Publishes sample messages of every rig topic with the contract QoS. Run as a script (never
+collected: no ``test_`` prefix)::
 
     PYTHONPATH=<repo> python rig_publisher.py SPEC_JSON
 

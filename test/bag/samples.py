@@ -1,5 +1,6 @@
-"""Deterministic sample messages of every bike_rig type, built with the bag typestore (no
-rclpy), and comparison helpers for messages read back.
+"""Deterministic sample messages of every bike_rig type, and comparison helpers.
+
+The messages are built with the bag typestore (no rclpy); the helpers compare messages read back.
 """
 
 from __future__ import annotations
@@ -80,8 +81,9 @@ def as_plain(value: Any) -> Any:
 
 
 def sample_traffic(per_topic: dict[str, int]) -> list[tuple[str, int, bytes, Any]]:
-    """(topic, log_time_ns, cdr, message) for ``per_topic[name]`` messages of each rig topic,
-    interleaved round-robin, log times 1 ms apart.
+    """(topic, log_time_ns, cdr, message) for ``per_topic[name]`` messages of each rig topic.
+
+    Interleaved round-robin, log times 1 ms apart.
     """
     out: list[tuple[str, int, bytes, Any]] = []
     types = {t.name: t.type for t in TOPICS}

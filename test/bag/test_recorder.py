@@ -1,5 +1,7 @@
-"""The recorder as a real process over DDS: a publisher process (the rig's stand-in) and the
-recorder, both with the run's domain id on loopback; the bag is checked with rosbags.
+"""The recorder as a real process over DDS.
+
+A publisher process (the rig's stand-in) and the recorder, both with the run's domain id on
+loopback; the bag is checked with rosbags.
 """
 
 from __future__ import annotations
@@ -50,8 +52,9 @@ def _recorder(tmp_path: Path, env: dict[str, str], bag: Path, *params: str) -> R
 
 
 def _wait_for_data(bag: Path, expected: dict[str, int], recorder: RosProcess, timeout_s: float = 30.0) -> None:
-    """Wait until the recorder's flushed chunks hold the expected number of messages per topic
-    (the recorder flushes at least every 0.5 s, so no stop is needed to see them).
+    """Wait until the recorder's flushed chunks hold the expected number of messages per topic.
+
+    The recorder flushes at least every 0.5 s, so no stop is needed to see them.
     """
     data = bag / f"{bag.name}_0.mcap"
     deadline = time.monotonic() + timeout_s

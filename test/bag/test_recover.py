@@ -18,8 +18,9 @@ TOPICS = (STATIC_READINGS, TRIAL_EVENTS, GYRO)
 
 
 def write_flushed(bag: Path, flush_every: int = 10) -> tuple[list[tuple[str, int, bytes]], list[tuple[int, int]]]:
-    """A bag left as a crash leaves it (no close); returns the traffic and, after each flush,
-    (file size, messages flushed).
+    """A bag left as a crash leaves it (no close).
+
+    Returns the traffic and, after each flush, (file size, messages flushed).
     """
     traffic = [(n, t, d) for n, t, d, _ in sample_traffic({STATIC_READINGS.name: 1, TRIAL_EVENTS.name: 6,
                                                            GYRO.name: 60})]

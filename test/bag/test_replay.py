@@ -1,5 +1,7 @@
-"""bike-rig replay: offline recomputation from a bag, against the core path and the recorded
-live results; other fit settings; bad input; no rclpy.
+"""Tests of ``bike-rig replay``: offline recomputation from a bag.
+
+Offline recomputation from a bag, against the core path and the recorded live results; other fit
+settings; bad input; no rclpy.
 """
 
 from __future__ import annotations
@@ -54,8 +56,9 @@ def run_cli(*argv: str) -> tuple[int, str, str]:
 
 @pytest.fixture(scope="module")
 def raw_bag(session: SimulatedSession, tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """The session's input stream only (as recorded with nothing but the driver and the
-    parameter node's static readings).
+    """The session's input stream only.
+
+    As recorded with nothing but the driver and the parameter node's static readings.
     """
     return write_simulated_bag(tmp_path_factory.mktemp("replay") / "raw", session, pause_s=2.0)
 

@@ -1,6 +1,8 @@
-"""The replay against a real live graph: a simulated session through the node processes over
-DDS (``bike_rig.demo``: driver, fitter, parameter, model and the recorder), then replayed
-offline from the recorded bag: every number equals what the graph published.
+"""The replay against a real live graph.
+
+A simulated session through the node processes over DDS (``bike_rig.demo``: driver, fitter,
+parameter, model and the recorder), then replayed offline from the recorded bag: every number
+equals what the graph published.
 """
 
 from __future__ import annotations

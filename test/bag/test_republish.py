@@ -1,5 +1,7 @@
-"""replay --republish: a bag's raw stream played back into a live graph (real processes), and
-recorded again by the recorder: the same bytes, in the same order, with the timing scaled.
+"""Tests of ``replay --republish``: a bag played back into a live graph and recorded again.
+
+A bag's raw stream played back into a live graph (real processes), and recorded again by the
+recorder: the same bytes, in the same order, with the timing scaled.
 """
 
 from __future__ import annotations

@@ -1,5 +1,6 @@
-"""Paper Tables 3–5 (canonical matrices, and parameters and matrices with the rigid rider of
-Table 1) from the raw measurements.
+"""Paper Tables 3–5 from the raw measurements.
+
+The canonical matrices, and the parameters and matrices with the rigid rider of Table 1.
 
 Documented facts, measured here:
 

@@ -1,6 +1,8 @@
-"""Honest σ: over seeded simulated trials, ±period_sigma covers the true period 60–76 % of the
-time (68 % for a calibrated 1σ), with white noise, a random-walk bias drift and 12-bit
-quantisation. The paper's Eq 27 σ (white residuals) is shown to be optimistic on the same data.
+"""Honest σ.
+
+Over seeded simulated trials, ±period_sigma covers the true period 60–76 % of the time (68 % for
+a calibrated 1σ), with white noise, a random-walk bias drift and 12-bit quantisation. The
+paper's Eq 27 σ (white residuals) is shown to be optimistic on the same data.
 """
 
 from __future__ import annotations

@@ -230,8 +230,10 @@ def test_missing_directory_and_unknown_files(tmp_path: Path) -> None:
 
 
 def test_evenly_spaced_time_stamps_are_fitted_by_their_rate() -> None:
-    """A file and a live stream of the same samples get the same fit: even time stamps become
-    a sample rate (snapped to 1000.0 here), jittered ones stay time stamps.
+    """A file and a live stream of the same samples get the same fit.
+
+    Even time stamps become a sample rate (snapped to 1000.0 here), jittered ones stay time
+    stamps.
     """
     from bike_rig.core.trials import uniform_sample_rate
 

@@ -1,5 +1,7 @@
-"""A stand-in node process for launcher tests: writes its environment and arguments, then
-waits for a signal (or exits with the status given by ``--exit N``).
+"""A stand-in node process for launcher tests.
+
+Writes its environment and arguments, then waits for a signal (or exits with the status given by
+``--exit N``).
 """
 
 from __future__ import annotations

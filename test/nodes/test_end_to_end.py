@@ -1,5 +1,7 @@
-"""The rig as a live graph: a whole simulated session through the real node processes over DDS
-(localhost, the run's own domain id), recorded, and read back.
+"""The rig as a live graph.
+
+A whole simulated session through the real node processes over DDS (localhost, the run's own
+domain id), recorded, and read back.
 
 One session with the paper's shorter trials (15 s instead of 30 s, no beating) keeps the run short; everything
 else is the shipped configuration (``config/graph.yaml``, the node parameter files).
@@ -78,8 +80,9 @@ def _expected_counts(out: Path) -> tuple[Counter[str], int]:
 
 
 def test_the_bag_holds_everything_published(live: tuple[DemoResult, Path]) -> None:
-    """Rosbags and mcap's own reader both read the bag: profile ros2, every topic, the counts
-    published, and every sample (no loss).
+    """Rosbags and mcap's own reader both read the bag.
+
+    Profile ros2, every topic, the counts published, and every sample (no loss).
     """
     result, out = live
     expected, total_samples = _expected_counts(out)
@@ -123,8 +126,9 @@ def test_every_period_saw_all_its_samples(live: tuple[DemoResult, Path]) -> None
 
 
 def test_offline_replay_is_identical_to_the_live_run(live: tuple[DemoResult, Path]) -> None:
-    """``bike-rig replay`` recomputes the session from the bag with no ROS runtime and gets
-    exactly what the live graph published (same fit settings: recorded in the bag).
+    """``bike-rig replay`` recomputes the session from the bag with no ROS runtime.
+
+    It gets exactly what the live graph published (same fit settings: recorded in the bag).
     """
     from bike_rig.bag.replay import compare_with_live, replay_bag
     from bike_rig.bag.session import read_session

@@ -1,8 +1,10 @@
-"""Faults in a live session: the fitter and the parameter node are killed (SIGTERM, the default
-of ``kill``) and restarted mid-session, and the session still completes with the same results
-as the offline core. (A SIGKILLed reader stays matched in DDS until its lease expires; a new
-fitter started meanwhile was seen, once in a few runs, to receive nothing. The recorder's
-SIGKILL case is ``test/bag``'s recover test.)
+"""Faults in a live session.
+
+The fitter and the parameter node are killed (SIGTERM, the default of ``kill``) and restarted
+mid-session, and the session still completes with the same results as the offline core. (A
+SIGKILLed reader stays matched in DDS until its lease expires; a new fitter started meanwhile
+was seen, once in a few runs, to receive nothing. The recorder's SIGKILL case is ``test/bag``'s
+recover test.)
 
 A restarted fitter gets the session's trial events and the gyro batches still in the
 transient-local history (``bike_rig.topics``) and re-fits the trial in progress; a restarted

@@ -1,8 +1,10 @@
-"""The fitter: its ROS-free assembly and fit (``fit_trial``, what the replay uses) and its
-bookkeeping (``FitterState``); then the node as a real process: behind a real driver process
-every trial of a small simulated session gets a PeriodEstimate identical to ``fit_trial`` on the
-same samples; bad input from a test publisher is logged and flagged and the node keeps serving;
-after a restart it re-fits the trial in progress from the transient-local history.
+"""The fitter: its ROS-free parts, then the node as a real process.
+
+Its ROS-free assembly and fit (``fit_trial``, what the replay uses) and its bookkeeping
+(``FitterState``); then the node as a real process: behind a real driver process every trial of
+a small simulated session gets a PeriodEstimate identical to ``fit_trial`` on the same samples;
+bad input from a test publisher is logged and flagged and the node keeps serving; after a
+restart it re-fits the trial in progress from the transient-local history.
 """
 
 from __future__ import annotations
@@ -199,9 +201,10 @@ def test_state_gives_up_waiting_after_grace_and_reports_unknown_trials() -> None
 
 
 def test_state_waits_for_the_history_after_a_restart() -> None:
-    """Right after matching, a STOP whose batches have not arrived yet is not fitted from what
-    is there (Fast DDS delivers the history late), nor are open trials evicted; once the history
-    window is over the usual grace applies.
+    """Right after matching, a STOP whose batches have not arrived yet is not fitted yet.
+
+    It is not fitted from what is there (Fast DDS delivers the history late), nor are open
+    trials evicted; once the history window is over the usual grace applies.
     """
     rates = signal()
     s, log, clock = state(history_grace_s=5.0, max_open_trials=2)

@@ -1,6 +1,8 @@
-"""The model node as a real process over DDS: matrices and eigen sweep from each complete
-parameter set, equal to the offline core; the state-space service; a late-started model node
-still gets the parameter node's set (transient local).
+"""The model node as a real process over DDS.
+
+Matrices and eigen sweep from each complete parameter set, equal to the offline core; the
+state-space service; a late-started model node still gets the parameter node's set (transient
+local).
 """
 
 from __future__ import annotations

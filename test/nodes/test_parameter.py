@@ -1,5 +1,7 @@
-"""The parameter node as a real process over DDS: static readings latched on start, period
-estimates in, the complete (or incomplete) parameter set out, equal to the offline core.
+"""The parameter node as a real process over DDS.
+
+Static readings latched on start, period estimates in, the complete (or incomplete) parameter
+set out, equal to the offline core.
 
 The test's own end of the graph is a :class:`Probe`: an rclpy context of its own in the test
 process, on the run's domain with LOCALHOST discovery. It is also used by test_model.py.
@@ -72,6 +74,8 @@ class Probe:
         """The probe's publisher on ``topic`` (one per topic) with the topic's QoS.
 
         Args:
+            topic: The rig topic to publish on (its name and QoS).
+            msg_type: The message class of the topic.
             matched: Wait until a subscription has matched: a live delivery. (Data published
                 before the match reaches a transient-local subscriber too, as a late joiner,
                 but only with the writer's next heartbeat, up to 3 s later with Fast DDS.)

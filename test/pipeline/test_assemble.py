@@ -227,8 +227,9 @@ def test_unknown_rider_is_a_model_error(browser_set: ParameterSet) -> None:
 
 
 def test_a_refit_from_fewer_samples_never_replaces_a_complete_one() -> None:
-    """A restarted fitter may re-publish an earlier trial from an incomplete history: the
-    complete estimate stays, in either order of arrival.
+    """A restarted fitter may re-publish an earlier trial from an incomplete history.
+
+    The complete estimate stays, in either order of arrival.
     """
     import dataclasses
 
@@ -243,8 +244,9 @@ def test_a_refit_from_fewer_samples_never_replaces_a_complete_one() -> None:
 
 
 def test_state_space_at_labels_modes_as_the_sweep_does(browser_set: ParameterSet) -> None:
-    """At 1 m/s the Browser's capsize and caster roots form a complex pair and the weave roots
-    are real: the labels must be the tracked sweep's, not those of the structure at 1 m/s.
+    """At 1 m/s the Browser's capsize and caster roots form a complex pair and the weave roots are real.
+
+    The labels must be the tracked sweep's, not those of the structure at 1 m/s.
     """
     matrices, stability = compute_model(browser_set, np.linspace(0.0, 10.0, 201))
     for i in (10, 20, 50, 120):  # 0.5, 1, 2.5 and 6 m/s

@@ -82,8 +82,9 @@ def noise_and_quantum(y: FloatArray, residuals: FloatArray) -> tuple[float, floa
 
 
 def _clip_tolerance(noise: float, quantum: float) -> float:
-    """How much the fit may rise over a run of samples at the extreme value, edges to middle:
-    an unclipped peak stays within one quantum of its top (noise only shortens the run).
+    """How much the fit may rise over a run of samples at the extreme value, edges to middle.
+
+    An unclipped peak stays within one quantum of its top (noise only shortens the run).
     """
     return 1.5 * quantum + noise
 

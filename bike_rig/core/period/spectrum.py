@@ -56,8 +56,9 @@ def block_sums(y: FloatArray, k: int) -> tuple[FloatArray, FloatArray]:
 def block_times(
     t: FloatArray | None, k: int, counts: FloatArray, step: float | None = None, first: float = 0.0
 ) -> FloatArray:
-    """Mean time of each block of :func:`block_sums` [s]: from the times ``t``, or, for samples
-    evenly spaced by ``step`` from ``first``, computed.
+    """Mean time of each block of :func:`block_sums` [s].
+
+    From the times ``t``, or, for samples evenly spaced by ``step`` from ``first``, computed.
     """
     if step is None:
         assert t is not None

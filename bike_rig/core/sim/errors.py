@@ -12,6 +12,7 @@ class RigFileError(InputFileError):
 
 
 class SimulationError(BikeRigError):
-    """The true parameters cannot be measured on this rig (e.g. a wheel smaller than its
-    pendulum arm, or an inertia tensor that is not positive definite).
+    """The true parameters cannot be measured on this rig.
+
+    E.g. a wheel smaller than its pendulum arm, or an inertia tensor that is not positive definite.
     """

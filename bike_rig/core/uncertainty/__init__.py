@@ -1,7 +1,9 @@
-"""Uncertainty of everything the core computes: complex-step Jacobians and covariance
-propagation (:mod:`.uncertain`), the canonical matrices with σ (:mod:`.matrix_sigma`), the
-eigenvalues' σ over speed (:mod:`.eigen_sigma`), the critical speeds' σ (:mod:`.speed_sigma`)
-and their Monte Carlo check (:mod:`.speed_mc`), and the uncertainty budget (:mod:`.budget`).
+"""Uncertainty of everything the core computes.
+
+Complex-step Jacobians and covariance propagation (:mod:`.uncertain`), the canonical matrices
+with σ (:mod:`.matrix_sigma`), the eigenvalues' σ over speed (:mod:`.eigen_sigma`), the critical
+speeds' σ (:mod:`.speed_sigma`) and their Monte Carlo check (:mod:`.speed_mc`), and the
+uncertainty budget (:mod:`.budget`).
 
 The package imports none of its modules here, so that :mod:`bike_rig.core.benchmark` can use
 :mod:`.uncertain` without a cycle.

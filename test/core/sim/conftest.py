@@ -28,8 +28,9 @@ def browser_truth() -> dict[str, float]:
 
 @pytest.fixture
 def seed() -> int:
-    """A fresh seed per test (any seed must pass: the statistical tests state their failure
-    probability), printed so that a failure can be repeated with ``BIKE_RIG_TEST_SEED``.
+    """A fresh seed per test, printed so that a failure can be repeated with ``BIKE_RIG_TEST_SEED``.
+
+    Any seed must pass: the statistical tests state their failure probability.
     """
     fixed = os.environ.get("BIKE_RIG_TEST_SEED")
     value = int(fixed) if fixed else secrets.randbelow(2**32)

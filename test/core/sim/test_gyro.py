@@ -48,8 +48,10 @@ def _gyro(**kw: float) -> Gyro:
 
 
 def test_white_noise_has_the_stated_density(seed: int) -> None:
-    """σ per sample = density √(f_s / 2). With 400 000 samples the sample σ leaves ±1 % of it
-    with probability 4e-19 (χ²), and the mean leaves ±6 standard errors with 2e-9.
+    """σ per sample = density √(f_s / 2).
+
+    With 400 000 samples the sample σ leaves ±1 % of it with probability 4e-19 (χ²), and the
+    mean leaves ±6 standard errors with 2e-9.
     """
     g = _gyro(noise_density=2e-4)
     v = gyro_volts(np.zeros(400_000), g, 1000.0, 1.2, np.random.default_rng(seed))
@@ -58,9 +60,10 @@ def test_white_noise_has_the_stated_density(seed: int) -> None:
 
 
 def test_bias_and_its_random_walk_have_the_stated_sizes(seed: int) -> None:
-    """1000 independent trials of 1 s: the turn-on bias has σ = bias and the walk grows as
-    drift √t. A sample variance leaves ±40 % of the truth when χ²₉₉₉ / 999 leaves [0.6, 1.4],
-    probability 7e-16 per check.
+    """1000 independent trials of 1 s: the turn-on bias has σ = bias and the walk grows as drift √t.
+
+    A sample variance leaves ±40 % of the truth when χ²₉₉₉ / 999 leaves [0.6, 1.4], probability
+    7e-16 per check.
     """
     rng = np.random.default_rng(seed)
     g = _gyro(bias=0.02)

@@ -115,9 +115,9 @@ def test_round_trip_browser_session(recovered: list[Recovered]) -> None:
 
 
 def test_period_sigmas_are_calibrated(recovered: list[Recovered]) -> None:
-    """The 1σ interval of each of the 50 × 39 = 1 950 independent trial fits contains the truth
-    in 60–76 % of them. For honest σ (68.3 %) the binomial count leaves that range with
-    probability 2.9e-14.
+    """The 1σ interval of each of the 50 × 39 = 1 950 independent trial fits contains the truth in 60–76 % of them.
+
+    For honest σ (68.3 %) the binomial count leaves that range with probability 2.9e-14.
     """
     trials = np.concatenate([r.trials for r in recovered])
     periods = np.concatenate([r.periods for r in recovered])
@@ -128,10 +128,11 @@ def test_period_sigmas_are_calibrated(recovered: list[Recovered]) -> None:
 
 
 def test_parameter_sigmas_are_calibrated(recovered: list[Recovered]) -> None:
-    """The 1σ intervals of the 25 parameters over 50 sessions contain the truth in 55–80 % of
-    the 1 250 cases. Within a session the parameters are correlated: the per-session coverage
-    has a standard deviation of ≈ 0.14 (measured over 60 sessions), so the mean of 50 has
-    ≈ 0.019, and 55 % and 80 % are 6.9 and 6.0 of those from 68.3 %: probability 7e-10.
+    """The 1σ intervals of the 25 parameters over 50 sessions contain the truth in 55–80 % of the 1 250 cases.
+
+    Within a session the parameters are correlated: the per-session coverage has a standard
+    deviation of ≈ 0.14 (measured over 60 sessions), so the mean of 50 has ≈ 0.019, and 55 % and
+    80 % are 6.9 and 6.0 of those from 68.3 %: probability 7e-10.
     """
     z = np.stack([r.parameters for r in recovered])
     coverage = float(np.mean(np.abs(z) < 1.0))

@@ -53,9 +53,11 @@ def test_a_session_holds_every_reading_and_three_trials_of_every_period(
 def test_the_stored_rate_is_the_motion_through_gyro_and_adc(
     rig: RigConfig, browser_truth: dict[str, float], seed: int
 ) -> None:
-    """Without drift and scale error, the stored rate minus the true rate is a constant bias
-    plus white noise and quantisation: σ² = σ_n² + (LSB / s)² / 12. Over 13 × 30 000 samples
-    the pooled σ misses ±3 % of it with probability < 1e-30 (χ²).
+    """Without drift and scale error, the stored rate's error is bias, white noise and quantisation.
+
+    The stored rate minus the true rate is a constant bias plus white noise and quantisation:
+    σ² = σ_n² + (LSB / s)² / 12. Over 13 × 30 000 samples the pooled σ misses ±3 % of it with
+    probability < 1e-30 (χ²).
     """
     gyro = replace(rig.gyro, bias_drift=0.0, scale_factor_tolerance=0.0)
     quiet = replace(rig, gyro=gyro, trials=replace(rig.trials, per_measurement=1), coupled_swing=None)
@@ -88,8 +90,10 @@ def _sessions(rig: RigConfig, truth: dict[str, float], seed: int, n: int) -> lis
 def test_static_readings_scatter_with_their_stated_sigma(
     rig: RigConfig, browser_truth: dict[str, float], seed: int
 ) -> None:
-    """Pooled over 100 sessions × 27 noisy readings (2 700 independent z-scores): their mean
-    leaves ±5/√2700 with probability 6e-7, their σ leaves [0.9, 1.1] with probability 1e-7 (χ²).
+    """Pooled over 100 sessions × 27 noisy readings (2 700 independent z-scores).
+
+    Their mean leaves ±5/√2700 with probability 6e-7, their σ leaves [0.9, 1.1] with probability
+    1e-7 (χ²).
     """
     short = _short(rig)
     z = []
@@ -122,7 +126,9 @@ def test_beating_trials_are_where_configured(rig: RigConfig, browser_truth: dict
 def test_beating_is_a_second_close_mode_in_the_signal(
     rig: RigConfig, browser_truth: dict[str, float], seed: int
 ) -> None:
-    """Least squares of a beating trial's stored rate on [pendulum mode, second mode, bias,
+    """A beating trial's stored rate holds both modes with weight 1.
+
+    Least squares of a beating trial's stored rate on [pendulum mode, second mode, bias,
     drift] gives both modes with weight 1 (the gyro's scale error aside): each weight is
     within 6 of its standard errors (≤ 0.05) of 1; the 4 checks fail with probability 8e-9.
     """

@@ -1,6 +1,7 @@
-"""A simulated session directory consumed as the issue asks: ``bike-rig params`` on its
-``session.yaml`` (every period fitted from its trial files on load) and ``bike-rig fit`` on
-its trials.
+"""A simulated session directory consumed as the issue asks.
+
+``bike-rig params`` on its ``session.yaml`` (every period fitted from its trial files on load)
+and ``bike-rig fit`` on its trials.
 """
 
 from __future__ import annotations
@@ -23,8 +24,9 @@ BROWSER = str(config_dir() / "bicycles" / "browser.yaml")
 
 @pytest.fixture
 def session_dir(tmp_path: Path, seed: int, capsys: pytest.CaptureFixture[str]) -> Path:
-    """``bike-rig simulate`` of the Browser on the shipped rig without the coupled swing (a
-    period whose three trials all beat would have no usable trial: see the rig tests).
+    """``bike-rig simulate`` of the Browser on the shipped rig without the coupled swing.
+
+    A period whose three trials all beat would have no usable trial: see the rig tests.
     """
     text = config_file("rig.yaml").read_text(encoding="utf-8")
     rig = tmp_path / "rig.yaml"
@@ -36,8 +38,10 @@ def session_dir(tmp_path: Path, seed: int, capsys: pytest.CaptureFixture[str]) -
 
 
 def test_params_reads_the_session_and_recovers_the_truth(session_dir: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    """Every one of the 25 parameters lies within 5σ of the truth: for honest σ one of 25
-    leaves with probability 1.4e-5 (the calibration over 50 sessions is in test_round_trip).
+    """Every one of the 25 parameters lies within 5σ of the truth.
+
+    For honest σ one of 25 leaves with probability 1.4e-5 (the calibration over 50 sessions is
+    in test_round_trip).
     """
     m = load_measurements(session_dir / "session.yaml")
     assert set(m.evidence) == {k for k in m.readings if k.startswith(("Tc", "Tt"))}

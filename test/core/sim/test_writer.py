@@ -73,8 +73,9 @@ def test_session_yaml_lists_the_trials_of_every_period(session: SimulatedSession
 def test_session_yaml_with_periods_filled_in_is_the_sessions_measurement_file(
     session: SimulatedSession, tmp_path: Path
 ) -> None:
-    """Replacing each trial list by a [period, sigma] gives a measurement file the core reads,
-    with exactly the session's static readings (shortest round-trip floats).
+    """Replacing each trial list by a [period, sigma] gives a measurement file the core reads.
+
+    It has exactly the session's static readings (shortest round-trip floats).
     """
     path = write_session(session, tmp_path)
     data, lines = load_yaml_document(path)

@@ -1,6 +1,7 @@
-"""σ of the eigenvalues over speed (first order, from the parameter covariance): the gradient
-against central differences, the σ against a Monte Carlo over the raw measurements, the paper's
-independent convention, and the branch points where the linearisation cannot hold.
+"""σ of the eigenvalues over speed (first order, from the parameter covariance).
+
+The gradient against central differences, the σ against a Monte Carlo over the raw measurements,
+the paper's independent convention, and the branch points where the linearisation cannot hold.
 """
 
 from __future__ import annotations
@@ -57,9 +58,11 @@ def _mc_roots(ps_draws: dict[str, np.ndarray], speed: float, nominal: np.ndarray
 @pytest.mark.parametrize("name", BICYCLES)
 @pytest.mark.parametrize("rider", [False, True])
 def test_sigma_agrees_with_monte_carlo_from_the_raw_readings(name: str, rider: bool) -> None:
-    """4,000 draws of the raw readings: the sample σ of a normal quantity is within 6 % of the
-    true σ with probability 1 − 2e-7 (σ_s/σ ≈ 1/√(2n) = 1.1 %, 6 % ≈ 5.4 of those); the
-    remaining allowance (10 % in all) is for the second-order terms the linear σ leaves out.
+    """4,000 draws of the raw readings.
+
+    The sample σ of a normal quantity is within 6 % of the true σ with probability 1 − 2e-7
+    (σ_s/σ ≈ 1/√(2n) = 1.1 %, 6 % ≈ 5.4 of those); the remaining allowance (10 % in all) is for
+    the second-order terms the linear σ leaves out.
     """
     m = load_measurements(config_file(f"bicycles/{name}.yaml"))
     ps = compute_parameters(m)
@@ -100,8 +103,10 @@ def test_paper_convention_drops_the_correlations() -> None:
 
 
 def test_sigma_is_marked_unknown_at_the_weave_branch_point_only() -> None:
-    """Below the weave speed two real roots merge into the weave pair: there ``P'(λ) = 0``, the
-    first-order σ diverges, and the module reports NaN instead of a meaningless band.
+    """Below the weave speed two real roots merge into the weave pair.
+
+    There ``P'(λ) = 0``, the first-order σ diverges, and the module reports NaN instead of a
+    meaningless band.
     """
     ps = _measured("browser")
     speeds = np.linspace(0.0, 10.0, 2001)

@@ -117,8 +117,9 @@ def test_batch_speeds_equal_the_per_bicycle_solver() -> None:
 
 
 def test_batch_speeds_where_speeds_are_missing() -> None:
-    """Wildly varied bicycles (30 % σ on every benchmark parameter): many have no weave or no
-    capsize speed; the batch solver must miss exactly the same ones.
+    """Wildly varied bicycles (30 % σ on every benchmark parameter).
+
+    Many have no weave or no capsize speed; the batch solver must miss exactly the same ones.
     """
     bench = load_input(config_file("bicycles/benchmark.yaml"))
     assert isinstance(bench, ParameterSet)

@@ -1,5 +1,7 @@
-"""core/speed_sigma: σ of the weave and capsize speeds (implicit function theorem), checked
-against central differences of critical_speeds and a Monte Carlo over the parameter covariance.
+"""Tests of core/speed_sigma: σ of the weave and capsize speeds.
+
+σ of the weave and capsize speeds (implicit function theorem), checked against central
+differences of critical_speeds and a Monte Carlo over the parameter covariance.
 """
 
 from __future__ import annotations

@@ -1,5 +1,7 @@
-"""Linear σ with correlations: exact complex-step Jacobians vs the ``uncertainties`` package and
-vs a Monte Carlo propagation of the raw measurements.
+"""Linear σ with correlations.
+
+Exact complex-step Jacobians vs the ``uncertainties`` package and vs a Monte Carlo propagation
+of the raw measurements.
 """
 
 from __future__ import annotations
@@ -19,8 +21,9 @@ def _measured(bike: str):  # type: ignore[no-untyped-def]
 
 
 def test_covariance_matches_uncertainties_package() -> None:
-    """The full 26 × 26 covariance (correlations included) equals what ``uncertainties`` gives
-    when it propagates the same readings through the same formulas (its own numerical
+    """The full 26 × 26 covariance (correlations included) equals what ``uncertainties`` gives.
+
+    That is, when it propagates the same readings through the same formulas (its own numerical
     derivatives via ``uncertainties.wrap``).
     """
     m = _measured("Browser")
