@@ -171,6 +171,7 @@ class RunningGraph:
         domain_id: int | None = None,
         env: Mapping[str, str] | None = None,
     ) -> None:
+        """Keep the graph and log directory and build the nodes' environment; nothing is started yet."""
         self.graph = graph
         self.log_dir = log_dir
         base = dict(os.environ)
@@ -201,9 +202,11 @@ class RunningGraph:
         return self
 
     def __enter__(self) -> RunningGraph:
+        """Start every node (:meth:`start`) and return the running graph."""
         return self.start()
 
     def __exit__(self, *exc: object) -> None:
+        """Stop every node, however the block ended."""
         self.stop()
 
     def dead(self) -> list[tuple[str, int, str]]:

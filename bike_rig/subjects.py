@@ -50,6 +50,7 @@ class SubjectError(BikeRigError):
     """An input cannot be turned into a bicycle's parameters (e.g. an incomplete session bag)."""
 
     def __init__(self, path: str, reason: str) -> None:
+        """Keep the input and the reason; the message is ``<path>: <reason>``."""
         self.path = path
         self.reason = reason
         super().__init__(f"{path}: {reason}")

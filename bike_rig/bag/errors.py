@@ -28,6 +28,7 @@ class BagError(InputFileError):
     """
 
     def __init__(self, path: str, reason: str) -> None:
+        """Keep the bag and the reason as an :class:`InputFileError`'s path and reason."""
         super().__init__(str(path), reason)
 
 

@@ -165,6 +165,11 @@ class BagWriter:
         custom_data: Mapping[str, str] | None = None,
         fsync: bool = False,
     ) -> None:
+        """Check and keep the settings; nothing is created on disk before :meth:`open`.
+
+        Raises:
+            BagError: The compression is unknown or the flush period is not positive.
+        """
         self.path = Path(path)
         try:
             self.compression = Compression(compression)
@@ -344,12 +349,14 @@ class BagWriter:
         self._stream = None
 
     def __enter__(self) -> BagWriter:
+        """Open the bag (:meth:`open`) and return the writer."""
         self.open()
         return self
 
     def __exit__(
         self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
     ) -> None:
+        """Close the bag on a normal exit; on an exception abort it, as a crash would leave it."""
         if exc_type is None:
             self.close()
         else:

@@ -30,6 +30,7 @@ class InputFileError(BikeRigError):
     """
 
     def __init__(self, path: str, reason: str, key: str | None = None, line: int | None = None):
+        """Keep the file, reason, key and line, and build the message ``<path>[:<line>][: key '<key>']: <reason>``."""
         self.path = path
         self.reason = reason
         self.key = key

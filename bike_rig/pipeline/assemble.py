@@ -213,6 +213,12 @@ class SessionAssembly:
     _keys: tuple[str, ...] = field(default=(), init=False, repr=False)
 
     def __post_init__(self) -> None:
+        """Keep the static readings only and check them, with placeholders for the periods to come.
+
+        Raises:
+            MeasurementError: A static reading is missing or impossible.
+            GeometryError: Hanging orientations are degenerate.
+        """
         self.com_method = ComMethod(self.com_method)
         readings = {k: r for k, r in self.static.readings.items() if not is_period_key(k)}
         self.static = Measurements(self.static.bicycle, readings, self.static.path, self.static.extras)

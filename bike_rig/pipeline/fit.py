@@ -86,6 +86,11 @@ class TrialFitOptions:
     max_batch_samples: int = 10_000
 
     def __post_init__(self) -> None:
+        """Check the limits.
+
+        Raises:
+            ValueError: ``max_trial_samples`` or ``max_batch_samples`` is below 1.
+        """
         if self.max_trial_samples < 1 or self.max_batch_samples < 1:
             raise ValueError("max_trial_samples and max_batch_samples must be >= 1")
 

@@ -28,8 +28,13 @@ _DONE_MEMORY = 100_000
 class Log(Protocol):
     """The logger the fitter reports to (rclpy's node logger, or :mod:`logging`'s)."""
 
-    def info(self, message: str) -> Any: ...
-    def warning(self, message: str) -> Any: ...
+    def info(self, message: str) -> Any:
+        """Report ``message`` at info level."""
+        ...
+
+    def warning(self, message: str) -> Any:
+        """Report ``message`` at warning level."""
+        ...
 
 
 @dataclass
@@ -73,6 +78,7 @@ class FitterState:
         clock: Callable[[], float] = time.monotonic,
         history_grace_s: float = 10.0,
     ):
+        """Set up an empty state: no trial open, none fitted, nothing published yet."""
         self.options = options
         self.log = log
         self.grace_s = grace_s

@@ -84,6 +84,7 @@ class Flag:
     reason: str
 
     def __str__(self) -> str:
+        """The flag as ``<code>: <reason>``."""
         return f"{self.code.value}: {self.reason}"
 
 

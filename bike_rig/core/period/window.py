@@ -61,6 +61,12 @@ class WindowPolicy:
     whole_cycles: bool = True
 
     def __post_init__(self) -> None:
+        """Check the policy's numbers.
+
+        Raises:
+            ValueError: A negative or non-finite lead-in or start, a stop not after the start, or an
+                envelope fraction outside (0, 1).
+        """
         checks = (
             (math.isfinite(self.lead_in_s) and self.lead_in_s >= 0, f"lead-in must be >= 0 s, got {self.lead_in_s}"),
             (math.isfinite(self.start_s) and self.start_s >= 0, f"start must be >= 0 s, got {self.start_s}"),
