@@ -174,12 +174,31 @@ def _split(line: str, delimiter: str | None) -> list[str]:
 
 
 def _read_text(name: str, p: Path, sample_rate_hz: float | None) -> Trial:
+    rows, width = _text_rows(name, _file_text(name, p))
+    if not rows:
+        raise InputFileError(name, "no samples")
+    data = np.array(rows, dtype=float)
+    if width == 2:
+        return _make(name, p, np.ascontiguousarray(data[:, 1]), np.ascontiguousarray(data[:, 0]), None)
+    return _make(name, p, data[:, 0].copy(), None, _needs_rate(name, sample_rate_hz, "a one-column file"))
+
+
+def _file_text(name: str, p: Path) -> str:
+    """The text of a trial file (UTF-8, a byte-order mark dropped)."""
     try:
-        text = p.read_text(encoding="utf-8-sig")
+        return p.read_text(encoding="utf-8-sig")
     except UnicodeDecodeError:
         raise InputFileError(name, "not a text file (not UTF-8)") from None
     except OSError as exc:
         raise InputFileError(name, f"cannot read ({exc.strerror})") from None
+
+
+def _text_rows(name: str, text: str) -> tuple[list[list[float]], int]:
+    """The numeric rows of a text trial and their width (columns); 0 when there is neither row nor header.
+
+    Blank lines and ``#`` comments are skipped; the delimiter (``,``, ``;``, tab, else
+    whitespace) is that of the first line; one header line is allowed before the first row.
+    """
     rows: list[list[float]] = []
     delimiter: str | None = None
     width = 0
@@ -191,36 +210,43 @@ def _read_text(name: str, p: Path, sample_rate_hz: float | None) -> Trial:
         if not rows and not header_seen and width == 0:
             delimiter = next((d for d in (",", ";", "\t") if d in line), None)
         cells = _split(line, delimiter)
-        values: list[float] = []
-        for column, cell in enumerate(cells, start=1):
-            try:
-                values.append(float(cell))
-            except ValueError:
-                if not rows and not header_seen:
-                    break  # a header line
-                what = "an empty cell" if not cell else f"non-numeric value {cell!r}"
-                raise InputFileError(name, f"{what} in column {column}", line=number) from None
-        else:
-            if width == 0:
-                width = len(values)
-                if width not in (1, 2):
-                    raise InputFileError(name, f"{width} columns: expected 1 (rate) or 2 (time, rate)", line=number)
-            elif len(values) != width:
-                raise InputFileError(name, f"{len(values)} columns where the file has {width}", line=number)
-            rows.append(values)
+        values = _numbers(name, cells, number, header_allowed=not rows and not header_seen)
+        if values is None:
+            header_seen = True
+            if len(cells) not in (1, 2):
+                raise InputFileError(
+                    name, f"header with {len(cells)} columns: expected 1 (rate) or 2 (time, rate)", line=number
+                )
+            width = len(cells)
             continue
-        header_seen = True
-        if len(cells) not in (1, 2):
-            raise InputFileError(
-                name, f"header with {len(cells)} columns: expected 1 (rate) or 2 (time, rate)", line=number
-            )
-        width = len(cells)
-    if not rows:
-        raise InputFileError(name, "no samples")
-    data = np.array(rows, dtype=float)
-    if width == 2:
-        return _make(name, p, np.ascontiguousarray(data[:, 1]), np.ascontiguousarray(data[:, 0]), None)
-    return _make(name, p, data[:, 0].copy(), None, _needs_rate(name, sample_rate_hz, "a one-column file"))
+        width = _row_width(name, len(values), width, number)
+        rows.append(values)
+    return rows, width
+
+
+def _numbers(name: str, cells: list[str], number: int, header_allowed: bool) -> list[float] | None:
+    """The cells of line ``number`` as numbers, or None for a header line (when ``header_allowed``)."""
+    values: list[float] = []
+    for column, cell in enumerate(cells, start=1):
+        try:
+            values.append(float(cell))
+        except ValueError:
+            if header_allowed:
+                return None
+            what = "an empty cell" if not cell else f"non-numeric value {cell!r}"
+            raise InputFileError(name, f"{what} in column {column}", line=number) from None
+    return values
+
+
+def _row_width(name: str, columns: int, width: int, number: int) -> int:
+    """The file's width after a row of ``columns`` numbers at line ``number`` (``width``: 0 before the first)."""
+    if width == 0:
+        if columns not in (1, 2):
+            raise InputFileError(name, f"{columns} columns: expected 1 (rate) or 2 (time, rate)", line=number)
+        return columns
+    if columns != width:
+        raise InputFileError(name, f"{columns} columns where the file has {width}", line=number)
+    return width
 
 
 # ---------------------------------------------------------------- NumPy
