@@ -286,6 +286,41 @@ def _check_complete(doc: _Doc, readings: Mapping[str, Reading]) -> None:
             )
 
 
+def _check_sections(doc: _Doc, top: Mapping[str, Any]) -> None:
+    """Reject a top-level key that is not a section of a measurement document."""
+    known = {"format", "bicycle", "attribution", "notes", "gravity", "geometry", "calibration_rod", "other"}
+    known |= set(_WHEELS) | set(_PARTS)
+    for key in top:
+        if key not in known:
+            raise doc.error((key,), f"unknown section; expected one of {', '.join(sorted(known))}")
+
+
+def _part_readings(doc: _Doc, section: str, value: Any, p: str, axle: str) -> dict[str, Reading]:
+    """The readings of one part's section (frame or fork): its fields, then each orientation's."""
+    sec = doc.mapping((section,), value)
+    readings = dict(_fields(doc, (section,), sec, _PART, {"p": p, "axle": axle}))
+    orients = sec.get("orientations", [])
+    if not isinstance(orients, list):
+        raise doc.error((section, "orientations"), "expected a list of orientations")
+    for i, o in enumerate(orients):
+        readings.update(_orientation_readings(doc, (section, "orientations", i), o, p, i))
+    return readings
+
+
+def _orientation_readings(doc: _Doc, w: tuple[object, ...], o: Any, p: str, i: int) -> dict[str, Reading]:
+    """The readings of orientation ``i`` (0-based) of part ``p``, each of its keys required.
+
+    With ``static_only`` the torsional period is not required.
+    """
+    got = dict(_fields(doc, w, o, _ORIENTATION, {"p": p, "i": i + 1}))
+    for key, (flat, _u) in _ORIENTATION.items():
+        if doc.static_only and key == "torsional_period":
+            continue
+        if flat.format(p=p, i=i + 1) not in got:
+            raise doc.error(w, f"orientation {i + 1} lacks '{key}'")
+    return got
+
+
 def measurements_from_document(path: str, data: Any, lines: Lines, static_only: bool = False) -> Measurements:
     """Build :class:`Measurements` from a loaded ``bike_rig-measurements/1`` document.
 
@@ -301,11 +336,7 @@ def measurements_from_document(path: str, data: Any, lines: Lines, static_only: 
     """
     doc = _Doc(path, data, lines, static_only)
     top = doc.mapping((), data)
-    known = {"format", "bicycle", "attribution", "notes", "gravity", "geometry", "calibration_rod", "other"}
-    known |= set(_WHEELS) | set(_PARTS)
-    for key in top:
-        if key not in known:
-            raise doc.error((key,), f"unknown section; expected one of {', '.join(sorted(known))}")
+    _check_sections(doc, top)
     readings: dict[str, Reading] = {}
     if "gravity" in top:
         v, s = doc.reading(("gravity",), top["gravity"])
@@ -317,22 +348,8 @@ def measurements_from_document(path: str, data: Any, lines: Lines, static_only: 
         if section in top:
             readings.update(_fields(doc, (section,), top[section], _WHEEL, {"p": p}))
     for section, (p, axle) in _PARTS.items():
-        if section not in top:
-            continue
-        sec = doc.mapping((section,), top[section])
-        readings.update(_fields(doc, (section,), sec, _PART, {"p": p, "axle": axle}))
-        orients = sec.get("orientations", [])
-        if not isinstance(orients, list):
-            raise doc.error((section, "orientations"), "expected a list of orientations")
-        for i, o in enumerate(orients):
-            w = (section, "orientations", i)
-            got = dict(_fields(doc, w, o, _ORIENTATION, {"p": p, "i": i + 1}))
-            for key, (flat, _u) in _ORIENTATION.items():
-                if doc.static_only and key == "torsional_period":
-                    continue
-                if flat.format(p=p, i=i + 1) not in got:
-                    raise doc.error(w, f"orientation {i + 1} lacks '{key}'")
-            readings.update(got)
+        if section in top:
+            readings.update(_part_readings(doc, section, top[section], p, axle))
     _check_complete(doc, readings)
     name = top.get("bicycle")
     if not isinstance(name, str) or not name:
@@ -382,6 +399,37 @@ def _pair(r: Reading) -> str:
     return f"[{r.value!r}, {r.sigma!r}]"
 
 
+def _rows(r: Mapping[str, Reading], table: Mapping[str, tuple[str, str]], fmt: Mapping[str, object]) -> list[str]:
+    """The lines of a section's fields present in ``r``, each with its unit in a comment."""
+    found = []
+    for key, (flat, unit) in table.items():
+        k = flat.format(**fmt)
+        if k in r:
+            val = str(int(r[k].value)) if key == "rotations" else _pair(r[k])
+            found.append(f"  {key}: {val}  # {unit.format(**fmt)}")
+    return found
+
+
+def _part_rows(m: Measurements, p: str, axle: str) -> list[str]:
+    """The lines of one part's section: its fields, then its orientations (one flow mapping each)."""
+    r = m.readings
+    body = _rows(r, _PART, {"p": p, "axle": axle})
+    idx = m.orientations(p)
+    if idx:
+        body.append("  orientations:  # angle_deg: degrees; distance: m; torsional_period: s")
+        for i in idx:
+            items = [f"{key}: {_pair(r[flat.format(p=p, i=i)])}" for key, (flat, _u) in _ORIENTATION.items()]
+            body.append("    - {" + ", ".join(items) + "}")
+    return body
+
+
+def _section(out: list[str], name: str, body: list[str]) -> None:
+    """Append section ``name`` with its lines to ``out``, unless it has none."""
+    if body:
+        out.append(f"{name}:")
+        out.extend(body)
+
+
 def dump_measurements_yaml(m: Measurements, attribution: str | None = None) -> str:
     """A ``bike_rig-measurements/1`` document for ``m``, with units in comments.
 
@@ -396,33 +444,12 @@ def dump_measurements_yaml(m: Measurements, attribution: str | None = None) -> s
     if "g" in r:
         out.append(f"gravity: {_pair(r['g'])}  # m/s^2")
 
-    def rows(table: Mapping[str, tuple[str, str]], fmt: Mapping[str, object]) -> list[str]:
-        found = []
-        for key, (flat, unit) in table.items():
-            k = flat.format(**fmt)
-            if k in r:
-                val = str(int(r[k].value)) if key == "rotations" else _pair(r[k])
-                found.append(f"  {key}: {val}  # {unit.format(**fmt)}")
-        return found
-
-    def section(name: str, body: list[str]) -> None:
-        if body:
-            out.append(f"{name}:")
-            out.extend(body)
-
-    section("geometry", rows(_GEOMETRY, {}))
+    _section(out, "geometry", _rows(r, _GEOMETRY, {}))
     for name, p in _WHEELS.items():
-        section(name, rows(_WHEEL, {"p": p}))
+        _section(out, name, _rows(r, _WHEEL, {"p": p}))
     for name, (p, axle) in _PARTS.items():
-        body = rows(_PART, {"p": p, "axle": axle})
-        idx = m.orientations(p)
-        if idx:
-            body.append("  orientations:  # angle_deg: degrees; distance: m; torsional_period: s")
-            for i in idx:
-                items = [f"{key}: {_pair(r[flat.format(p=p, i=i)])}" for key, (flat, _u) in _ORIENTATION.items()]
-                body.append("    - {" + ", ".join(items) + "}")
-        section(name, body)
-    section("calibration_rod", rows(_ROD, {}))
+        _section(out, name, _part_rows(m, p, axle))
+    _section(out, "calibration_rod", _rows(r, _ROD, {}))
     if m.extras:
         out.append("other:  # recorded but not needed for the benchmark parameters, kept verbatim")
         for k, v in m.extras.items():
