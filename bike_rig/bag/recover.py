@@ -261,6 +261,64 @@ def default_output(bag: str | Path) -> Path:
     return p.parent / f"{stem}_recovered"
 
 
+def _check_scans(bag: str | Path, scans: tuple[McapScan, ...]) -> None:
+    """Refuse files that are not rosbag2 MCAP, and a bag with no readable channel at all."""
+    for s in scans:
+        if s.profile and s.profile != "ros2":
+            raise NotABagError(str(s.path), f"MCAP profile {s.profile!r} is not ros2 (not a rosbag2 file)")
+    if not any(s.channels for s in scans):
+        reasons = "; ".join(f"{s.path.name}: {s.stop_reason or 'no channel'}" for s in scans)
+        raise BagReadError(str(bag), f"nothing to recover: no complete chunk holds a channel ({reasons})")
+
+
+def _add_channels(
+    writer: BagWriter, s: McapScan, skipped: list[str], stats: dict[str, list[int]], types: dict[str, str]
+) -> dict[int, str]:
+    """Add the CDR channels of one scanned file to ``writer`` (each topic once).
+
+    Channels without a schema or not CDR are named in ``skipped``; a new topic gets zeroed
+    ``stats`` (count, first and last log time [ns]) and its type in ``types``.
+
+    Returns:
+        The topic of each channel id copied.
+    """
+    topic_of: dict[int, str] = {}
+    for cid, ch in s.channels.items():
+        schema = s.schemas.get(ch.schema_id)
+        if schema is None or ch.message_encoding != "cdr":
+            skipped.append(f"{ch.topic}: no schema or not CDR")
+            continue
+        if not writer.has_topic(ch.topic):
+            try:
+                qos = parse_qos(ch.metadata.get("offered_qos_profiles", ""))
+            except (ReaderError, KeyError, TypeError):
+                qos = []
+            writer.add_topic(
+                ch.topic,
+                schema.name,
+                offered_qos=qos,
+                msgdef=schema.data.decode("utf-8"),
+                rihs01=_type_hash(ch, schema),
+            )
+            stats[ch.topic] = [0, 0, 0]
+            types[ch.topic] = schema.name
+        topic_of[cid] = ch.topic
+    return topic_of
+
+
+def _copy_messages(writer: BagWriter, s: McapScan, topic_of: dict[int, str], stats: dict[str, list[int]]) -> None:
+    """Write the messages of one scanned file's copied channels, counting them in ``stats``."""
+    for m in s.messages:
+        name = topic_of.get(m.channel_id)
+        if name is None:
+            continue
+        writer.write(name, m.log_time, m.data, m.publish_time, m.sequence)
+        st = stats[name]
+        st[0] += 1
+        st[1] = m.log_time if st[0] == 1 else min(st[1], m.log_time)
+        st[2] = max(st[2], m.log_time)
+
+
 def recover_bag(bag: str | Path, output: str | Path | None = None) -> Recovery:
     """Rewrite every readable message of a (possibly damaged) bag into a new, valid bag.
 
@@ -280,12 +338,7 @@ def recover_bag(bag: str | Path, output: str | Path | None = None) -> Recovery:
     if out.exists():
         raise BagExistsError(str(out), "exists already; choose another output with -o")
     scans = tuple(scan_mcap(f) for f in files)
-    for s in scans:
-        if s.profile and s.profile != "ros2":
-            raise NotABagError(str(s.path), f"MCAP profile {s.profile!r} is not ros2 (not a rosbag2 file)")
-    if not any(s.channels for s in scans):
-        reasons = "; ".join(f"{s.path.name}: {s.stop_reason or 'no channel'}" for s in scans)
-        raise BagReadError(str(bag), f"nothing to recover: no complete chunk holds a channel ({reasons})")
+    _check_scans(bag, scans)
     compression = next((s.compression for s in scans if s.compression), "")
     writer = BagWriter(
         out,
@@ -299,36 +352,8 @@ def recover_bag(bag: str | Path, output: str | Path | None = None) -> Recovery:
     types: dict[str, str] = {}
     try:
         for s in scans:
-            topic_of: dict[int, str] = {}
-            for cid, ch in s.channels.items():
-                schema = s.schemas.get(ch.schema_id)
-                if schema is None or ch.message_encoding != "cdr":
-                    skipped.append(f"{ch.topic}: no schema or not CDR")
-                    continue
-                if not writer.has_topic(ch.topic):
-                    try:
-                        qos = parse_qos(ch.metadata.get("offered_qos_profiles", ""))
-                    except (ReaderError, KeyError, TypeError):
-                        qos = []
-                    writer.add_topic(
-                        ch.topic,
-                        schema.name,
-                        offered_qos=qos,
-                        msgdef=schema.data.decode("utf-8"),
-                        rihs01=_type_hash(ch, schema),
-                    )
-                    stats[ch.topic] = [0, 0, 0]
-                    types[ch.topic] = schema.name
-                topic_of[cid] = ch.topic
-            for m in s.messages:
-                name = topic_of.get(m.channel_id)
-                if name is None:
-                    continue
-                writer.write(name, m.log_time, m.data, m.publish_time, m.sequence)
-                st = stats[name]
-                st[0] += 1
-                st[1] = m.log_time if st[0] == 1 else min(st[1], m.log_time)
-                st[2] = max(st[2], m.log_time)
+            topic_of = _add_channels(writer, s, skipped, stats, types)
+            _copy_messages(writer, s, topic_of, stats)
         writer.close()
     except BaseException:
         writer.abort()

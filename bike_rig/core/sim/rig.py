@@ -364,6 +364,117 @@ def _orientations(r: _Reader, value: Any, where: Where, name: str) -> tuple[floa
     return tuple(angles)
 
 
+def _stiffness(r: _Reader, rod: Any) -> float:
+    """The torsion rod's stiffness [N m/rad]: given, or from its diameter, length and shear modulus."""
+    if isinstance(rod, Mapping) and "stiffness" in rod:
+        r.section(rod, ("torsion_rod",), ("stiffness",))
+        return r.number(rod["stiffness"], ("torsion_rod", "stiffness"), low=0.0)
+    geo = r.section(rod, ("torsion_rod",), ("diameter", "length", "shear_modulus"))
+    return torsion_rod_stiffness(
+        r.number(geo["diameter"], ("torsion_rod", "diameter"), low=0.0),
+        r.number(geo["length"], ("torsion_rod", "length"), low=0.0),
+        r.number(geo["shear_modulus"], ("torsion_rod", "shear_modulus"), low=0.0),
+    )
+
+
+def _calibration_rod(r: _Reader, value: Any) -> CalibrationRod:
+    """The ``calibration_rod`` section: mass [kg], length [m], diameter [m]."""
+    cal = r.section(value, ("calibration_rod",), ("mass", "length", "diameter"))
+    return CalibrationRod(
+        mass=r.number(cal["mass"], ("calibration_rod", "mass"), low=0.0),
+        length=r.number(cal["length"], ("calibration_rod", "length"), low=0.0),
+        diameter=r.number(cal["diameter"], ("calibration_rod", "diameter"), low=0.0),
+    )
+
+
+def _wheel_fixtures(r: _Reader, value: Any) -> list[WheelFixture]:
+    """The ``wheels`` section: the rear, then the front wheel's fixture (rotations, pendulum arm [m])."""
+    wheels = r.section(value, ("wheels",), ("rear", "front"))
+    fixtures = []
+    for name in ("rear", "front"):
+        sec = r.section(wheels[name], ("wheels", name), ("rotations", "pendulum_arm"))
+        rotations = r.count(sec["rotations"], ("wheels", name, "rotations"))
+        arm = r.number(sec["pendulum_arm"], ("wheels", name, "pendulum_arm"), low=0.0)
+        fixtures.append(WheelFixture(rotations, arm))
+    return fixtures
+
+
+def _gyro(r: _Reader, value: Any) -> Gyro:
+    """The ``gyro`` section (:class:`Gyro`'s fields, in its units)."""
+    gkeys = ("scale_factor", "scale_factor_tolerance", "zero_rate_output", "bias", "bias_drift", "noise_density")
+    g = r.section(value, ("gyro",), gkeys)
+    return Gyro(
+        scale_factor=r.number(g["scale_factor"], ("gyro", "scale_factor"), low=0.0),
+        zero_rate_output=r.number(g["zero_rate_output"], ("gyro", "zero_rate_output")),
+        **{
+            k: r.number(g[k], ("gyro", k), low=0.0, strict=False)
+            for k in gkeys
+            if k not in ("scale_factor", "zero_rate_output")
+        },
+    )
+
+
+def _adc(r: _Reader, value: Any, gyro: Gyro) -> Adc:
+    """The ``adc`` section: bits (at most 32), range [V], sample rate [Hz]; the gyro's zero must lie inside."""
+    a = r.section(value, ("adc",), ("bits", "range", "sample_rate"))
+    bits = r.count(a["bits"], ("adc", "bits"))
+    if bits > 32:
+        raise r.error(("adc", "bits"), f"at most 32 bits, got {bits}")
+    rails = r.numbers(a["range"], ("adc", "range"))
+    if len(rails) != 2 or rails[0] >= rails[1]:
+        raise r.error(("adc", "range"), f"expected [low, high] volts with low < high, got {a['range']!r}")
+    adc = Adc(bits, rails[0], rails[1], r.number(a["sample_rate"], ("adc", "sample_rate"), low=0.0))
+    if not adc.low < gyro.zero_rate_output < adc.high:
+        raise r.error(
+            ("gyro", "zero_rate_output"),
+            f"{gyro.zero_rate_output:g} V lies outside the ADC range [{adc.low:g}, {adc.high:g}] V: "
+            "every sample would clip",
+        )
+    return adc
+
+
+def _trial_plan(r: _Reader, value: Any) -> TrialPlan:
+    """The ``trials`` section: trials per measurement, duration(s) [s], amplitude [deg], damping ratio (< 1)."""
+    t = r.section(value, ("trials",), ("per_measurement", "duration", "amplitude_deg", "damping_ratio"))
+    dur = t["duration"]
+    durations = r.numbers(dur if isinstance(dur, list) else [dur], ("trials", "duration"), low=0.0)
+    damping = r.number(t["damping_ratio"], ("trials", "damping_ratio"), low=0.0, strict=False)
+    if damping >= 1.0:
+        raise r.error(("trials", "damping_ratio"), f"an oscillation needs a damping ratio below 1, got {damping:g}")
+    return TrialPlan(
+        per_measurement=r.count(t["per_measurement"], ("trials", "per_measurement")),
+        durations=tuple(durations),
+        amplitude_deg=r.interval(t["amplitude_deg"], ("trials", "amplitude_deg"), low=0.0, high=90.0),
+        damping_ratio=damping,
+    )
+
+
+def _coupled_swing(
+    r: _Reader, value: Any, frame: tuple[float, ...], fork: tuple[float, ...], per_measurement: int
+) -> CoupledSwing:
+    """The ``coupled_swing`` section; the trials it names must be trials of this rig's session."""
+    w = ("coupled_swing",)
+    c = r.section(value, w, ("detuning", "amplitude_ratio"), ("probability", "trials"))
+    p = r.number(c.get("probability", 0.0), w + ("probability",), low=0.0, strict=False)
+    if p > 1.0:
+        raise r.error(w + ("probability",), f"a probability is at most 1, got {p:g}")
+    names = c.get("trials", []) or []
+    if not isinstance(names, list) or not all(isinstance(n, str) for n in names):
+        raise r.error(w + ("trials",), "expected a list of trial names, e.g. [frame_torsional_o2_t3]")
+    plan = measurement_plan(len(frame), len(fork))
+    known = {m.trial_name(i + 1) for m in plan for i in range(per_measurement)}
+    for i, n in enumerate(names):
+        if n not in known:
+            example = plan[-1].trial_name(1)
+            raise r.error(w + ("trials", i), f"no such trial '{n}' in this rig's session (e.g. {example})")
+    return CoupledSwing(
+        probability=p,
+        trials=tuple(names),
+        detuning=r.interval(c["detuning"], w + ("detuning",), low=0.0, high=1.0),
+        amplitude_ratio=r.interval(c["amplitude_ratio"], w + ("amplitude_ratio",), low=0.0, high=1.0),
+    )
+
+
 def rig_from_document(path: str, data: Any, lines: Mapping[tuple[object, ...], int]) -> RigConfig:
     """Build a :class:`RigConfig` from a loaded ``bike_rig-rig/1`` document.
 
@@ -381,99 +492,21 @@ def rig_from_document(path: str, data: Any, lines: Mapping[tuple[object, ...], i
     if top["format"] != RIG_FORMAT:
         raise r.error(("format",), f"expected '{RIG_FORMAT}', got {top['format']!r}")
 
-    rod = top["torsion_rod"]
-    if isinstance(rod, Mapping) and "stiffness" in rod:
-        r.section(rod, ("torsion_rod",), ("stiffness",))
-        stiffness = r.number(rod["stiffness"], ("torsion_rod", "stiffness"), low=0.0)
-    else:
-        geo = r.section(rod, ("torsion_rod",), ("diameter", "length", "shear_modulus"))
-        stiffness = torsion_rod_stiffness(
-            r.number(geo["diameter"], ("torsion_rod", "diameter"), low=0.0),
-            r.number(geo["length"], ("torsion_rod", "length"), low=0.0),
-            r.number(geo["shear_modulus"], ("torsion_rod", "shear_modulus"), low=0.0),
-        )
-
-    cal = r.section(top["calibration_rod"], ("calibration_rod",), ("mass", "length", "diameter"))
-    calibration = CalibrationRod(
-        mass=r.number(cal["mass"], ("calibration_rod", "mass"), low=0.0),
-        length=r.number(cal["length"], ("calibration_rod", "length"), low=0.0),
-        diameter=r.number(cal["diameter"], ("calibration_rod", "diameter"), low=0.0),
-    )
-
-    wheels = r.section(top["wheels"], ("wheels",), ("rear", "front"))
-    fixtures = []
-    for name in ("rear", "front"):
-        sec = r.section(wheels[name], ("wheels", name), ("rotations", "pendulum_arm"))
-        rotations = r.count(sec["rotations"], ("wheels", name, "rotations"))
-        arm = r.number(sec["pendulum_arm"], ("wheels", name, "pendulum_arm"), low=0.0)
-        fixtures.append(WheelFixture(rotations, arm))
+    stiffness = _stiffness(r, top["torsion_rod"])
+    calibration = _calibration_rod(r, top["calibration_rod"])
+    fixtures = _wheel_fixtures(r, top["wheels"])
 
     ori = r.section(top["orientations_deg"], ("orientations_deg",), ("frame", "fork"))
     frame = _orientations(r, ori["frame"], ("orientations_deg", "frame"), "frame")
     fork = _orientations(r, ori["fork"], ("orientations_deg", "fork"), "fork")
 
-    gkeys = ("scale_factor", "scale_factor_tolerance", "zero_rate_output", "bias", "bias_drift", "noise_density")
-    g = r.section(top["gyro"], ("gyro",), gkeys)
-    gyro = Gyro(
-        scale_factor=r.number(g["scale_factor"], ("gyro", "scale_factor"), low=0.0),
-        zero_rate_output=r.number(g["zero_rate_output"], ("gyro", "zero_rate_output")),
-        **{
-            k: r.number(g[k], ("gyro", k), low=0.0, strict=False)
-            for k in gkeys
-            if k not in ("scale_factor", "zero_rate_output")
-        },
-    )
-
-    a = r.section(top["adc"], ("adc",), ("bits", "range", "sample_rate"))
-    bits = r.count(a["bits"], ("adc", "bits"))
-    if bits > 32:
-        raise r.error(("adc", "bits"), f"at most 32 bits, got {bits}")
-    rails = r.numbers(a["range"], ("adc", "range"))
-    if len(rails) != 2 or rails[0] >= rails[1]:
-        raise r.error(("adc", "range"), f"expected [low, high] volts with low < high, got {a['range']!r}")
-    adc = Adc(bits, rails[0], rails[1], r.number(a["sample_rate"], ("adc", "sample_rate"), low=0.0))
-    if not adc.low < gyro.zero_rate_output < adc.high:
-        raise r.error(
-            ("gyro", "zero_rate_output"),
-            f"{gyro.zero_rate_output:g} V lies outside the ADC range [{adc.low:g}, {adc.high:g}] V: "
-            "every sample would clip",
-        )
-
-    t = r.section(top["trials"], ("trials",), ("per_measurement", "duration", "amplitude_deg", "damping_ratio"))
-    dur = t["duration"]
-    durations = r.numbers(dur if isinstance(dur, list) else [dur], ("trials", "duration"), low=0.0)
-    damping = r.number(t["damping_ratio"], ("trials", "damping_ratio"), low=0.0, strict=False)
-    if damping >= 1.0:
-        raise r.error(("trials", "damping_ratio"), f"an oscillation needs a damping ratio below 1, got {damping:g}")
-    trials = TrialPlan(
-        per_measurement=r.count(t["per_measurement"], ("trials", "per_measurement")),
-        durations=tuple(durations),
-        amplitude_deg=r.interval(t["amplitude_deg"], ("trials", "amplitude_deg"), low=0.0, high=90.0),
-        damping_ratio=damping,
-    )
+    gyro = _gyro(r, top["gyro"])
+    adc = _adc(r, top["adc"], gyro)
+    trials = _trial_plan(r, top["trials"])
 
     swing = None
     if top.get("coupled_swing") is not None:
-        w = ("coupled_swing",)
-        c = r.section(top["coupled_swing"], w, ("detuning", "amplitude_ratio"), ("probability", "trials"))
-        p = r.number(c.get("probability", 0.0), w + ("probability",), low=0.0, strict=False)
-        if p > 1.0:
-            raise r.error(w + ("probability",), f"a probability is at most 1, got {p:g}")
-        names = c.get("trials", []) or []
-        if not isinstance(names, list) or not all(isinstance(n, str) for n in names):
-            raise r.error(w + ("trials",), "expected a list of trial names, e.g. [frame_torsional_o2_t3]")
-        plan = measurement_plan(len(frame), len(fork))
-        known = {m.trial_name(i + 1) for m in plan for i in range(trials.per_measurement)}
-        for i, n in enumerate(names):
-            if n not in known:
-                example = plan[-1].trial_name(1)
-                raise r.error(w + ("trials", i), f"no such trial '{n}' in this rig's session (e.g. {example})")
-        swing = CoupledSwing(
-            probability=p,
-            trials=tuple(names),
-            detuning=r.interval(c["detuning"], w + ("detuning",), low=0.0, high=1.0),
-            amplitude_ratio=r.interval(c["amplitude_ratio"], w + ("amplitude_ratio",), low=0.0, high=1.0),
-        )
+        swing = _coupled_swing(r, top["coupled_swing"], frame, fork, trials.per_measurement)
 
     skeys = tuple(ReadingSigma.__dataclass_fields__)
     s = r.section(top["reading_sigma"], ("reading_sigma",), skeys)
