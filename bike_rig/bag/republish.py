@@ -84,6 +84,70 @@ def _message_class(msgtype: str) -> Any:
     return getattr(importlib.import_module(f"{package}.msg"), name)
 
 
+def _chosen_topics(reader: BagReader, which: Sequence[topics.Topic]) -> list[topics.Topic]:
+    """The topics of ``which`` the bag has messages on, each checked to hold the expected type.
+
+    Raises:
+        NoRigTopicsError: The bag holds none of them.
+        ReplayError: A topic holds a type that is not the rig's, or was recorded with another definition.
+    """
+    chosen = [t for t in which if t.name in reader.topics and reader.topics[t.name].count]
+    if not chosen:
+        names = ", ".join(t.name for t in which)
+        raise NoRigTopicsError(reader.shown, f"has no messages on {names}: nothing to republish")
+    for t in chosen:
+        reader.check_type(t.name)
+    return chosen
+
+
+def _wait_for_subscribers(node: Any, pubs: dict[str, Any], wait_s: float, stop: dict[str, bool]) -> None:
+    """Spin until every publisher has a subscription, ``wait_s`` [s] have passed, or a stop is requested."""
+    import rclpy
+
+    deadline = time.monotonic() + wait_s
+    while time.monotonic() < deadline and not stop["requested"]:
+        if all(p.get_subscription_count() > 0 for p in pubs.values()):
+            break
+        rclpy.spin_once(node, timeout_sec=0.02)
+
+
+def _play(
+    reader: BagReader, pubs: dict[str, Any], rate_scale: float, stats: RepublishStats, stop: dict[str, bool]
+) -> None:
+    """Publish the messages in log-time order on their original schedule divided by ``rate_scale``.
+
+    Fills ``stats``: counts, interruption, largest lag [s], wall time [s] and bag span [s].
+    """
+    wall0 = time.monotonic()
+    first: int | None = None
+    last = 0
+    for msg in reader.messages(list(pubs)):
+        if stop["requested"]:
+            stats.interrupted = True
+            break
+        first = msg.log_time if first is None else first
+        due = wall0 + (msg.log_time - first) / 1e9 / rate_scale
+        delay = due - time.monotonic()
+        if delay > 0:
+            time.sleep(delay)
+        else:
+            stats.max_lag_s = max(stats.max_lag_s, -delay)
+        pubs[msg.topic].publish(msg.data)
+        stats.counts[msg.topic] += 1
+        last = msg.log_time
+    stats.wall_s = time.monotonic() - wall0
+    stats.bag_span_s = 0.0 if first is None else (last - first) / 1e9
+
+
+def _linger(node: Any, stop: dict[str, bool]) -> None:
+    """Keep the node spinning for :data:`LINGER_S` after the last message, unless a stop is requested."""
+    import rclpy
+
+    linger = time.monotonic() + LINGER_S
+    while time.monotonic() < linger and not stop["requested"]:
+        rclpy.spin_once(node, timeout_sec=0.05)
+
+
 def republish(
     bag: str | Path,
     rate_scale: float = 1.0,
@@ -114,12 +178,7 @@ def republish(
         os.environ[key] = env[key]
     stats = RepublishStats(str(bag), rate_scale=float(rate_scale))
     with BagReader(bag) as reader:
-        chosen = [t for t in which if t.name in reader.topics and reader.topics[t.name].count]
-        if not chosen:
-            names = ", ".join(t.name for t in which)
-            raise NoRigTopicsError(reader.shown, f"has no messages on {names}: nothing to republish")
-        for t in chosen:
-            reader.check_type(t.name)
+        chosen = _chosen_topics(reader, which)
         stop = {"requested": False}
 
         def request_stop(signum: int, _frame: FrameType | None) -> None:
@@ -132,34 +191,10 @@ def republish(
             node = Node("bag_republisher")
             pubs = {t.name: node.create_publisher(_message_class(t.type), t.name, profile(t)) for t in chosen}
             stats.counts = {t.name: 0 for t in chosen}
-            deadline = time.monotonic() + wait_s
-            while time.monotonic() < deadline and not stop["requested"]:
-                if all(p.get_subscription_count() > 0 for p in pubs.values()):
-                    break
-                rclpy.spin_once(node, timeout_sec=0.02)
+            _wait_for_subscribers(node, pubs, wait_s, stop)
             stats.subscribers = {name: p.get_subscription_count() for name, p in pubs.items()}
-            wall0 = time.monotonic()
-            first: int | None = None
-            last = 0
-            for msg in reader.messages(list(pubs)):
-                if stop["requested"]:
-                    stats.interrupted = True
-                    break
-                first = msg.log_time if first is None else first
-                due = wall0 + (msg.log_time - first) / 1e9 / rate_scale
-                delay = due - time.monotonic()
-                if delay > 0:
-                    time.sleep(delay)
-                else:
-                    stats.max_lag_s = max(stats.max_lag_s, -delay)
-                pubs[msg.topic].publish(msg.data)
-                stats.counts[msg.topic] += 1
-                last = msg.log_time
-            stats.wall_s = time.monotonic() - wall0
-            stats.bag_span_s = 0.0 if first is None else (last - first) / 1e9
-            linger = time.monotonic() + LINGER_S
-            while time.monotonic() < linger and not stop["requested"]:
-                rclpy.spin_once(node, timeout_sec=0.05)
+            _play(reader, pubs, rate_scale, stats, stop)
+            _linger(node, stop)
         finally:
             if node is not None:
                 node.destroy_node()

@@ -62,6 +62,57 @@ def rclpy_message(topic: str, k: int) -> Any:
     return msg
 
 
+def wait_for_match(node: Node, pubs: dict[str, Any]) -> bool:
+    """Spin until every publisher has a subscription; False after ``MATCH_TIMEOUT_S`` (reported on stderr)."""
+    deadline = time.monotonic() + MATCH_TIMEOUT_S
+    while not all(p.get_subscription_count() > 0 for p in pubs.values()):
+        if time.monotonic() > deadline:
+            print("timed out waiting for subscriptions", file=sys.stderr, flush=True)
+            return False
+        rclpy.spin_once(node, timeout_sec=0.05)
+    return True
+
+
+def publish_one(pub: Any, name: str, k: int) -> int | None:
+    """Publish the k-th message of a topic; a gyro batch gets the current time as its stamp, returned [ns]."""
+    msg = rclpy_message(name, k)
+    now = None
+    if name == GYRO.name:
+        now = time.time_ns()
+        msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(now, 1_000_000_000)
+    pub.publish(msg)
+    return now
+
+
+def publish_live(
+    spec: dict[str, Any], topics: list[str], pubs: dict[str, Any], stdin_lines: list[str]
+) -> tuple[dict[str, int], list[int]]:
+    """Publish the ``live`` messages round-robin at ``rate_hz`` (with ``until_stop``: gyro batches until STOP).
+
+    Returns:
+        The messages published per topic (the early ones included) and the gyro batches' stamps [ns].
+    """
+    counts = {name: spec["early"].get(name, 0) for name in topics}
+    live = dict(spec["live"])
+    stamps: list[int] = []
+    period = 1.0 / float(spec["rate_hz"])
+    next_time = time.monotonic()
+    while any(live.values()) or (spec.get("until_stop") and "STOP" not in stdin_lines):
+        for name in topics:
+            if live.get(name, 0) <= 0 and not (name == GYRO.name and spec.get("until_stop")):
+                continue
+            stamp = publish_one(pubs[name], name, counts[name])
+            if stamp is not None:
+                stamps.append(stamp)
+            counts[name] += 1
+            live[name] = max(0, live.get(name, 0) - 1)
+            next_time += period
+            time.sleep(max(0.0, next_time - time.monotonic()))
+        if spec.get("until_stop") and "STOP" in stdin_lines:
+            break
+    return counts, stamps
+
+
 def main(argv: list[str]) -> int:
     spec = json.loads(Path(argv[0]).read_text())
     rclpy.init()
@@ -83,37 +134,13 @@ def main(argv: list[str]) -> int:
             for k in range(n):
                 pubs[name].publish(rclpy_message(name, k))
         report("EARLY", spec["early"])
-        deadline = time.monotonic() + MATCH_TIMEOUT_S
-        while not all(p.get_subscription_count() > 0 for p in pubs.values()):
-            if time.monotonic() > deadline:
-                print("timed out waiting for subscriptions", file=sys.stderr, flush=True)
-                return 3
-            rclpy.spin_once(node, timeout_sec=0.05)
+        if not wait_for_match(node, pubs):
+            return 3
         report("MATCHED", {name: p.get_subscription_count() for name, p in pubs.items()})
         while "GO" not in stdin_lines:
             got_line.wait(0.1)
             got_line.clear()
-        counts = {name: spec["early"].get(name, 0) for name in topics}
-        live = dict(spec["live"])
-        stamps: list[int] = []
-        period = 1.0 / float(spec["rate_hz"])
-        next_time = time.monotonic()
-        while any(live.values()) or (spec.get("until_stop") and "STOP" not in stdin_lines):
-            for name in topics:
-                if live.get(name, 0) <= 0 and not (name == GYRO.name and spec.get("until_stop")):
-                    continue
-                msg = rclpy_message(name, counts[name])
-                if name == GYRO.name:
-                    now = time.time_ns()
-                    msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(now, 1_000_000_000)
-                    stamps.append(now)
-                pubs[name].publish(msg)
-                counts[name] += 1
-                live[name] = max(0, live.get(name, 0) - 1)
-                next_time += period
-                time.sleep(max(0.0, next_time - time.monotonic()))
-            if spec.get("until_stop") and "STOP" in stdin_lines:
-                break
+        counts, stamps = publish_live(spec, topics, pubs, stdin_lines)
         report("PUBLISHED", {"counts": counts, "gyro_stamps": stamps})
         rclpy.spin(node)
     except (KeyboardInterrupt, ExternalShutdownException):
