@@ -32,6 +32,11 @@ class FitterNode:
     """
 
     def __init__(self) -> None:
+        """Build the rclpy node, its subscriptions, publisher and timer.
+
+        Raises:
+            NodeParameterError: A node parameter is invalid.
+        """
         from rclpy.node import Node
 
         from ..rosqos import profile

@@ -1,5 +1,7 @@
-"""The driver node as a real process on the run's own domain: a simulated session, a CAN gyro
-(simulated inside the driver's process: python-can's virtual bus does not cross processes)
+"""The driver node as a real process on the run's own domain.
+
+A simulated session, a CAN gyro (simulated inside the driver's process: python-can's virtual
+bus does not cross processes)
 driven through the StartTrial/StopTrial services, a recorded bag; and bad parameters, which end
 the process with one line and status 2.
 
@@ -101,8 +103,10 @@ class Probe:
 
 @contextlib.contextmanager
 def open_probe(ros_env: dict[str, str], ros_domain_id: int, monkeypatch: pytest.MonkeyPatch) -> Iterator[Probe]:
-    """A :class:`Probe` with this process's ROS variables set as the run's (LOCALHOST discovery,
-    the run's domain) for its lifetime."""
+    """A :class:`Probe` with this process's ROS variables set as the run's.
+
+    LOCALHOST discovery and the run's domain, for the probe's lifetime.
+    """
     for key in ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_DOMAIN_ID", "RMW_IMPLEMENTATION"):
         monkeypatch.setenv(key, ros_env[key])
     monkeypatch.delenv("ROS_LOCALHOST_ONLY", raising=False)

@@ -1,5 +1,7 @@
-"""Declaring node parameters from specs (bike_rig.nodes.params), in this process: descriptors,
-values from overrides, and every kind of bad value as one NodeParameterError line."""
+"""Declaring node parameters from specs (bike_rig.nodes.params), in this process.
+
+Descriptors, values from overrides, and every kind of bad value as one NodeParameterError line.
+"""
 
 from __future__ import annotations
 

@@ -1,5 +1,8 @@
-"""The bag source: a rosbag2 MCAP bag written here (rosbags, our typestore) is replayed as the
-recorded trial events and samples, in recording order and paced by recording time."""
+"""The bag source replays a bag's recorded trial events and samples.
+
+A rosbag2 MCAP bag written here (rosbags, our typestore) is replayed as the recorded trial events
+and samples, in recording order and paced by recording time.
+"""
 
 from __future__ import annotations
 

@@ -1,6 +1,8 @@
-"""The DAQ source against a stand-in for the nidaqmx task API (a fake module injected as
-``nidaqmx``): the task it configures, volts to rad/s, trials on request; and the errors when
-nidaqmx or the NI driver is missing."""
+"""The DAQ source against a stand-in for the nidaqmx task API.
+
+A fake module injected as ``nidaqmx``: the task it configures, volts to rad/s, trials on request; and the errors when
+nidaqmx or the NI driver is missing.
+"""
 
 from __future__ import annotations
 

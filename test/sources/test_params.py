@@ -1,5 +1,7 @@
-"""Parameter specs (bike_rig.params) and the backends' own parameters, read through
-``sources.base.Parameters``: defaults, ranges and choices are defined once, by each backend."""
+"""Parameter specs (bike_rig.params) and the backends' own parameters.
+
+Read through ``sources.base.Parameters``: defaults, ranges and choices are defined once, by each backend.
+"""
 
 from __future__ import annotations
 

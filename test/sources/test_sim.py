@@ -1,5 +1,8 @@
-"""The sim source: a written session and an in-memory one, streamed in plan order, paced in rig
-time; bad configurations end in one error that names the parameter, the value and the reason."""
+"""The sim source: a written session and an in-memory one.
+
+Both are streamed in plan order, paced in rig time; bad configurations end in one error that
+names the parameter, the value and the reason.
+"""
 
 from __future__ import annotations
 
