@@ -1,7 +1,8 @@
 """The CAN source on python-can's virtual bus.
 
 Fed by a simulated CAN gyro in this process (the virtual bus does not cross processes): frame
-layouts, trials on request, and the period of a simulated trial recovered within 3σ; bad configurations give one clear error.
+layouts, trials on request, and the period of a simulated trial recovered within 3σ; bad
+configurations give one clear error.
 """
 
 from __future__ import annotations
