@@ -1,5 +1,7 @@
-"""The session report: one bicycle's parameters, model, uncertainty, trials and figures as one
-self-contained HTML page (``bike-rig report INPUT -o DIR`` writes ``DIR/index.html``).
+"""The session report: one bicycle on one self-contained HTML page.
+
+Its parameters, model, uncertainty, trials and figures (``bike-rig report INPUT -o DIR`` writes
+``DIR/index.html``).
 
 Modules, one job each: :mod:`.results` computes the numbers (both rider variants, budget),
 :mod:`.figures` draws and embeds the figures, :mod:`.sections` renders each section,

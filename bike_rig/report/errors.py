@@ -16,6 +16,7 @@ class ReportOutputError(BikeRigError):
     """
 
     def __init__(self, path: str, reason: str) -> None:
+        """The error: ``path`` could not be written because of ``reason``."""
         self.path = path
         self.reason = reason
         super().__init__(f"{path}: {reason}")

@@ -80,9 +80,12 @@ def table(
     caption: str = "",
     row_classes: Sequence[str] | None = None,
 ) -> Raw:
-    """A ``<table>``. Header entries and plain-text cells are escaped; :class:`Raw` cells (whole
-    ``<td>`` elements, e.g. from :func:`value_sigma_cells`) are inserted as they are.
-    ``row_classes`` gives each body row a CSS class ("" for none)."""
+    """A ``<table>``.
+
+    Header entries and plain-text cells are escaped; :class:`Raw` cells (whole ``<td>``
+    elements, e.g. from :func:`value_sigma_cells`) are inserted as they are.
+    ``row_classes`` gives each body row a CSS class ("" for none).
+    """
     attrs = (f' id="{esc(table_id)}"' if table_id else "") + (f' class="{esc(css_class)}"' if css_class else "")
     parts = [f"<table{attrs}>"]
     if caption:

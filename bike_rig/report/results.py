@@ -1,5 +1,7 @@
-"""The numbers a report shows, computed once: per rider variant the parameters, canonical
-matrices with σ, critical speeds with σ and the stable speed range; the uncertainty budget.
+"""The numbers a report shows, computed once.
+
+Per rider variant the parameters, canonical matrices with σ, critical speeds with σ and the
+stable speed range; the uncertainty budget.
 
 Nothing here draws or formats; :mod:`.sections` turns these into HTML and :mod:`.figures`
 reuses them where the figure functions accept them.
@@ -82,8 +84,11 @@ def compute_variant(ps: ParameterSet, rider: Rider | None) -> Variant:
 
 
 def monte_carlo(subject: Subject, rider: Rider | None, samples: int = MONTE_CARLO_SAMPLES) -> SpeedMonteCarlo:
-    """Monte Carlo of the weave and capsize speeds: draws of the raw readings when the subject
-    has them (with its parameters' mass-centre method), else of the parameters."""
+    """Monte Carlo of the weave and capsize speeds.
+
+    Draws of the raw readings when the subject has them (with its parameters' mass-centre
+    method), else of the parameters.
+    """
     ps = subject.parameters
     if subject.measurements is not None and ps.raw is not None:
         used = {e.used for e in ps.com.values()} if ps.com else set()

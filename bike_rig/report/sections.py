@@ -1,6 +1,8 @@
-"""The report's sections as HTML: the bicycle and its source, the parameters (paper Table 2),
-the canonical matrices (Table 3), the critical speeds, the uncertainty budget, the trials and
-the timeline. A section without data says why instead of being empty.
+"""The report's sections as HTML.
+
+The bicycle and its source, the parameters (paper Table 2), the canonical matrices (Table 3),
+the critical speeds, the uncertainty budget, the trials and the timeline. A section without
+data says why instead of being empty.
 
 Each function takes the :class:`~bike_rig.subjects.Subject` and/or the computed
 :class:`~bike_rig.report.results.ReportResults` and returns a :class:`~.html.Raw` section.
@@ -230,8 +232,10 @@ def _monte_carlo_table(results: ReportResults) -> list[str]:
 
 
 def speeds_section(results: ReportResults) -> Raw:
-    """Weave and capsize speeds with σ and the stable speed range, without and with the rider,
-    and the Monte Carlo check of their σ."""
+    """Weave and capsize speeds with σ and the stable speed range.
+
+    Without and with the rider, and the Monte Carlo check of their σ.
+    """
     rows: list[list[str]] = []
     for name, attr in (("weave speed", "weave"), ("capsize speed", "capsize")):
         row: list[str] = [Raw(f'<td data-key="{attr}">{esc(name)}</td>')]

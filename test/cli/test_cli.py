@@ -1,5 +1,7 @@
-"""The ``bike-rig`` command line: outputs and every bad-input case (message, exit status 2, no
-traceback)."""
+"""The ``bike-rig`` command line.
+
+Outputs and every bad-input case (message, exit status 2, no traceback).
+"""
 
 from __future__ import annotations
 
