@@ -1,5 +1,9 @@
 """Read a bag with no ROS runtime: rosbags' reader, and bike_rig's typestore to decode.
 
+The common bag (see :mod:`bike_rig.bag.fastread`) is opened without rosbags' reader, and
+:meth:`BagReader.table` reads its messages as one table; rosbags' reader is opened when
+needed (:meth:`BagReader.messages`, :meth:`BagReader.decoded`) and for every other bag.
+
 :func:`open_bag` accepts a rosbag2 bag directory (``metadata.yaml`` + storage files, MCAP or
 SQLite) or a single ``.mcap`` file, and turns every problem into one
 :class:`~bike_rig.bag.errors.BagError` that names the path and the reason: not a bag, a
@@ -12,18 +16,19 @@ from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from types import TracebackType
-from typing import Any, NamedTuple
-
-from rosbags.interfaces import Qos
-from rosbags.rosbag2 import Reader
-from rosbags.rosbag2.errors import ReaderError
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 from .errors import BagError, BagReadError, IncompleteBagError, NotABagError, ReplayError
+from .fastread import MAGIC, FastBag, MessageTable, Unusual, open_fast, read_table
 from .typestore import rig_typestore, type_hash
+
+if TYPE_CHECKING:
+    from rosbags.interfaces import Qos
+    from rosbags.rosbag2 import Reader
 
 __all__ = ["MCAP_MAGIC", "BagReader", "RawMessage", "TopicInfo", "open_bag"]
 
-MCAP_MAGIC = b"\x89MCAP0\r\n"
+MCAP_MAGIC = MAGIC
 
 
 class RawMessage(NamedTuple):
@@ -119,14 +124,44 @@ class BagReader:
     """
 
     def __init__(self, path: str | Path) -> None:
+        """A reader of ``path``, not yet open."""
         self.shown = str(path)
         self.path = Path(path)
         self._reader: Reader | None = None
+        self._fast: FastBag | None = None
+        self._resolved: Path | None = None
         self.topics: dict[str, TopicInfo] = {}
 
     def open(self) -> BagReader:
-        """Open the bag and read its index."""
+        """Open the bag and read its index (by the fast path when the bag is the common kind)."""
         resolved = _resolve(self.path, self.shown)
+        self._resolved = resolved
+        try:
+            self._fast = open_fast(resolved)
+        except Unusual:
+            self._fast = None
+        if self._fast is not None:
+            conns: list[tuple[str, str, int, tuple[Qos, ...], str]] = [
+                (t.name, t.msgtype, t.count, t.qos, t.digest) for t in self._fast.connections
+            ]
+        else:
+            reader = self._open_rosbags(resolved)
+            conns = [
+                (c.topic, c.msgtype, c.msgcount, tuple(getattr(c.ext, "offered_qos_profiles", ()) or ()), c.digest)
+                for c in reader.connections
+            ]
+        topics: dict[str, TopicInfo] = {}
+        for name, msgtype, msgcount, qos, digest in conns:
+            prev = topics.get(name)
+            count = msgcount + (prev.count if prev else 0)
+            topics[name] = TopicInfo(name, msgtype, count, qos, digest or "")
+        self.topics = topics
+        return self
+
+    def _open_rosbags(self, resolved: Path) -> Reader:
+        from rosbags.rosbag2 import Reader
+        from rosbags.rosbag2.errors import ReaderError
+
         try:
             reader = Reader(resolved)
             reader.open()
@@ -135,45 +170,46 @@ class BagReader:
         except (OSError, ValueError, KeyError, IndexError, TypeError) as exc:
             raise BagReadError(self.shown, f"unreadable bag ({type(exc).__name__}: {_sentence(exc)})") from None
         self._reader = reader
-        topics: dict[str, TopicInfo] = {}
-        for conn in reader.connections:
-            ext = conn.ext
-            qos = tuple(getattr(ext, "offered_qos_profiles", ()) or ())
-            prev = topics.get(conn.topic)
-            count = conn.msgcount + (prev.count if prev else 0)
-            topics[conn.topic] = TopicInfo(conn.topic, conn.msgtype, count, qos, conn.digest or "")
-        self.topics = topics
-        return self
+        return reader
 
     def close(self) -> None:
         """Close the bag's files."""
         if self._reader is not None:
             self._reader.close()
             self._reader = None
+        self._fast = self._resolved = None
 
     def __enter__(self) -> BagReader:
-        return self.open() if self._reader is None else self
+        """Open the bag (unless it is open)."""
+        return self.open() if self._resolved is None else self
 
     def __exit__(
         self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
     ) -> None:
+        """Close the bag."""
         self.close()
 
     @property
     def reader(self) -> Reader:
-        """The underlying rosbags reader."""
-        if self._reader is None:
+        """The underlying rosbags reader (opened now if the fast path opened the bag)."""
+        if self._resolved is None:
             raise BagError(self.shown, "the bag is not open")
+        if self._reader is None:
+            return self._open_rosbags(self._resolved)
         return self._reader
 
     @property
     def start_time(self) -> int:
         """Log time of the first message, ns since the epoch (0 for an empty bag)."""
+        if self._fast is not None:
+            return self._fast.start_time
         return self.reader.start_time if self.message_count else 0
 
     @property
     def end_time(self) -> int:
         """Log time of the last message, ns since the epoch (0 for an empty bag)."""
+        if self._fast is not None:
+            return self._fast.end_time
         return self.reader.end_time - 1 if self.message_count else 0
 
     @property
@@ -184,6 +220,8 @@ class BagReader:
     @property
     def message_count(self) -> int:
         """Number of messages."""
+        if self._fast is not None:
+            return self._fast.message_count
         return int(self.reader.message_count)
 
     @property
@@ -197,7 +235,10 @@ class BagReader:
         """The storage files of the bag."""
         if self.path.is_dir() or self.path.name == "metadata.yaml":
             base = self.path if self.path.is_dir() else self.path.parent
-            files = [base / f["path"] for f in getattr(self.reader.storage, "files", [])]
+            if self._fast is not None:
+                files = [base / name for name in self._fast.files]
+            else:
+                files = [base / f["path"] for f in getattr(self.reader.storage, "files", [])]
             return files or sorted(base.glob("*.mcap"))
         return [self.path]
 
@@ -207,6 +248,8 @@ class BagReader:
         Raises:
             BagReadError: A chunk is corrupt.
         """
+        from rosbags.rosbag2.errors import ReaderError
+
         wanted = None if topics is None else set(topics)
         conns = [c for c in self.reader.connections if wanted is None or c.topic in wanted]
         if not conns:
@@ -216,6 +259,20 @@ class BagReader:
                 yield RawMessage(conn.topic, log_time, data)
         except ReaderError as exc:
             raise BagReadError(self.shown, f"corrupt data ({_sentence(exc)})") from None
+
+    def table(self, topics: Iterable[str]) -> MessageTable | None:
+        """Every message of ``topics`` in the order :meth:`messages` yields them, as one table.
+
+        Returns:
+            Positions into the decompressed chunks; None unless the fast path opened the bag
+            and reads all of it (then :meth:`messages` says what is wrong, or reads it).
+        """
+        if self._fast is None:
+            return None
+        try:
+            return read_table(self._fast, [t for t in topics if t in self.topics])
+        except Unusual:
+            return None
 
     def check_type(self, topic: str) -> str:
         """The type of a topic, after checking that the rig's typestore decodes it as recorded.
@@ -238,8 +295,10 @@ class BagReader:
         return info.msgtype
 
     def decoded(self, topics: Iterable[str] | None = None) -> Iterator[tuple[str, int, Any]]:
-        """Every message of the given topics (all if None), deserialized, in log-time order:
-        ``(topic, log_time_ns, message)``.
+        """Every message of the given topics (all if None), deserialized, in log-time order.
+
+        Yields:
+            ``(topic, log_time_ns, message)``.
 
         Raises:
             ReplayError: A type cannot be decoded (see :meth:`check_type`).

@@ -1,9 +1,16 @@
-"""A recorded session, read back from a bag: trials (their events and gyro batches), static
-readings, and the live results (period estimates, parameter set, model) the graph published.
+"""A recorded session, read back from a bag.
+
+Trials (their events and gyro batches), static readings, and the live results (period
+estimates, parameter set, model) the graph published.
 
 Messages are the dataclasses rosbags deserializes into (:mod:`bike_rig.bag.typestore`), with
 the same fields as the rclpy messages, so the nodes' ROS-free functions take them as they are.
 Gyro batches are kept per trial in the order they were received (log time).
+
+The common bag is read by a fast path that gives the same session: the reader's message table
+(:meth:`bike_rig.bag.reader.BagReader.table`), the gyro batches decoded all at once from their
+CDR bytes (:mod:`bike_rig.bag.gyro_cdr`) and the few other messages by rosbags. Any bag or
+message it does not handle is read message by message as before.
 """
 
 from __future__ import annotations
@@ -13,13 +20,21 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+from numpy.typing import NDArray
+
 from .. import topics
 from ..messages import MessageError, sample_batch_from_msg, trial_event_from_msg
 from ..pipeline.acquire import SampleBatch, TrialEventKind, TrialEventRecord
 from .errors import NoRigTopicsError
+from .fastread import MessageTable, Unusual
+from .gyro_cdr import GyroColumns, decode_gyro, is_our_layout
 from .reader import BagReader, TopicInfo
+from .typestore import rig_typestore
 
 __all__ = ["RecordedSession", "RecordedTrial", "read_session"]
+
+IntArray = NDArray[np.int64]
 
 
 @dataclass
@@ -54,8 +69,11 @@ class RecordedTrial:
 
     @property
     def state(self) -> str:
-        """``complete`` (START and STOP), ``aborted``, ``open`` (no STOP recorded),
-        ``no start`` (a STOP without START) or ``unannounced`` (batches without events)."""
+        """The trial's state.
+
+        ``complete`` (START and STOP), ``aborted``, ``open`` (no STOP recorded), ``no start``
+        (a STOP without START) or ``unannounced`` (batches without events).
+        """
         if self.stop is not None and self.stop.kind is TrialEventKind.ABORT:
             return "aborted"
         if self.start is not None:
@@ -161,24 +179,31 @@ class RecordedSession:
         return t
 
 
+def _add_batch(session: RecordedSession, batch: SampleBatch) -> None:
+    if batch.trial_id:
+        session.trial(batch.trial_id).batches.append(batch)
+    else:
+        session.stray_batches += 1
+
+
+def _add_event(session: RecordedSession, msg: Any) -> None:
+    t = session.trial(str(msg.trial_id))
+    try:
+        event = trial_event_from_msg(msg)
+    except MessageError:
+        return  # an unknown kind: neither starts nor ends the trial
+    if event.kind is TrialEventKind.START:
+        if t.start is None:
+            t.start = event
+    elif t.stop is None:
+        t.stop = event
+
+
 def _add(session: RecordedSession, topic: str, msg: Any) -> None:
     if topic == topics.GYRO.name:
-        batch = sample_batch_from_msg(msg)
-        if batch.trial_id:
-            session.trial(batch.trial_id).batches.append(batch)
-        else:
-            session.stray_batches += 1
+        _add_batch(session, sample_batch_from_msg(msg))
     elif topic == topics.TRIAL_EVENTS.name:
-        t = session.trial(str(msg.trial_id))
-        try:
-            event = trial_event_from_msg(msg)
-        except MessageError:
-            return  # an unknown kind: neither starts nor ends the trial
-        if event.kind is TrialEventKind.START:
-            if t.start is None:
-                t.start = event
-        elif t.stop is None:
-            t.stop = event
+        _add_event(session, msg)
     elif topic == topics.PERIODS.name:
         session.trial(str(msg.trial_id)).estimates.append(msg)
     elif topic == topics.STATIC_READINGS.name:
@@ -213,6 +238,69 @@ def read_session(path: str | Path, which: Iterable[str] | None = None) -> Record
             bag.shown, dict(bag.topics), bag.start_time, bag.end_time, bag.message_count, bag.storage_files
         )
         wanted = rig if which is None else [t for t in rig if t in set(which)]
+        for t in wanted:
+            bag.check_type(t)
+        table = bag.table(wanted)
+        fast = _from_table(session, table) if table is not None else None
+        if fast is not None:
+            return fast
         for topic, _, msg in bag.decoded(wanted):
             _add(session, topic, msg)
+    return session
+
+
+def _decoded_others(table: MessageTable, skip: int, kinds: dict[str, str]) -> list[tuple[int, str, Any]] | None:
+    """Every message but those of topic ``skip``, deserialized: (row, topic, message); None if one fails."""
+    deserialize = rig_typestore().deserialize_cdr
+    out = []
+    for i in np.flatnonzero(table.topic != skip).tolist():
+        topic = table.topics[int(table.topic[i])]
+        try:
+            out.append((i, topic, deserialize(table.data(i), kinds[topic])))
+        except Exception:
+            return None
+    return out
+
+
+def _first_heard(others: list[tuple[int, str, Any]], rows: IntArray, columns: GyroColumns) -> list[str]:
+    """The trial ids in the order first heard of: a batch with a trial id, a trial event, an estimate."""
+    named = {topics.TRIAL_EVENTS.name, topics.PERIODS.name}
+    heard = [(i, str(msg.trial_id)) for i, t, msg in others if t in named]
+    codes, at = np.unique(columns.trial, return_index=True)
+    heard += [
+        (int(rows[a]), columns.trial_ids[c])
+        for c, a in zip(codes.tolist(), at.tolist(), strict=True)
+        if columns.trial_ids[c]
+    ]
+    return list(dict.fromkeys(tid for _, tid in sorted(heard)))
+
+
+def _from_table(empty: RecordedSession, table: MessageTable) -> RecordedSession | None:
+    """The session from the reader's message table, as :func:`_add` on each message builds it.
+
+    Returns:
+        The session, or None when a message is not one the fast path decodes (the caller then
+        reads message by message).
+    """
+    store = rig_typestore()
+    gyro = table.topics.index(topics.GYRO.name) if topics.GYRO.name in table.topics else -1
+    rows = np.flatnonzero(table.topic == gyro)
+    try:
+        if len(rows) and not is_our_layout(store.fielddefs):
+            return None
+        columns = decode_gyro(table.buffer, table.start[rows], table.size[rows], store.max_sequence_length)
+    except Unusual:
+        return None
+    others = _decoded_others(table, gyro, {name: empty.topics[name].msgtype for name in table.topics})
+    if others is None:
+        return None
+    session = RecordedSession(
+        empty.path, empty.topics, empty.start_time, empty.end_time, empty.message_count, empty.storage_files
+    )
+    for tid in _first_heard(others, rows, columns):
+        session.trial(tid)
+    for batch in columns.batches():
+        _add_batch(session, batch)
+    for _, topic, msg in others:
+        _add(session, topic, msg)
     return session

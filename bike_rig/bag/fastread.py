@@ -1,0 +1,615 @@
+"""A fast read path for the common bag, giving exactly what rosbags' reader gives.
+
+The common bag is a rosbag2 directory (``metadata.yaml``, MCAP storage files with a summary,
+chunk indexes and message indexes, no file or message compression) or one such ``.mcap``
+file. For it, :func:`open_fast` reads the index (topics, counts, times) with no YAML parser
+beyond libyaml, and :func:`read_table` reads every message of some topics in the order
+rosbags yields them (log time, then chunk offset, then position in the chunk) as one table
+of positions into the decompressed chunks: no Python object per message.
+
+Anything else (SQLite storage, compressed files or messages, unindexed or malformed MCAP,
+metadata that PyYAML and ruamel might read differently, a failing checksum...) raises
+:class:`Unusual`: the caller then reads the bag with rosbags, which gives the same result
+or the error the user must see. The rules mirrored are those of rosbags 0.11
+(``rosbag2/reader.py`` and ``rosbag2/storage_mcap.py``).
+"""
+
+from __future__ import annotations
+
+import re
+import struct
+from binascii import crc32
+from collections.abc import Iterable
+from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path, PurePath
+from typing import Any, cast
+
+import numpy as np
+from numpy.typing import NDArray
+from rosbags.interfaces import Qos
+from rosbags.rosbag2.metadata import parse_qos
+
+__all__ = ["FastBag", "FastTopic", "MessageTable", "Unusual", "open_fast", "read_le", "read_table"]
+
+MAGIC = b"\x89MCAP0\r\n"
+_FOOTER_HEAD = b"\x02\x14\x00\x00\x00\x00\x00\x00\x00"
+_MAXSIZE = 2**63 - 1
+#: Bytes before a message record's data: opcode, record length, channel, sequence, log and publish time.
+_MESSAGE_HEAD = 1 + 8 + 2 + 4 + 8 + 8
+
+#: Plain scalars that YAML 1.1 (PyYAML) and YAML 1.2 (ruamel, as rosbags reads) may read
+#: differently: booleans beyond true/false, octal, hex, binary, sexagesimal, underscores,
+#: merge keys and tags. A metadata text holding one is left to rosbags.
+_RISKY_YAML = re.compile(
+    r"(?:^|[:\-\[,]\s*)(?:[-+]?0[0-9_oxbOXB]|[-+]?\d[\d_]*:[0-5]?\d|[-+]?[\d.]+_|[-+]?\.?\d[\d.]*[eE])"
+    r"|(?:^|[:\-\[,]\s+)(?i:y|n|yes|no|on|off)\s*(?:$|[,\]#])"
+    r"|<<|!",
+    re.M,
+)
+
+IntArray = NDArray[np.int64]
+
+_U16 = struct.Struct("<H")
+_U32 = struct.Struct("<I")
+_U64 = struct.Struct("<Q")
+
+
+class Unusual(Exception):
+    """The bag is not the common kind this module reads: read it with rosbags instead."""
+
+
+def _yaml_load(text: str) -> Any:
+    """``text`` as rosbags' ruamel would load it, with libyaml (Unusual when they may differ)."""
+    if _RISKY_YAML.search(text):
+        raise Unusual("metadata YAML with scalars YAML 1.1 and 1.2 read differently")
+    try:
+        return _libyaml_loader().load(text)
+    except Exception as exc:  # no libyaml, a YAML error, a duplicate key: rosbags says what is wrong
+        raise Unusual(f"metadata YAML ({exc})") from None
+
+
+@lru_cache(maxsize=1)
+def _libyaml_loader() -> Any:
+    """A loader of ``text`` with libyaml that refuses duplicate keys (as ruamel does)."""
+    import yaml
+
+    class Loader(yaml.CSafeLoader):
+        def construct_mapping(self, node: Any, deep: bool = False) -> Any:
+            keys = [self.construct_object(k, deep=True) for k, _ in node.value]
+            if len(set(map(repr, keys))) != len(keys):
+                raise ValueError("duplicate key")
+            return super().construct_mapping(node, deep)
+
+    class Load:
+        @staticmethod
+        def load(text: str) -> Any:
+            return yaml.load(text, Loader=Loader)
+
+    return Load
+
+
+def _need(ok: Any, why: str) -> None:
+    if not bool(ok):
+        raise Unusual(why)
+
+
+def _is_int(x: object) -> bool:
+    return isinstance(x, int) and not isinstance(x, bool)
+
+
+def _qos(profiles: object) -> tuple[Qos, ...]:
+    """QoS profiles (a list of dicts or rosbags' v9 YAML text) parsed as rosbags does."""
+    if isinstance(profiles, str):
+        profiles = _yaml_load(profiles) if profiles else []
+    _need(profiles is None or isinstance(profiles, list), "QoS profiles are not a list")
+    for item in cast("list[object]", profiles or []):
+        _need(isinstance(item, dict), "a QoS profile is not a mapping")
+    try:
+        return tuple(parse_qos(profiles or []))  # type: ignore[arg-type]
+    except Exception as exc:  # a malformed profile: rosbags raises its own error
+        raise Unusual(f"QoS profiles ({exc})") from None
+
+
+# --------------------------------------------------------------------------------------------
+# MCAP index
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Channel:
+    """One MCAP channel as rosbags' connection: id, topic, type, encoding, offered QoS."""
+
+    id: int
+    topic: str
+    msgtype: str
+    encoding: str
+    qos: tuple[Qos, ...]
+
+
+@dataclass(frozen=True)
+class Chunk:
+    """One chunk index record (rosbags' ChunkInfo)."""
+
+    start_time: int
+    end_time: int
+    offset: int
+    length: int
+    index_offsets: dict[int, int]
+    index_length: int
+    compression: str
+    compressed_size: int
+    uncompressed_size: int
+    channel_count: dict[int, int]
+
+
+@dataclass(frozen=True)
+class Storage:
+    """One MCAP file's index: its channels (in order of first appearance), chunks and statistics."""
+
+    path: Path
+    channels: tuple[Channel, ...]
+    chunks: tuple[Chunk, ...]
+    message_count: int
+    start_time: int
+    end_time: int
+    channel_counts: dict[int, int]
+
+
+class _Record:
+    """A cursor over one record's bytes."""
+
+    def __init__(self, data: bytes) -> None:
+        self.data, self.pos = data, 0
+
+    def take(self, n: int) -> bytes:
+        out = self.data[self.pos : self.pos + n]
+        _need(len(out) == n, "truncated MCAP record")
+        self.pos += n
+        return out
+
+    def u16(self) -> int:
+        return int(_U16.unpack(self.take(2))[0])
+
+    def u32(self) -> int:
+        return int(_U32.unpack(self.take(4))[0])
+
+    def u64(self) -> int:
+        return int(_U64.unpack(self.take(8))[0])
+
+    def text(self) -> str:
+        return self.take(self.u32()).decode()
+
+    def blob(self) -> bytes:
+        return self.take(self.u32())
+
+
+def _metadata_map(blob: bytes) -> dict[str, str]:
+    rec, out = _Record(blob), dict[str, str]()
+    while rec.pos < len(blob):
+        key = rec.text()
+        out.setdefault(key, rec.text())
+    return out
+
+
+def _chunk(rec: _Record) -> Chunk:
+    start, end, offset, length = rec.u64(), rec.u64(), rec.u64(), rec.u64()
+    pairs = rec.blob()
+    _need(len(pairs) % 10 == 0, "bad message index offsets")
+    index_offsets = {int(c): int(o) for c, o in struct.iter_unpack("<HQ", pairs)}
+    index_length = rec.u64()
+    compression = rec.text()
+    compressed, uncompressed = rec.u64(), rec.u64()
+    # rosbags' message counts per channel (which chunks it reads depends on them)
+    ordered = sorted((v, k) for k, v in index_offsets.items())
+    ends = [*(v for v, _ in ordered), offset + length + index_length]
+    counts = {k: n // 16 for (v, k), nxt in zip(ordered, ends[1:], strict=True) if (n := nxt - v - 15)}
+    return Chunk(start, end, offset, length, index_offsets, index_length, compression, compressed, uncompressed, counts)
+
+
+def _summary(data: bytes, channels: list[Channel], chunks: list[Chunk]) -> tuple[int, int, int, dict[int, int]] | None:
+    """Parse the summary section (rosbags' read_index); return the statistics."""
+    schemas: dict[int, str] = {}
+    seen: set[int] = set()
+    stats = None
+    pos = 0
+    while True:
+        _need(pos + 9 <= len(data), "truncated MCAP summary")
+        op = data[pos]
+        if op in (0x02, 0x0E):
+            break
+        size = _U64.unpack_from(data, pos + 1)[0]
+        rec = _Record(data[pos + 9 : pos + 9 + size])
+        _need(len(rec.data) == size, "truncated MCAP summary record")
+        pos += 9 + size
+        if op == 0x03:
+            key = rec.u16()
+            schemas[key] = rec.text()
+            rec.text(), rec.text()
+        elif op == 0x04:
+            key, schema_id = rec.u16(), rec.u16()
+            topic, encoding, meta = rec.text(), rec.text(), rec.blob()
+            if key not in seen:
+                qos = _qos(_metadata_map(meta).get("offered_qos_profiles", ""))
+                channels.append(Channel(key, topic, schemas.get(schema_id, "__schemaless__"), encoding, qos))
+                seen.add(key)
+        elif op == 0x08:
+            chunks.append(_chunk(rec))
+        elif op == 0x0B:
+            count, _, _, _, _, _, start, end = struct.unpack("<QHIIIIQQ", rec.take(42))
+            pairs = rec.take(rec.u32() // 10 * 10)
+            stats = (int(count), int(start), int(end), {int(c): int(n) for c, n in struct.iter_unpack("<HQ", pairs)})
+    _need(bool(schemas), "MCAP summary without schemas")
+    return stats
+
+
+def read_storage(path: Path) -> Storage:
+    """The index of one MCAP file (Unusual unless it has a summary with statistics and chunk indexes)."""
+    try:
+        with path.open("rb") as f:
+            head = f.read(9)
+            _need(head[:8] == MAGIC and head[8:9] == b"\x01", "bad MCAP header")
+            rec = _Record(f.read(_U64.unpack(f.read(8))[0]))
+            _need(rec.text() == "ros2", "MCAP profile is not ros2")
+            data_start = f.tell()
+            footer_start = f.seek(-37, 2)
+            footer = f.read()
+            _need(len(footer) == 37 and footer[:9] == _FOOTER_HEAD and footer[-8:] == MAGIC, "bad MCAP footer")
+            summary_start = _U64.unpack_from(footer, 9)[0]
+            _need(bool(summary_start) and data_start <= summary_start <= footer_start, "no MCAP summary")
+            f.seek(summary_start)
+            summary = f.read()
+    except (OSError, struct.error, UnicodeDecodeError) as exc:
+        raise Unusual(f"MCAP file ({exc})") from None
+    channels: list[Channel] = []
+    chunks: list[Chunk] = []
+    try:
+        stats = _summary(summary, channels, chunks)
+    except (struct.error, UnicodeDecodeError, ValueError) as exc:
+        raise Unusual(f"MCAP summary ({exc})") from None
+    _need(stats is not None and bool(chunks), "MCAP summary without statistics or chunk indexes")
+    assert stats is not None
+    count, start, end, per_channel = stats
+    return Storage(path, tuple(channels), tuple(chunks), count, start, end, per_channel)
+
+
+# --------------------------------------------------------------------------------------------
+# The bag
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class FastTopic:
+    """One of rosbags' connections of the bag: topic, type, count, offered QoS, type hash."""
+
+    name: str
+    msgtype: str
+    count: int
+    qos: tuple[Qos, ...]
+    digest: str
+
+
+@dataclass(frozen=True)
+class FastBag:
+    """A bag opened by the fast path.
+
+    Attributes:
+        storages: Its MCAP files, in the order rosbags reads them.
+        connections: rosbags' connections, in its order.
+        routes: Per storage file, the topic each of its channels is read as (channels rosbags
+            would not map to a connection are absent).
+        start_time: Log time of the first message, ns (0 when empty).
+        end_time: Log time of the last message, ns (0 when empty).
+        message_count: Messages in the bag.
+        files: ``metadata.yaml``'s ``files`` entries' paths (empty for a bare MCAP file).
+    """
+
+    storages: tuple[Storage, ...]
+    connections: tuple[FastTopic, ...]
+    routes: tuple[dict[int, str], ...]
+    start_time: int
+    end_time: int
+    message_count: int
+    files: tuple[str, ...]
+
+
+def _topic_entries(meta: dict[str, Any]) -> list[tuple[FastTopic, str]]:
+    out = []
+    for entry in meta["topics_with_message_count"]:
+        tm = entry["topic_metadata"]
+        name, msgtype, form = tm["name"], tm["type"], tm["serialization_format"]
+        digest, count = tm.get("type_description_hash", ""), entry["message_count"]
+        _need(all(isinstance(x, str) for x in (name, msgtype, form, digest)) and _is_int(count), "topic metadata")
+        _need(form == "cdr", "a serialization format other than cdr")
+        out.append((FastTopic(name, msgtype, count, _qos(tm.get("offered_qos_profiles", [])), digest), form))
+    return out
+
+
+def _open_directory(path: Path) -> FastBag:
+    meta = _yaml_load((path / "metadata.yaml").read_text())
+    _need(isinstance(meta, dict) and isinstance(meta.get("rosbag2_bagfile_information"), dict), "metadata")
+    info = meta["rosbag2_bagfile_information"]
+    try:
+        version, storage_id = info["version"], info["storage_identifier"]
+        _need(_is_int(version) and version <= 9 and storage_id == "mcap", "not an MCAP bag of version <= 9")
+        _need(not (info.get("compression_mode", "") or "") and not info.get("compression_format"), "compressed")
+        names = info["relative_file_paths"]
+        _need(isinstance(names, list) and all(isinstance(n, str) for n in names), "relative_file_paths")
+        paths = [path / PurePath(n).name for n in names]
+        _need(all(p.exists() for p in paths), "missing storage files")
+        entries = _topic_entries(info)
+        duration, start = info["duration"]["nanoseconds"], info["starting_time"]["nanoseconds_since_epoch"]
+        count = info["message_count"]
+        _need(_is_int(duration) and _is_int(start) and _is_int(count), "times and counts")
+        files = info.get("files", []) or []
+        _need(isinstance(files, list), "files")
+        file_names = tuple(f["path"] for f in files)
+    except (KeyError, TypeError, AttributeError) as exc:
+        raise Unusual(f"metadata ({exc})") from None
+    storages = tuple(read_storage(p) for p in paths)
+    connections = tuple(t for t, _ in entries)
+    routes = []
+    for storage in storages:
+        route = {}
+        for ch in storage.channels:
+            # rosbags' DirectoryReader.messages: same topic, type, format and offered QoS
+            if any(ch.topic == t.name and ch.msgtype == t.msgtype and ch.encoding == f and ch.qos == t.qos
+                   for t, f in entries):  # fmt: skip
+                route[ch.id] = ch.topic
+        routes.append(route)
+    return FastBag(
+        storages,
+        connections,
+        tuple(routes),
+        start if count else 0,
+        start + duration if count else 0,
+        int(count),
+        file_names,
+    )
+
+
+def _open_mcap(path: Path) -> FastBag:
+    storage = read_storage(path)
+    connections = tuple(
+        FastTopic(ch.topic, ch.msgtype, storage.channel_counts.get(ch.id, 0), ch.qos, "") for ch in storage.channels
+    )
+    count = storage.message_count
+    return FastBag(
+        (storage,),
+        connections,
+        ({ch.id: ch.topic for ch in storage.channels},),
+        storage.start_time if count else 0,
+        storage.end_time if count else 0,
+        count,
+        (),
+    )
+
+
+def open_fast(path: Path) -> FastBag:
+    """Open a bag directory or ``.mcap`` file (as resolved by the reader) by the fast path.
+
+    Raises:
+        Unusual: It is not the common kind (see the module docstring).
+    """
+    if path.is_dir():
+        return _open_directory(path)
+    if path.suffix == ".mcap":
+        return _open_mcap(path)
+    raise Unusual("neither a bag directory nor an .mcap file")
+
+
+# --------------------------------------------------------------------------------------------
+# Messages
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class MessageTable:
+    """Messages of some topics in rosbags' order, as positions into the decompressed chunks.
+
+    Attributes:
+        buffer: Every chunk read, decompressed, one after the other (read-only).
+        topics: The topics, indexed by ``topic``.
+        topic: Each message's topic (index into ``topics``).
+        log_time: Each message's log time, ns.
+        start: Where its data (CDR bytes) start in ``buffer``.
+        size: Its length, bytes.
+    """
+
+    buffer: NDArray[np.uint8]
+    topics: tuple[str, ...]
+    topic: IntArray
+    log_time: IntArray
+    start: IntArray
+    size: IntArray
+
+    def __len__(self) -> int:
+        """Number of messages."""
+        return len(self.topic)
+
+    def data(self, i: int) -> bytes:
+        """The data of message ``i``."""
+        a = int(self.start[i])
+        return self.buffer[a : a + int(self.size[i])].tobytes()
+
+
+def read_le(buf: NDArray[np.uint8], dtype: str, at: IntArray) -> NDArray[Any]:
+    """The little-endian ``dtype`` value at each byte offset ``at`` of ``buf`` (offsets checked by the caller)."""
+    width = np.dtype(dtype).itemsize
+    _need(len(buf) >= width, "record beyond its chunk")
+    return np.ndarray(shape=(len(buf) - width + 1,), dtype=dtype, buffer=buf, strides=(1,))[at]
+
+
+@lru_cache(maxsize=1)
+def _zstd() -> Any:
+    try:
+        import zstandard
+    except ImportError:
+        raise Unusual("no zstandard") from None
+    return zstandard.ZstdDecompressor()
+
+
+def _decompress_into(out: memoryview, data: memoryview, compression: str) -> None:
+    """Decompress one chunk's records into ``out`` (exactly filled)."""
+    if compression == "zstd":
+        reader = _zstd().stream_reader(data, read_across_frames=True)
+        got = 0
+        while got < len(out):
+            n = reader.readinto(out[got:])
+            if not n:
+                break
+            got += n
+        _need(got == len(out) and not reader.read(1), "chunk size mismatch")
+    elif compression == "lz4":
+        from lz4.frame import decompress  # type: ignore[import-untyped]
+
+        records = decompress(data)
+        _need(len(records) == len(out), "chunk size mismatch")
+        out[:] = records
+    elif compression == "":
+        _need(len(data) == len(out), "chunk size mismatch")
+        out[:] = data
+    else:
+        raise Unusual(f"chunk compression {compression!r}")
+
+
+@dataclass(frozen=True)
+class _Read:
+    """A chunk as read from its file: the compressed records, checksum and message index records."""
+
+    chunk: Chunk
+    data: memoryview
+    crc: int
+    index: bytes
+
+
+def _read_chunk(f: Any, chunk: Chunk) -> _Read:
+    f.seek(chunk.offset)
+    raw = f.read(chunk.length + chunk.index_length)
+    head = 9 + 40 + len(chunk.compression.encode())
+    _need(len(raw) == chunk.length + chunk.index_length and raw[0] == 0x06, "truncated chunk")
+    _need(head + chunk.compressed_size <= chunk.length, "chunk data beyond its record")
+    crc = _U32.unpack_from(raw, 9 + 24)[0]
+    return _Read(chunk, memoryview(raw)[head : head + chunk.compressed_size], crc, raw[chunk.length :])
+
+
+def _indexed_offsets(index: bytes) -> IntArray:
+    """Every message record's offset in its chunk, from the chunk's message index records."""
+    parts, pos = [], 0
+    while pos < len(index):
+        _need(index[pos] == 0x07 and pos + 15 <= len(index), "not a message index record")
+        size = _U64.unpack_from(index, pos + 1)[0]
+        n = _U32.unpack_from(index, pos + 11)[0]
+        _need(size == 6 + n and n % 16 == 0 and pos + 9 + size <= len(index), "bad message index record")
+        pairs = np.frombuffer(index, dtype="<u8", count=n // 8, offset=pos + 15)
+        parts.append(pairs[1::2].astype(np.int64))
+        pos += 9 + size
+    return np.sort(np.concatenate(parts)) if parts else np.empty(0, np.int64)
+
+
+def _walk(records: memoryview, start: int, stop: int) -> list[int]:
+    """Offsets of the message records among the records in ``records[start:stop]``."""
+    out, pos = [], start
+    while pos < stop:
+        _need(pos + 9 <= stop, "truncated record in a chunk")
+        size = _U64.unpack_from(records, pos + 1)[0]
+        if records[pos] == 0x05:
+            _need(size >= _MESSAGE_HEAD - 9, "message record too short")
+            out.append(pos)
+        pos += 9 + size
+    _need(pos == stop, "records overrun")
+    return out
+
+
+def _message_offsets(records: memoryview, buf: NDArray[np.uint8], index: bytes) -> IntArray:
+    """Offsets of every message record of a chunk, in file order.
+
+    The message index gives them; records between them (schemas, channels) are walked to make
+    sure that no message record is missing from the index.
+    """
+    offsets = _indexed_offsets(index)
+    if offsets.size:
+        _need(int(offsets[0]) >= 0 and int(offsets[-1]) + _MESSAGE_HEAD <= len(records), "index beyond the chunk")
+        _need(np.all(buf[offsets] == 0x05), "index points at a non-message record")
+        sizes = read_le(buf, "<u8", offsets + 1).astype(np.int64)
+        ends = offsets + 9 + sizes
+        _need(np.all(sizes >= _MESSAGE_HEAD - 9) and np.all(ends[:-1] <= offsets[1:]), "records overlap")
+        _need(int(ends[-1]) <= len(records), "record beyond the chunk")
+        gaps_from = np.concatenate(([0], ends))
+        gaps_to = np.concatenate((offsets, [len(records)]))
+    else:
+        gaps_from, gaps_to = np.array([0]), np.array([len(records)])
+    gap = gaps_from < gaps_to
+    extra = []
+    for a, b in zip(gaps_from[gap].tolist(), gaps_to[gap].tolist(), strict=True):
+        extra += _walk(records, a, b)
+    if extra:  # messages the index does not list: the whole chunk in file order
+        offsets = np.sort(np.concatenate((offsets, np.array(extra, dtype=np.int64))))
+    return offsets
+
+
+def _chunk_keys(buf: NDArray[np.uint8], read: _Read, lut: IntArray, base: int) -> tuple[IntArray, ...]:
+    """The wanted messages of one decompressed chunk (``buf``, at ``base`` in the table's buffer).
+
+    Returns:
+        Columns: log time, chunk offset, position in the chunk, topic, data start, data size.
+    """
+    chunk = read.chunk
+    at = _message_offsets(buf.data, buf, read.index)
+    log_time = read_le(buf, "<u8", at + 15)
+    _need(np.all(log_time < 2**63), "log time beyond 2**63")
+    log_time = log_time.astype(np.int64)
+    topic = lut[read_le(buf, "<u2", at + 9)]
+    keep = np.flatnonzero((topic >= 0) & (log_time >= chunk.start_time) & (log_time <= chunk.end_time))
+    size = read_le(buf, "<u8", at[keep] + 1).astype(np.int64) - (_MESSAGE_HEAD - 9)
+    where = np.full(len(keep), chunk.offset, np.int64)
+    return log_time[keep], where, keep, topic[keep], at[keep] + _MESSAGE_HEAD + base, size
+
+
+def read_table(bag: FastBag, topics: Iterable[str]) -> MessageTable:
+    """Every message of ``topics`` in the order rosbags' reader yields them.
+
+    Raises:
+        Unusual: A chunk cannot be read as rosbags would (it then raises the error).
+    """
+    names = tuple(dict.fromkeys(topics))
+    code = {t: i for i, t in enumerate(names)}
+    files: list[tuple[IntArray, list[_Read]]] = []
+    for storage, route in zip(bag.storages, bag.routes, strict=True):
+        wanted = {cid: code[t] for cid, t in route.items() if t in code}
+        if not wanted:
+            continue
+        lut = np.full(65536, -1, dtype=np.int64)
+        for cid, c in wanted.items():
+            lut[cid] = c
+        with storage.path.open("rb") as f:
+            reads = [_read_chunk(f, ch) for ch in storage.chunks if any(ch.channel_count.get(c, 0) for c in wanted)]
+        files.append((lut, reads))
+    buffer = np.empty(sum(r.chunk.uncompressed_size for _, reads in files for r in reads), dtype=np.uint8)
+    out = buffer.data
+    parts = []
+    base = 0
+    for lut, reads in files:
+        keys = []
+        for read in reads:
+            n = read.chunk.uncompressed_size
+            records = out[base : base + n]
+            try:
+                _decompress_into(records, read.data, read.chunk.compression)
+            except Unusual:
+                raise
+            except Exception as exc:  # the decompressor's own errors
+                raise Unusual(f"chunk does not decompress ({exc})") from None
+            _need(not read.crc or crc32(records) == read.crc, "chunk checksum mismatch")
+            keys.append(_chunk_keys(buffer[base : base + n], read, lut, base))
+            base += n
+        if keys:
+            cols = [np.concatenate(k) for k in zip(*keys, strict=True)]
+            order = np.lexsort((cols[2], cols[1], cols[0]))  # log time, then chunk offset, then position
+            parts.append(tuple(cols[i][order] for i in (3, 0, 4, 5)))
+    buffer.flags.writeable = False
+    if not parts:
+        empty = np.empty(0, np.int64)
+        return MessageTable(buffer, names, empty, empty, empty, empty)
+    topic, log_time, start, size = (np.concatenate(c) for c in zip(*parts, strict=True))
+    return MessageTable(buffer, names, topic, log_time, start, size)
