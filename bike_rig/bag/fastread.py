@@ -101,7 +101,17 @@ def _is_int(x: object) -> bool:
 def _qos(profiles: object) -> tuple[Qos, ...]:
     """QoS profiles (a list of dicts or rosbags' v9 YAML text) parsed as rosbags does."""
     if isinstance(profiles, str):
-        profiles = _yaml_load(profiles) if profiles else []
+        return _qos_text(profiles)
+    return _qos_list(profiles)
+
+
+@lru_cache(maxsize=64)
+def _qos_text(text: str) -> tuple[Qos, ...]:
+    """QoS profiles as YAML text (each channel of a bag holds one; the rig's are few)."""
+    return _qos_list(_yaml_load(text) if text else [])
+
+
+def _qos_list(profiles: object) -> tuple[Qos, ...]:
     _need(profiles is None or isinstance(profiles, list), "QoS profiles are not a list")
     for item in cast("list[object]", profiles or []):
         _need(isinstance(item, dict), "a QoS profile is not a mapping")
