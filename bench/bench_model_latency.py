@@ -1,5 +1,7 @@
-"""Latency of the live model: a parameter set published → the model node's matrices and eigen
-sweep received (target ≤ 100 ms), and the whole chain period estimate → parameter node → model.
+"""Latency of the live model (target ≤ 100 ms).
+
+A parameter set published → the model node's matrices and eigen sweep received, and the whole
+chain period estimate → parameter node → model.
 
 Real processes over DDS (Fast DDS, shared memory), LOCALHOST discovery on a domain reserved for
 this run (bike_rig.rosenv). This process is the rest of the graph: it publishes parameter sets
