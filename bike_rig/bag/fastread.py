@@ -27,8 +27,7 @@ from typing import Any, cast
 
 import numpy as np
 from numpy.typing import NDArray
-from rosbags.interfaces import Qos
-from rosbags.rosbag2.metadata import parse_qos
+from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
 
 __all__ = ["FastBag", "FastTopic", "MessageTable", "Unusual", "open_fast", "read_le", "read_table"]
 
@@ -113,12 +112,38 @@ def _qos_text(text: str) -> tuple[Qos, ...]:
 
 def _qos_list(profiles: object) -> tuple[Qos, ...]:
     _need(profiles is None or isinstance(profiles, list), "QoS profiles are not a list")
-    for item in cast("list[object]", profiles or []):
-        _need(isinstance(item, dict), "a QoS profile is not a mapping")
     try:
-        return tuple(parse_qos(profiles or []))  # type: ignore[arg-type]
+        return tuple(_one_qos(item) for item in cast("list[object]", profiles or []))
     except Exception as exc:  # a malformed profile: rosbags raises its own error
         raise Unusual(f"QoS profiles ({exc})") from None
+
+
+def _policy(kind: Any, value: object) -> Any:
+    """A QoS policy as rosbags reads it: an int is the enum's value, a name its member, else UNKNOWN."""
+    try:
+        return kind(value) if isinstance(value, int) else kind.__members__[cast(str, value).upper()]
+    except (KeyError, ValueError):
+        return kind(kind.UNKNOWN)
+
+
+def _one_qos(item: object) -> Qos:
+    """One profile (a mapping of metadata.yaml) as rosbags' ``parse_qos`` makes it.
+
+    (rosbags' own function is not imported: importing ``rosbags.rosbag2`` takes ~35 ms.)
+    """
+    _need(isinstance(item, dict), "a QoS profile is not a mapping")
+    d = cast("dict[str, Any]", item)
+    return Qos(
+        _policy(QosHistory, d["history"]),
+        d["depth"],
+        _policy(QosReliability, d["reliability"]),
+        _policy(QosDurability, d["durability"]),
+        QosTime(d["deadline"]["sec"], d["deadline"]["nsec"]),
+        QosTime(d["lifespan"]["sec"], d["lifespan"]["nsec"]),
+        _policy(QosLiveliness, d["liveliness"]),
+        QosTime(d["liveliness_lease_duration"]["sec"], d["liveliness_lease_duration"]["nsec"]),
+        d["avoid_ros_namespace_conventions"],
+    )
 
 
 # --------------------------------------------------------------------------------------------

@@ -2,42 +2,55 @@
 
 Every user mistake ends in one line on stderr naming the file, key, line and reason, with
 exit status 2 and no traceback.
+
+Start-up is kept short: a sub-command's module (and what it imports: numpy, scipy, rosbags,
+matplotlib...) is imported only when that sub-command runs, or when the whole command line is
+shown (``bike-rig --help``, an unknown sub-command).
 """
 
 from __future__ import annotations
 
 import argparse
-import json
-import math
+import importlib
 import sys
-import time
-from collections.abc import Sequence
-from pathlib import Path
-from typing import Any
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING, Any
 
-import numpy as np
-
-from ..core.benchmark import ComMethod, ParameterSet, compute_parameters
 from ..core.errors import BikeRigError
-from ..core.io_bp import dump_bp_parameter_yaml
-from ..core.io_yaml import ATTRIBUTION, dump_measurements_yaml, dump_parameters_yaml
-from ..core.loader import load_input
-from ..core.measurements import Measurements, validate
-from ..core.rider import PAPER_RIDER, add_rider
-from ..core.uncertainty.matrix_sigma import SigmaConvention, canonical_with_sigma
-from ..core.whipple import critical_speeds, eigenvalues
-from ..paths import config_file
-from . import bag_cmd, budget_cmd, fit_cmd, plot_cmd, replay_cmd, report_cmd, run_cmd, simulate_cmd
-from . import format as fmt
-from .common import UsageError, emit, rider_from_spec
+
+if TYPE_CHECKING:
+    import numpy as np
+
+    from ..core.benchmark import ParameterSet
 
 __all__ = ["main"]
 
 EXIT_USER_ERROR = 2
 DEFAULT_BICYCLE = "bicycles/browser.yaml"
 
+#: The sub-commands in the order ``bike-rig --help`` lists them: each is registered by a
+#: function of this module or by ``add_parser`` of a module of this package.
+SUBCOMMANDS: tuple[tuple[str, str], ...] = (
+    ("params", "_add_params"),
+    ("model", "_add_model"),
+    ("import-bp", "_add_import_bp"),
+    ("fit", "fit_cmd"),
+    ("bag", "bag_cmd"),
+    ("replay", "replay_cmd"),
+    ("run", "run_cmd"),
+    ("simulate", "simulate_cmd"),
+    ("plot", "plot_cmd"),
+    ("budget", "budget_cmd"),
+    ("report", "report_cmd"),
+    ("demo", "_add_demo"),
+)
+
 
 def _parameters(path: str, com_method: str) -> ParameterSet:
+    from ..core.benchmark import ComMethod, compute_parameters
+    from ..core.loader import load_input
+    from ..core.measurements import Measurements
+
     got = load_input(path)
     if isinstance(got, Measurements):
         return compute_parameters(got, ComMethod(com_method))
@@ -45,6 +58,12 @@ def _parameters(path: str, com_method: str) -> ParameterSet:
 
 
 def _speeds(spec: Sequence[str] | None) -> np.ndarray:
+    import math
+
+    import numpy as np
+
+    from .common import UsageError
+
     if spec is None:
         return np.linspace(0.0, 10.0, 11)
     try:
@@ -66,13 +85,22 @@ def _params_json(ps: ParameterSet) -> dict[str, Any]:
 
 
 def cmd_params(args: argparse.Namespace) -> int:
+    import json
+
+    from . import format as fmt
+    from .common import emit
+
     ps = _parameters(args.file, args.com_method)
     form = "json" if args.json else args.format
     if form == "json":
         text = json.dumps(_params_json(ps), indent=2)
     elif form == "bp-yaml":
+        from ..core.io_bp import dump_bp_parameter_yaml
+
         text = dump_bp_parameter_yaml(ps)
     elif form == "yaml":
+        from ..core.io_yaml import dump_parameters_yaml
+
         text = dump_parameters_yaml(ps)
     else:
         text = fmt.parameter_table(ps)
@@ -81,6 +109,8 @@ def cmd_params(args: argparse.Namespace) -> int:
 
 
 def _model_json(ms: Any, cs: Any, speeds: np.ndarray, eig: Any) -> dict[str, Any]:
+    import numpy as np
+
     out: dict[str, Any] = {}
     for name in ("M", "C1", "K0", "K2"):
         out[name] = np.asarray(getattr(ms.matrices, name)).tolist()
@@ -95,6 +125,14 @@ def _model_json(ms: Any, cs: Any, speeds: np.ndarray, eig: Any) -> dict[str, Any
 
 
 def cmd_model(args: argparse.Namespace) -> int:
+    import json
+
+    from ..core.rider import add_rider
+    from ..core.uncertainty.matrix_sigma import SigmaConvention, canonical_with_sigma
+    from ..core.whipple import critical_speeds, eigenvalues
+    from . import format as fmt
+    from .common import emit, rider_from_spec
+
     ps = _parameters(args.file, args.com_method)
     rider = rider_from_spec(args.rider)
     if rider is not None:
@@ -119,6 +157,12 @@ def cmd_model(args: argparse.Namespace) -> int:
 
 
 def cmd_import_bp(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from ..core.io_yaml import ATTRIBUTION, dump_measurements_yaml, dump_parameters_yaml
+    from ..core.loader import load_input
+    from ..core.measurements import Measurements, validate
+
     got = load_input(args.file)
     if isinstance(got, Measurements):
         validate(got)
@@ -133,6 +177,12 @@ def cmd_import_bp(args: argparse.Namespace) -> int:
 
 
 def cmd_demo(args: argparse.Namespace) -> int:
+    import time
+    from pathlib import Path
+
+    from ..paths import config_file
+    from . import format as fmt
+
     if args.offline:
         return _demo_offline(args.bicycle or str(config_file(DEFAULT_BICYCLE)))
     from ..demo import format_speed, run_demo
@@ -161,6 +211,11 @@ def cmd_demo(args: argparse.Namespace) -> int:
 
 
 def _demo_offline(path: str) -> int:
+    from ..core.rider import PAPER_RIDER, add_rider
+    from ..core.uncertainty.matrix_sigma import canonical_with_sigma
+    from ..core.whipple import critical_speeds
+    from . import format as fmt
+
     ps = _parameters(path, "centroid")
     ms = canonical_with_sigma(ps)
     cs = critical_speeds(ms.matrices, ms.g)
@@ -177,49 +232,47 @@ def _demo_offline(path: str) -> int:
     return 0
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """The argument parser of every subcommand."""
-    p = argparse.ArgumentParser(prog="bike-rig", description="Bicycle parameter rig (Moore et al.) tools.")
-    sub = p.add_subparsers(dest="command", required=True)
+def _common(q: argparse.ArgumentParser) -> None:
+    from ..core.benchmark import ComMethod
 
-    def common(q: argparse.ArgumentParser) -> None:
-        q.add_argument("file", help="measurement file or parameter file (our YAML or BicycleParameters text)")
-        q.add_argument(
-            "--com-method",
-            choices=[m.value for m in ComMethod],
-            default=ComMethod.CENTROID.value,
-            help="mass-centre method: centroid of the line intersections (paper, default) or least squares",
-        )
-        q.add_argument("-o", "--output", help="write to this file instead of standard output")
+    q.add_argument("file", help="measurement file or parameter file (our YAML or BicycleParameters text)")
+    q.add_argument(
+        "--com-method",
+        choices=[m.value for m in ComMethod],
+        default=ComMethod.CENTROID.value,
+        help="mass-centre method: centroid of the line intersections (paper, default) or least squares",
+    )
+    q.add_argument("-o", "--output", help="write to this file instead of standard output")
 
+
+def _add_params(sub: Any) -> None:
     q = sub.add_parser("params", help="the 25 benchmark parameters with σ")
-    common(q)
+    _common(q)
     q.add_argument("--json", action="store_true", help="one JSON object on standard output")
     q.add_argument("--format", choices=["table", "json", "yaml", "bp-yaml"], default="table")
     q.set_defaults(func=cmd_params)
 
+
+def _add_model(sub: Any) -> None:
+    from ..core.uncertainty.matrix_sigma import SigmaConvention
+
     q = sub.add_parser("model", help="canonical matrices, critical speeds and eigenvalues")
-    common(q)
+    _common(q)
     q.add_argument("--rider", help="'paper' for the paper's rigid rider (Table 1), or a rider YAML file")
     q.add_argument("--speeds", nargs=3, metavar=("START", "STOP", "N"), help="speeds in m/s (default 0 10 11)")
     q.add_argument("--sigma", choices=[c.value for c in SigmaConvention], default="correlated")
     q.add_argument("--json", action="store_true", help="one JSON object on standard output")
     q.set_defaults(func=cmd_model)
 
+
+def _add_import_bp(sub: Any) -> None:
     q = sub.add_parser("import-bp", help="convert a BicycleParameters text file to bike_rig YAML")
     q.add_argument("file", help="<Name>Measured.txt or <Name>Benchmark.txt")
     q.add_argument("-o", "--output", required=True, help="the YAML file to write")
     q.set_defaults(func=cmd_import_bp)
 
-    fit_cmd.add_parser(sub)
-    bag_cmd.add_parser(sub)
-    replay_cmd.add_parser(sub)
-    run_cmd.add_parser(sub)
-    simulate_cmd.add_parser(sub)
-    plot_cmd.add_parser(sub)
-    budget_cmd.add_parser(sub)
-    report_cmd.add_parser(sub)
 
+def _add_demo(sub: Any) -> None:
     q = sub.add_parser(
         "demo",
         help="a whole simulated rig session through the live ROS graph: parameters, stability, bag",
@@ -230,12 +283,31 @@ def build_parser() -> argparse.ArgumentParser:
     q.add_argument("--time-scale", type=float, default=25.0, help="rig seconds per wall second (default 25)")
     q.add_argument("--offline", action="store_true", help="no ROS: compute the bicycle file's parameters directly")
     q.set_defaults(func=cmd_demo)
+
+
+def _registrar(where: str) -> Callable[[Any], None]:
+    """The function that registers one sub-command (importing its module only now)."""
+    if where.startswith("_"):
+        return globals()[where]
+    module = importlib.import_module(f"{__package__}.{where}")
+    return module.add_parser
+
+
+def build_parser(only: str | None = None) -> argparse.ArgumentParser:
+    """The argument parser of every subcommand (or of ``only``, when it names one)."""
+    p = argparse.ArgumentParser(prog="bike-rig", description="Bicycle parameter rig (Moore et al.) tools.")
+    sub = p.add_subparsers(dest="command", required=True)
+    for name, where in SUBCOMMANDS:
+        if only is None or only == name:
+            _registrar(where)(sub)
     return p
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``bike-rig``; returns the exit status."""
-    args = build_parser().parse_args(argv)
+    argv = list(sys.argv[1:] if argv is None else argv)
+    named = argv[0] if argv and argv[0] in dict(SUBCOMMANDS) else None
+    args = build_parser(named).parse_args(argv)
     try:
         return int(args.func(args))
     except BikeRigError as exc:

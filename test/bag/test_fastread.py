@@ -278,3 +278,31 @@ def test_a_channel_with_other_qos_is_skipped_as_rosbags_does(tmp_path: Path) -> 
     got = fast_messages(bag)
     assert got == rosbags_messages(bag)
     assert {t for t, _, _ in got} != set(COUNTS)
+
+
+def test_qos_profiles_parse_as_rosbags_does() -> None:
+    from rosbags.rosbag2.metadata import parse_qos
+
+    from bike_rig.bag.fastread import _qos
+
+    base = {
+        "history": "keep_last",
+        "depth": 10,
+        "reliability": "reliable",
+        "durability": "transient_local",
+        "deadline": {"sec": 0, "nsec": 5},
+        "lifespan": {"sec": 1, "nsec": 0},
+        "liveliness": "system_default",
+        "liveliness_lease_duration": {"sec": 2, "nsec": 3},
+        "avoid_ros_namespace_conventions": False,
+    }
+    variants = [base, {**base, "history": 1, "reliability": 2, "durability": 99}, {**base, "liveliness": "nonsense"}]
+    variants += [{**base, "history": "KEEP_ALL", "durability": "Volatile", "avoid_ros_namespace_conventions": True}]
+    for profiles in ([], variants, *([v] for v in variants)):
+        assert _qos(profiles) == tuple(parse_qos(profiles))  # type: ignore[arg-type]
+    zero = "{sec: 0, nsec: 0}"
+    pairs = [("history", "keep_last"), ("depth", 5), ("reliability", "best_effort"), ("durability", "volatile"),
+             ("deadline", zero), ("lifespan", zero), ("liveliness", "automatic"),
+             ("liveliness_lease_duration", zero), ("avoid_ros_namespace_conventions", "false")]  # fmt: skip
+    text = "\n".join(("- " if i == 0 else "  ") + f"{k}: {v}" for i, (k, v) in enumerate(pairs))
+    assert _qos(text) == tuple(parse_qos(text))

@@ -35,7 +35,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.special import stdtrit
 
 from .oscillation import TWO_PI, block_phasors, zeta_omega
 from .solver import FitFailed, Solution
@@ -182,6 +181,8 @@ def period_sigma(
     fallback = cov2 is None
     if cov2 is None:
         cov2, dof = s2 * G[3:, 3:], float(n - 5)
+    from scipy.special import stdtrit  # here: importing scipy.special takes ~0.15 s
+
     factor = float(stdtrit(dof, _PHI1)) if dof < 1e6 else 1.0
     sigma = dT * math.sqrt(max(0.0, float(cov2[1, 1]))) * factor
     _, omega = zeta_omega(alpha, omega_d)

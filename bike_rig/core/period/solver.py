@@ -20,7 +20,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.optimize import leastsq
 
 from .oscillation import block_phasors
 
@@ -171,6 +170,8 @@ def varpro(
     Raises:
         FitFailed: The fit failed or did not converge to an oscillation.
     """
+    from scipy.optimize import leastsq  # here: importing scipy.optimize takes ~0.3 s
+
     problem = _Projection(tau, yb, counts, step, even)
     try:
         with warnings.catch_warnings():  # a fit that stops short is reported below, not warned about
