@@ -7,6 +7,8 @@ against its target, with the machine's load average:
 * ``bike-rig params config/bicycles/browser.yaml`` (target ≤ 0.4 s);
 * ``bike-rig replay BAG`` of the 39-trial Browser session (as ``bench_replay.py`` writes it;
   target ≤ 0.6 s);
+* ``bike-rig report config/bicycles/browser.yaml -o DIR`` (target ≤ 2 s; the figures are drawn
+  in forked workers, one per CPU, at most 4: ``bench_report.py`` times it in-process);
 * ``bike-rig --help`` and ``python -c pass`` for scale (the interpreter's own start-up).
 
 ``python -X importtime`` of a command shows where its start-up goes.
@@ -53,7 +55,9 @@ def main() -> int:
             ("bike-rig --help", [str(SCRIPT), "--help"], None),
             ("bike-rig params browser.yaml", [str(SCRIPT), "params", str(config_file("bicycles/browser.yaml"))], 0.4),
             ("bike-rig replay BAG (39 trials)", [str(SCRIPT), "replay", str(bag)], 0.6),
-        ]
+            ("bike-rig report browser.yaml", [str(SCRIPT), "report", str(config_file("bicycles/browser.yaml")),
+                                              "-o", str(Path(tmp) / "report")], 2.0),
+        ]  # fmt: skip
         load = os.getloadavg()
         print(f"{SCRIPT} (median of {REPEAT} fresh processes; load average {load[0]:.2f} {load[1]:.2f}, "
               f"{os.cpu_count()} CPUs)")  # fmt: skip
