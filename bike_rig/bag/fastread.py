@@ -3,9 +3,8 @@
 The common bag is a rosbag2 directory (``metadata.yaml``, MCAP storage files with a summary,
 chunk indexes and message indexes, no file or message compression) or one such ``.mcap``
 file. For it, :func:`open_fast` reads the index (topics, counts, times) with no YAML parser
-beyond libyaml, and :func:`read_table` reads every message of some topics in the order
-rosbags yields them (log time, then chunk offset, then position in the chunk) as one table
-of positions into the decompressed chunks: no Python object per message.
+beyond libyaml, and :func:`bike_rig.bag.msgtable.read_table` reads every message of some
+topics in the order rosbags yields them as one table, with no Python object per message.
 
 Anything else (SQLite storage, compressed files or messages, unindexed or malformed MCAP,
 metadata that PyYAML and ruamel might read differently, a failing checksum...) raises
@@ -18,24 +17,17 @@ from __future__ import annotations
 
 import re
 import struct
-from binascii import crc32
-from collections.abc import Iterable
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path, PurePath
 from typing import Any, cast
 
-import numpy as np
-from numpy.typing import NDArray
 from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
 
-__all__ = ["FastBag", "FastTopic", "MessageTable", "Unusual", "open_fast", "read_le", "read_table"]
+__all__ = ["MAGIC", "Chunk", "FastBag", "FastTopic", "Storage", "Unusual", "need", "open_fast"]
 
 MAGIC = b"\x89MCAP0\r\n"
 _FOOTER_HEAD = b"\x02\x14\x00\x00\x00\x00\x00\x00\x00"
-_MAXSIZE = 2**63 - 1
-#: Bytes before a message record's data: opcode, record length, channel, sequence, log and publish time.
-_MESSAGE_HEAD = 1 + 8 + 2 + 4 + 8 + 8
 
 #: Plain scalars that YAML 1.1 (PyYAML) and YAML 1.2 (ruamel, as rosbags reads) may read
 #: differently: booleans beyond true/false, octal, hex, binary, sexagesimal, underscores,
@@ -46,8 +38,6 @@ _RISKY_YAML = re.compile(
     r"|<<|!",
     re.M,
 )
-
-IntArray = NDArray[np.int64]
 
 _U16 = struct.Struct("<H")
 _U32 = struct.Struct("<I")
@@ -88,7 +78,8 @@ def _libyaml_loader() -> Any:
     return Load
 
 
-def _need(ok: Any, why: str) -> None:
+def need(ok: Any, why: str) -> None:
+    """Raise :class:`Unusual` (saying ``why``) unless ``ok``."""
     if not bool(ok):
         raise Unusual(why)
 
@@ -111,7 +102,7 @@ def _qos_text(text: str) -> tuple[Qos, ...]:
 
 
 def _qos_list(profiles: object) -> tuple[Qos, ...]:
-    _need(profiles is None or isinstance(profiles, list), "QoS profiles are not a list")
+    need(profiles is None or isinstance(profiles, list), "QoS profiles are not a list")
     try:
         return tuple(_one_qos(item) for item in cast("list[object]", profiles or []))
     except Exception as exc:  # a malformed profile: rosbags raises its own error
@@ -131,7 +122,7 @@ def _one_qos(item: object) -> Qos:
 
     (rosbags' own function is not imported: importing ``rosbags.rosbag2`` takes ~35 ms.)
     """
-    _need(isinstance(item, dict), "a QoS profile is not a mapping")
+    need(isinstance(item, dict), "a QoS profile is not a mapping")
     d = cast("dict[str, Any]", item)
     return Qos(
         _policy(QosHistory, d["history"]),
@@ -199,7 +190,7 @@ class _Record:
 
     def take(self, n: int) -> bytes:
         out = self.data[self.pos : self.pos + n]
-        _need(len(out) == n, "truncated MCAP record")
+        need(len(out) == n, "truncated MCAP record")
         self.pos += n
         return out
 
@@ -230,7 +221,7 @@ def _metadata_map(blob: bytes) -> dict[str, str]:
 def _chunk(rec: _Record) -> Chunk:
     start, end, offset, length = rec.u64(), rec.u64(), rec.u64(), rec.u64()
     pairs = rec.blob()
-    _need(len(pairs) % 10 == 0, "bad message index offsets")
+    need(len(pairs) % 10 == 0, "bad message index offsets")
     index_offsets = {int(c): int(o) for c, o in struct.iter_unpack("<HQ", pairs)}
     index_length = rec.u64()
     compression = rec.text()
@@ -249,13 +240,13 @@ def _summary(data: bytes, channels: list[Channel], chunks: list[Chunk]) -> tuple
     stats = None
     pos = 0
     while True:
-        _need(pos + 9 <= len(data), "truncated MCAP summary")
+        need(pos + 9 <= len(data), "truncated MCAP summary")
         op = data[pos]
         if op in (0x02, 0x0E):
             break
         size = _U64.unpack_from(data, pos + 1)[0]
         rec = _Record(data[pos + 9 : pos + 9 + size])
-        _need(len(rec.data) == size, "truncated MCAP summary record")
+        need(len(rec.data) == size, "truncated MCAP summary record")
         pos += 9 + size
         if op == 0x03:
             key = rec.u16()
@@ -274,7 +265,7 @@ def _summary(data: bytes, channels: list[Channel], chunks: list[Chunk]) -> tuple
             count, _, _, _, _, _, start, end = struct.unpack("<QHIIIIQQ", rec.take(42))
             pairs = rec.take(rec.u32() // 10 * 10)
             stats = (int(count), int(start), int(end), {int(c): int(n) for c, n in struct.iter_unpack("<HQ", pairs)})
-    _need(bool(schemas), "MCAP summary without schemas")
+    need(bool(schemas), "MCAP summary without schemas")
     return stats
 
 
@@ -283,15 +274,15 @@ def read_storage(path: Path) -> Storage:
     try:
         with path.open("rb") as f:
             head = f.read(9)
-            _need(head[:8] == MAGIC and head[8:9] == b"\x01", "bad MCAP header")
+            need(head[:8] == MAGIC and head[8:9] == b"\x01", "bad MCAP header")
             rec = _Record(f.read(_U64.unpack(f.read(8))[0]))
-            _need(rec.text() == "ros2", "MCAP profile is not ros2")
+            need(rec.text() == "ros2", "MCAP profile is not ros2")
             data_start = f.tell()
             footer_start = f.seek(-37, 2)
             footer = f.read()
-            _need(len(footer) == 37 and footer[:9] == _FOOTER_HEAD and footer[-8:] == MAGIC, "bad MCAP footer")
+            need(len(footer) == 37 and footer[:9] == _FOOTER_HEAD and footer[-8:] == MAGIC, "bad MCAP footer")
             summary_start = _U64.unpack_from(footer, 9)[0]
-            _need(bool(summary_start) and data_start <= summary_start <= footer_start, "no MCAP summary")
+            need(bool(summary_start) and data_start <= summary_start <= footer_start, "no MCAP summary")
             f.seek(summary_start)
             summary = f.read()
     except (OSError, struct.error, UnicodeDecodeError) as exc:
@@ -302,7 +293,7 @@ def read_storage(path: Path) -> Storage:
         stats = _summary(summary, channels, chunks)
     except (struct.error, UnicodeDecodeError, ValueError) as exc:
         raise Unusual(f"MCAP summary ({exc})") from None
-    _need(stats is not None and bool(chunks), "MCAP summary without statistics or chunk indexes")
+    need(stats is not None and bool(chunks), "MCAP summary without statistics or chunk indexes")
     assert stats is not None
     count, start, end, per_channel = stats
     return Storage(path, tuple(channels), tuple(chunks), count, start, end, per_channel)
@@ -354,30 +345,30 @@ def _topic_entries(meta: dict[str, Any]) -> list[tuple[FastTopic, str]]:
         tm = entry["topic_metadata"]
         name, msgtype, form = tm["name"], tm["type"], tm["serialization_format"]
         digest, count = tm.get("type_description_hash", ""), entry["message_count"]
-        _need(all(isinstance(x, str) for x in (name, msgtype, form, digest)) and _is_int(count), "topic metadata")
-        _need(form == "cdr", "a serialization format other than cdr")
+        need(all(isinstance(x, str) for x in (name, msgtype, form, digest)) and _is_int(count), "topic metadata")
+        need(form == "cdr", "a serialization format other than cdr")
         out.append((FastTopic(name, msgtype, count, _qos(tm.get("offered_qos_profiles", [])), digest), form))
     return out
 
 
 def _open_directory(path: Path) -> FastBag:
     meta = _yaml_load((path / "metadata.yaml").read_text())
-    _need(isinstance(meta, dict) and isinstance(meta.get("rosbag2_bagfile_information"), dict), "metadata")
+    need(isinstance(meta, dict) and isinstance(meta.get("rosbag2_bagfile_information"), dict), "metadata")
     info = meta["rosbag2_bagfile_information"]
     try:
         version, storage_id = info["version"], info["storage_identifier"]
-        _need(_is_int(version) and version <= 9 and storage_id == "mcap", "not an MCAP bag of version <= 9")
-        _need(not (info.get("compression_mode", "") or "") and not info.get("compression_format"), "compressed")
+        need(_is_int(version) and version <= 9 and storage_id == "mcap", "not an MCAP bag of version <= 9")
+        need(not (info.get("compression_mode", "") or "") and not info.get("compression_format"), "compressed")
         names = info["relative_file_paths"]
-        _need(isinstance(names, list) and all(isinstance(n, str) for n in names), "relative_file_paths")
+        need(isinstance(names, list) and all(isinstance(n, str) for n in names), "relative_file_paths")
         paths = [path / PurePath(n).name for n in names]
-        _need(all(p.exists() for p in paths), "missing storage files")
+        need(all(p.exists() for p in paths), "missing storage files")
         entries = _topic_entries(info)
         duration, start = info["duration"]["nanoseconds"], info["starting_time"]["nanoseconds_since_epoch"]
         count = info["message_count"]
-        _need(_is_int(duration) and _is_int(start) and _is_int(count), "times and counts")
+        need(_is_int(duration) and _is_int(start) and _is_int(count), "times and counts")
         files = info.get("files", []) or []
-        _need(isinstance(files, list), "files")
+        need(isinstance(files, list), "files")
         file_names = tuple(f["path"] for f in files)
     except (KeyError, TypeError, AttributeError) as exc:
         raise Unusual(f"metadata ({exc})") from None
@@ -431,220 +422,3 @@ def open_fast(path: Path) -> FastBag:
     if path.suffix == ".mcap":
         return _open_mcap(path)
     raise Unusual("neither a bag directory nor an .mcap file")
-
-
-# --------------------------------------------------------------------------------------------
-# Messages
-# --------------------------------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class MessageTable:
-    """Messages of some topics in rosbags' order, as positions into the decompressed chunks.
-
-    Attributes:
-        buffer: Every chunk read, decompressed, one after the other (read-only).
-        topics: The topics, indexed by ``topic``.
-        topic: Each message's topic (index into ``topics``).
-        log_time: Each message's log time, ns.
-        start: Where its data (CDR bytes) start in ``buffer``.
-        size: Its length, bytes.
-    """
-
-    buffer: NDArray[np.uint8]
-    topics: tuple[str, ...]
-    topic: IntArray
-    log_time: IntArray
-    start: IntArray
-    size: IntArray
-
-    def __len__(self) -> int:
-        """Number of messages."""
-        return len(self.topic)
-
-    def data(self, i: int) -> bytes:
-        """The data of message ``i``."""
-        a = int(self.start[i])
-        return self.buffer[a : a + int(self.size[i])].tobytes()
-
-
-def read_le(buf: NDArray[np.uint8], dtype: str, at: IntArray) -> NDArray[Any]:
-    """The little-endian ``dtype`` value at each byte offset ``at`` of ``buf`` (offsets checked by the caller)."""
-    width = np.dtype(dtype).itemsize
-    _need(len(buf) >= width, "record beyond its chunk")
-    return np.ndarray(shape=(len(buf) - width + 1,), dtype=dtype, buffer=buf, strides=(1,))[at]
-
-
-@lru_cache(maxsize=1)
-def _zstd() -> Any:
-    try:
-        import zstandard
-    except ImportError:
-        raise Unusual("no zstandard") from None
-    return zstandard.ZstdDecompressor()
-
-
-def _decompress_into(out: memoryview, data: memoryview, compression: str) -> None:
-    """Decompress one chunk's records into ``out`` (exactly filled)."""
-    if compression == "zstd":
-        reader = _zstd().stream_reader(data, read_across_frames=True)
-        got = 0
-        while got < len(out):
-            n = reader.readinto(out[got:])
-            if not n:
-                break
-            got += n
-        _need(got == len(out) and not reader.read(1), "chunk size mismatch")
-    elif compression == "lz4":
-        from lz4.frame import decompress  # type: ignore[import-untyped]
-
-        records = decompress(data)
-        _need(len(records) == len(out), "chunk size mismatch")
-        out[:] = records
-    elif compression == "":
-        _need(len(data) == len(out), "chunk size mismatch")
-        out[:] = data
-    else:
-        raise Unusual(f"chunk compression {compression!r}")
-
-
-@dataclass(frozen=True)
-class _Read:
-    """A chunk as read from its file: the compressed records, checksum and message index records."""
-
-    chunk: Chunk
-    data: memoryview
-    crc: int
-    index: bytes
-
-
-def _read_chunk(f: Any, chunk: Chunk) -> _Read:
-    f.seek(chunk.offset)
-    raw = f.read(chunk.length + chunk.index_length)
-    head = 9 + 40 + len(chunk.compression.encode())
-    _need(len(raw) == chunk.length + chunk.index_length and raw[0] == 0x06, "truncated chunk")
-    _need(head + chunk.compressed_size <= chunk.length, "chunk data beyond its record")
-    crc = _U32.unpack_from(raw, 9 + 24)[0]
-    return _Read(chunk, memoryview(raw)[head : head + chunk.compressed_size], crc, raw[chunk.length :])
-
-
-def _indexed_offsets(index: bytes) -> IntArray:
-    """Every message record's offset in its chunk, from the chunk's message index records."""
-    parts, pos = [], 0
-    while pos < len(index):
-        _need(index[pos] == 0x07 and pos + 15 <= len(index), "not a message index record")
-        size = _U64.unpack_from(index, pos + 1)[0]
-        n = _U32.unpack_from(index, pos + 11)[0]
-        _need(size == 6 + n and n % 16 == 0 and pos + 9 + size <= len(index), "bad message index record")
-        pairs = np.frombuffer(index, dtype="<u8", count=n // 8, offset=pos + 15)
-        parts.append(pairs[1::2].astype(np.int64))
-        pos += 9 + size
-    return np.sort(np.concatenate(parts)) if parts else np.empty(0, np.int64)
-
-
-def _walk(records: memoryview, start: int, stop: int) -> list[int]:
-    """Offsets of the message records among the records in ``records[start:stop]``."""
-    out, pos = [], start
-    while pos < stop:
-        _need(pos + 9 <= stop, "truncated record in a chunk")
-        size = _U64.unpack_from(records, pos + 1)[0]
-        if records[pos] == 0x05:
-            _need(size >= _MESSAGE_HEAD - 9, "message record too short")
-            out.append(pos)
-        pos += 9 + size
-    _need(pos == stop, "records overrun")
-    return out
-
-
-def _message_offsets(records: memoryview, buf: NDArray[np.uint8], index: bytes) -> IntArray:
-    """Offsets of every message record of a chunk, in file order.
-
-    The message index gives them; records between them (schemas, channels) are walked to make
-    sure that no message record is missing from the index.
-    """
-    offsets = _indexed_offsets(index)
-    if offsets.size:
-        _need(int(offsets[0]) >= 0 and int(offsets[-1]) + _MESSAGE_HEAD <= len(records), "index beyond the chunk")
-        _need(np.all(buf[offsets] == 0x05), "index points at a non-message record")
-        sizes = read_le(buf, "<u8", offsets + 1).astype(np.int64)
-        ends = offsets + 9 + sizes
-        _need(np.all(sizes >= _MESSAGE_HEAD - 9) and np.all(ends[:-1] <= offsets[1:]), "records overlap")
-        _need(int(ends[-1]) <= len(records), "record beyond the chunk")
-        gaps_from = np.concatenate(([0], ends))
-        gaps_to = np.concatenate((offsets, [len(records)]))
-    else:
-        gaps_from, gaps_to = np.array([0]), np.array([len(records)])
-    gap = gaps_from < gaps_to
-    extra = []
-    for a, b in zip(gaps_from[gap].tolist(), gaps_to[gap].tolist(), strict=True):
-        extra += _walk(records, a, b)
-    if extra:  # messages the index does not list: the whole chunk in file order
-        offsets = np.sort(np.concatenate((offsets, np.array(extra, dtype=np.int64))))
-    return offsets
-
-
-def _chunk_keys(buf: NDArray[np.uint8], read: _Read, lut: IntArray, base: int) -> tuple[IntArray, ...]:
-    """The wanted messages of one decompressed chunk (``buf``, at ``base`` in the table's buffer).
-
-    Returns:
-        Columns: log time, chunk offset, position in the chunk, topic, data start, data size.
-    """
-    chunk = read.chunk
-    at = _message_offsets(buf.data, buf, read.index)
-    log_time = read_le(buf, "<u8", at + 15)
-    _need(np.all(log_time < 2**63), "log time beyond 2**63")
-    log_time = log_time.astype(np.int64)
-    topic = lut[read_le(buf, "<u2", at + 9)]
-    keep = np.flatnonzero((topic >= 0) & (log_time >= chunk.start_time) & (log_time <= chunk.end_time))
-    size = read_le(buf, "<u8", at[keep] + 1).astype(np.int64) - (_MESSAGE_HEAD - 9)
-    where = np.full(len(keep), chunk.offset, np.int64)
-    return log_time[keep], where, keep, topic[keep], at[keep] + _MESSAGE_HEAD + base, size
-
-
-def read_table(bag: FastBag, topics: Iterable[str]) -> MessageTable:
-    """Every message of ``topics`` in the order rosbags' reader yields them.
-
-    Raises:
-        Unusual: A chunk cannot be read as rosbags would (it then raises the error).
-    """
-    names = tuple(dict.fromkeys(topics))
-    code = {t: i for i, t in enumerate(names)}
-    files: list[tuple[IntArray, list[_Read]]] = []
-    for storage, route in zip(bag.storages, bag.routes, strict=True):
-        wanted = {cid: code[t] for cid, t in route.items() if t in code}
-        if not wanted:
-            continue
-        lut = np.full(65536, -1, dtype=np.int64)
-        for cid, c in wanted.items():
-            lut[cid] = c
-        with storage.path.open("rb") as f:
-            reads = [_read_chunk(f, ch) for ch in storage.chunks if any(ch.channel_count.get(c, 0) for c in wanted)]
-        files.append((lut, reads))
-    buffer = np.empty(sum(r.chunk.uncompressed_size for _, reads in files for r in reads), dtype=np.uint8)
-    out = buffer.data
-    parts = []
-    base = 0
-    for lut, reads in files:
-        keys = []
-        for read in reads:
-            n = read.chunk.uncompressed_size
-            records = out[base : base + n]
-            try:
-                _decompress_into(records, read.data, read.chunk.compression)
-            except Unusual:
-                raise
-            except Exception as exc:  # the decompressor's own errors
-                raise Unusual(f"chunk does not decompress ({exc})") from None
-            _need(not read.crc or crc32(records) == read.crc, "chunk checksum mismatch")
-            keys.append(_chunk_keys(buffer[base : base + n], read, lut, base))
-            base += n
-        if keys:
-            cols = [np.concatenate(k) for k in zip(*keys, strict=True)]
-            order = np.lexsort((cols[2], cols[1], cols[0]))  # log time, then chunk offset, then position
-            parts.append(tuple(cols[i][order] for i in (3, 0, 4, 5)))
-    buffer.flags.writeable = False
-    if not parts:
-        empty = np.empty(0, np.int64)
-        return MessageTable(buffer, names, empty, empty, empty, empty)
-    topic, log_time, start, size = (np.concatenate(c) for c in zip(*parts, strict=True))
-    return MessageTable(buffer, names, topic, log_time, start, size)

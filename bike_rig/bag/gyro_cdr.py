@@ -26,7 +26,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..pipeline.acquire import NS_PER_S, SampleBatch
-from .fastread import Unusual, read_le
+from .fastread import Unusual
+from .msgtable import read_le
 
 __all__ = ["GYRO_TYPE", "GyroColumns", "decode_gyro", "is_our_layout"]
 

@@ -19,7 +19,8 @@ from types import TracebackType
 from typing import TYPE_CHECKING, Any, NamedTuple
 
 from .errors import BagError, BagReadError, IncompleteBagError, NotABagError, ReplayError
-from .fastread import MAGIC, FastBag, MessageTable, Unusual, open_fast, read_table
+from .fastread import MAGIC, FastBag, Unusual, open_fast
+from .msgtable import MessageTable, read_table
 from .typestore import rig_typestore, type_hash
 
 if TYPE_CHECKING:

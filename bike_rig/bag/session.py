@@ -27,8 +27,9 @@ from .. import topics
 from ..messages import MessageError, sample_batch_from_msg, trial_event_from_msg
 from ..pipeline.acquire import SampleBatch, TrialEventKind, TrialEventRecord
 from .errors import NoRigTopicsError
-from .fastread import MessageTable, Unusual
+from .fastread import Unusual
 from .gyro_cdr import GyroColumns, decode_gyro, is_our_layout
+from .msgtable import MessageTable
 from .reader import BagReader, TopicInfo
 from .typestore import rig_typestore
 

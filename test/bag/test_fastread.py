@@ -18,8 +18,9 @@ from rosbags.rosbag2 import Reader
 
 from bike_rig.bag import session as session_module
 from bike_rig.bag.errors import BagReadError
-from bike_rig.bag.fastread import Unusual, open_fast, read_table
+from bike_rig.bag.fastread import Unusual, open_fast
 from bike_rig.bag.gyro_cdr import GYRO_TYPE, decode_gyro, is_our_layout
+from bike_rig.bag.msgtable import read_table
 from bike_rig.bag.reader import BagReader, open_bag
 from bike_rig.bag.session import RecordedSession, read_session
 from bike_rig.bag.simulated import SimulatedMessage, simulated_messages

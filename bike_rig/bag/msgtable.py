@@ -1,0 +1,245 @@
+"""The messages of some topics of a bag opened by the fast path, as one table.
+
+:func:`read_table` reads them in the order rosbags' reader yields them (log time, then chunk
+offset, then position in the chunk): every chunk that holds one is read, checked (size and
+checksum) and decompressed into one buffer, and its message records are found from the
+chunk's message index (the records between them are walked, so that none is missed). The
+table holds positions into that buffer: no Python object per message. Anything rosbags would
+read differently raises :class:`~bike_rig.bag.fastread.Unusual`.
+"""
+
+from __future__ import annotations
+
+import struct
+from binascii import crc32
+from collections.abc import Iterable
+from dataclasses import dataclass
+from functools import lru_cache
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .fastread import Chunk, FastBag, Unusual, need
+
+__all__ = ["MessageTable", "read_le", "read_table"]
+
+IntArray = NDArray[np.int64]
+
+#: Bytes before a message record's data: opcode, record length, channel, sequence, log and publish time.
+_MESSAGE_HEAD = 1 + 8 + 2 + 4 + 8 + 8
+
+_U32 = struct.Struct("<I")
+_U64 = struct.Struct("<Q")
+
+
+@dataclass(frozen=True)
+class MessageTable:
+    """Messages of some topics in rosbags' order, as positions into the decompressed chunks.
+
+    Attributes:
+        buffer: Every chunk read, decompressed, one after the other (read-only).
+        topics: The topics, indexed by ``topic``.
+        topic: Each message's topic (index into ``topics``).
+        log_time: Each message's log time, ns.
+        start: Where its data (CDR bytes) start in ``buffer``.
+        size: Its length, bytes.
+    """
+
+    buffer: NDArray[np.uint8]
+    topics: tuple[str, ...]
+    topic: IntArray
+    log_time: IntArray
+    start: IntArray
+    size: IntArray
+
+    def __len__(self) -> int:
+        """Number of messages."""
+        return len(self.topic)
+
+    def data(self, i: int) -> bytes:
+        """The data of message ``i``."""
+        a = int(self.start[i])
+        return self.buffer[a : a + int(self.size[i])].tobytes()
+
+
+def read_le(buf: NDArray[np.uint8], dtype: str, at: IntArray) -> NDArray[Any]:
+    """The little-endian ``dtype`` value at each byte offset ``at`` of ``buf`` (offsets checked by the caller)."""
+    width = np.dtype(dtype).itemsize
+    need(len(buf) >= width, "record beyond its chunk")
+    return np.ndarray(shape=(len(buf) - width + 1,), dtype=dtype, buffer=buf, strides=(1,))[at]
+
+
+@lru_cache(maxsize=1)
+def _zstd() -> Any:
+    try:
+        import zstandard
+    except ImportError:
+        raise Unusual("no zstandard") from None
+    return zstandard.ZstdDecompressor()
+
+
+def _decompress_into(out: memoryview, data: memoryview, compression: str) -> None:
+    """Decompress one chunk's records into ``out`` (exactly filled)."""
+    if compression == "zstd":
+        reader = _zstd().stream_reader(data, read_across_frames=True)
+        got = 0
+        while got < len(out):
+            n = reader.readinto(out[got:])
+            if not n:
+                break
+            got += n
+        need(got == len(out) and not reader.read(1), "chunk size mismatch")
+    elif compression == "lz4":
+        from lz4.frame import decompress  # type: ignore[import-untyped]
+
+        records = decompress(data)
+        need(len(records) == len(out), "chunk size mismatch")
+        out[:] = records
+    elif compression == "":
+        need(len(data) == len(out), "chunk size mismatch")
+        out[:] = data
+    else:
+        raise Unusual(f"chunk compression {compression!r}")
+
+
+@dataclass(frozen=True)
+class _Read:
+    """A chunk as read from its file: the compressed records, checksum and message index records."""
+
+    chunk: Chunk
+    data: memoryview
+    crc: int
+    index: bytes
+
+
+def _read_chunk(f: Any, chunk: Chunk) -> _Read:
+    f.seek(chunk.offset)
+    raw = f.read(chunk.length + chunk.index_length)
+    head = 9 + 40 + len(chunk.compression.encode())
+    need(len(raw) == chunk.length + chunk.index_length and raw[0] == 0x06, "truncated chunk")
+    need(head + chunk.compressed_size <= chunk.length, "chunk data beyond its record")
+    crc = _U32.unpack_from(raw, 9 + 24)[0]
+    return _Read(chunk, memoryview(raw)[head : head + chunk.compressed_size], crc, raw[chunk.length :])
+
+
+def _indexed_offsets(index: bytes) -> IntArray:
+    """Every message record's offset in its chunk, from the chunk's message index records."""
+    parts, pos = [], 0
+    while pos < len(index):
+        need(index[pos] == 0x07 and pos + 15 <= len(index), "not a message index record")
+        size = _U64.unpack_from(index, pos + 1)[0]
+        n = _U32.unpack_from(index, pos + 11)[0]
+        need(size == 6 + n and n % 16 == 0 and pos + 9 + size <= len(index), "bad message index record")
+        pairs = np.frombuffer(index, dtype="<u8", count=n // 8, offset=pos + 15)
+        parts.append(pairs[1::2].astype(np.int64))
+        pos += 9 + size
+    return np.sort(np.concatenate(parts)) if parts else np.empty(0, np.int64)
+
+
+def _walk(records: memoryview, start: int, stop: int) -> list[int]:
+    """Offsets of the message records among the records in ``records[start:stop]``."""
+    out, pos = [], start
+    while pos < stop:
+        need(pos + 9 <= stop, "truncated record in a chunk")
+        size = _U64.unpack_from(records, pos + 1)[0]
+        if records[pos] == 0x05:
+            need(size >= _MESSAGE_HEAD - 9, "message record too short")
+            out.append(pos)
+        pos += 9 + size
+    need(pos == stop, "records overrun")
+    return out
+
+
+def _message_offsets(records: memoryview, buf: NDArray[np.uint8], index: bytes) -> IntArray:
+    """Offsets of every message record of a chunk, in file order.
+
+    The message index gives them; records between them (schemas, channels) are walked to make
+    sure that no message record is missing from the index.
+    """
+    offsets = _indexed_offsets(index)
+    if offsets.size:
+        need(int(offsets[0]) >= 0 and int(offsets[-1]) + _MESSAGE_HEAD <= len(records), "index beyond the chunk")
+        need(np.all(buf[offsets] == 0x05), "index points at a non-message record")
+        sizes = read_le(buf, "<u8", offsets + 1).astype(np.int64)
+        ends = offsets + 9 + sizes
+        need(np.all(sizes >= _MESSAGE_HEAD - 9) and np.all(ends[:-1] <= offsets[1:]), "records overlap")
+        need(int(ends[-1]) <= len(records), "record beyond the chunk")
+        gaps_from = np.concatenate(([0], ends))
+        gaps_to = np.concatenate((offsets, [len(records)]))
+    else:
+        gaps_from, gaps_to = np.array([0]), np.array([len(records)])
+    gap = gaps_from < gaps_to
+    extra = []
+    for a, b in zip(gaps_from[gap].tolist(), gaps_to[gap].tolist(), strict=True):
+        extra += _walk(records, a, b)
+    if extra:  # messages the index does not list: the whole chunk in file order
+        offsets = np.sort(np.concatenate((offsets, np.array(extra, dtype=np.int64))))
+    return offsets
+
+
+def _chunk_keys(buf: NDArray[np.uint8], read: _Read, lut: IntArray, base: int) -> tuple[IntArray, ...]:
+    """The wanted messages of one decompressed chunk (``buf``, at ``base`` in the table's buffer).
+
+    Returns:
+        Columns: log time, chunk offset, position in the chunk, topic, data start, data size.
+    """
+    chunk = read.chunk
+    at = _message_offsets(buf.data, buf, read.index)
+    log_time = read_le(buf, "<u8", at + 15)
+    need(np.all(log_time < 2**63), "log time beyond 2**63")
+    log_time = log_time.astype(np.int64)
+    topic = lut[read_le(buf, "<u2", at + 9)]
+    keep = np.flatnonzero((topic >= 0) & (log_time >= chunk.start_time) & (log_time <= chunk.end_time))
+    size = read_le(buf, "<u8", at[keep] + 1).astype(np.int64) - (_MESSAGE_HEAD - 9)
+    where = np.full(len(keep), chunk.offset, np.int64)
+    return log_time[keep], where, keep, topic[keep], at[keep] + _MESSAGE_HEAD + base, size
+
+
+def read_table(bag: FastBag, topics: Iterable[str]) -> MessageTable:
+    """Every message of ``topics`` in the order rosbags' reader yields them.
+
+    Raises:
+        Unusual: A chunk cannot be read as rosbags would (it then raises the error).
+    """
+    names = tuple(dict.fromkeys(topics))
+    code = {t: i for i, t in enumerate(names)}
+    files: list[tuple[IntArray, list[_Read]]] = []
+    for storage, route in zip(bag.storages, bag.routes, strict=True):
+        wanted = {cid: code[t] for cid, t in route.items() if t in code}
+        if not wanted:
+            continue
+        lut = np.full(65536, -1, dtype=np.int64)
+        for cid, c in wanted.items():
+            lut[cid] = c
+        with storage.path.open("rb") as f:
+            reads = [_read_chunk(f, ch) for ch in storage.chunks if any(ch.channel_count.get(c, 0) for c in wanted)]
+        files.append((lut, reads))
+    buffer = np.empty(sum(r.chunk.uncompressed_size for _, reads in files for r in reads), dtype=np.uint8)
+    out = buffer.data
+    parts = []
+    base = 0
+    for lut, reads in files:
+        keys = []
+        for read in reads:
+            n = read.chunk.uncompressed_size
+            records = out[base : base + n]
+            try:
+                _decompress_into(records, read.data, read.chunk.compression)
+            except Unusual:
+                raise
+            except Exception as exc:  # the decompressor's own errors
+                raise Unusual(f"chunk does not decompress ({exc})") from None
+            need(not read.crc or crc32(records) == read.crc, "chunk checksum mismatch")
+            keys.append(_chunk_keys(buffer[base : base + n], read, lut, base))
+            base += n
+        if keys:
+            cols = [np.concatenate(k) for k in zip(*keys, strict=True)]
+            order = np.lexsort((cols[2], cols[1], cols[0]))  # log time, then chunk offset, then position
+            parts.append(tuple(cols[i][order] for i in (3, 0, 4, 5)))
+    buffer.flags.writeable = False
+    if not parts:
+        empty = np.empty(0, np.int64)
+        return MessageTable(buffer, names, empty, empty, empty, empty)
+    topic, log_time, start, size = (np.concatenate(c) for c in zip(*parts, strict=True))
+    return MessageTable(buffer, names, topic, log_time, start, size)
