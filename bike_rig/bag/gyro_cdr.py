@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..pipeline.acquire import NS_PER_S, SampleBatch
+from ..pipeline.acquire import NS_PER_S, SampleBatch, SampleBlock
 from .fastread import Unusual
 from .msgtable import read_le
 
@@ -111,6 +111,38 @@ class GyroColumns:
             map(SampleBatch, tids, self.first_index.tolist(), self.sample_rate_hz.tolist(), rates, volts,
                 self.stamp_ns.tolist(), fids)
         )  # fmt: skip
+
+    def blocks(self) -> list[tuple[str, SampleBlock]]:
+        """Each trial's batches as one block, in the order of each trial's first batch."""
+        order = np.argsort(self.trial, kind="stable")
+        cuts = np.flatnonzero(np.diff(self.trial[order])) + 1
+        first = self.first_index.astype(np.int64)
+        out = []
+        for rows in np.split(order, cuts) if len(order) else []:
+            a, b = int(rows[0]), int(rows[-1])
+            if b - a + 1 == len(rows):  # one after the other: views
+                sel: slice | IntArray = slice(a, b + 1)
+                rates, bounds = self.rates, self.rate_start[a : b + 2]
+                volts, volt_bounds = self.raw_volts, self.volt_start[a : b + 2]
+            else:
+                sel = rows
+                rates, bounds = _gather(self.rates, self.rate_start, rows)
+                volts, volt_bounds = _gather(self.raw_volts, self.volt_start, rows)
+            tid = self.trial_ids[int(self.trial[a])]
+            block = SampleBlock(tid, first[sel], self.sample_rate_hz[sel], bounds, rates, volt_bounds, volts,
+                                self.stamp_ns[sel], self.frame_ids, self.frame[sel])  # fmt: skip
+            out.append((a, tid, block))
+        return [(tid, block) for _, tid, block in sorted(out, key=lambda x: x[0])]
+
+
+def _gather(flat: FloatArray, start: IntArray, rows: IntArray) -> tuple[FloatArray, IntArray]:
+    """The samples of some batches, one after the other, and where each batch starts (then the end)."""
+    parts = [flat[int(start[r]) : int(start[r + 1])] for r in rows.tolist()]
+    bounds = np.zeros(len(rows) + 1, dtype=np.int64)
+    np.cumsum([len(x) for x in parts], out=bounds[1:])
+    out = np.concatenate(parts) if parts else flat[:0]
+    out.flags.writeable = False
+    return out, bounds
 
 
 def _split(flat: FloatArray, start: IntArray) -> list[FloatArray]:

@@ -25,7 +25,7 @@ from numpy.typing import NDArray
 
 from .. import topics
 from ..messages import MessageError, sample_batch_from_msg, trial_event_from_msg
-from ..pipeline.acquire import SampleBatch, TrialEventKind, TrialEventRecord
+from ..pipeline.acquire import SampleBatch, SampleBlock, TrialEventKind, TrialEventRecord
 from .errors import NoRigTopicsError
 from .fastread import Unusual
 from .gyro_cdr import GyroColumns, decode_gyro, is_our_layout
@@ -53,7 +53,7 @@ class RecordedTrial:
     trial_id: str
     start: TrialEventRecord | None = None
     stop: TrialEventRecord | None = None
-    batches: list[SampleBatch] = field(default_factory=list)
+    batches: list[SampleBatch] | SampleBlock = field(default_factory=list)
     estimates: list[Any] = field(default_factory=list)
 
     @property
@@ -182,7 +182,10 @@ class RecordedSession:
 
 def _add_batch(session: RecordedSession, batch: SampleBatch) -> None:
     if batch.trial_id:
-        session.trial(batch.trial_id).batches.append(batch)
+        t = session.trial(batch.trial_id)
+        if not isinstance(t.batches, list):
+            t.batches = list(t.batches)
+        t.batches.append(batch)
     else:
         session.stray_batches += 1
 
@@ -300,8 +303,11 @@ def _from_table(empty: RecordedSession, table: MessageTable) -> RecordedSession 
     )
     for tid in _first_heard(others, rows, columns):
         session.trial(tid)
-    for batch in columns.batches():
-        _add_batch(session, batch)
+    for tid, block in columns.blocks():
+        if tid:
+            session.trials[tid].batches = block
+        else:
+            session.stray_batches += len(block)
     for _, topic, msg in others:
         _add(session, topic, msg)
     return session

@@ -10,15 +10,18 @@ nanoseconds since the epoch; rates in Hz; gyro samples in rad/s (``raw_volts`` i
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from enum import IntEnum
+from typing import overload
 
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["NS_PER_S", "SampleBatch", "TrialEventKind", "TrialEventRecord", "sample_stamp_ns"]
+__all__ = ["NS_PER_S", "SampleBatch", "SampleBlock", "TrialEventKind", "TrialEventRecord", "sample_stamp_ns"]
 
 FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
 
 #: Nanoseconds per second (stamps are integer ns since the epoch).
 NS_PER_S = 1_000_000_000
@@ -93,6 +96,74 @@ class SampleBatch:
     raw_volts: FloatArray = field(default_factory=lambda: _EMPTY, repr=False)
     stamp_ns: int = 0
     frame_id: str = ""
+
+
+@dataclass(frozen=True, eq=False)
+class SampleBlock(Sequence[SampleBatch]):
+    """One trial's batches in receiving order, held as columns (a recording read at once).
+
+    It is the sequence of its :class:`SampleBatch` records (made when first asked for); the
+    fitting stage takes the columns at once when it can
+    (:meth:`~bike_rig.pipeline.fit.TrialAccumulator.add_block`).
+
+    Attributes:
+        trial_id: The trial (every batch's).
+        first_index: Each batch's first sample index.
+        sample_rate_hz: Each batch's sample rate, Hz.
+        bounds: Where each batch's samples start in ``rates``, then where the last one ends.
+        rates: The samples, rad/s (a batch's are ``rates[bounds[i]:bounds[i + 1]]``).
+        volt_bounds: Where each batch's raw volts start in ``raw_volts``, then the end.
+        raw_volts: The raw volts, V.
+        stamp_ns: Each batch's rig time of its first sample, ns.
+        frame_ids: The distinct header frame ids.
+        frame: Each batch's frame id (index into ``frame_ids``).
+    """
+
+    trial_id: str
+    first_index: IntArray
+    sample_rate_hz: FloatArray
+    bounds: IntArray
+    rates: FloatArray = field(repr=False)
+    volt_bounds: IntArray = field(repr=False)
+    raw_volts: FloatArray = field(repr=False)
+    stamp_ns: IntArray = field(repr=False)
+    frame_ids: tuple[str, ...] = field(repr=False)
+    frame: IntArray = field(repr=False)
+
+    def __len__(self) -> int:
+        """Number of batches."""
+        return len(self.first_index)
+
+    @overload
+    def __getitem__(self, i: int) -> SampleBatch: ...
+    @overload
+    def __getitem__(self, i: slice) -> Sequence[SampleBatch]: ...
+    def __getitem__(self, i: int | slice) -> SampleBatch | Sequence[SampleBatch]:
+        """The batch(es) at ``i``."""
+        return self.batches()[i]
+
+    def __iter__(self) -> Iterator[SampleBatch]:
+        """The batches, in receiving order."""
+        return iter(self.batches())
+
+    def batches(self) -> list[SampleBatch]:
+        """The batches as records (their arrays are views of the columns; made once)."""
+        made: list[SampleBatch] | None = self.__dict__.get("_batches")
+        if made is None:
+            b, v = self.bounds.tolist(), self.volt_bounds.tolist()
+            columns = (self.first_index, self.sample_rate_hz, self.stamp_ns, self.frame)
+            made = [
+                SampleBatch(self.trial_id, f, r, self.rates[b[i] : b[i + 1]], self.raw_volts[v[i] : v[i + 1]], s, fid)
+                for i, (f, r, s, fid) in enumerate(
+                    zip(
+                        *(c.tolist() for c in columns[:3]),
+                        (self.frame_ids[c] for c in self.frame.tolist()),
+                        strict=True,
+                    )
+                )
+            ]
+            object.__setattr__(self, "_batches", made)
+        return made
 
 
 def sample_stamp_ns(start_ns: int, index: int, sample_rate_hz: float) -> int:

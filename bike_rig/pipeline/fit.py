@@ -54,7 +54,7 @@ from ..core.period import (
     WindowPolicy,
     fit_period,
 )
-from .acquire import SampleBatch, TrialEventKind, TrialEventRecord
+from .acquire import SampleBatch, SampleBlock, TrialEventKind, TrialEventRecord
 from .errors import FlagCodeError
 
 __all__ = [
@@ -376,6 +376,35 @@ class TrialAccumulator:
             problem = "non_finite", f"{bad} NaN/infinite samples in the batch at index {first}"
         return problem
 
+    def add_block(self, block: SampleBlock) -> bool:
+        """Take a whole trial's batches at once, exactly as :meth:`add` on each of them would.
+
+        Only into an empty accumulator, and only when every batch starts where the previous
+        one ended, all at one finite rate, none oversized or beyond the trial limit (then no
+        batch is rejected, cut or a duplicate, and the kept samples are the block's).
+
+        Returns:
+            Whether it took them (False: nothing was taken; add the batches one by one).
+        """
+        n = np.diff(block.bounds)
+        first = block.first_index
+        if self.batches or not len(n) or int(n.min()) < 1 or int(n.max()) > self.options.max_batch_samples:
+            return False
+        start = int(first[0])
+        total = int(block.bounds[-1] - block.bounds[0])
+        if start < 0 or start + total > self.options.max_trial_samples:
+            return False
+        rate = float(block.sample_rate_hz[0])
+        if not (np.all(first[1:] == first[:-1] + n[:-1]) and np.all(block.sample_rate_hz == rate)):
+            return False
+        samples = block.rates[int(block.bounds[0]) : int(block.bounds[-1])]
+        self.batches = len(n)
+        self._parts[start] = samples
+        self._rates[start] = rate
+        self.kept = total
+        self.non_finite = int(np.count_nonzero(~np.isfinite(samples)))
+        return True
+
     def covers(self, n_expected: int) -> bool:
         """Whether every index in ``[0, n_expected)`` is accounted for.
 
@@ -563,6 +592,8 @@ def fit_trial(
             :meth:`TrialFitOptions.from_json`); the defaults when None.
     """
     acc = TrialAccumulator(options or TrialFitOptions())
+    if isinstance(batches, SampleBlock) and acc.add_block(batches):
+        return acc.finish(start, stop, trial_id=batches.trial_id)
     tid = None
     for b in batches:
         tid = tid or b.trial_id
