@@ -69,11 +69,6 @@ class TrialEventRecord:
     frame_id: str = ""
     note: str = ""
 
-    @property
-    def ends(self) -> bool:
-        """A STOP or ABORT: the trial's last event."""
-        return self.kind is not TrialEventKind.START
-
 
 @dataclass(frozen=True)
 class SampleBatch:

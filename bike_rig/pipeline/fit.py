@@ -62,7 +62,6 @@ __all__ = [
     "TrialFit",
     "TrialFitOptions",
     "fit_trial",
-    "make_flags",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -154,7 +153,7 @@ class TrialFitOptions:
         return cls.from_dict(json.loads(text))
 
 
-def make_flags(trial_id: str, codes: Sequence[str], reasons: Sequence[str]) -> tuple[Flag, ...]:
+def _make_flags(trial_id: str, codes: Sequence[str], reasons: Sequence[str]) -> tuple[Flag, ...]:
     """Flags from their codes and reasons (a missing reason is "").
 
     Raises:
@@ -252,7 +251,7 @@ class TrialFit:
         Raises:
             FlagCodeError: A flag code is unknown.
         """
-        all_flags = make_flags(trial_id, flags, flag_reasons)
+        all_flags = _make_flags(trial_id, flags, flag_reasons)
         w = (int(window[0]), int(window[1]))
         nan = math.nan
         fit = PeriodFit(
