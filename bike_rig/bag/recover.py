@@ -32,7 +32,7 @@ from rosbags.rosbag2.metadata import parse_qos
 
 from .errors import BagError, BagExistsError, BagReadError, NotABagError
 from .reader import MCAP_MAGIC
-from .typestore import rig_typestore, type_hash
+from .typestore import standard_typestore, type_hash
 from .writer import BagWriter, Compression
 
 __all__ = ["McapScan", "Recovery", "TopicRecovery", "recover_bag", "scan_mcap", "storage_files"]
@@ -249,7 +249,7 @@ def _type_hash(channel: Channel, schema: Schema) -> str:
     recorded = channel.metadata.get("topic_type_hash", "")
     if recorded:
         return recorded
-    if schema.name in rig_typestore().fielddefs:
+    if schema.name in standard_typestore().fielddefs:
         return type_hash(schema.name)
     return ""
 

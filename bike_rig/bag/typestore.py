@@ -2,11 +2,15 @@
 
 With it, bags can be read, written and replayed with no ROS runtime.
 
-It is ``get_typestore(Stores.ROS2_KILTED)`` (the standard messages of the ROS distribution the
-rig runs on) plus every ``bike_rig_msgs/msg/*.msg``, parsed with ``get_types_from_msg``. The
-``.msg`` files come from the installed interface package (``<prefix>/share/bike_rig_msgs/msg``:
-exactly what the running nodes were built from) or, when that is absent, from the source tree.
-The type hashes (RIHS01) it computes equal rosidl's ``share/bike_rig_msgs/msg/*.json``.
+:func:`rig_typestore` holds every ``bike_rig_msgs/msg/*.msg`` and the standard types they use
+(``std_msgs/Header``, ``builtin_interfaces/Time``), parsed with ``get_types_from_msg``. The
+``.msg`` files come from the installed interface packages (``<prefix>/share/<package>/msg``:
+exactly what the running nodes were built from) or, when that is absent, from the source tree;
+a standard type whose ``.msg`` file is not installed comes from rosbags' ROS 2 Kilted store.
+:func:`standard_typestore` adds every standard message of Kilted (the ROS distribution the rig
+runs on), for writing or naming a type that is not the rig's; it is loaded only when asked for
+(building it takes ≈ 50 ms, most of a fresh ``replay``'s type handling).
+The type hashes (RIHS01) equal rosidl's ``share/bike_rig_msgs/msg/*.json``.
 """
 
 from __future__ import annotations
@@ -32,6 +36,8 @@ __all__ = [
     "msg_dir_candidates",
     "new_message",
     "rig_typestore",
+    "standard_typestore",
+    "store_for",
     "type_hash",
 ]
 
@@ -64,28 +70,84 @@ def find_msg_dir() -> Path:
     raise BagError(MSG_PACKAGE, f"no .msg files found (looked in {tried})")
 
 
+def _parse(text: str, msgtype: str, where: str) -> dict[str, Any]:
+    try:
+        return dict(get_types_from_msg(text, msgtype))
+    except Exception as exc:  # rosbags raises several kinds for a bad definition
+        raise BagError(where, f"cannot parse the message definition ({exc})") from None
+
+
+def _installed_msg(msgtype: str, msg_dir: Path) -> Path | None:
+    """The ``.msg`` file of a standard type (``pkg/msg/Name``) in the prefixes of :func:`msg_dir_candidates`."""
+    pkg, _, name = msgtype.split("/")
+    roots = [d.parents[2] for d in msg_dir_candidates()] + [msg_dir.parents[2]]
+    for root in dict.fromkeys(roots):
+        path = root / "share" / pkg / "msg" / f"{name}.msg"
+        if path.is_file():
+            return path
+    return None
+
+
+def _dependencies(types: dict[str, Any]) -> set[str]:
+    """The message types the given definitions name (in fields, arrays and sequences)."""
+    out = set()
+    for _, fields in types.values():
+        for _, (nodetype, spec) in fields:
+            if nodetype == 2:  # a message
+                out.add(spec)
+            elif nodetype in (3, 4) and spec[0][0] == 2:  # an array or sequence of messages
+                out.add(spec[0][1])
+    return out
+
+
 @lru_cache(maxsize=1)
 def rig_typestore() -> Typestore:
-    """The typestore: ROS 2 Kilted's standard types plus ``bike_rig_msgs/msg/*`` (cached).
+    """The rig's typestore: ``bike_rig_msgs/msg/*`` and the standard types they use (cached).
 
     Raises:
         BagError: The ``.msg`` files cannot be found or parsed.
     """
     msg_dir = find_msg_dir()
-    store = get_typestore(Stores.ROS2_KILTED)
-    types = {}
+    types: dict[str, Any] = {}
     for path in sorted(msg_dir.glob("*.msg")):
-        try:
-            types.update(get_types_from_msg(path.read_text(encoding="utf-8"), f"{MSG_PACKAGE}/msg/{path.stem}"))
-        except Exception as exc:  # rosbags raises several kinds for a bad definition
-            raise BagError(str(path), f"cannot parse the message definition ({exc})") from None
+        types.update(_parse(path.read_text(encoding="utf-8"), f"{MSG_PACKAGE}/msg/{path.stem}", str(path)))
+    missing = _dependencies(types) - set(types)
+    while missing:
+        msgtype = missing.pop()
+        dep = _installed_msg(msgtype, msg_dir)
+        if dep is None:  # not installed here: the distribution's own definitions
+            store = get_typestore(Stores.ROS2_KILTED)
+            store.register(types)
+            return store
+        types.update(_parse(dep.read_text(encoding="utf-8"), msgtype, str(dep)))
+        missing = _dependencies(types) - set(types)
+    store = get_typestore(Stores.EMPTY)
     store.register(types)
     return store
 
 
+@lru_cache(maxsize=1)
+def standard_typestore() -> Typestore:
+    """ROS 2 Kilted's standard types plus the rig's (cached; loaded on first use).
+
+    Raises:
+        BagError: The rig's ``.msg`` files cannot be found or parsed.
+    """
+    rig = rig_typestore()
+    store = get_typestore(Stores.ROS2_KILTED)
+    store.register({name: rig.fielddefs[name] for name in rig.fielddefs if name.startswith(f"{MSG_PACKAGE}/")})
+    return store
+
+
+def store_for(msgtype: str) -> Typestore:
+    """The rig's typestore when it knows ``msgtype``, else the standard one."""
+    rig = rig_typestore()
+    return rig if msgtype in rig.fielddefs else standard_typestore()
+
+
 def type_hash(msgtype: str) -> str:
     """The RIHS01 type hash of a type, as rosidl writes it (``RIHS01_<64 hex>``)."""
-    return str(rig_typestore().hash_rihs01(msgtype))
+    return str(store_for(msgtype).hash_rihs01(msgtype))
 
 
 def message_definition(msgtype: str) -> str:
@@ -94,7 +156,7 @@ def message_definition(msgtype: str) -> str:
     Its definition followed by every dependency (``====`` separator, ``MSG: pkg/Type``), as
     rosbag2 stores it in MCAP schemas.
     """
-    text, _ = rig_typestore().generate_msgdef(msgtype, ros_version=2)
+    text, _ = store_for(msgtype).generate_msgdef(msgtype, ros_version=2)
     return str(text)
 
 
@@ -127,7 +189,7 @@ def new_message(msgtype: str, **fields: Any) -> Any:
 
     The defaults are zeros, empty strings and sequences, nested messages likewise.
     """
-    store = rig_typestore()
+    store = store_for(msgtype)
     _, defs = store.fielddefs[msgtype]
     values = {name: _default(nodetype, spec) for name, (nodetype, spec) in defs}
     values.update(fields)

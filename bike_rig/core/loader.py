@@ -18,7 +18,7 @@ from .io_yaml import (
     measurements_from_document,
     parameters_from_document,
 )
-from .measurements import Measurements
+from .measurements import Measurements, is_period_key
 
 __all__ = ["is_period_key", "load_input", "load_measurements", "load_static_readings"]
 
@@ -68,11 +68,6 @@ def load_measurements(path: str | Path) -> Measurements:
     if not isinstance(got, Measurements):
         raise InputFileError(str(path), "holds benchmark parameters, but raw measurements are needed here")
     return got
-
-
-def is_period_key(key: str) -> bool:
-    """True for pendulum-period keys (``Tc*``, ``Tt*``), the readings live trials provide."""
-    return key.startswith(("Tc", "Tt"))
 
 
 def load_static_readings(path: str | Path) -> Measurements:

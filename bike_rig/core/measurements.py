@@ -39,6 +39,7 @@ from typing import Any
 from .errors import MeasurementError
 
 __all__ = [
+    "is_period_key",
     "Measurements",
     "Origin",
     "Reading",
@@ -125,6 +126,11 @@ class Measurements:
     def orientations(self, part: str) -> list[int]:
         """The orientation indices of ``part`` ('B' frame or 'H' fork), in order."""
         return orientation_indices(self.readings, part)
+
+
+def is_period_key(key: str) -> bool:
+    """True for pendulum-period keys (``Tc*``, ``Tt*``), the readings live trials provide."""
+    return key.startswith(("Tc", "Tt"))
 
 
 def orientation_indices(readings: Mapping[str, object], part: str) -> list[int]:

@@ -22,8 +22,7 @@ from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 
 from ..core.benchmark import ComMethod, ParameterSet, check_orientations, compute_parameters
-from ..core.loader import is_period_key
-from ..core.measurements import Measurements, Origin, Reading, validate
+from ..core.measurements import Measurements, Origin, Reading, is_period_key, validate
 from ..core.period import CombinedPeriod, PeriodFit, combine_periods
 from .errors import AssemblyError
 from .fit import TrialFit

@@ -12,10 +12,11 @@ from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 from rosbags.rosbag2 import Reader
 
+from bike_rig.bag import typestore as typestore_mod
 from bike_rig.bag.errors import BagError, BagExistsError, IncompleteBagError, NotABagError
 from bike_rig.bag.reader import open_bag
 from bike_rig.bag.recover import scan_mcap
-from bike_rig.bag.typestore import find_msg_dir, rig_typestore, type_hash
+from bike_rig.bag.typestore import find_msg_dir, rig_typestore, standard_typestore, type_hash
 from bike_rig.bag.writer import BagWriter, contract_qos
 from bike_rig.topics import GYRO, TOPICS
 from test.bag.samples import as_plain, sample_traffic
@@ -102,6 +103,28 @@ def test_metadata_yaml_is_rosbag2_version_9(tmp_path: Path) -> None:
 
 def test_typestore_uses_the_installed_definitions() -> None:
     assert find_msg_dir() == Path(sys.prefix) / "share" / "bike_rig_msgs" / "msg"
+
+
+def test_the_rig_store_takes_standard_types_from_their_installed_msg_files() -> None:
+    """The rig's store parses Header/Time from the prefix, and every hash equals Kilted's."""
+    rig, full = rig_typestore(), standard_typestore()
+    assert "std_msgs/msg/Header" in rig.fielddefs and "builtin_interfaces/msg/Time" in rig.fielddefs
+    assert "std_msgs/msg/String" not in rig.fielddefs and "std_msgs/msg/String" in full.fielddefs
+    for t in TOPICS:
+        assert rig.hash_rihs01(t.type) == full.hash_rihs01(t.type)
+    assert type_hash("std_msgs/msg/String") == full.hash_rihs01("std_msgs/msg/String")
+
+
+def test_without_installed_standard_msg_files_the_rig_store_is_kilted_s(monkeypatch: pytest.MonkeyPatch) -> None:
+    expected = {t.type: type_hash(t.type) for t in TOPICS}
+    monkeypatch.setattr(typestore_mod, "_installed_msg", lambda *_: None)
+    typestore_mod.rig_typestore.cache_clear()
+    try:
+        store = typestore_mod.rig_typestore()
+        assert "std_msgs/msg/String" in store.fielddefs  # the whole distribution
+        assert {t.type: store.hash_rihs01(t.type) for t in TOPICS} == expected
+    finally:
+        typestore_mod.rig_typestore.cache_clear()
 
 
 def test_bag_reader_reports_topics_times_and_decodes(tmp_path: Path) -> None:
