@@ -1,8 +1,8 @@
 # bike_rig: make demo | make test | make lint | make bench | make clean
 #
-# The tests also need Debian's chromium (/usr/bin/chromium) for the report's render test:
-# tools/setup_chromium.sh installs it with apt-get before pytest runs, and does nothing when
-# it is there.
+# The tests also need Debian's chromium (/usr/bin/chromium, the report's render test) and tmux
+# (/usr/bin/tmux, the operator console's tests): tools/setup_debian.sh installs them with
+# apt-get before pytest runs, and does nothing when they are there.
 #
 # Every target that runs code first brings the project-local .venv up to date with
 # tools/setup_venv.sh (ROS 2 Kilted wheels, bike_rig_msgs built with cmake into the venv,
@@ -34,7 +34,7 @@ unexport ROS_LOCALHOST_ONLY ROS_STATIC_PEERS
 PYTEST_TIMEOUT_S := 1800
 BENCH_TIMEOUT_S := 1800
 
-.PHONY: venv bench-deps chromium demo test lint typecheck pytest bench clean
+.PHONY: venv bench-deps debian-tools demo test lint typecheck pytest bench clean
 
 venv:
 	@tools/setup_venv.sh
@@ -42,8 +42,8 @@ venv:
 bench-deps:
 	@tools/setup_venv.sh --bench
 
-chromium:
-	@tools/setup_chromium.sh
+debian-tools:
+	@tools/setup_debian.sh
 
 demo: venv
 	$(BIN)/bike-rig demo
@@ -55,14 +55,14 @@ typecheck: venv
 	$(BIN)/mypy bike_rig
 
 pytest: venv
-	@tools/setup_chromium.sh
+	@tools/setup_debian.sh
 	timeout -k 30 $(PYTEST_TIMEOUT_S) $(BIN)/python -m pytest
 
 # in this order: ruff, mypy, pytest (each stops the run on failure)
 test: venv
 	$(BIN)/ruff check $(LINT_PATHS)
 	$(BIN)/mypy bike_rig
-	@tools/setup_chromium.sh
+	@tools/setup_debian.sh
 	timeout -k 30 $(PYTEST_TIMEOUT_S) $(BIN)/python -m pytest
 
 # bicycleparameters lives only in .bench-deps/ (put on PYTHONPATH here), never in the test env

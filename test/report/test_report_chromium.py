@@ -1,7 +1,7 @@
 """The report renders in headless Chromium with every figure loaded.
 
 Debian's ``chromium`` (``/usr/bin/chromium``) is installed by the test set-up
-(``tools/setup_chromium.sh``, run by ``make test``). A harness page in ``tmp_path`` loads the
+(``tools/setup_debian.sh``, run by ``make test``). A harness page in ``tmp_path`` loads the
 report in an iframe (``--allow-file-access-from-files`` lets it read the frame) and, once the
 frame has loaded, writes into its own DOM how many ``<img>`` are complete with a natural width,
 which failed, and the figure count the report states; ``--dump-dom`` prints that DOM. A second
@@ -112,7 +112,7 @@ def _no_network() -> tuple[str, ...]:
 def run_chromium(args: list[str], profile: Path) -> str:
     """Run headless Chromium with ``args``; its stdout. Fails the test on timeout or error."""
     if not CHROMIUM.exists():
-        pytest.fail(f"{CHROMIUM} is missing: run tools/setup_chromium.sh (make test does)", pytrace=False)
+        pytest.fail(f"{CHROMIUM} is missing: run tools/setup_debian.sh (make test does)", pytrace=False)
     cmd = [*_no_network(), str(CHROMIUM), *FLAGS, f"--user-data-dir={profile}", *args]
     proc = subprocess.Popen(
         cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True, cwd=profile
