@@ -38,6 +38,7 @@ SUBCOMMANDS: tuple[tuple[str, str], ...] = (
     ("bag", "bag_cmd"),
     ("replay", "replay_cmd"),
     ("run", "run_cmd"),
+    ("session", "session_cmd"),
     ("simulate", "simulate_cmd"),
     ("plot", "plot_cmd"),
     ("budget", "budget_cmd"),

@@ -1,0 +1,130 @@
+"""``bike-rig session``: the operator's console (or plain mode) on a live graph it starts or joins."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import signal
+import sys
+import time
+from pathlib import Path
+
+from ..core.errors import BikeRigError
+from ..core.sim import load_rig, load_true_parameters
+from ..launch import LaunchError, RunningGraph, load_graph, parse_overrides
+from ..paths import config_file
+
+__all__ = ["add_parser", "run"]
+
+
+def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    """Register ``session``."""
+    q = subparsers.add_parser(
+        "session",
+        help="run a measurement session from one console: the plan, trials, readings, results",
+        description="Start the rig's graph (or join one with --join) and walk the operator through the session: "
+        "the plan, trials started from the keyboard, static readings typed in, each result at once, the "
+        "parameters and speeds as they form, and the next-best measurement. With no hardware source the "
+        "simulated rig is driven by the operator. --plain reads one command per line from standard input.",
+    )
+    q.add_argument("--bicycle", help="sim: the bicycle on the simulated rig (default config/bicycles/browser.yaml)")
+    q.add_argument("--name", help="the bicycle's name in the results (default: from --bicycle)")
+    q.add_argument(
+        "--rig", help="rig description: orientations, trials per period, durations (default config/rig.yaml)"
+    )
+    q.add_argument("--source", default="sim", help="gyro source: sim (default), can or daq")
+    q.add_argument("--time-scale", type=float, default=1.0, help="sim: rig seconds per wall second (default 1)")
+    q.add_argument("--seed", type=int, default=0, help="sim: seed of the simulated trials (default 0)")
+    q.add_argument("--readings", help="a measurement file whose static readings are taken as entered (optional)")
+    q.add_argument("--param", action="append", default=[], metavar="NODE.NAME=VALUE", help="parameter override")
+    q.add_argument("--output", help="session folder for the bag and logs (default ./bike_rig_sessions/<time>)")
+    q.add_argument("--domain-id", type=int, help="ROS_DOMAIN_ID (default: a free one; with --join: the graph's)")
+    q.add_argument("--join", action="store_true", help="join a graph already running instead of starting one")
+    q.add_argument("--plain", action="store_true", help="one command per line on stdin, one reply per line")
+    q.add_argument("--json", action="store_true", help="with --plain: replies as JSON lines")
+    q.set_defaults(func=run)
+
+
+def _graph_overrides(
+    args: argparse.Namespace, bicycle_file: str, name: str, folder: Path
+) -> dict[str, dict[str, object]]:
+    driver: dict[str, object] = {"source": args.source}
+    if args.source == "sim":
+        driver.update(mode="operator", bicycle=bicycle_file, seed=args.seed, time_scale=args.time_scale)
+    if args.rig:
+        driver["rig"] = str(Path(args.rig).resolve())
+    parameter: dict[str, object] = {
+        "bicycle": name,
+        "measurements": str(Path(args.readings).resolve()) if args.readings else "",
+    }
+    over: dict[str, dict[str, object]] = {
+        "driver": driver,
+        "parameter": parameter,
+        "recorder": {"output": str(folder / "bag")},
+    }
+    for node, values in parse_overrides(args.param).items():
+        over.setdefault(node, {}).update(values)
+    return over
+
+
+def _exit_on(signum: int, _frame: object) -> None:
+    raise SystemExit(128 + signum)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Start (or join) the graph, run the console or plain mode, stop what was started.
+
+    SIGTERM and SIGHUP (a closed terminal or SSH link) end the session like quitting: the
+    graph is stopped and nothing recorded is lost.
+    """
+    from ..session.plain import run_plain
+    from ..session.setup import build_controller
+
+    if args.json and not args.plain:
+        print("bike-rig session: error: --json needs --plain", file=sys.stderr)
+        return 2
+    bicycle_file = str(Path(args.bicycle).resolve()) if args.bicycle else str(config_file("bicycles/browser.yaml"))
+    rig_file = args.rig or str(config_file("rig.yaml"))
+    try:
+        rig = load_rig(rig_file)
+        name = args.name or load_true_parameters(bicycle_file)[0]
+    except BikeRigError as exc:
+        print(f"bike-rig session: error: {exc}", file=sys.stderr)
+        return 2
+    signal.signal(signal.SIGTERM, _exit_on)
+    signal.signal(signal.SIGHUP, _exit_on)
+    folder = Path(args.output or Path("bike_rig_sessions") / time.strftime("%Y%m%d-%H%M%S")).resolve()
+    graph = None
+    try:
+        if not args.join:
+            spec = load_graph(config_file("graph.yaml")).with_parameters(
+                _graph_overrides(args, bicycle_file, name, folder)
+            )
+            graph = RunningGraph(spec, folder / "logs", args.domain_id).start()
+            pids = "".join(f"{n.name} {graph.pid(n.name)}\n" for n in spec.nodes)
+            (folder / "logs" / "pids").write_text(pids, encoding="utf-8")
+            os.environ["ROS_DOMAIN_ID"] = str(graph.domain_id)
+        elif args.domain_id is not None:
+            os.environ["ROS_DOMAIN_ID"] = str(args.domain_id)
+        from ..nodes.session_link import SessionLink
+
+        link = SessionLink()
+        try:
+            ctl = build_controller(rig, name, link, args.source)
+            if args.plain:
+                status = run_plain(ctl, sys.stdin, sys.stdout, as_json=args.json)
+            else:
+                from ..console.app import run_console
+
+                status = run_console(ctl, graph)
+        finally:
+            link.close()
+    except (LaunchError, BikeRigError) as exc:
+        print(f"bike-rig session: error: {exc}", file=sys.stderr)
+        return 2
+    finally:
+        if graph is not None:
+            graph.stop()
+    if graph is not None:
+        print(f"session folder: {folder} (bag: {folder / 'bag'}, logs: {folder / 'logs'})", file=sys.stderr)
+    return status

@@ -1,0 +1,1 @@
+"""The operator's terminal console (textual) over the session controller."""

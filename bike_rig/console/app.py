@@ -1,0 +1,218 @@
+"""The operator's console: a textual app over :class:`~bike_rig.session.controller.SessionController`.
+
+Works in an 80×24 terminal (over SSH, under tmux). Layout: the plan with each item's state
+(left), what to do next and the recording trial's live trace, amplitude and warnings (right),
+the log of results and replies, and the command line. Keys:
+
+* **F2** — do the next item: start the next trial to do or redo (or the redo just offered),
+  or, when the next item is a reading, put ``reading KEY `` on the command line;
+* **F3** — stop the recording trial; **F4** — abort it (ABORT is recorded);
+* **F5** — the next item and the next-best measurement; **F10** — quit.
+
+Every command of plain mode can be typed on the command line (``help`` lists them).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from rich.text import Text
+from textual.app import App, ComposeResult
+from textual.binding import Binding
+from textual.containers import Horizontal, Vertical
+from textual.widgets import DataTable, Footer, Input, RichLog, Sparkline, Static
+
+from ..session.controller import Reply, SessionController
+from ..session.plan import ItemState, ReadingItem, TrialItem
+
+__all__ = ["SessionApp", "run_console"]
+
+#: Screen refresh and graph polling period, s.
+TICK_S = 0.05
+
+_STATE_STYLE = {
+    ItemState.TODO: "dim",
+    ItemState.RECORDING: "bold yellow",
+    ItemState.OK: "green",
+    ItemState.REDO: "bold red",
+    ItemState.DONE: "green",
+}
+_REPLY_STYLE = {"error": "bold red", "warning": "yellow", "result": "bold", "ok": "cyan", "done": "green"}
+
+
+class SessionApp(App[int]):
+    """The console (see the module docstring)."""
+
+    CSS = """
+    #top { height: 1fr; }
+    #plan { width: 44; }
+    #side { width: 1fr; padding: 0 1; }
+    #trace { height: 4; }
+    #log { height: 6; border-top: solid $accent; }
+    #cmd { height: 3; }
+    """
+    BINDINGS = [
+        Binding("f2", "do_next", "next item"),
+        Binding("f3", "stop", "stop"),
+        Binding("f4", "abort", "abort"),
+        Binding("f5", "advice", "next best"),
+        Binding("f10", "quit_session", "quit"),
+    ]
+
+    def __init__(self, controller: SessionController, graph: Any = None) -> None:
+        """Show ``controller``'s session; ``graph`` (a RunningGraph or None) is watched for dead nodes."""
+        super().__init__()
+        self.ctl = controller
+        self.graph = graph
+        self.offer = ""
+        self._states: dict[str, ItemState] = {}
+        self._dead_reported: set[str] = set()
+
+    def compose(self) -> ComposeResult:
+        """The widgets (see the module docstring)."""
+        yield Static(id="title")
+        with Horizontal(id="top"):
+            yield DataTable(id="plan", cursor_type="row", zebra_stripes=False)
+            with Vertical(id="side"):
+                yield Static(id="next")
+                yield Sparkline([0.0], id="trace")
+                yield Static(id="live")
+        yield RichLog(id="log", wrap=True, markup=False, max_lines=500)
+        yield Input(placeholder="command (help) — F2 next item, F3 stop, F4 abort, F5 next best, F10 quit", id="cmd")
+        yield Footer()
+
+    def on_mount(self) -> None:
+        """Fill the plan table, focus the command line, start the refresh timer."""
+        table = self.query_one("#plan", DataTable)
+        table.add_column("item", key="item", width=9)
+        table.add_column("state", key="state", width=9)
+        table.add_column("what", key="what", width=20)
+        for item in self.ctl.session.plan.items:
+            state = self.ctl.session.state(item)
+            self._states[item.item_id] = state
+            what = item.key if isinstance(item, ReadingItem) else f"{item.part} {item.measurement.pendulum}"
+            table.add_row(item.item_id, Text(state.value, style=_STATE_STYLE[state]), what, key=item.item_id)
+        self.query_one("#cmd", Input).focus()
+        self._show([Reply("info", "bike_rig session: F2 does the next item; type 'help' for every command")])
+        self.set_interval(TICK_S, self._tick)
+        self._tick()
+
+    # ------------------------------------------------------------------ refresh
+    def _show(self, replies: list[Reply]) -> None:
+        log = self.query_one("#log", RichLog)
+        for r in replies:
+            prefix = {"error": "error: ", "warning": "warning: "}.get(r.kind, "")
+            log.write(Text(prefix + r.text, style=_REPLY_STYLE.get(r.kind, "")))
+            if r.kind == "result" and r.data.get("state") == ItemState.REDO.value:
+                item = self.ctl.session.trials.get(str(r.data.get("trial_id", "")))
+                if item is not None and item.item_id:
+                    self.offer = item.item_id
+                    log.write(Text(f"F2 records {item.item_id} again", style="bold red"))
+        if any(r.kind == "done" for r in replies):
+            self.exit(0)
+
+    def _tick(self) -> None:
+        self._show(self.ctl.pump())
+        self._refresh_plan()
+        self._refresh_side()
+        self._check_graph()
+
+    def _refresh_plan(self) -> None:
+        table = self.query_one("#plan", DataTable)
+        for item_id, state in self.ctl.session.states().items():
+            if self._states.get(item_id) != state:
+                self._states[item_id] = state
+                table.update_cell(item_id, "state", Text(state.value, style=_STATE_STYLE[state]))
+        done, total = self.ctl.session.progress()
+        s = self.ctl.session
+        result = ""
+        if s.complete and s.stability is not None and s.stability.weave is not None and s.stability.capsize is not None:
+            w, c = s.stability.weave, s.stability.capsize
+            result = f"  weave {w.speed:.3f}±{w.sigma:.3f}  capsize {c.speed:.3f}±{c.sigma:.3f} m/s"
+        self.query_one("#title", Static).update(
+            Text(f"bike_rig session — {s.bicycle} — {done}/{total} done{result}", style="bold reverse")
+        )
+
+    def _refresh_side(self) -> None:
+        s = self.ctl.session
+        if self.offer and s.state(s.plan.item(self.offer)) != ItemState.REDO:
+            self.offer = ""
+        item = s.plan.item(self.offer) if self.offer else s.next_item()
+        nxt = "Everything is ok or done." if item is None else item.instruction
+        head = "REDO: " if item is not None and s.state(item) == ItemState.REDO else "Next: "
+        missing = s.missing()
+        tail = (
+            f"\nMissing: {len(missing)} ({', '.join(missing[:6])}{'…' if len(missing) > 6 else ''})" if missing else ""
+        )
+        self.query_one("#next", Static).update(Text(head + nxt + tail))
+        live = s.live_status(self.ctl.clock())
+        trace = self.query_one("#trace", Sparkline)
+        if live is None:
+            self.query_one("#live", Static).update(Text("No trial recording.", style="dim"))
+            return
+        y = s.live.recent(4.0) if s.live is not None else None
+        if y is not None and y.size:
+            step = max(1, y.size // 60)
+            trace.data = [float(v) for v in y[::step]]
+        amp = f"{live.amplitude:.3g} rad/s" if math.isfinite(live.amplitude) else "—"
+        text = Text(f"Recording {live.trial_id}: {live.seconds:.1f} s, {live.samples} samples, amplitude {amp}\n")
+        for w in live.warnings:
+            text.append(f"⚠ {w}\n", style="bold red")
+        self.query_one("#live", Static).update(text)
+
+    def _check_graph(self) -> None:
+        if self.graph is None:
+            return
+        for name, code, tail in self.graph.dead():
+            if name not in self._dead_reported:
+                self._dead_reported.add(name)
+                self._show(
+                    [Reply("error", f"node {name} exited with status {code}: {tail.splitlines()[-1] if tail else ''}")]
+                )
+
+    # ------------------------------------------------------------------ actions
+    def on_input_submitted(self, event: Input.Submitted) -> None:
+        """Run the typed command."""
+        line = event.value.strip()
+        event.input.value = ""
+        if line:
+            self._show([Reply("info", f"> {line}")])
+            self._show(self.ctl.execute(line))
+
+    def action_do_next(self) -> None:
+        """F2: the offered redo, or the next item."""
+        s = self.ctl.session
+        item = s.plan.item(self.offer) if self.offer else s.next_item()
+        if item is None:
+            self._show([Reply("info", "every item of the plan is ok or done")])
+        elif isinstance(item, TrialItem):
+            self.offer = ""
+            self._show(self.ctl.execute(f"start {item.item_id}"))
+        else:
+            cmd = self.query_one("#cmd", Input)
+            cmd.value = f"reading {item.key} "
+            cmd.cursor_position = len(cmd.value)
+            cmd.focus()
+
+    def action_stop(self) -> None:
+        """F3: stop the recording trial."""
+        self._show(self.ctl.execute("stop"))
+
+    def action_abort(self) -> None:
+        """F4: abort the recording trial."""
+        self._show(self.ctl.execute("abort"))
+
+    def action_advice(self) -> None:
+        """F5: the next item and the next-best measurement."""
+        self._show(self.ctl.execute("next"))
+
+    def action_quit_session(self) -> None:
+        """F10: quit (a recording trial is aborted first)."""
+        self._show(self.ctl.execute("quit"))
+
+
+def run_console(controller: SessionController, graph: Any = None) -> int:
+    """Run the console until the operator quits; its exit status."""
+    status = SessionApp(controller, graph).run()
+    return int(status or 0)

@@ -1,0 +1,365 @@
+"""The operator's commands, shared by the console and plain mode.
+
+One command per line; each gives one or more :class:`Reply` (a line of text and, for
+``--json``, a dict). Commands:
+
+==========================  ==============================================================
+``start [ITEM] [SECONDS]``  start a trial: the next trial to do or redo, or ``ITEM``
+                            (``TtB2#3``); ``SECONDS`` overrides the plan's duration
+``stop``                    stop the recording trial (its result follows)
+``abort``                   abort the recording trial (ABORT is recorded; the item stays REDO)
+``reading KEY VALUE SIGMA`` enter a static reading (degrees only where the key says so);
+                            again for a correction: the newer wins, both are recorded
+``status``                  progress, the recording trial, what is missing, the result
+``next``                    the next item with its instruction, and the next-best measurement
+``best``                    the ranking of open and repeatable items by σ reduction
+``plan``                    every item with its state
+``params``                  the 25 parameters with σ (once complete)
+``help``                    this list
+``quit``                    leave (a recording trial is aborted first)
+==========================  ==============================================================
+
+:meth:`SessionController.pump` moves what the graph published into the session and gives
+the replies it causes (a trial's result, a new warning, the set complete).
+"""
+
+from __future__ import annotations
+
+import math
+import shlex
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+from ..core.symbols import PARAMETER_NAMES
+from ..pipeline.acquire import SampleBatch, TrialEventRecord
+from ..pipeline.assemble import SessionParameters
+from ..pipeline.fit import TrialFit
+from ..pipeline.model import StabilitySweep
+from ..pipeline.readings import ReadingEntry
+from .plan import ItemState, ReadingItem, TrialItem
+from .state import OperatorSession
+
+__all__ = ["COMMANDS", "GraphEvent", "GraphLink", "Reply", "SessionController", "StartReply"]
+
+GraphEvent = TrialEventRecord | SampleBatch | TrialFit | SessionParameters | StabilitySweep | ReadingEntry
+
+COMMANDS = ("start", "stop", "abort", "reading", "status", "next", "best", "plan", "params", "help", "quit")
+
+
+@dataclass(frozen=True)
+class StartReply:
+    """The driver's answer to a start request.
+
+    Attributes:
+        accepted: The trial records.
+        trial_id: Its id (when accepted).
+        message: The driver's message (the reason when refused).
+    """
+
+    accepted: bool
+    trial_id: str
+    message: str
+
+
+class GraphLink(Protocol):
+    """What the controller needs of the live graph (ROS: :mod:`bike_rig.nodes.session_link`)."""
+
+    def start_trial(self, item: TrialItem, duration_s: float) -> StartReply:
+        """Ask the driver to start a trial of ``item`` lasting ``duration_s`` (s)."""
+        ...
+
+    def stop_trial(self, trial_id: str, abort: bool) -> tuple[bool, str]:
+        """Ask the driver to stop (or abort) a trial: (accepted, message)."""
+        ...
+
+    def send_reading(self, entry: ReadingEntry) -> None:
+        """Publish a reading entry."""
+        ...
+
+    def events(self) -> list[GraphEvent]:
+        """What the graph published since the last call, in arrival order."""
+        ...
+
+
+@dataclass(frozen=True)
+class Reply:
+    """One line of output.
+
+    Attributes:
+        kind: ``ok``, ``error``, ``warning``, ``result``, ``info`` or ``done``.
+        text: The line.
+        data: The same for ``--json``.
+    """
+
+    kind: str
+    text: str
+    data: dict[str, Any] = field(default_factory=dict)
+
+    def as_json(self) -> dict[str, Any]:
+        """The reply as a JSON object."""
+        return {"kind": self.kind, "text": self.text, **self.data}
+
+
+class CommandError(Exception):
+    """A command that cannot be carried out (the message says why)."""
+
+
+def _speed(name: str, s: Any) -> str:
+    if s is None:
+        return f"{name}: none"
+    sigma = f" ± {s.sigma:.2g}" if math.isfinite(s.sigma) else ""
+    return f"{name} {s.speed:.4g}{sigma} m/s"
+
+
+@dataclass
+class SessionController:
+    """Commands on a session through a link to the graph.
+
+    Attributes:
+        session: The session state.
+        link: The live graph.
+        clock: Wall clock, s (monotonic).
+        check_reading: ``(key, value_text, sigma_text, session) -> (ReadingEntry, warnings)``;
+            raises ``ValueError`` with a one-line reason for a reading that cannot be taken.
+        rank: ``(session) -> [(item_id, text)]``, best first: the next-best measurements.
+    """
+
+    session: OperatorSession
+    link: GraphLink
+    check_reading: Callable[[str, str, str, OperatorSession], tuple[ReadingEntry, list[str]]]
+    rank: Callable[[OperatorSession], list[tuple[str, str]]] = lambda _s: []
+    clock: Callable[[], float] = time.monotonic
+    quit_requested: bool = False
+    _warned: set[str] = field(default_factory=set)
+    _announced: tuple[float, ...] = ()
+
+    # ------------------------------------------------------------------ commands
+    def execute(self, line: str) -> list[Reply]:
+        """Carry out one command line; errors become ``error`` replies (never raise)."""
+        try:
+            words = shlex.split(line)
+        except ValueError as exc:
+            return [Reply("error", f"cannot read the command: {exc}")]
+        if not words:
+            return []
+        name, args = words[0].lower(), words[1:]
+        handler = getattr(self, f"_cmd_{name}", None)
+        if handler is None:
+            return [Reply("error", f"unknown command '{name}' (commands: {', '.join(COMMANDS)})")]
+        try:
+            replies: list[Reply] = handler(args)
+            return replies
+        except CommandError as exc:
+            return [Reply("error", str(exc), {"command": name})]
+
+    def _cmd_start(self, args: Sequence[str]) -> list[Reply]:
+        if self.session.recording() is not None:
+            raise CommandError(f"trial {self.session.recording().trial_id} is recording: stop or abort it first")  # type: ignore[union-attr]
+        item: Any = self.session.next_trial() if not args or _is_number(args[0]) else None
+        if args and not _is_number(args[0]):
+            try:
+                item = self.session.plan.item(args[0])
+            except KeyError as exc:
+                raise CommandError(str(exc.args[0])) from None
+            if not isinstance(item, TrialItem):
+                raise CommandError(f"{args[0]} is a reading: enter it with 'reading {args[0]} VALUE SIGMA'")
+        if item is None:
+            raise CommandError("every trial of the plan is ok; give an item to record one again (e.g. start TtB2#1)")
+        rest = args[1:] if args and not _is_number(args[0]) else args
+        duration = float(rest[0]) if rest else item.duration_s
+        if not (math.isfinite(duration) and duration > 0):
+            raise CommandError(f"duration {rest[0]} s: must be a positive number of seconds")
+        reply = self.link.start_trial(item, duration)
+        if not reply.accepted:
+            raise CommandError(f"the driver refused {item.item_id}: {reply.message}")
+        self.session.expect(reply.trial_id, item.item_id, self.clock())
+        data = {"command": "start", "item": item.item_id, "trial_id": reply.trial_id, "duration_s": duration}
+        return [Reply("ok", f"recording {item.item_id} as {reply.trial_id} ({duration:g} s): {item.instruction}", data)]
+
+    def _stop(self, abort: bool) -> list[Reply]:
+        view = self.session.recording()
+        if view is None:
+            raise CommandError("no trial is recording")
+        accepted, message = self.link.stop_trial(view.trial_id, abort)
+        if not accepted:
+            raise CommandError(f"the driver refused to {'abort' if abort else 'stop'} {view.trial_id}: {message}")
+        what = "abort" if abort else "stop"
+        return [Reply("ok", message, {"command": what, "trial_id": view.trial_id})]
+
+    def _cmd_stop(self, args: Sequence[str]) -> list[Reply]:
+        return self._stop(False)
+
+    def _cmd_abort(self, args: Sequence[str]) -> list[Reply]:
+        return self._stop(True)
+
+    def _cmd_reading(self, args: Sequence[str]) -> list[Reply]:
+        if len(args) != 3:
+            raise CommandError(
+                "usage: reading KEY VALUE SIGMA (e.g. reading mR 3.02 0.02; degrees only for gamma, alpha*)"
+            )
+        try:
+            entry, warnings = self.check_reading(args[0], args[1], args[2], self.session)
+        except ValueError as exc:
+            raise CommandError(str(exc)) from None
+        corrected = entry.key in self.session.readings
+        self.link.send_reading(entry)
+        self.session.on_reading(entry)
+        verb = "corrected" if corrected else "entered"
+        data = {"command": "reading", "key": entry.key, "value": entry.value, "sigma": entry.sigma}
+        out = [Reply("ok", f"{verb} {entry.key} = {entry.value:g} ± {entry.sigma:g}", data)]
+        out += [Reply("warning", w, {"key": entry.key}) for w in warnings]
+        return out
+
+    def _cmd_status(self, args: Sequence[str]) -> list[Reply]:
+        done, total = self.session.progress()
+        out = [Reply("info", f"progress {done}/{total}", {"done": done, "total": total})]
+        live = self.session.live_status(self.clock())
+        if live is not None:
+            amp = f", amplitude {live.amplitude:.3g} rad/s" if math.isfinite(live.amplitude) else ""
+            out.append(Reply("info", f"recording {live.trial_id}: {live.samples} samples ({live.seconds:.1f} s){amp}",
+                             {"recording": live.trial_id, "samples": live.samples}))  # fmt: skip
+            out += [Reply("warning", w) for w in live.warnings]
+        out += self._result_replies()
+        return out
+
+    def _result_replies(self) -> list[Reply]:
+        s = self.session
+        if not s.complete:
+            missing = s.missing()
+            shown = ", ".join(missing[:12]) + (f" … ({len(missing)} in all)" if len(missing) > 12 else "")
+            return [Reply("info", f"missing: {shown or 'nothing'}", {"missing": list(missing)})]
+        out = [Reply("info", "parameter set complete", {"complete": True})]
+        if s.stability is not None:
+            w, c = s.stability.weave, s.stability.capsize
+            data = {
+                "weave": None if w is None else [w.speed, w.sigma],
+                "capsize": None if c is None else [c.speed, c.sigma],
+            }
+            out.append(Reply("info", f"{_speed('weave', w)}, {_speed('capsize', c)}", data))
+        return out
+
+    def _cmd_next(self, args: Sequence[str]) -> list[Reply]:
+        item = self.session.next_item()
+        out = []
+        if item is None:
+            out.append(Reply("info", "every item of the plan is ok or done", {"next": None}))
+        else:
+            state = self.session.state(item).value
+            out.append(Reply("info", f"next ({state}): {item.instruction}", {"next": item.item_id, "state": state}))
+        ranked = self.rank(self.session)
+        if ranked:
+            out.append(Reply("info", f"next best: {ranked[0][1]}", {"best": ranked[0][0]}))
+        return out
+
+    def _cmd_best(self, args: Sequence[str]) -> list[Reply]:
+        ranked = self.rank(self.session)
+        if not ranked:
+            return [Reply("info", "no ranking yet: the parameter set must be complete first", {"ranking": []})]
+        return [
+            Reply("info", f"{k + 1}. {text}", {"rank": k + 1, "item": item})
+            for k, (item, text) in enumerate(ranked[:10])
+        ]
+
+    def _cmd_plan(self, args: Sequence[str]) -> list[Reply]:
+        out = []
+        for item in self.session.plan.items:
+            state = self.session.state(item)
+            kind = "reading" if isinstance(item, ReadingItem) else "trial"
+            out.append(
+                Reply(
+                    "info", f"{item.item_id:10s} {state.value:9s} {kind}", {"item": item.item_id, "state": state.value}
+                )
+            )
+        return out
+
+    def _cmd_params(self, args: Sequence[str]) -> list[Reply]:
+        p = self.session.parameters
+        if p is None or not p.complete:
+            raise CommandError("the parameter set is not complete yet (see 'status' for what is missing)")
+        ps = p.complete_parameters().parameters
+        out = []
+        for name in PARAMETER_NAMES:
+            v, s = ps.value(name), ps.sigma(name)
+            out.append(Reply("info", f"{name:4s} {v: .6g} ± {s:.2g}", {"name": name, "value": v, "sigma": s}))
+        return out
+
+    def _cmd_help(self, args: Sequence[str]) -> list[Reply]:
+        return [
+            Reply("info", line) for line in (__doc__ or "").split("==========================")[2].strip().splitlines()
+        ]
+
+    def _cmd_quit(self, args: Sequence[str]) -> list[Reply]:
+        out = []
+        if self.session.recording() is not None:
+            out += self._stop(True)
+        self.quit_requested = True
+        return out + [Reply("done", "bye")]
+
+    # ------------------------------------------------------------------ graph
+    def _new_warnings(self, now: float) -> list[Reply]:
+        """Each live warning once per trial and kind (its first words), as it appears."""
+        live = self.session.live_status(now)
+        if live is None:
+            return []
+        out = []
+        for w in live.warnings:
+            tag = f"{live.trial_id}:{w.split(' for ')[0][:40]}"
+            if tag not in self._warned:
+                self._warned.add(tag)
+                out.append(Reply("warning", f"{live.trial_id}: {w}", {"trial_id": live.trial_id}))
+        return out
+
+    def pump(self) -> list[Reply]:
+        """Apply what the graph published; replies for new results, warnings and completion."""
+        out: list[Reply] = []
+        now = self.clock()
+        s = self.session
+        for ev in self.link.events():
+            if isinstance(ev, SampleBatch):
+                s.on_samples(ev, now)
+            elif isinstance(ev, TrialEventRecord):
+                before = len(s.results)
+                s.on_trial_event(ev, now)
+                out += [Reply("result", r, {"trial_id": ev.trial_id, "state": "REDO"}) for r in s.results[before:]]
+            elif isinstance(ev, TrialFit):
+                line = s.on_period(ev)
+                state = ItemState.OK.value if ev.usable else ItemState.REDO.value
+                out.append(Reply("result", line, _fit_data(ev, state)))
+            elif isinstance(ev, SessionParameters):
+                s.on_parameters(ev)
+            elif isinstance(ev, StabilitySweep):
+                s.on_stability(ev)
+            elif isinstance(ev, ReadingEntry):
+                if not any(e.stamp_ns == ev.stamp_ns and e.value == ev.value for e in s.readings.get(ev.key, [])):
+                    s.on_reading(ev)
+        out += self._new_warnings(now)
+        if s.complete and s.stability is not None:
+            sw, sc = s.stability.weave, s.stability.capsize
+            speeds = tuple(x for v in (sw, sc) if v is not None for x in (v.speed, v.sigma))
+            if speeds != self._announced:  # the result as it forms: after every change
+                self._announced = speeds
+                out += self._result_replies()
+        return out
+
+
+def _fit_data(fit: TrialFit, state: str) -> dict[str, Any]:
+    return {
+        "trial_id": fit.trial_id,
+        "key": fit.measurement_key,
+        "period": fit.period,
+        "period_sigma": fit.period_sigma,
+        "r2": fit.fit.r2,
+        "flags": list(fit.flag_codes),
+        "reasons": list(fit.flag_reasons),
+        "state": state,
+    }
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True

@@ -1,0 +1,139 @@
+"""What the operator sees while a trial records: the last seconds of gyro rate, and warnings.
+
+:class:`LiveTrace` keeps the recording trial's most recent samples (``window_s`` of rig time)
+and reports, from them and the wall clock:
+
+* **no samples**: none has arrived for ``silence_s`` (1 s) of wall time since the start was
+  accepted or since the last sample — a silent bus, a wrong CAN id, an unplugged gyro;
+* **clipping**: the last ``clip_window_s`` hold runs of at least :data:`MIN_CLIP_RUN` equal
+  samples at the window's largest or smallest value, at least twice — the sensor or ADC
+  saturates (the trial's fit flags it too, after STOP);
+* **amplitude too small**: the oscillation's amplitude (half the peak-to-peak of the last
+  ``amplitude_window_s``) is under :data:`MIN_SNR` times the sample-to-sample noise
+  (``std(diff(y)) / √2``, the fitter's noise estimate) — too small a swing to fit well.
+
+Rates in rad/s, times in s.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ["MIN_CLIP_RUN", "MIN_SNR", "LiveStatus", "LiveTrace"]
+
+FloatArray = NDArray[np.float64]
+
+#: Equal samples in a row at the window's extreme that count as a clipped peak.
+MIN_CLIP_RUN = 5
+#: Smallest amplitude / noise ratio that does not warn.
+MIN_SNR = 10.0
+
+
+@dataclass(frozen=True)
+class LiveStatus:
+    """The recording trial as the console shows it.
+
+    Attributes:
+        trial_id: The trial.
+        samples: Samples received so far.
+        seconds: Rig time recorded so far, s.
+        amplitude: Half the peak-to-peak rate of the last seconds, rad/s (NaN before any).
+        warnings: One line each (empty when all is well).
+    """
+
+    trial_id: str
+    samples: int
+    seconds: float
+    amplitude: float
+    warnings: tuple[str, ...]
+
+
+@dataclass
+class LiveTrace:
+    """The recording trial's recent samples and their warnings (see the module docstring).
+
+    Attributes:
+        trial_id: The trial.
+        started_wall_s: Wall time the start was accepted, s (any monotonic clock).
+        source: The gyro source's name, for the no-samples warning.
+        window_s: Rig time kept for the trace, s.
+        silence_s: Wall time without samples that warns, s.
+    """
+
+    trial_id: str
+    started_wall_s: float
+    source: str = "gyro"
+    window_s: float = 10.0
+    silence_s: float = 1.0
+    amplitude_window_s: float = 4.0
+    clip_window_s: float = 4.0
+    rate_hz: float = math.nan
+    samples: int = 0
+    last_sample_wall_s: float | None = None
+    _blocks: deque[FloatArray] = field(default_factory=deque, repr=False)
+    _kept: int = 0
+
+    def add(self, rates: FloatArray, rate_hz: float, now_wall_s: float) -> None:
+        """Add a batch of samples (rad/s) at ``rate_hz`` received at wall time ``now_wall_s``."""
+        if rates.size == 0:
+            return
+        self.rate_hz = rate_hz
+        self.samples += int(rates.size)
+        self.last_sample_wall_s = now_wall_s
+        self._blocks.append(np.asarray(rates, dtype=np.float64))
+        self._kept += int(rates.size)
+        keep = int(self.window_s * rate_hz) if math.isfinite(rate_hz) and rate_hz > 0 else 10_000
+        while self._blocks and self._kept - self._blocks[0].size >= keep:
+            self._kept -= self._blocks.popleft().size
+
+    def recent(self, seconds: float | None = None) -> FloatArray:
+        """The last ``seconds`` of samples (all kept when None), rad/s."""
+        y = np.concatenate(list(self._blocks)) if self._blocks else np.zeros(0)
+        if seconds is None or not (math.isfinite(self.rate_hz) and self.rate_hz > 0):
+            return y
+        return y[-max(1, int(seconds * self.rate_hz)) :]
+
+    def status(self, now_wall_s: float) -> LiveStatus:
+        """The trial's status and warnings at wall time ``now_wall_s``."""
+        warnings = []
+        since = now_wall_s - (self.last_sample_wall_s if self.last_sample_wall_s is not None else self.started_wall_s)
+        if since >= self.silence_s:
+            what = "no samples yet" if self.samples == 0 else "no samples"
+            warnings.append(
+                f"{what} from the {self.source} for {since:.1f} s: silent bus, wrong CAN id or unplugged gyro? "
+                "(abort the trial, check the wiring and the id)"
+            )
+        y = self.recent(self.amplitude_window_s)
+        amplitude = 0.5 * float(np.ptp(y)) if y.size else math.nan
+        if y.size >= 20:
+            noise = float(np.std(np.diff(y))) / math.sqrt(2.0)
+            if noise > 0 and amplitude < MIN_SNR * noise:
+                warnings.append(
+                    f"amplitude {amplitude:.3g} rad/s is only {amplitude / noise:.1f}× the noise: "
+                    "too small to fit well, swing it wider"
+                )
+        clip = self._clipped(self.recent(self.clip_window_s))
+        if clip:
+            warnings.append(clip)
+        seconds = self.samples / self.rate_hz if math.isfinite(self.rate_hz) and self.rate_hz > 0 else 0.0
+        return LiveStatus(self.trial_id, self.samples, seconds, amplitude, tuple(warnings))
+
+    @staticmethod
+    def _clipped(y: FloatArray) -> str:
+        if y.size < 2 * MIN_CLIP_RUN:
+            return ""
+        for side, extreme in (("maximum", float(np.max(y))), ("minimum", float(np.min(y)))):
+            at = (y == extreme).astype(np.int8)
+            edges = np.flatnonzero(np.diff(np.concatenate(([0], at, [0]))))
+            runs = edges[1::2] - edges[0::2]
+            if int(np.count_nonzero(runs >= MIN_CLIP_RUN)) >= 2:
+                return (
+                    f"the signal clips at its {side} ({extreme:.4g} rad/s held for {int(np.max(runs))} samples): "
+                    "the gyro or ADC saturates, use a smaller swing"
+                )
+        return ""

@@ -1,0 +1,239 @@
+"""The operator's session as it stands: the plan's states, the trials, the readings, the result.
+
+:class:`OperatorSession` is fed what the live graph publishes (trial events, gyro batches,
+period estimates, the parameter set, the stability sweep; records of
+:mod:`bike_rig.pipeline`) and what the operator entered (readings), and answers what the
+console shows: each plan item's state (:class:`~bike_rig.session.plan.ItemState`), the next
+item, the recording trial's live status, each trial's result line, what is still missing, and
+the parameters and speeds once complete. No ROS: the console's link to the graph
+(:mod:`bike_rig.nodes.session_link`) and a recorded bag (resume) feed the same methods.
+
+Trial items are matched to trials by the trial's measurement key and repeat (``TtB2#3``);
+a later trial of the same item replaces the earlier one in the item's state (a redo), while
+every trial stays in :attr:`OperatorSession.trials`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+from ..pipeline.acquire import SampleBatch, TrialEventKind, TrialEventRecord
+from ..pipeline.assemble import SessionParameters
+from ..pipeline.fit import TrialFit
+from ..pipeline.model import StabilitySweep
+from ..pipeline.readings import ReadingEntry
+from .live import LiveStatus, LiveTrace
+from .plan import ItemState, PlanItem, ReadingItem, SessionPlan, TrialItem
+
+__all__ = ["OperatorSession", "SessionTrialView", "result_line"]
+
+
+@dataclass
+class SessionTrialView:
+    """One trial of the session as the console tracks it.
+
+    Attributes:
+        trial_id: The trial.
+        item_id: The plan item it belongs to ("" when it matches none).
+        key: Its measurement key.
+        sample_rate_hz: From its START, Hz.
+        state: RECORDING, then OK or REDO.
+        fit: The period estimate, once published.
+        aborted: Its end was an ABORT.
+        stopped: A STOP or ABORT was seen.
+    """
+
+    trial_id: str
+    item_id: str
+    key: str
+    sample_rate_hz: float = math.nan
+    state: ItemState = ItemState.RECORDING
+    fit: TrialFit | None = None
+    aborted: bool = False
+    stopped: bool = False
+
+
+def _cycles(fit: TrialFit, rate_hz: float) -> float:
+    n = fit.window[1] - fit.window[0]
+    if not (math.isfinite(rate_hz) and rate_hz > 0 and math.isfinite(fit.period) and fit.period > 0 and n > 0):
+        return math.nan
+    return n / rate_hz / fit.period
+
+
+def result_line(view: SessionTrialView) -> str:
+    """The trial's result in one line: period ± σ, cycles, r², then ok or REDO with every flag's reason."""
+    fit = view.fit
+    head = f"{view.item_id or view.key} {view.trial_id}:"
+    if fit is None:
+        return f"{head} aborted" if view.aborted else f"{head} waiting for its fit"
+    cycles = _cycles(fit, view.sample_rate_hz)
+    numbers = (
+        f"T = {fit.period:.6g} ± {fit.period_sigma:.2g} s, {cycles:.0f} cycles, r² {fit.fit.r2:.5f}"
+        if fit.valid
+        else "no period"
+    )
+    if fit.usable:
+        return f"{head} {numbers} — ok"
+    reasons = "; ".join(f"{c}: {r}" for c, r in zip(fit.flag_codes, fit.flag_reasons, strict=True)) or "no period"
+    return f"{head} {numbers} — REDO ({reasons})"
+
+
+@dataclass
+class OperatorSession:
+    """The session's state (see the module docstring).
+
+    Attributes:
+        plan: The session plan.
+        bicycle: The bicycle's name.
+        source: The gyro source's name (for the no-samples warning).
+    """
+
+    plan: SessionPlan
+    bicycle: str = ""
+    source: str = "gyro"
+    trials: dict[str, SessionTrialView] = field(default_factory=dict)
+    readings: dict[str, list[ReadingEntry]] = field(default_factory=dict)
+    parameters: SessionParameters | None = None
+    stability: StabilitySweep | None = None
+    live: LiveTrace | None = None
+    results: list[str] = field(default_factory=list)
+    _item_trial: dict[str, str] = field(default_factory=dict)
+
+    # ------------------------------------------------------------------ feeding
+    def expect(self, trial_id: str, item_id: str, now_wall_s: float) -> None:
+        """The driver accepted a start of ``item_id`` as ``trial_id``: track it from now."""
+        item = self.plan.item(item_id)
+        key = item.key
+        self.trials[trial_id] = SessionTrialView(trial_id, item_id, key)
+        self._item_trial[item_id] = trial_id
+        self.live = LiveTrace(trial_id, now_wall_s, source=self.source)
+
+    def _item_for(self, event: TrialEventRecord) -> str:
+        wanted = f"{event.measurement_key}#{event.repeat}"
+        ids = {i.item_id for i in self.plan.trials}
+        if wanted in ids:
+            return wanted
+        free = [i.item_id for i in self.plan.trials if i.key == event.measurement_key]
+        return next((i for i in free if i not in self._item_trial), free[-1] if free else "")
+
+    def on_trial_event(self, event: TrialEventRecord, now_wall_s: float) -> None:
+        """A START, STOP or ABORT from the driver."""
+        view = self.trials.get(event.trial_id)
+        if view is None:
+            item_id = self._item_for(event)
+            view = SessionTrialView(event.trial_id, item_id, event.measurement_key)
+            self.trials[event.trial_id] = view
+            if item_id:
+                self._item_trial[item_id] = event.trial_id
+        if math.isfinite(event.sample_rate_hz):
+            view.sample_rate_hz = event.sample_rate_hz
+        if event.kind == TrialEventKind.START:
+            if self.live is None or self.live.trial_id != event.trial_id:
+                self.live = LiveTrace(event.trial_id, now_wall_s, source=self.source)
+            return
+        view.stopped = True
+        view.aborted = event.kind == TrialEventKind.ABORT
+        if view.aborted:
+            view.state = ItemState.REDO
+            self.results.append(f"{view.item_id or view.key} {event.trial_id}: aborted — REDO")
+        if self.live is not None and self.live.trial_id == event.trial_id:
+            self.live = None
+
+    def on_samples(self, batch: SampleBatch, now_wall_s: float) -> None:
+        """A gyro batch: feeds the live trace of the recording trial."""
+        if self.live is not None and batch.trial_id == self.live.trial_id:
+            self.live.add(batch.rates, batch.sample_rate_hz, now_wall_s)
+
+    def on_period(self, fit: TrialFit) -> str:
+        """A period estimate: the trial's state becomes OK or REDO. Returns its result line."""
+        view = self.trials.get(fit.trial_id)
+        if view is None:
+            event = TrialEventRecord(TrialEventKind.STOP, fit.trial_id, fit.measurement_key)
+            item_id = self._item_for(event)
+            view = SessionTrialView(fit.trial_id, item_id, fit.measurement_key, stopped=True)
+            self.trials[fit.trial_id] = view
+            if item_id:
+                self._item_trial.setdefault(item_id, fit.trial_id)
+        if math.isnan(view.sample_rate_hz) and math.isfinite(fit.sample_rate_hz):
+            view.sample_rate_hz = fit.sample_rate_hz
+        view.fit = fit
+        view.state = ItemState.OK if fit.usable else ItemState.REDO
+        line = result_line(view)
+        self.results.append(line)
+        return line
+
+    def on_reading(self, entry: ReadingEntry) -> None:
+        """A reading entered (its newest entry wins; every entry is kept)."""
+        self.readings.setdefault(entry.key, []).append(entry)
+
+    def on_parameters(self, result: SessionParameters) -> None:
+        """The parameter node's latest result."""
+        self.parameters = result
+
+    def on_stability(self, sweep: StabilitySweep) -> None:
+        """The model node's latest critical speeds."""
+        self.stability = sweep
+
+    # ------------------------------------------------------------------ reading
+    def reading(self, key: str) -> ReadingEntry | None:
+        """The newest entry of ``key``, or None."""
+        entries = self.readings.get(key)
+        return max(entries, key=lambda e: e.stamp_ns) if entries else None
+
+    def state(self, item: PlanItem) -> ItemState:
+        """Where ``item`` stands."""
+        if isinstance(item, ReadingItem):
+            return ItemState.DONE if item.key in self.readings else ItemState.TODO
+        trial_id = self._item_trial.get(item.item_id)
+        if trial_id is None:
+            return ItemState.TODO
+        view = self.trials[trial_id]
+        if view.state == ItemState.RECORDING and view.stopped and view.fit is None:
+            return ItemState.RECORDING  # stopped, its fit on the way
+        return view.state
+
+    def states(self) -> Mapping[str, ItemState]:
+        """Every item's state by item id, in plan order."""
+        return {i.item_id: self.state(i) for i in self.plan.items}
+
+    def progress(self) -> tuple[int, int]:
+        """(items ok or done, items in the plan)."""
+        states = self.states().values()
+        return sum(s in (ItemState.OK, ItemState.DONE) for s in states), len(self.plan.items)
+
+    def next_item(self) -> PlanItem | None:
+        """The first item to do or redo, in plan order (None when everything is ok or done)."""
+        for item in self.plan.items:
+            if self.state(item) in (ItemState.TODO, ItemState.REDO):
+                return item
+        return None
+
+    def next_trial(self) -> TrialItem | None:
+        """The first trial item to do or redo."""
+        for item in self.plan.trials:
+            if self.state(item) in (ItemState.TODO, ItemState.REDO):
+                return item
+        return None
+
+    def recording(self) -> SessionTrialView | None:
+        """The trial recording now, if any."""
+        if self.live is None:
+            return None
+        return self.trials.get(self.live.trial_id)
+
+    def live_status(self, now_wall_s: float) -> LiveStatus | None:
+        """The recording trial's live status and warnings."""
+        return None if self.live is None else self.live.status(now_wall_s)
+
+    def missing(self) -> tuple[str, ...]:
+        """What the parameter set still lacks (the parameter node's list), or every open item."""
+        if self.parameters is not None:
+            return tuple(self.parameters.missing)
+        return tuple(i.item_id for i in self.plan.items if self.state(i) not in (ItemState.OK, ItemState.DONE))
+
+    @property
+    def complete(self) -> bool:
+        """The parameter set is complete."""
+        return self.parameters is not None and self.parameters.complete

@@ -1,0 +1,169 @@
+"""The session controller and state on an in-process graph: plan states, results, REDO, readings, plain mode."""
+
+from __future__ import annotations
+
+import io
+import json
+
+import numpy as np
+import pytest
+
+from bike_rig.core.sim import load_rig
+from bike_rig.paths import config_file
+from bike_rig.session.plain import run_plain
+from bike_rig.session.plan import ItemState, ReadingItem, TrialItem, plan_from_rig
+from bike_rig.session.setup import build_controller
+from test.session.fakelink import FakeLink, browser_truth
+
+
+@pytest.fixture
+def ctl_link():  # type: ignore[no-untyped-def]
+    link = FakeLink()
+    ctl = build_controller(load_rig(config_file("rig.yaml")), "Browser", link)
+    t = [0.0]
+    ctl.clock = lambda: t[0]
+    return ctl, link, t
+
+
+def test_plan_covers_every_reading_and_trial_in_rig_order() -> None:
+    rig = load_rig(config_file("rig.yaml"))
+    plan = plan_from_rig(rig)
+    assert len(plan.trials) == 13 * rig.trials.per_measurement  # 13 periods with 3 orientations each
+    keys = [i.key for i in plan.readings]
+    assert keys[:4] == ["g", "w", "gamma", "f"]
+    assert {"alphaB3", "aB3", "alphaH3", "aH3", "mP", "lP", "dP"} <= set(keys)
+    # a part's readings come before its trials
+    first = {i.key: n for n, i in reversed(list(enumerate(plan.items)))}
+    assert first["mB"] < first["TcB1"] and first["mR"] < first["TcR1"]
+    frame2 = plan.item("TtB2#1")
+    assert isinstance(frame2, TrialItem)
+    assert "orientation 2" in frame2.instruction and f"{rig.frame_orientations_deg[1]:.0f}°" in frame2.instruction
+    with pytest.raises(KeyError, match="no plan item"):
+        plan.item("TtB9#1")
+
+
+def test_trial_states_follow_start_result_and_redo(ctl_link) -> None:  # type: ignore[no-untyped-def]
+    ctl, link, t = ctl_link
+    first = ctl.session.plan.trials[0]
+    out = ctl.execute("start")
+    assert out[0].kind == "ok" and first.item_id in out[0].text
+    trial_id = link.started[0][0]
+    ctl.pump()
+    assert ctl.session.state(first) == ItemState.RECORDING
+    assert ctl.execute("start")[0].kind == "error"  # one trial at a time
+    link.period(trial_id, first.key, 1.2, 1e-4, flags=("beating",))
+    replies = ctl.pump()
+    result = [r for r in replies if r.kind == "result"]
+    assert result and "REDO" in result[0].text and "beating: beating reason" in result[0].text
+    assert ctl.session.state(first) == ItemState.REDO
+    assert ctl.session.next_trial() == first  # the redo comes first
+    ctl.execute(f"start {first.item_id}")
+    link.period(link.started[1][0], first.key, 1.2, 1e-4)
+    replies = ctl.pump()
+    assert any(r.kind == "result" and r.text.endswith("— ok") for r in replies)
+    assert ctl.session.state(first) == ItemState.OK
+    assert ctl.session.next_trial() == ctl.session.plan.trials[1]
+
+
+def test_abort_records_redo_and_refusal_is_reported(ctl_link) -> None:  # type: ignore[no-untyped-def]
+    ctl, link, t = ctl_link
+    ctl.execute("start TtB2#1")
+    ctl.pump()
+    out = ctl.execute("abort")
+    assert out[0].kind == "ok" and link.stopped == [(link.started[0][0], True)]
+    replies = ctl.pump()
+    assert any("aborted — REDO" in r.text for r in replies)
+    assert ctl.session.state(ctl.session.plan.item("TtB2#1")) == ItemState.REDO
+    link.refuse = "orientation 4 is outside the plan"
+    out = ctl.execute("start TtB2#1")
+    assert out[0].kind == "error" and "orientation 4 is outside the plan" in out[0].text
+    assert ctl.execute("stop")[0].text == "no trial is recording"
+
+
+def test_silence_warns_within_one_second_and_once(ctl_link) -> None:  # type: ignore[no-untyped-def]
+    ctl, link, t = ctl_link
+    ctl.execute("start")
+    ctl.pump()
+    t[0] = 0.9
+    assert not [r for r in ctl.pump() if r.kind == "warning"]
+    t[0] = 1.0
+    warnings = [r for r in ctl.pump() if r.kind == "warning"]
+    assert len(warnings) == 1 and "no samples yet" in warnings[0].text and "CAN id" in warnings[0].text
+    t[0] = 1.5
+    assert not [r for r in ctl.pump() if r.kind == "warning"]  # said once
+    trial_id = link.started[0][0]
+    x = np.arange(2000) / 1000.0
+    link.samples(trial_id, 0.05 * np.sin(2 * np.pi * x / 1.2) + 1e-4 * np.random.default_rng(1).standard_normal(2000))
+    ctl.pump()
+    live = ctl.session.live_status(1.6)
+    assert live is not None and live.samples == 2000 and not live.warnings
+    assert live.amplitude == pytest.approx(0.05, rel=0.05)
+
+
+def test_clipping_and_small_amplitude_warn(ctl_link) -> None:  # type: ignore[no-untyped-def]
+    ctl, link, t = ctl_link
+    ctl.execute("start")
+    trial_id = link.started[0][0]
+    x = np.arange(4000) / 1000.0
+    link.samples(trial_id, np.clip(np.sin(2 * np.pi * x / 1.2), -0.8, 0.8))
+    warnings = [r.text for r in ctl.pump() if r.kind == "warning"]
+    assert any("clips at its maximum" in w for w in warnings)
+    ctl.execute("abort")
+    ctl.pump()
+    ctl.execute("start")
+    trial_id = link.started[1][0]
+    noise = 1e-3 * np.random.default_rng(2).standard_normal(4000)
+    link.samples(trial_id, 2e-3 * np.sin(2 * np.pi * x / 1.2) + noise)
+    warnings = [r.text for r in ctl.pump() if r.kind == "warning"]
+    assert any("too small to fit" in w for w in warnings)
+
+
+def test_readings_are_checked_corrected_and_kept(ctl_link) -> None:  # type: ignore[no-untyped-def]
+    ctl, link, t = ctl_link
+    assert ctl.execute("reading mR 3.0 -0.1")[0].kind == "error"
+    assert "not a number" in ctl.execute("reading mR three 0.1")[0].text
+    assert "pendulum period" in ctl.execute("reading TcR1 1.2 0.001")[0].text
+    assert ctl.execute("reading mR 3.0 0.02")[0].text.startswith("entered mR")
+    out = ctl.execute("reading mR 3.1 0.02")
+    assert out[0].text.startswith("corrected mR")
+    assert [e.value for e in link.entries] == [3.0, 3.1] and link.entries[1].note == "correction"
+    assert ctl.session.reading("mR").value == 3.1  # type: ignore[union-attr]
+    ctl.pump()
+    assert ctl.session.state(ctl.session.plan.item("mR")) == ItemState.DONE
+
+
+def test_a_whole_session_completes_with_speeds(ctl_link) -> None:  # type: ignore[no-untyped-def]
+    ctl, link, t = ctl_link
+    rig, sim = browser_truth()
+    for item in ctl.session.plan.items:
+        if isinstance(item, ReadingItem):
+            r = sim.readings[item.key]
+            assert ctl.execute(f"reading {item.key} {r.value!r} {r.sigma!r}")[0].kind == "ok"
+        else:
+            assert ctl.execute(f"start {item.item_id}")[0].kind == "ok"
+            link.period(link.started[-1][0], item.key, sim.truth.damped_periods[item.key], 1e-5)
+        ctl.pump()
+    assert ctl.session.progress() == (len(ctl.session.plan.items),) * 2
+    assert ctl.session.complete and ctl.session.next_item() is None
+    status = ctl.execute("status")
+    assert any("weave" in r.text and "capsize" in r.text for r in status)
+    params = ctl.execute("params")
+    assert len(params) == 26 and params[0].data["name"] == "w"  # the 25 parameters and g
+    # the true periods and noisy readings give the true parameters within a few σ
+    for r in params:
+        truth = sim.truth.parameters[r.data["name"]]
+        assert abs(r.data["value"] - truth) <= 5 * r.data["sigma"] + 1e-9 * abs(truth), r.text
+
+
+def test_plain_mode_reads_commands_and_writes_json_lines(ctl_link) -> None:  # type: ignore[no-untyped-def]
+    ctl, link, t = ctl_link
+    stdin = io.StringIO("reading mR 3.0 0.02\nstart TcR1#1\nbogus\nstatus\nabort\nquit\n")
+    stdout = io.StringIO()
+    status = run_plain(ctl, stdin, stdout, as_json=True)
+    lines = [json.loads(x) for x in stdout.getvalue().splitlines()]
+    assert status == 1  # 'bogus' failed
+    kinds = [x["kind"] for x in lines]
+    assert kinds[0] == "ok" and lines[0]["key"] == "mR"
+    assert any(x.get("trial_id") and x.get("command") == "start" for x in lines)
+    assert any(x["kind"] == "error" and "unknown command 'bogus'" in x["text"] for x in lines)
+    assert kinds[-1] == "done"

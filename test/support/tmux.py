@@ -1,0 +1,91 @@
+"""Drive a terminal program as a person does: under tmux, with send-keys and capture-pane.
+
+Each :class:`TmuxSession` uses its own tmux server (``-L <socket>``), so tests never touch a
+user's tmux, and kills that server (by the PID tmux reports) when closed.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import shlex
+import shutil
+import subprocess
+import time
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+__all__ = ["TMUX", "TmuxSession"]
+
+TMUX = shutil.which("tmux") or "/usr/bin/tmux"
+
+
+class TmuxSession:
+    """One program in a detached tmux window of ``width`` × ``height``.
+
+    Args:
+        argv: The program and its arguments.
+        env: Its environment.
+        cwd: Its working directory.
+        width: Terminal columns.
+        height: Terminal rows.
+    """
+
+    def __init__(
+        self, argv: Sequence[str], env: Mapping[str, str], cwd: Path, width: int = 80, height: int = 24
+    ) -> None:
+        """Start ``argv`` in a new tmux server and session."""
+        self.socket = f"bike_rig_test_{os.getpid()}_{time.monotonic_ns()}"
+        self.env = dict(env)
+        self.env.pop("TMUX", None)
+        self.env["TERM"] = "xterm-256color"
+        # the pane stays after the program exits, so its last screen and status can be read
+        script = f"{shlex.join(argv)}; echo \"[exit $?]\"; sleep 600"
+        self._tmux("new-session", "-d", "-s", "t", "-x", str(width), "-y", str(height), "-c", str(cwd), script)
+        self._tmux("set-option", "-t", "t", "remain-on-exit", "on")
+
+    def _tmux(self, *args: str) -> str:
+        done = subprocess.run(
+            [TMUX, "-L", self.socket, *args], env=self.env, capture_output=True, text=True, timeout=20, check=True
+        )
+        return done.stdout
+
+    def keys(self, *keys: str) -> None:
+        """Press keys (tmux key names: ``F2``, ``Enter``, ``C-c``...)."""
+        self._tmux("send-keys", "-t", "t", *keys)
+
+    def type(self, text: str) -> None:
+        """Type ``text`` literally (no Enter)."""
+        self._tmux("send-keys", "-t", "t", "-l", text)
+
+    def screen(self) -> str:
+        """The visible screen, one line per row."""
+        return self._tmux("capture-pane", "-t", "t", "-p")
+
+    def wait_for(self, pattern: str, timeout_s: float = 30.0) -> str:
+        """Wait until the screen matches ``pattern`` (a regex); the screen.
+
+        Raises:
+            AssertionError: Not within ``timeout_s`` (with the last screen).
+        """
+        deadline = time.monotonic() + timeout_s
+        screen = ""
+        while time.monotonic() < deadline:
+            screen = self.screen()
+            if re.search(pattern, screen):
+                return screen
+            time.sleep(0.05)
+        raise AssertionError(f"screen never matched {pattern!r} in {timeout_s} s; last screen:\n{screen}")
+
+    def close(self) -> None:
+        """Kill the tmux server and everything in it."""
+        try:
+            pid = int(self._tmux("display-message", "-p", "-t", "t", "#{pid}").strip() or 0)
+        except (subprocess.SubprocessError, ValueError):
+            pid = 0
+        subprocess.run([TMUX, "-L", self.socket, "kill-server"], env=self.env, capture_output=True, timeout=20)
+        if pid:
+            try:
+                os.kill(pid, 9)
+            except ProcessLookupError:
+                pass
