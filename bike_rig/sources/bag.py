@@ -127,6 +127,10 @@ class BagSource(GyroSource):
         """The bag's path and the time scale, for the log."""
         return f"bag: {self.path}, time scale {self.clock.time_scale:g}"
 
+    def silence_hint(self) -> str:
+        """Why a replayed trial goes silent: the recording has a gap there."""
+        return "the recording has a gap here (samples lost while it was recorded)"
+
     @property
     def finished(self) -> bool:
         """True once the bag's last message has been replayed."""

@@ -27,9 +27,10 @@ reason when one is wrong.
 A new backend is one module with a :class:`GyroSource` subclass (``name``, ``PARAMETERS``,
 ``from_parameters``, ``poll``) plus one line in :data:`BACKENDS`.
 
-The simulated rig and the bag walk their own plan (:attr:`GyroSource.finished` turns true at
-its end); hardware backends record trials on request (:meth:`GyroSource.start_trial`,
-:meth:`GyroSource.stop_trial`), which :class:`StreamingSource` implements for them.
+The simulated rig (in its default ``plan`` mode) and the bag walk their own plan
+(:attr:`GyroSource.finished` turns true at its end); hardware backends, and the simulated rig in
+``operator`` mode, record trials on request (:meth:`GyroSource.start_trial`,
+:meth:`GyroSource.stop_trial`), which :class:`StreamingSource` implements for the hardware.
 """
 
 from __future__ import annotations
@@ -195,8 +196,11 @@ class TrialRequest:
 def trial_info_for(request: TrialRequest, sample_rate_hz: float, used_ids: set[str] | frozenset[str]) -> TrialInfo:
     """The trial a request describes, with a trial id not in ``used_ids``.
 
-    The id is the simulated rig's name of the trial (``frame_torsional_o2_t3``); when it is
-    taken already, ``_2``, ``_3``... is appended.
+    The id is the simulated rig's name of the trial, ``<stem>_t<repeat>``
+    (``frame_torsional_o2_t3``), with the request's repeat or, when it is 0, the lowest repeat
+    whose id is free. An id is never reused: when the requested repeat's id is taken (a redo of
+    trial 2), ``_r2``, ``_r3``... is appended (``frame_torsional_o2_t2_r2``), and the trial
+    keeps its repeat number.
 
     Raises:
         TrialRequestError: An unknown part or pendulum, a missing orientation, a bad duration.
@@ -220,7 +224,7 @@ def trial_info_for(request: TrialRequest, sample_rate_hz: float, used_ids: set[s
     trial_id = base = planned.trial_name(repeat)
     n = 2
     while trial_id in used_ids:
-        trial_id, n = f"{base}_{n}", n + 1
+        trial_id, n = f"{base}_r{n}", n + 1
     return TrialInfo(
         trial_id=trial_id,
         part=request.part,
@@ -385,6 +389,10 @@ class GyroSource(ABC):
         """One line for the log: what the source reads."""
         return self.name
 
+    def silence_hint(self) -> str:
+        """What to check when a recording trial gets no samples (ends the driver's warning)."""
+        return f"check that the {self.name} source is delivering"
+
     def start_trial(self, request: TrialRequest) -> TrialInfo:
         """Record a trial from now on.
 
@@ -482,6 +490,7 @@ class _Recording:
 
     info: TrialInfo
     target: int  # samples to record, 0 = until stopped
+    requested_ns: int  # epoch time of the request, ns
     start_ns: int | None = None
     count: int = 0
 
@@ -494,7 +503,8 @@ class StreamingSource(GyroSource):
     :meth:`start_trial` (samples before it are read and dropped then), and ends after
     ``duration_s`` worth of samples or at :meth:`stop_trial` (which first reads what has been
     delivered until then). Its start stamp is the delivery time of its first sample, as the
-    subclass reports it.
+    subclass reports it; a trial stopped before any sample arrived (a silent bus) is an empty
+    trial stamped at its request.
     """
 
     supports_requests = True
@@ -538,8 +548,8 @@ class StreamingSource(GyroSource):
     def _finish(self, aborted: bool) -> TrialStopped:
         rec = self._recording
         assert rec is not None
-        if rec.start_ns is None:  # stopped before its first sample: an empty trial
-            rec.start_ns = time.time_ns()
+        if rec.start_ns is None:  # stopped before its first sample: an empty trial, from its request
+            rec.start_ns = rec.requested_ns
             self._events.append(TrialStarted(rec.info, rec.start_ns))
         stopped = TrialStopped(
             rec.info.trial_id, rec.count, sample_stamp_ns(rec.start_ns, rec.count, rec.info.sample_rate_hz), aborted
@@ -559,7 +569,8 @@ class StreamingSource(GyroSource):
         info = trial_info_for(request, self.sample_rate_hz, self._used_ids)
         self.read_available()  # what was delivered before the request is not part of the trial
         self._used_ids.add(info.trial_id)
-        self._recording = _Recording(info, target=round(request.duration_s * self.sample_rate_hz))
+        target = round(request.duration_s * self.sample_rate_hz)
+        self._recording = _Recording(info, target=target, requested_ns=time.time_ns())
         return info
 
     def stop_trial(self, trial_id: str = "", abort: bool = False) -> TrialStopped:

@@ -297,6 +297,10 @@ class CanSource(StreamingSource):
         """The bus, id and layout, and the sample rate, for the log."""
         return f"can: {self.label} at {self.sample_rate_hz:g} Hz"
 
+    def silence_hint(self) -> str:
+        """What to check when no frame of the gyro's id arrives."""
+        return f"check the bus/wiring and the CAN id (listening to {self.label})"
+
     def read_available(self) -> tuple[FloatArray, FloatArray | None, int]:
         """The samples of the gyro's frames received since the last call (at most 50,000 frames).
 

@@ -163,6 +163,10 @@ class DaqSource(StreamingSource):
         """The channel, terminal and input range, and the sample rate, for the log."""
         return f"daq: {self.label} at {self.sample_rate_hz:g} Hz"
 
+    def silence_hint(self) -> str:
+        """What to check when the task delivers no samples."""
+        return f"check the wiring and the DAQ channel ({self.label})"
+
     def read_available(self) -> tuple[FloatArray, FloatArray | None, int]:
         """The samples acquired since the last call, stamped back from now at the nominal rate.
 

@@ -1,6 +1,15 @@
-"""The simulated rig as a gyro source: a session plan of trials, streamed in plan order.
+"""The simulated rig as a gyro source: a session plan streamed in plan order, or trials on request.
 
-Two ways to get the session:
+Parameter ``mode`` chooses how trials happen:
+
+* ``plan`` (the default): the source walks a whole session's plan by itself, trial after trial
+  (this module's :class:`SimSource`);
+* ``operator``: nothing streams until a trial is requested (the driver's ``StartTrial``
+  service); each requested trial of the ``bicycle`` is simulated then, with the same physics
+  and sensor model, and streamed until its duration or ``StopTrial``
+  (:class:`~bike_rig.sources.sim_operator.OperatorSimSource`). ``session`` cannot be used.
+
+Two ways to get the session of the ``plan`` mode:
 
 * ``session``: a ``session.yaml`` written by ``bike-rig simulate`` (or
   :func:`~bike_rig.core.sim.write_session`). Its period entries list their trial files
@@ -31,7 +40,14 @@ import numpy as np
 
 from ..core.errors import BikeRigError
 from ..core.io_yaml import load_yaml_document
-from ..core.sim import SimulatedSession, load_rig, load_true_parameters, simulate_session
+from ..core.sim import (
+    RigConfig,
+    SimulatedSession,
+    TrialSimulator,
+    load_rig,
+    load_true_parameters,
+    simulate_session,
+)
 from ..core.sim.plan import PlannedMeasurement
 from ..core.sim.writer import VOLTS_DIR
 from ..core.trials import read_trial
@@ -51,6 +67,7 @@ from .base import (
     TrialStopped,
 )
 from .errors import SourceConfigError
+from .sim_operator import OperatorSimSource
 
 __all__ = ["PlannedTrial", "SimSource", "session_file_trials", "simulated_trials"]
 
@@ -238,6 +255,25 @@ def simulated_trials(session: SimulatedSession) -> list[PlannedTrial]:
     return out
 
 
+def _bicycle_on_rig(p: Parameters, bicycle: str) -> tuple[str, dict[str, float], RigConfig, str]:
+    """The bicycle's name and true parameters, the rig, and a label for the log.
+
+    Raises:
+        SourceConfigError: The bicycle or the rig cannot be read (or the seed is bad).
+    """
+    rig_path = p.text("rig") or str(config_file("rig.yaml"))
+    seed = p.integer("seed")
+    try:
+        name, truth = load_true_parameters(bicycle)
+    except BikeRigError as exc:
+        raise p.error("bicycle", str(exc), bicycle) from None
+    try:
+        rig = load_rig(rig_path)
+    except BikeRigError as exc:
+        raise p.error("rig", str(exc), rig_path) from None
+    return name, truth, rig, f"{name} simulated on {rig_path}, seed {seed}"
+
+
 class SimSource(GyroSource):
     """The simulated rig walking a plan of trials (see the module docstring).
 
@@ -250,6 +286,8 @@ class SimSource(GyroSource):
 
     name = "sim"
     PARAMETERS = (
+        ParamSpec("mode", "plan", "sim: 'plan' walks the session's plan; 'operator' simulates each trial requested "
+                  "through StartTrial (with 'bicycle')", choices=("plan", "operator")),  # fmt: skip
         ParamSpec("session", "", "sim: session.yaml written by 'bike-rig simulate' (streamed in plan order)"),
         ParamSpec("bicycle", "", "sim: bicycle file whose session is simulated in memory (instead of session)"),
         ParamSpec("rig", "", "sim: rig description for 'bicycle' ('' = config/rig.yaml)"),
@@ -284,23 +322,40 @@ class SimSource(GyroSource):
         self._emitted = 0
 
     @classmethod
-    def from_parameters(cls, parameters: Mapping[str, Any]) -> SimSource:
+    def from_parameters(cls, parameters: Mapping[str, Any]) -> GyroSource:
         """The session the parameters name (:attr:`PARAMETERS`; see the module docstring).
 
-        ``session`` or ``bicycle`` (+ ``rig``, ``seed``), ``time_scale``,
-        ``pause_between_trials_s``, ``start_time_s``.
+        ``mode``; ``session`` or ``bicycle`` (+ ``rig``, ``seed``), ``time_scale``,
+        ``pause_between_trials_s``, ``start_time_s``. In ``operator`` mode, ``bicycle`` (+
+        ``rig``, ``seed``) only, and an :class:`~bike_rig.sources.sim_operator.OperatorSimSource`.
 
         Raises:
             SourceConfigError: A bad parameter, or a session, bicycle or rig that cannot be read
                 or simulated.
         """
         p = Parameters(cls.name, parameters, cls.PARAMETERS)
+        mode = p.text("mode")
         session = p.text("session")
         bicycle = p.text("bicycle")
         time_scale = p.number("time_scale")
         pause = p.number("pause_between_trials_s")
         start_s = p.number("start_time_s")
         clock = RigClock(round(start_s * NS_PER_S) if start_s > 0 else None, time_scale)
+        if mode == "operator":
+            if session:
+                reason = (
+                    "the operator mode simulates each requested trial from 'bicycle' (+ 'rig', 'seed'); "
+                    "a written session cannot be driven trial by trial (use mode 'plan')"
+                )
+                raise p.error("session", reason, session)
+            if not bicycle:
+                raise p.error("bicycle", "the operator mode needs 'bicycle' (+ 'rig', 'seed') to simulate", "")
+            name, truth, rig, label = _bicycle_on_rig(p, bicycle)
+            try:
+                simulator = TrialSimulator.create(truth, rig, p.integer("seed"), name)
+            except BikeRigError as exc:
+                raise p.error("bicycle", f"cannot be simulated on rig {rig.source}: {exc}", bicycle) from None
+            return OperatorSimSource(simulator, clock, pause, label=label)
         if session and bicycle:
             reason = f"give either 'session' ({session}) or 'bicycle' (+ 'rig', 'seed'), not both"
             raise p.error("bicycle", reason, bicycle)
@@ -313,21 +368,11 @@ class SimSource(GyroSource):
                 "or 'bicycle' (+ 'rig', 'seed') to simulate one in memory",
                 "",
             )
-        rig_path = p.text("rig") or str(config_file("rig.yaml"))
-        seed = p.integer("seed")
+        name, truth, rig, label = _bicycle_on_rig(p, bicycle)
         try:
-            name, truth = load_true_parameters(bicycle)
+            sim = simulate_session(truth, rig, p.integer("seed"), name)
         except BikeRigError as exc:
-            raise p.error("bicycle", str(exc), bicycle) from None
-        try:
-            rig = load_rig(rig_path)
-        except BikeRigError as exc:
-            raise p.error("rig", str(exc), rig_path) from None
-        try:
-            sim = simulate_session(truth, rig, seed, name)
-        except BikeRigError as exc:
-            raise p.error("bicycle", f"cannot be simulated on rig {rig_path}: {exc}", bicycle) from None
-        label = f"{name} simulated on {rig_path}, seed {seed}"
+            raise p.error("bicycle", f"cannot be simulated on rig {rig.source}: {exc}", bicycle) from None
         return cls(simulated_trials(sim), clock, pause, label=label)
 
     def describe(self) -> str:

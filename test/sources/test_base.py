@@ -36,7 +36,7 @@ def test_trial_names_follow_the_simulated_rig() -> None:
     b = trial_info_for(TrialRequest("frame", "torsional", orientation=2), 1000.0, used)
     assert (b.trial_id, b.repeat) == ("frame_torsional_o2_t2", 2)
     c = trial_info_for(TrialRequest("frame", "torsional", orientation=2, repeat=1), 1000.0, used)
-    assert c.trial_id == "frame_torsional_o2_t1_2"  # the repeat asked for, made unique
+    assert c.trial_id == "frame_torsional_o2_t1_r2"  # the repeat asked for, made unique (a redo)
     d = trial_info_for(TrialRequest("rear_wheel", "compound", orientation=5, measurement_key="X1"), 1000.0, used)
     assert (d.trial_id, d.measurement_key, d.orientation) == ("rear_wheel_compound_t1", "X1", 0)
     with pytest.raises(TrialRequestError, match="duration_s must be > 0 s"):

@@ -9,7 +9,8 @@ ADC model. Reproducible from one seed.
 - :mod:`.plan`: which periods a session measures and how its trials are named
 - :mod:`.physics`: the inverse of the paper's equations (true readings)
 - :mod:`.gyro`: the pendulum motion, the gyro and the ADC
-- :mod:`.session`: a whole session in memory (:func:`simulate_session`)
+- :mod:`.session`: a whole session in memory (:func:`simulate_session`), or trial by trial on
+  request (:class:`TrialSimulator`)
 - :mod:`.writer`: a session directory on disk (:func:`write_session`)
 """
 
@@ -17,7 +18,7 @@ from __future__ import annotations
 
 from .errors import RigFileError, SimulationError
 from .rig import RigConfig, load_rig
-from .session import SimulatedSession, SimulatedTrial, load_true_parameters, simulate_session
+from .session import SimulatedSession, SimulatedTrial, TrialSimulator, load_true_parameters, simulate_session
 from .writer import write_session
 
 __all__ = [
@@ -26,6 +27,7 @@ __all__ = [
     "SimulatedSession",
     "SimulatedTrial",
     "SimulationError",
+    "TrialSimulator",
     "load_rig",
     "load_true_parameters",
     "simulate_session",

@@ -7,6 +7,10 @@ trials each) as the sampled gyro rate, plus the truth for validation. One seed g
 same session, bit for bit: every random draw comes from a :class:`numpy.random.Generator`
 spawned from ``SeedSequence(seed)`` (static readings, the gyro, and each trial's motion and
 sensor noise each get their own stream, so adding a trial leaves the others unchanged).
+
+:class:`TrialSimulator` is the same rig driven by an operator: it simulates any planned trial
+on request (the ``sim`` gyro source's operator mode), with the same physics, sensor model and
+random streams.
 """
 
 from __future__ import annotations
@@ -34,6 +38,7 @@ __all__ = [
     "SessionTruth",
     "SimulatedSession",
     "SimulatedTrial",
+    "TrialSimulator",
     "load_true_parameters",
     "reading_sigma",
     "simulate_session",
@@ -243,6 +248,64 @@ def _modes(
     )
 
 
+def _check_seed(seed: object) -> int:
+    """``seed`` as a non-negative integer.
+
+    Raises:
+        SimulationError: It is not one.
+    """
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise SimulationError(f"a seed is a non-negative integer, got {seed!r}")
+    return int(seed)
+
+
+def _scale_factor(rig: RigConfig, gyro_ss: np.random.SeedSequence) -> float:
+    """The session's true gyro scale factor, V / (rad/s): the nominal one within its tolerance."""
+    gyro = rig.gyro
+    return float(
+        gyro.scale_factor * (1.0 + gyro.scale_factor_tolerance * np.random.default_rng(gyro_ss).standard_normal())
+    )
+
+
+def _simulate_trial(
+    m: PlannedMeasurement,
+    repeat: int,
+    name: str,
+    period: float,
+    rig: RigConfig,
+    scale: float,
+    trial_ss: np.random.SeedSequence,
+    duration_s: float | None = None,
+) -> SimulatedTrial:
+    """One trial of ``m``: its motion (amplitude, phase, beating), the gyro and the ADC.
+
+    Args:
+        m: The measurement.
+        repeat: Its 1-based trial number.
+        name: The trial's name (the rig's ``coupled_swing.trials`` are matched against it).
+        period: The true undamped period of ``m``, s.
+        rig: The rig.
+        scale: The session's true gyro scale factor, V / (rad/s).
+        trial_ss: The trial's own seed sequence (motion and sensor streams are spawned from it).
+        duration_s: Rig seconds to record; None for the rig's (drawn from its list, if a list).
+
+    Returns:
+        The trial (raw volts, rate, true modes).
+    """
+    motion_ss, sensor_ss = trial_ss.spawn(2)
+    motion = np.random.default_rng(motion_ss)
+    gyro, adc, plan_t = rig.gyro, rig.adc, rig.trials
+    # always drawn (when the rig lists several durations), so that the motion stream is the same
+    drawn = plan_t.durations[0] if len(plan_t.durations) == 1 else float(motion.choice(plan_t.durations))
+    duration = drawn if duration_s is None else duration_s
+    modes = _modes(m, name, period, rig, motion)
+    t = np.arange(int(round(duration * adc.sample_rate)), dtype=np.float64) / adc.sample_rate
+    volts = adc_quantise(
+        gyro_volts(angular_rate(t, modes), gyro, adc.sample_rate, scale, np.random.default_rng(sensor_ss)), adc
+    )
+    return SimulatedTrial(name, m.key, repeat, adc.sample_rate, volts, rate_from_volts(volts, gyro), modes)
+
+
 def simulate_session(
     true_params: Mapping[str, float], rig: RigConfig, seed: int, bicycle: str = "simulated"
 ) -> SimulatedSession:
@@ -261,29 +324,20 @@ def simulate_session(
         SimulationError: the seed is not a non-negative integer, the parameters are impossible
             or the rig cannot measure them.
     """
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise SimulationError(f"a seed is a non-negative integer, got {seed!r}")
+    seed = _check_seed(seed)
     truth = true_readings(true_params, rig)
     label = f"<simulated {bicycle}, seed {seed}>"
     static_ss, gyro_ss, trials_ss = np.random.SeedSequence(seed).spawn(3)
     readings = _static_readings(truth, rig, np.random.default_rng(static_ss), label)
-    gyro, adc, plan_t = rig.gyro, rig.adc, rig.trials
-    scale = gyro.scale_factor * (1.0 + gyro.scale_factor_tolerance * np.random.default_rng(gyro_ss).standard_normal())
+    plan_t = rig.trials
+    scale = _scale_factor(rig, gyro_ss)
     n_trials = len(truth.plan) * plan_t.per_measurement
     trial_seeds = iter(trials_ss.spawn(n_trials))
     trials = []
     for m in truth.plan:
         for i in range(1, plan_t.per_measurement + 1):
-            motion_ss, sensor_ss = next(trial_seeds).spawn(2)
-            motion = np.random.default_rng(motion_ss)
-            name = m.trial_name(i)
-            duration = plan_t.durations[0] if len(plan_t.durations) == 1 else float(motion.choice(plan_t.durations))
-            modes = _modes(m, name, truth.periods[m.key], rig, motion)
-            t = np.arange(int(round(duration * adc.sample_rate)), dtype=np.float64) / adc.sample_rate
-            volts = adc_quantise(
-                gyro_volts(angular_rate(t, modes), gyro, adc.sample_rate, scale, np.random.default_rng(sensor_ss)), adc
-            )
-            trials.append(SimulatedTrial(name, m.key, i, adc.sample_rate, volts, rate_from_volts(volts, gyro), modes))
+            period = truth.periods[m.key]
+            trials.append(_simulate_trial(m, i, m.trial_name(i), period, rig, scale, next(trial_seeds)))
     zeta = plan_t.damping_ratio
     st = SessionTruth(
         parameters={k: float(true_params[k]) for k in PARAMETER_NAMES},
@@ -292,6 +346,87 @@ def simulate_session(
         damped_periods={k: T / float(np.sqrt(1.0 - zeta**2)) for k, T in truth.periods.items()},
         stiffness=truth.stiffness,
         rod_inertia=truth.rod_inertia,
-        scale_factor=float(scale),
+        scale_factor=scale,
     )
     return SimulatedSession(bicycle, seed, rig, readings, truth.plan, tuple(trials), st)
+
+
+@dataclass(frozen=True, eq=False)
+class TrialSimulator:
+    """One bicycle on one rig, ready to simulate any planned trial on request (the operator's rig).
+
+    The same physics and sensor model as :func:`simulate_session`: true periods from
+    :func:`~bike_rig.core.sim.physics.true_readings`, the session's one gyro scale factor (the
+    same draw as the session of this seed), and per trial an amplitude and phase drawn from
+    the rig's range, a coupled swing mode as the rig says, the gyro's bias, drift and noise and
+    the ADC. Trial number ``counter`` (0-based, counting every trial simulated, in request
+    order) draws from the random streams of the session's trial ``counter``: requesting the
+    plan's trials in plan order with the rig's durations gives :func:`simulate_session`'s
+    trials bit for bit, and one (seed, counter) always gives the same trial.
+
+    Attributes:
+        bicycle: The bicycle's name.
+        seed: The seed.
+        rig: The rig.
+        truth: The true readings and periods (and the plan).
+        scale_factor: The gyro's true scale factor in this session, V / (rad/s).
+    """
+
+    bicycle: str
+    seed: int
+    rig: RigConfig
+    truth: TrueReadings
+    scale_factor: float
+    _trials_ss: np.random.SeedSequence
+
+    @classmethod
+    def create(
+        cls, true_params: Mapping[str, float], rig: RigConfig, seed: int, bicycle: str = "simulated"
+    ) -> TrialSimulator:
+        """The simulator of ``bicycle`` (its true parameters) on ``rig`` with ``seed``.
+
+        Raises:
+            SimulationError: As :func:`simulate_session`.
+        """
+        seed = _check_seed(seed)
+        truth = true_readings(true_params, rig)
+        _, gyro_ss, trials_ss = np.random.SeedSequence(seed).spawn(3)
+        return cls(bicycle, seed, rig, truth, _scale_factor(rig, gyro_ss), trials_ss)
+
+    @property
+    def plan(self) -> tuple[PlannedMeasurement, ...]:
+        """The rig's planned measurements, in order."""
+        return self.truth.plan
+
+    def damped_period(self, key: str) -> float:
+        """The observed period of measurement ``key``, T / √(1 − ζ²), s (paper Eq 25)."""
+        zeta = self.rig.trials.damping_ratio
+        return self.truth.periods[key] / float(np.sqrt(1.0 - zeta**2))
+
+    def simulate(
+        self, m: PlannedMeasurement, counter: int, repeat: int, name: str = "", duration_s: float | None = None
+    ) -> SimulatedTrial:
+        """Simulate one trial of the planned measurement ``m``.
+
+        Args:
+            m: One of :attr:`plan`.
+            counter: 0-based number of the trial in the session (its random streams).
+            repeat: Its 1-based trial number of ``m``.
+            name: The trial's name (default ``m.trial_name(repeat)``); the rig's
+                ``coupled_swing.trials`` are matched against it.
+            duration_s: Rig seconds to record, > 0; None for the rig's duration.
+
+        Raises:
+            SimulationError: ``m`` is not planned on this rig, or a bad counter or duration.
+        """
+        if m.key not in self.truth.periods or m not in self.truth.plan:
+            raise SimulationError(f"{m.stem} ({m.key}) is not a measurement of this rig's plan")
+        if isinstance(counter, bool) or not isinstance(counter, int) or counter < 0:
+            raise SimulationError(f"a trial counter is a non-negative integer, got {counter!r}")
+        if duration_s is not None and not (np.isfinite(duration_s) and duration_s > 0):
+            raise SimulationError(f"a trial lasts > 0 s, got {duration_s!r}")
+        ss = self._trials_ss
+        trial_ss = np.random.SeedSequence(ss.entropy, spawn_key=(*ss.spawn_key, counter), pool_size=ss.pool_size)
+        name = name or m.trial_name(repeat)
+        period = self.truth.periods[m.key]
+        return _simulate_trial(m, repeat, name, period, self.rig, self.scale_factor, trial_ss, duration_s)
