@@ -5,7 +5,8 @@ No rclpy import, so the offline replay and the recorder's readers can use them t
 QoS (REP-2003): the driver publishes reliably; consumers that must see every sample (fitter,
 recorder) subscribe reliably, live displays may use best effort. Results a late joiner must
 still get are transient-local: the whole session's trial events and periods (so a restarted
-fitter or parameter node catches up), the current trial's gyro batches, and the latest static
+fitter or parameter node catches up), the current trial's gyro batches, every reading entered
+during the session (so a restarted parameter node applies them all again), and the latest static
 readings, parameter set and model (depth 1, "latched").
 """
 
@@ -20,6 +21,7 @@ __all__ = [
     "PARAMETERS",
     "PERIODS",
     "QosSpec",
+    "READINGS",
     "START_TRIAL",
     "STATE_SPACE",
     "STATIC_READINGS",
@@ -64,12 +66,17 @@ GYRO = Topic(f"{NAMESPACE}/gyro", "bike_rig_msgs/msg/GyroBatch", QosSpec(True, T
 TRIAL_EVENTS = Topic(f"{NAMESPACE}/trial_events", "bike_rig_msgs/msg/TrialEvent", QosSpec(True, True, 2000))
 PERIODS = Topic(f"{NAMESPACE}/periods", "bike_rig_msgs/msg/PeriodEstimate", QosSpec(True, True, 2000))
 STATIC_READINGS = Topic(f"{NAMESPACE}/static_readings", "bike_rig_msgs/msg/StaticReadings", QosSpec(True, True, 1))
+#: Static readings entered while the session runs (one ``ReadingEntry`` each, corrections too):
+#: the whole session's entries stay in the publisher's history for a restarted parameter node.
+READINGS = Topic(f"{NAMESPACE}/readings", "bike_rig_msgs/msg/ReadingEntry", QosSpec(True, True, 2000))
 PARAMETERS = Topic(f"{NAMESPACE}/parameters", "bike_rig_msgs/msg/BenchmarkParameters", QosSpec(True, True, 1))
 MATRICES = Topic(f"{NAMESPACE}/model/matrices", "bike_rig_msgs/msg/CanonicalMatrices", QosSpec(True, True, 1))
 EIGEN_SWEEP = Topic(f"{NAMESPACE}/model/eigen_sweep", "bike_rig_msgs/msg/EigenSweep", QosSpec(True, True, 1))
 
 #: Every topic the recorder records.
-TOPICS: tuple[Topic, ...] = (GYRO, TRIAL_EVENTS, PERIODS, STATIC_READINGS, PARAMETERS, MATRICES, EIGEN_SWEEP)
+TOPICS: tuple[Topic, ...] = (
+    GYRO, TRIAL_EVENTS, PERIODS, STATIC_READINGS, PARAMETERS, MATRICES, EIGEN_SWEEP, READINGS,
+)  # fmt: skip
 
 START_TRIAL = f"{NAMESPACE}/driver/start_trial"
 STOP_TRIAL = f"{NAMESPACE}/driver/stop_trial"

@@ -8,10 +8,13 @@ call:
    fitted (:func:`bike_rig.pipeline.fit.fit_trial`) with the fit options recorded in the
    trial's ``PeriodEstimate.fit_options_json`` (the options of the session's other estimates
    for a trial without one, the defaults without any), unless the caller overrides them.
-2. Parameters: the static readings of the bag's ``StaticReadings`` message and the trials'
-   periods go through :class:`bike_rig.pipeline.assemble.SessionAssembly` (dedupe by trial id,
-   combine each key's usable trials in trial-id order, compute the parameters), with the
-   mass-centre method the live parameter set names.
+2. Parameters: the static readings of the bag's last ``StaticReadings`` message (the parameter
+   node's, with every reading entered during the session applied: a session bag needs no
+   file), or those of a corrected readings file (:attr:`ReplaySettings.readings`, its periods
+   ignored), and the trials' periods go through
+   :class:`bike_rig.pipeline.assemble.SessionAssembly` (dedupe by trial id, combine each key's
+   usable trials in trial-id order, compute the parameters), with the mass-centre method the
+   live parameter set names.
 3. Model: :func:`bike_rig.pipeline.model.compute_model` (canonical matrices with σ, eigenvalue
    sweep, weave and capsize speeds with σ), with the rider, σ convention and speeds of the
    recorded model.
@@ -34,11 +37,12 @@ import numpy as np
 
 from .. import topics
 from ..core.benchmark import ComMethod, ParameterSet
+from ..core.loader import load_static_readings
 from ..core.measurements import Measurements
 from ..core.period import WindowPolicy
 from ..core.uncertainty.matrix_sigma import SigmaConvention
 from ..messages import MessageError, static_readings_from_msg, trial_fit_from_msg
-from ..pipeline.assemble import SessionAssembly, SessionParameters
+from ..pipeline.assemble import SessionAssembly, SessionParameters, required_readings
 from ..pipeline.errors import AssemblyError
 from ..pipeline.fit import TrialFit, TrialFitOptions
 from ..pipeline.model import ModelMatrices, StabilitySweep
@@ -112,12 +116,15 @@ class ReplaySettings:
         com_method: Mass-centre method (None: the live parameter set's, else centroid).
         rider: Rider of the model, "" or "paper" (None: the live model's, else none).
         sigma_convention: σ convention (None: the live model's, else correlated).
+        readings: A measurement file whose static readings replace the bag's (e.g. corrected
+            after the session); its periods are ignored (None: the bag's own).
     """
 
     fit: FitOverrides = field(default_factory=FitOverrides)
     com_method: ComMethod | None = None
     rider: str | None = None
     sigma_convention: SigmaConvention | None = None
+    readings: str | Path | None = None
 
 
 @dataclass(frozen=True)
@@ -137,8 +144,12 @@ class ReplayResult:
         sigma_convention: σ convention used.
         speeds: Speeds of the sweep, m/s.
         fit_overridden: The fit settings differ from the recorded ones.
-        notes: What the replay left out, and why.
+        notes: What the replay left out, and why (and which static readings it used when not
+            the bag's).
         live: The comparison with the live results.
+        readings: Where the static readings came from: the bag's ``StaticReadings`` source
+            (e.g. ``"browser.yaml + 3 reading entries"``) or the file that replaced them.
+        readings_swapped: The static readings came from a file, not the bag.
     """
 
     bag: str
@@ -154,6 +165,8 @@ class ReplayResult:
     fit_overridden: bool
     notes: tuple[str, ...]
     live: LiveComparison
+    readings: str = ""
+    readings_swapped: bool = False
 
     @property
     def parameters(self) -> ParameterSet | None:
@@ -260,27 +273,63 @@ def _speeds(session: RecordedSession) -> np.ndarray:
 # ---------------------------------------------------------------- the replay
 
 
-def replay_session(session: RecordedSession, settings: ReplaySettings | None = None) -> ReplayResult:
-    """Recompute a session read from a bag (see the module docstring).
+def _bag_readings(session: RecordedSession) -> Measurements:
+    """The bag's last ``StaticReadings`` (the parameter node's, every entered reading applied).
 
     Raises:
-        ReplayError: No static readings, no trials, or unusable recorded settings.
-        BikeRigError: The static readings are impossible (as the parameter node would say).
+        ReplayError: There is none, it is malformed, or a static reading was never entered.
     """
-    settings = settings or ReplaySettings()
     bag = session.path
     if session.static_readings is None:
         raise ReplayError(
             bag,
             "no StaticReadings message: the bag must be recorded while the parameter node runs "
-            "(it publishes the static readings latched)",
+            "(it publishes the static readings latched); give --readings FILE to use a measurement file's",
         )
-    if not session.trials:
-        raise ReplayError(bag, "no trials recorded (no gyro batches, trial events or period estimates)")
     try:
         static = static_readings_from_msg(session.static_readings)
     except MessageError as exc:
         raise ReplayError(bag, f"the StaticReadings message is malformed ({exc})") from None
+    missing = [k for k in required_readings(static) if k not in static.readings]
+    if missing:
+        raise ReplayError(
+            bag,
+            f"the session's static readings are incomplete (missing {', '.join(missing)}); "
+            "give --readings FILE with them all",
+        )
+    return static
+
+
+def _static_readings(session: RecordedSession, settings: ReplaySettings) -> tuple[Measurements, str, str]:
+    """The static readings to replay with, where they came from, and a note when not the bag's.
+
+    Raises:
+        ReplayError: The bag's readings cannot be used (:func:`_bag_readings`).
+        BikeRigError: The readings file cannot be read.
+    """
+    if settings.readings is None:
+        static = _bag_readings(session)
+        return static, static.path, ""
+    static = load_static_readings(settings.readings)
+    what = "the bag's" if session.static_readings is not None else "none recorded"
+    note = f"static readings from {settings.readings} instead of the bag's ({what}); its periods ignored"
+    return static, str(settings.readings), note
+
+
+def replay_session(session: RecordedSession, settings: ReplaySettings | None = None) -> ReplayResult:
+    """Recompute a session read from a bag (see the module docstring).
+
+    Raises:
+        ReplayError: No static readings (or an incomplete set), no trials, or unusable
+            recorded settings.
+        BikeRigError: The static readings are impossible (as the parameter node would say),
+            or the readings file cannot be read.
+    """
+    settings = settings or ReplaySettings()
+    bag = session.path
+    if not session.trials:
+        raise ReplayError(bag, "no trials recorded (no gyro batches, trial events or period estimates)")
+    static, readings_from, readings_note = _static_readings(session, settings)
     live_method, live_rider, live_convention = _recorded_settings(session)
     method = settings.com_method or live_method or ComMethod.CENTROID
     rider = settings.rider if settings.rider is not None else (live_rider or "")
@@ -298,7 +347,8 @@ def replay_session(session: RecordedSession, settings: ReplaySettings | None = N
         origin=f"{bag} (replayed fits)",
     )  # fmt: skip
     run = graph.run((_input(t) for t in session.trials.values()), lambda t: chosen[t.trial_id][0])
-    notes = [f"trial {tid} left out: {why}" for tid, why in run.rejected.items()]
+    notes = [readings_note] if readings_note else []
+    notes += [f"trial {tid} left out: {why}" for tid, why in run.rejected.items()]
     used = {tid for p in run.session.periods for tid in p.trial_ids}
     trials = tuple(
         SessionTrial(r, used=r.trial_id in used, note=run.rejected.get(r.trial_id, ""),
@@ -322,6 +372,8 @@ def replay_session(session: RecordedSession, settings: ReplaySettings | None = N
         fit_overridden=settings.fit.active,
         notes=tuple(notes),
         live=LiveComparison((), 0, ()),
+        readings=readings_from,
+        readings_swapped=settings.readings is not None,
     )
     return dataclasses.replace(out, live=compare_with_live(out, session))
 
@@ -397,6 +449,8 @@ def result_json(result: ReplayResult) -> dict[str, Any]:
             "rider": result.rider,
             "sigma_convention": result.sigma_convention.value,
             "fit_overridden": result.fit_overridden,
+            "readings": result.readings,
+            "readings_swapped": result.readings_swapped,
         },
         "live": {
             "identical": live.identical and not live.missing,

@@ -1,7 +1,8 @@
 """A recorded session, read back from a bag.
 
-Trials (their events and gyro batches), static readings, and the live results (period
-estimates, parameter set, model) the graph published.
+Trials (their events and gyro batches), static readings (the parameter node's latest, and
+every reading entered during the session), and the live results (period estimates, parameter
+set, model) the graph published.
 
 Messages are the dataclasses rosbags deserializes into (:mod:`bike_rig.bag.typestore`), with
 the same fields as the rclpy messages, so the nodes' ROS-free functions take them as they are.
@@ -124,7 +125,10 @@ class RecordedSession:
         message_count: Messages in the bag.
         storage_files: The bag's storage files.
         trials: The trials by id, in the order they were first heard of.
-        static_readings: The last StaticReadings message, or None.
+        static_readings: The last StaticReadings message, or None (the parameter node's: the
+            measurement file's readings with every entered reading applied).
+        reading_entries: Every ReadingEntry message (readings entered during the session,
+            corrections too), in the order received.
         parameters: Every BenchmarkParameters message, in order.
         matrices: Every CanonicalMatrices message, in order.
         eigen_sweeps: Every EigenSweep message, in order.
@@ -139,6 +143,7 @@ class RecordedSession:
     storage_files: list[Path]
     trials: dict[str, RecordedTrial] = field(default_factory=dict)
     static_readings: Any | None = None
+    reading_entries: list[Any] = field(default_factory=list)
     parameters: list[Any] = field(default_factory=list)
     matrices: list[Any] = field(default_factory=list)
     eigen_sweeps: list[Any] = field(default_factory=list)
@@ -212,6 +217,8 @@ def _add(session: RecordedSession, topic: str, msg: Any) -> None:
         session.trial(str(msg.trial_id)).estimates.append(msg)
     elif topic == topics.STATIC_READINGS.name:
         session.static_readings = msg
+    elif topic == topics.READINGS.name:
+        session.reading_entries.append(msg)
     elif topic == topics.PARAMETERS.name:
         session.parameters.append(msg)
     elif topic == topics.MATRICES.name:

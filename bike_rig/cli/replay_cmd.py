@@ -5,20 +5,24 @@
     bike-rig replay BAG [--json] [--default-fit] [--lead-in S | --start S [--stop S] | --envelope F]
                         [--no-whole-cycles] [--min-cycles N] [--min-r2 R2] [--max-modulation M]
                         [--max-drift D] [--com-method centroid|lstsq] [--rider none|paper]
-                        [--sigma correlated|paper]
+                        [--sigma correlated|paper] [--readings FILE]
     bike-rig replay BAG --republish [--rate-scale X] [--wait S]
 
 Offline (no ROS runtime): every trial is fitted again from its gyro batches and events with the
 fitter's own function and the fit options recorded with its period estimate, the periods are
-combined and the parameters computed with the parameter node's assembly (static readings from
-the bag's StaticReadings message), and the model with the model node's function (its rider, σ
-convention and speeds as recorded). It prints the 25 parameters with σ, the weave and capsize
+combined and the parameters computed with the parameter node's assembly, and the model with the
+model node's function (its rider, σ convention and speeds as recorded). The static readings are
+the bag's own (its last StaticReadings message: the measurement file's with every reading
+entered during the session applied), so a session bag needs no other file; ``--readings FILE``
+replaces them with a measurement file's (e.g. corrected after the session; its periods are
+ignored), and the output says so. It prints the 25 parameters with σ, the weave and capsize
 speeds, the trials, and whether the results equal what the live graph published (relative
 1e-12). The fit options and the other settings can be overridden to see their effect.
 
 ``--json`` prints one object: ``bike-rig params --json``'s ``bicycle`` and ``parameters``, plus
 ``weave_speed``, ``capsize_speed`` (null when absent), their ``*_sigma``, ``complete``,
-``missing``, ``periods``, ``trials``, ``settings``, ``live`` (the comparison) and ``notes``.
+``missing``, ``periods``, ``trials``, ``settings`` (with ``readings``, where the static readings
+came from, and ``readings_swapped``), ``live`` (the comparison) and ``notes``.
 
 ``--republish`` instead plays the raw recorded stream (gyro batches, trial events, static
 readings) back into a live ROS graph, with the original timing divided by ``--rate-scale``.
@@ -67,6 +71,8 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     s.add_argument("--com-method", choices=[m.value for m in ComMethod], help="mass-centre method")
     s.add_argument("--rider", choices=["none", "paper"], help="rider lumped into the rear frame")
     s.add_argument("--sigma", choices=[c.value for c in SigmaConvention], help="σ convention")
+    s.add_argument("--readings", metavar="FILE",
+                   help="static readings from this measurement file, not the bag's (periods ignored)")  # fmt: skip
     r = q.add_argument_group("republish into a live graph (rclpy)")
     r.add_argument("--republish", action="store_true", help="play gyro, trial events and static readings back")
     r.add_argument("--rate-scale", type=float, default=1.0, metavar="X", help="X times the original speed (default 1)")
@@ -102,6 +108,7 @@ def settings_from_args(args: argparse.Namespace) -> ReplaySettings:
         com_method=None if args.com_method is None else ComMethod(args.com_method),
         rider=None if args.rider is None else ("" if args.rider == "none" else args.rider),
         sigma_convention=None if args.sigma is None else SigmaConvention(args.sigma),
+        readings=getattr(args, "readings", None),
     )
 
 
@@ -172,6 +179,10 @@ def replay_text(result: ReplayResult) -> str:
     over = " (fit settings overridden)" if result.fit_overridden else ""
     out.append(f"settings: com method {result.com_method.value}, rider '{result.rider or 'none'}', "
                f"σ {result.sigma_convention.value}{over}")  # fmt: skip
+    if result.readings_swapped:
+        out.append(f"static readings: from {result.readings}, NOT the bag's (swapped with --readings)")
+    else:
+        out.append(f"static readings: the bag's ({result.readings})")
     out += ["", _trials_table(result), ""]
     ps = result.parameters
     if ps is None:
@@ -204,8 +215,12 @@ def _live_text(result: ReplayResult) -> str:
     else:
         bad = [d for d in live.differences if not d.identical]
         text = f"live results: DIFFER in {len(bad)} of {len(live.differences)} comparisons"
-        if result.fit_overridden:
-            text += " (expected: the fit settings are overridden)"
+        expected = [
+            why for why, on in (("the fit settings are overridden", result.fit_overridden),
+                                ("the static readings are swapped", result.readings_swapped)) if on
+        ]  # fmt: skip
+        if expected:
+            text += f" (expected: {'; '.join(expected)})"
         text += "".join(f"\n  {d.what}: {d.detail or f'relative {d.max_relative:.1e}'}" for d in bad[:10])
         if len(bad) > 10:
             text += f"\n  ... and {len(bad) - 10} more"

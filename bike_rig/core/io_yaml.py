@@ -418,7 +418,8 @@ def _part_rows(m: Measurements, p: str, axle: str) -> list[str]:
     if idx:
         body.append("  orientations:  # angle_deg: degrees; distance: m; torsional_period: s")
         for i in idx:
-            items = [f"{key}: {_pair(r[flat.format(p=p, i=i)])}" for key, (flat, _u) in _ORIENTATION.items()]
+            flats = {key: flat.format(p=p, i=i) for key, (flat, _u) in _ORIENTATION.items()}
+            items = [f"{key}: {_pair(r[flat])}" for key, flat in flats.items() if flat in r]
             body.append("    - {" + ", ".join(items) + "}")
     return body
 

@@ -44,6 +44,7 @@ __all__ = [
     "Origin",
     "Reading",
     "REQUIRED_KEYS",
+    "check_reading",
     "orientation_indices",
     "validate",
 ]
@@ -140,7 +141,12 @@ def orientation_indices(readings: Mapping[str, object], part: str) -> list[int]:
     return sorted(found)
 
 
-def _check_reading(key: str, r: Reading) -> None:
+def check_reading(key: str, r: Reading) -> None:
+    """Check that one reading is physically possible for its key (the module table's units).
+
+    Raises:
+        MeasurementError: naming the reading's origin and the reason.
+    """
     if not (math.isfinite(r.value) and math.isfinite(r.sigma)):
         raise r.error("value and sigma must be finite numbers")
     if r.sigma < 0:
@@ -165,7 +171,7 @@ def validate(m: Measurements) -> None:
         if key not in m.readings:
             raise MeasurementError(m.path, "missing (needed for the benchmark parameters)", key=key)
     for key, r in m.readings.items():
-        _check_reading(key, r)
+        check_reading(key, r)
     names = {"B": "frame", "H": "fork"}
     for part, name in names.items():
         idx = m.orientations(part)

@@ -18,6 +18,8 @@ Pairs (message: record, converters):
   :func:`trial_fit_from_msg`, :func:`fill_period_estimate`;
 * ``StaticReadings``: :class:`~bike_rig.core.measurements.Measurements`,
   :func:`static_readings_from_msg`, :func:`fill_static_readings`;
+* ``ReadingEntry``: :class:`~bike_rig.pipeline.readings.ReadingEntry`,
+  :func:`reading_entry_from_msg`, :func:`fill_reading_entry`;
 * ``BenchmarkParameters``: :class:`~bike_rig.pipeline.assemble.SessionParameters`,
   :func:`session_parameters_from_msg`, :func:`fill_benchmark_parameters`;
 * ``CanonicalMatrices``: :class:`~bike_rig.pipeline.model.ModelMatrices`,
@@ -35,6 +37,7 @@ Header stamps are integer ns (:func:`stamp_ns`, :func:`set_stamp`); TrialEvent k
 from __future__ import annotations
 
 from .fields import MessageError, set_stamp, stamp_ns
+from .readings import fill_reading_entry, reading_entry_from_msg
 from .results import (
     fill_benchmark_parameters,
     fill_canonical_matrices,
@@ -64,11 +67,13 @@ __all__ = [
     "fill_eigen_sweep",
     "fill_gyro_batch",
     "fill_period_estimate",
+    "fill_reading_entry",
     "fill_state_space_error",
     "fill_state_space_response",
     "fill_static_readings",
     "fill_trial_event",
     "model_matrices_from_msg",
+    "reading_entry_from_msg",
     "sample_batch_from_msg",
     "session_parameters_from_msg",
     "set_stamp",

@@ -22,6 +22,7 @@ __all__ = [
     "GyroBatchMsg",
     "HeaderMsg",
     "PeriodEstimateMsg",
+    "ReadingEntryMsg",
     "StateSpaceResponse",
     "StaticReadingsMsg",
     "TimeMsg",
@@ -105,6 +106,16 @@ class StaticReadingsMsg(Protocol):
     sigmas: FloatField
     source: str
     document: str
+
+
+class ReadingEntryMsg(Protocol):
+    """``bike_rig_msgs/msg/ReadingEntry``."""
+
+    header: HeaderMsg
+    key: str
+    value: float
+    sigma: float
+    note: str
 
 
 class BenchmarkParametersMsg(Protocol):

@@ -1,11 +1,13 @@
 """Parameter assembly, the third stage: static readings + trial results → the 25 parameters.
 
-The live rig measures the static readings (masses, lengths, angles) once, from a measurement
-file, and the pendulum periods trial by trial. :class:`SessionAssembly` holds the static
-readings, takes trial results one by one (a trial published again under the same trial id
-replaces the earlier one), combines the usable trials of each measurement key with
-:func:`combine_trials`, says which keys are still missing, and, once every key has a period,
-computes the 25 benchmark parameters with :func:`~bike_rig.core.benchmark.compute_parameters`.
+The live rig takes the static readings (masses, lengths, angles) from a measurement file, or
+as the operator enters them during the session (:mod:`bike_rig.pipeline.readings`), and the
+pendulum periods trial by trial. :class:`SessionAssembly` holds the static readings (replaced
+when an entry changes them), takes trial results one by one (a trial published again under the
+same trial id replaces the earlier one), combines the usable trials of each measurement key
+with :func:`combine_trials`, says which readings and periods are still missing, and, once
+everything is there, computes the 25 benchmark parameters with
+:func:`~bike_rig.core.benchmark.compute_parameters`.
 
 Live (the parameter node) and offline (:mod:`bike_rig.pipeline.offline`) use these same
 functions on the same numbers, so a replayed recording gives bit-identical results.
@@ -18,14 +20,25 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 
 from ..core.benchmark import ComMethod, ParameterSet, check_orientations, compute_parameters
-from ..core.measurements import Measurements, Origin, Reading, is_period_key, validate
+from ..core.measurements import (
+    MIN_ORIENTATIONS,
+    Measurements,
+    Origin,
+    Reading,
+    check_reading,
+    is_period_key,
+    orientation_indices,
+    validate,
+)
 from ..core.period import CombinedPeriod, PeriodFit, combine_periods
 from .errors import AssemblyError
 from .fit import TrialFit
+from .readings import STATIC_KEYS, canonical_order
 
 __all__ = [
     "KeyPeriod",
@@ -35,6 +48,7 @@ __all__ = [
     "combine_trials",
     "merged_readings",
     "required_period_keys",
+    "required_readings",
 ]
 
 
@@ -104,6 +118,32 @@ def required_period_keys(static: Measurements) -> tuple[str, ...]:
     return tuple(order + rest)
 
 
+def required_readings(static: Measurements, period_keys: Iterable[str] = ()) -> tuple[str, ...]:
+    """Every static reading key the parameters need, given the readings and periods so far.
+
+    The fixed keys (``g``, ``w``, ``gamma``, ... ``dP``) and, for the frame (``B``) and the
+    fork (``H``), ``alpha<part><i>`` and ``a<part><i>`` for every hanging orientation ``i``
+    known so far: from the readings given (``alpha``/``a`` keys) and from the periods measured
+    (``Tt<part><i>``). While fewer than ``MIN_ORIENTATIONS`` (3) are known, the lowest unused
+    indices make up the number, so a bicycle with no readings yet needs orientations 1, 2 and
+    3. Canonical order (:func:`bike_rig.pipeline.readings.canonical_order`).
+
+    Args:
+        static: The static readings so far.
+        period_keys: The measurement keys of the trials received.
+    """
+    keys = list(STATIC_KEYS)
+    for part in "BH":
+        known = set(orientation_indices(static.readings, part))
+        known |= set(orientation_indices({k: None for k in period_keys if k.startswith("Tt")}, part))
+        i = 1
+        while len(known) < MIN_ORIENTATIONS:
+            known.add(i)
+            i += 1
+        keys += [f"{prefix}{part}{i}" for i in sorted(known) for prefix in ("alpha", "a")]
+    return tuple(sorted(keys, key=canonical_order))
+
+
 def merged_readings(static: Measurements, periods: Mapping[str, tuple[float, float]], origin: str) -> Measurements:
     """Static readings plus periods, each period right after the reading it belongs with.
 
@@ -163,7 +203,9 @@ class SessionParameters:
         bicycle: The bicycle's name.
         com_method: Mass-centre method used.
         periods: Every key that has a combined period, in canonical order.
-        missing: Keys without a usable trial yet, in canonical order.
+        missing: What is still to measure: the static readings still to enter (only while an
+            assembly with ``partial`` readings lacks some), then the period keys without a
+            usable trial, each in canonical order.
         parameters: The parameter set, None while incomplete.
     """
 
@@ -175,8 +217,18 @@ class SessionParameters:
 
     @property
     def complete(self) -> bool:
-        """Every period is there and the parameters are computed."""
+        """Every reading and period is there and the parameters are computed."""
         return self.parameters is not None
+
+    @property
+    def missing_readings(self) -> tuple[str, ...]:
+        """The static readings in :attr:`missing`."""
+        return tuple(k for k in self.missing if not is_period_key(k))
+
+    @property
+    def missing_periods(self) -> tuple[str, ...]:
+        """The period keys in :attr:`missing`."""
+        return tuple(k for k in self.missing if is_period_key(k))
 
     def complete_parameters(self) -> ParameterSet:
         """The parameter set.
@@ -189,48 +241,97 @@ class SessionParameters:
         return self.parameters
 
 
+_PERIOD_KEY = re.compile(r"^(Tc[RFBH]1|Tt[RFP]1|Tt[BH][1-9]\d*)$")
+#: Stands in for a reading or period still to come, when the static readings are checked.
+_PLACEHOLDER = Reading(1.0, 0.0)
+
+
 @dataclass
 class SessionAssembly:
     """Static readings plus the period estimates received so far.
 
     Args:
-        static: The static readings (:func:`bike_rig.core.loader.load_static_readings`);
-            period readings in it are ignored. They are checked here, with every period
-            still to come.
+        static: The static readings (:func:`bike_rig.core.loader.load_static_readings`, or
+            :func:`bike_rig.pipeline.readings.apply_entries`); period readings in it are
+            ignored. They are checked here, with every period still to come.
         com_method: Mass-centre method for :func:`compute_parameters`.
         origin: Named as the source of the periods in error messages.
+        partial: The static readings may be incomplete: more are still to be entered (the
+            live parameter node). The readings still missing (:func:`required_readings`) are
+            then listed in :attr:`SessionParameters.missing` instead of raising, and a period
+            of any well-formed key is kept, even one of a hanging orientation without readings
+            yet (whose readings are then missing). Without ``partial`` the readings must be
+            complete and a period key they do not imply is refused.
 
     Raises:
-        MeasurementError: a static reading is missing or impossible.
+        MeasurementError: a static reading is impossible, or (without ``partial``) missing.
         GeometryError: hanging orientations are degenerate.
     """
 
     static: Measurements
     com_method: ComMethod = ComMethod.CENTROID
     origin: str = "period estimates"
+    partial: bool = False
     _trials: dict[str, TrialFit] = field(default_factory=dict, init=False, repr=False)
     _keys: tuple[str, ...] = field(default=(), init=False, repr=False)
+    _missing_readings: tuple[str, ...] = field(default=(), init=False, repr=False)
 
     def __post_init__(self) -> None:
         """Keep the static readings only and check them, with placeholders for the periods to come.
 
         Raises:
-            MeasurementError: A static reading is missing or impossible.
+            MeasurementError: A static reading is impossible, or (without ``partial``) missing.
             GeometryError: Hanging orientations are degenerate.
         """
         self.com_method = ComMethod(self.com_method)
-        readings = {k: r for k, r in self.static.readings.items() if not is_period_key(k)}
-        self.static = Measurements(self.static.bicycle, readings, self.static.path, self.static.extras)
-        self._keys = required_period_keys(self.static)
-        # check the static part now: placeholder periods stand in for those still to come
-        probe = merged_readings(self.static, {k: (1.0, 0.0) for k in self._keys}, self.origin)
-        validate(probe)
-        check_orientations(probe)
+        self.set_static(self.static)
+
+    def set_static(self, static: Measurements) -> None:
+        """Use other static readings (e.g. with a newly entered one), keeping the trials received.
+
+        They are checked as at the start; when they fail nothing changes.
+
+        Raises:
+            MeasurementError: A static reading is impossible, or (without ``partial``) missing.
+            GeometryError: Hanging orientations are degenerate.
+        """
+        readings = {k: r for k, r in static.readings.items() if not is_period_key(k)}
+        static = Measurements(static.bicycle, readings, static.path, static.extras)
+        missing, keys = self._requirements(static)
+        if missing:
+            for key, reading in readings.items():
+                check_reading(key, reading)
+            alphas = {k: r for k, r in readings.items() if k.startswith("alpha")}
+            check_orientations(Measurements(static.bicycle, alphas, static.path))
+        else:
+            # placeholder periods stand in for those still to come
+            probe = merged_readings(static, {k: (1.0, 0.0) for k in keys}, self.origin)
+            validate(probe)
+            check_orientations(probe)
+        self.static, self._keys, self._missing_readings = static, keys, missing
+
+    def _requirements(self, static: Measurements) -> tuple[tuple[str, ...], tuple[str, ...]]:
+        """The static readings missing and the period keys required, with these readings."""
+        if not self.partial:
+            return (), required_period_keys(static)
+        needed = required_readings(static, {t.measurement_key for t in self._trials.values()})
+        missing = tuple(k for k in needed if k not in static.readings)
+        if not missing:
+            return (), required_period_keys(static)
+        # the periods the readings so far imply, with placeholders for the readings to come
+        probe = {**static.readings, **{k: _PLACEHOLDER for k in missing}}
+        ordered = {k: probe[k] for k in sorted(probe, key=canonical_order)}
+        return missing, required_period_keys(Measurements(static.bicycle, ordered, static.path))
 
     @property
     def required_keys(self) -> tuple[str, ...]:
-        """Every period key this bicycle needs, canonical order."""
+        """Every period key this bicycle needs (with ``partial`` readings: so far), canonical order."""
         return self._keys
+
+    @property
+    def missing_readings(self) -> tuple[str, ...]:
+        """The static readings still to enter (only with ``partial`` readings), canonical order."""
+        return self._missing_readings
 
     @property
     def trials(self) -> tuple[TrialFit, ...]:
@@ -247,12 +348,18 @@ class SessionAssembly:
             Whether anything changed (False for an identical re-publication).
 
         Raises:
-            AssemblyError: the measurement key is not one of this bicycle's period keys; the
-                estimate is then not kept.
+            AssemblyError: the measurement key is not one of this bicycle's period keys (with
+                ``partial`` readings: not a period key at all); the estimate is then not kept.
         """
-        if trial.measurement_key not in self._keys:
+        key = trial.measurement_key
+        if self.partial and key not in self._keys and not _PERIOD_KEY.match(key):
             raise AssemblyError(
-                f"trial '{trial.trial_id}': measurement key '{trial.measurement_key}' is not a period "
+                f"trial '{trial.trial_id}': measurement key '{key}' is not a period key "
+                f"(expected one of {', '.join(self._keys)}, or Tt<part><i> of another hanging orientation)"
+            )
+        if not self.partial and key not in self._keys:
+            raise AssemblyError(
+                f"trial '{trial.trial_id}': measurement key '{key}' is not a period "
                 f"of {self.static.bicycle} (expected one of {', '.join(self._keys)})"
             )
         earlier = self._trials.get(trial.trial_id)
@@ -263,6 +370,8 @@ class SessionAssembly:
             # restarted fitter that no longer has the whole trial): never trade down
             return False
         self._trials[trial.trial_id] = trial
+        if key not in self._keys:  # a new hanging orientation (partial readings only)
+            self._missing_readings, self._keys = self._requirements(self.static)
         return True
 
     def add_all(self, trials: Iterable[TrialFit]) -> None:
@@ -284,12 +393,12 @@ class SessionAssembly:
         return tuple(out)
 
     def missing(self) -> tuple[str, ...]:
-        """Keys without a usable trial, in canonical order."""
+        """The static readings still to enter, then the keys without a usable trial, canonical order."""
         have = {p.key for p in self.periods()}
-        return tuple(k for k in self._keys if k not in have)
+        return self._missing_readings + tuple(k for k in self._keys if k not in have)
 
     def result(self) -> SessionParameters:
-        """The parameter set if every period is there, else what is missing.
+        """The parameter set if every reading and period is there, else what is missing.
 
         Raises:
             MeasurementError: a combined reading is impossible (cannot happen for usable
@@ -297,7 +406,7 @@ class SessionAssembly:
         """
         periods = self.periods()
         have = {p.key for p in periods}
-        missing = tuple(k for k in self._keys if k not in have)
+        missing = self._missing_readings + tuple(k for k in self._keys if k not in have)
         parameters = None
         if not missing:
             merged = merged_readings(self.static, {p.key: (p.value, p.sigma) for p in periods}, self.origin)

@@ -31,7 +31,7 @@ from bike_rig.messages import sample_batch_from_msg
 from bike_rig.topics import GYRO, TOPICS, TRIAL_EVENTS
 from test.bag.samples import make_message, sample_traffic, serialize
 
-COUNTS = {t.name: n for t, n in zip(TOPICS, (60, 9, 5, 1, 2, 3, 1), strict=True)}
+COUNTS = {t.name: n for t, n in zip(TOPICS, (60, 9, 5, 1, 2, 3, 1, 4), strict=True)}
 
 
 def write(path: Path, traffic: list[tuple[str, int, bytes, Any]], **options: Any) -> Path:

@@ -21,7 +21,7 @@ from bike_rig.bag.writer import BagWriter, contract_qos
 from bike_rig.topics import GYRO, TOPICS
 from test.bag.samples import as_plain, sample_traffic
 
-COUNTS = {t.name: n for t, n in zip(TOPICS, (40, 7, 5, 1, 2, 3, 1))}
+COUNTS = {t.name: n for t, n in zip(TOPICS, (40, 7, 5, 1, 2, 3, 1, 3))}
 
 
 def write_bag(path: Path, compression: str = "zstd") -> list[tuple[str, int, bytes, object]]:
