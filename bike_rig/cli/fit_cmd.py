@@ -2,14 +2,21 @@
 
 ::
 
-    bike-rig fit FILE... [--json] [--plot DIR] [--rate HZ] [--strict]
+    bike-rig fit FILE... [--json] [--plot DIR] [--rate HZ] [--strict] [--key KEY]
+                         [--time COLUMN] [--signal COLUMN] [--time-unit s|ms|us|ns]
                          [--lead-in S | --start S [--stop S] | --envelope FRACTION] [--no-whole-cycles]
                          [--min-cycles N] [--min-r2 R2] [--max-modulation M] [--max-drift D]
 
 Each FILE is a trial (CSV, ``.npy`` or a BicycleParameters pendulum ``.mat``; see
-:mod:`bike_rig.core.trials`). Without ``--json`` a table of the fits is printed, each flag
-with its reason, and, for several files, their combined period (per period key such as
-``TtB1`` when the files name one). ``--json`` prints one JSON object per file (JSON Lines)::
+:mod:`bike_rig.core.trials`; ``--time``/``--signal`` choose a CSV's columns, ``--time-unit``
+the unit of its times). Without ``--json`` a table of the fits is printed, each flag with its
+reason, and, for several files, their combined period per measurement key (``TtB1``): the key
+is ``--key`` for every file, else what each file says (a .mat's fields, or its name:
+``frame_torsional_o1_t2``, ``BrowserFrameTorsionalFirst2``, ``TtB1_2``). Trials of different
+keys are never combined; files that name no key are combined only when every file names none
+and their periods agree within :data:`SAME_MEASUREMENT_SPREAD`, else one line says why not.
+What the reader decided (a time unit told from the spacing, a signal column chosen among
+several) is noted on stderr. ``--json`` prints one JSON object per file (JSON Lines)::
 
     {"file": .., "period": .., "period_sigma": .., "valid": true, "flags": [{"code": .., "reason": ..}],
      "r2": .., "zeta": .., "omega": .., "n_samples": .., "window": [start, stop]}
@@ -26,6 +33,7 @@ import argparse
 import json
 import math
 import re
+import sys
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -34,9 +42,23 @@ from ..core.errors import BikeRigError, InputFileError
 from ..core.period import CombinedPeriod, PeriodFit, WindowPolicy, combine_periods, fit_period
 from ..core.trials import Trial, read_trial
 from .format import format_value_sigma
-from .options import add_threshold_options, add_window_options, thresholds_from_args, window_from_args
+from .options import (
+    add_column_options,
+    add_threshold_options,
+    add_window_options,
+    columns_from_args,
+    thresholds_from_args,
+    window_from_args,
+)
 
-__all__ = ["FitUsageError", "add_parser", "run"]
+__all__ = ["SAME_MEASUREMENT_SPREAD", "FitUsageError", "add_parser", "combined_summary", "run"]
+
+#: Largest relative spread (max − min) / mean of the usable periods of files that name no
+#: measurement for them to be combined as one: repeats of one measurement agree to ~0.1 %
+#: (amplitude and temperature included), different parts or orientations differ by more.
+SAME_MEASUREMENT_SPREAD = 0.01
+
+_KEY = re.compile(r"^T[ct][RFBHGP][1-9]\d*$")
 
 
 class FitUsageError(BikeRigError):
@@ -60,6 +82,12 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     q.add_argument("--plot", metavar="DIR", help="write a PNG per trial (data, fit, residuals) into DIR")
     q.add_argument("--rate", type=float, metavar="HZ", help="sample rate of files without times or rate")
     q.add_argument("--strict", action="store_true", help="exit with status 1 if any trial has no period")
+    q.add_argument(
+        "--key",
+        metavar="KEY",
+        help="every file is a trial of this measurement (a period key such as TtB1), whatever its name says",
+    )
+    add_column_options(q.add_argument_group("columns of CSV and .npy files"))
     add_window_options(q.add_argument_group("window (default: the record minus a 1 s lead-in, in whole cycles)"))
     add_threshold_options(q.add_argument_group("quality thresholds (a flagged trial should be redone)"))
     q.set_defaults(func=run)
@@ -82,9 +110,17 @@ def run(args: argparse.Namespace) -> int:
     options = _fit_options(args)
     if args.rate is not None and not (math.isfinite(args.rate) and args.rate > 0):
         raise FitUsageError(f"--rate must be a positive number of Hz, got {args.rate}")
+    if args.key is not None and not _KEY.match(args.key):
+        raise FitUsageError(
+            f"--key must be a period key such as TtB1 or TcR1 (Tc or Tt, part letter, orientation), got {args.key!r}"
+        )
     plot_dir = _plot_dir(args.plot) if args.plot else None
-    trials = [read_trial(path, sample_rate_hz=args.rate) for path in args.files]  # all readable before output
+    columns = columns_from_args(args)
+    trials = [read_trial(path, args.rate, columns) for path in args.files]  # all readable before output
     fits = [fit_period(t.samples, **t.timing, window=policy, **options) for t in trials]
+    for trial in trials:
+        for remark in trial.remarks:
+            print(f"bike-rig fit: note: {trial.path}: {remark}", file=sys.stderr)
     if args.json:
         for trial, fit in zip(trials, fits):
             print(json.dumps(fit_json(trial.path, fit), allow_nan=False))
@@ -92,7 +128,7 @@ def run(args: argparse.Namespace) -> int:
         print(fit_table(trials, fits))
         if len(fits) > 1:
             print()
-            print(combined_summary(trials, fits))
+            print(combined_summary(trials, fits, args.key))
     if plot_dir is not None:
         for name, trial, fit in zip(_plot_names(trials), trials, fits):
             plot_fit(trial, fit, plot_dir / name)
@@ -187,34 +223,69 @@ def fit_table(trials: Sequence[Trial], fits: Sequence[PeriodFit]) -> str:
     return "\n".join(rows)
 
 
-def _groups(trials: Sequence[Trial]) -> dict[str, list[int]]:
-    keys = [t.period_key for t in trials]
-    if any(k is None for k in keys) or len(set(keys)) == 1:
-        return {"all trials": list(range(len(trials)))}
+def _spread(fits: Sequence[PeriodFit]) -> float:
+    """Relative spread (max − min) / mean of the clean trials' periods (0 for fewer than two)."""
+    periods = [f.period for f in fits if f.clean and math.isfinite(f.period)]
+    if len(periods) < 2:
+        return 0.0
+    return (max(periods) - min(periods)) / (sum(periods) / len(periods))
+
+
+_NAME_A_KEY = "name them like frame_torsional_o1_t1.csv or TtB1_1.csv, or give --key KEY"
+
+
+def _groups(trials: Sequence[Trial], fits: Sequence[PeriodFit], key: str | None) -> tuple[dict[str, list[int]], str]:
+    """The trials of each measurement key (in order of appearance), and why any are not combined ("" if all are).
+
+    Files that name no key form one group, "all trials", when no file names one and their
+    periods agree within :data:`SAME_MEASUREMENT_SPREAD`.
+    """
+    keys = [key or t.period_key for t in trials]
     groups: dict[str, list[int]] = {}
-    for i, key in enumerate(keys):
-        groups.setdefault(str(key), []).append(i)
-    return groups
+    for i, k in enumerate(keys):
+        if k is not None:
+            groups.setdefault(k, []).append(i)
+    keyless = [i for i, k in enumerate(keys) if k is None]
+    if not keyless:
+        return groups, ""
+    names = ", ".join(Path(trials[i].path).name for i in keyless)
+    if groups:
+        verb = "names" if len(keyless) == 1 else "name"
+        return groups, f"not combined: {names} {verb} no measurement key ({_NAME_A_KEY})"
+    spread = _spread(fits)
+    if spread > SAME_MEASUREMENT_SPREAD:
+        periods = [f.period for f in fits if f.clean and math.isfinite(f.period)]
+        return {}, (
+            f"not combined: the files name no measurement and their periods range from {min(periods):.4g} to "
+            f"{max(periods):.4g} s ({100 * spread:.2g} %), more than trials of one measurement differ ({_NAME_A_KEY})"
+        )
+    return {"all trials": keyless}, ""
 
 
-def combined_summary(trials: Sequence[Trial], fits: Sequence[PeriodFit]) -> str:
-    """The combined period of the files (per period key when the files name different ones).
+def combined_summary(trials: Sequence[Trial], fits: Sequence[PeriodFit], key: str | None = None) -> str:
+    """The combined period of each measurement key among the files, or why files are not combined.
 
     Args:
         trials: The trials.
         fits: Their fits, in the same order.
+        key: ``--key``: every trial is of this measurement; None to take each trial's own
+            (:attr:`bike_rig.core.trials.Trial.period_key`).
 
     Returns:
-        One line per group (T ± σ in s, counts, Birge ratio), each followed by its notes.
+        One line per key (T ± σ in s, counts, Birge ratio), each followed by its notes; then
+        one line saying which files were not combined and why, if any.
     """
+    groups, why_not = _groups(trials, fits, key)
     lines = []
-    for label, members in _groups(trials).items():
+    for label, members in groups.items():
         combined = combine_periods([fits[i] for i in members])
         lines.append(_combined_line(label, combined))
         names = {f"trial {k} ": f"trial {trials[i].name} " for k, i in enumerate(members, start=1)}
         for note in combined.notes:
             head = next((h for h in names if note.startswith(h)), None)
             lines.append("  " + (names[head] + note[len(head) :] if head else note))
+    if why_not:
+        lines.append(why_not)
     return "\n".join(lines)
 
 

@@ -1,4 +1,4 @@
-"""The fit-window and quality-threshold options, for every command that fits trials.
+"""The fit-window, quality-threshold and trial-column options, for every command that fits trials.
 
 ``bike-rig fit`` fits trial files with the options' defaults (:func:`add_window_options` and
 :func:`add_threshold_options` with ``overrides=False``); ``bike-rig replay`` overrides what was
@@ -11,6 +11,7 @@ messages are the same for both; each command raises its own usage error class.
     --lead-in S | --start S [--stop S] | --envelope FRACTION     the window (one of them), s
     --no-whole-cycles                                            do not cut it to whole cycles
     --min-cycles N  --min-r2 R2  --max-modulation M  --max-drift D   the quality thresholds
+    --time COLUMN  --signal COLUMN  --time-unit s|ms|us|ns           a trial file's columns (name or 0-based index)
 """
 
 from __future__ import annotations
@@ -22,12 +23,15 @@ from dataclasses import dataclass
 
 from ..core.errors import BikeRigError
 from ..core.period import FitOptions, WindowPolicy
+from ..core.trial_columns import TIME_UNITS, ColumnChoice
 
 __all__ = [
     "THRESHOLDS",
     "Threshold",
+    "add_column_options",
     "add_threshold_options",
     "add_window_options",
+    "columns_from_args",
     "thresholds_from_args",
     "window_from_args",
 ]
@@ -170,3 +174,38 @@ def thresholds_from_args(args: argparse.Namespace, error: UsageError) -> dict[st
         if value is not None and not (math.isfinite(value) and value >= 0):
             raise error(f"--{key.replace('_', '-')} must be a non-negative number, got {value}")
     return values
+
+
+def add_column_options(group: argparse._ActionsContainer) -> None:
+    """Add ``--time``, ``--signal`` and ``--time-unit``: which columns of a trial file to read.
+
+    Args:
+        group: The parser or argument group to add them to.
+    """
+    group.add_argument(
+        "--time",
+        metavar="COLUMN",
+        help="the time column: its header name or 0-based index (default: the column named t, time, time_ms...)",
+    )
+    group.add_argument(
+        "--signal",
+        metavar="COLUMN",
+        help="the gyro column: its header name or 0-based index (default: the other column, or the one named rate)",
+    )
+    group.add_argument(
+        "--time-unit",
+        choices=list(TIME_UNITS),
+        help="unit of the times (default: the header's, e.g. time_ms, else told from the spacing)",
+    )
+
+
+def columns_from_args(args: argparse.Namespace) -> ColumnChoice:
+    """The columns the options choose (:func:`add_column_options`).
+
+    Args:
+        args: Parsed options.
+
+    Returns:
+        The choice; a column given as digits is a 0-based index, anything else a header name.
+    """
+    return ColumnChoice.from_text(args.time, args.signal, args.time_unit)

@@ -1,20 +1,29 @@
 """Trial files: one rate-gyro record of a pendulum swing each, ready for the period fitter.
 
-``read_trial(path, sample_rate_hz=None) -> Trial`` reads
+``read_trial(path, sample_rate_hz=None, columns=None) -> Trial`` reads
 
-* **CSV** (``.csv``, ``.txt``, ``.tsv``, ``.dat``): two columns ``time, rate`` (time in s), or
-  one column ``rate`` sampled at ``sample_rate_hz``; an optional header line, ``#`` comments
-  and blank lines; separated by commas, semicolons, tabs or spaces.
-* **NumPy** ``.npy``: a 1-D array of rates (needs ``sample_rate_hz``) or an (N, 2) array of
-  ``[time, rate]`` rows.
+* **CSV** (``.csv``, ``.txt``, ``.tsv``, ``.dat``): columns ``time, rate``, or one column
+  ``rate`` sampled at ``sample_rate_hz``, or more columns of which a header names the time and
+  the signal (``time,rate,volts``) or ``columns`` (``--time``, ``--signal``) chooses them; an
+  optional header line, ``#`` comments and blank lines; separated by commas, semicolons, tabs
+  or spaces.
+* **NumPy** ``.npy``: a 1-D array of rates (needs ``sample_rate_hz``), an (N, 2) array of
+  ``[time, rate]`` rows, or (N, k) with the columns chosen by index.
 * **BicycleParameters' pendulum** ``.mat`` files (MATLAB v5, as its DAQ scripts wrote them):
   ``data`` (the gyro voltages), ``ActualRate`` or ``sampleRate`` [Hz], and ``bicycle``,
   ``part``, ``pendulum``, ``angleOrder`` (or ``angle``), ``trial``, ``notes``, which name the
   trial (``BrowserFrameTorsionalFirst1``). With a ``time`` array the sample rate may vary and
   the times are used.
 
-Samples stay in the file's unit (rad/s, °/s or volts: the period does not care). A file's own
-times or rate win over ``sample_rate_hz``, which is needed only when the file has neither.
+Samples stay in the file's unit (rad/s, °/s or volts: the period does not care). Times are
+returned in seconds: a unit in the time column's name (``time_ms``), ``--time-unit``, or else
+their spacing tells the file's unit (:mod:`bike_rig.core.trial_columns`; a time column whose
+unit cannot be told is refused, never read as seconds at an absurd rate). A file's own times
+or rate win over ``sample_rate_hz``, which is needed only when the file has neither.
+
+A trial's measurement key (``TtB2``) comes from a .mat file's fields, else from its file name:
+the simulated rig's ``frame_torsional_o2_t3``, BicycleParameters' ``BrowserFrameTorsionalSecond3``,
+or the key itself as a word of the name (``TtB2_t3.csv``, ``fork-TcH1-2.npy``).
 Files that cannot be used raise :class:`~bike_rig.core.errors.InputFileError` with the reason
 (and the line of a bad CSV cell, or the .mat key); bad *values* (NaN, gaps...) are left to the
 fitter, which reports them.
@@ -24,6 +33,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -32,8 +42,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .errors import InputFileError
+from .trial_columns import ColumnChoice, Columns, choose_columns, times_in_seconds
 
-__all__ = ["TEXT_SUFFIXES", "Trial", "read_trial", "uniform_sample_rate"]
+__all__ = ["TEXT_SUFFIXES", "ColumnChoice", "Trial", "key_from_name", "read_trial", "uniform_sample_rate"]
 
 FloatArray = NDArray[np.float64]
 
@@ -43,6 +54,16 @@ TEXT_SUFFIXES = (".csv", ".txt", ".tsv", ".dat")
 #: BicycleParameters' part names and the letter of their period keys (fork and handlebar as one).
 _PART_LETTERS = {"Rwheel": "R", "Fwheel": "F", "Frame": "B", "Fork": "H", "Handlebar": "G", "Rod": "P"}
 _ORDINALS = {"First": 1, "Second": 2, "Third": 3, "Fourth": 4, "Fifth": 5, "Sixth": 6}
+#: BicycleParameters' trial file stem: <bicycle><part><pendulum><ordinal><trial>.
+_BP_STEM = re.compile(
+    rf"^[A-Za-z0-9]*?({'|'.join(_PART_LETTERS)})(Compound|Torsional)({'|'.join(_ORDINALS)})\d*$"
+)
+#: The simulated rig's trial stem: <part>_<pendulum>[_o<orientation>][_t<trial>].
+_SIM_STEM = re.compile(
+    r"^(rear_wheel|front_wheel|frame|fork|calibration_rod)_(compound|torsional)(?:_o(\d+))?(?:_t\d+)?$"
+)
+#: A period key as a word of a file name (TtB2_t1, fork-TcH1-2).
+_KEY_WORD = re.compile(r"(?:^|[^A-Za-z0-9])(T[ct][RFBHGP][1-9]\d*)(?=$|[^A-Za-z0-9])")
 
 
 @dataclass(frozen=True)
@@ -61,6 +82,10 @@ class Trial:
         angle: ``angleOrder`` / ``angle``: the hanging orientation (``First``, ``Second``...).
         trial: ``trial``: the repetition (``1``, ``2``...).
         notes: ``notes``.
+        time_unit: The unit the file's times were in (``s``, ``ms``, ``us``, ``ns``), None
+            without times; ``times`` are in seconds whatever it was.
+        remarks: What the reader decided that the user should know (a time unit inferred from
+            the spacing, a signal column chosen among several).
     """
 
     samples: FloatArray
@@ -74,6 +99,8 @@ class Trial:
     angle: str | None = None
     trial: str | None = None
     notes: str | None = None
+    time_unit: str | None = None
+    remarks: tuple[str, ...] = ()
 
     @property
     def timing(self) -> dict[str, Any]:
@@ -92,14 +119,17 @@ class Trial:
 
     @property
     def period_key(self) -> str | None:
-        """The measurement file's key of this period (``TtB1``, ``TcR1``...), if the file says."""
-        if self.pendulum is None or self.part not in _PART_LETTERS:
-            return None
-        kind = self.pendulum[:1].lower()
-        order = _ORDINALS.get(self.angle or "First")
-        if kind not in ("c", "t") or order is None:
-            return None
-        return f"T{kind}{_PART_LETTERS[self.part]}{order}"
+        """The measurement file's key of this period (``TtB1``, ``TcR1``...), if known.
+
+        From a .mat file's ``part``, ``pendulum`` and ``angleOrder``, else from the file name
+        (:func:`key_from_name`); None when neither says.
+        """
+        if self.pendulum is not None and self.part in _PART_LETTERS:
+            kind = self.pendulum[:1].lower()
+            order = _ORDINALS.get(self.angle or "First")
+            if kind in ("c", "t") and order is not None:
+                return f"T{kind}{_PART_LETTERS[self.part]}{order}"
+        return key_from_name(Path(self.path).stem)
 
     @property
     def duration(self) -> float:
@@ -110,19 +140,48 @@ class Trial:
         return self.samples.size / self.sample_rate_hz
 
 
-def read_trial(path: str | os.PathLike[str], sample_rate_hz: float | None = None) -> Trial:
+def key_from_name(stem: str) -> str | None:
+    """The period key a trial file's name gives (``frame_torsional_o2_t3`` → ``TtB2``), or None.
+
+    Args:
+        stem: The file name without its extension.
+
+    Returns:
+        The key for the simulated rig's names, BicycleParameters' names
+        (``BrowserForkCompoundFirst1`` → ``TcH1``) and names holding the key as a word
+        (``TtB2_t1``); None otherwise.
+    """
+    found = _SIM_STEM.match(stem)
+    if found:
+        from .sim.plan import PlannedMeasurement
+
+        orientation = int(found[3]) if found[3] else None
+        return PlannedMeasurement(found[1], found[2], orientation).key
+    found = _BP_STEM.match(stem)
+    if found:
+        return f"T{found[2][0].lower()}{_PART_LETTERS[found[1]]}{_ORDINALS[found[3]]}"
+    words = set(_KEY_WORD.findall(stem))
+    return words.pop() if len(words) == 1 else None
+
+
+def read_trial(
+    path: str | os.PathLike[str], sample_rate_hz: float | None = None, columns: ColumnChoice | None = None
+) -> Trial:
     """Read one trial file (CSV, ``.npy`` or BicycleParameters ``.mat``; see the module).
 
     Args:
         path: The file.
         sample_rate_hz: Sample rate [Hz] for files that carry neither times nor a rate.
+        columns: The time and signal columns (CSV by name or index, ``.npy`` by index) and the
+            time unit, as the user chose them; None to recognise them.
 
     Returns:
-        The trial.
+        The trial, its times in seconds.
 
     Raises:
-        InputFileError: The file is unreadable, has the wrong shape, a non-numeric cell, or no
-            times and no rate.
+        InputFileError: The file is unreadable, has the wrong shape, a non-numeric cell, no
+            times and no rate, columns that cannot be told apart, or times whose unit cannot
+            be told.
     """
     name = str(path)
     if sample_rate_hz is not None and not (math.isfinite(sample_rate_hz) and sample_rate_hz > 0):
@@ -132,12 +191,15 @@ def read_trial(path: str | os.PathLike[str], sample_rate_hz: float | None = None
         reason = "is a directory, not a trial file" if p.is_dir() else "no such file"
         raise InputFileError(name, reason)
     suffix = p.suffix.lower()
+    choice = columns or ColumnChoice()
     if suffix in TEXT_SUFFIXES:
-        return _read_text(name, p, sample_rate_hz)
+        return _read_text(name, p, sample_rate_hz, choice)
     if suffix == ".npy":
-        return _read_npy(name, p, sample_rate_hz)
+        return _read_npy(name, p, sample_rate_hz, choice)
     if suffix == ".mat":
-        return _read_mat(name, p, sample_rate_hz)
+        if choice.chooses_columns:
+            raise InputFileError(name, "--time and --signal choose columns of CSV and .npy files; a .mat has none")
+        return _read_mat(name, p, sample_rate_hz, choice)
     raise InputFileError(name, f"unknown trial format {p.suffix!r} (expected {', '.join(TEXT_SUFFIXES)}, .npy or .mat)")
 
 
@@ -148,7 +210,14 @@ def _needs_rate(name: str, sample_rate_hz: float | None, what: str) -> float:
 
 
 def _make(
-    name: str, p: Path, samples: FloatArray, times: FloatArray | None, rate: float | None, **meta: str | None
+    name: str,
+    p: Path,
+    samples: FloatArray,
+    times: FloatArray | None,
+    rate: float | None,
+    remarks: tuple[str, ...] = (),
+    time_unit: str | None = None,
+    **meta: str | None,
 ) -> Trial:
     if samples.size == 0:
         raise InputFileError(name, "no samples")
@@ -162,8 +231,28 @@ def _make(
         times=times,
         name=trial_name,
         path=name,
+        time_unit=time_unit if times is not None else None,
+        remarks=remarks,
         **meta,
     )
+
+
+def _from_table(
+    name: str, p: Path, data: FloatArray, columns: Columns, sample_rate_hz: float | None, what: str
+) -> Trial:
+    """A trial from the columns of a table (rows of samples), its times in seconds.
+
+    ``what`` names the table in the missing-rate message (``a one-column file``).
+    """
+    samples = np.ascontiguousarray(data[:, columns.signal])
+    if columns.time is None:
+        if sample_rate_hz is None and data.shape[1] > 1:
+            reason = f"missing sample rate: {what} has no time column, give the rate (--rate HZ) or choose one (--time)"
+            raise InputFileError(name, reason)
+        return _make(name, p, samples, None, _needs_rate(name, sample_rate_hz, what), columns.remarks)
+    raw = np.ascontiguousarray(data[:, columns.time])
+    times, unit, remarks = times_in_seconds(name, raw, columns)
+    return _make(name, p, samples, times, None, columns.remarks + remarks, unit)
 
 
 # ---------------------------------------------------------------- CSV
@@ -173,14 +262,27 @@ def _split(line: str, delimiter: str | None) -> list[str]:
     return [cell.strip() for cell in (line.split(delimiter) if delimiter else line.split())]
 
 
-def _read_text(name: str, p: Path, sample_rate_hz: float | None) -> Trial:
-    rows, width = _text_rows(name, _file_text(name, p))
-    if not rows:
+def _read_text(name: str, p: Path, sample_rate_hz: float | None, choice: ColumnChoice) -> Trial:
+    table = _text_rows(name, _file_text(name, p))
+    if not table.rows:
         raise InputFileError(name, "no samples")
-    data = np.array(rows, dtype=float)
-    if width == 2:
-        return _make(name, p, np.ascontiguousarray(data[:, 1]), np.ascontiguousarray(data[:, 0]), None)
-    return _make(name, p, data[:, 0].copy(), None, _needs_rate(name, sample_rate_hz, "a one-column file"))
+    columns = choose_columns(name, table.width, table.names, choice, table.first_line)
+    what = "a one-column file" if table.width == 1 else f"the file {table.describe()}"
+    return _from_table(name, p, np.array(table.rows, dtype=float), columns, sample_rate_hz, what)
+
+
+@dataclass
+class _TextTable:
+    """The numeric rows of a text trial, their width, the header's names and where it starts."""
+
+    rows: list[list[float]]
+    width: int = 0
+    names: list[str] | None = None
+    first_line: int | None = None
+
+    def describe(self) -> str:
+        """The columns for messages: ``(rate, volts)``, or ``(3 columns)`` without a header."""
+        return f"({', '.join(self.names)})" if self.names else f"({self.width} columns)"
 
 
 def _file_text(name: str, p: Path) -> str:
@@ -193,35 +295,31 @@ def _file_text(name: str, p: Path) -> str:
         raise InputFileError(name, f"cannot read ({exc.strerror})") from None
 
 
-def _text_rows(name: str, text: str) -> tuple[list[list[float]], int]:
-    """The numeric rows of a text trial and their width (columns); 0 when there is neither row nor header.
+def _text_rows(name: str, text: str) -> _TextTable:
+    """The numeric rows of a text trial, their width and header.
 
     Blank lines and ``#`` comments are skipped; the delimiter (``,``, ``;``, tab, else
-    whitespace) is that of the first line; one header line is allowed before the first row.
+    whitespace) is that of the first line; one header line (column names) is allowed before
+    the first row. ``first_line`` is the header's line, or the first row's without one.
     """
-    rows: list[list[float]] = []
+    table = _TextTable([])
     delimiter: str | None = None
-    width = 0
-    header_seen = False
     for number, raw in enumerate(text.splitlines(), start=1):
         line = raw.strip()
         if not line or line.startswith("#"):
             continue
-        if not rows and not header_seen and width == 0:
+        if table.first_line is None:
             delimiter = next((d for d in (",", ";", "\t") if d in line), None)
+            table.first_line = number
         cells = _split(line, delimiter)
-        values = _numbers(name, cells, number, header_allowed=not rows and not header_seen)
+        values = _numbers(name, cells, number, header_allowed=not table.rows and table.names is None)
         if values is None:
-            header_seen = True
-            if len(cells) not in (1, 2):
-                raise InputFileError(
-                    name, f"header with {len(cells)} columns: expected 1 (rate) or 2 (time, rate)", line=number
-                )
-            width = len(cells)
+            table.names = [cell.strip("\"'") for cell in cells]
+            table.width = len(cells)
             continue
-        width = _row_width(name, len(values), width, number)
-        rows.append(values)
-    return rows, width
+        table.width = _row_width(name, len(values), table.width, number)
+        table.rows.append(values)
+    return table
 
 
 def _numbers(name: str, cells: list[str], number: int, header_allowed: bool) -> list[float] | None:
@@ -241,8 +339,6 @@ def _numbers(name: str, cells: list[str], number: int, header_allowed: bool) -> 
 def _row_width(name: str, columns: int, width: int, number: int) -> int:
     """The file's width after a row of ``columns`` numbers at line ``number`` (``width``: 0 before the first)."""
     if width == 0:
-        if columns not in (1, 2):
-            raise InputFileError(name, f"{columns} columns: expected 1 (rate) or 2 (time, rate)", line=number)
         return columns
     if columns != width:
         raise InputFileError(name, f"{columns} columns where the file has {width}", line=number)
@@ -252,7 +348,7 @@ def _row_width(name: str, columns: int, width: int, number: int) -> int:
 # ---------------------------------------------------------------- NumPy
 
 
-def _read_npy(name: str, p: Path, sample_rate_hz: float | None) -> Trial:
+def _read_npy(name: str, p: Path, sample_rate_hz: float | None, choice: ColumnChoice) -> Trial:
     try:
         array = np.load(p, allow_pickle=False)
     except (ValueError, OSError, EOFError) as exc:
@@ -264,11 +360,16 @@ def _read_npy(name: str, p: Path, sample_rate_hz: float | None) -> Trial:
     if array.ndim == 2 and array.shape[1] == 1:
         array = array[:, 0]
     if array.ndim == 1:
-        return _make(name, p, array.astype(float), None, _needs_rate(name, sample_rate_hz, "a 1-D array"))
-    if array.ndim == 2 and array.shape[1] == 2:
-        data = array.astype(float)
-        return _make(name, p, np.ascontiguousarray(data[:, 1]), np.ascontiguousarray(data[:, 0]), None)
-    raise InputFileError(name, f"wrong shape {array.shape}: expected (N,) rates or (N, 2) rows of [time, rate]")
+        array = array.reshape(-1, 1)
+    if array.ndim != 2 or (array.shape[1] > 2 and not choice.chooses_columns):
+        raise InputFileError(
+            name,
+            f"wrong shape {array.shape}: expected (N,) rates or (N, 2) rows of [time, rate]"
+            + ("; choose the columns of an (N, k) array with --time and --signal (0-based)" if array.ndim == 2 else ""),
+        )
+    columns = choose_columns(name, array.shape[1], None, choice)
+    what = "a 1-D array" if array.shape[1] == 1 else f"the ({array.shape[0]}, {array.shape[1]}) array"
+    return _from_table(name, p, array.astype(float), columns, sample_rate_hz, what)
 
 
 # ---------------------------------------------------------------- BicycleParameters .mat
@@ -302,7 +403,7 @@ def _vector(name: str, mat: dict[str, Any], key: str) -> FloatArray:
     return value.astype(float)
 
 
-def _read_mat(name: str, p: Path, sample_rate_hz: float | None) -> Trial:
+def _read_mat(name: str, p: Path, sample_rate_hz: float | None, choice: ColumnChoice) -> Trial:
     from scipy.io import loadmat
 
     try:
@@ -316,10 +417,14 @@ def _read_mat(name: str, p: Path, sample_rate_hz: float | None) -> Trial:
     samples = _vector(name, mat, "data")
     times = None
     rate = None
+    unit: str | None = None
+    remarks: tuple[str, ...] = ()
     if "time" in mat:
         times = _vector(name, mat, "time")
         if times.size != samples.size:
             raise InputFileError(name, f"{times.size} times for {samples.size} samples", key="time")
+        given = Columns(0, 1, "the 'time' array", choice.time_unit, choice.time_unit is not None)
+        times, unit, remarks = times_in_seconds(name, times, given)
     else:
         for key in ("ActualRate", "sampleRate"):
             if key in mat:
@@ -338,7 +443,7 @@ def _read_mat(name: str, p: Path, sample_rate_hz: float | None) -> Trial:
         "trial": _text(mat.get("trial")),
         "notes": _text(mat.get("notes")),
     }
-    return _make(name, p, samples, times, rate, **meta)
+    return _make(name, p, samples, times, rate, remarks, unit, **meta)
 
 
 def uniform_sample_rate(times: NDArray[np.float64]) -> float | None:

@@ -209,3 +209,92 @@ def test_add_parser_and_run_on_a_bare_parser(capsys: pytest.CaptureFixture[str],
     assert json.loads(capsys.readouterr().out)["valid"] is True
     assert bare_parser_run(["fit", str(trials[0]), "--rate", "-1"]) == 2
     assert capsys.readouterr().err.startswith("bike-rig fit: error: --rate must be a positive number")
+
+
+# ---------------------------------------------------------------- columns, time units, measurement keys
+
+
+def _csv(path: Path, header: str, *columns: np.ndarray) -> Path:
+    rows = [",".join(repr(float(v)) for v in row) for row in zip(*columns)]
+    path.write_text(header + "\n" + "\n".join(rows) + "\n")
+    return path
+
+
+def test_milliseconds_give_the_period_in_seconds(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    t = gyro_trial(21, period=1.6)
+    named = _csv(tmp_path / "named.csv", "time_ms,rate", t.times * 1000.0, t.samples)
+    plain = _csv(tmp_path / "plain.csv", "time,rate", t.times * 1000.0, t.samples)
+    code, out, err = run(capsys, "fit", str(named), str(plain), "--json")
+    assert code == 0
+    for line in out.splitlines():
+        doc = json.loads(line)
+        assert doc["valid"] and abs(doc["period"] - 1.6) < 4 * doc["period_sigma"]  # not 1600 s
+    assert err == (
+        f"bike-rig fit: note: {plain}: time column 'time' read in ms: its steps of 1 are 1000 Hz in ms but 1 Hz "
+        "in s (name the column time_ms or pass --time-unit ms to say so)\n"
+    )
+    wrong = _csv(tmp_path / "wrong.csv", "time_s,rate", t.times * 1000.0, t.samples)
+    code, out, err = run(capsys, "fit", str(wrong))
+    assert code == 2 and out == "" and err.count("\n") == 1
+    assert "time column 'time_s' says s" in err and "they look like ms" in err
+    code, out, _ = run(capsys, "fit", str(wrong), "--time-unit", "ms", "--json")
+    assert code == 0 and abs(json.loads(out)["period"] - 1.6) < 1e-3
+
+
+def test_time_and_signal_options_choose_columns(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    t = gyro_trial(22, period=1.6)
+    f = _csv(tmp_path / "three.csv", "time,rate,volts", t.times, t.samples, 2.5 + 0.4 * t.samples)
+    code, out, err = run(capsys, "fit", str(f), "--json")
+    assert code == 0 and "signal: column 'rate' of time, rate, volts" in err
+    by_rate = json.loads(out)
+    code, out, err = run(capsys, "fit", str(f), "--json", "--signal", "volts")
+    assert code == 0 and err == ""
+    by_volts = json.loads(out)
+    code, out, _ = run(capsys, "fit", str(f), "--json", "--time", "0", "--signal", "2")
+    assert json.loads(out) == by_volts
+    assert by_volts["period"] == pytest.approx(by_rate["period"], rel=1e-9)  # volts = a + b rate: the same fit
+    code, out, err = run(capsys, "fit", str(f), "--signal", "gyro")
+    assert code == 2 and out == "" and err.count("\n") == 1
+    assert err.startswith("bike-rig fit: error: ") and "(time, rate, volts): --signal 'gyro': no such column" in err
+
+
+def _sim_named(tmp_path: Path, names_periods: Sequence[tuple[str, float]]) -> list[str]:
+    files = []
+    for k, (name, period) in enumerate(names_periods):
+        trial = gyro_trial(40 + k, period=period)
+        np.save(tmp_path / name, np.column_stack([trial.times, trial.samples]))
+        files.append(str(tmp_path / name))
+    return files
+
+
+def test_trials_of_different_measurements_are_not_combined(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    named = _sim_named(
+        tmp_path,
+        [("frame_torsional_o1_t1.npy", 1.3), ("frame_torsional_o1_t2.npy", 1.3), ("fork_compound_t1.npy", 1.9)],
+    )
+    code, out, _ = run(capsys, "fit", *named)
+    assert code == 0
+    found = re.search(r"combined period of TtB1: T = ([0-9.]+) ± ([0-9.]+) s \(2 used", out)
+    assert found, out
+    assert abs(float(found[1]) - 1.3) < 4 * float(found[2])
+    assert "combined period of TcH1: T = " in out and "(1 used" in out
+    assert "all trials" not in out
+    # Files that name no measurement, of clearly different periods: one line says why not.
+    plain = _sim_named(tmp_path, [("a.npy", 1.3), ("b.npy", 1.9)])
+    code, out, _ = run(capsys, "fit", *plain)
+    assert code == 0 and "combined period" not in out
+    why = [line for line in out.splitlines() if line.startswith("not combined")]
+    assert len(why) == 1 and "name no measurement" in why[0] and "--key" in why[0]
+    # Mixed: the keyed ones by key, the others named.
+    code, out, _ = run(capsys, "fit", named[0], plain[0])
+    assert "combined period of TtB1" in out and "not combined: a.npy names no measurement key" in out
+
+
+def test_key_option_combines_files_as_one_measurement(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    plain = _sim_named(tmp_path, [("a.npy", 1.3), ("b.npy", 1.3)])
+    code, out, _ = run(capsys, "fit", *plain, "--key", "TtB2")
+    assert code == 0 and re.search(r"combined period of TtB2: T = [0-9.]+ ± [0-9.]+ s \(2 used", out), out
+    code, out, err = run(capsys, "fit", *plain, "--key", "frame")
+    assert code == 2 and out == "" and "--key must be a period key such as TtB1" in err
