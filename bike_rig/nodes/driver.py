@@ -1,11 +1,12 @@
 """The driver node: reads the rate gyro through one gyro source and publishes its trials.
 
 Parameter ``source`` chooses the backend (:mod:`bike_rig.sources`): ``sim`` (the simulated rig
-walking a session plan), ``can`` (a CAN gyro, python-can), ``bag`` (a recorded session
-replayed) or ``daq`` (NI-DAQmx). The driver declares its own parameters
-(:data:`COMMON_PARAMETERS`) and every backend's (each backend class's ``PARAMETERS``), all
-read-only with a description and range (:mod:`bike_rig.nodes.params`); they can come from
-``config/driver.yaml`` (``--ros-args --params-file``).
+walking a session plan, or with ``mode`` ``operator`` simulating each requested trial), ``can``
+(a CAN gyro, python-can), ``bag`` (a recorded session replayed) or ``daq`` (NI-DAQmx). The
+driver declares its own parameters (:data:`COMMON_PARAMETERS`) and every backend's (each
+backend class's ``PARAMETERS``), all read-only with a description and range
+(:mod:`bike_rig.nodes.params`); they can come from ``config/driver.yaml``
+(``--ros-args --params-file``).
 
 Published (reliable, transient-local, :mod:`bike_rig.topics`):
 
@@ -16,10 +17,15 @@ Published (reliable, transient-local, :mod:`bike_rig.topics`):
   first sample, ``trial start + first_index / rate``.
 
 Services: ``/bike_rig/driver/start_trial`` (StartTrial) and ``/bike_rig/driver/stop_trial``
-(StopTrial), honoured by the hardware backends (the sim and bag backends walk their own plan
-and decline). When a plan is finished the driver logs it and keeps running, so that late
-joiners still get the topics' history — or exits (``exit_when_done``, after the subscribers
-have acknowledged everything, up to 10 s).
+(StopTrial), honoured by the hardware backends and the sim backend in ``operator`` mode (the
+plan-walking sim and the bag decline). StartTrial answers ``accepted`` with the trial's id, or
+not with the source's one-line reason; the trial's START is published before the answer when
+the source has it at once (the simulated rig). A trial that records (from its request, or its
+START) and gets no samples for ``silence_warning_s`` of wall time is logged as a warning once
+per silence, naming the source and what to check (the bus, the wiring, the CAN id...). When a
+plan is finished the driver logs it and keeps running, so that late joiners still get the
+topics' history — or exits (``exit_when_done``, after the subscribers have acknowledged
+everything, up to 10 s).
 """
 
 from __future__ import annotations
@@ -52,6 +58,7 @@ from ..sources import (
 )
 from ..sources.base import FloatArray
 from ..sources.errors import SourceError
+from ..sources.silence import DEFAULT_SILENCE_S, SilenceWatch
 from ..topics import GYRO, START_TRIAL, STOP_TRIAL, TRIAL_EVENTS
 from .params import declare_parameters
 
@@ -74,6 +81,8 @@ COMMON_PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec("exit_when_done", False, "exit when the sim/bag plan is finished (else keep running)"),
     ParamSpec("wait_for_subscribers", 0, "start streaming once the gyro topic has this many subscribers",
               (0, 100)),  # fmt: skip
+    ParamSpec("silence_warning_s", DEFAULT_SILENCE_S,
+              "warn when a recording trial has had no samples this long, s (wall clock)", (0.05, 60.0)),  # fmt: skip
 )
 
 
@@ -131,6 +140,7 @@ class DriverNode(Node):
         self._streaming = self.wait_for == 0
         self._done_logged = False
         self._errors = 0
+        self.silence = SilenceWatch(float(self.values["silence_warning_s"]))
         self.trials_published = 0
         self.samples_published = 0
         self.timer = self.create_timer(float(self.values["poll_period_s"]), self._on_timer)
@@ -146,6 +156,7 @@ class DriverNode(Node):
                 self._streaming = True
                 self.get_logger().info(f"{self.gyro_pub.get_subscription_count()} gyro subscriber(s): streaming")
             self._publish_events(self.source.poll())
+            self._warn_silent()
             if self.source.finished and not self._done_logged:
                 self._done_logged = True
                 self.get_logger().info(
@@ -163,6 +174,14 @@ class DriverNode(Node):
             self._errors += 1
             if self._errors in (1, 10, 100) or self._errors % 1000 == 0:
                 self.get_logger().error(f"reading the {self.source.name} source failed: {exc!r}")
+
+    def _warn_silent(self) -> None:
+        for silence in self.silence.due():
+            what = "no samples" if silence.any_samples else "no samples yet"
+            self.get_logger().warning(
+                f"trial {silence.trial_id}: {what} from the {self.source.name} gyro for {silence.seconds:.1f} s — "
+                f"{self.source.silence_hint()}"
+            )
 
     def _wait_for_acks(self) -> None:
         timeout = Duration(seconds=ACK_TIMEOUT_S)
@@ -201,6 +220,7 @@ class DriverNode(Node):
             self.get_logger().warning(f"trial {ev.info.trial_id} started twice; the second START is ignored")
             return
         self._trials[ev.info.trial_id] = _Trial(ev.info, ev.stamp_ns)
+        self.silence.started(ev.info.trial_id)
         self.events_pub.publish(self._event(ev.info, _msgs.TrialEvent.START, ev.stamp_ns))
         self.get_logger().info(f"trial {ev.info.trial_id} ({ev.info.measurement_key}) started")
 
@@ -209,6 +229,8 @@ class DriverNode(Node):
         if t is None:
             self.get_logger().warning(f"samples of trial {block.trial_id!r}, which has not started, dropped")
             return
+        if block.rates.size:
+            self.silence.samples(block.trial_id)
         if t.buffered and block.first_index != t.first + t.buffered:
             self._flush(t)  # a gap: the next batch starts at the block's own index
         if not t.buffered:
@@ -252,6 +274,7 @@ class DriverNode(Node):
         self.samples_published += rates.size
 
     def _on_stopped(self, ev: TrialStopped) -> None:
+        self.silence.stopped(ev.trial_id)
         t = self._trials.pop(ev.trial_id, None)
         if t is None:
             self.get_logger().warning(f"STOP of trial {ev.trial_id!r}, which has not started, dropped")
@@ -282,15 +305,23 @@ class DriverNode(Node):
                 )
             )
             response.accepted, response.trial_id = True, info.trial_id
-            duration = f"{request.duration_s:g} s" if request.duration_s > 0 else "until stopped"
-            response.message = f"recording trial {info.trial_id} ({info.measurement_key}), {duration}"
+            self.silence.started(info.trial_id)
+            if self._streaming:
+                self._publish_events(self.source.poll())  # the START, when the source has it at once
+            response.message = f"recording trial {info.trial_id} ({info.measurement_key}), {self._duration(request)}"
             self.get_logger().info(response.message)
         except TrialRequestError as exc:
             response.accepted, response.message = False, str(exc)
+            self.get_logger().info(f"start refused: {exc}")
         except Exception as exc:  # never raise out of a callback
             response.accepted, response.message = False, f"start failed: {exc!r}"
             self.get_logger().error(response.message)
         return response
+
+    def _duration(self, request: Any) -> str:
+        if request.duration_s > 0:
+            return f"{request.duration_s:g} s"
+        return "the rig's duration" if self.source.name == "sim" else "until stopped"
 
     def _on_stop_trial(self, request: Any, response: Any) -> Any:
         try:
