@@ -32,7 +32,7 @@ DEFAULT_BICYCLE = "bicycles/browser.yaml"
 #: function of this module or by ``add_parser`` of a module of this package.
 SUBCOMMANDS: tuple[tuple[str, str], ...] = (
     ("params", "_add_params"),
-    ("model", "_add_model"),
+    ("model", "model_cmd"),
     ("import-bp", "_add_import_bp"),
     ("fit", "fit_cmd"),
     ("bag", "bag_cmd"),
@@ -105,54 +105,6 @@ def cmd_params(args: argparse.Namespace) -> int:
         text = dump_parameters_yaml(ps)
     else:
         text = fmt.parameter_table(ps)
-    emit(text, args.output)
-    return 0
-
-
-def _model_json(ms: Any, cs: Any, speeds: np.ndarray, eig: Any) -> dict[str, Any]:
-    import numpy as np
-
-    out: dict[str, Any] = {}
-    for name in ("M", "C1", "K0", "K2"):
-        out[name] = np.asarray(getattr(ms.matrices, name)).tolist()
-    for name in ("M", "C1", "K0", "K2"):
-        out[f"{name}_sigma"] = np.asarray(getattr(ms.sigma, name)).tolist()
-    out["weave_speed"] = cs.weave
-    out["capsize_speed"] = cs.capsize
-    out["speeds"] = speeds.tolist()
-    out["modes"] = list(eig.labels)
-    out["eigenvalues"] = [[{"re": float(z.real), "im": float(z.imag)} for z in row] for row in eig.eigenvalues]
-    return out
-
-
-def cmd_model(args: argparse.Namespace) -> int:
-    import json
-
-    from ..core.rider import add_rider
-    from ..core.uncertainty.matrix_sigma import SigmaConvention, canonical_with_sigma
-    from ..core.whipple import critical_speeds, eigenvalues
-    from . import format as fmt
-    from .common import emit, rider_from_spec
-
-    ps = _parameters(args.file, args.com_method)
-    rider = rider_from_spec(args.rider)
-    if rider is not None:
-        ps = add_rider(ps, rider)
-    speeds = _speeds(args.speeds)
-    ms = canonical_with_sigma(ps, SigmaConvention(args.sigma))
-    cs = critical_speeds(ms.matrices, ms.g)
-    eig = eigenvalues(ms.matrices, ms.g, speeds)
-    if args.json:
-        emit(json.dumps(_model_json(ms, cs, speeds, eig), indent=2), args.output)
-        return 0
-    text = "\n\n".join(
-        [
-            f"{ps.bicycle}: Whipple model (from {ps.source})",
-            fmt.matrix_table(ms),
-            fmt.speeds_summary(cs),
-            fmt.eigen_table(speeds.tolist(), eig.eigenvalues, eig.labels),
-        ]
-    )
     emit(text, args.output)
     return 0
 
@@ -252,18 +204,6 @@ def _add_params(sub: Any) -> None:
     q.add_argument("--json", action="store_true", help="one JSON object on standard output")
     q.add_argument("--format", choices=["table", "json", "yaml", "bp-yaml"], default="table")
     q.set_defaults(func=cmd_params)
-
-
-def _add_model(sub: Any) -> None:
-    from ..core.uncertainty.matrix_sigma import SigmaConvention
-
-    q = sub.add_parser("model", help="canonical matrices, critical speeds and eigenvalues")
-    _common(q)
-    q.add_argument("--rider", help="'paper' for the paper's rigid rider (Table 1), or a rider YAML file")
-    q.add_argument("--speeds", nargs=3, metavar=("START", "STOP", "N"), help="speeds in m/s (default 0 10 11)")
-    q.add_argument("--sigma", choices=[c.value for c in SigmaConvention], default="correlated")
-    q.add_argument("--json", action="store_true", help="one JSON object on standard output")
-    q.set_defaults(func=cmd_model)
 
 
 def _add_import_bp(sub: Any) -> None:

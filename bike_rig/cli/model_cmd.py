@@ -1,0 +1,123 @@
+"""``bike-rig model FILE``: the canonical matrices, the weave and capsize speeds and the eigenvalues, with σ.
+
+::
+
+    bike-rig model FILE [--rider paper|RIDER.yaml] [--speeds START STOP N] [--sigma correlated|paper]
+                        [--com-method centroid|lstsq] [--json] [-o OUT]
+
+FILE is a measurement file or a parameter file. The text shows the matrices M, C1, K0, K2 with
+σ, the weave and capsize speeds with σ (m/s), and the eigenvalues (1/s) at the speeds. The
+speeds' σ is the first-order propagation of the parameter covariance through the
+implicit-function gradient of each speed
+(:func:`bike_rig.core.uncertainty.speed_sigma.critical_speeds_with_sigma`), the same code the
+model node, ``replay`` and ``report`` use, in the σ convention of ``--sigma``. ``--json``
+prints one object::
+
+    {"M": [[..],[..]], "C1": .., "K0": .., "K2": .., "M_sigma": .., "C1_sigma": .., "K0_sigma": ..,
+     "K2_sigma": .., "weave_speed": float|null, "weave_speed_sigma": float|null,
+     "capsize_speed": float|null, "capsize_speed_sigma": float|null, "speeds": [..], "modes": [..],
+     "eigenvalues": [[{"re": .., "im": ..}, ...], ...]}
+
+A speed is null when the bicycle has no such crossing; its σ is null then, or when the root
+is not simple. Bad inputs end in one line on stderr with exit status 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from typing import Any
+
+import numpy as np
+
+from ..core.rider import add_rider
+from ..core.uncertainty.matrix_sigma import MatrixSet, SigmaConvention, canonical_with_sigma
+from ..core.uncertainty.speed_sigma import CriticalSpeedsWithSigma, SpeedWithSigma, critical_speeds_with_sigma
+from ..core.whipple import EigenvalueSweep, eigenvalues
+from . import format as fmt
+from .common import emit, rider_from_spec
+from .main import _common, _parameters, _speeds
+
+__all__ = ["add_parser", "model_json", "run", "speeds_text"]
+
+
+def add_parser(sub: Any) -> None:
+    """Register ``bike-rig model`` on the ``bike-rig`` sub-command parser."""
+    q = sub.add_parser("model", help="canonical matrices, critical speeds and eigenvalues")
+    _common(q)
+    q.add_argument("--rider", help="'paper' for the paper's rigid rider (Table 1), or a rider YAML file")
+    q.add_argument("--speeds", nargs=3, metavar=("START", "STOP", "N"), help="speeds in m/s (default 0 10 11)")
+    q.add_argument("--sigma", choices=[c.value for c in SigmaConvention], default="correlated")
+    q.add_argument("--json", action="store_true", help="one JSON object on standard output")
+    q.set_defaults(func=run)
+
+
+def _number(x: float | None) -> float | None:
+    return float(x) if x is not None and math.isfinite(x) else None
+
+
+def model_json(ms: MatrixSet, cs: CriticalSpeedsWithSigma, speeds: np.ndarray, eig: EigenvalueSweep) -> dict[str, Any]:
+    """The ``--json`` object of the module docstring (matrices in SI, speeds m/s, eigenvalues 1/s)."""
+    out: dict[str, Any] = {}
+    for name in ("M", "C1", "K0", "K2"):
+        out[name] = np.asarray(getattr(ms.matrices, name)).tolist()
+    for name in ("M", "C1", "K0", "K2"):
+        out[f"{name}_sigma"] = np.asarray(getattr(ms.sigma, name)).tolist()
+    for label, speed in (("weave", cs.weave), ("capsize", cs.capsize)):
+        out[f"{label}_speed"] = None if speed is None else speed.speed
+        out[f"{label}_speed_sigma"] = None if speed is None else _number(speed.sigma)
+    out["speeds"] = speeds.tolist()
+    out["modes"] = list(eig.labels)
+    out["eigenvalues"] = [[{"re": float(z.real), "im": float(z.imag)} for z in row] for row in eig.eigenvalues]
+    return out
+
+
+def _speed_text(speed: SpeedWithSigma | None, mode: str) -> str:
+    if speed is None:
+        return f"none (no {mode} crossing)"
+    if not math.isfinite(speed.sigma):
+        return f"{speed.speed:.6f} m/s (σ undefined: not a simple root)"
+    if speed.sigma == 0.0:
+        return f"{speed.speed:.6f} ± 0 m/s (the parameters carry no σ)"
+    value, sigma = fmt.format_value_sigma(speed.speed, speed.sigma, digits=2)
+    return f"{value} ± {sigma} m/s"
+
+
+def speeds_text(cs: CriticalSpeedsWithSigma) -> str:
+    """The weave and capsize speeds with σ (σ to two significant digits), or why one is absent."""
+    return (
+        f"weave speed:   {_speed_text(cs.weave, 'weave')}\n"
+        f"capsize speed: {_speed_text(cs.capsize, 'capsize')}\n"
+        f"(σ first order from the parameter covariance, {cs.convention.value} convention)"
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``bike-rig model``; returns the exit status (0).
+
+    Raises:
+        BikeRigError: An unreadable input, a bad rider or bad speeds (one line, exit status 2).
+    """
+    ps = _parameters(args.file, args.com_method)
+    rider = rider_from_spec(args.rider)
+    if rider is not None:
+        ps = add_rider(ps, rider)
+    speeds = _speeds(args.speeds)
+    convention = SigmaConvention(args.sigma)
+    ms = canonical_with_sigma(ps, convention)
+    cs = critical_speeds_with_sigma(ps, convention, ms)
+    eig = eigenvalues(ms.matrices, ms.g, speeds)
+    if args.json:
+        emit(json.dumps(model_json(ms, cs, speeds, eig), indent=2), args.output)
+        return 0
+    text = "\n\n".join(
+        [
+            f"{ps.bicycle}: Whipple model (from {ps.source})",
+            fmt.matrix_table(ms),
+            speeds_text(cs),
+            fmt.eigen_table(speeds.tolist(), eig.eigenvalues, eig.labels),
+        ]
+    )
+    emit(text, args.output)
+    return 0
