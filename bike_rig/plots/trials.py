@@ -16,6 +16,7 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Patch
 from numpy.typing import NDArray
 
+from ..bag.timeline import TIME_BASE
 from ..core.period import FitOptions, combine_periods
 from ..subjects import SessionTrial, Subject, is_bag_path
 from ..textfmt import format_value_sigma
@@ -111,7 +112,7 @@ def fit_figure(trial: SessionTrial) -> Figure:
     """
     fig = new_figure(10.0, 6.0)
     top, bottom = fig.subplots(2, 1, sharex=True, height_ratios=(3, 1))
-    top.set_title(fit_title(trial), fontsize=9)
+    top.set_title(fit_title(trial), fontsize=9, wrap=True)
     unit = "rad/s" if is_bag_path(trial.source) else "file units"
     top.set_ylabel(f"angular rate [{unit}]")
     bottom.set_ylabel(f"residual [{unit}]")
@@ -172,8 +173,8 @@ class OverviewPoint:
     Attributes:
         trial: The trial.
         status: See :func:`trial_status`.
-        x: Its place on the horizontal axis: start time, s since the session's first message
-            (bags), or its position in session order.
+        x: Its place on the horizontal axis: start time (bags; s,
+            :data:`bike_rig.bag.timeline.TIME_BASE`), or its position in session order.
         deviation_ppm: (T − T_ref) / T_ref of its key, ppm (NaN without a period).
         sigma_ppm: σ_T / T_ref, ppm (NaN without a period).
     """
@@ -440,7 +441,7 @@ def trial_overview(subject: Subject) -> Figure:
     cyc_ax.set_ylabel("cycles in window")
     cyc_ax.legend(loc="lower right", fontsize=6)
     if ov.time_axis:
-        cyc_ax.set_xlabel("trial start [s since the session's first message]")
+        cyc_ax.set_xlabel(f"trial start [{TIME_BASE}]")
     else:
         cyc_ax.set_xlabel("trial, in session order")
     return fig
