@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from .bag.timeline import TimelineEntry
 from .core.benchmark import ComMethod, ParameterSet, compute_parameters
 from .core.errors import BikeRigError, InputFileError
 from .core.loader import load_input
@@ -57,19 +58,6 @@ class SubjectError(BikeRigError):
 
 
 @dataclass(frozen=True)
-class TimelineEntry:
-    """Something that happened in a recorded session.
-
-    Attributes:
-        time_s: s since the session's first message.
-        what: What happened, e.g. ``trial frame_o1_t2 (TtB1) started``.
-    """
-
-    time_s: float
-    what: str
-
-
-@dataclass(frozen=True)
 class Subject:
     """One bicycle, ready to plot and report.
 
@@ -81,7 +69,8 @@ class Subject:
             when the input held raw readings (measurement files and bags).
         measurements: The raw readings (None for a parameter file).
         trials: Every trial, in session (or file) order; empty for a parameter file.
-        timeline: For a bag, what was measured when, by time; else empty.
+        timeline: For a bag, what happened when, each thing once, in time order (times in
+            :data:`bike_rig.bag.timeline.TIME_BASE`); else empty.
         notes: What a reader should know (e.g. trials left out of a replay).
         duration_s: For a bag, the session's length, s; else None.
     """
@@ -127,14 +116,11 @@ def _file_trials(m: Measurements) -> tuple[SessionTrial, ...]:
     return tuple(out)
 
 
-def _stamp_s(ns: int | None, t0_ns: int) -> float | None:
-    return (ns - t0_ns) / 1e9 if ns is not None and ns > 0 else None
-
-
 def _bag_subject(path: str, com_method: ComMethod | None) -> Subject:
     from .bag.replay import ReplaySettings, replay_session
     from .bag.session import read_session
-    from .messages import stamp_ns, static_readings_from_msg
+    from .bag.timeline import session_timeline
+    from .messages import static_readings_from_msg
     from .pipeline.assemble import merged_readings
 
     session = read_session(path)
@@ -142,30 +128,15 @@ def _bag_subject(path: str, com_method: ComMethod | None) -> Subject:
     if result.parameters is None:
         missing = ", ".join(result.session.missing) or "unknown"
         raise SubjectError(path, f"the session is incomplete: no usable trial for {missing}")
-    t0 = int(session.start_time)
+    timeline = session_timeline(session)  # one time base: the rig clock from the first trial's start
     records: list[SessionTrial] = []
-    timeline: list[TimelineEntry] = []
     for r in result.trials:
         rec = session.trials.get(r.trial_id)
-        start = _stamp_s(rec.start.stamp_ns if rec is not None and rec.start else None, t0)
-        stop = _stamp_s(rec.stop.stamp_ns if rec is not None and rec.stop else None, t0)
+        start = timeline.seconds(rec.start.stamp_ns if rec is not None and rec.start else None)
+        stop = timeline.seconds(rec.stop.stamp_ns if rec is not None and rec.stop else None)
         key = r.key or (rec.measurement_key if rec is not None else "")
         fitted = r.result if key == r.key else dataclasses.replace(r.result, measurement_key=key)
         records.append(dataclasses.replace(r, result=fitted, start_s=start, stop_s=stop, source=path))
-        if start is not None:
-            timeline.append(TimelineEntry(start, f"trial {r.trial_id} ({key}) started"))
-        if stop is not None:
-            state = "aborted" if rec is not None and rec.state == "aborted" else "stopped"
-            timeline.append(TimelineEntry(stop, f"trial {r.trial_id} ({key}) {state}"))
-    if session.static_readings is not None:
-        t = _stamp_s(stamp_ns(session.static_readings.header), t0)
-        if t is not None:
-            timeline.append(TimelineEntry(max(t, 0.0), "static readings published"))
-    for msg in session.parameters:
-        t = _stamp_s(stamp_ns(msg.header), t0)
-        if t is not None:
-            timeline.append(TimelineEntry(t, "parameter set published"))
-    timeline.sort(key=lambda e: e.time_s)
     periods = {k.key: (k.value, k.sigma) for k in result.session.periods}
     assert session.static_readings is not None  # the replay needs it
     static = static_readings_from_msg(session.static_readings)
@@ -177,7 +148,7 @@ def _bag_subject(path: str, com_method: ComMethod | None) -> Subject:
         parameters=result.parameters,
         measurements=measurements,
         trials=tuple(records),
-        timeline=tuple(timeline),
+        timeline=timeline.entries,
         notes=tuple(result.notes),
         duration_s=session.duration / 1e9,
     )

@@ -194,8 +194,8 @@ class SessionTrial:
             estimate), ``session`` (the session's other estimates), ``default`` or
             ``override`` ("" outside a replay).
         recorded: The live estimate of the trial (the one the parameter node kept), or None.
-        start_s: When the trial started, s since the session's first message (bags), else None.
-        stop_s: When it stopped, s since the session's first message (bags), else None.
+        start_s: When the trial started, s on the rig clock from the first trial's start (bags), else None.
+        stop_s: When it stopped, s on the rig clock from the first trial's start (bags), else None.
         source: The trial file, or the bag.
     """
 

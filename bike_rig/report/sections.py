@@ -15,6 +15,7 @@ import math
 from collections.abc import Sequence
 
 from .. import __version__
+from ..bag.timeline import TIME_BASE
 from ..core.uncertainty.budget import CAPSIZE, PARAMETERS, WEAVE, OutputBudget, UncertaintyBudget, input_ranking
 from ..core.uncertainty.matrix_sigma import MATRIX_NAMES
 from ..core.uncertainty.speed_sigma import SpeedWithSigma
@@ -393,7 +394,8 @@ def trials_section(subject: Subject) -> Raw:
         html_table,
         _p(
             "A flagged trial keeps its period but is left out of its period's combination and should be redone; "
-            "r² and the cycle count describe the fit window; ζ is the damping ratio.",
+            "r² and the cycle count describe the fit window; ζ is the damping ratio. Start and stop are on the "
+            f"timeline's clock ({TIME_BASE}).",
             "note",
         ),
     ]
@@ -424,18 +426,43 @@ def trials_section(subject: Subject) -> Raw:
     return section("trials", "Trials", body)
 
 
+def _timeline_time_cell(t: float | None) -> Raw:
+    if t is None:
+        return Raw('<td class="num" data-value="none">before any result</td>')
+    return number_cell(t, ".1f")
+
+
 def timeline_section(subject: Subject) -> Raw:
-    """For a bag, what was measured when; otherwise a note that there is no timeline."""
+    """For a bag, what happened when on the rig's clock, each thing once; otherwise a note."""
     if subject.kind != "bag":
         return section("timeline", "Timeline", [_p("Not a recorded session: the input has no timeline.", "note")])
     body: list[str] = []
+    starts = [t.start_s for t in subject.trials if t.start_s is not None]
+    stops = [t.stop_s for t in subject.trials if t.stop_s is not None]
+    span = f"; its trials span {max(stops) - min(starts):.1f} s of rig time" if starts and stops else ""
     if subject.duration_s is not None:
-        body.append(_p(f"The session lasted {subject.duration_s:.1f} s; times are from its first message."))
+        body.append(_p(f"The recording lasted {subject.duration_s:.1f} s (the computer's clock){span}."))
     if not subject.timeline:
         body.append(_p("The bag records no trial start or stop times.", "note"))
     else:
-        rows: list[list[str]] = [[number_cell(e.time_s, ".1f"), e.what] for e in subject.timeline]
-        body.append(table(["time [s]", "what"], rows, "timeline", "table-timeline", "What was measured when"))
+        rows: list[list[str]] = [
+            [_timeline_time_cell(e.time_s), e.what, _time_cell(e.last_s) if e.count > 1 else Raw("<td></td>")]
+            for e in subject.timeline
+        ]
+        head = [f"time [{TIME_BASE}]", "what", "last [s]"]
+        body.append(table(head, rows, "timeline", "table-timeline", "What happened when, each thing once"))
+        body.append(
+            _p(
+                "One clock: the rig's, from the first trial's start (the trials table uses it too). Trial events "
+                "are at their own stamps. The parameter and model nodes stamp with the computer's clock, which "
+                "the simulated rig outruns when it runs faster than real time, so a parameter set is placed at "
+                "the stop of the newest trial it includes, the model with its parameter set, and the static "
+                "readings with the newest parameter set published before them. Repeated publications of the "
+                "same thing (latched results re-published, a parameter set after every trial) are one row: "
+                "how often, the first time and the last.",
+                "note",
+            )
+        )
     return section("timeline", "Timeline", body)
 
 
