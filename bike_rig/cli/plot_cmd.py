@@ -56,7 +56,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "DEFAULT_MODE",
-    "DEFAULT_SPEED",
+    "DEFAULT_SPEED_TEXT",
     "KINDS",
     "FigureJob",
     "PlotOptions",
@@ -73,9 +73,14 @@ __all__ = [
 #: Kinds that need trials (a session bag, or a measurement file whose periods are trial files);
 #: :data:`KINDS` is every kind, in the order ``all`` draws them (:data:`bike_rig.plots.registry.FIGURES`).
 TRIAL_KINDS: tuple[str, ...] = tuple(k.name for k in FIGURES.values() if k.needs_trials)
-#: Speed of the ``modes`` and ``bode`` figures unless ``--speed`` is given, m/s (the paper's
-#: Figs 15, 17 and 18: inside the capsize–caster complex-pair range of the rider-less bicycles).
-DEFAULT_SPEED = 2.0
+#: What ``modes`` and ``bode`` are drawn at unless ``--speed`` is given: ``bode`` at the paper's
+#: 2 m/s (Figs 17 and 18); ``modes`` of the capsize or caster mode at each bicycle's own speed
+#: inside its capsize–caster complex interval (Fig 15, computed from its model), of the weave at
+#: 2 m/s (:func:`bike_rig.plots.modes.default_mode_speed`).
+DEFAULT_SPEED_TEXT = (
+    "bode: 2 m/s as the paper's Figs 17-18; modes: capsize/caster inside each bicycle's capsize-caster "
+    "complex interval, weave 2 m/s"
+)
 #: Mode of the ``modes`` figure unless ``--mode`` is given (Fig 15: the capsize–caster pair).
 DEFAULT_MODE = "capsize"
 _RIDERS = {"none": ("",), "paper": ("paper",), "both": ("", "paper")}
@@ -106,7 +111,8 @@ class PlotOptions:
         formats: File formats to write (``png``, ``svg``).
         riders: Riders of the model figures: "" (none) and/or "paper".
         speeds: Speeds of ``eigen`` and ``locus``, m/s, or None for the figures' default.
-        speed: Speed of ``modes`` and ``bode``, m/s.
+        speed: Speed of ``modes`` and ``bode``, m/s, or None for the figures' default
+            (:data:`DEFAULT_SPEED_TEXT`).
         mode: Mode of ``modes``.
         input: Input of ``bode`` (one of :data:`bike_rig.core.frequency.INPUTS`).
         output: Output of ``bode`` (one of :data:`bike_rig.core.frequency.OUTPUTS`).
@@ -115,7 +121,7 @@ class PlotOptions:
     formats: tuple[str, ...]
     riders: tuple[str, ...]
     speeds: NDArray[np.float64] | None
-    speed: float
+    speed: float | None
     mode: str
     input: str
     output: str
@@ -139,7 +145,7 @@ def options_from_args(args: argparse.Namespace) -> PlotOptions:
         formats=parse_formats(args.format),
         riders=_RIDERS[args.rider],
         speeds=_parse_speeds(args.speeds),
-        speed=DEFAULT_SPEED if args.speed is None else float(args.speed),
+        speed=None if args.speed is None else float(args.speed),
         mode=args.mode,
         input=_pair_name(args.input, INPUTS, "--input") or INPUTS[1],
         output=_pair_name(args.output, OUTPUTS, "--output") or OUTPUTS[0],
@@ -206,6 +212,8 @@ def _kind_jobs(kind: FigureKind, subjects: list[Subject], opts: PlotOptions, out
     """The figures of one kind: one of every input (per rider), or one per input or trial."""
     draw = kind.drawer()  # imported here, so a figure's time (--timings) is its drawing only
     options = {name: getattr(opts, name) for name in kind.options if name != "rider"}
+    if options.get("speed", 0.0) is None:
+        del options["speed"]  # the figure's own default (see DEFAULT_SPEED_TEXT)
     if kind.scope is Scope.BICYCLES:
         for rider in opts.riders if kind.per_rider else ("",):
             ridden = {"rider": rider} if kind.per_rider else {}
@@ -306,7 +314,7 @@ def add_parser(sub: Any) -> None:
         default="none",
         help="model figures without the rider, with the paper's rigid rider (Table 1), or both (default none)",
     )
-    q.add_argument("--speed", type=float, help=f"speed of modes and bode, m/s (default {DEFAULT_SPEED:g})")
+    q.add_argument("--speed", type=float, help=f"speed of modes and bode, m/s (default: {DEFAULT_SPEED_TEXT})")
     q.add_argument("--speeds", nargs=3, metavar=("START", "STOP", "N"), help="speeds of eigen and locus, m/s")
     q.add_argument("--mode", choices=tuple(dict.fromkeys(MODE_LABELS)), default=DEFAULT_MODE,
                    help=f"the mode of the modes figure (default {DEFAULT_MODE})")  # fmt: skip

@@ -9,7 +9,8 @@ records computed here, so tests check numbers, not pixels:
   where the capsize and caster roots form a complex pair (their ends refined to the double root
   of the characteristic polynomial);
 * :func:`mode_shape` → :class:`ModeShape`: one mode's eigenvector ``[φ, δ, φ̇, δ̇]`` at one speed
-  as phasors;
+  as phasors; :func:`capsize_caster_speed` → a speed inside the capsize–caster complex interval
+  (where the paper's Fig 15 shows that pair);
 * :func:`bode_curves` → :class:`BodeCurves`: magnitude and phase of any input → output pair at
   one speed (:mod:`bike_rig.core.frequency`).
 
@@ -49,6 +50,8 @@ __all__ = [
     "FigureInputError",
     "ModeShape",
     "bode_curves",
+    "capsize_caster_intervals",
+    "capsize_caster_speed",
     "complex_intervals",
     "eigen_curves",
     "mode_shape",
@@ -424,6 +427,55 @@ def mode_shape(subject: Subject, mode: str = "capsize", speed: float = 2.0, ride
     vec = vec / vec[ref]
     vec[ref] = 1.0  # exactly (complex division can leave 1 - 1e-16)
     return ModeShape(subject.name, key, mode, v, lam, vec, COMPONENTS, ref)
+
+
+def capsize_caster_intervals(subject: Subject, rider: str = "") -> tuple[tuple[float, float], ...]:
+    """The speed intervals (m/s) in which the capsize and caster roots are a complex pair.
+
+    From the model alone (no σ): the eigenvalues over :data:`DEFAULT_SPEEDS`, the ends refined
+    to the double roots (:func:`complex_intervals`; the same intervals as
+    :attr:`EigenCurves.capsize_caster_complex` of the default sweep).
+
+    Args:
+        subject: The bicycle.
+        rider: "" or "none" (no rider), or "paper".
+
+    Returns:
+        (start, stop) pairs, m/s, in order; empty when the bicycle has no such pair (e.g. the
+        paper's bicycles with the rider).
+
+    Raises:
+        ModelError: Unknown rider or a singular mass matrix.
+    """
+    ms = canonical_with_sigma(model_parameters(subject, _rider_key(rider)))
+    v = DEFAULT_SPEEDS.copy()
+    z = eigenvalues(ms.matrices, ms.g, v).eigenvalues
+    return complex_intervals(ms.matrices, ms.g, v, z[:, MODE_LABELS.index("capsize")])
+
+
+def capsize_caster_speed(subject: Subject, rider: str = "") -> tuple[float, tuple[float, float]] | None:
+    """A speed at which the capsize and caster roots are a complex pair (paper Fig 15), m/s.
+
+    The middle of the lowest interval of :func:`capsize_caster_intervals`, rounded to 0.01 m/s
+    when that stays strictly inside it.
+
+    Args:
+        subject: The bicycle.
+        rider: "" or "none" (no rider), or "paper".
+
+    Returns:
+        (speed, (start, stop) of its interval), m/s; None when there is no such pair.
+
+    Raises:
+        ModelError: Unknown rider or a singular mass matrix.
+    """
+    intervals = capsize_caster_intervals(subject, rider)
+    if not intervals:
+        return None
+    lo, hi = intervals[0]
+    mid = 0.5 * (lo + hi)
+    rounded = round(mid, 2)
+    return (rounded if lo < rounded < hi else mid), (lo, hi)
 
 
 # --------------------------------------------------------------------------------------------

@@ -7,6 +7,12 @@ arrows from the origin. The rates (``λ`` times the angles) are drawn dashed and
 For a complex pair the member with ``Im λ > 0`` is drawn, so a component at a larger phase
 leads (reaches its peak earlier).
 
+The speed: as asked, or by default for ``capsize``/``caster`` each bicycle's own speed inside
+the interval where the capsize and caster roots form the complex pair the paper's Fig 15 shows
+(:func:`.model_data.capsize_caster_speed`, computed from its model; a bicycle without that pair,
+e.g. with the rider, at :data:`FALLBACK_SPEED`), and for ``weave`` :data:`FALLBACK_SPEED`. Each
+panel's title and the figure's title say which speed and why.
+
 Every phasor is a line ``(0, 0) → (phase in rad, length)`` with ``gid``
 ``"<bicycle>:phasor:<component>"`` (0 roll angle, 1 steer angle, 2 roll rate, 3 steer rate).
 """
@@ -20,14 +26,51 @@ from matplotlib.figure import Figure
 
 from ..subjects import Subject
 from .eigen import panel_grid
-from .model_data import ModeShape, mode_shape
+from .model_data import ModeShape, capsize_caster_speed, mode_shape
 from .style import new_figure
 
-__all__ = ["COMPONENT_COLOURS", "eigenvector_figure", "phasor_lengths"]
+__all__ = ["COMPONENT_COLOURS", "FALLBACK_SPEED", "default_mode_speed", "eigenvector_figure", "phasor_lengths"]
 
 #: Colour of each component: roll (angle and rate) and steer (angle and rate).
 COMPONENT_COLOURS = ("C0", "C3", "C0", "C3")
+#: Speed of a mode's eigenvector when no better one is known, m/s (the weave, or a bicycle
+#: without a capsize–caster complex pair).
+FALLBACK_SPEED = 2.0
+_PAIR_MODES = ("capsize", "caster")
 _RIDER_TEXT = {"": "without rider", "paper": "with the paper's rider"}
+
+
+def default_mode_speed(subject: Subject, mode: str = "capsize", rider: str = "") -> tuple[float, str]:
+    """The speed to show ``mode``'s eigenvector at when none is asked for, and why.
+
+    Args:
+        subject: The bicycle.
+        mode: ``weave``, ``capsize`` or ``caster``.
+        rider: "" (none) or "paper".
+
+    Returns:
+        (speed in m/s, why in a few words, "" for the weave): for ``capsize``/``caster`` the
+        middle of the bicycle's capsize–caster complex interval
+        (:func:`.model_data.capsize_caster_speed`), else :data:`FALLBACK_SPEED`.
+
+    Raises:
+        ModelError: Unknown rider.
+    """
+    if mode not in _PAIR_MODES:
+        return FALLBACK_SPEED, ""
+    pair = capsize_caster_speed(subject, rider)
+    if pair is None:
+        return FALLBACK_SPEED, "no capsize–caster complex pair"
+    _, (lo, hi) = pair
+    return pair[0], f"capsize–caster pair from {lo:.2f} to {hi:.2f} m/s"
+
+
+def _title_speeds(shapes: Sequence[ModeShape], reasons: Sequence[str]) -> str:
+    """The speed part of the figure's title: one speed and why, or "each at its own speed"."""
+    if len({sh.speed for sh in shapes}) == 1 and len(set(reasons)) == 1:
+        why = f" ({reasons[0]})" if reasons[0] else ""
+        return f"at {shapes[0].speed:g} m/s{why}"
+    return "at each bicycle's own speed (panel titles)"
 
 
 def phasor_lengths(shape: ModeShape) -> np.ndarray:
@@ -48,7 +91,7 @@ def phasor_lengths(shape: ModeShape) -> np.ndarray:
 def eigenvector_figure(
     subjects: Sequence[Subject],
     mode: str = "capsize",
-    speed: float = 2.0,
+    speed: float | None = None,
     rider: str = "",
 ) -> Figure:
     """Phasor diagram of a mode's eigenvector for one or several bicycles (paper Fig 15).
@@ -57,7 +100,7 @@ def eigenvector_figure(
         subjects: The bicycles, one polar panel each.
         mode: ``weave``, ``capsize`` or ``caster`` (labels of the eigenvalue figure; inside a
             complex capsize–caster interval ``capsize`` and ``caster`` are the same pair).
-        speed: Forward speed, m/s.
+        speed: Forward speed, m/s; None: each bicycle's :func:`default_mode_speed`.
         rider: "" (none) or "paper".
 
     Returns:
@@ -67,7 +110,10 @@ def eigenvector_figure(
         FigureInputError: No bicycles, unknown mode or bad speed.
         ModelError: Unknown rider.
     """
-    shapes = [mode_shape(s, mode, speed, rider) for s in subjects] if subjects else []
+    chosen = [(speed, "") if speed is not None else default_mode_speed(s, mode, rider) for s in subjects]
+    shapes = [mode_shape(s, mode, v, rider) for s, (v, _) in zip(subjects, chosen, strict=True)] if subjects else []
+    reasons = [why for _, why in chosen]
+    own_speeds = len(set(reasons)) > 1 or len({v for v, _ in chosen}) > 1
     rows, cols = panel_grid(len(shapes))
     fig = new_figure(3.6 * cols + 0.4, 3.6 * rows + 1.0)
     axes = fig.subplots(rows, cols, squeeze=False, subplot_kw={"projection": "polar"})
@@ -89,10 +135,14 @@ def eigenvector_figure(
         lam = sh.eigenvalue
         kind = "oscillatory" if sh.oscillatory else "real"
         sign = "+" if lam.imag >= 0 else "−"
-        ax.set_title(f"{sh.bicycle}\nλ = {lam.real:.2f} {sign} {abs(lam.imag):.2f}i 1/s ({kind})", fontsize=9)
+        why = f"\n({reasons[k]})" if reasons[k] and own_speeds else ""
+        ax.set_title(
+            f"{sh.bicycle} at {sh.speed:g} m/s{why}\nλ = {lam.real:.2f} {sign} {abs(lam.imag):.2f}i 1/s ({kind})",
+            fontsize=9,
+        )
     handles, labels = axes.flat[0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="outside lower center", ncols=4 if cols > 1 else 2, fontsize=8, frameon=False)
     rider_text = _RIDER_TEXT.get(shapes[0].rider, shapes[0].rider)
-    fig.suptitle(f"Eigenvector of the {mode} mode at {shapes[0].speed:g} m/s, {rider_text}\n"
-                 "(larger angle = 1 at 0°; counter-clockwise leads)", fontsize=10)  # fmt: skip
+    fig.suptitle(f"Eigenvector of the {mode} mode {_title_speeds(shapes, reasons)}, {rider_text}\n"
+                 "(larger angle = 1 at 0°; counter-clockwise leads)", fontsize=10, wrap=True)  # fmt: skip
     return fig

@@ -25,11 +25,12 @@ if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
 __all__ = [
-    "BODE_SPEED",
+    "BODE_SPEEDS",
     "FIGURES",
     "FIT_DPI",
     "FIT_FIGURE_SIZE_IN",
     "KINDS",
+    "PAIR_SPEED",
     "PLOT_OPTIONS",
     "STABLE_SPEED",
     "FigureKind",
@@ -44,8 +45,13 @@ __all__ = [
 PLOT_OPTIONS: tuple[str, ...] = ("rider", "speeds", "speed", "mode", "input", "output")
 #: A report option value: a speed inside the bicycle's stable range, m/s (the report computes it).
 STABLE_SPEED = "stable"
-#: The report's Bode diagrams' speed, m/s (the paper's Figs 17/18 compare bicycles at several).
-BODE_SPEED = 5.0
+#: A report option value: a speed inside the interval where the bicycle's capsize and caster
+#: roots form a complex pair (paper Fig 15), m/s, computed from its model by the report (inside
+#: the stable range when there is no such pair, and the caption says so).
+PAIR_SPEED = "capsize-caster pair"
+#: The report's Bode diagrams' speeds, m/s, one column each: the paper's Figs 17/18 are at 2 m/s;
+#: 5 m/s shows the same bicycle faster.
+BODE_SPEEDS = (2.0, 5.0)
 #: Size of each of the report's trial fit figures, inches (the plot's default is 10 × 6).
 FIT_FIGURE_SIZE_IN = (8.0, 4.0)
 #: Resolution of the report's trial fit figures (many, and simple), dots per inch.
@@ -77,7 +83,8 @@ class ReportEntry:
             ``{trial_id}`` and ``{key}`` (its period key).
         caption: What it shows.
         options: Keywords of the drawing function (only those given are passed);
-            ``speed=STABLE_SPEED`` asks for a speed inside the stable range.
+            ``speed=STABLE_SPEED`` asks for a speed inside the stable range, ``speed=PAIR_SPEED``
+            one inside the capsize–caster complex interval.
         size_in: (width, height) to draw it at, inches; None keeps the figure's own size.
         dpi: Its resolution, dots per inch; None for the report's.
     """
@@ -164,23 +171,38 @@ def _both_riders(pages: tuple[int, int], key: str, title: str, caption: str, **o
     )
 
 
-def _mode(page: int, mode: str) -> ReportEntry:
-    """A mode's eigenvector without rider, at a speed inside the stable range."""
+def _mode(page: int, mode: str, speed: str, caption: str) -> ReportEntry:
+    """A mode's eigenvector without rider, at ``speed`` (:data:`STABLE_SPEED` or :data:`PAIR_SPEED`)."""
     return ReportEntry(
         page,
         f"mode-{mode}",
         f"{mode.capitalize()} eigenvector at {{speed:g}} m/s, without rider",
-        "Components of the mode's eigenvector as phasors (paper Fig 15).",
-        {"mode": mode, "speed": STABLE_SPEED, "rider": ""},
+        caption,
+        {"mode": mode, "speed": speed, "rider": ""},
     )
+
+
+def _speeds_text(speeds: tuple[float, ...]) -> str:
+    """``(2.0, 5.0)`` → ``"2 and 5 m/s"``."""
+    names = [f"{v:g}" for v in speeds]
+    return (", ".join(names[:-1]) + " and " + names[-1] if len(names) > 1 else names[0]) + " m/s"
 
 
 _EIGEN_CAPTION = (
     "Real and imaginary parts of the eigenvalues with σ bands; weave and capsize speeds marked (paper Figs 13 and 16)."
 )
 _LOCUS_CAPTION = "Eigenvalues in the complex plane with speed as the parameter (paper Fig 14)."
-_BODE_TITLE = "Steer torque to roll angle at {speed:g} m/s, {rider}"
-_BODE_CAPTION = "Bode magnitude and phase (paper Figs 17 and 18)."
+_WEAVE_CAPTION = "Components of the weave mode's eigenvector as phasors, at a speed inside the stable range."
+_PAIR_CAPTION = (
+    "Components of the eigenvector of the complex pair the capsize and caster roots form at low speed, as "
+    "phasors (paper Fig 15)."
+)
+_BODE_TITLE = "Steer torque to roll angle at " + _speeds_text(BODE_SPEEDS) + ", {rider}"
+_BODE_CAPTION = (
+    "Bode magnitude and phase, one column per speed: "
+    + " and ".join(f"{v:g} m/s" for v in BODE_SPEEDS)
+    + "; the paper's Figs 17 and 18 are at 2 m/s."
+)
 _SIDE_CAPTION = "Wheels, steer axis and mass centres with their uncertainty ellipses (magnified as stated)."
 _OVERVIEW_CAPTION = "Each trial's period against its key's combined period, its r² and its cycles."
 _FIT_CAPTION = "Samples with the Eq 23 fit over its window, and the residuals."
@@ -209,7 +231,7 @@ _KINDS = (
         Scope.BICYCLES,
         "eigenvector of a mode",
         ("rider", "mode", "speed"),
-        report=(_mode(50, "weave"), _mode(60, "capsize")),
+        report=(_mode(50, "weave", STABLE_SPEED, _WEAVE_CAPTION), _mode(60, "capsize", PAIR_SPEED, _PAIR_CAPTION)),
     ),
     FigureKind(
         "bode",
@@ -217,7 +239,7 @@ _KINDS = (
         Scope.BICYCLES,
         "",
         ("rider", "speed", "input", "output"),
-        report=_both_riders((70, 80), "bode", _BODE_TITLE, _BODE_CAPTION, speed=BODE_SPEED),
+        report=_both_riders((70, 80), "bode", _BODE_TITLE, _BODE_CAPTION, speed=BODE_SPEEDS),
     ),
     FigureKind(
         "side",

@@ -2,10 +2,12 @@
 
 The figures are the report entries of the figure registry (:mod:`bike_rig.plots.registry`),
 which ``bike-rig plot`` draws from too. For every input: the side view, eigenvalues against
-speed (paper Figs 13/16), the root locus (Fig 14), the weave and capsize eigenvectors (Fig 15)
-and the Bode diagram of steer torque → roll angle (Figs 17/18), without and with the paper's
-rider. With trials: the trial-quality overview and one fit figure per trial (data, fit,
-residuals).
+speed (paper Figs 13/16), the root locus (Fig 14), the weave eigenvector inside the stable
+speed range, the capsize–caster pair's eigenvector at a speed inside the interval where that
+pair exists (Fig 15; both computed from the bicycle's model, and the caption says which), and
+the Bode diagram of steer torque → roll angle at the paper's 2 m/s and at 5 m/s (Figs 17/18),
+without and with the paper's rider. With trials: the trial-quality overview and one fit
+figure per trial (data, fit, residuals).
 
 The figure modules are imported when a figure is drawn. A figure whose module is not
 installed, or that cannot be drawn for this bicycle (a :class:`BikeRigError`, e.g. no such
@@ -33,7 +35,7 @@ from typing import Any
 from matplotlib.figure import Figure
 
 from ..core.errors import BikeRigError
-from ..plots.registry import FIT_DPI, STABLE_SPEED, FigureKind, ReportEntry, Scope, report_entries
+from ..plots.registry import FIT_DPI, PAIR_SPEED, STABLE_SPEED, FigureKind, ReportEntry, Scope, report_entries
 from ..subjects import Subject
 from .results import ReportResults
 
@@ -121,12 +123,34 @@ def _mode_speed(results: ReportResults) -> float:
     return 5.0
 
 
-def _spec(kind: FigureKind, entry: ReportEntry, target: Any, options: dict[str, Any], **fields: Any) -> FigureSpec:
-    """``entry`` of ``kind`` drawn for ``target`` with ``options``; ``fields`` fill its key and title."""
+def _pair_speed(subject: Subject, rider: str, stable_speed: float) -> tuple[float, str]:
+    """The speed of the capsize–caster pair's eigenvector (m/s), and what the caption adds."""
+    from ..plots.model_data import capsize_caster_speed
+
+    pair = capsize_caster_speed(subject, rider)
+    if pair is None:
+        return stable_speed, (
+            f" This bicycle's capsize and caster roots form no complex pair (from its model, 0 to 10 m/s): "
+            f"the capsize mode is shown at {stable_speed:g} m/s, inside the stable speed range."
+        )
+    speed, (lo, hi) = pair
+    return speed, (
+        f" The pair exists from {lo:.2f} to {hi:.2f} m/s (from this bicycle's model); shown at {speed:g} m/s, "
+        "the middle of that interval."
+    )
+
+
+def _spec(
+    kind: FigureKind, entry: ReportEntry, target: Any, options: dict[str, Any], note: str = "", **fields: Any
+) -> FigureSpec:
+    """``entry`` of ``kind`` drawn for ``target`` with ``options``; ``fields`` fill its key and title.
+
+    ``note`` is added to the entry's caption.
+    """
     return FigureSpec(
         entry.key.format(**fields),
         entry.title.format(**fields),
-        entry.caption,
+        entry.caption + note,
         partial(kind.draw, target, **options),
         entry.size_in,
         entry.dpi,
@@ -151,7 +175,12 @@ def figure_specs(subject: Subject, results: ReportResults) -> list[FigureSpec]:
     stable_speed = round(_mode_speed(results), 1)
     specs: list[FigureSpec] = []
     for kind, entry in report_entries():
-        options = {k: stable_speed if v == STABLE_SPEED else v for k, v in entry.options.items()}
+        note = ""
+        options = dict(entry.options)
+        if options.get("speed") == STABLE_SPEED:
+            options["speed"] = stable_speed
+        elif options.get("speed") == PAIR_SPEED:
+            options["speed"], note = _pair_speed(subject, options.get("rider", ""), stable_speed)
         rider = "without rider" if not options.get("rider") else f"with the {rider_name}"
         if kind.scope is Scope.TRIAL:
             specs += [
@@ -162,7 +191,7 @@ def figure_specs(subject: Subject, results: ReportResults) -> list[FigureSpec]:
             if subject.trials:
                 specs.append(_spec(kind, entry, subject, options, rider=rider, speed=options.get("speed")))
         else:
-            specs.append(_spec(kind, entry, [subject], options, rider=rider, speed=options.get("speed")))
+            specs.append(_spec(kind, entry, [subject], options, note, rider=rider, speed=options.get("speed")))
     return specs
 
 
