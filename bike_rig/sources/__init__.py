@@ -8,7 +8,8 @@ Python-can style::
             ...
 
 * ``sim`` (:mod:`.sim`): the simulated rig walking a session plan (a ``session.yaml`` written
-  by ``bike-rig simulate``, or simulated in memory from a bicycle, a rig and a seed);
+  by ``bike-rig simulate``, or simulated in memory from a bicycle, a rig and a seed), or with
+  ``mode`` ``operator`` simulating each trial requested (:mod:`.sim_operator`);
 * ``can`` (:mod:`.can`): a CAN gyro through python-can; trials on request;
 * ``bag`` (:mod:`.bag`): a recorded session's gyro stream and trial events, from a rosbag2 bag;
 * ``daq`` (:mod:`.daq`): an NI-DAQmx analog input (optional ``nidaqmx``); trials on request.
