@@ -7,16 +7,21 @@
 INPUT is a measurement file, a parameter file or a session bag
 (:func:`bike_rig.subjects.load_subject`). For each of the 25 parameters and the weave and
 capsize speeds the inputs (raw readings, or the parameters for a parameter file) are ranked by
-their share of the output's first-order variance (:mod:`bike_rig.core.uncertainty.budget`). The text shows
-which inputs matter most overall and for the speeds, then per output ``value ± σ`` and the top
-N inputs with share (%) and contribution (output unit). ``--json`` prints one object::
+their share of the output's first-order variance (:mod:`bike_rig.core.uncertainty.budget`).
+Inputs are named as INPUT names them: a bike_rig YAML measurement file by its keys as written
+(``fork.orientations[2].distance``, ``frame.compound_period``), a BicycleParameters
+``Measured.txt`` and a bag by BicycleParameters keys (``aH3``, ``TcB1``), a parameter file by
+the parameter names. The text shows which inputs matter most overall and for the speeds, then
+per output ``value ± σ`` and the top N inputs with share (%) and contribution (output unit).
+``--json`` prints one object::
 
-    {"bicycle": .., "input_kind": "raw readings"|"parameters", "inputs": [..],
+    {"bicycle": .., "input_kind": "raw readings"|"parameters", "inputs": [..], "input_keys": [..],
      "outputs": [{"output": .., "value": .., "sigma": .., "unit": .., "shares": [{"input": ..,
-     "share": .., "contribution": ..}]}]}
+     "key": .., "share": .., "contribution": ..}]}]}
 
-with every share (not only the top N). Bad inputs and options end in one line on stderr and exit
-status 2 (:class:`~bike_rig.core.errors.BikeRigError`).
+with every share (not only the top N); ``input``/``inputs`` are the file's names and
+``key``/``input_keys`` the BicycleParameters keys of the same inputs. Bad inputs and options
+end in one line on stderr and exit status 2 (:class:`~bike_rig.core.errors.BikeRigError`).
 """
 
 from __future__ import annotations
@@ -37,6 +42,7 @@ from ..core.uncertainty.budget import (
     UncertaintyBudget,
     budget_json,
     input_ranking,
+    reading_names,
     uncertainty_budget,
 )
 from ..subjects import load_subject
@@ -87,7 +93,8 @@ def run(args: argparse.Namespace) -> int:
     rider = rider_from_spec(args.rider)
     if rider is not None:
         ps = add_rider(ps, rider)
-    b = uncertainty_budget(ps)
+    names = reading_names(subject.measurements) if subject.measurements is not None else None
+    b = uncertainty_budget(ps, names)
     if args.json:
         text = json.dumps(budget_json(b), indent=2, allow_nan=False)
     else:
@@ -107,7 +114,7 @@ def _ranking_line(label: str, b: UncertaintyBudget, outputs: list[str] | None) -
     return f"{label}: " + ", ".join(f"{r.input} {_percent(r.mean_share)}" for r in ranked)
 
 
-def _output_block(o: OutputBudget, top: int) -> list[str]:
+def _output_block(o: OutputBudget, top: int, width: int = 24) -> list[str]:
     value, sigma = format_value_sigma(o.value, o.sigma)
     lines = [f"{o.output} [{o.unit}]: {value} ± {sigma}"]
     if not o.shares:
@@ -115,7 +122,7 @@ def _output_block(o: OutputBudget, top: int) -> list[str]:
         lines.append(f"    ({why})")
         return lines
     for s in o.shares[:top]:
-        lines.append(f"    {s.input:<24}{_percent(s.share):>9}   {s.contribution:.2g} {o.unit}")
+        lines.append(f"    {s.input:<{width}}{_percent(s.share):>9}   {s.contribution:.2g} {o.unit}")
     rest = len(o.shares) - top
     if rest > 0:
         lines.append(
@@ -153,7 +160,8 @@ def budget_text(b: UncertaintyBudget, top: int = 5, source: str | None = None) -
     got = [s for s in summary if s is not None]
     lines += got if got else ["no output has a σ: nothing to rank"]
     order = speeds + list(BUDGET_PARAMETERS)
+    width = max([24, *(len(name) + 2 for name in b.inputs)])
     for name in order:
         lines.append("")
-        lines += _output_block(b.output(name), top)
+        lines += _output_block(b.output(name), top, width)
     return "\n".join(lines)

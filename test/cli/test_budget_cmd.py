@@ -4,16 +4,19 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from pathlib import Path
 
 import pytest
+import yaml
 
 from bike_rig.cli.main import main
 from bike_rig.core.benchmark import compute_parameters
 from bike_rig.core.loader import load_measurements
 from bike_rig.core.rider import PAPER_RIDER, add_rider
-from bike_rig.core.uncertainty.budget import BUDGET_PARAMETERS, CAPSIZE, WEAVE, uncertainty_budget
+from bike_rig.core.uncertainty.budget import BUDGET_PARAMETERS, CAPSIZE, WEAVE, reading_names, uncertainty_budget
 from bike_rig.paths import config_file
+from test.support.paper import shared_dir
 
 BROWSER = str(config_file("bicycles/browser.yaml"))
 BENCHMARK = str(config_file("bicycles/benchmark.yaml"))
@@ -27,7 +30,7 @@ def run_json(capsys: pytest.CaptureFixture[str], *args: str) -> dict:
 def test_json_is_the_whole_budget(capsys: pytest.CaptureFixture[str]) -> None:
     data = run_json(capsys, BROWSER)
     assert data["bicycle"] == "Browser" and data["input_kind"] == "raw readings"
-    assert "TtB1" in data["inputs"] and "alphaB2" in data["inputs"]
+    assert "TtB1" in data["input_keys"] and "alphaB2" in data["input_keys"]
     names = [o["output"] for o in data["outputs"]]
     assert names == [*BUDGET_PARAMETERS, WEAVE, CAPSIZE]
     for o in data["outputs"]:
@@ -36,7 +39,7 @@ def test_json_is_the_whole_budget(capsys: pytest.CaptureFixture[str]) -> None:
     assert weave["unit"] == "m/s" and weave["sigma"] > 0
     # The same numbers as the core's budget.
     core = uncertainty_budget(compute_parameters(load_measurements(BROWSER))).output(WEAVE)
-    assert weave["sigma"] == core.sigma and weave["shares"][0]["input"] == core.shares[0].input
+    assert weave["sigma"] == core.sigma and weave["shares"][0]["key"] == core.shares[0].input
 
 
 def test_rider_and_com_method_change_the_budget(capsys: pytest.CaptureFixture[str]) -> None:
@@ -61,7 +64,8 @@ def test_text_table(capsys: pytest.CaptureFixture[str]) -> None:
     block = lines[heading + 1 : heading + 4]
     assert [line.startswith("    ") for line in block] == [True, True, True]
     assert block[2].lstrip().startswith("...")  # only the top 2, then the rest summed
-    top = uncertainty_budget(compute_parameters(load_measurements(BROWSER))).output(WEAVE).shares[0]
+    m = load_measurements(BROWSER)
+    top = uncertainty_budget(compute_parameters(m), reading_names(m)).output(WEAVE).shares[0]
     assert block[0].split()[0] == top.input and f"{100 * top.share:.1f} %" in block[0]
     for name in BUDGET_PARAMETERS:
         assert any(line.startswith(f"{name} [") for line in lines), name
@@ -104,3 +108,43 @@ def test_rider_file_gives_the_same_budget_as_its_values(capsys: pytest.CaptureFi
     assert main(["budget", BROWSER, "--rider", str(path)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "rider.yaml" in err[0] and "needs a number" in err[0]
+
+
+# ---------------------------------------------------------------- input names (issue 11)
+
+
+def _yaml_value(document: object, label: str) -> object:
+    """The value at a key path as written in a YAML measurement file (``fork.orientations[2].distance``)."""
+    node = document
+    for name, index in re.findall(r"([A-Za-z_]+)|\[(\d+)\]", label):
+        node = node[name] if name else node[int(index)]  # type: ignore[index]
+    return node
+
+
+def test_a_yaml_file_names_its_inputs_by_its_own_keys(capsys: pytest.CaptureFixture[str]) -> None:
+    data = run_json(capsys, BROWSER)
+    named = dict(zip(data["input_keys"], data["inputs"]))
+    assert named["aH3"] == "fork.orientations[2].distance"
+    assert named["alphaB1"] == "frame.orientations[0].angle_deg"
+    assert named["mP"] == "calibration_rod.mass" and named["gamma"] == "geometry.head_tube_angle_deg"
+    assert named["TcB1"] == "frame.compound_period" and named["g"] == "gravity"
+    document = yaml.safe_load(Path(BROWSER).read_text(encoding="utf-8"))
+    m = load_measurements(BROWSER)
+    for key, label in named.items():  # every name is a path into the file, to that reading
+        assert list(_yaml_value(document, label)) == [m.readings[key].value, m.readings[key].sigma], label
+    # Only the names differ from the BicycleParameters-keyed budget.
+    core = uncertainty_budget(compute_parameters(m))
+    weave = data["outputs"][[o["output"] for o in data["outputs"]].index(WEAVE)]
+    assert [(s["key"], s["share"]) for s in weave["shares"]] == [(s.input, s.share) for s in core.output(WEAVE).shares]
+    assert all(s["input"] == named[s["key"]] for s in weave["shares"])
+    assert main(["budget", BROWSER, "--top", "3"]) == 0
+    text = capsys.readouterr().out
+    assert "    fork.orientations[2].distance " in text and "aH3" not in text
+
+
+def test_a_measured_txt_keeps_bicycleparameters_keys(capsys: pytest.CaptureFixture[str]) -> None:
+    measured = shared_dir() / "data" / "bicycleparameters" / "Browser" / "RawData" / "BrowserMeasured.txt"
+    data = run_json(capsys, str(measured))
+    assert data["inputs"] == data["input_keys"] and {"aH3", "mP", "gamma", "TcB1"} <= set(data["inputs"])
+    yaml_data = run_json(capsys, BROWSER)
+    assert sorted(data["input_keys"]) == sorted(yaml_data["input_keys"])  # the same readings, other names

@@ -28,6 +28,13 @@ mutually independent, so shares are non-negative and sum to 1 exactly, and a dia
 covariance gives the single-input formula above. Raw readings are always independent, so
 measurement files and bags never need grouping.
 
+**Input names.** Inputs are named as the input file names them: the core keeps readings under
+BicycleParameters' keys (``aH3``, ``mP``), and :func:`reading_names` maps each to the name its
+file gave it (:attr:`bike_rig.core.measurements.Origin.key`): ``fork.orientations[2].distance``
+in a bike_rig YAML measurement file, ``aH3`` in a ``Measured.txt``. Pass that mapping to
+:func:`uncertainty_budget` as ``names``; every share and the budget also keep the
+BicycleParameters key (:attr:`BudgetShare.key`, :attr:`UncertaintyBudget.input_keys`).
+
 An output with σ = 0 (e.g. the benchmark parameter file, which carries no σ) has no shares.
 A critical speed at a double root has no derivative: its σ is NaN and it has no shares.
 
@@ -37,7 +44,7 @@ Units: every value, σ and contribution is in the output's SI unit (:data:`OUTPU
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -46,6 +53,7 @@ from numpy.typing import NDArray
 
 from ..benchmark import ParameterSet
 from ..errors import BikeRigError
+from ..measurements import Measurements
 from ..symbols import PARAMETER_NAMES
 from .speed_sigma import CriticalSpeedsWithSigma, SpeedWithSigma, critical_speeds_with_sigma
 
@@ -61,6 +69,7 @@ __all__ = [
     "UncertaintyBudget",
     "budget_json",
     "input_ranking",
+    "reading_names",
     "uncertainty_budget",
 ]
 
@@ -102,16 +111,21 @@ class BudgetShare:
     """One input's part of an output's variance.
 
     Attributes:
-        input: Raw reading key (``TtB1``, ``alphaB2``...) or parameter name; a group of
-            correlated inputs is named by its members joined with ``+``.
+        input: The input as its file names it (``frame.orientations[1].angle_deg`` in a
+            bike_rig YAML, ``alphaB2`` in a ``Measured.txt``; see :func:`reading_names`), or
+            the parameter name; a group of correlated inputs is named by its members joined
+            with ``+``.
         share: Fraction of the output's first-order variance, 0..1.
         contribution: ``|∂output/∂input| σ_input`` (for a group ``sqrt(s Σ sᵀ)``), in the
             output's unit.
+        key: The BicycleParameters key of the input (``alphaB2``, ``TtB1``) or the parameter
+            name, members joined with ``+``; equal to ``input`` when the file uses these keys.
     """
 
     input: str
     share: float
     contribution: float
+    key: str = ""
 
 
 @dataclass(frozen=True)
@@ -146,12 +160,14 @@ class UncertaintyBudget:
             the order of the propagation; inputs with σ = 0 included.
         outputs: The 25 parameters in PARAMETER_NAMES order, then the weave and capsize
             speeds when the bicycle has them.
+        input_keys: The BicycleParameters key of each of ``inputs``, in the same order.
     """
 
     bicycle: str
     input_kind: str
     inputs: tuple[str, ...]
     outputs: tuple[OutputBudget, ...]
+    input_keys: tuple[str, ...] = ()
 
     def output(self, name: str) -> OutputBudget:
         """The budget of output ``name`` (a parameter name, ``"weave speed"`` or ``"capsize speed"``).
@@ -210,7 +226,12 @@ def _groups(covariance: FloatArray) -> list[list[int]]:
 
 
 def _output_budget(
-    name: str, value: float, sens: FloatArray, covariance: FloatArray, groups: list[list[int]], labels: list[str]
+    name: str,
+    value: float,
+    sens: FloatArray,
+    covariance: FloatArray,
+    groups: list[list[int]],
+    labels: list[tuple[str, str]],
 ) -> OutputBudget:
     unit = OUTPUT_UNITS[name]
     if not np.all(np.isfinite(sens)):
@@ -221,7 +242,9 @@ def _output_budget(
     if not total > 0.0:
         return OutputBudget(name, value, 0.0, unit, ())
     order = sorted((k for k in range(len(groups)) if parts[k] > 0.0), key=lambda k: -parts[k])
-    shares = tuple(BudgetShare(labels[k], float(parts[k] / total), math.sqrt(float(parts[k]))) for k in order)
+    shares = tuple(
+        BudgetShare(labels[k][0], float(parts[k] / total), math.sqrt(float(parts[k])), labels[k][1]) for k in order
+    )
     return OutputBudget(name, value, math.sqrt(total), unit, shares)
 
 
@@ -234,12 +257,28 @@ def _speeds(ps: ParameterSet) -> list[tuple[str, SpeedWithSigma]]:
     return out
 
 
-def uncertainty_budget(ps: ParameterSet) -> UncertaintyBudget:
+def reading_names(m: Measurements) -> dict[str, str]:
+    """Each reading's BicycleParameters key → the name its input file gave it.
+
+    Args:
+        m: The readings, as loaded (each with its :class:`~bike_rig.core.measurements.Origin`).
+
+    Returns:
+        ``{key: origin key}``: ``{"aH3": "fork.orientations[2].distance", "TcB1":
+        "frame.compound_period", ...}`` for a bike_rig YAML file, ``{"aH3": "aH3", ...}`` for a
+        ``Measured.txt`` or a bag; the key itself where the origin is unknown.
+    """
+    return {k: (r.origin.key if r.origin is not None and r.origin.key else k) for k, r in m.readings.items()}
+
+
+def uncertainty_budget(ps: ParameterSet, names: Mapping[str, str] | None = None) -> UncertaintyBudget:
     """Rank every input by its share of the variance of each parameter and critical speed.
 
     Args:
         ps: The parameter set (pass ``add_rider(ps, PAPER_RIDER)`` for bicycle plus rider).
             With ``ps.raw`` the inputs are the raw readings, else the 26 parameters.
+        names: The input file's name of each input key (:func:`reading_names`); None (or a
+            key missing from it) names an input by its key.
 
     Returns:
         The budget: 25 parameters (PARAMETER_NAMES order without g), then the weave and
@@ -248,22 +287,24 @@ def uncertainty_budget(ps: ParameterSet) -> UncertaintyBudget:
     values = ps.parameters.as_dict()
     rows = [PARAMETER_NAMES.index(n) for n in BUDGET_PARAMETERS]
     if ps.raw is not None:
-        kind, names = RAW_READINGS, list(ps.raw.names)
+        kind, keys = RAW_READINGS, list(ps.raw.names)
         covariance = np.asarray(ps.raw.covariance, dtype=float)
         to_input = np.asarray(ps.raw.jacobian, dtype=float)  # ∂p/∂x, (26, n)
     else:
-        kind, names = PARAMETERS, list(PARAMETER_NAMES)
+        kind, keys = PARAMETERS, list(PARAMETER_NAMES)
         covariance = np.asarray(ps.parameters.covariance, dtype=float)
         to_input = np.eye(len(PARAMETER_NAMES))
     groups = _groups(covariance)
-    labels = ["+".join(names[i] for i in g) for g in groups]
+    own = names or {}
+    labels = [("+".join(own.get(keys[i], keys[i]) for i in g), "+".join(keys[i] for i in g)) for g in groups]
     outputs = [
         _output_budget(n, values[n], to_input[r], covariance, groups, labels) for n, r in zip(BUDGET_PARAMETERS, rows)
     ]
     for name, sp in _speeds(ps):
         grad = sp.gradient if sp.gradient is not None else np.full(len(PARAMETER_NAMES), math.nan)
         outputs.append(_output_budget(name, sp.speed, grad @ to_input, covariance, groups, labels))
-    return UncertaintyBudget(ps.bicycle, kind, tuple(labels), tuple(outputs))
+    inputs = tuple(label for label, _ in labels)
+    return UncertaintyBudget(ps.bicycle, kind, inputs, tuple(outputs), tuple(key for _, key in labels))
 
 
 def input_ranking(b: UncertaintyBudget, outputs: Sequence[str] | None = None) -> tuple[InputImportance, ...]:
@@ -300,13 +341,16 @@ def _num(x: float) -> float | None:
 def budget_json(b: UncertaintyBudget) -> dict[str, Any]:
     """The budget as one JSON-ready object (NaN as None).
 
-    ``{"bicycle", "input_kind", "inputs": [...], "outputs": [{"output", "value", "sigma",
-    "unit", "shares": [{"input", "share", "contribution"}]}]}``
+    ``{"bicycle", "input_kind", "inputs": [...], "input_keys": [...], "outputs": [{"output",
+    "value", "sigma", "unit", "shares": [{"input", "key", "share", "contribution"}]}]}``:
+    ``inputs`` and each share's ``input`` name the inputs as their file does, ``input_keys``
+    and ``key`` by their BicycleParameters keys.
     """
     return {
         "bicycle": b.bicycle,
         "input_kind": b.input_kind,
         "inputs": list(b.inputs),
+        "input_keys": list(b.input_keys),
         "outputs": [
             {
                 "output": o.output,
@@ -314,7 +358,8 @@ def budget_json(b: UncertaintyBudget) -> dict[str, Any]:
                 "sigma": _num(o.sigma),
                 "unit": o.unit,
                 "shares": [
-                    {"input": s.input, "share": _num(s.share), "contribution": _num(s.contribution)} for s in o.shares
+                    {"input": s.input, "key": s.key, "share": _num(s.share), "contribution": _num(s.contribution)}
+                    for s in o.shares
                 ],
             }
             for o in b.outputs

@@ -32,11 +32,13 @@ from bike_rig.core.uncertainty.budget import (
     UncertaintyBudget,
     budget_json,
     input_ranking,
+    reading_names,
     uncertainty_budget,
 )
 from bike_rig.core.uncertainty.speed_sigma import critical_speeds_with_sigma
 from bike_rig.core.whipple import canonical_matrices, critical_speeds
 from bike_rig.paths import config_file
+from test.support.paper import shared_dir
 
 BICYCLES = ("browser", "browserins", "crescendo", "fisher", "stratos", "yellow")
 #: Rear-frame parameters that a rider makes correlated in a parameter file's covariance.
@@ -264,13 +266,39 @@ def test_input_ranking_is_the_mean_share() -> None:
 def test_budget_json_is_plain_json() -> None:
     b = uncertainty_budget(parameters("stratos"))
     data = json.loads(json.dumps(budget_json(b), allow_nan=False))
-    assert set(data) == {"bicycle", "input_kind", "inputs", "outputs"}
+    assert set(data) == {"bicycle", "input_kind", "inputs", "input_keys", "outputs"}
     assert data["inputs"] == list(b.inputs)
     assert [o["output"] for o in data["outputs"]] == [o.output for o in b.outputs]
     first = data["outputs"][-1]
     assert set(first) == {"output", "value", "sigma", "unit", "shares"}
     assert first["shares"][0] == {
         "input": b.outputs[-1].shares[0].input,
+        "key": b.outputs[-1].shares[0].key,
         "share": b.outputs[-1].shares[0].share,
         "contribution": b.outputs[-1].shares[0].contribution,
     }
+
+
+def test_inputs_are_named_as_their_file_names_them() -> None:
+    """``names`` renames inputs (groups too); shares, contributions and keys stay the same."""
+    m = load_measurements(config_file("bicycles/browser.yaml"))
+    names = reading_names(m)
+    assert names["aH3"] == "fork.orientations[2].distance" and names["TtP1"] == "calibration_rod.torsional_period"
+    ps = compute_parameters(m)
+    plain, named = uncertainty_budget(ps), uncertainty_budget(ps, names)
+    assert named.input_keys == plain.inputs == plain.input_keys
+    assert named.inputs == tuple(names[k] for k in plain.inputs)
+    for a, b in zip(plain.outputs, named.outputs):
+        assert [(s.input, s.share, s.contribution) for s in a.shares] == [
+            (s.key, s.share, s.contribution) for s in b.shares
+        ]
+    assert ps.raw is not None
+    i, j = ps.raw.names.index("aH2"), ps.raw.names.index("aH3")
+    cov = ps.raw.covariance.copy()
+    cov[i, j] = cov[j, i] = 0.5 * math.sqrt(cov[i, i] * cov[j, j])
+    correlated = dataclasses.replace(ps, raw=RawPropagation(ps.raw.names, cov, ps.raw.jacobian))
+    grouped = uncertainty_budget(correlated, names)
+    k = grouped.input_keys.index("aH2+aH3")
+    assert grouped.inputs[k] == "fork.orientations[1].distance+fork.orientations[2].distance"
+    bp = load_measurements(shared_dir() / "data" / "bicycleparameters" / "Browser" / "RawData" / "BrowserMeasured.txt")
+    assert all(k == v for k, v in reading_names(bp).items())
