@@ -9,6 +9,8 @@ it; the recorder's bag holds every entry, and replays with no other file to the 
 
 from __future__ import annotations
 
+import subprocess
+import sys
 from collections import Counter
 from collections.abc import Iterator
 from pathlib import Path
@@ -37,7 +39,7 @@ from bike_rig.pipeline.readings import ReadingEntry, apply_entries
 from test.bag.entered import MISTAKE_KEY, one_trial_session, operator_entries
 from test.bag.test_recorder import _wait_for_data as wait_for_data
 from test.bag.test_replay_readings import core_periods
-from test.nodes.test_parameter import BROWSER_KEYS, Probe, node_environment, start_node
+from test.nodes.test_parameter import BROWSER, BROWSER_KEYS, Probe, node_environment, start_node
 from test.pipeline.test_readings import STATIC_KEYS
 
 pytestmark = pytest.mark.ros
@@ -195,3 +197,21 @@ def test_readings_entered_live_complete_correct_record_and_replay(
 
     check_bag(bag, [*bad, *entries], len(entries), session)
 
+
+
+@pytest.mark.parametrize(
+    ("params", "expected"),
+    [
+        ((), "give parameter 'measurements' (the bicycle's measurement file"),
+        (("-p", f"measurements:={BROWSER}", "-p", "bicycle:=Fisher"),
+         "parameter 'bicycle' = 'Fisher': the measurement file"),
+    ],
+)  # fmt: skip
+def test_neither_file_nor_name_or_a_name_not_the_files_is_one_error_line(
+    node_env: dict[str, str], tmp_path: Path, params: tuple[str, ...], expected: str
+) -> None:
+    argv = [sys.executable, "-m", "bike_rig.nodes.parameter", "--ros-args", *params]
+    done = subprocess.run(argv, env=node_env, capture_output=True, text=True, timeout=60)
+    assert done.returncode == 2
+    lines = done.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("parameter: error: ") and expected in lines[0], done.stderr
