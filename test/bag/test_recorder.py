@@ -21,7 +21,17 @@ from mcap_ros2.decoder import DecoderFactory
 
 from bike_rig.bag.reader import open_bag
 from bike_rig.bag.recover import recover_bag, scan_mcap
-from bike_rig.topics import EIGEN_SWEEP, GYRO, MATRICES, PARAMETERS, PERIODS, STATIC_READINGS, TOPICS, TRIAL_EVENTS
+from bike_rig.topics import (
+    EIGEN_SWEEP,
+    GYRO,
+    MATRICES,
+    PARAMETERS,
+    PERIODS,
+    READINGS,
+    STATIC_READINGS,
+    TOPICS,
+    TRIAL_EVENTS,
+)
 from test.bag.rig_publisher import seed_of
 from test.bag.samples import as_plain, make_message
 from test.ros.processes import RosProcess
@@ -78,7 +88,7 @@ def test_recorder_records_every_topic_exactly_and_in_order(
 ) -> None:
     env = _env(ros_env)
     bag = tmp_path / "session"
-    early = {STATIC_READINGS.name: 1, PERIODS.name: 3}  # latched, published before the recorder starts
+    early = {STATIC_READINGS.name: 1, PERIODS.name: 3, READINGS.name: 2}  # transient-local, before the recorder starts
     live = {GYRO.name: 400, TRIAL_EVENTS.name: 6, PERIODS.name: 4, PARAMETERS.name: 1, MATRICES.name: 1,
             EIGEN_SWEEP.name: 1}
     spec = {"early": early, "live": live, "rate_hz": 200.0}  # 200 gyro batches/s: the 10 kHz stress rate
