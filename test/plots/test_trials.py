@@ -22,7 +22,8 @@ from bike_rig.bag.simulated import write_simulated_bag
 from bike_rig.core.period import PeriodFit
 from bike_rig.core.period.result import Flag, FlagCode
 from bike_rig.core.sim import write_session
-from bike_rig.plots.trials import fit_figure, overview_data, trial_overview
+from bike_rig.plots.registry import FIT_DPI, FIT_FIGURE_SIZE_IN
+from bike_rig.plots.trials import fit_figure, fit_title, overview_data, trial_overview
 from bike_rig.subjects import SessionTrial, Subject, load_subject
 from test.bag.conftest import short_session
 
@@ -108,6 +109,39 @@ def test_fit_figure_of_a_flagged_trial_and_of_one_without_period(bag_subject: Su
     assert "no period" in fig.axes[0].get_title() and "no_oscillation" in fig.axes[0].get_title()
     assert not fig.findobj(lambda a: a.get_gid() == "fit")
     line(fig, "samples")  # the data are still shown
+
+
+#: A long flag reason, as the fitter writes them (several clauses and advice).
+LONG_REASON = (
+    "the envelope/phase wanders by up to 143 % of the amplitude from Eq 23 (limit 2 %): two close modes "
+    "(swinging with the torsion?); steady the part, hang it again so it swings in one plane and record again"
+)
+
+
+def test_fit_figure_title_wraps_inside_the_figure_at_the_reports_size(bag_subject: Subject) -> None:
+    trial = bag_subject.trials[0]
+    fit = dataclasses.replace(
+        trial.fit, flags=(Flag(FlagCode.BEATING, LONG_REASON), Flag(FlagCode.POOR_FIT, "r² = 0.636 < 0.9: " * 3))
+    )
+    trial = dataclasses.replace(trial, result=dataclasses.replace(trial.result, fit=fit), used=False)
+    for size_in, dpi in ((FIT_FIGURE_SIZE_IN, FIT_DPI), ((10.0, 6.0), 110)):  # the report's, the plot's own
+        fig = fit_figure(trial)
+        fig.set_size_inches(*size_in)
+        fig.set_dpi(dpi)
+        fig.canvas.draw()
+        renderer = fig.canvas.get_renderer()  # type: ignore[attr-defined]
+        title = fig.axes[0].title
+        box = title.get_window_extent(renderer)
+        page = fig.bbox
+        assert title.get_text() == fit_title(trial) and LONG_REASON in title.get_text()  # nothing dropped
+        assert page.x0 <= box.x0 and box.x1 <= page.x1 and box.y1 <= page.y1, (size_in, box, page)
+        assert box.y0 >= fig.axes[0].get_window_extent(renderer).y1  # above the plot, not over it
+        size_pt = float(title.get_fontsize())
+        assert size_pt >= 8
+        line_px = 1.2 * size_pt * dpi / 72.0  # matplotlib's line spacing
+        assert box.height > (fit_title(trial).count("\n") + 1.5) * line_px  # the long line was wrapped
+        # the data panel keeps most of its height
+        assert fig.axes[0].get_window_extent(renderer).height > 0.35 * page.height
 
 
 def test_fit_figure_without_samples_says_so(file_subject: Subject) -> None:
