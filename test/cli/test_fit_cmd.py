@@ -287,6 +287,10 @@ def test_trials_of_different_measurements_are_not_combined(
     assert code == 0 and "combined period" not in out
     why = [line for line in out.splitlines() if line.startswith("not combined")]
     assert len(why) == 1 and "name no measurement" in why[0] and "--key" in why[0]
+    # Fisher's rear and front wheel, torsional: the closest two periods of the shipped bicycles (0.097 %).
+    close = _sim_named(tmp_path, [("rear.npy", 0.66505229793), ("front.npy", 0.665696467328)])
+    code, out, _ = run(capsys, "fit", *close)
+    assert "combined period" not in out and re.search(r"range from 0\.665\d* to 0\.6657 s \(0\.09\d %\)", out), out
     # Mixed: the keyed ones by key, the others named.
     code, out, _ = run(capsys, "fit", named[0], plain[0])
     assert "combined period of TtB1" in out and "not combined: a.npy names no measurement key" in out
