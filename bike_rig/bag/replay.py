@@ -311,7 +311,8 @@ def _static_readings(session: RecordedSession, settings: ReplaySettings) -> tupl
         static = _bag_readings(session)
         return static, static.path, ""
     static = load_static_readings(settings.readings)
-    what = "the bag's" if session.static_readings is not None else "none recorded"
+    recorded = session.static_readings
+    what = (str(recorded.source) or "recorded") if recorded is not None else "none recorded"
     note = f"static readings from {settings.readings} instead of the bag's ({what}); its periods ignored"
     return static, str(settings.readings), note
 
