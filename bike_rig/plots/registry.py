@@ -194,8 +194,8 @@ _EIGEN_CAPTION = (
 _LOCUS_CAPTION = "Eigenvalues in the complex plane with speed as the parameter (paper Fig 14)."
 _WEAVE_CAPTION = "Components of the weave mode's eigenvector as phasors, at a speed inside the stable range."
 _PAIR_CAPTION = (
-    "Components of the eigenvector of the complex pair the capsize and caster roots form at low speed, as "
-    "phasors (paper Fig 15)."
+    "Components of the capsize mode's eigenvector as phasors (paper Fig 15 shows the complex pair the capsize "
+    "and caster roots form at low speed)."
 )
 _BODE_TITLE = "Steer torque to roll angle at " + _speeds_text(BODE_SPEEDS) + ", {rider}"
 _BODE_CAPTION = (

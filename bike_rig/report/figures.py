@@ -130,12 +130,12 @@ def _pair_speed(subject: Subject, rider: str, stable_speed: float) -> tuple[floa
     pair = capsize_caster_speed(subject, rider)
     if pair is None:
         return stable_speed, (
-            f" This bicycle's capsize and caster roots form no complex pair (from its model, 0 to 10 m/s): "
+            f" This bicycle's capsize and caster roots form no complex pair (from its model, 0 to 10 m/s), so "
             f"the capsize mode is shown at {stable_speed:g} m/s, inside the stable speed range."
         )
     speed, (lo, hi) = pair
     return speed, (
-        f" The pair exists from {lo:.2f} to {hi:.2f} m/s (from this bicycle's model); shown at {speed:g} m/s, "
+        f" This bicycle has the pair from {lo:.2f} to {hi:.2f} m/s (from its model); it is shown at {speed:g} m/s, "
         "the middle of that interval."
     )
 
