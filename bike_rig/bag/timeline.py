@@ -10,7 +10,9 @@ one time base, :data:`TIME_BASE`: seconds on the rig's clock from the first tria
 the rig time of its newest trial (the STOP of the latest trial it includes, from its
 ``trial_ids``): what it knew, "as of". The model's messages carry their parameter set's stamp
 and go with it. Static readings go with the newest parameter set published before them (by the
-computer's clock), so readings published before any trial result have no rig time (``None``).
+computer's clock), and so do the readings the operator enters during the session (stamped with
+the computer's clock too), so readings published before any trial result have no rig time
+(``None``).
 
 **Each thing once.** The driver's events are kept once per trial (its first START and first
 STOP or ABORT); parameter sets are re-published (latched, on a timer while incomplete, after
@@ -161,6 +163,28 @@ def _readings_entries(session: RecordedSession, sets: Sequence[tuple[int, float 
     return [TimelineEntry(_as_of(_stamp(msg), sets), f"static readings published ({len(msg.keys)} readings)")]
 
 
+def _entry_entries(session: RecordedSession, sets: Sequence[tuple[int, float | None]]) -> list[TimelineEntry]:
+    """The readings entered during the session, in order, each once; a newer entry of a key is a correction."""
+    counts: dict[tuple[int, str, float, float], int] = {}
+    notes: dict[tuple[int, str, float, float], str] = {}
+    for msg in sorted(session.reading_entries, key=_stamp):
+        ident = (_stamp(msg), str(msg.key), float(msg.value), float(msg.sigma))
+        counts[ident] = counts.get(ident, 0) + 1  # the same entry recorded again counts once
+        notes.setdefault(ident, str(msg.note))
+    out: list[TimelineEntry] = []
+    latest: dict[str, str] = {}
+    for (ns, key, value, sigma), n in counts.items():
+        shown = f"{value:.6g} ± {sigma:.2g}"
+        was = latest.get(key)
+        what = f"reading {key} = {shown} entered" if was is None else f"reading {key} corrected to {shown} (was {was})"
+        what += f": {notes[ns, key, value, sigma]}" if notes[ns, key, value, sigma] else ""
+        what += f" (recorded {n}×)" if n > 1 else ""
+        latest[key] = shown
+        at = _as_of(ns, sets)
+        out.append(TimelineEntry(at, what, n, at) if n > 1 else TimelineEntry(at, what))
+    return out
+
+
 def session_timeline(session: RecordedSession) -> Timeline:
     """The timeline of a recorded session (see the module docstring).
 
@@ -169,7 +193,8 @@ def session_timeline(session: RecordedSession) -> Timeline:
 
     Returns:
         Its timeline; entries without a rig time ("before any trial's result") come first, and
-        entries at the same time keep the order trial events, readings, parameters, model.
+        entries at the same time keep the order trial events, readings, entered readings,
+        parameters, model.
     """
     origin = _origin(session)
     timeline = Timeline(origin, ())
@@ -179,6 +204,7 @@ def session_timeline(session: RecordedSession) -> Timeline:
     entries = [
         *_trial_entries(session, seconds),
         *_readings_entries(session, sets),
+        *_entry_entries(session, sets),
         *_parameter_entries(session, stops),
         *_model_entries(session, sets),
     ]

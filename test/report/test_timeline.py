@@ -3,8 +3,9 @@
 A simulated Browser session is written as a bag with what the live graph publishes, as a live
 simulated rig 25× faster than real time records it: the trial events on the rig's clock, the
 static readings, parameter sets and model on the computer's clock (another epoch, 25× slower).
-Every parameter set and the last model are published twice (latched results re-published) and
-one trial's START is recorded twice. The timeline must put everything on the rig's clock and
+Every parameter set and the last model are published twice (latched results re-published), one
+trial's START is recorded twice, and the operator enters a reading before any result and corrects
+it later (the correction recorded twice). The timeline must put everything on the rig's clock and
 list each thing once.
 """
 
@@ -20,6 +21,7 @@ import pytest
 from bike_rig import topics
 from bike_rig.bag.simulated import SimulatedMessage, live_results, simulated_messages, write_simulated_bag
 from bike_rig.bag.timeline import TIME_BASE, TimelineEntry
+from bike_rig.bag.typestore import new_message
 from bike_rig.messages import set_stamp, stamp_ns
 from bike_rig.report.html import esc
 from bike_rig.report.sections import timeline_section, trials_section
@@ -83,6 +85,15 @@ def recorded(tmp_path_factory: pytest.TempPathFactory) -> Recorded:
         if m.topic == topics.PARAMETERS.name:
             sets.append((bool(m.message.complete), [e.partition(":")[2] for e in m.message.trial_ids]))
         matrices += copies if m.topic == topics.MATRICES.name else 0
+    # readings entered at the console (the computer's clock): one before any result, then a
+    # correction after the fifth trial's parameter set, recorded twice
+    fifth = [m for m in results if m.topic == topics.PARAMETERS.name][4]
+    for k, (ns, value) in enumerate(
+        ((_computer_clock(origin, origin) + 1, 3.10), (stamp_ns(fifth.message.header) + 1, 3.12))
+    ):
+        entry = new_message(topics.READINGS.type, key="mR", value=value, sigma=0.02, note="correction" if k else "")
+        set_stamp(entry, ns)
+        extra += [SimulatedMessage(topics.READINGS.name, fifth.log_time + 2 if k else origin + 2, entry)] * (k + 1)
     first_start = next(m for m in stream if m.topic == topics.TRIAL_EVENTS.name)
     extra.append(SimulatedMessage(first_start.topic, first_start.log_time + 5_000_000, first_start.message))
     bag = write_simulated_bag(tmp_path_factory.mktemp("timeline") / "bag", session, extra, pause_s=2.0)
@@ -137,12 +148,20 @@ def test_publications_collapsed_and_placed_at_their_newest_trial(recorded: Recor
     # the readings, re-published on the computer's clock before any trial's result
     readings = _rows(timeline, r"^static readings published")
     assert len(readings) == 1 and readings[0].time_s is None
+    # readings entered: the first before any result, the correction at its parameter set's newest trial
+    entered = _rows(timeline, r"^reading mR ")
+    assert [e.what for e in entered] == [
+        "reading mR = 3.1 ± 0.02 entered",
+        "reading mR corrected to 3.12 ± 0.02 (was 3.1 ± 0.02): correction (recorded 2×)",
+    ]
+    assert entered[0].time_s is None and entered[1].count == 2
+    assert entered[1].time_s == _newest_stop_s(recorded.parameter_sets[4][1], recorded)
     # one time base: nothing before the first trial's start or after the last stop
     times = [t for e in timeline for t in (e.time_s, e.last_s) if t is not None]
     assert 0.0 <= min(times) and max(times) <= last_stop + 1e-9
     keys = [(e.time_s is not None, e.time_s or 0.0) for e in timeline]
     assert keys == sorted(keys)
-    assert len(timeline) == 2 * 39 + 4
+    assert len(timeline) == 2 * 39 + 4 + 2
 
 
 class _Table(HTMLParser):
