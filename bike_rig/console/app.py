@@ -48,7 +48,9 @@ class SessionApp(App[int]):
     #top { height: 1fr; }
     #plan { width: 44; }
     #side { width: 1fr; padding: 0 1; }
-    #trace { height: 4; }
+    #next { height: 6; }
+    #trace { height: 2; }
+    #live { height: 1fr; }
     #log { height: 6; border-top: solid $accent; }
     #cmd { height: 3; }
     """
@@ -131,7 +133,7 @@ class SessionApp(App[int]):
             w, c = s.stability.weave, s.stability.capsize
             result = f"  weave {w.speed:.3f}±{w.sigma:.3f}  capsize {c.speed:.3f}±{c.sigma:.3f} m/s"
         self.query_one("#title", Static).update(
-            Text(f"bike_rig session — {s.bicycle} — {done}/{total} done{result}", style="bold reverse")
+            Text(f"bike_rig · {s.bicycle} · {done}/{total} done{result}", style="bold reverse")
         )
 
     def _refresh_side(self) -> None:

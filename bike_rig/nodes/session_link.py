@@ -4,8 +4,8 @@ It calls the driver's StartTrial/StopTrial services, publishes the operator's re
 ``/bike_rig/readings``, and collects what the graph publishes as pipeline records
 (:mod:`bike_rig.messages` converts): trial events, period estimates, readings (all
 transient-local, so a console that joins late gets the session so far), the latest parameter
-set and stability sweep (latched), and the gyro batches as they come (volatile, best effort:
-only the live trace needs them, never the session's whole history).
+set and stability sweep (latched), and the gyro batches as they come (reliable but volatile:
+the live trace needs them contiguous, never the session's whole history).
 
 Implements :class:`bike_rig.session.controller.GraphLink`.
 """
@@ -49,7 +49,7 @@ _srvs: Any = importlib.import_module("bike_rig_msgs.srv")
 SERVICE_TIMEOUT_S = 5.0
 
 _LIVE = QoSProfile(
-    history=HistoryPolicy.KEEP_LAST, depth=200, reliability=ReliabilityPolicy.BEST_EFFORT,
+    history=HistoryPolicy.KEEP_LAST, depth=1000, reliability=ReliabilityPolicy.RELIABLE,
     durability=DurabilityPolicy.VOLATILE,
 )  # fmt: skip
 

@@ -8,9 +8,12 @@ and reports, from them and the wall clock:
 * **clipping**: the last ``clip_window_s`` hold runs of at least :data:`MIN_CLIP_RUN` equal
   samples at the window's largest or smallest value, at least twice — the sensor or ADC
   saturates (the trial's fit flags it too, after STOP);
-* **amplitude too small**: the oscillation's amplitude (half the peak-to-peak of the last
-  ``amplitude_window_s``) is under :data:`MIN_SNR` times the sample-to-sample noise
-  (``std(diff(y)) / √2``, the fitter's noise estimate) — too small a swing to fit well.
+* **amplitude too small**: in the spectrum of the last ``amplitude_window_s`` (mean removed),
+  the oscillation's peak stands less than :data:`MIN_SNR` times above the noise floor (the
+  median bin magnitude) — the swing is lost in the noise and too small to fit.
+
+The amplitude shown is the spectral peak's, ``2 |X_k| / n`` (rad/s), which noise does not
+inflate as a peak-to-peak would.
 
 Rates in rad/s, times in s.
 """
@@ -30,7 +33,7 @@ FloatArray = NDArray[np.float64]
 
 #: Equal samples in a row at the window's extreme that count as a clipped peak.
 MIN_CLIP_RUN = 5
-#: Smallest amplitude / noise ratio that does not warn.
+#: Smallest ratio of the spectral peak to the median bin that does not warn.
 MIN_SNR = 10.0
 
 
@@ -42,7 +45,8 @@ class LiveStatus:
         trial_id: The trial.
         samples: Samples received so far.
         seconds: Rig time recorded so far, s.
-        amplitude: Half the peak-to-peak rate of the last seconds, rad/s (NaN before any).
+        amplitude: The oscillation's amplitude over the last seconds (spectral peak), rad/s
+            (NaN before enough samples).
         warnings: One line each (empty when all is well).
     """
 
@@ -77,11 +81,22 @@ class LiveTrace:
     last_sample_wall_s: float | None = None
     _blocks: deque[FloatArray] = field(default_factory=deque, repr=False)
     _kept: int = 0
+    _next: int | None = None
 
-    def add(self, rates: FloatArray, rate_hz: float, now_wall_s: float) -> None:
-        """Add a batch of samples (rad/s) at ``rate_hz`` received at wall time ``now_wall_s``."""
+    def add(self, rates: FloatArray, rate_hz: float, now_wall_s: float, first_index: int | None = None) -> None:
+        """Add a batch of samples (rad/s) at ``rate_hz`` received at wall time ``now_wall_s``.
+
+        ``first_index`` is the batch's first sample's index in the trial: a batch that does not
+        follow the previous one (a batch lost on the way) starts the trace afresh, so the
+        analysis never runs across a gap.
+        """
         if rates.size == 0:
             return
+        if first_index is not None and self._next is not None and first_index != self._next:
+            self._blocks.clear()
+            self._kept = 0
+        if first_index is not None:
+            self._next = first_index + int(rates.size)
         self.rate_hz = rate_hz
         self.samples += int(rates.size)
         self.last_sample_wall_s = now_wall_s
@@ -108,15 +123,12 @@ class LiveTrace:
                 f"{what} from the {self.source} for {since:.1f} s: silent bus, wrong CAN id or unplugged gyro? "
                 "(abort the trial, check the wiring and the id)"
             )
-        y = self.recent(self.amplitude_window_s)
-        amplitude = 0.5 * float(np.ptp(y)) if y.size else math.nan
-        if y.size >= 20:
-            noise = float(np.std(np.diff(y))) / math.sqrt(2.0)
-            if noise > 0 and amplitude < MIN_SNR * noise:
-                warnings.append(
-                    f"amplitude {amplitude:.3g} rad/s is only {amplitude / noise:.1f}× the noise: "
-                    "too small to fit well, swing it wider"
-                )
+        amplitude, snr = _spectral_peak(self.recent(self.amplitude_window_s))
+        if snr < MIN_SNR:
+            warnings.append(
+                f"amplitude {amplitude:.3g} rad/s stands only {snr:.1f}× above the noise: "
+                "too small to fit, swing it wider"
+            )
         clip = self._clipped(self.recent(self.clip_window_s))
         if clip:
             warnings.append(clip)
@@ -137,3 +149,27 @@ class LiveTrace:
                     "the gyro or ADC saturates, use a smaller swing"
                 )
         return ""
+
+
+def _spectral_peak(y: FloatArray) -> tuple[float, float]:
+    """The main oscillation's amplitude (rad/s) and its spectral peak's ratio to the median bin.
+
+    The peak bin's frequency is refined by a parabola through the log magnitudes of it and its
+    neighbours, and the amplitude is the least-squares sinusoid (with offset) at that frequency,
+    so a record of a fraction of a cycle more or less is not under-read. ``inf`` ratio: too few
+    samples to tell.
+    """
+    if y.size < 64:
+        return math.nan, math.inf
+    mag = np.abs(np.fft.rfft(y - np.mean(y)))
+    k = int(np.argmax(mag[1:])) + 1
+    floor = float(np.median(mag[1:]))
+    shift = 0.0
+    if 1 <= k < mag.size - 1 and min(mag[k - 1], mag[k + 1]) > 0:
+        a, b, c = np.log(mag[k - 1 : k + 2])
+        shift = float(0.5 * (a - c) / (a - 2 * b + c)) if a - 2 * b + c != 0 else 0.0
+    phase = 2 * np.pi * (k + shift) / y.size * np.arange(y.size)
+    basis = np.column_stack([np.cos(phase), np.sin(phase), np.ones(y.size)])
+    coef = np.linalg.lstsq(basis, y, rcond=None)[0]
+    amplitude = float(np.hypot(coef[0], coef[1]))
+    return amplitude, (float(mag[k]) / floor if floor > 0 else math.inf)

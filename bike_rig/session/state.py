@@ -144,7 +144,7 @@ class OperatorSession:
     def on_samples(self, batch: SampleBatch, now_wall_s: float) -> None:
         """A gyro batch: feeds the live trace of the recording trial."""
         if self.live is not None and batch.trial_id == self.live.trial_id:
-            self.live.add(batch.rates, batch.sample_rate_hz, now_wall_s)
+            self.live.add(batch.rates, batch.sample_rate_hz, now_wall_s, batch.first_index)
 
     def on_period(self, fit: TrialFit) -> str:
         """A period estimate: the trial's state becomes OK or REDO. Returns its result line."""

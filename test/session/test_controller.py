@@ -113,7 +113,7 @@ def test_clipping_and_small_amplitude_warn(ctl_link) -> None:  # type: ignore[no
     ctl.execute("start")
     trial_id = link.started[1][0]
     noise = 1e-3 * np.random.default_rng(2).standard_normal(4000)
-    link.samples(trial_id, 2e-3 * np.sin(2 * np.pi * x / 1.2) + noise)
+    link.samples(trial_id, 1e-4 * np.sin(2 * np.pi * x / 1.2) + noise)
     warnings = [r.text for r in ctl.pump() if r.kind == "warning"]
     assert any("too small to fit" in w for w in warnings)
 
@@ -148,7 +148,7 @@ def test_a_whole_session_completes_with_speeds(ctl_link) -> None:  # type: ignor
     status = ctl.execute("status")
     assert any("weave" in r.text and "capsize" in r.text for r in status)
     params = ctl.execute("params")
-    assert len(params) == 26 and params[0].data["name"] == "w"  # the 25 parameters and g
+    assert len(params) == 26 and {r.data["name"] for r in params} >= {"w", "c", "lam", "g"}  # 25 and g
     # the true periods and noisy readings give the true parameters within a few σ
     for r in params:
         truth = sim.truth.parameters[r.data["name"]]

@@ -18,6 +18,8 @@ from pathlib import Path
 __all__ = ["TMUX", "TmuxSession"]
 
 TMUX = shutil.which("tmux") or "/usr/bin/tmux"
+#: What a row may end with besides its text: spaces and a scroll bar's block glyphs.
+_SCROLLBAR = " ▁▂▃▄▅▆▇█▏▎▍▌▋▊▉▔▕"
 
 
 class TmuxSession:
@@ -40,7 +42,7 @@ class TmuxSession:
         self.env.pop("TMUX", None)
         self.env["TERM"] = "xterm-256color"
         # the pane stays after the program exits, so its last screen and status can be read
-        script = f"{shlex.join(argv)}; echo \"[exit $?]\"; sleep 600"
+        script = f'{shlex.join(argv)}; echo "[exit $?]"; sleep 600'
         self._tmux("new-session", "-d", "-s", "t", "-x", str(width), "-y", str(height), "-c", str(cwd), script)
         self._tmux("set-option", "-t", "t", "remain-on-exit", "on")
 
@@ -56,14 +58,17 @@ class TmuxSession:
 
     def type(self, text: str) -> None:
         """Type ``text`` literally (no Enter)."""
-        self._tmux("send-keys", "-t", "t", "-l", text)
+        self._tmux("send-keys", "-t", "t", "-l", "--", text)
 
     def screen(self) -> str:
         """The visible screen, one line per row."""
         return self._tmux("capture-pane", "-t", "t", "-p")
 
-    def wait_for(self, pattern: str, timeout_s: float = 30.0) -> str:
+    def wait_for(self, pattern: str, timeout_s: float = 30.0, flat: bool = False) -> str:
         """Wait until the screen matches ``pattern`` (a regex); the screen.
+
+        With ``flat`` the screen's rows are joined by spaces first (right-stripped of spaces
+        and scroll-bar glyphs), so that a line the program wrapped still matches (match any whitespace between words).
 
         Raises:
             AssertionError: Not within ``timeout_s`` (with the last screen).
@@ -72,7 +77,8 @@ class TmuxSession:
         screen = ""
         while time.monotonic() < deadline:
             screen = self.screen()
-            if re.search(pattern, screen):
+            text = " ".join(row.rstrip(_SCROLLBAR) for row in screen.splitlines()) if flat else screen
+            if re.search(pattern, text):
                 return screen
             time.sleep(0.05)
         raise AssertionError(f"screen never matched {pattern!r} in {timeout_s} s; last screen:\n{screen}")
