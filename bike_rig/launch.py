@@ -14,10 +14,23 @@ A graph file (``format: bike_rig-graph/1``, see ``config/graph.yaml``)::
 
 Every process gets ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`` and the run's own
 ``ROS_DOMAIN_ID`` (:mod:`bike_rig.rosenv`).
+
+Before anything starts, :meth:`Graph.checked` (called by :meth:`RunningGraph.start`) checks
+every ``-p`` override of a bike_rig node against the parameters the node declares
+(:func:`bike_rig.nodes.params.node_parameter_specs`): an unknown name, or a value of the wrong
+type or out of range, is a one-line :class:`LaunchError` naming the node's parameters; an
+integer given for a double becomes a double. It also makes the file parameters
+(:data:`PATH_PARAMETERS`) absolute, so that every node reads the same files whatever its
+working directory: a relative path is taken from the current directory when it exists there,
+else from the parameter file's folder (a value written in one), else from the config folder
+(:func:`bike_rig.paths.config_dir`, e.g. ``bicycles/browser.yaml``). A file given as an override
+that exists in none of them is an error; an output (the recorder's bag) must not exist yet.
 """
 
 from __future__ import annotations
 
+import contextlib
+import difflib
 import json
 import os
 import signal
@@ -27,15 +40,46 @@ import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 from .core.errors import BikeRigError, InputFileError
 from .core.io_yaml import load_yaml_document
+from .params import ParamValueError, parameter_message
+from .paths import config_dir
 from .rosenv import ros_environment
 
-__all__ = ["GRAPH_FORMAT", "Graph", "LaunchError", "NodeSpec", "RunningGraph", "load_graph"]
+if TYPE_CHECKING:
+    from .params import ParamSpec
+
+__all__ = [
+    "ALTERNATIVES",
+    "GRAPH_FORMAT",
+    "PATH_PARAMETERS",
+    "Graph",
+    "LaunchError",
+    "NodeSpec",
+    "RunningGraph",
+    "load_graph",
+    "parse_overrides",
+]
 
 GRAPH_FORMAT = "bike_rig-graph/1"
+
+#: The node parameters that name files, per node module: ``input`` (a file or folder that is
+#: read) or ``output`` (one the node creates). :meth:`Graph.checked` makes them absolute.
+PATH_PARAMETERS: Mapping[str, Mapping[str, str]] = {
+    "bike_rig.nodes.driver": {"session": "input", "bicycle": "input", "rig": "input", "bag": "input"},
+    "bike_rig.nodes.parameter": {"measurements": "input"},
+    "bike_rig.nodes.recorder": {"output": "output"},
+}
+
+#: Parameters that stand for one another, per node module: an override of one of them in
+#: :meth:`Graph.with_parameters` (e.g. ``--param driver.session=DIR/session.yaml``) sets the
+#: others to "" (wherever they were set: the graph file, the parameter file), unless it sets
+#: them too (the sim source takes a session or a bicycle, not both).
+ALTERNATIVES: Mapping[str, tuple[frozenset[str], ...]] = {
+    "bike_rig.nodes.driver": (frozenset({"session", "bicycle"}),),
+}
 
 
 class LaunchError(BikeRigError):
@@ -98,15 +142,184 @@ class Graph:
     path: str = "<memory>"
 
     def with_parameters(self, overrides: Mapping[str, Mapping[str, object]]) -> Graph:
-        """A copy with extra ``-p`` overrides per node name."""
+        """A copy with extra ``-p`` overrides per node name (see :data:`ALTERNATIVES`).
+
+        Raises:
+            LaunchError: An override names a node the graph does not have.
+        """
         known = {n.name for n in self.nodes}
         for name in overrides:
             if name not in known:
                 raise LaunchError(f"{self.path}: no node named '{name}' (nodes: {', '.join(sorted(known))})")
         nodes = tuple(
-            NodeSpec(n.name, n.module, n.params_file, {**n.parameters, **overrides.get(n.name, {})}) for n in self.nodes
+            NodeSpec(n.name, n.module, n.params_file, _merged(n, overrides.get(n.name, {}))) for n in self.nodes
         )
         return Graph(nodes, self.path)
+
+    def checked(self, cwd: Path | None = None) -> Graph:
+        """A copy whose overrides are checked and whose file parameters are absolute.
+
+        See the module docstring. Nodes whose module declares no parameter specs (someone
+        else's node, a test double) are passed on unchecked.
+
+        Args:
+            cwd: The directory relative paths start from (default: the current directory).
+
+        Returns:
+            The graph to start: every override converted to its parameter's type, every file
+            parameter (:data:`PATH_PARAMETERS`) absolute.
+
+        Raises:
+            LaunchError: An unknown parameter name, a bad value, a file that does not exist
+                or an output that does (one line naming the node and the parameter).
+            InputFileError: A node's parameter file cannot be read.
+        """
+        base = Path.cwd() if cwd is None else cwd
+        return Graph(tuple(_checked_node(n, base) for n in self.nodes), self.path)
+
+    def node(self, name: str) -> NodeSpec:
+        """The node called ``name``.
+
+        Raises:
+            LaunchError: No such node.
+        """
+        for n in self.nodes:
+            if n.name == name:
+                return n
+        raise LaunchError(f"{self.path}: no node named '{name}' (nodes: {', '.join(n.name for n in self.nodes)})")
+
+
+def _merged(node: NodeSpec, overrides: Mapping[str, object]) -> dict[str, object]:
+    """The node's overrides with ``overrides`` on top; an override of one of :data:`ALTERNATIVES` clears the others."""
+    merged = {**node.parameters, **overrides}
+    for group in ALTERNATIVES.get(node.module, ()):
+        if group & overrides.keys():
+            merged.update({other: "" for other in sorted(group - overrides.keys())})
+    return merged
+
+
+def _params_file_values(path: Path, ros_name: str) -> tuple[dict[str, object], set[str]]:
+    """The values a ``--params-file`` gives node ``ros_name``, and the names set for it by name.
+
+    Sections ``/**`` (every node) and ``<name>`` or ``/<name>`` are read; only the named
+    sections' keys are checked against the node's parameters (a ``/**`` section may hold
+    other nodes' parameters).
+
+    Raises:
+        InputFileError: The file cannot be read or is not YAML.
+    """
+    data, _ = load_yaml_document(path)
+    values: dict[str, object] = {}
+    named: set[str] = set()
+    if not isinstance(data, dict):
+        return values, named
+    for key in ("/**", ros_name, f"/{ros_name}"):
+        section = data.get(key)
+        params = section.get("ros__parameters") if isinstance(section, dict) else None
+        if isinstance(params, dict):
+            values.update({str(k): v for k, v in params.items()})
+            if key != "/**":
+                named.update(str(k) for k in params)
+    return values, named
+
+
+def _unknown_parameter(node: NodeSpec, name: str, specs: Sequence[ParamSpec], where: str) -> LaunchError:
+    names = [s.name for s in specs]
+    close = difflib.get_close_matches(name, names, n=1)
+    hint = f" (did you mean '{close[0]}'?)" if close else ""
+    return LaunchError(
+        f"{where}node '{node.name}' has no parameter '{name}'{hint}; its parameters: {', '.join(names)}"
+    )
+
+
+def _as_text(value: object) -> str:
+    """A YAML scalar given for a string parameter, as the text typed (``0`` → ``"0"``)."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    return "" if value is None else str(value)
+
+
+def _checked_value(node: NodeSpec, spec: ParamSpec, value: object) -> object:
+    if spec.kind == "string" and not isinstance(value, str):
+        value = _as_text(value)
+    try:
+        return spec.validate(value)
+    except ParamValueError as exc:
+        raise LaunchError(f"node '{node.name}': {parameter_message(spec.name, exc.reason, value)}") from None
+
+
+def _resolve_path(node: NodeSpec, name: str, value: str, kind: str, cwd: Path, folders: Sequence[Path]) -> str:
+    """The absolute path of a file parameter (see the module docstring).
+
+    Args:
+        node: The node.
+        name: The parameter.
+        value: Its value (not empty).
+        kind: ``input`` or ``output``.
+        cwd: The current directory.
+        folders: Where else a relative input is looked for, in order, after ``cwd``.
+
+    Raises:
+        LaunchError: An output that exists.
+    """
+    path = Path(value).expanduser()
+    if kind == "output":
+        out = path if path.is_absolute() else cwd / path
+        if out.exists():
+            reason = f"{out} exists already (a bag is never overwritten)"
+            raise LaunchError(f"node '{node.name}': {parameter_message(name, reason, value)}")
+        return os.path.abspath(out)
+    candidates = [path] if path.is_absolute() else [cwd / path, *(f / path for f in folders)]
+    found = next((c for c in candidates if c.exists()), None)
+    return os.path.abspath(found if found is not None else candidates[0])
+
+
+def _checked_overrides(node: NodeSpec, specs: Sequence[ParamSpec], named: set[str]) -> dict[str, object]:
+    """The node's overrides checked against its specs (and the names its parameter file sets)."""
+    from .nodes.params import ROS_BUILTIN_PARAMETERS
+
+    by_name = {s.name: s for s in specs}
+    known = by_name.keys() | ROS_BUILTIN_PARAMETERS
+    for name in sorted(named - known):
+        raise _unknown_parameter(node, name, specs, f"{node.params_file}: ")
+    params = dict(node.parameters)
+    for name, value in node.parameters.items():
+        if name not in known:
+            raise _unknown_parameter(node, name, specs, "")
+        if name in by_name:
+            params[name] = _checked_value(node, by_name[name], value)
+    return params
+
+
+def _resolve_paths(node: NodeSpec, params: dict[str, object], file_values: Mapping[str, object], cwd: Path) -> None:
+    """Make the node's file parameters (:data:`PATH_PARAMETERS`) absolute overrides, in place."""
+    file_folder = [node.params_file.parent] if node.params_file is not None else []
+    for name, kind in PATH_PARAMETERS.get(node.module, {}).items():
+        given = name in params
+        value = params[name] if given else file_values.get(name)
+        if not isinstance(value, str) or not value.strip():
+            continue
+        folders = [config_dir()] if given else [*file_folder, config_dir()]
+        resolved = _resolve_path(node, name, value, kind, cwd, folders)
+        if given and kind == "input" and not Path(resolved).exists():
+            looked = ", ".join(str(f) for f in (cwd, *folders))
+            reason = f"no such file (looked in {looked})"
+            raise LaunchError(f"node '{node.name}': {parameter_message(name, reason, value)}")
+        params[name] = resolved
+
+
+def _checked_node(node: NodeSpec, cwd: Path) -> NodeSpec:
+    """One node of :meth:`Graph.checked`."""
+    from .nodes.params import node_parameter_specs, node_ros_name
+
+    specs = node_parameter_specs(node.module)
+    file_values: dict[str, object] = {}
+    named: set[str] = set()
+    if node.params_file is not None:
+        file_values, named = _params_file_values(node.params_file, node_ros_name(node.module))
+    params = dict(node.parameters) if specs is None else _checked_overrides(node, specs, named)
+    _resolve_paths(node, params, file_values, cwd)
+    return NodeSpec(node.name, node.module, node.params_file, params)
 
 
 def load_graph(path: str | Path) -> Graph:
@@ -185,7 +398,12 @@ class RunningGraph:
         return int(self.env["ROS_DOMAIN_ID"])
 
     def start(self) -> RunningGraph:
-        """Start every node (each in its own process group)."""
+        """Check the graph (:meth:`Graph.checked`), then start every node (each in its own process group).
+
+        Raises:
+            LaunchError: A parameter override or file parameter is wrong (nothing is started).
+        """
+        self.graph = self.graph.checked()
         self.log_dir.mkdir(parents=True, exist_ok=True)
         for spec in self.graph.nodes:
             log = self.log_dir / f"{spec.name}.log"
@@ -241,31 +459,79 @@ class RunningGraph:
                 return
         raise LaunchError(f"no node named '{name}'")
 
+    def stop_node(self, name: str, timeout_s: float = 15.0) -> int:
+        """Stop node ``name`` (SIGINT, then SIGTERM, then SIGKILL) and return its exit status.
+
+        Raises:
+            LaunchError: No such node.
+        """
+        for p in self.processes:
+            if p.spec.name == name:
+                return _stop(p.popen, timeout_s)
+        raise LaunchError(f"no node named '{name}'")
+
+    def interrupt(self, name: str) -> None:
+        """Send node ``name`` a SIGINT (a clean stop) without waiting; :meth:`stop_node` waits.
+
+        Raises:
+            LaunchError: No such node.
+        """
+        for p in self.processes:
+            if p.spec.name == name:
+                if p.popen.poll() is None:
+                    with contextlib.suppress(ProcessLookupError):
+                        p.popen.send_signal(signal.SIGINT)
+                return
+        raise LaunchError(f"no node named '{name}'")
+
+    def log(self, name: str) -> Path:
+        """The log file of node ``name``.
+
+        Raises:
+            LaunchError: No such node.
+        """
+        for p in self.processes:
+            if p.spec.name == name:
+                return p.log
+        raise LaunchError(f"no node named '{name}'")
+
     def stop(self, timeout_s: float = 15.0) -> dict[str, int]:
-        """Stop every node in reverse start order: SIGINT, then SIGTERM, then SIGKILL.
+        """Stop every node: SIGINT, then SIGTERM, then SIGKILL, each node's exit waited for.
+
+        In reverse start order, in three steps: the last started (the source) alone, then the
+        nodes between together, then the first started (the recorder) alone, so that what the
+        source sent last is still taken in and everything published is recorded.
 
         Returns:
-            Exit status per node name.
+            Exit status per node name, in stop order.
         """
+        procs = list(reversed(self.processes))
+        steps = [procs[:1], procs[1:-1], procs[-1:]] if len(procs) > 2 else [[p] for p in procs]
         status: dict[str, int] = {}
-        for p in reversed(self.processes):
-            status[p.spec.name] = _stop(p.popen, timeout_s)
+        for step in steps:
+            codes = _stop_together([p.popen for p in step], timeout_s)
+            status.update({p.spec.name: c for p, c in zip(step, codes, strict=True)})
         return status
 
 
-def _stop(popen: subprocess.Popen[bytes], timeout_s: float) -> int:
+def _stop_together(popens: Sequence[subprocess.Popen[bytes]], timeout_s: float) -> list[int]:
+    """Signal every process (SIGINT, then SIGTERM, then SIGKILL to those still running) and wait for them all."""
     for sig, wait in ((signal.SIGINT, timeout_s), (signal.SIGTERM, 5.0), (signal.SIGKILL, 5.0)):
-        if popen.poll() is not None:
+        running = [p for p in popens if p.poll() is None]
+        if not running:
             break
-        try:
-            popen.send_signal(sig)
-        except ProcessLookupError:
-            break
-        try:
-            popen.wait(wait)
-        except subprocess.TimeoutExpired:
-            continue
-    return popen.wait()
+        for p in running:
+            with contextlib.suppress(ProcessLookupError):
+                p.send_signal(sig)
+        deadline = time.monotonic() + wait
+        for p in running:
+            with contextlib.suppress(subprocess.TimeoutExpired):
+                p.wait(max(0.0, deadline - time.monotonic()))
+    return [p.wait() for p in popens]
+
+
+def _stop(popen: subprocess.Popen[bytes], timeout_s: float) -> int:
+    return _stop_together([popen], timeout_s)[0]
 
 
 def _tail(path: Path, lines: int = 5) -> str:
@@ -273,44 +539,6 @@ def _tail(path: Path, lines: int = 5) -> str:
         return "\n".join(path.read_text(errors="replace").splitlines()[-lines:])
     except OSError:
         return ""
-
-
-def run_graph(graph: Graph, log_dir: Path, domain_id: int | None = None, poll_s: float = 0.2) -> int:
-    """Run ``graph`` until SIGINT/SIGTERM or until a node dies; stop everything cleanly.
-
-    Returns:
-        0 after a requested stop with every node exiting cleanly, 1 if a node died or failed
-        to stop cleanly.
-    """
-    requested = {"stop": False}
-
-    def on_signal(signum: int, _frame: Any) -> None:
-        requested["stop"] = True
-
-    previous = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
-    died: list[tuple[str, int, str]] = []
-    try:
-        with RunningGraph(graph, log_dir, domain_id) as running:
-            print(
-                f"bike-rig run: {len(graph.nodes)} nodes on ROS_DOMAIN_ID={running.domain_id} (localhost), logs in "
-                f"{log_dir}",
-                file=sys.stderr,
-            )
-            while not requested["stop"]:
-                died = running.dead()
-                if died:
-                    break
-                time.sleep(poll_s)
-            status = running.stop()
-    finally:
-        for s, handler in previous.items():
-            signal.signal(s, handler)
-    for name, code, tail in died:
-        print(f"bike-rig run: node '{name}' died with status {code}; last log lines:\n{tail}", file=sys.stderr)
-    unclean = {n: c for n, c in status.items() if c not in (0, -signal.SIGINT)}
-    if unclean and not died:
-        print(f"bike-rig run: nodes that did not stop cleanly: {unclean}", file=sys.stderr)
-    return 1 if died or unclean else 0
 
 
 def parse_overrides(items: Sequence[str]) -> dict[str, dict[str, object]]:

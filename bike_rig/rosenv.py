@@ -25,9 +25,13 @@ from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
+from .core.errors import BikeRigError
+
 __all__ = [
     "DISCOVERY_RANGE",
     "MAX_DOMAIN_ID",
+    "DomainIdError",
+    "check_domain_id",
     "RMW_IMPLEMENTATION",
     "fallback_domain_id",
     "process_domain_id",
@@ -45,7 +49,47 @@ RMW_IMPLEMENTATION = "rmw_fastrtps_cpp"
 """The ROS middleware every process uses."""
 
 MAX_DOMAIN_ID = 101
-"""Largest domain id that is safe on Linux with the default DDS port mapping."""
+"""Largest domain id that is safe on Linux with the default DDS port mapping.
+
+Fast DDS maps domain d to UDP ports 7400 + 250 d and up; above 101 they run into Linux's
+ephemeral port range (32768-60999), which ROS 2 documents as unsafe.
+"""
+
+
+class DomainIdError(BikeRigError, ValueError):
+    """A ROS_DOMAIN_ID that is not an integer in 0..:data:`MAX_DOMAIN_ID` (one-line message)."""
+
+
+def check_domain_id(value: object, name: str = "ROS_DOMAIN_ID", where: str = "") -> int:
+    """A domain id, checked: an integer in 0..:data:`MAX_DOMAIN_ID`.
+
+    Args:
+        value: The id given (an int, or text such as an environment variable's).
+        name: What it was given as, for the message (``ROS_DOMAIN_ID``, ``--domain-id``).
+        where: Where, for the message (e.g. `` in the environment``).
+
+    Returns:
+        The id.
+
+    Raises:
+        DomainIdError: Not an integer, or outside 0..101, in one line such as
+            ``ROS_DOMAIN_ID=150 in the environment is outside 0..101, the domain ids Fast DDS
+            supports on Linux``.
+    """
+    allowed = f"0..{MAX_DOMAIN_ID}, the domain ids Fast DDS supports on Linux"
+    number: int | None = None
+    if isinstance(value, int) and not isinstance(value, bool):
+        number = value
+    else:
+        text = str(value).strip()
+        try:
+            number = int(text)
+        except ValueError:
+            raise DomainIdError(f"{name}={text!r}{where} is not an integer in {allowed}") from None
+    if not 0 <= number <= MAX_DOMAIN_ID:
+        raise DomainIdError(f"{name}={number}{where} is outside {allowed}")
+    return number
+
 
 _REMOVED_VARIABLES = (
     # ignored by Kilted; dropped so that nobody reads it as being in force
@@ -129,22 +173,19 @@ def ros_environment(
         ``ROS_LOCALHOST_ONLY`` and ``ROS_STATIC_PEERS`` removed.
 
     Raises:
-        ValueError: If the domain id (given or inherited) is not an integer in 0..101.
+        DomainIdError: If the domain id (given or inherited) is not an integer in 0..101 (a
+            :class:`ValueError` and a :class:`~bike_rig.core.errors.BikeRigError`: the command
+            line prints it as one line).
     """
     env = dict(os.environ if base is None else base)
     if domain_id is None:
         inherited = env.get("ROS_DOMAIN_ID", "").strip()
         if inherited:
-            try:
-                domain_id = int(inherited)
-            except ValueError:
-                raise ValueError(
-                    f"ROS_DOMAIN_ID={inherited!r} is not an integer in 0..{MAX_DOMAIN_ID}"
-                ) from None
+            domain_id = check_domain_id(inherited, "ROS_DOMAIN_ID", " in the environment")
         else:
             domain_id = process_domain_id()
-    if not 0 <= domain_id <= MAX_DOMAIN_ID:
-        raise ValueError(f"ROS_DOMAIN_ID {domain_id} is outside 0..{MAX_DOMAIN_ID}")
+    else:
+        domain_id = check_domain_id(domain_id, "ROS_DOMAIN_ID")
     for name in _REMOVED_VARIABLES:
         env.pop(name, None)
     env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = DISCOVERY_RANGE

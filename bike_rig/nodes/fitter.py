@@ -13,13 +13,51 @@ from typing import TYPE_CHECKING, Any
 
 from .. import messages
 from ..core.period import FitOptions, WindowKind, WindowPolicy
+from ..params import ParamSpec
 from ..pipeline.fit import TrialFit, TrialFitOptions
 from ..pipeline.fit_state import FitterState
 
 if TYPE_CHECKING:
     from rclpy.node import Node
 
-__all__ = ["FitterNode", "main"]
+__all__ = ["FitterNode", "fitter_parameters", "main"]
+
+
+def fitter_parameters() -> tuple[ParamSpec, ...]:
+    """The fitter's parameters (``config/fitter.yaml``): limits, then the period fit's options."""
+    d = TrialFitOptions()
+    w = d.fit.window
+    big = float(sys.float_info.max)
+    return (
+        ParamSpec("max_trial_samples", d.max_trial_samples, "samples kept per trial; more are dropped, flagged",
+                  (1, 2**40)),  # fmt: skip
+        ParamSpec("max_batch_samples", d.max_batch_samples, "a larger gyro batch is rejected and flagged",
+                  (1, 2**31)),  # fmt: skip
+        ParamSpec("max_open_trials", 4, "trials buffered at once (started but not stopped)", (1, 1000)),
+        ParamSpec("grace_s", 1.0, "how long a STOP waits for missing batches, and batches for their START, s",
+                  (0.0, 60.0)),  # fmt: skip
+        ParamSpec(
+            "history_grace_s",
+            10.0,
+            "after matching, how long the transient-local history may take to arrive (nothing incomplete is "
+            "fitted meanwhile), s",
+            (0.0, 600.0),
+        ),
+        ParamSpec("window", w.kind.value, "fit window policy: lead_in, span or envelope",
+                  choices=tuple(k.value for k in WindowKind)),  # fmt: skip
+        ParamSpec("lead_in_s", w.lead_in_s, "lead_in window: seconds dropped at the start", (0.0, big)),
+        ParamSpec("span_start_s", w.start_s, "span window: first time kept, s from the first sample", (0.0, big)),
+        ParamSpec("span_stop_s", 0.0, "span window: end, s from the first sample (0: to the end)", (0.0, big)),
+        ParamSpec("envelope_fraction", w.fraction, "envelope window: stop below this fraction of the peak",
+                  (1e-9, 1.0)),  # fmt: skip
+        ParamSpec("whole_cycles", w.whole_cycles, "shorten the window to whole cycles"),
+        ParamSpec("min_cycles", d.fit.min_cycles, "flag a window with fewer cycles", (0.0, big)),
+        ParamSpec("min_r2", d.fit.min_r2, "flag a fit with a lower r²", (-big, 1.0)),
+        ParamSpec("max_modulation", d.fit.max_modulation, "flag beating above this relative modulation",
+                  (0.0, big)),  # fmt: skip
+        ParamSpec("max_drift", d.fit.max_drift, "flag an offset drift above this fraction of the oscillation",
+                  (0.0, big)),  # fmt: skip
+    )
 
 
 class FitterNode:
@@ -69,43 +107,9 @@ class FitterNode:
             NodeParameterError: A parameter has the wrong type, is out of range, or the window
                 settings are inconsistent.
         """
-        from ..params import ParamSpec
         from .params import declare_parameters, parameter_error
 
-        d = TrialFitOptions()
-        w = d.fit.window
-        big = float(sys.float_info.max)
-        specs = (
-            ParamSpec("max_trial_samples", d.max_trial_samples, "samples kept per trial; more are dropped, flagged",
-                      (1, 2**40)),  # fmt: skip
-            ParamSpec("max_batch_samples", d.max_batch_samples, "a larger gyro batch is rejected and flagged",
-                      (1, 2**31)),  # fmt: skip
-            ParamSpec("max_open_trials", 4, "trials buffered at once (started but not stopped)", (1, 1000)),
-            ParamSpec("grace_s", 1.0, "how long a STOP waits for missing batches, and batches for their START, s",
-                      (0.0, 60.0)),  # fmt: skip
-            ParamSpec(
-                "history_grace_s",
-                10.0,
-                "after matching, how long the transient-local history may take to arrive (nothing incomplete is "
-                "fitted meanwhile), s",
-                (0.0, 600.0),
-            ),
-            ParamSpec("window", w.kind.value, "fit window policy: lead_in, span or envelope",
-                      choices=tuple(k.value for k in WindowKind)),  # fmt: skip
-            ParamSpec("lead_in_s", w.lead_in_s, "lead_in window: seconds dropped at the start", (0.0, big)),
-            ParamSpec("span_start_s", w.start_s, "span window: first time kept, s from the first sample", (0.0, big)),
-            ParamSpec("span_stop_s", 0.0, "span window: end, s from the first sample (0: to the end)", (0.0, big)),
-            ParamSpec("envelope_fraction", w.fraction, "envelope window: stop below this fraction of the peak",
-                      (1e-9, 1.0)),  # fmt: skip
-            ParamSpec("whole_cycles", w.whole_cycles, "shorten the window to whole cycles"),
-            ParamSpec("min_cycles", d.fit.min_cycles, "flag a window with fewer cycles", (0.0, big)),
-            ParamSpec("min_r2", d.fit.min_r2, "flag a fit with a lower r²", (-big, 1.0)),
-            ParamSpec("max_modulation", d.fit.max_modulation, "flag beating above this relative modulation",
-                      (0.0, big)),  # fmt: skip
-            ParamSpec("max_drift", d.fit.max_drift, "flag an offset drift above this fraction of the oscillation",
-                      (0.0, big)),  # fmt: skip
-        )
-        values = declare_parameters(self.node, specs)
+        values = declare_parameters(self.node, fitter_parameters())
         try:
             window = WindowPolicy(
                 kind=WindowKind(values["window"]),

@@ -26,7 +26,16 @@ from rclpy.node import Node
 from ..core.errors import BikeRigError
 from ..params import ParamRangeError, ParamSpec, ParamTypeError, ParamValueError, parameter_message
 
-__all__ = ["NodeParameterError", "declare_parameter", "declare_parameters", "descriptor", "parameter_error"]
+__all__ = [
+    "ROS_BUILTIN_PARAMETERS",
+    "NodeParameterError",
+    "declare_parameter",
+    "declare_parameters",
+    "descriptor",
+    "node_parameter_specs",
+    "node_ros_name",
+    "parameter_error",
+]
 
 # rcl_interfaces ships no type information: imported by name
 _rcl: Any = importlib.import_module("rcl_interfaces.msg")
@@ -143,3 +152,49 @@ def declare_parameters(node: Node, specs: Iterable[ParamSpec]) -> dict[str, Any]
         NodeParameterError: The first parameter whose value cannot be used.
     """
     return {spec.name: declare_parameter(node, spec) for spec in specs}
+
+
+#: Parameters that rclpy declares on every node itself (not in a node's spec list).
+ROS_BUILTIN_PARAMETERS: frozenset[str] = frozenset({"use_sim_time", "start_type_description_service"})
+
+
+def node_parameter_specs(module: str) -> tuple[ParamSpec, ...] | None:
+    """The parameters a node module declares, without starting it.
+
+    A bike_rig node module publishes its spec list as ``PARAMETERS`` (a tuple of specs) or as a
+    function ``<last part of the module name>_parameters()`` (``driver_parameters``,
+    ``fitter_parameters``). The launcher checks ``--param`` names and values against it
+    before anything starts.
+
+    Args:
+        module: The node's module, e.g. ``bike_rig.nodes.driver``.
+
+    Returns:
+        The specs, or None for a module outside ``bike_rig`` (not imported here: a node of
+        someone else's, a test double) or one that publishes none: then nothing is checked.
+    """
+    if not module.startswith("bike_rig."):
+        return None
+    try:
+        mod = importlib.import_module(module)
+    except ImportError:
+        return None
+    specs = getattr(mod, "PARAMETERS", None)
+    if specs is None:
+        factory = getattr(mod, f"{module.rpartition('.')[2]}_parameters", None)
+        specs = factory() if callable(factory) else None
+    if not isinstance(specs, tuple) or not all(isinstance(s, ParamSpec) for s in specs):
+        return None
+    return specs
+
+
+def node_ros_name(module: str) -> str:
+    """The ROS name of the node a bike_rig module runs: its ``NODE_NAME``, else the module's last part."""
+    if not module.startswith("bike_rig."):
+        return module.rpartition(".")[2]
+    try:
+        mod = importlib.import_module(module)
+    except ImportError:
+        return module.rpartition(".")[2]
+    name = getattr(mod, "NODE_NAME", None)
+    return name if isinstance(name, str) and name else module.rpartition(".")[2]

@@ -5,7 +5,13 @@ rclpy set-up, the ROS environment, spinning, and a clean stop on SIGINT/SIGTERM.
 The process environment always gets ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`` (and keeps a
 ``ROS_DOMAIN_ID`` given by the launcher or the caller), so a node started by hand is safe too.
 A user mistake (a :class:`bike_rig.core.errors.BikeRigError` while building the node, e.g. a
-bad parameter or measurement file) ends the process with one log line and exit status 2.
+bad parameter or measurement file, or a ``ROS_DOMAIN_ID`` outside 0..101) ends the process with
+one log line and exit status 2.
+
+Stopping: SIGINT and SIGTERM only set a flag (rclpy's own signal handlers are not installed, so
+the context stays valid); the spin loop ends, then the node's ``close()`` runs while it can
+still publish (the driver sends ABORT for a trial in progress there), then the node is
+destroyed.
 """
 
 from __future__ import annotations
@@ -19,6 +25,7 @@ from types import FrameType
 import rclpy
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
+from rclpy.signals import SignalHandlerOptions
 
 from ..core.errors import BikeRigError
 from ..rosenv import ros_environment
@@ -46,9 +53,14 @@ def run_node(factory: Callable[[], Node], args: Sequence[str] | None = None, nam
     Returns:
         The process exit status: 0 on a clean stop, 2 on a user mistake.
     """
-    _prepare_environment()
+    try:
+        _prepare_environment()
+    except BikeRigError as exc:
+        print(f"{name}: error: {exc}", file=sys.stderr)
+        return EXIT_USER_ERROR
     argv = list(sys.argv if args is None else args)
-    rclpy.init(args=argv)
+    # our own handlers (rclpy's would shut the context down before close() could publish)
+    rclpy.init(args=argv, signal_handler_options=SignalHandlerOptions.NO)
     stop = {"requested": False}
 
     def request_stop(signum: int, _frame: FrameType | None) -> None:

@@ -1,0 +1,127 @@
+"""What ``bike-rig run`` follows of the graph it started: a small rclpy listener in its own process.
+
+It subscribes to the trial events, the period estimates, the parameter set and the stability
+sweep (every one reliable and transient-local, :mod:`bike_rig.topics`, so a listener that joins
+after the first trial still gets the whole session so far) and hands them on as pipeline records
+(:mod:`bike_rig.messages` converts): :class:`~bike_rig.pipeline.acquire.TrialEventRecord`,
+:class:`~bike_rig.pipeline.fit.TrialFit`, :class:`~bike_rig.pipeline.assemble.SessionParameters`
+and :class:`~bike_rig.pipeline.model.StabilitySweep`. It spins only when asked
+(:meth:`GraphMonitor.poll`), in the caller's thread, with an rclpy context of its own.
+
+It also subscribes to the gyro batches (raw, best effort, volatile, and dropped): only so that it
+counts among the gyro topic's subscribers, so that a driver told to wait for it
+(``wait_for_subscribers``, which counts the subscribers of both the gyro and the trial-event
+topics) publishes its first START only once the listener is matched. (A START published before a
+reader matched reaches that reader only at the writer's next heartbeat, up to 3 s later.)
+"""
+
+from __future__ import annotations
+
+import importlib
+import os
+from collections.abc import Callable
+from typing import Any, TypeAlias
+
+import rclpy
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.signals import SignalHandlerOptions
+
+from .. import topics
+from ..messages import (
+    MessageError,
+    session_parameters_from_msg,
+    stability_sweep_from_msg,
+    trial_event_from_msg,
+    trial_fit_from_msg,
+)
+from ..pipeline.acquire import TrialEventRecord
+from ..pipeline.assemble import SessionParameters
+from ..pipeline.fit import TrialFit
+from ..pipeline.model import StabilitySweep
+from ..rosenv import ros_environment
+from ..rosqos import profile
+
+__all__ = ["GraphMonitor", "MonitorRecord"]
+
+_msgs: Any = importlib.import_module("bike_rig_msgs.msg")
+
+#: Most callbacks taken in one :meth:`GraphMonitor.poll` after the first.
+MAX_BURST = 1000
+
+#: The gyro subscription's QoS: it is there to be counted, not to receive the session's history.
+_COUNTED_ONLY = QoSProfile(
+    history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.BEST_EFFORT,
+    durability=DurabilityPolicy.VOLATILE,
+)  # fmt: skip
+
+#: What the monitor hands on.
+MonitorRecord: TypeAlias = TrialEventRecord | TrialFit | SessionParameters | StabilitySweep
+
+
+def _drop(_data: bytes) -> None:
+    """The gyro batches are not used (see the module docstring)."""
+
+
+class GraphMonitor:
+    """The listener (see the module docstring).
+
+    Args:
+        domain_id: The graph's ROS_DOMAIN_ID (None: the environment's, as
+            :func:`bike_rig.rosenv.ros_environment` decides); this process's environment is set
+            to it, with LOCALHOST discovery, before rclpy starts.
+        node_name: The listener node's name.
+    """
+
+    def __init__(self, domain_id: int | None = None, node_name: str = "run_monitor") -> None:
+        """Set the ROS environment, start an rclpy context and subscribe."""
+        env = ros_environment(os.environ, domain_id=domain_id)
+        for key in ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_DOMAIN_ID", "RMW_IMPLEMENTATION"):
+            os.environ[key] = env[key]
+        self._context = rclpy.Context()
+        # no rclpy signal handlers: Ctrl-C must not shut this context down before the last results
+        rclpy.init(context=self._context, signal_handler_options=SignalHandlerOptions.NO)
+        self.node = Node(node_name, context=self._context)
+        self._executor = SingleThreadedExecutor(context=self._context)
+        self._executor.add_node(self.node)
+        self._records: list[MonitorRecord] = []
+        #: Messages that could not be converted, one line each.
+        self.ignored: list[str] = []
+        subscriptions: tuple[tuple[Any, topics.Topic, Callable[[Any], MonitorRecord]], ...] = (
+            (_msgs.TrialEvent, topics.TRIAL_EVENTS, trial_event_from_msg),
+            (_msgs.PeriodEstimate, topics.PERIODS, trial_fit_from_msg),
+            (_msgs.BenchmarkParameters, topics.PARAMETERS, session_parameters_from_msg),
+            (_msgs.EigenSweep, topics.EIGEN_SWEEP, stability_sweep_from_msg),
+        )
+        for msg_type, topic, convert in subscriptions:
+            self.node.create_subscription(msg_type, topic.name, self._collector(convert), profile(topic))
+        self.node.create_subscription(_msgs.GyroBatch, topics.GYRO.name, _drop, _COUNTED_ONLY, raw=True)
+
+    def _collector(self, convert: Callable[[Any], MonitorRecord]) -> Callable[[Any], None]:
+        def collect(msg: Any) -> None:
+            try:
+                self._records.append(convert(msg))
+            except MessageError as exc:
+                self.ignored.append(f"{type(msg).__name__} ignored: {exc}")
+
+        return collect
+
+    def poll(self, timeout_s: float = 0.1) -> list[MonitorRecord]:
+        """Wait up to ``timeout_s`` (s) for a message, take in what is ready, and return it in order."""
+        if self._context.ok():
+            self._executor.spin_once(timeout_sec=timeout_s)
+            for _ in range(MAX_BURST):
+                before = len(self._records) + len(self.ignored)
+                self._executor.spin_once(timeout_sec=0.0)
+                if len(self._records) + len(self.ignored) == before:
+                    break
+        out, self._records = self._records, []
+        return out
+
+    def close(self) -> None:
+        """Destroy the node and shut its rclpy context down."""
+        self._executor.shutdown(timeout_sec=1.0)
+        self.node.destroy_node()
+        if self._context.ok():
+            rclpy.shutdown(context=self._context)

@@ -1,0 +1,158 @@
+"""``bike-rig run`` with real node processes over DDS (localhost, the test run's domain id).
+
+The shipped graph (``config/graph.yaml``: the simulated rig → fitter → parameter → model,
+recorder) on a short rig (one 15 s trial per period, 13 trials) played 100 times faster than
+real time; the command runs from a scratch current directory, as a user's would, with the
+installed copy of bike_rig.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import re
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import yaml
+
+from bike_rig.bag.info import summarize
+from bike_rig.core.period.advice import FLAG_ADVICE, flag_advice
+from bike_rig.core.period.result import FlagCode
+from bike_rig.paths import config_file
+from test.ros.processes import RosProcess
+
+#: The beating trial (the fitter flags it, poor fit or beating: REDO).
+BEATING = "frame_torsional_o2_t1"
+#: A result line; the cycles need the trial's sample rate, from its START (DDS may deliver a
+#: START up to a heartbeat late at the very start of a run, after its result).
+RESULT = re.compile(r"^trial (\S+) \((\w+)\): T = (\d+\.\d{6}) ± (\S+) s(, \d+ cycles)?, r² (\d\.\d{5}) - (ok|REDO)$")
+
+
+def _rig(directory: Path, beating: bool = True) -> Path:
+    """A short rig: one 15 s trial per period; one trial that beats."""
+    data = yaml.safe_load(config_file("rig.yaml").read_text(encoding="utf-8"))
+    data["trials"].update({"per_measurement": 1, "duration": 15})
+    beat = {"detuning": [0.25, 0.3], "amplitude_ratio": [0.8, 0.9]}  # beats within 15 s: flagged
+    data["coupled_swing"].update({"probability": 0.0, "trials": [BEATING] if beating else [], **beat})
+    path = directory / "rig.yaml"  # also a name in the config folder: the current directory's wins
+    path.write_text(yaml.safe_dump(data, sort_keys=False), encoding="utf-8")
+    return path
+
+
+def _bike_rig(*argv: str) -> list[str]:
+    return [sys.executable, "-m", "bike_rig.cli.main", *argv]
+
+
+def test_the_default_graph_runs_end_to_end_and_prints_every_result(ros_env: dict[str, str], tmp_path: Path) -> None:
+    _rig(tmp_path)
+    cmd = _bike_rig(
+        "run", "--out", "session", "--param", "driver.rig=rig.yaml", "--param", "driver.bicycle=bicycles/browser.yaml",
+        "--param", "driver.time_scale=100", "--param", "driver.exit_when_done=true", "--param", "driver.seed=4",
+    )  # fmt: skip
+    t0 = time.monotonic()
+    done = subprocess.run(cmd, cwd=tmp_path, env=ros_env, capture_output=True, text=True, timeout=120)
+    wall = time.monotonic() - t0
+    assert done.returncode == 0, done.stdout + done.stderr
+    lines = done.stdout.splitlines()
+    results = {m.group(1): m for m in map(RESULT.match, lines) if m}
+    recording = [line.split()[1] for line in lines if line.endswith("): recording")]
+    assert len(results) == 13 and len(lines) == len(set(lines)), done.stdout  # the small rig: 13 trials, each once
+    assert set(recording) <= set(results) and len(recording) >= 10, done.stdout  # START first, except a late one
+    assert sum(m.group(5) is not None for m in results.values()) >= 10, done.stdout
+    assert {k: m.group(7) for k, m in results.items() if m.group(7) != "ok"} == {BEATING: "REDO"}, done.stdout
+    at = lines.index(results[BEATING].group(0)) + 1
+    flags = lines[at : at + next(i for i, line in enumerate(lines[at:]) if not line.startswith("    "))]
+    assert flags, done.stdout  # every flag on a line of its own: code, reason -> advice
+    for line in flags:
+        code, _, rest = line.strip().partition(": ")
+        assert rest.endswith(f" -> {flag_advice(code)}") and FlagCode(code) in FLAG_ADVICE, line
+    assert results["calibration_rod_torsional_t1"].group(2) == "TtP1"
+    assert "13 trial(s): 12 ok, 1 to redo, 0 without a result" in lines
+    assert re.search(rf"^  REDO {BEATING} \(TtB2\): \w+: ", done.stdout, re.M), done.stdout
+    assert "parameters: incomplete (Browser); missing: TtB2" in lines  # its only trial is flagged
+    # where the session is: one folder with the bag and the logs
+    assert "session folder: session" in lines
+    assert "  bag:  session/bag  (bike-rig bag info | replay | report BAG)" in lines
+    assert "  logs: session/logs" in lines
+    assert sorted(p.name for p in (tmp_path / "session" / "logs").iterdir()) == [
+        "driver.log", "fitter.log", "model.log", "parameter.log", "recorder.log",
+    ]  # fmt: skip
+    assert "bike-rig run: parameter.measurements = bicycles/browser.yaml (the static readings of driver.bicycle)" in (
+        done.stderr
+    )
+    assert "node 'driver' finished; the graph was stopped" in done.stderr
+    summary = summarize(tmp_path / "session" / "bag")
+    assert len(summary.trials) == 13 and {t.state for t in summary.trials} == {"complete"}
+    assert all(t.samples == t.announced == 15_000 for t in summary.trials)
+    print(f"bike-rig run of 13 trials (15 s each at 100x): {wall:.1f} s wall")
+
+
+def test_ctrl_c_during_a_trial_records_abort_and_prints_a_summary(ros_env: dict[str, str], tmp_path: Path) -> None:
+    _rig(tmp_path, beating=False)
+    out_dir = tmp_path / "s"
+    cmd = _bike_rig(
+        "run", "--out", str(out_dir), "--param", f"driver.rig={tmp_path / 'rig.yaml'}",
+        "--param", "driver.time_scale=10", "--param", "driver.seed=4",
+        "--param", "driver.pause_between_trials_s=0.0",  # no pause: Ctrl-C always lands in a trial
+    )  # fmt: skip
+    run = RosProcess("run", cmd, ros_env, tmp_path)
+    try:
+        seen = 0
+        while seen < 2:  # two trials started: the graph is streaming (each trial takes 1.5 s)
+            seen += run.expect("trial", 60).endswith(": recording")
+        time.sleep(0.5)
+        code = run.stop()  # SIGINT, as Ctrl-C
+    finally:
+        run.stop()
+    lines = _all_lines(run)
+    out = "\n".join(lines)
+    assert code == 0, run.describe()
+    started = [line.split()[1] for line in lines if line.endswith("): recording")]
+    aborted = [line.split()[1] for line in lines if re.match(r"^trial \S+ \(\w+\): ABORTED after \d+ samples$", line)]
+    assert aborted == started[-1:], out  # the trial in progress, and only it
+    last = aborted[0]
+    assert re.search(rf"^trial {last} \(\w+\): .* - REDO\n    aborted: the trial was aborted -> ", out, re.M), out
+    n = len(started)
+    assert f"{n} trial(s): {n - 1} ok, 1 to redo, 0 without a result" in lines, out
+    assert f"  bag:  {out_dir / 'bag'}  (bike-rig bag info | replay | report BAG)" in lines
+    trials = {t.trial_id: t for t in summarize(out_dir / "bag").trials}
+    assert sorted(trials) == sorted(started)
+    assert {t.state for k, t in trials.items() if k != last} == {"complete"} and trials[last].state == "aborted"
+    assert trials[last].samples == trials[last].announced and trials[last].samples < 15_000
+    assert "Ctrl-C again" in (tmp_path / "run.stderr").read_text()
+
+
+def _all_lines(run: RosProcess) -> list[str]:
+    """Every stdout line of an ended process (those not read yet too)."""
+    with contextlib.suppress(AssertionError):
+        run.expect("\0", 5)  # no line starts with it: reads up to the end
+    return run.lines
+
+
+def test_a_run_that_fails_at_start_leaves_no_empty_bag(ros_env: dict[str, str], tmp_path: Path) -> None:
+    (tmp_path / "mybike.yaml").write_text(config_file("bicycles/browser.yaml").read_text())  # not a session
+    cmd = _bike_rig("run", "--out", "s", "--param", "driver.session=mybike.yaml")
+    done = subprocess.run(cmd, cwd=tmp_path, env=ros_env, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 2, done.stdout + done.stderr
+    errors = [line for line in done.stderr.splitlines() if "error" in line]
+    assert len(errors) == 1 and errors[0].startswith(
+        f"bike-rig run: error: node 'driver': sim source: parameter 'session' = '{tmp_path / 'mybike.yaml'}': "
+        "lists no trial files"
+    ), done.stderr
+    assert "  bag:  none (no trial was recorded; the empty bag was removed)" in done.stdout.splitlines()
+    assert sorted(p.name for p in (tmp_path / "s").iterdir()) == ["logs"]
+    assert "trial(s)" not in done.stdout  # nothing to summarise
+
+
+def test_a_node_started_with_a_domain_id_above_101_says_so_in_one_line(
+    ros_env: dict[str, str], tmp_path: Path
+) -> None:
+    env = {**ros_env, "ROS_DOMAIN_ID": "150"}
+    cmd = [sys.executable, "-m", "bike_rig.nodes.fitter", "--ros-args"]
+    done = subprocess.run(cmd, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=60)
+    assert done.returncode == 2 and done.stderr.strip().splitlines() == [
+        "fitter: error: ROS_DOMAIN_ID=150 in the environment is outside 0..101, the domain ids Fast DDS supports "
+        "on Linux"
+    ], done.stderr
