@@ -79,7 +79,8 @@ COMMON_PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec("samples_per_batch", 50, "samples per GyroBatch (the last of a trial may hold fewer)", (1, 10_000)),
     ParamSpec("poll_period_s", 0.01, "how often the source is read, s (wall clock)", (0.001, 1.0)),
     ParamSpec("exit_when_done", False, "exit when the sim/bag plan is finished (else keep running)"),
-    ParamSpec("wait_for_subscribers", 0, "start streaming once the gyro topic has this many subscribers",
+    ParamSpec("wait_for_subscribers", 0, "start streaming once the gyro and trial-event topics each have this many "
+              "subscribers",
               (0, 100)),  # fmt: skip
     ParamSpec("silence_warning_s", DEFAULT_SILENCE_S,
               "warn when a recording trial has had no samples this long, s (wall clock)", (0.05, 60.0)),  # fmt: skip
@@ -151,7 +152,9 @@ class DriverNode(Node):
     def _on_timer(self) -> None:
         try:
             if not self._streaming:
-                if self.gyro_pub.get_subscription_count() < self.wait_for:
+                # (both topics: a START sent before a reader matched reaches it only at the next heartbeat)
+                matched = min(self.gyro_pub.get_subscription_count(), self.events_pub.get_subscription_count())
+                if matched < self.wait_for:
                     return
                 self._streaming = True
                 self.get_logger().info(f"{self.gyro_pub.get_subscription_count()} gyro subscriber(s): streaming")
@@ -183,11 +186,11 @@ class DriverNode(Node):
                 f"{self.source.silence_hint()}"
             )
 
-    def _wait_for_acks(self) -> None:
-        timeout = Duration(seconds=ACK_TIMEOUT_S)
+    def _wait_for_acks(self, timeout_s: float = ACK_TIMEOUT_S) -> None:
+        timeout = Duration(seconds=timeout_s)
         for pub in (self.events_pub, self.gyro_pub):
             if pub.get_subscription_count() and not pub.wait_for_all_acked(timeout):
-                self.get_logger().warning(f"{pub.topic_name}: unacknowledged after {ACK_TIMEOUT_S} s")
+                self.get_logger().warning(f"{pub.topic_name}: unacknowledged after {timeout_s} s")
 
     # ------------------------------------------------------------------ publishing
     def _publish_events(self, events: list[SourceEvent]) -> None:
@@ -338,7 +341,17 @@ class DriverNode(Node):
         return response
 
     def close(self) -> None:
-        """Release the source (called by the runner on the way out)."""
+        """Abort the trials in progress (ABORT published and acknowledged), release the source.
+
+        Called by the runner on the way out (SIGINT/SIGTERM), while the node can still publish.
+        """
+        aborted = list(self._trials.values())
+        for t in aborted:
+            count = t.published + t.buffered
+            stamp = sample_stamp_ns(t.start_ns, count, t.info.sample_rate_hz)
+            self._on_stopped(TrialStopped(t.info.trial_id, count, stamp, aborted=True))
+        if aborted:
+            self._wait_for_acks(timeout_s=3.0)
         self.source.close()
 
 
