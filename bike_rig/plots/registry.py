@@ -49,7 +49,7 @@ STABLE_SPEED = "stable"
 #: roots form a complex pair (paper Fig 15), m/s, computed from its model by the report (inside
 #: the stable range when there is no such pair, and the caption says so).
 PAIR_SPEED = "capsize-caster pair"
-#: The report's Bode diagrams' speeds, m/s, one column each: the paper's Figs 17/18 are at 2 m/s;
+#: The report's Bode diagrams' speeds, m/s, a line each: the paper's Figs 17/18 are at 2 m/s;
 #: 5 m/s shows the same bicycle faster.
 BODE_SPEEDS = (2.0, 5.0)
 #: Size of each of the report's trial fit figures, inches (the plot's default is 10 × 6).
@@ -199,7 +199,7 @@ _PAIR_CAPTION = (
 )
 _BODE_TITLE = "Steer torque to roll angle at " + _speeds_text(BODE_SPEEDS) + ", {rider}"
 _BODE_CAPTION = (
-    "Bode magnitude and phase, one column per speed: "
+    "Bode magnitude and phase, a line per speed: "
     + " and ".join(f"{v:g} m/s" for v in BODE_SPEEDS)
     + "; the paper's Figs 17 and 18 are at 2 m/s."
 )
