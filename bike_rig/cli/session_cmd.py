@@ -11,8 +11,10 @@ from pathlib import Path
 
 from ..core.errors import BikeRigError
 from ..core.sim import load_rig, load_true_parameters
+from ..core.sim.rig import RigConfig
 from ..launch import LaunchError, RunningGraph, load_graph, parse_overrides
 from ..paths import config_file
+from ..rosenv import check_domain_id
 
 __all__ = ["add_parser", "run"]
 
@@ -38,7 +40,7 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     q.add_argument("--readings", help="a measurement file whose static readings are taken as entered (optional)")
     q.add_argument("--param", action="append", default=[], metavar="NODE.NAME=VALUE", help="parameter override")
     q.add_argument("--output", help="session folder for the bag and logs (default ./bike_rig_sessions/<time>)")
-    q.add_argument("--domain-id", type=int, help="ROS_DOMAIN_ID (default: a free one; with --join: the graph's)")
+    q.add_argument("--domain-id", help="ROS_DOMAIN_ID (default: a free one; with --join: the graph's)")
     q.add_argument("--join", action="store_true", help="join a graph already running instead of starting one")
     q.add_argument("--plain", action="store_true", help="one command per line on stdin, one reply per line")
     q.add_argument("--json", action="store_true", help="with --plain: replies as JSON lines")
@@ -67,6 +69,22 @@ def _graph_overrides(
     return over
 
 
+def _checked(args: argparse.Namespace) -> tuple[RigConfig, str, str]:
+    """Check the domain id (argument and environment), read the rig and the bicycle's name.
+
+    Sets ``args.domain_id`` to the checked id. Returns (rig, bicycle name, bicycle file).
+
+    Raises:
+        BikeRigError: A domain id out of range, or a rig or bicycle file that cannot be read.
+    """
+    args.domain_id = None if args.domain_id is None else check_domain_id(args.domain_id, "--domain-id")
+    if "ROS_DOMAIN_ID" in os.environ:
+        check_domain_id(os.environ["ROS_DOMAIN_ID"], where=" in the environment")
+    bicycle_file = str(Path(args.bicycle).resolve()) if args.bicycle else str(config_file("bicycles/browser.yaml"))
+    rig = load_rig(args.rig or str(config_file("rig.yaml")))
+    return rig, args.name or load_true_parameters(bicycle_file)[0], bicycle_file
+
+
 def _exit_on(signum: int, _frame: object) -> None:
     raise SystemExit(128 + signum)
 
@@ -83,11 +101,8 @@ def run(args: argparse.Namespace) -> int:
     if args.json and not args.plain:
         print("bike-rig session: error: --json needs --plain", file=sys.stderr)
         return 2
-    bicycle_file = str(Path(args.bicycle).resolve()) if args.bicycle else str(config_file("bicycles/browser.yaml"))
-    rig_file = args.rig or str(config_file("rig.yaml"))
     try:
-        rig = load_rig(rig_file)
-        name = args.name or load_true_parameters(bicycle_file)[0]
+        rig, name, bicycle_file = _checked(args)
     except BikeRigError as exc:
         print(f"bike-rig session: error: {exc}", file=sys.stderr)
         return 2

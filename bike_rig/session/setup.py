@@ -11,47 +11,81 @@ from __future__ import annotations
 
 import math
 import time
+from functools import partial
 
+from ..core.measurements import Measurements
 from ..core.sim.rig import RigConfig
-from ..pipeline.readings import ReadingEntry, ReadingEntryError, check_entry
+from ..pipeline.assemble import merged_readings
+from ..pipeline.readings import ReadingEntry, apply_entries
 from .controller import GraphLink, SessionController
-from .plan import plan_from_rig
+from .nextbest import PeriodTrials, next_best, nominal_reading_sigmas
+from .plan import ItemState, plan_from_rig
+from .readings import ReadingInputError, parse_reading, plausibility
 from .state import OperatorSession
 
-__all__ = ["build_controller", "check_typed_reading"]
-
-
-def _number(text: str, what: str, key: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise ValueError(f"reading {key}: {what} '{text}' is not a number") from None
-    if not math.isfinite(value):
-        raise ValueError(f"reading {key}: {what} '{text}' must be a finite number")
-    return value
+__all__ = ["build_controller", "check_typed_reading", "rank_items", "session_measurements"]
 
 
 def check_typed_reading(
     key: str, value_text: str, sigma_text: str, session: OperatorSession
 ) -> tuple[ReadingEntry, list[str]]:
-    """The entry the operator typed, and its plausibility warnings.
+    """The entry the operator typed (:func:`~bike_rig.session.readings.parse_reading`), and its plausibility warnings.
 
     Raises:
-        ValueError: The entry cannot be taken (not a number, unknown key, σ < 0, impossible
-            value); the message names the key, the value and why.
+        ValueError: The entry cannot be taken (not a number, unknown key or not in the plan,
+            σ missing or negative, impossible value); the message names the key and why.
     """
-    value = _number(value_text, "value", key)
-    sigma = _number(sigma_text, "sigma", key)
-    corrected = key in session.readings
-    entry = ReadingEntry(key, value, sigma, time.time_ns(), "correction" if corrected else "")
+    allowed = [i.key for i in session.plan.readings]
+    note = "correction" if key in session.readings else ""
     try:
-        check_entry(entry)
-    except ReadingEntryError as exc:
+        entry = parse_reading(key, value_text, sigma_text, allowed=allowed, where="console",
+                              stamp_ns=time.time_ns(), note=note)  # fmt: skip
+    except ReadingInputError as exc:
         raise ValueError(str(exc)) from None
-    return entry, []
+    others = {k: e for k in session.readings if k != key and (e := session.reading(k)) is not None}
+    return entry, plausibility(entry.key, entry.value, entry.sigma, others)
+
+
+def session_measurements(session: OperatorSession) -> Measurements:
+    """The session's readings now: the newest entry of each key, and each period key's combined period."""
+    entries = [e for es in session.readings.values() for e in es]
+    static = apply_entries(Measurements(session.bicycle, {}, path=""), entries)
+    periods = {} if session.parameters is None else {p.key: (p.value, p.sigma) for p in session.parameters.periods}
+    return merged_readings(static, periods, "period estimates")
+
+
+def rank_items(session: OperatorSession, nominal: dict[str, float]) -> list[tuple[str, str]]:
+    """The plan's items ranked by the σ reduction of the speeds (:func:`~bike_rig.session.nextbest.next_best`).
+
+    Returns:
+        ``(item id, one line)`` best first; a period key's item is the first of its trial
+        items to do or redo, else its first (one more trial of it).
+    """
+    items = [i.key for i in session.plan.items]
+    trials: dict[str, list[float]] = {}
+    for view in session.trials.values():
+        if view.fit is not None and view.fit.usable:
+            trials.setdefault(view.key, []).append(view.fit.period_sigma)
+    try:
+        ranked = next_best(session_measurements(session), list(dict.fromkeys(items)), nominal,
+                           {k: PeriodTrials(tuple(v)) for k, v in trials.items()})  # fmt: skip
+    except Exception as exc:
+        return [("", f"no ranking: {exc}")]
+    out = []
+    for sug in ranked:
+        ids = [i for i in session.plan.items if i.key == sug.key]
+        open_ = [i for i in ids if session.state(i) in (ItemState.TODO, ItemState.REDO)]
+        item = (open_ or ids)[0].item_id if ids else sug.key
+        if not math.isnan(sug.score) or sug.missing:
+            out.append((item, f"{item}: {sug.describe()}"))
+    return out
 
 
 def build_controller(rig: RigConfig, bicycle: str, link: GraphLink, source: str = "sim") -> SessionController:
     """A controller of a new session of ``bicycle`` on ``rig`` through ``link``."""
-    session = OperatorSession(plan_from_rig(rig), bicycle=bicycle, source=f"{source} gyro")
-    return SessionController(session, link, check_reading=check_typed_reading)
+    plan = plan_from_rig(rig)
+    session = OperatorSession(plan, bicycle=bicycle, source=f"{source} gyro")
+    nominal = nominal_reading_sigmas(rig.sigma, [i.key for i in plan.readings])
+    return SessionController(
+        session, link, check_reading=check_typed_reading, rank=partial(rank_items, nominal=nominal)
+    )

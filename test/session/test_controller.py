@@ -118,6 +118,13 @@ def test_clipping_and_small_amplitude_warn(ctl_link) -> None:  # type: ignore[no
     assert any("too small to fit" in w for w in warnings)
 
 
+def test_a_reading_that_looks_like_radians_warns(ctl_link) -> None:  # type: ignore[no-untyped-def]
+    ctl, link, t = ctl_link
+    out = ctl.execute("reading gamma 1.2 0.01")
+    assert out[0].kind == "ok" and any(r.kind == "warning" and "radian" in r.text for r in out)
+    assert ctl.execute("reading TtB9 1 0")[0].kind == "error"
+
+
 def test_readings_are_checked_corrected_and_kept(ctl_link) -> None:  # type: ignore[no-untyped-def]
     ctl, link, t = ctl_link
     assert ctl.execute("reading mR 3.0 -0.1")[0].kind == "error"
@@ -147,6 +154,15 @@ def test_a_whole_session_completes_with_speeds(ctl_link) -> None:  # type: ignor
     assert ctl.session.complete and ctl.session.next_item() is None
     status = ctl.execute("status")
     assert any("weave" in r.text and "capsize" in r.text for r in status)
+    # a poor wheelbase reading (25x the tape's σ) becomes the next-best measurement
+    w = sim.readings["w"]
+    assert ctl.execute(f"reading w {w.value!r} 0.05")[0].text.startswith("corrected w")
+    ctl.pump()
+    best = ctl.execute("best")
+    assert best[0].data["item"] == "w" and "take it again" in best[0].text and "weave σ" in best[0].text
+    assert ctl.execute("next")[-1].data["best"] == "w"
+    ctl.execute(f"reading w {w.value!r} {w.sigma!r}")
+    ctl.pump()
     params = ctl.execute("params")
     assert len(params) == 26 and {r.data["name"] for r in params} >= {"w", "c", "lam", "g"}  # 25 and g
     # the true periods and noisy readings give the true parameters within a few σ
