@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 from bike_rig.core.sim import load_rig, load_true_parameters, simulate_session
@@ -53,3 +54,21 @@ def test_a_scripted_session_completes_and_its_bag_replays(tmp_path: Path, ros_en
     for k, p in params.items():
         assert replayed["parameters"][k]["value"] == p["value"], k
     assert abs(replayed["weave_speed"] - speeds[-1]["weave"][0]) == 0.0
+
+
+def test_a_silent_can_gyro_warns_within_a_second_and_the_trial_aborts(tmp_path: Path, ros_env: dict[str, str]) -> None:
+    """The CAN source on python-can's virtual bus with nothing sending: the console says so, ABORT works."""
+    script = ["start TcR1#1", "wait 1.5", "abort", "wait 5", "quit"]
+    argv = [str(BIKE_RIG), "session", "--plain", "--json", "--source", "can", "--output", str(tmp_path / "s")]
+    t0 = time.monotonic()
+    done = subprocess.run(argv, input="\n".join(script) + "\n", capture_output=True, text=True, timeout=120,
+                          env=ros_env)  # fmt: skip
+    lines = [json.loads(x) for x in done.stdout.splitlines()]
+    started = next(x for x in lines if x.get("command") == "start")
+    warning = next(x for x in lines if x["kind"] == "warning")
+    assert "no samples yet" in warning["text"] and "CAN id" in warning["text"]
+    assert warning["trial_id"] == started["trial_id"]
+    aborted = [x for x in lines if x.get("command") == "abort"]
+    assert aborted and aborted[0]["kind"] == "ok" and "0 samples" in aborted[0]["text"]
+    assert any("aborted — REDO" in x["text"] for x in lines if x["kind"] == "result")
+    assert time.monotonic() - t0 < 60
