@@ -129,6 +129,7 @@ class RunTracker:
         from ..pipeline.acquire import TrialEventKind, TrialEventRecord
         from ..pipeline.assemble import SessionParameters
         from ..pipeline.fit import TrialFit
+        from ..pipeline.model import StabilitySweep
 
         if isinstance(record, TrialEventRecord):
             t = self.trials.setdefault(record.trial_id, _Trial(record.trial_id))
@@ -147,6 +148,8 @@ class RunTracker:
         if isinstance(record, SessionParameters):
             self.parameters = record
             return []
+        if not isinstance(record, StabilitySweep):
+            return []  # the run's monitor hands on no samples or readings
         self.stability = record
         if self.parameters is not None and self.parameters.complete and not self._announced_complete:
             self._announced_complete = True

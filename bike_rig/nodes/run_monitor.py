@@ -8,8 +8,10 @@ after the first trial still gets the whole session so far) and hands them on as 
 and :class:`~bike_rig.pipeline.model.StabilitySweep`. It spins only when asked
 (:meth:`GraphMonitor.poll`), in the caller's thread, with an rclpy context of its own.
 
-It also subscribes to the gyro batches (raw, best effort, volatile, and dropped): only so that it
-counts among the gyro topic's subscribers, so that a driver told to wait for it
+Options add what the operator console (:mod:`bike_rig.nodes.session_link`) also follows: the
+readings entered (``readings``) and the gyro batches as records (``samples``, with the QoS
+given). Without ``samples`` it subscribes to the gyro batches raw, best effort, volatile, and
+drops them: only so that it counts among the gyro topic's subscribers, so that a driver told to wait for it
 (``wait_for_subscribers``, which counts the subscribers of both the gyro and the trial-event
 topics) publishes its first START only once the listener is matched. (A START published before a
 reader matched reaches that reader only at the writer's next heartbeat, up to 3 s later.)
@@ -31,15 +33,18 @@ from rclpy.signals import SignalHandlerOptions
 from .. import topics
 from ..messages import (
     MessageError,
+    reading_entry_from_msg,
+    sample_batch_from_msg,
     session_parameters_from_msg,
     stability_sweep_from_msg,
     trial_event_from_msg,
     trial_fit_from_msg,
 )
-from ..pipeline.acquire import TrialEventRecord
+from ..pipeline.acquire import SampleBatch, TrialEventRecord
 from ..pipeline.assemble import SessionParameters
 from ..pipeline.fit import TrialFit
 from ..pipeline.model import StabilitySweep
+from ..pipeline.readings import ReadingEntry
 from ..rosenv import ros_environment
 from ..rosqos import profile
 
@@ -57,7 +62,7 @@ _COUNTED_ONLY = QoSProfile(
 )  # fmt: skip
 
 #: What the monitor hands on.
-MonitorRecord: TypeAlias = TrialEventRecord | TrialFit | SessionParameters | StabilitySweep
+MonitorRecord: TypeAlias = TrialEventRecord | TrialFit | SessionParameters | StabilitySweep | SampleBatch | ReadingEntry
 
 
 def _drop(_data: bytes) -> None:
@@ -72,9 +77,18 @@ class GraphMonitor:
             :func:`bike_rig.rosenv.ros_environment` decides); this process's environment is set
             to it, with LOCALHOST discovery, before rclpy starts.
         node_name: The listener node's name.
+        samples: Also hand on the gyro batches as records, subscribed with this QoS (None: the
+            batches are only counted, see the module docstring).
+        readings: Also hand on the readings entered (``/bike_rig/readings``, transient-local).
     """
 
-    def __init__(self, domain_id: int | None = None, node_name: str = "run_monitor") -> None:
+    def __init__(
+        self,
+        domain_id: int | None = None,
+        node_name: str = "run_monitor",
+        samples: QoSProfile | None = None,
+        readings: bool = False,
+    ) -> None:
         """Set the ROS environment, start an rclpy context and subscribe."""
         env = ros_environment(os.environ, domain_id=domain_id)
         for key in ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_DOMAIN_ID", "RMW_IMPLEMENTATION"):
@@ -94,9 +108,15 @@ class GraphMonitor:
             (_msgs.BenchmarkParameters, topics.PARAMETERS, session_parameters_from_msg),
             (_msgs.EigenSweep, topics.EIGEN_SWEEP, stability_sweep_from_msg),
         )
+        if readings:
+            subscriptions += ((_msgs.ReadingEntry, topics.READINGS, reading_entry_from_msg),)
         for msg_type, topic, convert in subscriptions:
             self.node.create_subscription(msg_type, topic.name, self._collector(convert), profile(topic))
-        self.node.create_subscription(_msgs.GyroBatch, topics.GYRO.name, _drop, _COUNTED_ONLY, raw=True)
+        if samples is None:
+            self.node.create_subscription(_msgs.GyroBatch, topics.GYRO.name, _drop, _COUNTED_ONLY, raw=True)
+        else:
+            gyro = self._collector(sample_batch_from_msg)
+            self.node.create_subscription(_msgs.GyroBatch, topics.GYRO.name, gyro, samples)
 
     def _collector(self, convert: Callable[[Any], MonitorRecord]) -> Callable[[Any], None]:
         def collect(msg: Any) -> None:
