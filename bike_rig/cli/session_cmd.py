@@ -7,6 +7,7 @@ import os
 import signal
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 from ..core.errors import BikeRigError
@@ -85,8 +86,20 @@ def _checked(args: argparse.Namespace) -> tuple[RigConfig, str, str]:
     return rig, args.name or load_true_parameters(bicycle_file)[0], bicycle_file
 
 
-def _exit_on(signum: int, _frame: object) -> None:
-    raise SystemExit(128 + signum)
+def _end_on(started: list[RunningGraph]) -> Callable[[int, object], None]:
+    """A SIGTERM/SIGHUP handler: stop the graph (recorder last, the bag closed), then leave.
+
+    It exits at once instead of raising: an exception raised by a signal handler inside the
+    console's event loop is caught there, and the console would run on, detached from its
+    closed terminal.
+    """
+
+    def end(signum: int, _frame: object) -> None:
+        for graph in started:
+            graph.stop()
+        os._exit(128 + signum)
+
+    return end
 
 
 def run(args: argparse.Namespace) -> int:
@@ -106,8 +119,9 @@ def run(args: argparse.Namespace) -> int:
     except BikeRigError as exc:
         print(f"bike-rig session: error: {exc}", file=sys.stderr)
         return 2
-    signal.signal(signal.SIGTERM, _exit_on)
-    signal.signal(signal.SIGHUP, _exit_on)
+    started: list[RunningGraph] = []
+    signal.signal(signal.SIGTERM, _end_on(started))
+    signal.signal(signal.SIGHUP, _end_on(started))
     folder = Path(args.output or Path("bike_rig_sessions") / time.strftime("%Y%m%d-%H%M%S")).resolve()
     graph = None
     try:
@@ -116,7 +130,8 @@ def run(args: argparse.Namespace) -> int:
                 _graph_overrides(args, bicycle_file, name, folder)
             )
             graph = RunningGraph(spec, folder / "logs", args.domain_id).start()
-            pids = "".join(f"{n.name} {graph.pid(n.name)}\n" for n in spec.nodes)
+            started.append(graph)
+            pids = f"console {os.getpid()}\n" + "".join(f"{n.name} {graph.pid(n.name)}\n" for n in spec.nodes)
             (folder / "logs" / "pids").write_text(pids, encoding="utf-8")
             os.environ["ROS_DOMAIN_ID"] = str(graph.domain_id)
         elif args.domain_id is not None:

@@ -10,9 +10,7 @@ the same 25 parameters as the offline core on the same trials and readings.
 from __future__ import annotations
 
 import json
-import os
 import re
-import signal
 import subprocess
 import sys
 from pathlib import Path
@@ -23,22 +21,11 @@ from bike_rig.bag.session import read_session
 from bike_rig.core.sim import load_rig, load_true_parameters, simulate_session
 from bike_rig.paths import config_file
 from bike_rig.session.plan import ReadingItem, plan_from_rig
+from test.support.sessions import kill_session, session_pids, wait_gone
 from test.support.tmux import TMUX, TmuxSession
 
 BIKE_RIG = Path(sys.executable).parent / "bike-rig"
 TIME_SCALE = 150.0
-
-
-def _kill_leftovers(folder: Path) -> None:
-    pids = folder / "logs" / "pids"
-    if not pids.is_file():
-        return
-    for line in pids.read_text().splitlines():
-        pid = int(line.split()[1])
-        try:
-            os.kill(pid, signal.SIGKILL)
-        except ProcessLookupError:
-            pass
 
 
 def _enter(tmux: TmuxSession, key: str, value: float, sigma: float, mistake: bool = False) -> None:
@@ -108,7 +95,7 @@ def test_a_whole_session_at_the_console(tmp_path: Path, ros_env: dict[str, str],
         tmux.wait_for(r"\[exit 0\]", 60)
     finally:
         tmux.close()
-        _kill_leftovers(folder)
+        kill_session(folder)
     assert flagged and corrected
     bag = folder / "bag"
     out = subprocess.run([str(BIKE_RIG), "replay", str(bag), "--json"], capture_output=True, text=True, timeout=120,
@@ -124,3 +111,21 @@ def test_a_whole_session_at_the_console(tmp_path: Path, ros_env: dict[str, str],
     assert [v for v, _ in w_entries] == [readings["w"][0] * 1.01, readings["w"][0]]  # the mistake and its correction
     assert {e.key for e in recorded.reading_entries} == set(readings)
     assert len(replayed["trials"]) == len(plan.trials) + 1 + redone  # every trial, the forced and the flagged redos
+
+
+@pytest.mark.skipif(not Path(TMUX).exists(), reason="tmux is installed by tools/setup_debian.sh (make test)")
+def test_closing_the_terminal_ends_the_session_and_its_graph(tmp_path: Path, ros_env: dict[str, str]) -> None:
+    """SIGHUP (the terminal or SSH link closed): the console stops the graph and leaves; the bag is closed."""
+    folder = tmp_path / "session"
+    tmux = TmuxSession([str(BIKE_RIG), "session", "--output", str(folder)], ros_env, tmp_path)
+    try:
+        tmux.wait_for(r"· 0/68 done", 60)
+        pids = session_pids(folder)
+        assert set(pids) >= {"console", "driver", "recorder"}
+    finally:
+        tmux.close()  # the terminal goes away: SIGHUP
+    try:
+        assert wait_gone(pids, 30) == []
+        assert (folder / "bag" / "metadata.yaml").is_file()  # written when the recorder closes the bag
+    finally:
+        kill_session(folder)

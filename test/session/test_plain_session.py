@@ -11,6 +11,7 @@ from pathlib import Path
 from bike_rig.core.sim import load_rig, load_true_parameters, simulate_session
 from bike_rig.paths import config_file
 from bike_rig.session.plan import ReadingItem, plan_from_rig
+from test.support.sessions import kill_session
 
 BIKE_RIG = Path(sys.executable).parent / "bike-rig"
 
@@ -33,7 +34,10 @@ def test_a_scripted_session_completes_and_its_bag_replays(tmp_path: Path, ros_en
     argv = [str(BIKE_RIG), "session", "--plain", "--json", "--time-scale", "150", "--seed", "2"]
     argv += ["--output", str(folder)]
     stdin = "\n".join(script) + "\n"
-    done = subprocess.run(argv, input=stdin, capture_output=True, text=True, timeout=600, env=ros_env)
+    try:
+        done = subprocess.run(argv, input=stdin, capture_output=True, text=True, timeout=600, env=ros_env)
+    finally:
+        kill_session(folder)
     lines = [json.loads(x) for x in done.stdout.splitlines()]
     errors = [x["text"] for x in lines if x["kind"] == "error"]
     # the refused item; the extra 'start's once every trial of a measurement is ok; nothing else
@@ -61,8 +65,11 @@ def test_a_silent_can_gyro_warns_within_a_second_and_the_trial_aborts(tmp_path: 
     script = ["start TcR1#1", "wait 1.5", "abort", "wait 5", "quit"]
     argv = [str(BIKE_RIG), "session", "--plain", "--json", "--source", "can", "--output", str(tmp_path / "s")]
     t0 = time.monotonic()
-    done = subprocess.run(argv, input="\n".join(script) + "\n", capture_output=True, text=True, timeout=120,
-                          env=ros_env)  # fmt: skip
+    try:
+        done = subprocess.run(argv, input="\n".join(script) + "\n", capture_output=True, text=True, timeout=120,
+                              env=ros_env)  # fmt: skip
+    finally:
+        kill_session(tmp_path / "s")
     lines = [json.loads(x) for x in done.stdout.splitlines()]
     started = next(x for x in lines if x.get("command") == "start")
     warning = next(x for x in lines if x["kind"] == "warning")

@@ -1,0 +1,56 @@
+"""Clean-up of what a ``bike-rig session`` started: its processes, by the PIDs it wrote."""
+
+from __future__ import annotations
+
+import os
+import signal
+import time
+from pathlib import Path
+
+__all__ = ["session_pids", "kill_session", "wait_gone"]
+
+
+def session_pids(folder: Path) -> dict[str, int]:
+    """The PIDs ``bike-rig session`` wrote to ``<folder>/logs/pids``: the console and each node."""
+    path = folder / "logs" / "pids"
+    if not path.is_file():
+        return {}
+    return {name: int(pid) for name, pid in (line.split() for line in path.read_text().splitlines() if line)}
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    return True
+
+
+def wait_gone(pids: dict[str, int], timeout_s: float) -> list[str]:
+    """Wait up to ``timeout_s`` for the processes to end; the names of those still running."""
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        alive = [name for name, pid in pids.items() if _alive(pid)]
+        if not alive:
+            return []
+        time.sleep(0.1)
+    return [name for name, pid in pids.items() if _alive(pid)]
+
+
+def _ours(pid: int) -> bool:
+    """Whether ``pid`` still runs a bike_rig program (not a process that reused the number)."""
+    try:
+        return b"bike" in Path(f"/proc/{pid}/cmdline").read_bytes()
+    except OSError:
+        return False
+
+
+def kill_session(folder: Path) -> None:
+    """SIGKILL every process of the session in ``folder`` that still runs (after a failed test)."""
+    for pid in session_pids(folder).values():
+        if not _ours(pid):
+            continue
+        try:
+            os.kill(pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
