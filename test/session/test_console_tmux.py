@@ -22,7 +22,7 @@ from bike_rig.core.sim import load_rig, load_true_parameters, simulate_session
 from bike_rig.paths import config_file
 from bike_rig.session.plan import ReadingItem, plan_from_rig
 from test.support.sessions import kill_session, session_pids, wait_gone
-from test.support.tmux import TMUX, TmuxSession
+from test.support.tmux import TMUX, TmuxSession, flatten
 
 BIKE_RIG = Path(sys.executable).parent / "bike-rig"
 TIME_SCALE = 150.0
@@ -46,12 +46,10 @@ def _record(tmux: TmuxSession, item_id: str) -> int:
     for attempt in range(3):
         tmux.keys("F2")
         started = tmux.wait_for(rf"recording {re.escape(item_id)} as (\S+) \(", 30, flat=True)
-        flat = " ".join(row.rstrip(" ▁▂▃▄▅▆▇█▏▎▍▌▋▊▉▔▕") for row in started.splitlines())
-        trial = re.findall(rf"recording {re.escape(item_id)} as (\S+) \(", flat)[-1]
+        trial = re.findall(rf"recording {re.escape(item_id)} as (\S+) \(", flatten(started))[-1]
         head = rf"{re.escape(item_id)} {re.escape(trial)}: "
         screen = tmux.wait_for(rf"{head}(T = [0-9.]+ ± \S+ s, \d+ cycles, r² [0-9.]+\s+— ok|.*REDO)", 60, flat=True)
-        flat = " ".join(row.rstrip(" ▁▂▃▄▅▆▇█▏▎▍▌▋▊▉▔▕") for row in screen.splitlines())
-        if re.search(rf"{head}T = [0-9.]+ ± \S+ s, \d+ cycles, r² [0-9.]+\s+— ok", flat):
+        if re.search(rf"{head}T = [0-9.]+ ± \S+ s, \d+ cycles, r² [0-9.]+\s+— ok", flatten(screen)):
             return attempt
     raise AssertionError(f"{item_id}: flagged three times")
 

@@ -15,11 +15,16 @@ import time
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
-__all__ = ["TMUX", "TmuxSession"]
+__all__ = ["TMUX", "TmuxSession", "flatten"]
 
 TMUX = shutil.which("tmux") or "/usr/bin/tmux"
 #: What a row may end with besides its text: spaces and a scroll bar's block glyphs.
 _SCROLLBAR = " ▁▂▃▄▅▆▇█▏▎▍▌▋▊▉▔▕"
+
+
+def flatten(screen: str) -> str:
+    """The screen's rows joined by spaces, each right-stripped of spaces and scroll-bar glyphs."""
+    return " ".join(row.rstrip(_SCROLLBAR) for row in screen.splitlines())
 
 
 class TmuxSession:
@@ -77,7 +82,7 @@ class TmuxSession:
         screen = ""
         while time.monotonic() < deadline:
             screen = self.screen()
-            text = " ".join(row.rstrip(_SCROLLBAR) for row in screen.splitlines()) if flat else screen
+            text = flatten(screen) if flat else screen
             if re.search(pattern, text):
                 return screen
             time.sleep(0.05)
