@@ -160,6 +160,8 @@ class OperatorSession:
             view.sample_rate_hz = fit.sample_rate_hz
         view.fit = fit
         view.state = ItemState.OK if fit.usable else ItemState.REDO
+        if self.live is not None and self.live.trial_id == fit.trial_id:
+            self.live = None  # its result proves it stopped (the STOP may arrive after: another topic)
         line = result_line(view)
         self.results.append(line)
         return line

@@ -65,6 +65,20 @@ def test_trial_states_follow_start_result_and_redo(ctl_link) -> None:  # type: i
     assert ctl.session.next_trial() == ctl.session.plan.trials[1]
 
 
+def test_a_result_before_its_stop_event_ends_the_recording(ctl_link) -> None:  # type: ignore[no-untyped-def]
+    """Periods and trial events are two topics: the result may come first; the next start must not wait."""
+    ctl, link, t = ctl_link
+    first = ctl.session.plan.trials[0]
+    ctl.execute("start")
+    trial_id = link.started[0][0]
+    ctl.pump()
+    link.period(trial_id, first.key, 1.2, 1e-4)
+    link.events_out = [e for e in link.events_out if not getattr(e, "kind", None)]  # the STOP is late
+    ctl.pump()
+    assert ctl.session.recording() is None
+    assert ctl.execute("start")[0].kind == "ok"
+
+
 def test_abort_records_redo_and_refusal_is_reported(ctl_link) -> None:  # type: ignore[no-untyped-def]
     ctl, link, t = ctl_link
     ctl.execute("start TtB2#1")
