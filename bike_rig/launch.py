@@ -25,11 +25,17 @@ working directory: a relative path is taken from the current directory when it e
 else from the parameter file's folder (a value written in one), else from the config folder
 (:func:`bike_rig.paths.config_dir`, e.g. ``bicycles/browser.yaml``). A file given as an override
 that exists in none of them is an error; an output (the recorder's bag) must not exist yet.
+
+Each node runs in its own process group (a Ctrl-C in the terminal reaches the launcher only,
+which stops the nodes in order), and gets SIGTERM from the kernel when the launcher dies
+however it dies (``PR_SET_PDEATHSIG``: a killed console or ``bike-rig run`` leaves no node
+running; the recorder closes its bag on SIGTERM, so nothing recorded is lost).
 """
 
 from __future__ import annotations
 
 import contextlib
+import ctypes
 import difflib
 import json
 import os
@@ -40,7 +46,7 @@ import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import IO, TYPE_CHECKING
 
 from .core.errors import BikeRigError, InputFileError
 from .core.io_yaml import load_yaml_document
@@ -68,7 +74,9 @@ GRAPH_FORMAT = "bike_rig-graph/1"
 #: The node parameters that name files, per node module: ``input`` (a file or folder that is
 #: read) or ``output`` (one the node creates). :meth:`Graph.checked` makes them absolute.
 PATH_PARAMETERS: Mapping[str, Mapping[str, str]] = {
-    "bike_rig.nodes.driver": {"session": "input", "bicycle": "input", "rig": "input", "bag": "input"},
+    "bike_rig.nodes.driver": {
+        "session": "input", "bicycle": "input", "rig": "input", "bag": "input", "resume": "input",
+    },  # fmt: skip
     "bike_rig.nodes.parameter": {"measurements": "input"},
     "bike_rig.nodes.recorder": {"output": "output"},
 }
@@ -360,6 +368,36 @@ def load_graph(path: str | Path) -> Graph:
     return Graph(tuple(nodes), p)
 
 
+#: prctl(2) option: the signal the kernel sends a process when its parent (thread) ends.
+_PR_SET_PDEATHSIG = 1
+
+
+def _node_process_setup(launcher_pid: int) -> None:
+    """In a node's child process, before exec: end with the launcher (see the module docstring).
+
+    A launcher that died between fork and this call is not there to signal the child: the
+    child then ends itself at once.
+    """
+    with contextlib.suppress(OSError, AttributeError):
+        ctypes.CDLL(None, use_errno=True).prctl(_PR_SET_PDEATHSIG, signal.SIGTERM)
+    if os.getppid() != launcher_pid:
+        os.kill(os.getpid(), signal.SIGTERM)
+
+
+def _popen_node(command: Sequence[str], out: IO[bytes], env: Mapping[str, str]) -> subprocess.Popen[bytes]:
+    """Start one node process: own process group, output to ``out``, ended with the launcher."""
+    launcher = os.getpid()
+    return subprocess.Popen(
+        list(command),
+        stdout=out,
+        stderr=subprocess.STDOUT,
+        stdin=subprocess.DEVNULL,
+        env=dict(env),
+        start_new_session=True,
+        preexec_fn=lambda: _node_process_setup(launcher),
+    )
+
+
 @dataclass
 class _Process:
     spec: NodeSpec
@@ -408,14 +446,7 @@ class RunningGraph:
         for spec in self.graph.nodes:
             log = self.log_dir / f"{spec.name}.log"
             with log.open("wb") as out:
-                popen = subprocess.Popen(
-                    spec.command(),
-                    stdout=out,
-                    stderr=subprocess.STDOUT,
-                    stdin=subprocess.DEVNULL,
-                    env=self.env,
-                    start_new_session=True,
-                )
+                popen = _popen_node(spec.command(), out, self.env)
             self.processes.append(_Process(spec, popen, log))
         return self
 
@@ -447,14 +478,7 @@ class RunningGraph:
                 if p.popen.poll() is None:
                     raise LaunchError(f"node '{name}' is still running (pid {p.popen.pid})")
                 with p.log.open("ab") as out:
-                    popen = subprocess.Popen(
-                        p.spec.command(),
-                        stdout=out,
-                        stderr=subprocess.STDOUT,
-                        stdin=subprocess.DEVNULL,
-                        env=self.env,
-                        start_new_session=True,
-                    )
+                    popen = _popen_node(p.spec.command(), out, self.env)
                 self.processes[i] = _Process(p.spec, popen, p.log)
                 return
         raise LaunchError(f"no node named '{name}'")
