@@ -10,6 +10,7 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
+from ..bag.resume import ResumePoint, resume_point
 from ..core.errors import BikeRigError
 from ..core.sim import load_rig, load_true_parameters
 from ..core.sim.rig import RigConfig
@@ -17,7 +18,11 @@ from ..launch import LaunchError, RunningGraph, load_graph, parse_overrides
 from ..paths import config_file
 from ..rosenv import check_domain_id
 
-__all__ = ["add_parser", "run"]
+__all__ = ["SessionArgumentError", "add_parser", "run"]
+
+
+class SessionArgumentError(BikeRigError):
+    """Options of ``bike-rig session`` that do not go together."""
 
 
 def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -43,22 +48,31 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     q.add_argument("--output", help="session folder for the bag and logs (default ./bike_rig_sessions/<time>)")
     q.add_argument("--domain-id", help="ROS_DOMAIN_ID (default: a free one; with --join: the graph's)")
     q.add_argument("--join", action="store_true", help="join a graph already running instead of starting one")
+    q.add_argument(
+        "--resume",
+        metavar="FOLDER",
+        help="continue an interrupted session from its folder (or its bag): its trials and readings count, and "
+        "the new session folder's bag holds the whole session (give the same --bicycle, --rig and --seed)",
+    )
     q.add_argument("--plain", action="store_true", help="one command per line on stdin, one reply per line")
     q.add_argument("--json", action="store_true", help="with --plain: replies as JSON lines")
     q.set_defaults(func=run)
 
 
 def _graph_overrides(
-    args: argparse.Namespace, bicycle_file: str, name: str, folder: Path
+    args: argparse.Namespace, bicycle_file: str, name: str, folder: Path, resume: ResumePoint | None
 ) -> dict[str, dict[str, object]]:
     driver: dict[str, object] = {"source": args.source}
+    if resume is not None:
+        # the recorded trials stream at once: wait for the recorder, the fitter and this console
+        driver.update(resume=str(resume.bag), wait_for_subscribers=3)
     if args.source == "sim":
         driver.update(mode="operator", bicycle=bicycle_file, seed=args.seed, time_scale=args.time_scale)
     if args.rig:
         driver["rig"] = str(Path(args.rig).resolve())
     parameter: dict[str, object] = {
         "bicycle": name,
-        "measurements": str(Path(args.readings).resolve()) if args.readings else "",
+        "measurements": str(Path(args.readings).resolve()) if args.readings else _resumed_readings(resume, folder),
     }
     over: dict[str, dict[str, object]] = {
         "driver": driver,
@@ -68,6 +82,34 @@ def _graph_overrides(
     for node, values in parse_overrides(args.param).items():
         over.setdefault(node, {}).update(values)
     return over
+
+
+def _resumed_readings(resume: ResumePoint | None, folder: Path) -> str:
+    """The static readings file the interrupted session started from, written into ``folder`` ("" if none)."""
+    if resume is None or not resume.readings_document:
+        return ""
+    path = folder / f"resumed_static_readings{resume.readings_suffix}"
+    folder.mkdir(parents=True, exist_ok=True)
+    path.write_text(resume.readings_document, encoding="utf-8")
+    return str(path)
+
+
+def _resume_from(args: argparse.Namespace, name: str, folder: Path) -> tuple[ResumePoint | None, str]:
+    """The interrupted session to continue (None without --resume), and the bicycle's name.
+
+    Raises:
+        BikeRigError: --resume with --join, a bag that cannot be read or recovered, or a
+            session of another bicycle than --name.
+    """
+    if not args.resume:
+        return None, name
+    if args.join:
+        raise SessionArgumentError("--resume starts its own graph (the driver streams the recorded trials): "
+                                   "it cannot be used with --join")  # fmt: skip
+    point = resume_point(args.resume, folder / "recovered_bag")
+    if point.bicycle and args.name and point.bicycle != args.name:
+        raise SessionArgumentError(f"{args.resume}: the session is of bicycle {point.bicycle!r}, not {args.name!r}")
+    return point, args.name or point.bicycle or name
 
 
 def _checked(args: argparse.Namespace) -> tuple[RigConfig, str, str]:
@@ -114,20 +156,21 @@ def run(args: argparse.Namespace) -> int:
     if args.json and not args.plain:
         print("bike-rig session: error: --json needs --plain", file=sys.stderr)
         return 2
+    folder = Path(args.output or Path("bike_rig_sessions") / time.strftime("%Y%m%d-%H%M%S")).resolve()
     try:
         rig, name, bicycle_file = _checked(args)
+        resume, name = _resume_from(args, name, folder)
     except BikeRigError as exc:
         print(f"bike-rig session: error: {exc}", file=sys.stderr)
         return 2
     started: list[RunningGraph] = []
     signal.signal(signal.SIGTERM, _end_on(started))
     signal.signal(signal.SIGHUP, _end_on(started))
-    folder = Path(args.output or Path("bike_rig_sessions") / time.strftime("%Y%m%d-%H%M%S")).resolve()
     graph = None
     try:
         if not args.join:
             spec = load_graph(config_file("graph.yaml")).with_parameters(
-                _graph_overrides(args, bicycle_file, name, folder)
+                _graph_overrides(args, bicycle_file, name, folder, resume)
             )
             graph = RunningGraph(spec, folder / "logs", args.domain_id).start()
             started.append(graph)
@@ -141,6 +184,8 @@ def run(args: argparse.Namespace) -> int:
         link = SessionLink()
         try:
             ctl = build_controller(rig, name, link, args.source)
+            if resume is not None:
+                ctl.resume(resume.trial_ids, resume.entries, resume.describe())
             if args.plain:
                 status = run_plain(ctl, sys.stdin, sys.stdout, as_json=args.json)
             else:

@@ -25,7 +25,9 @@ START) and gets no samples for ``silence_warning_s`` of wall time is logged as a
 per silence, naming the source and what to check (the bus, the wiring, the CAN id...). When a
 plan is finished the driver logs it and keeps running, so that late joiners still get the
 topics' history — or exits (``exit_when_done``, after the subscribers have acknowledged
-everything, up to 10 s).
+everything, up to 10 s). With ``resume`` (an interrupted session's bag) the bag's recorded
+trials are published first, unpaced, and the session continues with the source
+(:mod:`bike_rig.sources.resume`).
 """
 
 from __future__ import annotations
@@ -58,6 +60,7 @@ from ..sources import (
 )
 from ..sources.base import FloatArray
 from ..sources.errors import SourceError
+from ..sources.resume import ResumedSource
 from ..sources.silence import DEFAULT_SILENCE_S, SilenceWatch
 from ..topics import GYRO, START_TRIAL, STOP_TRIAL, TRIAL_EVENTS
 from .params import declare_parameters
@@ -82,6 +85,8 @@ COMMON_PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec("wait_for_subscribers", 0, "start streaming once the gyro and trial-event topics each have this many "
               "subscribers",
               (0, 100)),  # fmt: skip
+    ParamSpec("resume", "", "an interrupted session's bag: its recorded trials are streamed first, and new trial ids "
+              "continue after them (bike-rig session --resume)"),  # fmt: skip
     ParamSpec("silence_warning_s", DEFAULT_SILENCE_S,
               "warn when a recording trial has had no samples this long, s (wall clock)", (0.05, 60.0)),  # fmt: skip
 )
@@ -132,6 +137,8 @@ class DriverNode(Node):
         self.exit_when_done = bool(self.values["exit_when_done"])
         self.wait_for = int(self.values["wait_for_subscribers"])
         self.source: GyroSource = open_source(self.values["source"], self.values)
+        if self.values["resume"]:
+            self.source = ResumedSource(str(self.values["resume"]), self.source)
         self.gyro_pub = self.create_publisher(_msgs.GyroBatch, GYRO.name, profile(GYRO))
         self.events_pub = self.create_publisher(_msgs.TrialEvent, TRIAL_EVENTS.name, profile(TRIAL_EVENTS))
         self.start_srv = self.create_service(_srvs.StartTrial, START_TRIAL, self._on_start_trial)

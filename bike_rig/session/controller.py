@@ -134,6 +134,42 @@ class SessionController:
     quit_requested: bool = False
     _warned: set[str] = field(default_factory=set)
     _announced: tuple[float, ...] = ()
+    _resume_note: str = ""
+    _pending: list[Reply] = field(default_factory=list)
+
+    # ------------------------------------------------------------------ resume
+    def resume(self, trial_ids: Sequence[str], entries: Sequence[ReadingEntry], note: str) -> None:
+        """Continue an interrupted session: its recorded trials are coming back from the graph.
+
+        The driver streams the recorded trials ``trial_ids`` again (its ``resume`` parameter);
+        each recorded reading entry is published again here, as it was (stamp and note kept),
+        so that the parameter node applies it and the new bag holds the whole session. Trials
+        cannot be started until every recorded one is back (:attr:`resumed`). The next
+        :meth:`pump` announces the resume (``note``: what is resumed, from where), and a later
+        one that every recorded trial is back.
+        """
+        self.session.resume(trial_ids)
+        for entry in entries:
+            self.link.send_reading(entry)
+        self._resume_note = note
+        back, total = self.session.resuming
+        self._pending.append(
+            Reply("info", f"resuming {note}: {back}/{total} recorded trials back", {"resuming": [back, total]})
+        )
+
+    @property
+    def resumed(self) -> bool:
+        """Every recorded trial of a resumed session is back (True when not resuming)."""
+        back, total = self.session.resuming
+        return back >= total
+
+    def _resume_replies(self) -> list[Reply]:
+        """The announcement that the resumed session's recorded trials are back (once)."""
+        if not self._resume_note or not self.resumed:
+            return []
+        note, self._resume_note = self._resume_note, ""
+        total = len(self.session.resumed)
+        return [Reply("info", f"resumed {note}: all {total} recorded trials are back", {"resumed": total})]
 
     # ------------------------------------------------------------------ commands
     def execute(self, line: str) -> list[Reply]:
@@ -155,6 +191,9 @@ class SessionController:
             return [Reply("error", str(exc), {"command": name})]
 
     def _cmd_start(self, args: Sequence[str]) -> list[Reply]:
+        if not self.resumed:
+            back, total = self.session.resuming
+            raise CommandError(f"the recorded trials are still coming back ({back}/{total}): start again in a moment")
         if self.session.recording() is not None:
             raise CommandError(f"trial {self.session.recording().trial_id} is recording: stop or abort it first")  # type: ignore[union-attr]
         item: Any = self.session.next_trial() if not args or _is_number(args[0]) else None
@@ -215,6 +254,9 @@ class SessionController:
     def _cmd_status(self, args: Sequence[str]) -> list[Reply]:
         done, total = self.session.progress()
         out = [Reply("info", f"progress {done}/{total}", {"done": done, "total": total})]
+        if not self.resumed:
+            back, n = self.session.resuming
+            out.append(Reply("info", f"resuming: {back}/{n} recorded trials back", {"resuming": [back, n]}))
         live = self.session.live_status(self.clock())
         if live is not None:
             amp = f", amplitude {live.amplitude:.3g} rad/s" if math.isfinite(live.amplitude) else ""
@@ -313,7 +355,7 @@ class SessionController:
 
     def pump(self) -> list[Reply]:
         """Apply what the graph published; replies for new results, warnings and completion."""
-        out: list[Reply] = []
+        out, self._pending = self._pending, []
         now = self.clock()
         s = self.session
         for ev in self.link.events():
@@ -335,6 +377,7 @@ class SessionController:
                 if not any(e.stamp_ns == ev.stamp_ns and e.value == ev.value for e in s.readings.get(ev.key, [])):
                     s.on_reading(ev)
         out += self._new_warnings(now)
+        out += self._resume_replies()
         if s.complete and s.stability is not None:
             sw, sc = s.stability.weave, s.stability.capsize
             speeds = tuple(x for v in (sw, sc) if v is not None for x in (v.speed, v.sigma))

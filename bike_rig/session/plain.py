@@ -3,7 +3,8 @@
 For scripts and automated rigs (``bike-rig session --plain [--json]``). Besides the
 controller's commands (:mod:`bike_rig.session.controller`), plain mode knows ``wait``:
 
-* ``wait [SECONDS]``: until the trial started last has its result (or was aborted);
+* ``wait [SECONDS]``: until the trial started last has its result (or was aborted), and a
+  resumed session's recorded trials are all back;
 * ``wait complete [SECONDS]``: until the parameter set is complete with its speeds;
 
 at most ``SECONDS`` (default 600) of wall time; a ``wait`` that times out replies ``error``.
@@ -65,10 +66,10 @@ def _wait(ctl: SessionController, args: list[str], write: Callable[[list[Reply]]
         write(ctl.pump())
         if complete and ctl.session.complete and ctl.session.stability is not None:
             return
-        if not complete and (last is None or last.fit is not None or last.aborted):
+        if not complete and ctl.resumed and (last is None or last.fit is not None or last.aborted):
             return
         time.sleep(POLL_S)
-    what = "the parameter set" if complete else f"trial {last.trial_id if last else ''}"
+    what = "the parameter set" if complete else f"trial {last.trial_id}" if last else "the recorded trials"
     write([Reply("error", f"wait: {what} not finished after {limit:g} s")])
 
 

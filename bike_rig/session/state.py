@@ -6,7 +6,9 @@ period estimates, the parameter set, the stability sweep; records of
 console shows: each plan item's state (:class:`~bike_rig.session.plan.ItemState`), the next
 item, the recording trial's live status, each trial's result line, what is still missing, and
 the parameters and speeds once complete. No ROS: the console's link to the graph
-(:mod:`bike_rig.nodes.session_link`) and a recorded bag (resume) feed the same methods.
+(:mod:`bike_rig.nodes.session_link`) feeds these methods; a resumed session's recorded trials
+come back through it too (the driver streams them first), and :attr:`OperatorSession.resuming`
+counts them back.
 
 Trial items are matched to trials by the trial's measurement key and repeat (``TtB2#3``);
 a later trial of the same item replaces the earlier one in the item's state (a redo), while
@@ -16,7 +18,7 @@ every trial stays in :attr:`OperatorSession.trials`.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 from ..pipeline.acquire import SampleBatch, TrialEventKind, TrialEventRecord
@@ -99,9 +101,23 @@ class OperatorSession:
     stability: StabilitySweep | None = None
     live: LiveTrace | None = None
     results: list[str] = field(default_factory=list)
+    resumed: tuple[str, ...] = ()
     _item_trial: dict[str, str] = field(default_factory=dict)
 
     # ------------------------------------------------------------------ feeding
+    def resume(self, trial_ids: Sequence[str]) -> None:
+        """The recorded trials of an interrupted session are coming back (see :attr:`resuming`)."""
+        self.resumed = tuple(trial_ids)
+
+    @property
+    def resuming(self) -> tuple[int, int]:
+        """(recorded trials back, recorded trials): back is a result, or aborted."""
+        back = 0
+        for trial_id in self.resumed:
+            view = self.trials.get(trial_id)
+            back += view is not None and (view.fit is not None or view.aborted)
+        return back, len(self.resumed)
+
     def expect(self, trial_id: str, item_id: str, now_wall_s: float) -> None:
         """The driver accepted a start of ``item_id`` as ``trial_id``: track it from now."""
         item = self.plan.item(item_id)

@@ -39,7 +39,7 @@ import importlib
 import math
 import time
 from abc import ABC, abstractmethod
-from collections.abc import Callable, Iterable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from types import TracebackType
 from typing import Any, ClassVar, TypeAlias
@@ -410,6 +410,14 @@ class GyroSource(ABC):
         """
         raise TrialRequestError(f"the {self.name} source walks its own plan; trials cannot be stopped on request")
 
+    def continue_after(self, trial_ids: Sequence[str], last_stamp_ns: int) -> None:  # noqa: B027 - see below
+        """Continue an interrupted session whose trials ``trial_ids`` were recorded (resume).
+
+        Sources that record on request never reuse those ids; the simulated rig also continues
+        its noise streams and its rig time after ``last_stamp_ns``. A no-op for plan-walking
+        sources (a session resumes only with a source that records on request).
+        """
+
     def close(self) -> None:  # noqa: B027 - a no-op unless the backend holds something
         """Release the hardware or the file (idempotent)."""
 
@@ -557,6 +565,10 @@ class StreamingSource(GyroSource):
         self._events.append(stopped)
         self._recording = None
         return stopped
+
+    def continue_after(self, trial_ids: Sequence[str], last_stamp_ns: int) -> None:
+        """New trials never reuse ``trial_ids`` (the hardware's clock stamps them)."""
+        self._used_ids.update(trial_ids)
 
     def start_trial(self, request: TrialRequest) -> TrialInfo:
         """Record a trial from the next sample delivered on (see :meth:`GyroSource.start_trial`).

@@ -24,6 +24,7 @@ previous one ended plus ``pause_between_trials_s`` and all its samples are due a
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -257,6 +258,21 @@ class OperatorSimSource(GyroSource):
         self._events.append(TrialStarted(info, self._running.start_ns))
         self._advance(now)
         return info
+
+    def continue_after(self, trial_ids: Sequence[str], last_stamp_ns: int) -> None:
+        """Continue an interrupted session: ids not reused, noise streams and rig time continued.
+
+        The next trial draws the noise streams of trial ``len(trial_ids)`` of the seed (as the
+        uninterrupted session's next trial would) and, when the clock has not started yet, rig
+        time starts no earlier than ``pause_between_trials_s`` after ``last_stamp_ns``.
+        """
+        self._used_ids.update(trial_ids)
+        self.trials_started = len(self._used_ids)
+        if last_stamp_ns > 0:
+            self._last_stop_ns = last_stamp_ns
+            if not self.clock.started and not math.isinf(self.clock.time_scale):
+                start = max(time.time_ns(), last_stamp_ns + self.pause_ns)
+                self.clock = RigClock(start, self.clock.time_scale)
 
     def stop_trial(self, trial_id: str = "", abort: bool = False) -> TrialStopped:
         """End the recording trial now: STOP (ABORT when ``abort``) after the samples streamed so far.

@@ -1,0 +1,143 @@
+"""A source that first streams an interrupted session's recorded trials, then the live gyro's.
+
+The driver's ``resume`` parameter (``bike-rig session --resume``) names the interrupted
+session's bag. :class:`ResumedSource` reads its trials at once
+(:func:`~bike_rig.bag.session.read_session`: each trial's events and batches, whatever order
+the recorder received them in) and yields them before anything of the live source, one trial
+a poll in order of START, with their recorded stamps and ids, so that the fitter fits them
+again, the recorder records them into the new bag (which then holds the whole session) and a
+console sees them as the session's first trials. A trial left open (the session ended while it
+recorded) is closed with ABORT after its last recorded sample.
+
+The live source is told the recorded trial ids (:meth:`~bike_rig.sources.base.GyroSource.continue_after`):
+new ids never reuse them, and the simulated rig continues its noise streams and its rig time
+where the interrupted session stopped, so a resumed session records what the uninterrupted one
+would have.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from ..bag.errors import BagError
+from ..bag.resume import started_trials
+from ..bag.session import RecordedTrial, read_session
+from ..pipeline.acquire import TrialEventKind, sample_stamp_ns
+from .base import GyroSource, SampleBlock, SourceEvent, TrialInfo, TrialRequest, TrialStarted, TrialStopped
+from .errors import SourceConfigError
+
+__all__ = ["ResumedSource", "recorded_trials"]
+
+
+def _trial_events(trial: RecordedTrial) -> list[SourceEvent]:
+    """One recorded trial as source events: START, its samples in index order, STOP or ABORT.
+
+    Batches recorded twice count once; the STOP keeps the sample count the driver announced
+    (so a recording that lost samples still shows the loss); a trial without STOP is closed
+    with ABORT after its last recorded sample.
+    """
+    start = trial.start
+    assert start is not None
+    info = TrialInfo(start.trial_id, start.part, start.pendulum, start.orientation, start.repeat,
+                     start.measurement_key, start.sample_rate_hz, start.note)  # fmt: skip
+    events: list[SourceEvent] = [TrialStarted(info, start.stamp_ns)]
+    seen: set[int] = set()
+    end = 0
+    for batch in sorted(trial.batches, key=lambda b: int(b.first_index)):
+        first = int(batch.first_index)
+        if first in seen:
+            continue
+        seen.add(first)
+        volts = np.asarray(batch.raw_volts, dtype=np.float64)
+        rates = np.asarray(batch.rates, dtype=np.float64)
+        events.append(SampleBlock(trial.trial_id, first, rates, volts if volts.size == rates.size else None))
+        end = max(end, first + rates.size)
+    stop = trial.stop
+    if stop is None:
+        rate = start.sample_rate_hz
+        stamp = sample_stamp_ns(start.stamp_ns, end, rate) if rate > 0 else start.stamp_ns
+        events.append(TrialStopped(trial.trial_id, end, stamp, aborted=True))
+    else:
+        aborted = stop.kind is TrialEventKind.ABORT
+        events.append(TrialStopped(trial.trial_id, int(stop.sample_count), stop.stamp_ns, aborted=aborted))
+    return events
+
+
+def recorded_trials(bag: str) -> list[list[SourceEvent]]:
+    """Every trial of ``bag`` that has a START, in order of START, as source events (one list each).
+
+    Raises:
+        SourceConfigError: The bag cannot be read.
+    """
+    try:
+        session = read_session(bag)
+    except BagError as exc:
+        raise SourceConfigError("resume", "resume", str(exc), bag) from None
+    return [_trial_events(t) for t in started_trials(session)]
+
+
+class ResumedSource(GyroSource):
+    """The recorded trials of ``bag``, then ``live`` (see the module docstring).
+
+    Args:
+        bag: The interrupted session's bag.
+        live: The source the session continues with; it must record trials on request.
+
+    Raises:
+        SourceConfigError: The bag cannot be read, or ``live`` walks its own plan.
+    """
+
+    supports_requests = True
+
+    def __init__(self, bag: str, live: GyroSource):
+        """Read the bag's trials now; tell ``live`` which ids and rig times are taken."""
+        if not live.supports_requests:
+            raise SourceConfigError(live.name, "resume", "a session resumes only with a source that records "
+                                    "trials on request (sim in operator mode, can, daq)", bag)  # fmt: skip
+        self.live = live
+        self.bag = bag
+        self._pending = recorded_trials(bag)
+        self.recorded_trials = len(self._pending)
+        ids = [t[0].info.trial_id for t in self._pending if isinstance(t[0], TrialStarted)]
+        last = max((ev.stamp_ns for t in self._pending for ev in t if isinstance(ev, (TrialStarted, TrialStopped))),
+                   default=0)  # fmt: skip
+        live.continue_after(ids, last)
+
+    @property
+    def name(self) -> str:  # type: ignore[override]  # the backend the session continues with
+        """The live source's name."""
+        return self.live.name
+
+    @classmethod
+    def from_parameters(cls, parameters: Mapping[str, Any]) -> ResumedSource:
+        """Not built from parameters: the driver wraps its source (``resume``)."""
+        raise SourceConfigError("resume", "source", "not a backend: give the driver's 'resume' parameter", "")
+
+    def describe(self) -> str:
+        """The live source, after the recorded trials."""
+        return f"{self.live.describe()}, after the {self.recorded_trials} recorded trials of {self.bag} (resumed)"
+
+    def silence_hint(self) -> str:
+        """The live source's."""
+        return self.live.silence_hint()
+
+    def poll(self) -> list[SourceEvent]:
+        """The next recorded trial's events (one trial a poll), then the live source's."""
+        if self._pending:
+            return self._pending.pop(0)
+        return self.live.poll()
+
+    def start_trial(self, request: TrialRequest) -> TrialInfo:
+        """The live source's (its START follows the recorded trials)."""
+        return self.live.start_trial(request)
+
+    def stop_trial(self, trial_id: str = "", abort: bool = False) -> TrialStopped:
+        """The live source's."""
+        return self.live.stop_trial(trial_id, abort)
+
+    def close(self) -> None:
+        """Close the live source."""
+        self.live.close()
