@@ -12,7 +12,6 @@
 
 from __future__ import annotations
 
-import math
 import os
 import time
 from collections.abc import Callable
@@ -256,10 +255,3 @@ def _wait(
 
 def _same_stamp(a: Any, b: Any) -> bool:
     return bool(a.header.stamp.sec == b.header.stamp.sec and a.header.stamp.nanosec == b.header.stamp.nanosec)
-
-
-def format_speed(speed: Any) -> str:
-    """A critical speed with σ, or 'none'."""
-    if speed is None or not math.isfinite(speed.speed):
-        return "none"
-    return f"{speed.speed:.3f} ± {speed.sigma:.3f} m/s"

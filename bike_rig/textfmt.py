@@ -6,8 +6,9 @@ The same for terminal tables, figures and the HTML report alike.
 from __future__ import annotations
 
 import math
+from typing import Protocol
 
-__all__ = ["LABELS", "TABLE2_ORDER", "format_value_sigma"]
+__all__ = ["LABELS", "TABLE2_ORDER", "SpeedLike", "format_speed", "format_value_sigma"]
 
 #: Display label and unit of each benchmark parameter (paper Table 2 order).
 LABELS: dict[str, tuple[str, str]] = {
@@ -50,3 +51,48 @@ def format_value_sigma(value: float, sigma: float | None, digits: int = 1) -> tu
     # σ ≥ 10**(digits-1): round both to units, tens, hundreds...
     scale = 10.0 ** (-decimals)
     return f"{round(value / scale) * scale:.0f}", f"{round(sigma / scale) * scale:.0f}"
+
+
+class SpeedLike(Protocol):
+    """A critical speed with its σ, m/s (:class:`~bike_rig.core.uncertainty.speed_sigma.SpeedWithSigma`)."""
+
+    @property
+    def speed(self) -> float:
+        """The speed, m/s."""
+        ...
+
+    @property
+    def sigma(self) -> float:
+        """Its standard uncertainty, m/s (NaN when the root is not simple)."""
+        ...
+
+
+def format_speed(speed: SpeedLike | None, mode: str = "", *, compact: bool = False) -> str:
+    """A weave or capsize speed with its σ for people, the same everywhere: ``4.195 ± 0.045 m/s``.
+
+    σ to two significant digits and the speed to the same place (:func:`format_value_sigma`).
+
+    Args:
+        speed: The speed with σ, m/s; None (or a speed that is not finite) when the bicycle
+            has no such crossing.
+        mode: The speed's name (``weave``, ``capsize``) for the text of an absent one.
+        compact: Without spaces or unit (``4.195±0.045``), for narrow places such as the
+            console's title.
+
+    Returns:
+        ``4.195 ± 0.045 m/s``; ``4.292383 ± 0 m/s (the parameters carry no σ)`` for σ 0;
+        ``4.292383 m/s (σ undefined: not a simple root)`` for a σ that is not finite;
+        ``none (no weave crossing)``, or ``none`` without ``mode``, for no speed. Compact:
+        ``4.195±0.045``, ``4.29238±0``, ``4.29238`` and ``none``.
+    """
+    if speed is None or not math.isfinite(speed.speed):
+        return f"none (no {mode} crossing)" if mode and not compact else "none"
+    if compact:
+        value, sigma = format_value_sigma(speed.speed, speed.sigma, digits=2)
+        return value if sigma == "–" else f"{value}±{sigma}"
+    if not math.isfinite(speed.sigma):
+        return f"{speed.speed:.6f} m/s (σ undefined: not a simple root)"
+    if speed.sigma == 0.0:
+        return f"{speed.speed:.6f} ± 0 m/s (the parameters carry no σ)"
+    value, sigma = format_value_sigma(speed.speed, speed.sigma, digits=2)
+    return f"{value} ± {sigma} m/s"

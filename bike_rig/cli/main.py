@@ -138,7 +138,8 @@ def cmd_demo(args: argparse.Namespace) -> int:
 
     if args.offline:
         return _demo_offline(args.bicycle or str(config_file(DEFAULT_BICYCLE)))
-    from ..demo import format_speed, run_demo
+    from ..demo import run_demo
+    from ..textfmt import format_speed
 
     out = Path(args.out) if args.out else Path("bike_rig_demo") / time.strftime("%Y%m%d-%H%M%S")
     result = run_demo(
@@ -154,8 +155,8 @@ def cmd_demo(args: argparse.Namespace) -> int:
     print(fmt.parameter_table(ps))
     print()
     st = result.stability
-    print(f"weave speed:   {format_speed(st.weave)}")
-    print(f"capsize speed: {format_speed(st.capsize)}")
+    print(f"weave speed:   {format_speed(st.weave, 'weave')}")
+    print(f"capsize speed: {format_speed(st.capsize, 'capsize')}")
     print()
     redo = f"; trials to redo: {', '.join(sorted(result.invalid))}" if result.invalid else ""
     print(f"{result.periods} of {result.trials} trials fitted live in {result.wall_s:.1f} s{redo}")

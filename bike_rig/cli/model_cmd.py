@@ -33,8 +33,9 @@ import numpy as np
 
 from ..core.rider import add_rider
 from ..core.uncertainty.matrix_sigma import MatrixSet, SigmaConvention, canonical_with_sigma
-from ..core.uncertainty.speed_sigma import CriticalSpeedsWithSigma, SpeedWithSigma, critical_speeds_with_sigma
+from ..core.uncertainty.speed_sigma import CriticalSpeedsWithSigma, critical_speeds_with_sigma
 from ..core.whipple import EigenvalueSweep, eigenvalues
+from ..textfmt import format_speed
 from . import format as fmt
 from .common import emit, rider_from_spec
 from .main import _common, _parameters, _speeds
@@ -73,22 +74,11 @@ def model_json(ms: MatrixSet, cs: CriticalSpeedsWithSigma, speeds: np.ndarray, e
     return out
 
 
-def _speed_text(speed: SpeedWithSigma | None, mode: str) -> str:
-    if speed is None:
-        return f"none (no {mode} crossing)"
-    if not math.isfinite(speed.sigma):
-        return f"{speed.speed:.6f} m/s (σ undefined: not a simple root)"
-    if speed.sigma == 0.0:
-        return f"{speed.speed:.6f} ± 0 m/s (the parameters carry no σ)"
-    value, sigma = fmt.format_value_sigma(speed.speed, speed.sigma, digits=2)
-    return f"{value} ± {sigma} m/s"
-
-
 def speeds_text(cs: CriticalSpeedsWithSigma) -> str:
     """The weave and capsize speeds with σ (σ to two significant digits), or why one is absent."""
     return (
-        f"weave speed:   {_speed_text(cs.weave, 'weave')}\n"
-        f"capsize speed: {_speed_text(cs.capsize, 'capsize')}\n"
+        f"weave speed:   {format_speed(cs.weave, 'weave')}\n"
+        f"capsize speed: {format_speed(cs.capsize, 'capsize')}\n"
         f"(σ first order from the parameter covariance, {cs.convention.value} convention)"
     )
 

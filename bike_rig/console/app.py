@@ -23,10 +23,12 @@ from textual.binding import Binding
 from textual.containers import Horizontal, Vertical
 from textual.widgets import DataTable, Footer, Input, RichLog, Sparkline, Static
 
+from ..pipeline.model import StabilitySweep
 from ..session.controller import Reply, SessionController
 from ..session.plan import ItemState, ReadingItem, TrialItem
+from ..textfmt import format_speed
 
-__all__ = ["SessionApp", "run_console"]
+__all__ = ["SessionApp", "run_console", "title_text"]
 
 #: Screen refresh and graph polling period, s.
 TICK_S = 0.05
@@ -39,6 +41,18 @@ _STATE_STYLE = {
     ItemState.DONE: "green",
 }
 _REPLY_STYLE = {"error": "bold red", "warning": "yellow", "result": "bold", "ok": "cyan", "done": "green"}
+
+
+def title_text(bicycle: str, done: int, total: int, speeds: StabilitySweep | None) -> str:
+    """The title line: bicycle, progress and, once there, both speeds with σ (compact: 80 columns).
+
+    E.g. ``bike_rig · Browser · 68/68 done  weave 4.195±0.045  capsize 4.350±0.064 m/s``.
+    """
+    title = f"bike_rig · {bicycle} · {done}/{total} done"
+    if speeds is None or speeds.weave is None or speeds.capsize is None:
+        return title
+    weave, capsize = format_speed(speeds.weave, compact=True), format_speed(speeds.capsize, compact=True)
+    return f"{title}  weave {weave}  capsize {capsize} m/s"
 
 
 class SessionApp(App[int]):
@@ -128,13 +142,8 @@ class SessionApp(App[int]):
                 table.update_cell(item_id, "state", Text(state.value, style=_STATE_STYLE[state]))
         done, total = self.ctl.session.progress()
         s = self.ctl.session
-        result = ""
-        if s.complete and s.stability is not None and s.stability.weave is not None and s.stability.capsize is not None:
-            w, c = s.stability.weave, s.stability.capsize
-            result = f"  weave {w.speed:.3f}±{w.sigma:.3f}  capsize {c.speed:.3f}±{c.sigma:.3f} m/s"
-        self.query_one("#title", Static).update(
-            Text(f"bike_rig · {s.bicycle} · {done}/{total} done{result}", style="bold reverse")
-        )
+        speeds = s.stability if s.complete else None
+        self.query_one("#title", Static).update(Text(title_text(s.bicycle, done, total, speeds), style="bold reverse"))
 
     def _refresh_side(self) -> None:
         s = self.ctl.session
