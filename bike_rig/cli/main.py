@@ -167,22 +167,21 @@ def cmd_demo(args: argparse.Namespace) -> int:
 def _demo_offline(path: str) -> int:
     from ..core.rider import PAPER_RIDER, add_rider
     from ..core.uncertainty.matrix_sigma import canonical_with_sigma
-    from ..core.whipple import critical_speeds
+    from ..core.uncertainty.speed_sigma import critical_speeds_with_sigma
     from . import format as fmt
+    from .model_cmd import speeds_text
 
     ps = _parameters(path, "centroid")
+    ridden = add_rider(ps, PAPER_RIDER)
     ms = canonical_with_sigma(ps)
-    cs = critical_speeds(ms.matrices, ms.g)
-    rider_ms = canonical_with_sigma(add_rider(ps, PAPER_RIDER))
-    rider_cs = critical_speeds(rider_ms.matrices, rider_ms.g)
     print(fmt.parameter_table(ps))
     print()
     print(fmt.matrix_table(ms))
     print()
-    print(fmt.speeds_summary(cs))
+    print(speeds_text(critical_speeds_with_sigma(ps, matrices=ms)))
     print()
     print("with the paper's rigid rider (Table 1):")
-    print(fmt.speeds_summary(rider_cs))
+    print(speeds_text(critical_speeds_with_sigma(ridden)))
     return 0
 
 

@@ -1,0 +1,32 @@
+"""``bike-rig demo``: the offline speeds carry σ as ``model``'s do (issue 11)."""
+
+from __future__ import annotations
+
+import pytest
+
+from bike_rig.cli.main import main
+from bike_rig.paths import config_dir
+
+BROWSER_YAML = config_dir() / "bicycles" / "browser.yaml"
+
+
+def run(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
+    code = main(list(argv))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def _speed_lines(out: str) -> list[str]:
+    return [line for line in out.splitlines() if line.startswith(("weave speed:", "capsize speed:"))]
+
+
+def test_the_offline_demo_gives_the_speeds_with_models_sigma(capsys: pytest.CaptureFixture[str]) -> None:
+    """Without and with the paper's rider, the same lines as ``bike-rig model`` (same propagation, same text)."""
+    code, out, _ = run(capsys, "demo", "--offline")
+    assert code == 0
+    _, plain, _ = run(capsys, "model", str(BROWSER_YAML))
+    _, ridden, _ = run(capsys, "model", str(BROWSER_YAML), "--rider", "paper")
+    expected = _speed_lines(plain) + _speed_lines(ridden)
+    assert len(expected) == 4 and all(" ± " in line for line in expected)
+    assert _speed_lines(out) == expected
+    assert out.index("with the paper's rigid rider") < out.index(expected[2])
