@@ -149,8 +149,11 @@ def run_demo(
             after every poll (fault-injection tests kill and restart nodes from it).
 
     Raises:
+        DomainIdError: ``ROS_DOMAIN_ID`` is set to something that is not a domain id (checked
+            first, before anything is simulated or written).
         DemoError: a node died, or the session did not complete in time.
     """
+    env = ros_environment(os.environ)
     bicycle = bicycle or config_file("bicycles/browser.yaml")
     out_dir.mkdir(parents=True, exist_ok=True)
     if any(out_dir.iterdir()):
@@ -174,7 +177,6 @@ def run_demo(
             },
         }
     )
-    env = ros_environment(os.environ)
     os.environ.update({k: env[k] for k in ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_DOMAIN_ID", "RMW_IMPLEMENTATION")})
     t0 = time.monotonic()
     with RunningGraph(graph, out_dir / "logs", domain_id=int(env["ROS_DOMAIN_ID"])) as running:
