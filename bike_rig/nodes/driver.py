@@ -60,7 +60,7 @@ from ..sources import (
 )
 from ..sources.base import FloatArray
 from ..sources.errors import SourceError
-from ..sources.resume import ResumedSource
+from ..sources.resume import DEFAULT_RESUME_TIME_SCALE, ResumedSource
 from ..sources.silence import DEFAULT_SILENCE_S, SilenceWatch
 from ..topics import GYRO, START_TRIAL, STOP_TRIAL, TRIAL_EVENTS
 from .params import declare_parameters
@@ -87,6 +87,9 @@ COMMON_PARAMETERS: tuple[ParamSpec, ...] = (
               (0, 100)),  # fmt: skip
     ParamSpec("resume", "", "an interrupted session's bag: its recorded trials are streamed first, and new trial ids "
               "continue after them (bike-rig session --resume)"),  # fmt: skip
+    ParamSpec("resume_time_scale", DEFAULT_RESUME_TIME_SCALE,
+              "how fast the recorded trials of 'resume' are streamed, rig seconds per wall second",
+              (1.0, 10_000.0)),  # fmt: skip
     ParamSpec("silence_warning_s", DEFAULT_SILENCE_S,
               "warn when a recording trial has had no samples this long, s (wall clock)", (0.05, 60.0)),  # fmt: skip
 )
@@ -138,7 +141,8 @@ class DriverNode(Node):
         self.wait_for = int(self.values["wait_for_subscribers"])
         self.source: GyroSource = open_source(self.values["source"], self.values)
         if self.values["resume"]:
-            self.source = ResumedSource(str(self.values["resume"]), self.source)
+            scale = float(self.values["resume_time_scale"])
+            self.source = ResumedSource(str(self.values["resume"]), self.source, scale)
         self.gyro_pub = self.create_publisher(_msgs.GyroBatch, GYRO.name, profile(GYRO))
         self.events_pub = self.create_publisher(_msgs.TrialEvent, TRIAL_EVENTS.name, profile(TRIAL_EVENTS))
         self.start_srv = self.create_service(_srvs.StartTrial, START_TRIAL, self._on_start_trial)

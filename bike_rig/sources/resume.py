@@ -9,6 +9,11 @@ again, the recorder records them into the new bag (which then holds the whole se
 console sees them as the session's first trials. A trial left open (the session ended while it
 recorded) is closed with ABORT after its last recorded sample.
 
+They are paced: back to back, at ``time_scale`` rig seconds per wall second (the driver's
+``resume_time_scale``). Unpaced, a whole session's batches (hundreds of thousands) would queue
+behind their STOP events at the fitter, which waits only ``grace_s`` for a stopped trial's
+missing batches.
+
 The live source is told the recorded trial ids (:meth:`~bike_rig.sources.base.GyroSource.continue_after`):
 new ids never reuse them, and the simulated rig continues its noise streams and its rig time
 where the interrupted session stopped, so a resumed session records what the uninterrupted one
@@ -17,7 +22,10 @@ would have.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import math
+import time
+from collections import deque
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import numpy as np
@@ -29,7 +37,12 @@ from ..pipeline.acquire import TrialEventKind, sample_stamp_ns
 from .base import GyroSource, SampleBlock, SourceEvent, TrialInfo, TrialRequest, TrialStarted, TrialStopped
 from .errors import SourceConfigError
 
-__all__ = ["ResumedSource", "recorded_trials"]
+__all__ = ["DEFAULT_RESUME_TIME_SCALE", "ResumedSource", "recorded_trials"]
+
+#: How fast the recorded trials are streamed again, rig seconds per wall second: as fast as the
+#: live graph follows a simulated session (the tests' sessions run at 150) with room to spare;
+#: the fitter gives a stopped trial only ``grace_s`` for batches still queued behind others.
+DEFAULT_RESUME_TIME_SCALE = 100.0
 
 
 def _trial_events(trial: RecordedTrial) -> list[SourceEvent]:
@@ -79,12 +92,33 @@ def recorded_trials(bag: str) -> list[list[SourceEvent]]:
     return [_trial_events(t) for t in started_trials(session)]
 
 
+def _paced(trials: list[list[SourceEvent]], time_scale: float) -> list[tuple[float, SourceEvent]]:
+    """Each recorded event with when it is due, s of wall time from the first poll.
+
+    Back to back: a block is due once the samples before it have taken their rig time divided
+    by ``time_scale`` (a trial's STOP after its last block), the pauses between trials skipped.
+    """
+    out: list[tuple[float, SourceEvent]] = []
+    t = 0.0
+    for events in trials:
+        first = events[0]
+        rate = first.info.sample_rate_hz if isinstance(first, TrialStarted) else math.nan
+        per_sample = 1.0 / (rate * time_scale) if rate > 0 else 0.0
+        for ev in events:
+            out.append((t, ev))
+            if isinstance(ev, SampleBlock):
+                t += ev.rates.size * per_sample
+    return out
+
+
 class ResumedSource(GyroSource):
     """The recorded trials of ``bag``, then ``live`` (see the module docstring).
 
     Args:
         bag: The interrupted session's bag.
         live: The source the session continues with; it must record trials on request.
+        time_scale: How fast the recorded trials are streamed: rig seconds per wall second.
+        monotonic: The wall clock, s.
 
     Raises:
         SourceConfigError: The bag cannot be read, or ``live`` walks its own plan.
@@ -92,17 +126,27 @@ class ResumedSource(GyroSource):
 
     supports_requests = True
 
-    def __init__(self, bag: str, live: GyroSource):
+    def __init__(
+        self,
+        bag: str,
+        live: GyroSource,
+        time_scale: float = DEFAULT_RESUME_TIME_SCALE,
+        monotonic: Callable[[], float] = time.monotonic,
+    ):
         """Read the bag's trials now; tell ``live`` which ids and rig times are taken."""
         if not live.supports_requests:
             raise SourceConfigError(live.name, "resume", "a session resumes only with a source that records "
                                     "trials on request (sim in operator mode, can, daq)", bag)  # fmt: skip
         self.live = live
         self.bag = bag
-        self._pending = recorded_trials(bag)
-        self.recorded_trials = len(self._pending)
-        ids = [t[0].info.trial_id for t in self._pending if isinstance(t[0], TrialStarted)]
-        last = max((ev.stamp_ns for t in self._pending for ev in t if isinstance(ev, (TrialStarted, TrialStopped))),
+        self.time_scale = time_scale
+        self._monotonic = monotonic
+        trials = recorded_trials(bag)
+        self.recorded_trials = len(trials)
+        self._pending = deque(_paced(trials, time_scale))
+        self._t0: float | None = None
+        ids = [t[0].info.trial_id for t in trials if isinstance(t[0], TrialStarted)]
+        last = max((ev.stamp_ns for t in trials for ev in t if isinstance(ev, (TrialStarted, TrialStopped))),
                    default=0)  # fmt: skip
         live.continue_after(ids, last)
 
@@ -124,11 +168,22 @@ class ResumedSource(GyroSource):
         """The live source's."""
         return self.live.silence_hint()
 
+    @property
+    def replaying(self) -> bool:
+        """Recorded events are still to come."""
+        return bool(self._pending)
+
     def poll(self) -> list[SourceEvent]:
-        """The next recorded trial's events (one trial a poll), then the live source's."""
-        if self._pending:
-            return self._pending.pop(0)
-        return self.live.poll()
+        """The recorded events due by now (paced, see the module docstring), then the live source's."""
+        if not self._pending:
+            return self.live.poll()
+        now = self._monotonic()
+        if self._t0 is None:
+            self._t0 = now
+        due: list[SourceEvent] = []
+        while self._pending and self._pending[0][0] <= now - self._t0:
+            due.append(self._pending.popleft()[1])
+        return due
 
     def start_trial(self, request: TrialRequest) -> TrialInfo:
         """The live source's (its START follows the recorded trials)."""
