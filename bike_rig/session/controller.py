@@ -32,12 +32,14 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
+from ..core.period.advice import flag_advice
 from ..core.symbols import PARAMETER_NAMES
 from ..pipeline.acquire import SampleBatch, TrialEventRecord
 from ..pipeline.assemble import SessionParameters
 from ..pipeline.fit import TrialFit
 from ..pipeline.model import StabilitySweep
 from ..pipeline.readings import ReadingEntry
+from ..textfmt import format_speed
 from .plan import ItemState, ReadingItem, TrialItem
 from .state import OperatorSession
 
@@ -107,10 +109,7 @@ class CommandError(Exception):
 
 
 def _speed(name: str, s: Any) -> str:
-    if s is None:
-        return f"{name}: none"
-    sigma = f" ± {s.sigma:.2g}" if math.isfinite(s.sigma) else ""
-    return f"{name} {s.speed:.4g}{sigma} m/s"
+    return f"{name} {format_speed(s, name)}"
 
 
 @dataclass
@@ -396,6 +395,7 @@ def _fit_data(fit: TrialFit, state: str) -> dict[str, Any]:
         "r2": fit.fit.r2,
         "flags": list(fit.flag_codes),
         "reasons": list(fit.flag_reasons),
+        "advice": [flag_advice(c) for c in fit.flag_codes],
         "state": state,
     }
 

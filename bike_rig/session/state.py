@@ -21,6 +21,7 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
+from ..core.period.advice import flag_advice
 from ..pipeline.acquire import SampleBatch, TrialEventKind, TrialEventRecord
 from ..pipeline.assemble import SessionParameters
 from ..pipeline.fit import TrialFit
@@ -65,7 +66,11 @@ def _cycles(fit: TrialFit, rate_hz: float) -> float:
 
 
 def result_line(view: SessionTrialView) -> str:
-    """The trial's result in one line: period ± σ, cycles, r², then ok or REDO with every flag's reason."""
+    """The trial's result in one line: period ± σ, cycles, r², then ok, or REDO with every flag's reason and advice.
+
+    A flag reads ``code: reason → advice`` (:func:`~bike_rig.core.period.advice.flag_advice`,
+    the advice ``bike-rig run`` prints too).
+    """
     fit = view.fit
     head = f"{view.item_id or view.key} {view.trial_id}:"
     if fit is None:
@@ -78,7 +83,10 @@ def result_line(view: SessionTrialView) -> str:
     )
     if fit.usable:
         return f"{head} {numbers} — ok"
-    reasons = "; ".join(f"{c}: {r}" for c, r in zip(fit.flag_codes, fit.flag_reasons, strict=True)) or "no period"
+    reasons = "; ".join(
+        f"{c}: {r} → {flag_advice(c)}" for c, r in zip(fit.flag_codes, fit.flag_reasons, strict=True)
+    )
+    reasons = reasons or "no period"
     return f"{head} {numbers} — REDO ({reasons})"
 
 

@@ -197,3 +197,50 @@ def test_plain_mode_reads_commands_and_writes_json_lines(ctl_link) -> None:  # t
     assert any(x.get("trial_id") and x.get("command") == "start" for x in lines)
     assert any(x["kind"] == "error" and "unknown command 'bogus'" in x["text"] for x in lines)
     assert kinds[-1] == "done"
+
+
+def test_a_flagged_result_gives_each_flag_its_reason_and_advice(ctl_link) -> None:  # type: ignore[no-untyped-def]
+    from bike_rig.core.period.advice import flag_advice
+
+    ctl, link, _ = ctl_link
+    first = ctl.session.plan.trials[0]
+    ctl.execute("start")
+    link.period(link.started[0][0], first.key, 1.2, 1e-4, flags=("beating", "too_few_cycles"))
+    result = next(r for r in ctl.pump() if r.kind == "result")
+    for code in ("beating", "too_few_cycles"):
+        assert f"{code}: {code} reason → {flag_advice(code)}" in result.text
+    assert result.data["advice"] == [flag_advice("beating"), flag_advice("too_few_cycles")]
+    assert flag_advice("beating") != flag_advice("too_few_cycles") != "redo the trial"
+
+
+def test_a_resumed_session_starts_nothing_until_its_recorded_trials_are_back(ctl_link) -> None:  # type: ignore[no-untyped-def]
+    from bike_rig.pipeline.acquire import TrialEventKind, TrialEventRecord
+    from bike_rig.pipeline.readings import ReadingEntry
+
+    ctl, link, _ = ctl_link
+    items = ctl.session.plan.trials[:2]
+    ids = [f"recorded_{i}" for i in range(2)]
+    entries = [ReadingEntry("mR", 3.0, 0.02, stamp_ns=1), ReadingEntry("mR", 3.02, 0.02, stamp_ns=2)]
+    ctl.resume(ids, entries, "2 trials and 2 readings from old")
+    assert link.entries == entries  # published again, as they were
+    first = ctl.pump()
+    assert first[0].data == {"resuming": [0, 2]} and "old" in first[0].text
+    refused = ctl.execute("start")
+    assert refused[0].kind == "error" and "still coming back (0/2)" in refused[0].text
+    assert not link.started
+    assert any(r.data.get("resuming") == [0, 2] for r in ctl.execute("status"))
+    # the driver streams them: START, then their results (the first one flagged)
+    for trial_id, item in zip(ids, items, strict=True):
+        link.events_out.append(TrialEventRecord(TrialEventKind.START, trial_id, item.key, repeat=item.repeat,
+                                                sample_rate_hz=1000.0))  # fmt: skip
+    link.period(ids[0], items[0].key, 1.2, 1e-4, flags=("beating",))
+    assert not any("resumed" in r.data for r in ctl.pump())
+    assert ctl.execute("start")[0].kind == "error"
+    link.period(ids[1], items[1].key, 1.2, 1e-4)
+    back = [r for r in ctl.pump() if "resumed" in r.data]
+    assert len(back) == 1 and back[0].data["resumed"] == 2
+    assert ctl.session.state(items[0]) == ItemState.REDO and ctl.session.state(items[1]) == ItemState.OK
+    assert ctl.session.reading("mR").value == 3.02  # type: ignore[union-attr]
+    started = ctl.execute("start")
+    assert started[0].kind == "ok" and started[0].data["item"] == items[0].item_id  # the redo first
+    assert not any("resumed" in r.data for r in ctl.pump())  # announced once
