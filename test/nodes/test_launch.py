@@ -29,6 +29,14 @@ def _reports(tmp_path: Path, n: int, timeout_s: float = 20.0) -> list[dict[str, 
     raise AssertionError(f"only {len(list(tmp_path.glob('*.json')))} of {n} fake nodes reported")
 
 
+def _running(pid: int) -> bool:
+    """Whether ``pid`` runs (a zombie that no one has reaped yet has ended)."""
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except (OSError, IndexError):
+        return False
+
+
 def test_nodes_get_localhost_and_the_runs_domain_id(tmp_path: Path) -> None:
     graph = Graph(
         (
@@ -102,3 +110,41 @@ def test_graph_file_and_errors(tmp_path: Path) -> None:
 def test_string_parameters_that_look_like_numbers_are_quoted() -> None:
     cmd = NodeSpec("a", "m", None, {"s": "5", "t": True, "u": "true"}).command()
     assert cmd[-6:] == ["-p", 's:="5"', "-p", "t:=true", "-p", 'u:="true"']
+
+
+def test_the_nodes_end_with_their_launcher_however_it_dies(tmp_path: Path) -> None:
+    """A SIGKILLed launcher (a console, ``bike-rig run``) leaves no node running: each gets SIGTERM."""
+    import os
+    import signal
+    import subprocess
+    import sys
+
+    launcher = (
+        "import sys, time\n"
+        "from pathlib import Path\n"
+        "from bike_rig.launch import Graph, NodeSpec, RunningGraph\n"
+        "g = Graph((NodeSpec('a', 'test.nodes.fake_node'), NodeSpec('b', 'test.nodes.fake_node')))\n"
+        f"RunningGraph(g, Path({str(tmp_path / 'logs')!r}), env={_env(tmp_path)!r}).start()\n"
+        "print('started', flush=True)\n"
+        "time.sleep(600)\n"
+    )
+    with subprocess.Popen([sys.executable, "-c", launcher], stdout=subprocess.PIPE, text=True, cwd=REPO,
+                          env={**os.environ, "PYTHONPATH": str(REPO)}) as proc:  # fmt: skip
+        try:
+            assert proc.stdout is not None and proc.stdout.readline() == "started\n"
+            reports = _reports(tmp_path, 2)
+            pids = [int(f.stem) for f in sorted(tmp_path.glob("*.json"))]
+            assert len(reports) == len(pids) == 2
+            proc.send_signal(signal.SIGKILL)
+            proc.wait(10)
+            deadline = time.monotonic() + 10
+            while time.monotonic() < deadline and any(_running(p) for p in pids):
+                time.sleep(0.05)
+            alive = [p for p in pids if _running(p)]
+        finally:
+            for f in tmp_path.glob("*.json"):
+                try:
+                    os.kill(int(f.stem), signal.SIGKILL)
+                except ProcessLookupError:
+                    pass
+    assert alive == []
