@@ -14,6 +14,7 @@ from ..bag.resume import ResumePoint, resume_point
 from ..core.errors import BikeRigError
 from ..core.sim import load_rig, load_true_parameters
 from ..core.sim.rig import RigConfig
+from ..graphwatch import NodeWatch
 from ..launch import LaunchError, RunningGraph, load_graph, parse_overrides
 from ..paths import config_file
 from ..rosenv import check_domain_id
@@ -128,6 +129,13 @@ def _checked(args: argparse.Namespace) -> tuple[RigConfig, str, str]:
     return rig, args.name or load_true_parameters(bicycle_file)[0], bicycle_file
 
 
+def _node_watch(graph: RunningGraph, folder: Path) -> NodeWatch:
+    """The session's watch of its nodes: the driver's or the recorder's death ends it (resume it)."""
+    then = f"quit, then continue it with 'bike-rig session --resume {folder}'"
+    hints = {"driver": f"the session cannot go on: {then}", "recorder": f"nothing more is recorded: {then}"}
+    return NodeWatch(graph, hints=hints)
+
+
 def _end_on(started: list[RunningGraph]) -> Callable[[int, object], None]:
     """A SIGTERM/SIGHUP handler: stop the graph (recorder last, the bag closed), then leave.
 
@@ -184,6 +192,8 @@ def run(args: argparse.Namespace) -> int:
         link = SessionLink()
         try:
             ctl = build_controller(rig, name, link, args.source)
+            if graph is not None:
+                ctl.watch = _node_watch(graph, folder)
             if resume is not None:
                 ctl.resume(resume.trial_ids, resume.entries, resume.describe())
             if args.plain:
@@ -191,7 +201,7 @@ def run(args: argparse.Namespace) -> int:
             else:
                 from ..console.app import run_console
 
-                status = run_console(ctl, graph)
+                status = run_console(ctl)
         finally:
             link.close()
     except (LaunchError, BikeRigError) as exc:

@@ -15,7 +15,6 @@ Every command of plain mode can be typed on the command line (``help`` lists the
 from __future__ import annotations
 
 import math
-from typing import Any
 
 from rich.text import Text
 from textual.app import App, ComposeResult
@@ -76,14 +75,12 @@ class SessionApp(App[int]):
         Binding("f10", "quit_session", "quit"),
     ]
 
-    def __init__(self, controller: SessionController, graph: Any = None) -> None:
-        """Show ``controller``'s session; ``graph`` (a RunningGraph or None) is watched for dead nodes."""
+    def __init__(self, controller: SessionController) -> None:
+        """Show ``controller``'s session (its pump also says which of the graph's nodes died)."""
         super().__init__()
         self.ctl = controller
-        self.graph = graph
         self.offer = ""
         self._states: dict[str, ItemState] = {}
-        self._dead_reported: set[str] = set()
 
     def compose(self) -> ComposeResult:
         """The widgets (see the module docstring)."""
@@ -132,7 +129,6 @@ class SessionApp(App[int]):
         self._show(self.ctl.pump())
         self._refresh_plan()
         self._refresh_side()
-        self._check_graph()
 
     def _refresh_plan(self) -> None:
         table = self.query_one("#plan", DataTable)
@@ -171,16 +167,6 @@ class SessionApp(App[int]):
         for w in live.warnings:
             text.append(f"⚠ {w}\n", style="bold red")
         self.query_one("#live", Static).update(text)
-
-    def _check_graph(self) -> None:
-        if self.graph is None:
-            return
-        for name, code, tail in self.graph.dead():
-            if name not in self._dead_reported:
-                self._dead_reported.add(name)
-                self._show(
-                    [Reply("error", f"node {name} exited with status {code}: {tail.splitlines()[-1] if tail else ''}")]
-                )
 
     # ------------------------------------------------------------------ actions
     def on_input_submitted(self, event: Input.Submitted) -> None:
@@ -223,7 +209,7 @@ class SessionApp(App[int]):
         self._show(self.ctl.execute("quit"))
 
 
-def run_console(controller: SessionController, graph: Any = None) -> int:
+def run_console(controller: SessionController) -> int:
     """Run the console until the operator quits; its exit status."""
-    status = SessionApp(controller, graph).run()
+    status = SessionApp(controller).run()
     return int(status or 0)

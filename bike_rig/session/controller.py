@@ -123,6 +123,8 @@ class SessionController:
         check_reading: ``(key, value_text, sigma_text, session) -> (ReadingEntry, warnings)``;
             raises ``ValueError`` with a one-line reason for a reading that cannot be taken.
         rank: ``(session) -> [(item_id, text)]``, best first: the next-best measurements.
+        watch: ``() -> [(node, line)]``: the graph's nodes that died since the last call
+            (:class:`~bike_rig.graphwatch.NodeWatch`), said as errors by :meth:`pump`.
     """
 
     session: OperatorSession
@@ -130,6 +132,7 @@ class SessionController:
     check_reading: Callable[[str, str, str, OperatorSession], tuple[ReadingEntry, list[str]]]
     rank: Callable[[OperatorSession], list[tuple[str, str]]] = lambda _s: []
     clock: Callable[[], float] = time.monotonic
+    watch: Callable[[], list[tuple[str, str]]] = lambda: []
     quit_requested: bool = False
     _warned: set[str] = field(default_factory=set)
     _announced: tuple[float, ...] = ()
@@ -353,7 +356,7 @@ class SessionController:
         return out
 
     def pump(self) -> list[Reply]:
-        """Apply what the graph published; replies for new results, warnings and completion."""
+        """Apply what the graph published; replies for new results, warnings, dead nodes and completion."""
         out, self._pending = self._pending, []
         now = self.clock()
         s = self.session
@@ -376,6 +379,7 @@ class SessionController:
                 if not any(e.stamp_ns == ev.stamp_ns and e.value == ev.value for e in s.readings.get(ev.key, [])):
                     s.on_reading(ev)
         out += self._new_warnings(now)
+        out += [Reply("error", line, {"node": node}) for node, line in self.watch()]
         out += self._resume_replies()
         if s.complete and s.stability is not None:
             sw, sc = s.stability.weave, s.stability.capsize
