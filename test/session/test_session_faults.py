@@ -1,0 +1,114 @@
+"""Nodes SIGKILLed under a plain session (real node processes), each in turn.
+
+The fitter, the parameter and the model nodes are killed mid-session: the session says so in
+one line each, restarts them, and goes on to the same results (their inputs come back from the
+topics' transient-local history). The driver is killed last: the line says to resume, and
+``--resume`` continues the session from its bag with every trial recorded before.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import queue
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+from typing import IO, Any
+
+from test.support.sessions import kill_session, session_pids
+
+BIKE_RIG = Path(sys.executable).parent / "bike-rig"
+ITEMS = ["TcR1#1", "TcR1#2", "TcR1#3", "TtR1#1", "TtR1#2", "TtR1#3"]
+
+
+class Session:
+    """A plain --json session driven line by line."""
+
+    def __init__(self, argv: list[str], env: dict[str, str]) -> None:
+        self.proc = subprocess.Popen(argv, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, env=env)
+        self.replies: queue.Queue[dict[str, Any]] = queue.Queue()
+        self.seen: list[dict[str, Any]] = []
+        assert self.proc.stdout is not None
+        threading.Thread(target=self._read, args=(self.proc.stdout,), daemon=True).start()
+
+    def _read(self, stream: IO[str]) -> None:
+        for line in stream:
+            self.replies.put(json.loads(line))
+
+    def send(self, line: str) -> None:
+        assert self.proc.stdin is not None
+        self.proc.stdin.write(line + "\n")
+        self.proc.stdin.flush()
+
+    def until(self, what: Any, timeout_s: float = 60) -> dict[str, Any]:
+        """The first reply from now on for which ``what(reply)`` holds."""
+        while True:
+            reply = self.replies.get(timeout=timeout_s)
+            self.seen.append(reply)
+            if what(reply):
+                return reply
+
+    def trial(self, item: str) -> dict[str, Any]:
+        """Start ``item``; its result."""
+        self.send(f"start {item}")
+        started = self.until(lambda r: r.get("command") == "start")
+        assert started["kind"] == "ok", started
+        return self.until(lambda r: r["kind"] == "result" and r.get("trial_id") == started["trial_id"])
+
+    def close(self) -> None:
+        self.proc.kill()
+        self.proc.wait(10)
+        for stream in (self.proc.stdin, self.proc.stdout):
+            if stream is not None:
+                stream.close()
+
+
+def test_killed_nodes_are_said_restarted_and_a_killed_driver_resumed(tmp_path: Path, ros_env: dict[str, str]) -> None:
+    a, b = tmp_path / "a", tmp_path / "b"
+    common = [str(BIKE_RIG), "session", "--plain", "--json", "--time-scale", "150", "--seed", "5"]
+    s = Session([*common, "--output", str(a)], ros_env)
+    try:
+        results = [s.trial(ITEMS[0])]
+        pids = session_pids(a)
+        for node, item in zip(("fitter", "parameter", "model"), ITEMS[1:4], strict=True):
+            os.kill(pids[node], signal.SIGKILL)
+            said = s.until(lambda r, node=node: r.get("node") == node)  # type: ignore[misc]
+            assert said["kind"] == "error" and "killed by SIGKILL" in said["text"] and "restarted" in said["text"]
+            assert len(said["text"].splitlines()) == 1
+            results.append(s.trial(item))
+        assert all(r["state"] == "ok" for r in results), results
+        # the restarted parameter and model nodes: the rear wheel's keys are no longer missing
+        deadline = time.monotonic() + 20
+        while True:
+            s.send("status")
+            missing = s.until(lambda r: "missing" in r)["missing"]
+            if ("TcR1" not in missing and "TtR1" not in missing) or time.monotonic() > deadline:
+                break
+            time.sleep(0.2)
+        assert "TcR1" not in missing and "TtR1" not in missing and "TtP1" in missing, missing
+        os.kill(pids["driver"], signal.SIGKILL)
+        said = s.until(lambda r: r.get("node") == "driver")
+        assert "--resume" in said["text"] and str(a) in said["text"]
+        s.send("quit")
+        assert s.proc.wait(30) == 0
+    finally:
+        s.close()
+        kill_session(a)
+
+    stdin = "wait 60\nstart TtR1#3\nwait 60\nstatus\nquit\n"
+    try:
+        done = subprocess.run([*common, "--output", str(b), "--resume", str(a)], input=stdin, capture_output=True,
+                              text=True, timeout=300, env=ros_env)  # fmt: skip
+    finally:
+        kill_session(b)
+    lines = [json.loads(x) for x in done.stdout.splitlines()]
+    assert done.returncode == 0, (done.stderr[-2000:], lines)
+    back = [x for x in lines if x["kind"] == "result"]
+    assert [x["period"] for x in back[:4]] == [r["period"] for r in results]  # the same trials, fitted again
+    assert back[4]["key"] == "TtR1" and back[4]["state"] == "ok"
+    progress = next(x for x in lines if "done" in x)
+    assert progress["done"] == 5
