@@ -32,6 +32,7 @@ Run: ``python -m bike_rig.nodes.recorder --ros-args -p output:=session1`` (or
 
 from __future__ import annotations
 
+import contextlib
 import importlib
 import os
 import signal
@@ -168,6 +169,8 @@ class Recorder(Node):
         self.writer.open()
         self.received = 0
         self.errors = 0
+        self.failed: OSError | None = None
+        self.dropped = 0
         self._closed = False
         for topic in self.topics:
             self.create_subscription(
@@ -197,10 +200,33 @@ class Recorder(Node):
         received = time.time_ns()
         sent = int(info.get("source_timestamp") or 0) or received
         sequence = int(info.get("publication_sequence_number") or 0)
-        if not self.writer.has_topic(topic.name):
-            self._add_channel(topic, first=True)
-        self.writer.write(topic.name, received, bytes(data), sent, sequence)
         self.received += 1
+        if self.failed is not None:
+            self.dropped += 1
+            return
+        try:
+            if not self.writer.has_topic(topic.name):
+                self._add_channel(topic, first=True)
+            self.writer.write(topic.name, received, bytes(data), sent, sequence)
+        except OSError as exc:
+            self.dropped += 1
+            self._fail(exc)
+
+    def _fail(self, exc: OSError) -> None:
+        """The bag cannot be written any more (disk full, read-only, removed): say so once, stop.
+
+        The file is left as a crash leaves it (:meth:`BagWriter.abort`): every chunk flushed
+        before is recoverable. The node stays up (the graph goes on computing) and counts what
+        it receives from now on without recording it.
+        """
+        self.failed = exc
+        with contextlib.suppress(OSError):
+            self.writer.abort()
+        self.get_logger().error(
+            f"recording stopped: cannot write {self.writer.path}: {exc.strerror or exc} (errno {exc.errno}) after "
+            f"{self.received - 1} messages; the chunks flushed before are recoverable with 'bike-rig bag recover "
+            f"{self.writer.path}'; the graph goes on, and what arrives from now on is counted, not recorded"
+        )
 
     def _add_channel(self, topic: contract.Topic, first: bool) -> None:
         publishers = self.get_publishers_info_by_topic(topic.name)
@@ -211,17 +237,31 @@ class Recorder(Node):
 
     def tick(self) -> None:
         """Flush the chunk in progress if it is due (called by the spin loop)."""
+        if self.failed is not None:
+            return
         try:
             self.writer.flush_if_due()
+        except OSError as exc:
+            self._fail(exc)
         except Exception as exc:
             self.errors += 1
             self.get_logger().error(f"flush failed: {exc!r}")
 
-    def close(self) -> None:
-        """Add the silent topics and close the bag (summary, footer, metadata.yaml)."""
+    def close(self) -> bool:
+        """Add the silent topics and close the bag (summary, footer, metadata.yaml).
+
+        Returns:
+            False when the bag could not be written to the end (:meth:`_fail`).
+        """
         if self._closed:
-            return
+            return self.failed is None
         self._closed = True
+        if self.failed is not None:
+            self.get_logger().error(
+                f"{self.dropped} message(s) not recorded after recording stopped ({self.failed.strerror}); "
+                f"the bag needs 'bike-rig bag recover {self.writer.path}'"
+            )
+            return False
         for topic in self.topics:
             if not self.writer.has_topic(topic.name):
                 self._add_channel(topic, first=False)
@@ -230,6 +270,7 @@ class Recorder(Node):
         self.get_logger().info(f"closed {self.writer.path}: {self.writer.message_count} messages ({summary})")
         if self.errors:
             self.get_logger().error(f"{self.errors} message(s) could not be recorded")
+        return True
 
 
 def _spin_until_idle(executor: SingleThreadedExecutor, node: Recorder) -> None:
@@ -267,8 +308,7 @@ def main(args: Sequence[str] | None = None) -> int:
             node.tick()
         if rclpy.ok():
             _spin_until_idle(executor, node)
-        node.close()
-        return 0
+        return 0 if node.close() else 1
     except BikeRigError as exc:
         print(f"{NODE_NAME}: error: {exc}", file=sys.stderr)
         return EXIT_USER_ERROR

@@ -203,3 +203,52 @@ def test_bad_parameters_end_in_one_line(ros_env: dict[str, str], tmp_path: Path,
     assert code == 2
     assert rec.stderr_path.read_text().strip().splitlines()[-1].startswith(f"recorder: error: {reason}")
     assert not bag.exists()
+
+
+@pytest.fixture
+def small_disk(tmp_path: Path) -> Any:
+    """A 256 kB tmpfs the test mounts (root is needed; CI and the developers' machines run as root)."""
+    import subprocess
+
+    mnt = tmp_path / "disk"
+    mnt.mkdir()
+    done = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=256k", "tmpfs", str(mnt)], capture_output=True)
+    if done.returncode != 0:
+        pytest.skip(f"cannot mount a tmpfs here: {done.stderr.decode().strip()}")
+    try:
+        yield mnt
+    finally:
+        subprocess.run(["umount", "-l", str(mnt)], check=False)
+
+
+def test_a_full_disk_stops_recording_in_one_line_keeps_the_bag_recoverable_and_the_node_up(
+    ros_env: dict[str, str], tmp_path: Path, small_disk: Path
+) -> None:
+    env = _env(ros_env)
+    bag = small_disk / "bag"
+    spec = {"early": {STATIC_READINGS.name: 1}, "live": {GYRO.name: 0}, "rate_hz": 400.0, "until_stop": True}
+    with _publisher(tmp_path, env, spec) as pub:
+        pub.expect("EARLY", STEP_TIMEOUT_S)
+        with _recorder(tmp_path, env, bag, "topics:=[gyro, static_readings]") as rec:
+            pub.expect("MATCHED", STEP_TIMEOUT_S)
+            pub.send("GO")
+            deadline = time.monotonic() + 60
+            while "recording stopped" not in rec.stderr_path.read_text() and time.monotonic() < deadline:
+                assert rec.proc.poll() is None, rec.describe()
+                time.sleep(0.1)
+            time.sleep(1.0)  # the node stays up and keeps counting
+            assert rec.proc.poll() is None, rec.describe()
+            pub.send("STOP")
+            pub.expect("PUBLISHED", STEP_TIMEOUT_S)
+            code = rec.stop()
+    log = rec.stderr_path.read_text()
+    stopped = [line for line in log.splitlines() if "recording stopped: cannot write" in line]
+    assert len(stopped) == 1, log[-3000:]  # said once
+    assert "No space left on device" in stopped[0] and "bike-rig bag recover" in stopped[0]
+    assert "not recorded after recording stopped" in log and "flush failed" not in log
+    assert code == 1  # what it could not record is not hidden
+    assert not (bag / "metadata.yaml").exists()
+    recovery = recover_bag(bag, tmp_path / "recovered")
+    with open_bag(recovery.output) as b:
+        gyro = [m for _, _, m in b.decoded([GYRO.name])]
+    assert len(gyro) > 100 and [m.first_index for m in gyro] == list(range(len(gyro)))  # a gap-free prefix
