@@ -12,6 +12,7 @@ __all__ = [
     "MeasurementError",
     "GeometryError",
     "ModelError",
+    "one_line",
 ]
 
 
@@ -53,3 +54,11 @@ class GeometryError(BikeRigError):
 
 class ModelError(BikeRigError):
     """The Whipple model cannot be evaluated for the given parameters or speeds."""
+
+
+def one_line(text: str) -> str:
+    """``text`` on one line (each run of whitespace, newlines included, as one space).
+
+    For a foreign library's message quoted in an error: bike_rig prints each error as one line.
+    """
+    return " ".join(text.split())

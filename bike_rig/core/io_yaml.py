@@ -36,7 +36,6 @@ each of the 26 BicycleParameters keys to ``[value, sigma]`` (SI, ``lam`` in rad)
 
 from __future__ import annotations
 
-import math
 from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import Any
@@ -44,9 +43,10 @@ from typing import Any
 import yaml
 
 from .benchmark import PARAMETER_NAMES, ParameterSet, parameters_from_values
-from .errors import InputFileError, MeasurementError
+from .errors import InputFileError, MeasurementError, one_line
 from .io_bp import parse_value
-from .measurements import REQUIRED_KEYS, Measurements, Origin, Reading
+from .measurements import REQUIRED_KEYS, Measurements, Origin, Reading, check_value_sigma
+from .safe_yaml import LIMITS, YamlLimitError, compose_bounded, construct, yaml_error_reason
 from .trial_periods import PeriodEvidence, period_from_trials
 
 __all__ = [
@@ -118,22 +118,29 @@ def _walk(node: yaml.Node, path: tuple[object, ...], lines: Lines) -> None:
 def load_yaml_document(path: str | Path) -> tuple[Any, Lines]:
     """Load a YAML file and the 1-based line number of every key and item in it.
 
+    The file is read within :data:`~bike_rig.core.safe_yaml.LIMITS` (size, nesting, aliases
+    expanded), so a hostile file costs bounded time and memory.
+
     Raises:
-        InputFileError: unreadable file or invalid YAML (with the line of the error).
+        InputFileError: unreadable file, invalid YAML or beyond the limits (one line, with the
+            line of the error when known).
     """
     p = str(path)
     try:
+        size = Path(path).stat().st_size
+        if size > LIMITS.max_bytes:
+            raise InputFileError(p, f"{size} bytes: larger than {LIMITS.max_bytes} bytes, not a bike_rig YAML file")
         text = Path(path).read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
-        raise InputFileError(p, f"cannot read the file ({exc.__class__.__name__}: {exc})") from None
+        raise InputFileError(p, f"cannot read the file ({exc.__class__.__name__}: {one_line(str(exc))})") from None
     try:
-        node = yaml.compose(text, Loader=yaml.SafeLoader)
-        data = yaml.safe_load(text)
+        node, loader = compose_bounded(text)
+        data = construct(node, loader)
+    except YamlLimitError as exc:
+        raise InputFileError(p, f"invalid YAML: {exc.reason}", line=exc.line) from None
     except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        line = mark.line + 1 if mark is not None else None
-        problem = getattr(exc, "problem", None) or str(exc)
-        raise InputFileError(p, f"invalid YAML: {problem}", line=line) from None
+        reason, line = yaml_error_reason(exc, text)
+        raise InputFileError(p, f"invalid YAML: {reason}", line=line) from None
     lines: Lines = {}
     if node is not None:
         _walk(node, (), lines)
@@ -187,6 +194,7 @@ class _Doc:
                 raise ValueError(f"{value} has no sigma; every measured value is [value, sigma]")
             else:
                 raise ValueError(f"not a number: {value!r}")
+            check_value_sigma(v, s)
         except ValueError as exc:
             raise self.error(where, str(exc)) from None
         return v, s
@@ -390,8 +398,10 @@ def parameters_from_document(path: str, data: Any, lines: Lines) -> ParameterSet
                 values[key] = _number(table[key])
             except ValueError as exc:
                 raise doc.error(w, str(exc)) from None
-        if not math.isfinite(values[key]):
-            raise doc.error(w, "must be a finite number")
+        try:
+            check_value_sigma(values[key], sigmas.get(key, 0.0))
+        except ValueError as exc:
+            raise doc.error(w, str(exc)) from None
     return parameters_from_values(name, values, sigmas, path)
 
 
