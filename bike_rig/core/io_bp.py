@@ -19,8 +19,8 @@ from pathlib import Path
 import yaml
 
 from .benchmark import PARAMETER_NAMES, ParameterSet, parameters_from_values
-from .errors import InputFileError, MeasurementError
-from .measurements import REQUIRED_KEYS, Measurements, Origin, Reading
+from .errors import InputFileError, MeasurementError, one_line
+from .measurements import REQUIRED_KEYS, Measurements, Origin, Reading, check_value_sigma
 
 __all__ = [
     "TextEntry",
@@ -55,7 +55,7 @@ def parse_value(text: str) -> tuple[float, float]:
         (value, sigma); sigma 0 where none is written.
 
     Raises:
-        ValueError: the text is not a number with an optional uncertainty.
+        ValueError: the text is not a number with an optional uncertainty, or σ is negative.
     """
     values, variances = [], []
     for part in text.split(","):
@@ -64,10 +64,29 @@ def parse_value(text: str) -> tuple[float, float]:
             raise ValueError(f"'{text}' is not 'value' or 'value+/-sigma'")
         v = float(pieces[0])
         s = float(pieces[1]) if len(pieces) == 2 else 0.0
+        if s < 0:
+            raise ValueError(f"'{text}': sigma must be >= 0, got {s:g}")
         values.append(v)
         variances.append(s * s)
     n = len(values)
     return sum(values) / n, math.sqrt(sum(variances)) / n
+
+
+def _value_sigma(path: str, key: str, entry: TextEntry) -> tuple[float, float]:
+    """The value and σ of one entry, checked as any reading (finite, σ ≥ 0, a sane magnitude).
+
+    Raises:
+        MeasurementError: naming the file, line and key.
+    """
+    try:
+        v, s = parse_value(entry.text)
+    except ValueError as exc:
+        raise MeasurementError(path, f"not a number: {one_line(str(exc))}", key=key, line=entry.line) from None
+    try:
+        check_value_sigma(v, s)
+    except ValueError as exc:
+        raise MeasurementError(path, str(exc), key=key, line=entry.line) from None
+    return v, s
 
 
 def read_bp_text(path: str | Path) -> dict[str, TextEntry]:
@@ -119,10 +138,7 @@ def read_bp_measured(path: str | Path) -> Measurements:
     extras: dict[str, object] = {}
     for key, e in entries.items():
         if key in REQUIRED_KEYS or _NUMBER_KEYS.match(key):
-            try:
-                v, s = parse_value(e.text)
-            except ValueError as exc:
-                raise MeasurementError(p, f"not a number: {exc}", key=key, line=e.line) from None
+            v, s = _value_sigma(p, key, e)
             readings[key] = Reading(v, s, Origin(p, key, e.line))
         else:
             extras[key] = e.text
@@ -141,10 +157,7 @@ def read_bp_parameters(path: str | Path) -> ParameterSet:
     for key in PARAMETER_NAMES:
         if key not in entries:
             raise MeasurementError(p, "missing (one of the benchmark parameters)", key=key)
-        try:
-            values[key], sigmas[key] = parse_value(entries[key].text)
-        except ValueError as exc:
-            raise MeasurementError(p, f"not a number: {exc}", key=key, line=entries[key].line) from None
+        values[key], sigmas[key] = _value_sigma(p, key, entries[key])
     return parameters_from_values(_bicycle_name(path, "Benchmark"), values, sigmas, p)
 
 

@@ -44,7 +44,9 @@ __all__ = [
     "Origin",
     "Reading",
     "REQUIRED_KEYS",
+    "MAX_MAGNITUDE",
     "check_reading",
+    "check_value_sigma",
     "orientation_indices",
     "validate",
 ]
@@ -61,6 +63,10 @@ REQUIRED_KEYS: tuple[str, ...] = (
 _POSITIVE = re.compile(r"^(g|w|n[RF]|d[RF]|m[RFBHP]|l[RFP]|dP|T[ct][RFBHP]\d+)$")
 #: Exact counts.
 _COUNTS = ("nR", "nF")
+#: The largest magnitude a reading or its σ may have, in its unit (SI, or degrees): far beyond
+#: any rig's (the largest, a distance rolled, is some tens of m), and small enough that the
+#: products of a few readings in the equations cannot overflow a float.
+MAX_MAGNITUDE = 1e9
 #: Minimum number of hanging orientations of the frame and of the fork (Eq 35 needs 3).
 MIN_ORIENTATIONS = 3
 
@@ -141,16 +147,33 @@ def orientation_indices(readings: Mapping[str, object], part: str) -> list[int]:
     return sorted(found)
 
 
+def check_value_sigma(value: float, sigma: float) -> None:
+    """Check that a value and its σ are numbers a reading can have, whatever its key.
+
+    Both finite, σ ≥ 0, and neither beyond :data:`MAX_MAGNITUDE` (in the reading's unit).
+
+    Raises:
+        ValueError: the reason, in one line.
+    """
+    if not (math.isfinite(value) and math.isfinite(sigma)):
+        raise ValueError(f"value and sigma must be finite numbers, got {value:g} ± {sigma:g}")
+    if sigma < 0:
+        raise ValueError(f"sigma must be >= 0, got {sigma:g}")
+    for what, x in (("value", value), ("sigma", sigma)):
+        if abs(x) > MAX_MAGNITUDE:
+            raise ValueError(f"{what} {x:g} is beyond any plausible reading (magnitude above {MAX_MAGNITUDE:g})")
+
+
 def check_reading(key: str, r: Reading) -> None:
     """Check that one reading is physically possible for its key (the module table's units).
 
     Raises:
         MeasurementError: naming the reading's origin and the reason.
     """
-    if not (math.isfinite(r.value) and math.isfinite(r.sigma)):
-        raise r.error("value and sigma must be finite numbers")
-    if r.sigma < 0:
-        raise r.error(f"sigma must be >= 0, got {r.sigma:g}")
+    try:
+        check_value_sigma(r.value, r.sigma)
+    except ValueError as exc:
+        raise r.error(str(exc)) from None
     if _POSITIVE.match(key) and r.value <= 0:
         raise r.error(f"must be positive, got {r.value:g}")
     if key in _COUNTS and (r.value != round(r.value) or r.sigma != 0):

@@ -9,6 +9,7 @@ import pytest
 import yaml
 
 from bike_rig.core.benchmark import PARAMETER_NAMES, benchmark_formulas, compute_parameters
+from bike_rig.core.errors import MeasurementError
 from bike_rig.core.io_bp import dump_bp_parameter_yaml, parse_value, read_bp_measured
 from bike_rig.core.io_yaml import dump_measurements_yaml
 from bike_rig.core.loader import load_input, load_measurements
@@ -111,3 +112,54 @@ def test_parameter_files_are_recognised() -> None:
     txt = load_input(shared_dir() / "data/bicycleparameters/Browser/Parameters/BrowserBenchmark.txt")
     assert not isinstance(txt, Measurements)
     assert txt.parameters.sigma("IBxx") == pytest.approx(0.00247550148476)
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "match"),
+    [
+        ("mass: [9.86, 0.02]", "mass: [1.0e+308, 0.02]", r"value 1e\+308 is beyond any plausible reading"),
+        ("mass: [9.86, 0.02]", "mass: [9.86, 1.0e+308]", r"sigma 1e\+308 is beyond any plausible reading"),
+        ("mass: [9.86, 0.02]", "mass: [9.86, -0.02]", "sigma must be >= 0, got -0.02"),
+        ("mass: [9.86, 0.02]", "mass: [.inf, 0.02]", "value and sigma must be finite numbers"),
+        ("mass: [9.86, 0.02]", 'mass: "9.86 +/- -0.02"', "sigma must be >= 0"),
+    ],
+)
+def test_absurd_readings_are_refused_at_the_reader(tmp_path: Path, old: str, new: str, match: str) -> None:
+    """Readings near 1e308 overflowed in the propagation; a negative σ was accepted."""
+    text = (config_dir() / "bicycles" / "browser.yaml").read_text()
+    assert old in text
+    path = tmp_path / "bad.yaml"
+    path.write_text(text.replace(old, new, 1))
+    with pytest.raises(MeasurementError, match=match) as info:
+        load_input(path)
+    assert info.value.key == "frame.mass" and info.value.line is not None
+
+
+@pytest.mark.parametrize(
+    ("entry", "match"),
+    [("1e308+/-0.1", "beyond any plausible reading"), ("0.5+/--0.1", "sigma must be >= 0, got -0.1")],
+)
+def test_absurd_parameters_are_refused(tmp_path: Path, entry: str, match: str) -> None:
+    """A parameter file (ours or BicycleParameters' Benchmark.txt) with an absurd value or a negative σ."""
+    lines = [f"{k} = 1.0+/-0.1" for k in PARAMETER_NAMES]
+    lines[PARAMETER_NAMES.index("rR")] = f"rR = {entry}"
+    path = tmp_path / "BadBenchmark.txt"
+    path.write_text("\n".join(lines) + "\n")
+    with pytest.raises(MeasurementError, match=match) as info:
+        load_input(path)
+    assert info.value.key == "rR"
+    ours = tmp_path / "bad.yaml"
+    value, _, sigma = entry.partition("+/-")
+    body = "".join(f"  {k}: [{value if k == 'rR' else 1.0}, {sigma if k == 'rR' else 0.1}]\n" for k in PARAMETER_NAMES)
+    ours.write_text(f"format: bike_rig-parameters/1\nbicycle: b\nparameters:\n{body}")
+    with pytest.raises(MeasurementError, match=match):
+        load_input(ours)
+
+
+def test_absurd_readings_in_measured_txt_are_refused(tmp_path: Path) -> None:
+    text = _raw("Browser").read_text()
+    path = tmp_path / "BrowserMeasured.txt"
+    path.write_text(text.replace("mB = ", "mB = 1e300*", 1).replace("1e300*", "1e300 +/- 0.1 #", 1))
+    with pytest.raises(MeasurementError, match="beyond any plausible reading") as info:
+        load_input(path)
+    assert info.value.key == "mB"
