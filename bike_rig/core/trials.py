@@ -34,6 +34,7 @@ from __future__ import annotations
 import math
 import os
 import re
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -41,7 +42,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .errors import InputFileError
+from .errors import InputFileError, one_line
+from .trial_binary import MAX_TRIAL_BYTES, check_mat_sizes, check_npy_header
 from .trial_columns import ColumnChoice, Columns, choose_columns, times_in_seconds
 
 __all__ = ["TEXT_SUFFIXES", "ColumnChoice", "Trial", "key_from_name", "read_trial", "uniform_sample_rate"]
@@ -50,6 +52,10 @@ FloatArray = NDArray[np.float64]
 
 #: File name endings read as delimited text.
 TEXT_SUFFIXES = (".csv", ".txt", ".tsv", ".dat")
+
+#: The largest text trial file read [bytes]: some 2.5 M rows, 40 minutes at 1 kHz (a pendulum
+#: trial is some tens of seconds; the rows are held as Python numbers, about 5 times the text).
+MAX_TEXT_TRIAL_BYTES = 64 << 20
 
 #: BicycleParameters' part names and the letter of their period keys (fork and handlebar as one).
 _PART_LETTERS = {"Rwheel": "R", "Fwheel": "F", "Frame": "B", "Fork": "H", "Handlebar": "G", "Rod": "P"}
@@ -192,15 +198,27 @@ def read_trial(
         raise InputFileError(name, reason)
     suffix = p.suffix.lower()
     choice = columns or ColumnChoice()
-    if suffix in TEXT_SUFFIXES:
-        return _read_text(name, p, sample_rate_hz, choice)
-    if suffix == ".npy":
-        return _read_npy(name, p, sample_rate_hz, choice)
-    if suffix == ".mat":
-        if choice.chooses_columns:
-            raise InputFileError(name, "--time and --signal choose columns of CSV and .npy files; a .mat has none")
-        return _read_mat(name, p, sample_rate_hz, choice)
+    _check_size(name, p, MAX_TEXT_TRIAL_BYTES if suffix in TEXT_SUFFIXES else MAX_TRIAL_BYTES)
+    with np.errstate(all="ignore"):  # overflowing or NaN values are refused or left to the fitter, silently
+        if suffix in TEXT_SUFFIXES:
+            return _read_text(name, p, sample_rate_hz, choice)
+        if suffix == ".npy":
+            return _read_npy(name, p, sample_rate_hz, choice)
+        if suffix == ".mat":
+            if choice.chooses_columns:
+                raise InputFileError(name, "--time and --signal choose columns of CSV and .npy files; a .mat has none")
+            return _read_mat(name, p, sample_rate_hz, choice)
     raise InputFileError(name, f"unknown trial format {p.suffix!r} (expected {', '.join(TEXT_SUFFIXES)}, .npy or .mat)")
+
+
+def _check_size(name: str, p: Path, limit: int) -> None:
+    """Refuse a file larger than ``limit`` bytes before reading it."""
+    try:
+        size = p.stat().st_size
+    except OSError as exc:
+        raise InputFileError(name, f"cannot read ({exc.strerror})") from None
+    if size > limit:
+        raise InputFileError(name, f"{size} bytes: larger than any trial file ({limit} bytes)")
 
 
 def _needs_rate(name: str, sample_rate_hz: float | None, what: str) -> float:
@@ -349,10 +367,11 @@ def _row_width(name: str, columns: int, width: int, number: int) -> int:
 
 
 def _read_npy(name: str, p: Path, sample_rate_hz: float | None, choice: ColumnChoice) -> Trial:
+    check_npy_header(name, p)
     try:
         array = np.load(p, allow_pickle=False)
     except (ValueError, OSError, EOFError) as exc:
-        raise InputFileError(name, f"not a readable NumPy .npy file ({exc})") from None
+        raise InputFileError(name, f"not a readable NumPy .npy file ({one_line(str(exc))})") from None
     if not isinstance(array, np.ndarray):
         raise InputFileError(name, "not a single NumPy array")
     if array.dtype.kind not in "biuf":
@@ -406,12 +425,16 @@ def _vector(name: str, mat: dict[str, Any], key: str) -> FloatArray:
 def _read_mat(name: str, p: Path, sample_rate_hz: float | None, choice: ColumnChoice) -> Trial:
     from scipy.io import loadmat
 
+    check_mat_sizes(name, p)
     try:
-        mat = loadmat(p, squeeze_me=True, chars_as_strings=True)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            mat = loadmat(p, squeeze_me=True, chars_as_strings=True)
     except NotImplementedError:
         raise InputFileError(name, "MATLAB v7.3 (HDF5) files are not supported: save with -v7") from None
     except (ValueError, OSError, TypeError, KeyError, IndexError, EOFError) as exc:
-        raise InputFileError(name, f"not a readable MATLAB .mat file ({exc})") from None
+        raise InputFileError(name, f"not a readable MATLAB .mat file ({one_line(str(exc))})") from None
+    read_remarks = tuple(f"reading the .mat: {one_line(str(w.message))}" for w in caught)
     if "data" not in mat:
         raise InputFileError(name, "no 'data' array (the gyro samples)", key="data")
     samples = _vector(name, mat, "data")
@@ -443,7 +466,7 @@ def _read_mat(name: str, p: Path, sample_rate_hz: float | None, choice: ColumnCh
         "trial": _text(mat.get("trial")),
         "notes": _text(mat.get("notes")),
     }
-    return _make(name, p, samples, times, rate, remarks, unit, **meta)
+    return _make(name, p, samples, times, rate, read_remarks + remarks, unit, **meta)
 
 
 def uniform_sample_rate(times: NDArray[np.float64]) -> float | None:
