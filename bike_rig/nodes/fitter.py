@@ -60,6 +60,17 @@ def fitter_parameters() -> tuple[ParamSpec, ...]:
     )
 
 
+def publisher_source(info: Any) -> str:
+    """The process that published a message: its DDS participant (hex), from rclpy's message info.
+
+    Every publisher of one process (one rclpy context) shares the first 12 bytes of its GUID;
+    "" when the middleware does not say.
+    """
+    gid = info.get("publisher_gid") if isinstance(info, dict) else None
+    data = gid.get("data") if isinstance(gid, dict) else None
+    return bytes(data[:12]).hex() if data else ""
+
+
 class FitterNode:
     """The ROS adapter: parameters in, messages to :class:`FitterState`, estimates out.
 
@@ -130,21 +141,21 @@ class FitterNode:
         return options, values["grace_s"], values["max_open_trials"], values["history_grace_s"]
 
     # ------------------------------------------------------------------ callbacks (never raise)
-    def _on_batch(self, msg: Any) -> None:
+    def _on_batch(self, msg: Any, info: Any) -> None:
         try:
             batch = messages.sample_batch_from_msg(msg)
-            self._publish(self.state.on_batch(batch, batch.stamp_ns))
+            self._publish(self.state.on_batch(batch, batch.stamp_ns, publisher_source(info)))
         except Exception as exc:  # a callback must never raise: log and keep serving
             self.node.get_logger().error(f"gyro batch of trial {getattr(msg, 'trial_id', '?')!r} failed: {exc!r}")
 
-    def _on_event(self, msg: Any) -> None:
+    def _on_event(self, msg: Any, info: Any) -> None:
         try:
             event = messages.trial_event_from_msg(msg)
         except messages.MessageError as exc:
             self.node.get_logger().warning(f"trial {getattr(msg, 'trial_id', '?')}: {exc}; ignored")
             return
         try:
-            self._publish(self.state.on_event(event))
+            self._publish(self.state.on_event(event, publisher_source(info)))
         except Exception as exc:
             self.node.get_logger().error(f"trial event of trial {getattr(msg, 'trial_id', '?')!r} failed: {exc!r}")
 

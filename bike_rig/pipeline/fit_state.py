@@ -6,6 +6,13 @@ are buffered. After a restart the fitter receives the transient-local history of
 the trial in progress and every earlier trial whose batches are all still in the history are
 fitted again (same values, consumers dedupe by trial_id); a trial that began before the oldest
 batch in the history is not re-published.
+
+Every event and batch comes with its **source**: the DDS participant that published it (the
+first 12 bytes of the publisher's GUID, shared by all publishers of one driver process). A
+trial is the pair (source, trial id): batches and events of the same id from another process
+(a second driver, a rogue publisher on the domain) never enter, evict, cut short or duplicate
+it, and the limits on open trials and buffered samples hold per source, so junk from one
+process can only evict that process's own trials.
 """
 
 from __future__ import annotations
@@ -37,11 +44,16 @@ class Log(Protocol):
         ...
 
 
+#: A trial: (its source, its id).
+_Key = tuple[str, str]
+
+
 @dataclass
 class _Open:
     """A trial being buffered."""
 
     trial_id: str
+    source: str
     acc: TrialAccumulator
     seen_s: float
     start: TrialEventRecord | None = None
@@ -58,9 +70,9 @@ class FitterState:
         log: Where problems are reported.
         grace_s: How long a STOP waits for missing batches, and batches wait for their START
             (counted from when both topics' publishers were matched, if later), s.
-        max_open_trials: Trials buffered at once without a STOP (and that many trials' worth of
-            samples in all); beyond it the one heard of least recently is fitted as it is (flag
-            ``no_stop`` or ``unknown_trial``).
+        max_open_trials: Trials buffered at once without a STOP per source (and that many
+            trials' worth of samples per source); beyond it the source's trial heard of least
+            recently is fitted as it is (flag ``no_stop`` or ``unknown_trial``).
         clock: Monotonic seconds.
         history_grace_s: After the publishers were matched, how long nothing incomplete is given
             up on and no trial is evicted for being open: a (re)started fitter receives the
@@ -85,9 +97,9 @@ class FitterState:
         self.history_grace_s = history_grace_s
         self.max_open_trials = max_open_trials
         self.clock = clock
-        self.open: dict[str, _Open] = {}
-        #: Trials fitted: id -> rig time of their STOP (None without one), ns.
-        self.done: OrderedDict[str, int | None] = OrderedDict()
+        self.open: dict[_Key, _Open] = {}
+        #: Trials fitted: (source, id) -> rig time of their STOP (None without one), ns.
+        self.done: OrderedDict[_Key, int | None] = OrderedDict()
         #: Rig time of the oldest gyro batch received [ns]: the start of the history we have.
         self.horizon_ns: int | None = None
         #: When the publishers of both topics were (last) matched, monotonic s.
@@ -97,31 +109,31 @@ class FitterState:
         self.outside = 0
 
     # ------------------------------------------------------------------ input
-    def on_event(self, event: TrialEventRecord) -> list[TrialFit]:
-        """A trial event; returns the results it completes."""
+    def on_event(self, event: TrialEventRecord, source: str = "") -> list[TrialFit]:
+        """A trial event from ``source`` (see the module docstring); returns the results it completes."""
         now = self.clock()
-        kind, tid = event.kind, event.trial_id
+        kind, tid, key = event.kind, event.trial_id, (source, event.trial_id)
         out: list[TrialFit | None] = []
         if kind is TrialEventKind.START:
-            t = self.open.get(tid)
+            t = self.open.get(key)
             if t is not None and t.start is not None:
                 self.log.warning(f"trial {tid}: second START ignored")
                 return []
             if t is None:
-                if tid in self.done:
+                if key in self.done:
                     self.log.warning(f"trial {tid} started again: it is fitted again")
-                    del self.done[tid]
-                t = self.open[tid] = _Open(tid, TrialAccumulator(self.options), now)
+                    del self.done[key]
+                t = self.open[key] = _Open(tid, source, TrialAccumulator(self.options), now)
             t.start, t.seen_s = event, now
-            return self._evict(out)
+            return self._evict(out, source)
         # STOP or ABORT
-        t = self.open.get(tid)
+        t = self.open.get(key)
         if t is None:
-            if tid in self.done:
+            if key in self.done:
                 self.log.warning(f"trial {tid}: STOP of a trial already fitted ignored")
                 return []
             self.log.warning(f"trial {tid}: STOP without START")
-            t = self.open[tid] = _Open(tid, TrialAccumulator(self.options), now)
+            t = self.open[key] = _Open(tid, source, TrialAccumulator(self.options), now)
         elif t.stop is not None:
             self.log.warning(f"trial {tid}: second STOP ignored")
             return []
@@ -130,10 +142,10 @@ class FitterState:
         t.stop, t.stop_seen_s, t.seen_s = event, now, now
         if t.acc.covers(int(event.sample_count)):
             out.append(self._finish(t))
-        return self._evict(out)
+        return self._evict(out, source)
 
-    def on_batch(self, batch: SampleBatch, stamp_ns: int | None = None) -> list[TrialFit]:
-        """A gyro batch (``stamp_ns``: its header stamp); returns the results it completes."""
+    def on_batch(self, batch: SampleBatch, stamp_ns: int | None = None, source: str = "") -> list[TrialFit]:
+        """A gyro batch from ``source`` (``stamp_ns``: its header stamp); returns the results it completes."""
         now = self.clock()
         if stamp_ns is not None and (self.horizon_ns is None or stamp_ns < self.horizon_ns):
             self.horizon_ns = stamp_ns
@@ -143,24 +155,25 @@ class FitterState:
             if self.outside == 1:
                 self.log.warning("gyro batches outside any trial (empty trial_id) are ignored")
             return []
-        t = self.open.get(tid)
+        key = (source, tid)
+        t = self.open.get(key)
         if t is None:
-            if tid in self.done:
-                stopped_ns = self.done[tid]
+            if key in self.done:
+                stopped_ns = self.done[key]
                 if stamp_ns is None or stopped_ns is None or stamp_ns < stopped_ns:
                     return []  # a late batch of a trial already fitted
-                del self.done[tid]  # a batch after the trial's end: the same trial id run again
+                del self.done[key]  # a batch after the trial's end: the same trial id run again
             # a batch before its START (the two topics are not ordered against each other),
             # or of an unknown trial: kept for grace_s, reported if no event claims it
-            t = self.open[tid] = _Open(tid, TrialAccumulator(self.options), now)
+            t = self.open[key] = _Open(tid, source, TrialAccumulator(self.options), now)
         t.seen_s = now
         problem = t.acc.add(batch)
         if problem is not None and problem[0] not in t.warned:
             t.warned.add(problem[0])
             self.log.warning(f"trial {tid}: {problem[1]} (reported once per trial)")
         if t.stop is not None and t.acc.covers(int(t.stop.sample_count)):
-            return self._evict([self._finish(t)])
-        return self._evict([])
+            return self._evict([self._finish(t)], source)
+        return self._evict([], source)
 
     def poll(self, live: bool = True) -> list[TrialFit]:
         """Results whose wait has ended (call periodically).
@@ -185,22 +198,24 @@ class FitterState:
         return [r for r in out if r is not None]
 
     # ------------------------------------------------------------------ output
-    def _evict(self, out: list[TrialFit | None]) -> list[TrialFit]:
-        """Bound the memory.
+    def _evict(self, out: list[TrialFit | None], source: str) -> list[TrialFit]:
+        """Bound the memory of ``source``'s trials (the one that just sent something).
 
         At most ``max_open_trials`` trials without a STOP (stopped ones wait ``grace_s`` at
-        most), and at most that many trials' worth of samples in all.
+        most), and at most that many trials' worth of samples; other sources' trials are
+        never touched.
         """
         limit = self.max_open_trials
         budget = limit * self.options.max_trial_samples
         in_history = self.clock() - self.matched_at < self.history_grace_s
         while True:
-            running = [t for t in self.open.values() if t.stop is None]
+            mine = [t for t in self.open.values() if t.source == source]
+            running = [t for t in mine if t.stop is None]
             if len(running) > limit and not in_history:
                 victim = min(running, key=lambda t: t.seen_s)
                 why = f"more than {limit} trials without STOP"
-            elif sum(t.acc.kept for t in self.open.values()) > budget:
-                victim = min(self.open.values(), key=lambda t: t.seen_s)
+            elif sum(t.acc.kept for t in mine) > budget:
+                victim = min(mine, key=lambda t: t.seen_s)
                 why = f"more than {budget} samples buffered"
             else:
                 break
@@ -209,8 +224,8 @@ class FitterState:
         return [r for r in out if r is not None]
 
     def _finish(self, t: _Open) -> TrialFit | None:
-        del self.open[t.trial_id]
-        self.done[t.trial_id] = t.stop.stamp_ns if t.stop is not None else None
+        del self.open[(t.source, t.trial_id)]
+        self.done[(t.source, t.trial_id)] = t.stop.stamp_ns if t.stop is not None else None
         while len(self.done) > _DONE_MEMORY:
             self.done.popitem(last=False)
         if (

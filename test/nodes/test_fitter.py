@@ -225,6 +225,38 @@ def test_state_waits_for_the_history_after_a_restart() -> None:
     assert late.trial_id == "late" and late.flag_codes[0] == "gap"
 
 
+def test_a_rogue_process_never_evicts_cuts_or_duplicates_the_drivers_trials() -> None:
+    """Junk from another participant (a rogue publisher on the domain) stays in its own trials."""
+    rates = signal()
+    s, log, clock = state(max_open_trials=4)
+    driver, rogue = "driver-participant", "rogue-participant"
+    batches = batches_of(rates)
+    expected = fit_trial(batches, event(0), event(1, count=N))
+    s.on_event(event(0), driver)
+    s.on_event(event(0, trial_id="t2"), driver)
+    out: list[TrialFit] = []
+    for b in batches[:50]:
+        out += s.on_batch(b, T0 + round(b.first_index * 1e6), driver)
+    # the rogue: 5,000 unknown trials, a NaN batch where the driver's next one goes, a STOP cutting the trial short
+    for i in range(5000):
+        out += s.on_event(event(0, trial_id=f"junk{i}"), rogue)
+    nan = SampleBatch("t", batches[50].first_index, RATE, np.full(50, np.nan))
+    out += s.on_batch(nan, T0, rogue)
+    out += s.on_event(event(1, count=2500), rogue)
+    assert all(r.trial_id.startswith("junk") or r.trial_id == "t" for r in out)
+    assert {("driver-participant", "t"), ("driver-participant", "t2")} <= set(s.open)  # none evicted
+    for b in batches[50:]:
+        out += s.on_batch(b, T0 + round(b.first_index * 1e6), driver)
+    out += s.on_event(event(1, count=N), driver)
+    real = [r for r in out if r.trial_id == "t" and r.n_samples == N]
+    assert len(real) == 1 and same(real[0].period, expected.period) and real[0].flag_codes == ()
+    assert len([k for k in s.open if k[0] == rogue]) <= 5  # the rogue bounded by its own limit (+ its "t")
+    clock.now = 10.0
+    junk = [r for r in out + s.poll() if r.trial_id == "t" and r is not real[0]]
+    assert len(junk) == 1 and not junk[0].usable  # the rogue's own "t": NaN and cut short, flagged
+    assert ("driver-participant", "t2") not in s.done  # still the driver's, open until its STOP
+
+
 def test_state_bounds_the_open_trials() -> None:
     s, log, _ = state(max_open_trials=2)
     out = []
