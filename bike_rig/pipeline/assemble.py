@@ -41,6 +41,7 @@ from .fit import TrialFit
 from .readings import STATIC_KEYS, canonical_order
 
 __all__ = [
+    "PLAUSIBLE_PERIOD_S",
     "KeyPeriod",
     "SessionAssembly",
     "SessionParameters",
@@ -241,6 +242,12 @@ class SessionParameters:
         return self.parameters
 
 
+#: The periods a rig pendulum can have, s: far outside any bicycle part's (0.3-5 s in the paper)
+#: and the fitter's reach (a few cycles within a record of at most ``max_trial_samples``), but
+#: bounded, so that one absurd estimate (a rogue publisher's 1e308 s) cannot overflow the
+#: propagation and block the set.
+PLAUSIBLE_PERIOD_S = (1e-3, 1e3)
+
 _PERIOD_KEY = re.compile(r"^(Tc[RFBH]1|Tt[RFP]1|Tt[BH][1-9]\d*)$")
 #: Stands in for a reading or period still to come, when the static readings are checked.
 _PLACEHOLDER = Reading(1.0, 0.0)
@@ -349,9 +356,18 @@ class SessionAssembly:
 
         Raises:
             AssemblyError: the measurement key is not one of this bicycle's period keys (with
-                ``partial`` readings: not a period key at all); the estimate is then not kept.
+                ``partial`` readings: not a period key at all), or a usable estimate's period or
+                σ is not one a rig pendulum can give (:data:`PLAUSIBLE_PERIOD_S`, σ below the
+                period); the estimate is then not kept, and nothing is blocked by it.
         """
         key = trial.measurement_key
+        if trial.usable and not (
+            PLAUSIBLE_PERIOD_S[0] <= trial.period <= PLAUSIBLE_PERIOD_S[1] and 0 <= trial.period_sigma < trial.period
+        ):
+            raise AssemblyError(
+                f"trial '{trial.trial_id}': period {trial.period:g} ± {trial.period_sigma:g} s is not a rig "
+                f"pendulum's ({PLAUSIBLE_PERIOD_S[0]:g} to {PLAUSIBLE_PERIOD_S[1]:g} s, σ below the period)"
+            )
         if self.partial and key not in self._keys and not _PERIOD_KEY.match(key):
             raise AssemblyError(
                 f"trial '{trial.trial_id}': measurement key '{key}' is not a period key "

@@ -255,3 +255,21 @@ def test_state_space_at_labels_modes_as_the_sweep_does(browser_set: ParameterSet
         np.testing.assert_allclose(st.eigenvalues, stability.sweep.eigenvalues[i], rtol=1e-9, atol=1e-9)
     weave_at_1 = state_space_at(matrices, 1.0).eigenvalues[:2]
     assert np.all(weave_at_1.imag == 0) and np.all(weave_at_1.real > 0)  # two real unstable roots
+
+
+@pytest.mark.parametrize(("period", "sigma"), [(1e308, 1e-4), (2e3, 0.1), (1e-5, 1e-9), (1.2, 1.2), (1.2, 5.0)])
+def test_an_absurd_estimate_is_refused_and_blocks_nothing(period: float, sigma: float) -> None:
+    """A rogue's (or a broken fitter's) period far outside any rig pendulum never enters the set."""
+    full = load_measurements(bicycle("browser"))
+    session = SessionAssembly(load_static_readings(bicycle("browser")))
+    session.add_all(file_trials(full, session.required_keys))
+    before = session.result()
+    absurd = TrialFit.from_period("rogue-t1", "TcR1", period, sigma, True)
+    assert absurd.usable  # it would enter the combination
+    with pytest.raises(AssemblyError, match="is not a rig pendulum's"):
+        session.add(absurd)
+    after = session.result()
+    assert after.complete
+    assert_same_set(after.parameters, before.parameters)
+    # the same trial id, well formed, is taken afterwards (nothing was remembered of the bad one)
+    assert session.add(TrialFit.from_period("rogue-t1", "TcR1", full.value("TcR1"), 1e-4, True))
