@@ -13,6 +13,7 @@ __all__ = [
     "GeometryError",
     "ModelError",
     "one_line",
+    "short_repr",
 ]
 
 
@@ -62,3 +63,9 @@ def one_line(text: str) -> str:
     For a foreign library's message quoted in an error: bike_rig prints each error as one line.
     """
     return " ".join(text.split())
+
+
+def short_repr(value: object, limit: int = 60) -> str:
+    """``repr(value)`` cut to ``limit`` characters (a 1 MB string quoted in an error stays short)."""
+    text = repr(value)
+    return text if len(text) <= limit else text[: limit - 3] + "..."

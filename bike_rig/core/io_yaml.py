@@ -43,9 +43,9 @@ from typing import Any
 import yaml
 
 from .benchmark import PARAMETER_NAMES, ParameterSet, parameters_from_values
-from .errors import InputFileError, MeasurementError, one_line
+from .errors import InputFileError, MeasurementError, one_line, short_repr
 from .io_bp import parse_value
-from .measurements import REQUIRED_KEYS, Measurements, Origin, Reading, check_value_sigma
+from .measurements import MAX_MAGNITUDE, REQUIRED_KEYS, Measurements, Origin, Reading, check_value_sigma
 from .safe_yaml import LIMITS, YamlLimitError, compose_bounded, construct, yaml_error_reason
 from .trial_periods import PeriodEvidence, period_from_trials
 
@@ -228,8 +228,8 @@ def _number(x: Any) -> float:
         raise ValueError(f"not a number: {x!r}")
     try:
         return float(x)
-    except ValueError:
-        raise ValueError(f"not a number: {x!r}") from None
+    except (ValueError, OverflowError):  # OverflowError: an integer beyond any float
+        raise ValueError(f"not a number: {short_repr(x)}") from None
 
 
 def _fields(
@@ -245,8 +245,8 @@ def _fields(
         w = where + (key,)
         if key == "rotations":
             n = sec[key]
-            if isinstance(n, bool) or not isinstance(n, int):
-                raise doc.error(w, f"rotations is an exact whole count, got {n!r}")
+            if isinstance(n, bool) or not isinstance(n, int) or abs(n) > MAX_MAGNITUDE:
+                raise doc.error(w, f"rotations is an exact whole count, got {short_repr(n)}")
             yield flat.format(**fmt), Reading(float(n), 0.0, doc.origin(w))
         elif key.endswith("period") and doc.static_only:
             continue  # periods come from elsewhere (live trials)

@@ -18,8 +18,9 @@ from pathlib import Path
 from typing import Any
 
 from .benchmark import PARAMETER_NAMES, ParameterSet
-from .errors import InputFileError, ModelError
+from .errors import InputFileError, ModelError, short_repr
 from .io_yaml import load_yaml_document
+from .measurements import MAX_MAGNITUDE
 from .uncertainty.uncertain import UncertainVector, complex_step_jacobian
 
 __all__ = [
@@ -198,8 +199,11 @@ def load_rider(path: str | Path) -> Rider:
     values = {}
     for k in RIDER_FILE_KEYS:
         v = data.get(k)
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-            raise RiderError(f"needs a number ({v!r} given)", spec, key=k, line=lines.get((k,)))
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or (isinstance(v, float) and not math.isfinite(v)):
+            raise RiderError(f"needs a number ({short_repr(v)} given)", spec, key=k, line=lines.get((k,)))
+        if abs(v) > MAX_MAGNITUDE:  # an integer of 400 digits cannot even become a float
+            reason = f"{short_repr(v)} is beyond any rider (magnitude above {MAX_MAGNITUDE:g})"
+            raise RiderError(reason, spec, key=k, line=lines.get((k,)))
         values[k] = float(v)
     if values["mass"] <= 0:
         raise RiderError("rider mass must be positive", spec, key="mass", line=lines.get(("mass",)))

@@ -77,7 +77,7 @@ class _BoundedLoader(yaml.SafeLoader):
     def construct_object(self, node: yaml.Node, deep: bool = False) -> Any:
         try:
             return super().construct_object(node, deep)
-        except (ValueError, OverflowError) as exc:  # an invalid date or an integer of 5,000 digits
+        except (ValueError, OverflowError, AttributeError, TypeError) as exc:  # a bad date, a 5,000-digit integer
             if isinstance(exc, YamlLimitError):
                 raise
             raise YamlLimitError(f"cannot read the value ({one_line(str(exc))})", node.start_mark.line + 1) from None

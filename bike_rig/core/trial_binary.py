@@ -5,7 +5,9 @@
   is refused before anything is allocated.
 * ``.mat`` (MATLAB v5): every top-level element is walked and each compressed one is inflated
   in bounded chunks, only counting bytes, so a small file that inflates to gigabytes is refused
-  before scipy reads it.
+  before scipy reads it. scipy's reader "is not hardened for untrusted input" (its docstring):
+  a damaged file can crash the process (a segmentation fault, found by our fuzzer), so
+  :func:`load_mat_isolated` runs it in a forked child process, within a time limit.
 
 Each check raises :class:`~bike_rig.core.errors.InputFileError` with the reason, in one line.
 """
@@ -13,15 +15,23 @@ Each check raises :class:`~bike_rig.core.errors.InputFileError` with the reason,
 from __future__ import annotations
 
 import math
+import multiprocessing
 import struct
+import warnings
 import zlib
+from multiprocessing.connection import Connection
 from pathlib import Path
+from tokenize import TokenError
+from typing import Any
 
 import numpy as np
 
 from .errors import InputFileError, one_line
 
-__all__ = ["MAX_TRIAL_BYTES", "check_mat_sizes", "check_npy_header"]
+__all__ = ["MAT_TIME_LIMIT_S", "MAX_TRIAL_BYTES", "check_mat_sizes", "check_npy_header", "load_mat_isolated"]
+
+#: The longest a .mat file may take to read [s] (a trial's takes milliseconds).
+MAT_TIME_LIMIT_S = 30.0
 
 #: The most bytes a binary trial's arrays may take [bytes]: 64 M samples, hours at 1 kHz (a
 #: pendulum trial is some tens of seconds).
@@ -56,7 +66,7 @@ def check_npy_header(name: str, path: Path) -> None:
             else:
                 raise ValueError(f"unsupported .npy format version {version[0]}.{version[1]}")
             data_bytes = path.stat().st_size - f.tell()
-    except (ValueError, TypeError, EOFError, OSError, SyntaxError) as exc:
+    except (ValueError, TypeError, EOFError, OSError, SyntaxError, TokenError) as exc:  # TokenError: a cut header
         raise InputFileError(name, f"not a readable NumPy .npy file ({one_line(str(exc))})") from None
     if dtype.hasobject:
         raise InputFileError(name, "not a readable NumPy .npy file: it holds Python objects, not numbers")
@@ -112,3 +122,53 @@ def check_mat_sizes(name: str, path: Path) -> None:
         pos += 8 + size + (-size % 8 if kind != _MI_COMPRESSED else 0)
     if total > MAX_TRIAL_BYTES:
         raise InputFileError(name, f"its arrays take more than {MAX_TRIAL_BYTES} bytes, more than any trial")
+
+
+def _load_mat_child(path: str, out: Connection) -> None:
+    """In the child: read the file with scipy and send ``("ok", fields, warnings)`` or ``("error", reason)``."""
+    from scipy.io import loadmat
+
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            mat = loadmat(path, squeeze_me=True, chars_as_strings=True)
+        out.send(("ok", mat, [one_line(str(w.message)) for w in caught]))
+    except NotImplementedError:
+        out.send(("error", "MATLAB v7.3 (HDF5) files are not supported: save with -v7"))
+    except Exception as exc:
+        out.send(("error", f"not a readable MATLAB .mat file ({one_line(str(exc)) or type(exc).__name__})"))
+    finally:
+        out.close()
+
+
+def load_mat_isolated(name: str, path: Path) -> tuple[dict[str, Any], list[str]]:
+    """Scipy's ``loadmat(path, squeeze_me=True, chars_as_strings=True)``, run in a forked child.
+
+    Returns:
+        The file's fields, and scipy's warnings (one line each).
+
+    Raises:
+        InputFileError: scipy refused the file, its reader died (a signal) or ran past
+            :data:`MAT_TIME_LIMIT_S`.
+    """
+    context = multiprocessing.get_context("fork")
+    receive, send = context.Pipe(duplex=False)
+    child = context.Process(target=_load_mat_child, args=(str(path), send), daemon=True)
+    child.start()
+    send.close()
+    try:
+        if not receive.poll(MAT_TIME_LIMIT_S):
+            raise InputFileError(name, f"reading the .mat file took longer than {MAT_TIME_LIMIT_S:g} s")
+        reply = receive.recv()
+    except EOFError:
+        child.join(5.0)
+        reason = f"not a readable MATLAB .mat file (scipy's reader died: exit {child.exitcode})"
+        raise InputFileError(name, reason) from None
+    finally:
+        receive.close()
+        if child.is_alive():
+            child.kill()
+        child.join(5.0)
+    if reply[0] != "ok":
+        raise InputFileError(name, reply[1])
+    return reply[1], reply[2]

@@ -34,7 +34,6 @@ from __future__ import annotations
 import math
 import os
 import re
-import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -43,7 +42,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .errors import InputFileError, one_line
-from .trial_binary import MAX_TRIAL_BYTES, check_mat_sizes, check_npy_header
+from .trial_binary import MAX_TRIAL_BYTES, check_mat_sizes, check_npy_header, load_mat_isolated
 from .trial_columns import ColumnChoice, Columns, choose_columns, times_in_seconds
 
 __all__ = ["TEXT_SUFFIXES", "ColumnChoice", "Trial", "key_from_name", "read_trial", "uniform_sample_rate"]
@@ -423,18 +422,9 @@ def _vector(name: str, mat: dict[str, Any], key: str) -> FloatArray:
 
 
 def _read_mat(name: str, p: Path, sample_rate_hz: float | None, choice: ColumnChoice) -> Trial:
-    from scipy.io import loadmat
-
     check_mat_sizes(name, p)
-    try:
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always")
-            mat = loadmat(p, squeeze_me=True, chars_as_strings=True)
-    except NotImplementedError:
-        raise InputFileError(name, "MATLAB v7.3 (HDF5) files are not supported: save with -v7") from None
-    except (ValueError, OSError, TypeError, KeyError, IndexError, EOFError) as exc:
-        raise InputFileError(name, f"not a readable MATLAB .mat file ({one_line(str(exc))})") from None
-    read_remarks = tuple(f"reading the .mat: {one_line(str(w.message))}" for w in caught)
+    mat, warned = load_mat_isolated(name, p)
+    read_remarks = tuple(f"reading the .mat: {w}" for w in warned)
     if "data" not in mat:
         raise InputFileError(name, "no 'data' array (the gyro samples)", key="data")
     samples = _vector(name, mat, "data")

@@ -102,3 +102,11 @@ def test_a_text_trial_larger_than_any_is_refused(tmp_path: Path, monkeypatch: py
     path.write_text("0.1\n" * 1000)
     with pytest.raises(InputFileError, match="4000 bytes: larger than any trial file"):
         read_trial(path, 100.0)
+
+
+def test_a_mat_that_crashes_scipy_is_one_line() -> None:
+    """This fuzzed file (test/fuzz/corpus) made scipy 1.17's loadmat segfault the whole process."""
+    path = Path(__file__).parents[1] / "fuzz" / "corpus" / "segfault-scipy-1.17.mat"
+    with pytest.raises(InputFileError, match="not a readable MATLAB .mat file") as info:
+        read_trial(path, 100.0)
+    assert "\n" not in str(info.value)

@@ -64,6 +64,7 @@ from pathlib import Path
 from typing import Any
 
 from ..benchmark import MIN_ORIENTATION_SPREAD_DEG
+from ..errors import short_repr
 from ..io_yaml import load_yaml_document
 from ..measurements import MIN_ORIENTATIONS
 from .errors import RigFileError
@@ -320,8 +321,8 @@ class _Reader:
             raise self.error(where, f"expected a number, got {value!r}")
         try:
             x = float(value)
-        except ValueError:
-            raise self.error(where, f"expected a number, got {value!r}") from None
+        except (ValueError, OverflowError):  # OverflowError: an integer beyond any float
+            raise self.error(where, f"expected a number, got {short_repr(value)}") from None
         if not math.isfinite(x):
             raise self.error(where, f"must be finite, got {value!r}")
         if low is not None and (x <= low if strict else x < low):
