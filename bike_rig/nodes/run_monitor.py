@@ -15,12 +15,20 @@ drops them: only so that it counts among the gyro topic's subscribers, so that a
 (``wait_for_subscribers``, which counts the subscribers of both the gyro and the trial-event
 topics) publishes its first START only once the listener is matched. (A START published before a
 reader matched reaches that reader only at the writer's next heartbeat, up to 3 s later.)
+
+Each topic is taken only from the process of the node that owns it (:data:`OWNERS`: the
+driver's trial events and batches, the fitter's estimates, the parameter node's set, the model
+node's sweep), known by the DDS participant of its publisher (rclpy's message info) and the
+graph's record of which node publishes from it. Another process publishing on the domain (a
+second driver, a rogue) is dropped and said once in :attr:`GraphMonitor.ignored`: it cannot start,
+cut short or mark a trial for the console, nor stand in for a result.
 """
 
 from __future__ import annotations
 
 import importlib
 import os
+import time
 from collections.abc import Callable
 from typing import Any, TypeAlias
 
@@ -48,9 +56,29 @@ from ..pipeline.readings import ReadingEntry
 from ..rosenv import ros_environment
 from ..rosqos import profile
 
-__all__ = ["GraphMonitor", "MonitorRecord"]
+__all__ = ["OWNERS", "GraphMonitor", "MonitorRecord", "participant"]
 
 _msgs: Any = importlib.import_module("bike_rig_msgs.msg")
+
+#: The nodes that may publish each followed topic (ROS names; ``bike-rig replay --republish``'s
+#: node stands in for the driver).
+OWNERS: dict[str, tuple[str, ...]] = {
+    topics.TRIAL_EVENTS.name: ("driver", "bag_republisher"),
+    topics.GYRO.name: ("driver", "bag_republisher"),
+    topics.PERIODS.name: ("fitter",),
+    topics.PARAMETERS.name: ("parameter",),
+    topics.EIGEN_SWEEP.name: ("model",),
+}
+
+#: How often an unknown publishing process is looked up again in the graph, s.
+_RELOOK_S = 1.0
+
+
+def participant(gid: Any) -> str:
+    """The DDS participant (process) of a publisher GUID: its first 12 bytes, hex ("" if unknown)."""
+    data = gid.get("data") if isinstance(gid, dict) else gid
+    return bytes(data[:12]).hex() if data else ""
+
 
 #: Most callbacks taken in one :meth:`GraphMonitor.poll` after the first.
 MAX_BURST = 1000
@@ -100,8 +128,13 @@ class GraphMonitor:
         self._executor = SingleThreadedExecutor(context=self._context)
         self._executor.add_node(self.node)
         self._records: list[MonitorRecord] = []
-        #: Messages that could not be converted, one line each.
+        #: Messages that could not be converted, one line each; a foreign publisher once per topic.
         self.ignored: list[str] = []
+        #: Messages dropped per topic because another process than the topic's owner sent them.
+        self.foreign: dict[str, int] = {}
+        self._owners: dict[str, str] = {}  # participant -> node name, as last looked up
+        self._looked: dict[str, float] = {}  # participant -> when it was looked up
+        self._foreign_said: set[tuple[str, str]] = set()
         subscriptions: tuple[tuple[Any, topics.Topic, Callable[[Any], MonitorRecord]], ...] = (
             (_msgs.TrialEvent, topics.TRIAL_EVENTS, trial_event_from_msg),
             (_msgs.PeriodEstimate, topics.PERIODS, trial_fit_from_msg),
@@ -111,21 +144,44 @@ class GraphMonitor:
         if readings:
             subscriptions += ((_msgs.ReadingEntry, topics.READINGS, reading_entry_from_msg),)
         for msg_type, topic, convert in subscriptions:
-            self.node.create_subscription(msg_type, topic.name, self._collector(convert), profile(topic))
+            self.node.create_subscription(msg_type, topic.name, self._collector(topic.name, convert), profile(topic))
         if samples is None:
             self.node.create_subscription(_msgs.GyroBatch, topics.GYRO.name, _drop, _COUNTED_ONLY, raw=True)
         else:
-            gyro = self._collector(sample_batch_from_msg)
+            gyro = self._collector(topics.GYRO.name, sample_batch_from_msg)
             self.node.create_subscription(_msgs.GyroBatch, topics.GYRO.name, gyro, samples)
 
-    def _collector(self, convert: Callable[[Any], MonitorRecord]) -> Callable[[Any], None]:
-        def collect(msg: Any) -> None:
+    def _collector(self, topic: str, convert: Callable[[Any], MonitorRecord]) -> Callable[[Any, Any], None]:
+        def collect(msg: Any, info: Any) -> None:
+            if topic in OWNERS and not self._from_owner(topic, info):
+                return
             try:
                 self._records.append(convert(msg))
             except MessageError as exc:
                 self.ignored.append(f"{type(msg).__name__} ignored: {exc}")
 
         return collect
+
+    def _from_owner(self, topic: str, info: Any) -> bool:
+        """Whether the message came from the process of the topic's owner (see the module docstring)."""
+        source = participant(info.get("publisher_gid") if isinstance(info, dict) else None)
+        if not source:
+            return True  # the middleware does not say: nothing to check against
+        owners = OWNERS[topic]
+        if self._owners.get(source) not in owners:
+            now = time.monotonic()
+            if now - self._looked.get(source, -_RELOOK_S) >= _RELOOK_S:
+                self._looked[source] = now
+                for p in self.node.get_publishers_info_by_topic(topic):
+                    self._owners[participant(bytes(p.endpoint_gid))] = p.node_name
+            if self._owners.get(source) not in owners:
+                self.foreign[topic] = self.foreign.get(topic, 0) + 1
+                if (topic, source) not in self._foreign_said:
+                    self._foreign_said.add((topic, source))
+                    who = self._owners.get(source) or "an unknown node"
+                    self.ignored.append(f"{topic}: messages from {who} in another process than the {owners[0]} ignored")
+                return False
+        return True
 
     def poll(self, timeout_s: float = 0.1) -> list[MonitorRecord]:
         """Wait up to ``timeout_s`` (s) for a message, take in what is ready, and return it in order."""
