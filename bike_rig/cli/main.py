@@ -81,6 +81,11 @@ def _parameters(path: str, com_method: str) -> ParameterSet:
     return got
 
 
+#: The fastest speed, either way, and the most speeds ``model --speeds`` evaluates (m/s; as the
+#: model node's ``speed_max`` and ``speed_count``).
+MODEL_MAX_SPEED, MODEL_MAX_SPEEDS = 1000.0, 100_000
+
+
 def _speeds(spec: Sequence[str] | None) -> np.ndarray:
     import math
 
@@ -97,6 +102,11 @@ def _speeds(spec: Sequence[str] | None) -> np.ndarray:
         raise UsageError(f"--speeds START STOP N: numbers expected, got {' '.join(spec)}") from None
     if not (math.isfinite(start) and math.isfinite(stop)) or n < 1 or start > stop:
         raise UsageError(f"--speeds START STOP N needs finite START <= STOP and N >= 1, got {' '.join(spec)}")
+    if max(abs(start), abs(stop)) > MODEL_MAX_SPEED or n > MODEL_MAX_SPEEDS:
+        raise UsageError(
+            f"--speeds START STOP N: at most {MODEL_MAX_SPEED:g} m/s either way and {MODEL_MAX_SPEEDS:,} speeds "
+            f"(the model's polynomials in v overflow long before float64 does), got {' '.join(spec)}"
+        )
     return np.linspace(start, stop, n)
 
 

@@ -55,3 +55,13 @@ def test_model_of_exact_parameters_has_zero_sigma(capsys: pytest.CaptureFixture[
     assert code == 0 and doc["weave_speed_sigma"] == 0.0 and doc["capsize_speed_sigma"] == 0.0
     code, out, _ = run(capsys, "model", bench, "--speeds", "0", "10", "3")
     assert "weave speed:   4.292383 ± 0 m/s" in out
+
+
+@pytest.mark.parametrize("speeds", [["0", "1e300", "3"], ["-2000", "0", "3"], ["0", "10", "1000000"]])
+def test_speeds_beyond_the_models_reach_are_refused_in_one_line(
+    speeds: list[str], capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A speed of 1e300 m/s printed NaN eigenvalues with exit 0."""
+    code = main(["model", str(config_dir() / "bicycles" / "browser.yaml"), "--speeds", *speeds])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and "at most 1000 m/s either way and 100,000 speeds" in err[0]
