@@ -48,7 +48,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import IO, TYPE_CHECKING
 
-from .core.errors import BikeRigError, InputFileError
+from .core.errors import BikeRigError, InputFileError, one_line, short_repr
 from .core.io_yaml import load_yaml_document
 from .params import ParamValueError, parameter_message
 from .paths import config_dir
@@ -330,6 +330,25 @@ def _checked_node(node: NodeSpec, cwd: Path) -> NodeSpec:
     return NodeSpec(node.name, node.module, node.params_file, params)
 
 
+def _params_path(path: str, base: Path, value: object, key: str, line: int | None) -> Path:
+    """A node's ``params:`` file, relative to the graph file's folder ``base``.
+
+    Raises:
+        InputFileError: not a string naming an existing file (the name too long included).
+    """
+    if not isinstance(value, str) or not value:
+        raise InputFileError(path, f"expected a file name, got {short_repr(value)}", key=key, line=line)
+    try:
+        found = (base / value).resolve()
+        exists = found.is_file()
+    except (OSError, ValueError) as exc:  # a name too long for the file system, a NUL byte
+        reason = f"cannot use {short_repr(value)} as a file ({getattr(exc, 'strerror', None) or one_line(str(exc))})"
+        raise InputFileError(path, reason, key=key, line=line) from None
+    if not exists:
+        raise InputFileError(path, f"parameter file {found} not found", key=key, line=line)
+    return found
+
+
 def load_graph(path: str | Path) -> Graph:
     """Read a ``bike_rig-graph/1`` file.
 
@@ -355,9 +374,7 @@ def load_graph(path: str | Path) -> Graph:
             raise InputFileError(p, f"unknown key(s) {', '.join(sorted(unknown))}", key=where, line=line)
         params_file = None
         if e.get("params") is not None:
-            params_file = (base / str(e["params"])).resolve()
-            if not params_file.is_file():
-                raise InputFileError(p, f"parameter file {params_file} not found", key=f"{where}.params", line=line)
+            params_file = _params_path(p, base, e["params"], f"{where}.params", line)
         parameters = e.get("parameters") or {}
         if not isinstance(parameters, dict):
             raise InputFileError(p, "'parameters' must be a mapping", key=f"{where}.parameters", line=line)

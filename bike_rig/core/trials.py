@@ -41,7 +41,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .errors import InputFileError, one_line
+from .errors import InputFileError, one_line, short_repr
 from .trial_binary import MAX_TRIAL_BYTES, check_mat_sizes, check_npy_header, load_mat_isolated
 from .trial_columns import ColumnChoice, Columns, choose_columns, times_in_seconds
 
@@ -444,7 +444,8 @@ def _read_mat(name: str, p: Path, sample_rate_hz: float | None, choice: ColumnCh
                 value = np.asarray(mat[key])
                 rate = float(value.reshape(-1)[0]) if value.dtype.kind in "biuf" and value.size == 1 else math.nan
                 if not (math.isfinite(rate) and rate > 0):
-                    raise InputFileError(name, f"the sample rate must be a positive number, got {mat[key]!r}", key=key)
+                    got = one_line(short_repr(mat[key], 80))
+                    raise InputFileError(name, f"the sample rate must be a positive number, got {got}", key=key)
                 break
         else:
             rate = _needs_rate(name, sample_rate_hz, "no 'ActualRate' or 'sampleRate' and no 'time': the file")

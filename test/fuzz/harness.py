@@ -1,0 +1,161 @@
+"""Run a file reader on one input with a time limit and a peak-memory measure, and classify the outcome.
+
+An outcome is one of:
+
+* ``ok``: the reader returned (``flagged`` when it left a remark for the user);
+* ``clean``: it raised a :class:`~bike_rig.core.errors.BikeRigError` whose message is one line
+  (what the CLI prints as ``bike-rig CMD: error: ...``, exit status 2);
+* ``crash``: any other exception, a message of several lines, or a warning on the way (it
+  would print before the error line);
+* ``hang``: it ran past the time limit (stopped by ``SIGALRM``, so only in the main thread).
+
+Memory is tracemalloc's peak over the call [bytes] (numpy's buffers included).
+"""
+
+from __future__ import annotations
+
+import signal
+import time
+import tracemalloc
+import warnings
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from types import FrameType
+
+from bike_rig.core.errors import BikeRigError
+
+__all__ = ["Outcome", "Tally", "run_reader"]
+
+KINDS = ("ok", "clean", "crash", "hang")
+
+
+class _Hang(BaseException):
+    """Raised by the alarm inside a reader that ran past its limit (a BaseException, so no reader catches it)."""
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """What one reader made of one input.
+
+    Attributes:
+        kind: ``ok``, ``clean``, ``crash`` or ``hang``.
+        seconds: Wall time of the call [s].
+        peak_bytes: tracemalloc's peak during the call [bytes], 0 when not measured.
+        message: The error (``Type: message``) or the reason of a crash; "" when ok.
+        flagged: The reader returned with a remark for the user.
+    """
+
+    kind: str
+    seconds: float
+    peak_bytes: int
+    message: str = ""
+    flagged: bool = False
+
+
+def _remarks(result: object) -> bool:
+    return bool(getattr(result, "remarks", ()))
+
+
+def _classify(call: Callable[[], object]) -> tuple[str, str, bool]:
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            result = call()
+        except BikeRigError as exc:
+            text = str(exc)
+            if "\n" in text:
+                return "crash", f"{type(exc).__name__} on several lines: {text!r}", False
+            kind, message, flagged = "clean", f"{type(exc).__name__}: {text}", False
+        except (_Hang, KeyboardInterrupt):
+            raise
+        except BaseException as exc:
+            return "crash", f"{type(exc).__name__}: {' '.join(str(exc).split())[:300]}", False
+        else:
+            kind, message, flagged = "ok", "", _remarks(result)
+    if caught:
+        w = caught[0]
+        return "crash", f"{w.category.__name__} printed: {w.message}", False
+    return kind, message, flagged
+
+
+def run_reader(
+    reader: Callable[[Path], object], path: Path, time_limit_s: float = 5.0, measure_memory: bool = True
+) -> Outcome:
+    """Run ``reader(path)`` once and classify it (see the module).
+
+    Args:
+        reader: The file reader under test.
+        path: The input file.
+        time_limit_s: Wall time after which the call is a hang [s].
+        measure_memory: Trace allocations for the peak (slows the call about twofold).
+    """
+
+    def alarm(_signum: int, _frame: FrameType | None) -> None:
+        raise _Hang
+
+    previous = signal.signal(signal.SIGALRM, alarm)
+    if measure_memory:
+        tracemalloc.start()
+    start = time.perf_counter()
+    signal.setitimer(signal.ITIMER_REAL, time_limit_s)
+    try:
+        kind, message, flagged = _classify(lambda: reader(path))
+    except _Hang:
+        kind, message, flagged = "hang", f"still running after {time_limit_s:g} s", False
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)
+        seconds = time.perf_counter() - start
+        peak = tracemalloc.get_traced_memory()[1] if measure_memory else 0
+        if measure_memory:
+            tracemalloc.stop()
+    return Outcome(kind, seconds, peak, message, flagged)
+
+
+@dataclass
+class Tally:
+    """The counts of a campaign on one reader, and the worst input of each kind.
+
+    Attributes:
+        reader: The reader's name.
+        counts: Inputs per outcome kind.
+        flags: Inputs read with a remark.
+        worst_seconds: The longest call [s].
+        peak_bytes: The largest peak memory of a call [bytes].
+        failures: (input label, outcome) of every crash and hang.
+    """
+
+    reader: str
+    counts: dict[str, int] = field(default_factory=lambda: dict.fromkeys(KINDS, 0))
+    flags: int = 0
+    worst_seconds: float = 0.0
+    peak_bytes: int = 0
+    failures: list[tuple[str, Outcome]] = field(default_factory=list)
+
+    @property
+    def inputs(self) -> int:
+        """Inputs tried."""
+        return sum(self.counts.values())
+
+    def add(self, label: str, outcome: Outcome) -> None:
+        """Count one outcome (``label`` names the input, to reproduce a failure)."""
+        self.counts[outcome.kind] += 1
+        self.flags += outcome.flagged
+        self.worst_seconds = max(self.worst_seconds, outcome.seconds)
+        self.peak_bytes = max(self.peak_bytes, outcome.peak_bytes)
+        if outcome.kind in ("crash", "hang"):
+            self.failures.append((label, outcome))
+
+    def line(self) -> str:
+        """One row of the campaign's table."""
+        c = self.counts
+        return (
+            f"{self.reader:<14} {self.inputs:>7} {c['clean']:>7} {c['ok']:>6} {self.flags:>6} {c['crash']:>7} "
+            f"{c['hang']:>6} {self.worst_seconds * 1000:>9.0f} {self.peak_bytes / 1e6:>8.1f}"
+        )
+
+    HEADER = (
+        f"{'reader':<14} {'inputs':>7} {'clean':>7} {'ok':>6} {'flags':>6} {'crashes':>7} {'hangs':>6} "
+        f"{'worst ms':>9} {'peak MB':>8}"
+    )

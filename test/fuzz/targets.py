@@ -1,0 +1,129 @@
+"""The file readers under fuzzing, each with its valid seed files and the tokens of its format.
+
+Seeds are the shipped files (``config/``, BicycleParameters' text files in the shared folder)
+and, where none ships (riders, trials), small valid files generated here.
+"""
+
+from __future__ import annotations
+
+import io
+import shutil
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from scipy.io import savemat
+
+from bike_rig.core.io_bp import dump_bp_parameter_yaml
+from bike_rig.core.loader import load_input
+from bike_rig.core.rider import PAPER_RIDER, load_rider
+from bike_rig.core.sim.rig import load_rig
+from bike_rig.core.trials import read_trial
+from bike_rig.launch import load_graph
+from bike_rig.paths import config_dir
+from test.fuzz.mutate import YAML_TOKENS
+from test.support.paper import shared_dir
+
+__all__ = ["Target", "targets"]
+
+#: Fragments of the trial formats worth inserting.
+_CSV_TOKENS = (b",", b";", b"\t", b"time_ms", b"rate", b"volts", b"#", b"\n\n", b"\xef\xbb\xbf", b"t[us]")
+_NPY_TOKENS = (b"(1, 2)", b"(20000000000,)", b"'<f8'", b"'|O'", b"'<U9'", b"True", b"{", b"\x93NUMPY", b"\x02\x00")
+_MAT_TOKENS = (b"\x0f\x00\x00\x00", b"\x0e\x00\x00\x00", b"\xff\xff\xff\x7f", b"IM", b"MI", b"\x78\x9c")
+
+
+@dataclass
+class Target:
+    """One reader under fuzzing.
+
+    Attributes:
+        name: Its name in the campaign's table.
+        reader: Reads one file; returns anything, raises a BikeRigError on a bad file.
+        suffix: The file name ending its inputs are written with.
+        seeds: Valid files' bytes.
+        tokens: Format fragments for the token mutation.
+    """
+
+    name: str
+    reader: Callable[[Path], object]
+    suffix: str
+    seeds: list[bytes] = field(default_factory=list)
+    tokens: tuple[bytes, ...] = ()
+
+
+def _trial_columns() -> tuple[np.ndarray, np.ndarray]:
+    """A 2 s damped oscillation at 1 kHz: times [s] and rates [rad/s]."""
+    t = np.arange(2000) / 1000.0
+    return t, 0.3 * np.exp(-0.05 * t) * np.sin(2 * np.pi * t / 0.8) + 0.01
+
+
+def _csv_seeds() -> list[bytes]:
+    t, x = _trial_columns()
+    rows = "".join(f"{a:.6f},{b:.6f}\n" for a, b in zip(t, x))
+    return [
+        ("time,rate\n" + rows).encode(),
+        ("# a comment\ntime_ms;rate;volts\n" + "".join(f"{a * 1e3:.3f};{b:.6f};{b + 2.5:.5f}\n" for a, b in zip(t, x)))
+        .encode(),
+        "".join(f"{b:.6f}\n" for b in x).encode(),
+        "".join(f"{a:.6f}\t{b:.6f}\n" for a, b in zip(t, x)).encode(),
+    ]
+
+
+def _npy_seeds() -> list[bytes]:
+    t, x = _trial_columns()
+    out = []
+    for array in (np.column_stack([t, x]), x, x.astype(np.float32), (x * 1000).astype(np.int16)):
+        buf = io.BytesIO()
+        np.save(buf, array)
+        out.append(buf.getvalue())
+    return out
+
+
+def _mat_seeds() -> list[bytes]:
+    t, x = _trial_columns()
+    meta = {"bicycle": "Browser", "part": "Frame", "pendulum": "Torsional", "angleOrder": "First", "trial": "1"}
+    out = []
+    for fields, compress in (({"data": x, "sampleRate": 1000.0, **meta}, False),
+                             ({"data": x, "ActualRate": 1000, **meta}, True),
+                             ({"data": x, "time": t}, True)):
+        buf = io.BytesIO()
+        savemat(buf, fields, do_compression=compress)
+        out.append(buf.getvalue())
+    return out
+
+
+def _rider_seeds() -> list[bytes]:
+    r = PAPER_RIDER
+    return [
+        f"name: paper\nmass: {r.mass}\nx: {r.x}\nz: {r.z}\n".encode()
+        + f"Ixx: {r.Ixx}\nIyy: {r.Iyy}\nIzz: {r.Izz}\nIxz: {r.Ixz}\n".encode(),
+        b"{mass: 80, x: 0.3, z: -1.1, Ixx: 8, Iyy: 8, Izz: 2.4, Ixz: -1.9}\n",
+    ]
+
+
+def targets(workdir: Path) -> list[Target]:
+    """Every file reader with its seeds; ``workdir`` receives the files a graph file refers to.
+
+    Inputs of the ``graph`` target must be written in ``workdir`` (their ``params:`` files are
+    relative to them).
+    """
+    bicycles = config_dir() / "bicycles"
+    raw = shared_dir() / "data" / "bicycleparameters"
+    for params in config_dir().glob("*.yaml"):
+        shutil.copy(params, workdir / params.name)
+    parameter_seeds = [(bicycles / "benchmark.yaml").read_bytes()]
+    parameter_seeds.append(dump_bp_parameter_yaml(load_input(bicycles / "benchmark.yaml")).encode())  # type: ignore[arg-type]
+    return [
+        Target("measurements", load_input, ".yaml",
+               [p.read_bytes() for p in sorted(bicycles.glob("*.yaml")) if p.stem != "benchmark"], YAML_TOKENS),
+        Target("parameters", load_input, ".yaml", parameter_seeds, YAML_TOKENS),
+        Target("bp-text", load_input, ".txt",
+               [p.read_bytes() for p in sorted(raw.glob("*/*/*.txt"))], (b" = ", b"+/-", b"#", b",", b"\n")),
+        Target("rig", load_rig, ".yaml", [(config_dir() / "rig.yaml").read_bytes()], YAML_TOKENS),
+        Target("graph", load_graph, ".yaml", [(config_dir() / "graph.yaml").read_bytes()], YAML_TOKENS),
+        Target("rider", load_rider, ".yaml", _rider_seeds(), YAML_TOKENS),
+        Target("trial-csv", lambda p: read_trial(p, 1000.0), ".csv", _csv_seeds(), _CSV_TOKENS),
+        Target("trial-npy", lambda p: read_trial(p, 1000.0), ".npy", _npy_seeds(), _NPY_TOKENS),
+        Target("trial-mat", lambda p: read_trial(p, 1000.0), ".mat", _mat_seeds(), _MAT_TOKENS),
+    ]
