@@ -4,8 +4,10 @@
 Usage: ``.venv/bin/python tools/fuzz.py [--inputs N] [--seconds S] [--seed N] [--reader NAME]...``
 
 Prints, per reader, the inputs tried, clean one-line errors, inputs read (ok), read with a
-remark (flags), crashes, hangs, the slowest call and the largest peak memory (tracemalloc;
-the .mat reader's scipy runs in a child process, whose memory is not in it). Exits 1 on any
+remark (flags), crashes, hangs, the slowest call, the largest peak memory of a call
+(tracemalloc, with ``--trace-memory``; the .mat reader's scipy runs in a child process, whose
+memory is not in it) and the process's peak resident set size so far (children included:
+every call's memory is below it). Exits 1 on any
 crash or hang, listing each with what reproduces it (seed, reader, index:
 ``test.fuzz.campaign.input_for``).
 """
@@ -34,7 +36,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seed", type=int, default=int(time.time()), help="campaign seed (default: the time)")
     ap.add_argument("--reader", action="append", help="only this reader (repeatable)")
     ap.add_argument("--time-limit", type=float, default=10.0, help="a call longer than this is a hang [s] (10)")
-    ap.add_argument("--no-memory", action="store_true", help="do not trace memory (about twice as fast)")
+    ap.add_argument("--trace-memory", action="store_true",
+                    help="each call's peak by tracemalloc (several times slower); the peak RSS is always shown")
     args = ap.parse_args(argv)
     print(f"fuzz: seed {args.seed}, {args.inputs} inputs per reader, hang after {args.time_limit:g} s", flush=True)
     failed = 0
@@ -45,7 +48,7 @@ def main(argv: list[str] | None = None) -> int:
         for target in chosen:
             start = time.monotonic()
             tally = fuzz_target(target, work, args.seed, args.inputs, args.seconds, args.time_limit,
-                                not args.no_memory)
+                                args.trace_memory)
             print(tally.line(), f"{time.monotonic() - start:8.0f}", flush=True)
             for label, outcome in tally.failures:
                 print(f"  {outcome.kind}: seed {args.seed} {label}: {outcome.message}", flush=True)

@@ -9,11 +9,14 @@ An outcome is one of:
   would print before the error line);
 * ``hang``: it ran past the time limit (stopped by ``SIGALRM``, so only in the main thread).
 
-Memory is tracemalloc's peak over the call [bytes] (numpy's buffers included).
+Memory is tracemalloc's peak over the call [bytes] (numpy's buffers included) when traced;
+the process's peak resident set size (children included) is always kept, which bounds every
+call's at no cost.
 """
 
 from __future__ import annotations
 
+import resource
 import signal
 import time
 import tracemalloc
@@ -42,6 +45,7 @@ class Outcome:
         kind: ``ok``, ``clean``, ``crash`` or ``hang``.
         seconds: Wall time of the call [s].
         peak_bytes: tracemalloc's peak during the call [bytes], 0 when not measured.
+        peak_rss_bytes: The process's (and its children's) peak resident set size after the call [bytes].
         message: The error (``Type: message``) or the reason of a crash; "" when ok.
         flagged: The reader returned with a remark for the user.
     """
@@ -51,6 +55,7 @@ class Outcome:
     peak_bytes: int
     message: str = ""
     flagged: bool = False
+    peak_rss_bytes: int = 0
 
 
 def _remarks(result: object) -> bool:
@@ -110,7 +115,14 @@ def run_reader(
         peak = tracemalloc.get_traced_memory()[1] if measure_memory else 0
         if measure_memory:
             tracemalloc.stop()
-    return Outcome(kind, seconds, peak, message, flagged)
+    return Outcome(kind, seconds, peak, message, flagged, peak_rss())
+
+
+def peak_rss() -> int:
+    """The largest resident set size of this process or of any of its finished children so far [bytes]."""
+    own = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    children = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
+    return max(own, children) * 1024  # Linux reports KiB
 
 
 @dataclass
@@ -122,7 +134,8 @@ class Tally:
         counts: Inputs per outcome kind.
         flags: Inputs read with a remark.
         worst_seconds: The longest call [s].
-        peak_bytes: The largest peak memory of a call [bytes].
+        peak_bytes: The largest traced peak memory of a call [bytes] (0 untraced).
+        peak_rss_bytes: The process's peak resident set size by the end [bytes].
         failures: (input label, outcome) of every crash and hang.
     """
 
@@ -131,6 +144,7 @@ class Tally:
     flags: int = 0
     worst_seconds: float = 0.0
     peak_bytes: int = 0
+    peak_rss_bytes: int = 0
     failures: list[tuple[str, Outcome]] = field(default_factory=list)
 
     @property
@@ -144,6 +158,7 @@ class Tally:
         self.flags += outcome.flagged
         self.worst_seconds = max(self.worst_seconds, outcome.seconds)
         self.peak_bytes = max(self.peak_bytes, outcome.peak_bytes)
+        self.peak_rss_bytes = max(self.peak_rss_bytes, outcome.peak_rss_bytes)
         if outcome.kind in ("crash", "hang"):
             self.failures.append((label, outcome))
 
@@ -152,10 +167,11 @@ class Tally:
         c = self.counts
         return (
             f"{self.reader:<14} {self.inputs:>7} {c['clean']:>7} {c['ok']:>6} {self.flags:>6} {c['crash']:>7} "
-            f"{c['hang']:>6} {self.worst_seconds * 1000:>9.0f} {self.peak_bytes / 1e6:>8.1f}"
+            f"{c['hang']:>6} {self.worst_seconds * 1000:>9.0f} {self.peak_bytes / 1e6:>8.1f} "
+            f"{self.peak_rss_bytes / 1e6:>7.0f}"
         )
 
     HEADER = (
         f"{'reader':<14} {'inputs':>7} {'clean':>7} {'ok':>6} {'flags':>6} {'crashes':>7} {'hangs':>6} "
-        f"{'worst ms':>9} {'peak MB':>8}"
+        f"{'worst ms':>9} {'peak MB':>8} {'RSS MB':>7}"
     )
