@@ -63,4 +63,5 @@ def test_junk_from_another_process_never_touches_the_drivers_trial(tmp_path: Pat
     parameter_log = (folder / "logs" / "parameter.log").read_text()
     assert "trial 'rogue_t1': period 1e+308 ± 0.0001 s is not a rig pendulum's" in parameter_log
     fitter_log = (folder / "logs" / "fitter.log").read_text()
-    assert "more than 4 trials without STOP" in fitter_log  # the rogue's junk evicted among itself
+    evicted = [line for line in fitter_log.splitlines() if "fitted as it is" in line]
+    assert not any(trial.name in line for line in evicted), evicted  # only the rogue's own junk, if any
