@@ -281,6 +281,10 @@ def torsion_rod_stiffness(diameter: float, length: float, shear_modulus: float) 
 
 Where = tuple[object, ...]
 
+#: The largest magnitude of a number in a rig file (SI): above the largest a rig has (a shear
+#: modulus, some 8e10 Pa), small enough that the simulation's products of a few cannot overflow.
+MAX_RIG_MAGNITUDE = 1e12
+
 
 def _label(where: Where) -> str:
     out = ""
@@ -325,6 +329,8 @@ class _Reader:
             raise self.error(where, f"expected a number, got {short_repr(value)}") from None
         if not math.isfinite(x):
             raise self.error(where, f"must be finite, got {value!r}")
+        if abs(x) > MAX_RIG_MAGNITUDE:
+            raise self.error(where, f"{x:g} is beyond any rig (magnitude above {MAX_RIG_MAGNITUDE:g})")
         if low is not None and (x <= low if strict else x < low):
             raise self.error(where, f"must be {'>' if strict else '>='} {low:g}, got {x:g}")
         return x

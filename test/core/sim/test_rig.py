@@ -117,3 +117,13 @@ def test_unreadable_rig_files(tmp_path: Path) -> None:
     bad.write_text("- 1\n- 2\n", encoding="utf-8")
     with pytest.raises(RigFileError, match="mapping"):
         load_rig(bad)
+
+
+def test_absurd_magnitudes_are_refused(tmp_path: Path) -> None:
+    """A calibration rod of 1e300 kg was simulated without a word (exit 0)."""
+    text = config_file("rig.yaml").read_text()
+    assert "mass: 5.56" in text
+    path = tmp_path / "rig.yaml"
+    path.write_text(text.replace("mass: 5.56", "mass: 1.0e+300"))
+    with pytest.raises(RigFileError, match=r"calibration_rod.mass': 1e\+300 is beyond any rig"):
+        load_rig(path)
