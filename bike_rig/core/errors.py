@@ -66,6 +66,11 @@ def one_line(text: str) -> str:
 
 
 def short_repr(value: object, limit: int = 60) -> str:
-    """``repr(value)`` cut to ``limit`` characters (a 1 MB string quoted in an error stays short)."""
+    """``repr(value)`` cut to ``limit`` characters (a 1 MB string quoted in an error stays short).
+
+    An integer too long to write (``repr`` refuses 4,300 digits and more) is described instead.
+    """
+    if isinstance(value, int) and value.bit_length() > 3 * limit:
+        return f"an integer of about {int(value.bit_length() * 0.30103) + 1} digits"
     text = repr(value)
     return text if len(text) <= limit else text[: limit - 3] + "..."

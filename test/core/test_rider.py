@@ -85,3 +85,12 @@ def test_missing_rider_file(tmp_path: Path) -> None:
     path = tmp_path / "absent.yaml"
     with pytest.raises(RiderError, match=r"absent\.yaml: cannot read the file \(FileNotFoundError"):
         resolve_rider(str(path))
+
+
+def test_integers_beyond_any_float_are_refused_in_one_line(tmp_path: Path) -> None:
+    """400 digits was an OverflowError; 4,000 hex digits a ValueError writing the message (found by fuzzing)."""
+    for number in ("1" + "0" * 400, "0x" + "f" * 4000):
+        path = tmp_path / "rider.yaml"
+        path.write_text(f"mass: {number}\nx: 0.3\n")
+        with pytest.raises(RiderError, match=r"rider\.yaml:1: key 'mass': .* is beyond any rider"):
+            load_rider(path)
