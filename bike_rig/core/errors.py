@@ -72,5 +72,8 @@ def short_repr(value: object, limit: int = 60) -> str:
     """
     if isinstance(value, int) and value.bit_length() > 3 * limit:
         return f"an integer of about {int(value.bit_length() * 0.30103) + 1} digits"
-    text = repr(value)
+    try:
+        text = repr(value)
+    except ValueError:  # a list or mapping holding such an integer
+        return f"a {type(value).__name__} holding an integer too long to write"
     return text if len(text) <= limit else text[: limit - 3] + "..."

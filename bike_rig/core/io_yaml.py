@@ -191,9 +191,9 @@ class _Doc:
                     raise ValueError(f"'{value}' has no sigma; write [value, sigma]")
                 v, s = parse_value(value)
             elif isinstance(value, (int, float)):
-                raise ValueError(f"{value} has no sigma; every measured value is [value, sigma]")
+                raise ValueError(f"{short_repr(value)} has no sigma; every measured value is [value, sigma]")
             else:
-                raise ValueError(f"not a number: {value!r}")
+                raise ValueError(f"not a number: {short_repr(value)}")
             check_value_sigma(v, s)
         except ValueError as exc:
             raise self.error(where, str(exc)) from None
@@ -211,7 +211,7 @@ def _trial_period(doc: _Doc, where: tuple[object, ...], spec: Mapping[str, Any])
         raise doc.error(where, "a period from trials is {trials: [file, ...], sample_rate_hz: optional}")
     rate = spec.get("sample_rate_hz")
     if rate is not None and (isinstance(rate, bool) or not isinstance(rate, (int, float)) or not rate > 0):
-        raise doc.error(where + ("sample_rate_hz",), f"must be a positive number, got {rate!r}")
+        raise doc.error(where + ("sample_rate_hz",), f"must be a positive number, got {short_repr(rate)}")
     base = Path(doc.path).parent
     ev = period_from_trials([base / f for f in files], None if rate is None else float(rate))
     if ev.combined.n_used == 0:
@@ -225,7 +225,7 @@ def _trial_period(doc: _Doc, where: tuple[object, ...], spec: Mapping[str, Any])
 
 def _number(x: Any) -> float:
     if isinstance(x, bool) or not isinstance(x, (int, float, str)):
-        raise ValueError(f"not a number: {x!r}")
+        raise ValueError(f"not a number: {short_repr(x)}")
     try:
         return float(x)
     except (ValueError, OverflowError):  # OverflowError: an integer beyond any float

@@ -310,7 +310,7 @@ class _Reader:
     def section(self, value: Any, where: Where, keys: Sequence[str], optional: Sequence[str] = ()) -> Mapping[str, Any]:
         """A mapping with exactly ``keys`` (and possibly ``optional``)."""
         if not isinstance(value, Mapping):
-            raise self.error(where, f"expected a mapping of {', '.join(keys)}, got {value!r}")
+            raise self.error(where, f"expected a mapping of {', '.join(keys)}, got {short_repr(value)}")
         for key in value:
             if key not in keys and key not in optional:
                 raise self.error(where + (key,), f"unknown key; expected one of {', '.join([*keys, *optional])}")
@@ -322,13 +322,13 @@ class _Reader:
     def number(self, value: Any, where: Where, *, low: float | None = None, strict: bool = True) -> float:
         """A finite number (YAML number or numeric string), optionally > low (or >= low)."""
         if isinstance(value, bool) or not isinstance(value, (int, float, str)):
-            raise self.error(where, f"expected a number, got {value!r}")
+            raise self.error(where, f"expected a number, got {short_repr(value)}")
         try:
             x = float(value)
         except (ValueError, OverflowError):  # OverflowError: an integer beyond any float
             raise self.error(where, f"expected a number, got {short_repr(value)}") from None
         if not math.isfinite(x):
-            raise self.error(where, f"must be finite, got {value!r}")
+            raise self.error(where, f"must be finite, got {short_repr(value)}")
         if abs(x) > MAX_RIG_MAGNITUDE:
             raise self.error(where, f"{x:g} is beyond any rig (magnitude above {MAX_RIG_MAGNITUDE:g})")
         if low is not None and (x <= low if strict else x < low):
@@ -337,19 +337,19 @@ class _Reader:
 
     def count(self, value: Any, where: Where, low: int = 1) -> int:
         if isinstance(value, bool) or not isinstance(value, int) or value < low:
-            raise self.error(where, f"expected a whole number >= {low}, got {value!r}")
+            raise self.error(where, f"expected a whole number >= {low}, got {short_repr(value)}")
         return value
 
     def numbers(self, value: Any, where: Where, *, low: float | None = None, strict: bool = True) -> list[float]:
         if not isinstance(value, list) or not value:
-            raise self.error(where, f"expected a non-empty list of numbers, got {value!r}")
+            raise self.error(where, f"expected a non-empty list of numbers, got {short_repr(value)}")
         return [self.number(v, where + (i,), low=low, strict=strict) for i, v in enumerate(value)]
 
     def interval(self, value: Any, where: Where, *, low: float, high: float | None = None) -> tuple[float, float]:
         """A range [a, b] with low < a <= b (< high)."""
         got = self.numbers(value, where, low=low)
         if len(got) != 2 or got[0] > got[1]:
-            raise self.error(where, f"expected a range [low, high] with low <= high, got {value!r}")
+            raise self.error(where, f"expected a range [low, high] with low <= high, got {short_repr(value)}")
         if high is not None and got[1] >= high:
             raise self.error(where, f"must stay below {high:g}, got {got[1]:g}")
         return got[0], got[1]
@@ -429,7 +429,7 @@ def _adc(r: _Reader, value: Any, gyro: Gyro) -> Adc:
         raise r.error(("adc", "bits"), f"at most 32 bits, got {bits}")
     rails = r.numbers(a["range"], ("adc", "range"))
     if len(rails) != 2 or rails[0] >= rails[1]:
-        raise r.error(("adc", "range"), f"expected [low, high] volts with low < high, got {a['range']!r}")
+        raise r.error(("adc", "range"), f"expected [low, high] volts with low < high, got {short_repr(a['range'])}")
     adc = Adc(bits, rails[0], rails[1], r.number(a["sample_rate"], ("adc", "sample_rate"), low=0.0))
     if not adc.low < gyro.zero_rate_output < adc.high:
         raise r.error(
@@ -497,7 +497,7 @@ def rig_from_document(path: str, data: Any, lines: Mapping[tuple[object, ...], i
         raise r.error((), "expected a YAML mapping at the top level")
     top = r.section(data, (), sections, ("name", "coupled_swing"))
     if top["format"] != RIG_FORMAT:
-        raise r.error(("format",), f"expected '{RIG_FORMAT}', got {top['format']!r}")
+        raise r.error(("format",), f"expected '{RIG_FORMAT}', got {short_repr(top['format'])}")
 
     stiffness = _stiffness(r, top["torsion_rod"])
     calibration = _calibration_rod(r, top["calibration_rod"])

@@ -127,3 +127,13 @@ def test_absurd_magnitudes_are_refused(tmp_path: Path) -> None:
     path.write_text(text.replace("mass: 5.56", "mass: 1.0e+300"))
     with pytest.raises(RigFileError, match=r"calibration_rod.mass': 1e\+300 is beyond any rig"):
         load_rig(path)
+
+
+def test_an_integer_too_long_to_write_is_refused_in_one_line(tmp_path: Path) -> None:
+    """A 4,000-hex-digit count made the error message itself raise ValueError (repr of the integer)."""
+    text = config_file("rig.yaml").read_text()
+    assert "per_measurement: 3" in text
+    path = tmp_path / "rig.yaml"
+    path.write_text(text.replace("per_measurement: 3", "per_measurement: -0x" + "f" * 4000))
+    with pytest.raises(RigFileError, match="got an integer of about 4817 digits"):
+        load_rig(path)
