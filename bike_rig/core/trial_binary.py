@@ -57,7 +57,8 @@ def check_npy_header(name: str, path: Path) -> None:
     """
     fmt = np.lib.format
     try:
-        with path.open("rb") as f:
+        with path.open("rb") as f, warnings.catch_warnings():
+            warnings.simplefilter("ignore", SyntaxWarning)  # Python's, on a damaged header's literal
             version = fmt.read_magic(f)
             if version == (1, 0):
                 shape, _fortran, dtype = fmt.read_array_header_1_0(f)

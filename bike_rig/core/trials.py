@@ -34,6 +34,7 @@ from __future__ import annotations
 import math
 import os
 import re
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -368,7 +369,9 @@ def _row_width(name: str, columns: int, width: int, number: int) -> int:
 def _read_npy(name: str, p: Path, sample_rate_hz: float | None, choice: ColumnChoice) -> Trial:
     check_npy_header(name, p)
     try:
-        array = np.load(p, allow_pickle=False)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", SyntaxWarning)  # Python's, on a damaged header's literal
+            array = np.load(p, allow_pickle=False)
     except (ValueError, OSError, EOFError) as exc:
         raise InputFileError(name, f"not a readable NumPy .npy file ({one_line(str(exc))})") from None
     if not isinstance(array, np.ndarray):
