@@ -80,6 +80,16 @@ def _run_then_kill(argv: list[str], script: list[str], trials: int, folder: Path
     return seen
 
 
+def _diagnosis(stderr: str, lines: list[dict[str, Any]], folder: Path) -> str:
+    """What went wrong: the errors, the flagged results, the nodes' warnings."""
+    out = [stderr[-1000:], *(x["text"] for x in lines if x["kind"] in ("error", "warning"))]
+    out += [x["text"] for x in lines if x["kind"] == "result" and x.get("state") != "ok"]
+    for log in sorted((folder / "logs").glob("*.log")):
+        loud = [line for line in log.read_text().splitlines() if "WARN" in line or "ERROR" in line]
+        out += [f"{log.name}: {line[:300]}" for line in loud]
+    return "\n".join(out[-60:])
+
+
 def test_a_killed_session_resumes_from_its_bag_to_the_uninterrupted_result(
     tmp_path: Path, ros_env: dict[str, str]
 ) -> None:
@@ -102,7 +112,7 @@ def test_a_killed_session_resumes_from_its_bag_to_the_uninterrupted_result(
     finally:
         kill_session(b)
     lines = [json.loads(x) for x in done.stdout.splitlines()]
-    assert done.returncode == 0, (done.stderr[-2000:], [x for x in lines if x["kind"] == "error"])
+    assert done.returncode == 0, _diagnosis(done.stderr, lines, b)
     assert lines[0]["resuming"] == [0, first_trials], lines[0]
     back = next(x for x in lines if "resumed" in x)
     assert back["resumed"] == first_trials
