@@ -48,6 +48,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .detection import detect
 from .oscillation import TWO_PI, damped_cosine, damped_cosine_even, zeta_omega
 from .quality import (
     Modulation,
@@ -505,6 +506,20 @@ class _Fitter:
         sst = self._sst(y, float(np.dot(blocks.yb, blocks.counts)) / n)
         return r, sse, sst
 
+    def _detect(self, win: _Window, r: FloatArray, omega_d: float) -> None:
+        """An invalid result unless the fitted oscillation stands out of the residuals' noise floor.
+
+        The test (:mod:`~bike_rig.core.period.detection`) works on block means of the window's
+        samples and residuals ``r`` (as the initial guess does), at the fitted ``omega_d`` [rad/s].
+        """
+        k_spec = max(1, math.ceil(win.n / MAX_SPECTRUM_POINTS))
+        sums, sizes = block_sums(win.ys, k_spec)
+        residual_sums, _ = block_sums(r, k_spec)
+        tb = block_times(win.tw, k_spec, sizes, win.even, win.first)
+        found = detect(tb, sums / sizes, residual_sums / sizes, win.last - win.first, omega_d, win.even is not None)
+        if not found.found:
+            raise _Invalid(Flag(FlagCode.NO_OSCILLATION, f"no oscillation stands out of the noise: {found.describe()}"))
+
     def _flags(
         self, win: _Window, r: FloatArray, n_cycles: float, r2: float, modulation: Modulation, drift: float
     ) -> list[Flag]:
@@ -540,6 +555,7 @@ class _Fitter:
         if n_cycles < MIN_VALID_CYCLES - CYCLE_TOLERANCE:
             raise _Invalid(self._too_few(n_cycles, TWO_PI / omega_d))
         r, sse, sst = self._residuals(win, blocks, sol)
+        self._detect(win, r, omega_d)
         r2 = 1.0 - sse / sst if sst > 0 else math.nan
         s2 = sse / max(1, n - 5)  # Eq 26
         try:

@@ -17,10 +17,12 @@ from numpy.typing import NDArray
 
 __all__ = [
     "MAX_SPECTRUM_POINTS",
+    "Periodogram",
     "SpectralPeak",
     "block_sums",
     "block_times",
     "peak_of_blocks",
+    "periodogram",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -81,20 +83,44 @@ def _ramp(m: int) -> tuple[FloatArray, float]:
     return x, float(np.dot(x, x))
 
 
-def peak_of_blocks(
-    tb: FloatArray, yb: FloatArray, duration: float, even: bool = False, min_cycles: float = 1.0
-) -> SpectralPeak | None:
-    """The dominant oscillation of block means ``yb`` at times ``tb`` of a ``duration`` s record.
+@dataclass(frozen=True)
+class Periodogram:
+    """A Hann-windowed, zero-padded periodogram of detrended block means.
 
-    Args:
-        tb: Block times [s], increasing (possibly unevenly spaced).
-        yb: Block means (finite).
-        duration: The record's length [s].
-        even: The blocks are evenly spaced.
-        min_cycles: Lowest frequency searched, in cycles per record.
+    Attributes:
+        power: |FFT|² of the detrended, Hann-windowed series, per padded bin [units²].
+        nfft: FFT length (the series' length m, padded to a power of two, then doubled).
+        m: Points in the series.
+        df: Padded bin spacing [Hz]; a Fourier (independent-frequency) bin is ``nfft / m``
+            padded bins.
+        lo: Lowest padded bin searched (``min_cycles`` per record).
+        hi: Highest padded bin searched (a quarter of the block rate).
+    """
+
+    power: FloatArray
+    nfft: int
+    m: int
+    df: float
+    lo: int
+    hi: int
+
+    @property
+    def pad(self) -> float:
+        """Padded bins per Fourier bin [-]."""
+        return self.nfft / self.m
+
+
+def periodogram(
+    tb: FloatArray, yb: FloatArray, duration: float, even: bool = False, min_cycles: float = 1.0
+) -> Periodogram | None:
+    """The periodogram of block means ``yb`` at times ``tb`` of a ``duration`` s record.
+
+    The block means are put on an even grid (interpolated when the times are uneven), their
+    mean and linear trend removed, Hann-windowed and zero-padded.
 
     Returns:
-        The peak, or None when the series is too short to have one.
+        The periodogram, or None when the series is too short (fewer than 8 points, or no
+        bin between ``min_cycles`` per record and a quarter of the block rate).
     """
     m = tb.size
     if m < 8 or not duration > 0:
@@ -118,6 +144,28 @@ def peak_of_blocks(
     hi = min(power.size - 2, int(0.25 / (step * df)))
     if hi <= lo:
         return None
+    return Periodogram(power, nfft, m, df, lo, hi)
+
+
+def peak_of_blocks(
+    tb: FloatArray, yb: FloatArray, duration: float, even: bool = False, min_cycles: float = 1.0
+) -> SpectralPeak | None:
+    """The dominant oscillation of block means ``yb`` at times ``tb`` of a ``duration`` s record.
+
+    Args:
+        tb: Block times [s], increasing (possibly unevenly spaced).
+        yb: Block means (finite).
+        duration: The record's length [s].
+        even: The blocks are evenly spaced.
+        min_cycles: Lowest frequency searched, in cycles per record.
+
+    Returns:
+        The peak, or None when the series is too short to have one.
+    """
+    spec = periodogram(tb, yb, duration, even, min_cycles)
+    if spec is None:
+        return None
+    power, lo, hi, df, nfft, m = spec.power, spec.lo, spec.hi, spec.df, spec.nfft, spec.m
     i = lo + int(np.argmax(power[lo : hi + 1]))
     p0, p1, p2 = (math.log(max(float(v), 1e-300)) for v in power[i - 1 : i + 2])
     curvature = p0 - 2.0 * p1 + p2
