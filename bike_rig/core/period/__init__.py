@@ -37,8 +37,13 @@ clean trials, σ inflated by the Birge ratio when they scatter more than their �
 ``sigma_internal``, ``notes``. Its ``value ± sigma`` is a ``Tc*``/``Tt*`` reading of the
 measurement file.
 
+``valid`` means an oscillation was found: its spectral peak stands out of the residuals' noise
+floor with a false-alarm probability of at most 1e-4 per record of noise (white, quantised,
+1/f, random walk), see :mod:`.detection`.
+
 Modules: :mod:`.model` (Eq 23, 25, 26), :mod:`.window` (window policies), :mod:`.spectrum`
-(initial guess), :mod:`.fit` (the fit and its σ: read its docstring for how σ is made honest),
+(initial guess), :mod:`.detection` (is there an oscillation?), :mod:`.fit` (the fit and its σ:
+read its docstring for how σ is made honest),
 :mod:`.quality` (flags), :mod:`.combine`, :mod:`.result` (the dataclasses).
 """
 

@@ -25,6 +25,10 @@ Stages
    Jacobian of all five parameters, finish the fit.
 6. **Residuals** of every sample give r², the residual RMS and the sample-level flags
    (:mod:`~bike_rig.core.period.quality`).
+7. **Was an oscillation found?** The record's spectral peak at the fitted frequency must stand
+   out of the residuals' noise floor with a false-alarm probability of at most 1e-4
+   (:mod:`~bike_rig.core.period.detection`), and swing by more than half an ADC step; else
+   ``valid=False`` with ``no_oscillation``: a period means an oscillation was found.
 
 For a 30 s trial at 1 kHz this takes about 0.9 ms (``bench/bench_period.py``): a few passes
 over the samples (block sums, the residuals, boolean scans for the flags), everything else on
@@ -79,6 +83,8 @@ MIN_VALID_CYCLES = 2.0
 CYCLE_TOLERANCE = 0.05
 #: Fewest samples in the window.
 MIN_SAMPLES = 16
+#: An oscillation must swing by more than this many ADC steps (the smallest step of the samples).
+MIN_STEPS = 0.5
 #: A relative σ of the period above this means the oscillation is not determined.
 MAX_RELATIVE_SIGMA = 0.05
 
@@ -506,19 +512,34 @@ class _Fitter:
         sst = self._sst(y, float(np.dot(blocks.yb, blocks.counts)) / n)
         return r, sse, sst
 
-    def _detect(self, win: _Window, r: FloatArray, omega_d: float) -> None:
-        """An invalid result unless the fitted oscillation stands out of the residuals' noise floor.
+    def _detect(self, win: _Window, r: FloatArray, sol: Solution) -> None:
+        """An invalid result unless the fit found an oscillation.
 
-        The test (:mod:`~bike_rig.core.period.detection`) works on block means of the window's
-        samples and residuals ``r`` (as the initial guess does), at the fitted ``omega_d`` [rad/s].
+        It must stand out of the residuals' noise floor (:mod:`~bike_rig.core.period.detection`,
+        on block means of the window's samples and residuals ``r``, as the initial guess) and
+        swing by more than half an ADC step: the quantisation of a slow drift is a sawtooth of
+        at most 1/π step whose period is the time the drift takes to cross a step.
         """
         k_spec = max(1, math.ceil(win.n / MAX_SPECTRUM_POINTS))
         sums, sizes = block_sums(win.ys, k_spec)
         residual_sums, _ = block_sums(r, k_spec)
         tb = block_times(win.tw, k_spec, sizes, win.even, win.first)
-        found = detect(tb, sums / sizes, residual_sums / sizes, win.last - win.first, omega_d, win.even is not None)
+        duration = win.last - win.first
+        found = detect(tb, sums / sizes, residual_sums / sizes, duration, sol.omega_d, win.even is not None)
         if not found.found:
             raise _Invalid(Flag(FlagCode.NO_OSCILLATION, f"no oscillation stands out of the noise: {found.describe()}"))
+        _, quantum = noise_and_quantum(win.ys, r)  # (in the units of the samples)
+        largest = abs(sol.K) * self.units[0] * math.exp(abs(sol.alpha) * 0.5 * duration)  # amplitude, window's ends
+        if largest <= MIN_STEPS * quantum:
+            factor, _ = self._sample_units()
+            raise _Invalid(
+                Flag(
+                    FlagCode.NO_OSCILLATION,
+                    f"the fitted {TWO_PI / sol.omega_d:.4g} s swings by at most {largest * factor:.3g}, "
+                    f"not more than half the samples' step {quantum * factor:.3g}: the staircase of a "
+                    "quantised drift, not an oscillation",
+                )
+            )
 
     def _flags(
         self, win: _Window, r: FloatArray, n_cycles: float, r2: float, modulation: Modulation, drift: float
@@ -555,7 +576,7 @@ class _Fitter:
         if n_cycles < MIN_VALID_CYCLES - CYCLE_TOLERANCE:
             raise _Invalid(self._too_few(n_cycles, TWO_PI / omega_d))
         r, sse, sst = self._residuals(win, blocks, sol)
-        self._detect(win, r, omega_d)
+        self._detect(win, r, sol)
         r2 = 1.0 - sse / sst if sst > 0 else math.nan
         s2 = sse / max(1, n - 5)  # Eq 26
         try:
