@@ -69,7 +69,9 @@ class FitterState:
         options: Fit options and limits.
         log: Where problems are reported.
         grace_s: How long a STOP waits for missing batches, and batches wait for their START
-            (counted from when both topics' publishers were matched, if later), s.
+            (counted from when both topics' publishers were matched, if later, and while the
+            source's batches keep arriving from its last one, up to ``history_grace_s`` after
+            the STOP), s.
         max_open_trials: Trials buffered at once without a STOP per source (and that many
             trials' worth of samples per source); beyond it the source's trial heard of least
             recently is fitted as it is (flag ``no_stop`` or ``unknown_trial``).
@@ -107,6 +109,8 @@ class FitterState:
         self.published = 0
         self.suppressed = 0
         self.outside = 0
+        #: When each source's last batch was received, monotonic s.
+        self.last_batch_s: dict[str, float] = {}
 
     # ------------------------------------------------------------------ input
     def on_event(self, event: TrialEventRecord, source: str = "") -> list[TrialFit]:
@@ -156,6 +160,7 @@ class FitterState:
                 self.log.warning("gyro batches outside any trial (empty trial_id) are ignored")
             return []
         key = (source, tid)
+        self.last_batch_s[source] = now
         t = self.open.get(key)
         if t is None:
             if key in self.done:
@@ -188,7 +193,12 @@ class FitterState:
         out: list[TrialFit | None] = []
         for t in list(self.open.values()):
             if t.stop is not None:
-                since = max(t.stop_seen_s, self.matched_at)
+                # while the source's batches still arrive (the fitter behind a burst: a resumed
+                # session's recorded trials, a loaded machine), the missing ones may be queued
+                # behind them: wait grace_s after the source's last batch, at most
+                # history_grace_s after the STOP
+                flowing = min(self.last_batch_s.get(t.source, 0.0), t.stop_seen_s + self.history_grace_s)
+                since = max(t.stop_seen_s, self.matched_at, flowing)
             elif t.start is None:
                 since = max(t.seen_s, self.matched_at)
             else:

@@ -138,6 +138,8 @@ class SessionController:
     _announced: tuple[float, ...] = ()
     _resume_note: str = ""
     _pending: list[Reply] = field(default_factory=list)
+    #: When the last parameter set or stability sweep arrived (``clock``), s.
+    updated_at: float = 0.0
 
     # ------------------------------------------------------------------ resume
     def resume(self, trial_ids: Sequence[str], entries: Sequence[ReadingEntry], note: str) -> None:
@@ -153,6 +155,7 @@ class SessionController:
         self.session.resume(trial_ids)
         for entry in entries:
             self.link.send_reading(entry)
+            self.session.on_reading(entry)  # its echo from the graph may come seconds later
         self._resume_note = note
         back, total = self.session.resuming
         self._pending.append(
@@ -373,8 +376,10 @@ class SessionController:
                 out.append(Reply("result", line, _fit_data(ev, state)))
             elif isinstance(ev, SessionParameters):
                 s.on_parameters(ev)
+                self.updated_at = now
             elif isinstance(ev, StabilitySweep):
                 s.on_stability(ev)
+                self.updated_at = now
             elif isinstance(ev, ReadingEntry):
                 if not any(e.stamp_ns == ev.stamp_ns and e.value == ev.value for e in s.readings.get(ev.key, [])):
                     s.on_reading(ev)

@@ -5,7 +5,8 @@ controller's commands (:mod:`bike_rig.session.controller`), plain mode knows ``w
 
 * ``wait [SECONDS]``: until the trial started last has its result (or was aborted), and a
   resumed session's recorded trials are all back;
-* ``wait complete [SECONDS]``: until the parameter set is complete with its speeds;
+* ``wait complete [SECONDS]``: until the parameter set is complete with its speeds, holds every
+  usable result received, and nothing new has come for :data:`QUIET_S` (the last update in);
 
 at most ``SECONDS`` (default 600) of wall time; a ``wait`` that times out replies ``error``.
 What the graph publishes meanwhile (results, warnings) is written as it arrives. End of input
@@ -23,10 +24,12 @@ from typing import IO
 
 from .controller import Reply, SessionController
 
-__all__ = ["POLL_S", "run_plain"]
+__all__ = ["POLL_S", "QUIET_S", "run_plain"]
 
 #: How often the graph is polled while waiting for input, s.
 POLL_S = 0.02
+#: ``wait complete``: how long the parameter set and speeds must stay unchanged, s.
+QUIET_S = 0.5
 
 
 def _reader(stream: IO[str], lines: queue.Queue[str | None]) -> None:
@@ -64,7 +67,9 @@ def _wait(ctl: SessionController, args: list[str], write: Callable[[list[Reply]]
     deadline = time.monotonic() + limit
     while time.monotonic() < deadline:
         write(ctl.pump())
-        if complete and ctl.session.complete and ctl.session.stability is not None:
+        s = ctl.session
+        settled = ctl.clock() - ctl.updated_at >= QUIET_S
+        if complete and s.complete and s.stability is not None and not s.unaccounted() and settled:
             return
         if not complete and ctl.resumed and (last is None or last.fit is not None or last.aborted):
             return

@@ -154,6 +154,8 @@ class OperatorSession:
         if math.isfinite(event.sample_rate_hz):
             view.sample_rate_hz = event.sample_rate_hz
         if event.kind == TrialEventKind.START:
+            if event.trial_id in self.resumed:
+                return  # a recorded trial coming back: nothing to watch live
             if self.live is None or self.live.trial_id != event.trial_id:
                 self.live = LiveTrace(event.trial_id, now_wall_s, source=self.source)
             return
@@ -263,3 +265,13 @@ class OperatorSession:
     def complete(self) -> bool:
         """The parameter set is complete."""
         return self.parameters is not None and self.parameters.complete
+
+    def unaccounted(self) -> tuple[str, ...]:
+        """Usable trial results the parameter set does not hold yet (its update is on the way)."""
+        if self.parameters is None:
+            return ()
+        held = {t for p in self.parameters.periods for t in p.trial_ids}
+        keys = {p.key for p in self.parameters.periods} | set(self.parameters.missing)
+        return tuple(
+            i for i, v in self.trials.items() if v.fit is not None and v.fit.usable and v.key in keys and i not in held
+        )

@@ -257,6 +257,46 @@ def test_a_rogue_process_never_evicts_cuts_or_duplicates_the_drivers_trials() ->
     assert ("driver-participant", "t2") not in s.done  # still the driver's, open until its STOP
 
 
+def test_a_stop_waits_while_its_sources_batches_still_arrive() -> None:
+    """A fitter behind a burst: the STOPs came first, the batches are queued behind other trials'."""
+    rates = signal()
+    s, log, clock = state(grace_s=1.0, history_grace_s=5.0)
+    clock.now = 10.0  # past the history window
+    for tid in ("a", "b"):
+        s.on_event(event(0, trial_id=tid), "drv")
+        s.on_event(event(1, count=N, trial_id=tid), "drv")
+    out: list[TrialFit] = []
+    for b in batches_of(rates, "a"):  # a's batches take 3 s to work through: b waits meanwhile
+        clock.now += 3.0 / len(batches_of(rates))
+        out += s.on_batch(b, None, "drv") + s.poll()
+    assert [r.trial_id for r in out] == ["a"]
+    clock.now += 0.5
+    assert s.poll() == []  # b's batches may still be queued: grace from the source's last batch
+    out = []
+    for b in batches_of(rates, "b"):
+        out += s.on_batch(b, None, "drv")
+    assert [(r.trial_id, r.n_samples, r.flag_codes) for r in out] == [("b", N, ())]
+    # batches that never come: given up grace_s after the source's last one ...
+    s.on_event(event(0, trial_id="c"), "drv")
+    s.on_event(event(1, count=N, trial_id="c"), "drv")
+    clock.now += 0.9
+    assert s.poll() == []
+    clock.now += 0.2
+    assert [r.flag_codes[0] for r in s.poll()] == ["gap"]
+    # ... and at most history_grace_s after the STOP while another trial streams on
+    s.on_event(event(0, trial_id="d"), "drv")
+    s.on_event(event(1, count=N, trial_id="d"), "drv")
+    given_up: list[TrialFit] = []
+    stopped_at = clock.now
+    for b in batches_of(rates, "e"):
+        clock.now += 0.05
+        s.on_batch(b, None, "drv")
+        given_up += s.poll()
+        if given_up:
+            break
+    assert [r.trial_id for r in given_up] == ["d"] and 5.0 <= clock.now - stopped_at <= 6.1
+
+
 def test_state_bounds_the_open_trials() -> None:
     s, log, _ = state(max_open_trials=2)
     out = []
