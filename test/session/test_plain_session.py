@@ -10,8 +10,8 @@ from pathlib import Path
 
 from bike_rig.core.sim import load_rig, load_true_parameters, simulate_session
 from bike_rig.paths import config_file
-from bike_rig.session.plan import ReadingItem, plan_from_rig
-from test.support.sessions import kill_session
+from bike_rig.session.plan import plan_from_rig
+from test.support.sessions import kill_session, plan_script
 
 BIKE_RIG = Path(sys.executable).parent / "bike-rig"
 
@@ -22,12 +22,7 @@ def test_a_scripted_session_completes_and_its_bag_replays(tmp_path: Path, ros_en
     sim = simulate_session(truth, rig, 6, name)
     plan = plan_from_rig(rig)
     script = ["start TtB9#1", "start TcR1#1 0.5", "wait 30"]  # an item outside the plan; a trial far too short
-    for item in plan.items:
-        if isinstance(item, ReadingItem):
-            r = sim.readings[item.key]
-            script.append(f"reading {item.key} {r.value!r} {r.sigma!r}")
-        else:
-            script += [f"start {item.item_id}", "wait 60"]
+    script += plan_script(plan, sim.readings)
     script += ["start", "wait 60"] * 4  # redo whatever was flagged (then: nothing left to start)
     script += ["wait complete 60", "params", "status", "quit"]
     folder = tmp_path / "s"

@@ -25,8 +25,8 @@ from bike_rig.bag.simulated import write_simulated_bag
 from bike_rig.core.sim import SimulatedSession, load_rig, load_true_parameters, simulate_session
 from bike_rig.paths import config_file
 from bike_rig.pipeline.readings import canonical_order
-from bike_rig.session.plan import ReadingItem, SessionPlan, plan_from_rig
-from test.support.sessions import kill_session, session_pids, wait_gone
+from bike_rig.session.plan import SessionPlan, plan_from_rig
+from test.support.sessions import kill_session, plan_script, session_pids, wait_gone
 
 BIKE_RIG = Path(sys.executable).parent / "bike-rig"
 SEED = 3
@@ -42,13 +42,7 @@ def _scripts(plan: SessionPlan, sim: SimulatedSession) -> tuple[list[str], list[
 
     A reading is typed wrong before the cut and corrected after it.
     """
-    script: list[str] = []
-    for item in plan.items:
-        if isinstance(item, ReadingItem):
-            r = sim.readings[item.key]
-            script.append(f"reading {item.key} {r.value!r} {r.sigma!r}")
-        else:
-            script += [f"start {item.item_id}", "wait 60"]
+    script = plan_script(plan, sim.readings)
     half = script.index("wait 60", len(script) // 2) + 1
     first, rest = script[:half], script[half:]
     right = next(line for line in first if line.startswith("reading"))

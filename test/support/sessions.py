@@ -5,9 +5,25 @@ from __future__ import annotations
 import os
 import signal
 import time
+from collections.abc import Mapping
 from pathlib import Path
 
-__all__ = ["session_pids", "kill_session", "wait_gone"]
+from bike_rig.core.measurements import Reading
+from bike_rig.session.plan import ReadingItem, SessionPlan
+
+__all__ = ["kill_session", "plan_script", "session_pids", "wait_gone"]
+
+
+def plan_script(plan: SessionPlan, readings: Mapping[str, Reading]) -> list[str]:
+    """The plan in order as plain-mode commands: readings typed (value and σ exactly), trials started and awaited."""
+    script: list[str] = []
+    for item in plan.items:
+        if isinstance(item, ReadingItem):
+            r = readings[item.key]
+            script.append(f"reading {item.key} {r.value!r} {r.sigma!r}")
+        else:
+            script += [f"start {item.item_id}", "wait 60"]
+    return script
 
 
 def session_pids(folder: Path) -> dict[str, int]:
