@@ -165,9 +165,10 @@ class Tally:
     def line(self) -> str:
         """One row of the campaign's table."""
         c = self.counts
+        traced = f"{self.peak_bytes / 1e6:.1f}" if self.peak_bytes else "-"
         return (
             f"{self.reader:<14} {self.inputs:>7} {c['clean']:>7} {c['ok']:>6} {self.flags:>6} {c['crash']:>7} "
-            f"{c['hang']:>6} {self.worst_seconds * 1000:>9.0f} {self.peak_bytes / 1e6:>8.1f} "
+            f"{c['hang']:>6} {self.worst_seconds * 1000:>9.0f} {traced:>8} "
             f"{self.peak_rss_bytes / 1e6:>7.0f}"
         )
 

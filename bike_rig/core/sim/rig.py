@@ -284,6 +284,9 @@ Where = tuple[object, ...]
 #: The largest magnitude of a number in a rig file (SI): above the largest a rig has (a shear
 #: modulus, some 8e10 Pa), small enough that the simulation's products of a few cannot overflow.
 MAX_RIG_MAGNITUDE = 1e12
+#: The largest count in a rig file (trials per measurement, wheel rotations): a session of
+#: 10,000 trials per measurement is already days of swinging; 1e23 held the reader 14 s and 394 MB.
+MAX_RIG_COUNT = 10_000
 
 
 def _label(where: Where) -> str:
@@ -335,9 +338,11 @@ class _Reader:
             raise self.error(where, f"must be {'>' if strict else '>='} {low:g}, got {x:g}")
         return x
 
-    def count(self, value: Any, where: Where, low: int = 1) -> int:
+    def count(self, value: Any, where: Where, low: int = 1, high: int = MAX_RIG_COUNT) -> int:
         if isinstance(value, bool) or not isinstance(value, int) or value < low:
             raise self.error(where, f"expected a whole number >= {low}, got {short_repr(value)}")
+        if value > high:
+            raise self.error(where, f"at most {high}, got {short_repr(value)}")
         return value
 
     def numbers(self, value: Any, where: Where, *, low: float | None = None, strict: bool = True) -> list[float]:
