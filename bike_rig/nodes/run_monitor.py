@@ -30,6 +30,7 @@ import importlib
 import os
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any, TypeAlias
 
 import rclpy
@@ -70,8 +71,22 @@ OWNERS: dict[str, tuple[str, ...]] = {
     topics.EIGEN_SWEEP.name: ("model",),
 }
 
-#: How often an unknown publishing process is looked up again in the graph, s.
-_RELOOK_S = 1.0
+#: How often the graph is asked again which node publishes a topic from an unknown process, s.
+_RELOOK_S = 0.05
+#: The node name the graph gives an endpoint whose node it has not discovered yet (rmw_dds_common).
+_UNKNOWN_NODE = "_NODE_NAME_UNKNOWN_"
+#: How long a message from a process the graph does not know yet is held before it is dropped, s.
+_HOLD_S = 5.0
+
+
+@dataclass(frozen=True)
+class _Held:
+    """A message waiting for the graph to say which node its process is."""
+
+    topic: str
+    source: str
+    record: Any
+    since: float
 
 
 def participant(gid: Any) -> str:
@@ -133,8 +148,10 @@ class GraphMonitor:
         #: Messages dropped per topic because another process than the topic's owner sent them.
         self.foreign: dict[str, int] = {}
         self._owners: dict[str, str] = {}  # participant -> node name, as last looked up
-        self._looked: dict[str, float] = {}  # participant -> when it was looked up
+        self._looked: dict[str, float] = {}  # topic -> when its publishers were last looked up
         self._foreign_said: set[tuple[str, str]] = set()
+        self._held: list[_Held] = []
+        self._taken = 0  # callbacks run
         subscriptions: tuple[tuple[Any, topics.Topic, Callable[[Any], MonitorRecord]], ...] = (
             (_msgs.TrialEvent, topics.TRIAL_EVENTS, trial_event_from_msg),
             (_msgs.PeriodEstimate, topics.PERIODS, trial_fit_from_msg),
@@ -153,45 +170,70 @@ class GraphMonitor:
 
     def _collector(self, topic: str, convert: Callable[[Any], MonitorRecord]) -> Callable[[Any, Any], None]:
         def collect(msg: Any, info: Any) -> None:
-            if topic in OWNERS and not self._from_owner(topic, info):
-                return
             try:
-                self._records.append(convert(msg))
+                record = convert(msg)
             except MessageError as exc:
+                self._taken += 1
                 self.ignored.append(f"{type(msg).__name__} ignored: {exc}")
+                return
+            self._taken += 1
+            source = participant(info.get("publisher_gid") if isinstance(info, dict) else None)
+            self._held.append(_Held(topic, source, record, time.monotonic()))
 
         return collect
 
-    def _from_owner(self, topic: str, info: Any) -> bool:
-        """Whether the message came from the process of the topic's owner (see the module docstring)."""
-        source = participant(info.get("publisher_gid") if isinstance(info, dict) else None)
-        if not source:
-            return True  # the middleware does not say: nothing to check against
-        owners = OWNERS[topic]
-        if self._owners.get(source) not in owners:
-            now = time.monotonic()
-            if now - self._looked.get(source, -_RELOOK_S) >= _RELOOK_S:
-                self._looked[source] = now
-                for p in self.node.get_publishers_info_by_topic(topic):
+    def _owner_of(self, topic: str, source: str, now: float) -> bool | None:
+        """Whether ``source`` is the process of ``topic``'s owner; None while the graph does not know it yet.
+
+        True for a topic without an owner, and for a middleware that does not say (nothing to check).
+        """
+        if topic not in OWNERS or not source:
+            return True
+        if source not in self._owners and now - self._looked.get(topic, -_RELOOK_S) >= _RELOOK_S:
+            self._looked[topic] = now
+            for p in self.node.get_publishers_info_by_topic(topic):
+                if p.node_name and p.node_name != _UNKNOWN_NODE:  # (its node not discovered yet)
                     self._owners[participant(bytes(p.endpoint_gid))] = p.node_name
-            if self._owners.get(source) not in owners:
-                self.foreign[topic] = self.foreign.get(topic, 0) + 1
-                if (topic, source) not in self._foreign_said:
-                    self._foreign_said.add((topic, source))
-                    who = self._owners.get(source) or "an unknown node"
-                    self.ignored.append(f"{topic}: messages from {who} in another process than the {owners[0]} ignored")
-                return False
-        return True
+        name = self._owners.get(source)
+        return None if name is None else name in OWNERS[topic]
+
+    def _release(self) -> None:
+        """Hand on the messages of owners in their order of arrival; drop the others (see the module docstring).
+
+        A message can arrive before discovery tells which node published it: it and every
+        message after it wait until the graph says (looked up again at most every
+        :data:`_RELOOK_S`), so that nothing overtakes it (a result its START); after
+        :data:`_HOLD_S` it is dropped as from an unknown process.
+        """
+        now = time.monotonic()
+        for k, h in enumerate(self._held):
+            verdict = self._owner_of(h.topic, h.source, now)
+            if verdict is None and now - h.since < _HOLD_S:
+                self._held = self._held[k:]
+                return
+            if verdict:
+                self._records.append(h.record)
+            else:
+                self._drop_foreign(h.topic, h.source)
+        self._held = []
+
+    def _drop_foreign(self, topic: str, source: str) -> None:
+        self.foreign[topic] = self.foreign.get(topic, 0) + 1
+        if (topic, source) not in self._foreign_said:
+            self._foreign_said.add((topic, source))
+            who = self._owners.get(source) or "an unknown node"
+            self.ignored.append(f"{topic}: messages from {who} in another process than the {OWNERS[topic][0]} ignored")
 
     def poll(self, timeout_s: float = 0.1) -> list[MonitorRecord]:
         """Wait up to ``timeout_s`` (s) for a message, take in what is ready, and return it in order."""
         if self._context.ok():
             self._executor.spin_once(timeout_sec=timeout_s)
             for _ in range(MAX_BURST):
-                before = len(self._records) + len(self.ignored)
+                before = self._taken
                 self._executor.spin_once(timeout_sec=0.0)
-                if len(self._records) + len(self.ignored) == before:
+                if self._taken == before:
                     break
+        self._release()
         out, self._records = self._records, []
         return out
 
