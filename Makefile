@@ -1,4 +1,4 @@
-# bike_rig: make demo | make test | make lint | make bench | make soak | make clean
+# bike_rig: make demo | make test | make lint | make bench | make soak | make fuzz | make clean
 #
 # The tests also need Debian's chromium (/usr/bin/chromium, the report's render test) and tmux
 # (/usr/bin/tmux, the operator console's tests): tools/setup_debian.sh installs them with
@@ -34,7 +34,7 @@ unexport ROS_LOCALHOST_ONLY ROS_STATIC_PEERS
 PYTEST_TIMEOUT_S := 1800
 BENCH_TIMEOUT_S := 1800
 
-.PHONY: venv bench-deps debian-tools demo test lint typecheck pytest bench soak clean
+.PHONY: venv bench-deps debian-tools demo test lint typecheck pytest bench soak fuzz clean
 
 venv:
 	@tools/setup_venv.sh
@@ -72,6 +72,12 @@ bench: bench-deps
 	  echo "== $$script"; \
 	  PYTHONPATH=$(BENCH_DEPS) timeout -k 30 $(BENCH_TIMEOUT_S) $(BIN)/python $$script || exit $$?; \
 	done
+
+# the long fuzz campaign of every file reader: 10,000 damaged inputs each (tools/fuzz.py; e.g.
+# make fuzz FUZZ_ARGS="--seed 20261125 --reader rig"); exits 1 on any crash or hang
+FUZZ_ARGS ?=
+fuzz: venv
+	timeout -k 30 10800 $(BIN)/python tools/fuzz.py --inputs 10000 $(FUZZ_ARGS)
 
 # a long live session (default: 1 h at the rig's 1 kHz): every process's memory over time
 # (tools/soak.py; e.g. make soak SOAK_ARGS="--seconds 600 --time-scale 10")
