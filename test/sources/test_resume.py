@@ -191,3 +191,21 @@ def test_resume_needs_a_source_that_records_on_request_and_a_readable_bag(tmp_pa
         ResumedSource(str(bag), plan_walker)
     with pytest.raises(SourceConfigError, match="no such"):
         ResumedSource(str(tmp_path / "nothing"), operator_source(tmp_path, RigClock(START_NS, math.inf)))
+
+
+def test_session_resume_mistakes_end_in_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from bike_rig.cli.main import main
+
+    session = _session(tmp_path)
+    _write(tmp_path / "old" / "bag", _interrupted(session))
+    cases = [
+        (["--resume", str(tmp_path / "nothing")], "no such session folder or bag"),
+        (["--join", "--resume", str(tmp_path / "old")], "cannot be used with --join"),
+        (["--resume", str(tmp_path)], "not a rosbag2 bag"),
+        (["--resume", str(tmp_path / "old"), "--name", "Fisher"], f"the session is of bicycle {session.bicycle!r}"),
+    ]
+    for args, reason in cases:
+        code = main(["session", "--plain", "--output", str(tmp_path / "new"), *args])
+        err = capsys.readouterr().err.strip().splitlines()
+        assert code == 2 and len(err) == 1 and reason in err[0], (args, err)
+        assert not (tmp_path / "new").exists()  # nothing started, nothing written
