@@ -15,6 +15,7 @@ from binascii import crc32
 from collections.abc import Iterable
 from dataclasses import dataclass
 from functools import lru_cache
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -22,7 +23,20 @@ from numpy.typing import NDArray
 
 from .fastread import Chunk, FastBag, Unusual, need
 
-__all__ = ["MessageTable", "read_le", "read_table"]
+__all__ = ["CorruptChunk", "MessageTable", "read_le", "read_table"]
+
+
+class CorruptChunk(Unusual):
+    """A chunk that does not decompress: its file, its offset [bytes] and the decompressor's reason."""
+
+    def __init__(self, path: Path, offset: int, reason: str) -> None:
+        """Keep where the chunk is and why it cannot be read."""
+        super().__init__(f"{path.name}: chunk at byte {offset}: {reason}")
+        self.path, self.offset, self.reason = path, offset, reason
+
+
+def _one_line(exc: BaseException) -> str:
+    return " ".join(str(exc).split()).rstrip(".") or type(exc).__name__
 
 IntArray = NDArray[np.int64]
 
@@ -204,7 +218,7 @@ def read_table(bag: FastBag, topics: Iterable[str]) -> MessageTable:
     """
     names = tuple(dict.fromkeys(topics))
     code = {t: i for i, t in enumerate(names)}
-    files: list[tuple[IntArray, list[_Read]]] = []
+    files: list[tuple[IntArray, list[_Read], Path]] = []
     for storage, route in zip(bag.storages, bag.routes, strict=True):
         wanted = {cid: code[t] for cid, t in route.items() if t in code}
         if not wanted:
@@ -214,12 +228,12 @@ def read_table(bag: FastBag, topics: Iterable[str]) -> MessageTable:
             lut[cid] = c
         with storage.path.open("rb") as f:
             reads = [_read_chunk(f, ch) for ch in storage.chunks if any(ch.channel_count.get(c, 0) for c in wanted)]
-        files.append((lut, reads))
-    buffer = np.empty(sum(r.chunk.uncompressed_size for _, reads in files for r in reads), dtype=np.uint8)
+        files.append((lut, reads, storage.path))
+    buffer = np.empty(sum(r.chunk.uncompressed_size for _, reads, _ in files for r in reads), dtype=np.uint8)
     out = buffer.data
     parts = []
     base = 0
-    for lut, reads in files:
+    for lut, reads, path in files:
         keys = []
         for read in reads:
             n = read.chunk.uncompressed_size
@@ -229,7 +243,7 @@ def read_table(bag: FastBag, topics: Iterable[str]) -> MessageTable:
             except Unusual:
                 raise
             except Exception as exc:  # the decompressor's own errors
-                raise Unusual(f"chunk does not decompress ({exc})") from None
+                raise CorruptChunk(path, read.chunk.offset, f"does not decompress: {_one_line(exc)}") from None
             need(not read.crc or crc32(records) == read.crc, "chunk checksum mismatch")
             keys.append(_chunk_keys(buffer[base : base + n], read, lut, base))
             base += n

@@ -18,9 +18,10 @@ from pathlib import Path
 from types import TracebackType
 from typing import TYPE_CHECKING, Any, NamedTuple
 
+from .check import check_mcap, check_metadata
 from .errors import BagError, BagReadError, IncompleteBagError, NotABagError, ReplayError
 from .fastread import MAGIC, FastBag, Unusual, open_fast
-from .msgtable import MessageTable, read_table
+from .msgtable import CorruptChunk, MessageTable, read_table
 from .typestore import rig_typestore, type_hash
 
 if TYPE_CHECKING:
@@ -80,6 +81,7 @@ def _check_mcap_file(path: Path, shown: str) -> None:
             f"{path.name} has no summary or footer: the recording did not end cleanly "
             f"(run 'bike-rig bag recover {shown}' to make it readable)",
         )
+    check_mcap(path, shown)
 
 
 def _resolve(path: Path, shown: str) -> Path:
@@ -98,6 +100,7 @@ def _resolve(path: Path, shown: str) -> Path:
                     f"(run 'bike-rig bag recover {shown}' to make it readable)",
                 )
             raise NotABagError(shown, "not a rosbag2 bag (no metadata.yaml and no .mcap file)")
+        check_metadata(path / "metadata.yaml", shown)
         for f in storage:
             _check_mcap_file(f, shown)
         return path
@@ -168,7 +171,8 @@ class BagReader:
             reader.open()
         except ReaderError as exc:
             raise BagReadError(self.shown, f"unreadable bag ({_sentence(exc)})") from None
-        except (OSError, ValueError, KeyError, IndexError, TypeError) as exc:
+        except (OSError, ValueError, KeyError, IndexError, TypeError, AttributeError, ArithmeticError,
+                RecursionError, MemoryError) as exc:
             raise BagReadError(self.shown, f"unreadable bag ({type(exc).__name__}: {_sentence(exc)})") from None
         self._reader = reader
         return reader
@@ -260,6 +264,22 @@ class BagReader:
                 yield RawMessage(conn.topic, log_time, data)
         except ReaderError as exc:
             raise BagReadError(self.shown, f"corrupt data ({_sentence(exc)})") from None
+        except (GeneratorExit, KeyboardInterrupt):
+            raise
+        except Exception as exc:  # the decompressors' own classes (zstandard.ZstdError, lz4's RuntimeError)
+            raise BagReadError(self.shown, self._corrupt_chunk(exc)) from None
+
+    def _corrupt_chunk(self, exc: BaseException) -> str:
+        """What to say of a chunk rosbags' reader could not read: which chunk, when our index finds it."""
+        reason = f"{type(exc).__name__}: {_sentence(exc)}"
+        if self._fast is not None:
+            try:
+                read_table(self._fast, list(self.topics))
+            except CorruptChunk as bad:
+                return f"{bad.path.name}: chunk at byte {bad.offset} is corrupt ({bad.reason})"
+            except Unusual:
+                pass
+        return f"corrupt data ({reason})"
 
     def table(self, topics: Iterable[str]) -> MessageTable | None:
         """Every message of ``topics`` in the order :meth:`messages` yields them, as one table.
@@ -272,6 +292,9 @@ class BagReader:
             return None
         try:
             return read_table(self._fast, [t for t in topics if t in self.topics])
+        except CorruptChunk as exc:
+            reason = f"{exc.path.name}: chunk at byte {exc.offset} is corrupt ({exc.reason})"
+            raise BagReadError(self.shown, reason) from None
         except Unusual:
             return None
 

@@ -1,0 +1,167 @@
+"""Damaged bags end in one BagReadError naming the file, the place and the reason (issue 12).
+
+Each case was a traceback before: metadata.yaml nested thousands of levels deep
+(RecursionError), infinite counts or lists where scalars belong (OverflowError, TypeError), a
+corrupt zstd chunk (ZstdError), impossible MCAP record lengths (MemoryError, OverflowError).
+"""
+
+from __future__ import annotations
+
+import shutil
+import struct
+from collections.abc import Callable
+from pathlib import Path
+
+import pytest
+
+from bike_rig.bag.check import MAX_CHUNK_BYTES
+from bike_rig.bag.errors import BagReadError
+from bike_rig.bag.fastread import read_storage
+from bike_rig.bag.info import summarize
+from bike_rig.bag.session import read_session
+from bike_rig.bag.simulated import write_simulated_bag
+from bike_rig.core.sim import load_rig, load_true_parameters, simulate_session
+from bike_rig.paths import config_file
+from test.sources.support import small_rig
+
+
+def small_bag(directory: Path) -> Path:
+    """A bag of a short simulated Browser session (1 s trials), zstd chunks; about 50 kB."""
+    name, truth = load_true_parameters(config_file("bicycles/browser.yaml"))
+    session = simulate_session(truth, load_rig(small_rig(directory, duration_s=1.0)), 3, name)
+    return write_simulated_bag(directory / "bag", session)
+
+
+@pytest.fixture(scope="module")
+def pristine(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return small_bag(tmp_path_factory.mktemp("damaged"))
+
+
+@pytest.fixture
+def bag(pristine: Path, tmp_path: Path) -> Path:
+    return Path(shutil.copytree(pristine, tmp_path / "bag"))
+
+
+def _edit_metadata(bag: Path, edit: Callable[[str], str]) -> None:
+    meta = bag / "metadata.yaml"
+    text = meta.read_text()
+    new = edit(text)
+    assert new != text
+    meta.write_text(new)
+
+
+def _edit_mcap(bag: Path, edit: Callable[[bytearray], None]) -> None:
+    mcap = bag / "bag_0.mcap"
+    data = bytearray(mcap.read_bytes())
+    edit(data)
+    mcap.write_bytes(bytes(data))
+
+
+def _refused(bag: Path, *parts: str) -> str:
+    with pytest.raises(BagReadError) as info:
+        read_session(bag)
+    text = str(info.value)
+    assert "\n" not in text and text.startswith(str(bag)), text
+    for part in parts:
+        assert part in text, text
+    return text
+
+
+def test_the_small_bag_reads(pristine: Path) -> None:
+    session = read_session(pristine)
+    assert session.message_count > 100 and session.trials
+    assert summarize(pristine).message_count == session.message_count == 287
+
+
+@pytest.mark.parametrize("where", ["document", "custom_data"])
+def test_deeply_nested_metadata_is_refused(bag: Path, where: str) -> None:
+    deep = "[" * 5000 + "]" * 5000
+    if where == "document":
+        _edit_metadata(bag, lambda _: deep)
+    else:
+        _edit_metadata(bag, lambda t: t.replace("custom_data: null", f"custom_data: {deep}"))
+    _refused(bag, "metadata.yaml line", "nested deeper than 64 levels")
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "place", "reason"),
+    [
+        ("message_count: 287", "message_count: .inf", "rosbag2_bagfile_information.message_count", "not a finite"),
+        ("message_count: 287", "message_count: [1, 2]", "rosbag2_bagfile_information.message_count",
+         "not an integer"),
+        ("message_count: 287", "message_count: -3", "rosbag2_bagfile_information.message_count", "negative count"),
+        ("message_count: 260", "message_count: .nan", "topics_with_message_count[0].message_count", "not a finite"),
+        ("name: /bike_rig/gyro", "name: [a]", "topics_with_message_count[0].topic_metadata.name", "not a string"),
+        ("nanoseconds: 143000001000", "nanoseconds: {a: 1}", "rosbag2_bagfile_information.duration.nanoseconds",
+         "not an integer"),
+        ("version: 9", "version: [9]", "rosbag2_bagfile_information.version", "not an integer"),
+        ("- bag_0.mcap", "- [bag_0.mcap]", "relative_file_paths[0]", "not a string"),
+        ("depth: 50000", "depth: [1]", "offered_qos_profiles[0].depth", "not a QoS policy"),
+    ],
+)  # fmt: skip
+def test_metadata_values_of_the_wrong_type_are_refused(bag: Path, old: str, new: str, place: str, reason: str) -> None:
+    _edit_metadata(bag, lambda t: t.replace(old, new, 1))
+    _refused(bag, "metadata.yaml: rosbag2_bagfile_information.", f"{place}: ", reason)
+
+
+def test_metadata_alias_bomb_is_refused_quickly(bag: Path) -> None:
+    lines = ["a0: &a0 [x, x, x, x, x, x, x, x, x, x]"]
+    lines += [f"a{i}: &a{i} [*a{i - 1}, *a{i - 1}, *a{i - 1}, *a{i - 1}, *a{i - 1}]" for i in range(1, 12)]
+    _edit_metadata(bag, lambda t: "\n".join(lines) + "\n" + t)
+    _refused(bag, "metadata.yaml", "values")
+
+
+def _chunk_offset(bag: Path) -> int:
+    return read_storage(bag / "bag_0.mcap").chunks[0].offset
+
+
+def test_a_corrupt_zstd_chunk_is_named_by_its_offset(bag: Path) -> None:
+    offset = _chunk_offset(bag)
+
+    def corrupt(data: bytearray) -> None:
+        at = offset + 9 + 8 + 8 + 8 + 4  # opcode, length, start, end, uncompressed size, crc
+        at += 4 + struct.unpack_from("<I", data, at)[0] + 8  # compression name, compressed size
+        for i in range(at + 20, at + 60):
+            data[i] ^= 0x55
+
+    _edit_mcap(bag, corrupt)
+    _refused(bag, f"bag_0.mcap: chunk at byte {offset} is corrupt", "decompress")
+
+
+def _summary_start(data: bytearray) -> int:
+    return int(struct.unpack_from("<Q", data, len(data) - 37 + 9)[0])
+
+
+@pytest.mark.parametrize("length", [2**63, 2**64 - 1, 10**10])
+def test_an_impossible_summary_record_length_is_refused(bag: Path, length: int) -> None:
+    def lengthen(data: bytearray) -> None:
+        start = _summary_start(data)
+        data[start + 1 : start + 9] = struct.pack("<Q", length)
+
+    _edit_mcap(bag, lengthen)
+    _refused(bag, "bag_0.mcap: record at byte", f"a length of {length} bytes beyond", "(corrupt)")
+
+
+def test_an_impossible_header_length_is_refused(bag: Path) -> None:
+    _edit_mcap(bag, lambda data: data.__setitem__(slice(9, 17), struct.pack("<Q", 2**62)))
+    _refused(bag, "bag_0.mcap: header record at byte 8", str(2**62))
+
+
+def test_a_chunk_index_pointing_elsewhere_is_refused(bag: Path) -> None:
+    offset = _chunk_offset(bag)
+    _edit_mcap(bag, lambda data: data.__setitem__(slice(offset + 1, offset + 9), struct.pack("<Q", 2**62)))
+    _refused(bag, f"chunk at byte {offset}: not the chunk record")
+
+
+def test_a_huge_uncompressed_size_in_a_chunk_index_is_refused(bag: Path) -> None:
+    chunk = read_storage(bag / "bag_0.mcap").chunks[0]
+
+    def enlarge(data: bytearray) -> None:
+        start = _summary_start(data)
+        body = bytes(data[start:])
+        old = struct.pack("<QQ", chunk.compressed_size, chunk.uncompressed_size)
+        at = start + body.index(old) + 8
+        data[at : at + 8] = struct.pack("<Q", MAX_CHUNK_BYTES + 1)
+
+    _edit_mcap(bag, enlarge)
+    _refused(bag, f"chunk at byte {chunk.offset}", "bytes uncompressed")
