@@ -56,7 +56,10 @@ class _Bad(Exception):
 
 
 def _shown(value: object) -> str:
-    text = repr(value)
+    try:
+        text = repr(value)
+    except ValueError:  # an integer of more than 4,300 digits inside
+        return f"a {type(value).__name__} holding a huge integer"
     return text if len(text) <= 40 else text[:37] + "..."
 
 
@@ -69,7 +72,7 @@ def _int(value: object, place: str) -> None:
     if not isinstance(value, int):
         raise _Bad(place, f"{_shown(value)} is not an integer")
     if not -_MAX_INT <= value <= _MAX_INT:
-        raise _Bad(place, f"{value} does not fit in 64 bits")
+        raise _Bad(place, f"an integer of {value.bit_length()} bits does not fit in 64")
 
 
 def _count(value: object, place: str) -> None:

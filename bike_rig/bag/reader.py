@@ -12,6 +12,8 @@ recording that did not end cleanly (use ``bike-rig bag recover``), unreadable or
 
 from __future__ import annotations
 
+import gc
+import warnings
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -156,6 +158,9 @@ class BagReader:
             ]
         topics: dict[str, TopicInfo] = {}
         for name, msgtype, msgcount, qos, digest in conns:
+            if not isinstance(msgcount, int) or not isinstance(name, str):
+                self.close()
+                raise BagReadError(self.shown, f"topic {name!r}: message count {msgcount!r} is not an integer")
             prev = topics.get(name)
             count = msgcount + (prev.count if prev else 0)
             topics[name] = TopicInfo(name, msgtype, count, qos, digest or "")
@@ -163,17 +168,14 @@ class BagReader:
         return self
 
     def _open_rosbags(self, resolved: Path) -> Reader:
-        from rosbags.rosbag2 import Reader
-        from rosbags.rosbag2.errors import ReaderError
-
-        try:
-            reader = Reader(resolved)
-            reader.open()
-        except ReaderError as exc:
-            raise BagReadError(self.shown, f"unreadable bag ({_sentence(exc)})") from None
-        except (OSError, ValueError, KeyError, IndexError, TypeError, AttributeError, ArithmeticError,
-                RecursionError, MemoryError) as exc:
-            raise BagReadError(self.shown, f"unreadable bag ({type(exc).__name__}: {_sentence(exc)})") from None
+        # rosbags leaves a storage file open when its open fails: it is closed (unreferenced)
+        # with the exception, quietly (the warning would print before the error line)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", ResourceWarning)
+            reader, reason = _try_rosbags(resolved)
+            gc.collect()
+        if reader is None:
+            raise BagReadError(self.shown, f"unreadable bag ({reason})")
         self._reader = reader
         return reader
 
@@ -341,7 +343,26 @@ class BagReader:
 
 
 def _sentence(exc: BaseException) -> str:
-    return str(exc).strip().rstrip(".") or type(exc).__name__
+    """The exception's message on one line (rosbags passes on PyYAML's and ruamel's, of several lines)."""
+    text = " ".join(str(exc).split()).rstrip(".")
+    return text[:400] + "..." if len(text) > 400 else text or type(exc).__name__
+
+
+def _try_rosbags(resolved: Path) -> tuple[Reader | None, str]:
+    """Open rosbags' reader of the bag: the reader, or None and why it cannot be opened (one line)."""
+    from rosbags.rosbag2 import Reader
+    from rosbags.rosbag2.errors import ReaderError
+
+    try:
+        reader = Reader(resolved)
+        reader.open()
+    except ReaderError as exc:
+        return None, _sentence(exc)
+    except (GeneratorExit, KeyboardInterrupt):
+        raise
+    except Exception as exc:  # its parsers' and decompressors' own classes (zstd, ruamel, struct)
+        return None, f"{type(exc).__name__}: {_sentence(exc)}"
+    return reader, ""
 
 
 def open_bag(path: str | Path) -> BagReader:

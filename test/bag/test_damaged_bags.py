@@ -165,3 +165,15 @@ def test_a_huge_uncompressed_size_in_a_chunk_index_is_refused(bag: Path) -> None
 
     _edit_mcap(bag, enlarge)
     _refused(bag, f"chunk at byte {chunk.offset}", "bytes uncompressed")
+
+
+def test_a_duplicate_metadata_key_is_one_line(bag: Path) -> None:
+    """The YAML parser of rosbags refuses it in a message of several lines: it is said in one."""
+    _edit_metadata(bag, lambda t: t.replace("depth: 50000", "depth: 50000\n        depth: 1", 1))
+    _refused(bag, "unreadable bag", "duplicate key")
+
+
+def test_a_count_that_is_a_word_is_refused(bag: Path) -> None:
+    _edit_metadata(bag, lambda t: t.replace("message_count: 260", "message_count: inf", 1))
+    _refused(bag, "topic '/bike_rig/gyro': message count 'inf' is not an integer")
+

@@ -15,14 +15,19 @@ from pathlib import Path
 import numpy as np
 from scipy.io import savemat
 
+from bike_rig.bag.info import summarize
+from bike_rig.bag.simulated import write_simulated_bag
+from bike_rig.bag.writer import Compression
 from bike_rig.core.io_bp import dump_bp_parameter_yaml
 from bike_rig.core.loader import load_input
 from bike_rig.core.rider import PAPER_RIDER, load_rider
+from bike_rig.core.sim import load_true_parameters, simulate_session
 from bike_rig.core.sim.rig import load_rig
 from bike_rig.core.trials import read_trial
 from bike_rig.launch import load_graph
 from bike_rig.paths import config_dir
 from test.fuzz.mutate import YAML_TOKENS
+from test.sources.support import small_rig
 from test.support.paper import shared_dir
 
 __all__ = ["Target", "targets"]
@@ -30,6 +35,10 @@ __all__ = ["Target", "targets"]
 #: Fragments of the trial formats worth inserting.
 _CSV_TOKENS = (b",", b";", b"\t", b"time_ms", b"rate", b"volts", b"#", b"\n\n", b"\xef\xbb\xbf", b"t[us]")
 _NPY_TOKENS = (b"(1, 2)", b"(20000000000,)", b"'<f8'", b"'|O'", b"'<U9'", b"True", b"{", b"\x93NUMPY", b"\x02\x00")
+_MCAP_TOKENS = (
+    b"\x89MCAP0\r\n", b"\xff" * 8, b"\x00" * 8, b"\xff\xff\xff\x7f", b"\x06", b"\x08", b"\x0b", b"zstd", b"lz4",
+    b"ros2", b"cdr", b"\x28\xb5\x2f\xfd", b"\x02\x14\x00\x00\x00\x00\x00\x00\x00",
+)  # fmt: skip
 _MAT_TOKENS = (b"\x0f\x00\x00\x00", b"\x0e\x00\x00\x00", b"\xff\xff\xff\x7f", b"IM", b"MI", b"\x78\x9c")
 
 
@@ -102,6 +111,39 @@ def _rider_seeds() -> list[bytes]:
     ]
 
 
+class _BagReader:
+    """Reads a bag whose storage file (``part="mcap"``) or metadata.yaml is the fuzzer's input.
+
+    The other file of the bag is the valid one; the bag is then read as ``bike-rig bag info``
+    reads it (open, :func:`~bike_rig.bag.session.read_session`, summary).
+    """
+
+    def __init__(self, bag: Path, part: str) -> None:
+        self.bag, self.part = bag, part
+        self.metadata = (bag / "metadata.yaml").read_bytes()
+        self.mcap = (bag / "bag_0.mcap").read_bytes()
+
+    def __call__(self, path: Path) -> object:
+        data = path.read_bytes()
+        (self.bag / "metadata.yaml").write_bytes(data if self.part == "metadata" else self.metadata)
+        (self.bag / "bag_0.mcap").write_bytes(data if self.part == "mcap" else self.mcap)
+        return summarize(self.bag)
+
+
+def _bag_targets(workdir: Path) -> list[Target]:
+    """The bag readers' targets: a small simulated session's bag (1 s trials, 54 kB), zstd and uncompressed."""
+    name, truth = load_true_parameters(config_dir() / "bicycles" / "browser.yaml")
+    session = simulate_session(truth, load_rig(small_rig(workdir / "bag-rig", duration_s=1.0)), 3, name)
+    plain = write_simulated_bag(workdir / "bag-plain" / "bag", session, compression=Compression.NONE)
+    zstd = write_simulated_bag(workdir / "bag-zstd" / "bag", session)
+    mcaps = [(b / "bag_0.mcap").read_bytes() for b in (zstd, plain)]
+    metadata = [(b / "metadata.yaml").read_bytes() for b in (zstd, plain)]
+    return [
+        Target("bag", _BagReader(zstd, "mcap"), ".mcap", mcaps, _MCAP_TOKENS),
+        Target("bag-metadata", _BagReader(zstd, "metadata"), ".yaml", metadata, YAML_TOKENS),
+    ]
+
+
 def targets(workdir: Path) -> list[Target]:
     """Every file reader with its seeds; ``workdir`` receives the files a graph file refers to.
 
@@ -126,4 +168,5 @@ def targets(workdir: Path) -> list[Target]:
         Target("trial-csv", lambda p: read_trial(p, 1000.0), ".csv", _csv_seeds(), _CSV_TOKENS),
         Target("trial-npy", lambda p: read_trial(p, 1000.0), ".npy", _npy_seeds(), _NPY_TOKENS),
         Target("trial-mat", lambda p: read_trial(p, 1000.0), ".mat", _mat_seeds(), _MAT_TOKENS),
+        *_bag_targets(workdir),
     ]
