@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import shutil
 import struct
+import subprocess
+import sys
 from collections.abc import Callable
 from pathlib import Path
 
@@ -177,3 +179,53 @@ def test_a_count_that_is_a_word_is_refused(bag: Path) -> None:
     _edit_metadata(bag, lambda t: t.replace("message_count: 260", "message_count: inf", 1))
     _refused(bag, "topic '/bike_rig/gyro': message count 'inf' is not an integer")
 
+
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+def _deep(bag: Path) -> None:
+    _edit_metadata(bag, lambda _: "[" * 5000 + "]" * 5000)
+
+
+def _corrupt_first_chunk(bag: Path) -> None:
+    offset = _chunk_offset(bag)
+
+    def corrupt(data: bytearray) -> None:
+        at = offset + 9 + 8 + 8 + 8 + 4
+        at += 4 + struct.unpack_from("<I", data, at)[0] + 8
+        for i in range(at + 20, at + 60):
+            data[i] ^= 0x55
+
+    _edit_mcap(bag, corrupt)
+
+
+def _header_length(bag: Path) -> None:
+    _edit_mcap(bag, lambda data: data.__setitem__(slice(9, 17), struct.pack("<Q", 2**62)))
+
+
+CLI_CASES = [
+    (["bag", "info"], _deep, "bike-rig bag: error: ", "nested deeper than 64 levels"),
+    (["replay"], _deep, "bike-rig replay: error: ", "nested deeper than 64 levels"),
+    (["bag", "info"], _corrupt_first_chunk, "bike-rig bag: error: ", "is corrupt"),
+    (["replay"], _corrupt_first_chunk, "bike-rig replay: error: ", "is corrupt"),
+    (["bag", "info"], _header_length, "bike-rig bag: error: ", "header record at byte 8"),
+    (["replay"], _header_length, "bike-rig replay: error: ", "header record at byte 8"),
+    (["bag", "recover"], _header_length, "bike-rig bag: error: ", "implausible record length"),
+]
+
+
+@pytest.mark.parametrize(("command", "damage", "prefix", "reason"), CLI_CASES,
+                         ids=[f"{' '.join(c)}-{d.__name__.strip('_')}" for c, d, _, _ in CLI_CASES])
+def test_the_cli_says_it_in_one_line_with_exit_2(
+    bag: Path, command: list[str], damage: Callable[[Path], None], prefix: str, reason: str
+) -> None:
+    damage(bag)
+    done = subprocess.run(
+        [sys.executable, "-m", "bike_rig.cli.main", *command, str(bag)],
+        cwd=REPO, capture_output=True, text=True, timeout=120, check=False,
+    )  # fmt: skip
+    lines = done.stderr.splitlines()
+    assert done.returncode == 2, done.stderr
+    assert len(lines) == 1 and lines[0].startswith(prefix), done.stderr
+    assert reason in lines[0]
