@@ -3,6 +3,10 @@
 
 Usage: ``.venv/bin/python tools/fuzz.py [--inputs N] [--seconds S] [--seed N] [--reader NAME]...``
 
+Readers: measurements, parameters, bp-text, rig, graph, rider, trial-csv, trial-npy, trial-mat,
+bag (a small simulated session's bag with its MCAP storage file mutated, read as ``bike-rig bag
+info`` reads it) and bag-metadata (the same bag with its metadata.yaml mutated).
+
 Prints, per reader, the inputs tried, clean one-line errors, inputs read (ok), read with a
 remark (flags), crashes, hangs, the slowest call, the largest peak memory of a call
 (tracemalloc, with ``--trace-memory``; the .mat reader's scipy runs in a child process, whose

@@ -152,6 +152,9 @@ class BagReader:
             ]
         else:
             reader = self._open_rosbags(resolved)
+            if not all(isinstance(v, int) for v in (reader.message_count, reader.start_time, reader.end_time)):
+                self.close()
+                raise BagReadError(self.shown, "metadata.yaml: the message count, start or duration is not an integer")
             conns = [
                 (c.topic, c.msgtype, c.msgcount, tuple(getattr(c.ext, "offered_qos_profiles", ()) or ()), c.digest)
                 for c in reader.connections
@@ -245,7 +248,8 @@ class BagReader:
             if self._fast is not None:
                 files = [base / name for name in self._fast.files]
             else:
-                files = [base / f["path"] for f in getattr(self.reader.storage, "files", [])]
+                entries = getattr(self.reader.storage, "files", None) or []
+                files = [base / f["path"] for f in entries if isinstance(f, dict) and isinstance(f.get("path"), str)]
             return files or sorted(base.glob("*.mcap"))
         return [self.path]
 

@@ -229,3 +229,25 @@ def test_the_cli_says_it_in_one_line_with_exit_2(
     assert done.returncode == 2, done.stderr
     assert len(lines) == 1 and lines[0].startswith(prefix), done.stderr
     assert reason in lines[0]
+
+
+def test_metadata_with_an_unreadable_scalar_is_refused(bag: Path) -> None:
+    _edit_metadata(bag, lambda t: t.replace("custom_data: null", "custom_data:\n    when: 2001-13-45", 1))
+    _refused(bag, "metadata.yaml: a value cannot be read")
+
+
+def test_metadata_with_aliases_is_read_by_the_bounded_loader(bag: Path) -> None:
+    _edit_metadata(bag, lambda t: t.replace("custom_data: null", "custom_data:\n    a: &x seen\n    b: *x", 1))
+    assert read_session(bag).message_count == 287
+
+
+def test_a_bag_message_count_that_is_text_is_refused(bag: Path) -> None:
+    """YAML 1.2 (rosbags) reads ``=287`` as text: found by the fuzzer (seed 20261126, bag-metadata#8995)."""
+    _edit_metadata(bag, lambda t: t.replace("message_count: 287", "message_count: =287", 1))
+    _refused(bag, "metadata.yaml: the message count, start or duration is not an integer")
+
+
+def test_a_files_entry_without_a_path_is_skipped(bag: Path) -> None:
+    """Found by the fuzzer (seed 20261126, bag-metadata#7666): a KeyError before."""
+    _edit_metadata(bag, lambda t: t.replace("  - path: bag_0.mcap", "  - pat: bag_0.mcap", 1))
+    assert read_session(bag).message_count == 287
