@@ -26,7 +26,7 @@ from ..core.errors import one_line
 from ..core.safe_yaml import LIMITS, YamlLimitError, compose_bounded, construct, yaml_error_reason
 from .errors import BagReadError
 
-__all__ = ["MAX_CHUNK_BYTES", "check_mcap", "check_metadata"]
+__all__ = ["MAX_CHUNK_BYTES", "check_mcap", "check_metadata", "within_limits"]
 
 #: The largest uncompressed chunk accepted [bytes]; bike_rig's recorder closes a chunk every
 #: second or at 1 MiB, rosbags' and ros2 bag's at 1 MiB by default.
@@ -177,17 +177,22 @@ def _check_info(info: dict[Any, Any]) -> None:
             _str(item, f"{p}.custom_data.{key}")
 
 
-def _load(text: str) -> Any:
-    """``text`` loaded within :data:`~bike_rig.core.safe_yaml.LIMITS`, by libyaml when it can be.
+def within_limits(text: str) -> bool:
+    """Check a YAML text's nesting and size on libyaml's events (its parser does not recurse).
 
-    libyaml's events are counted first (its parser keeps its own stack; only its composer
-    recurses, and would crash the process on a document a few thousand levels deep); a document
-    within the limits and without aliases is then loaded by libyaml (about 1 ms for a bag's
-    metadata, where the pure-Python loader takes 15 ms); one with aliases by the bounded loader.
+    Returns:
+        True if libyaml may load it (no alias, at most ``LIMITS.max_nodes`` events); False if
+        it needs the bounded loader (aliases, or no libyaml).
+
+    Raises:
+        YamlLimitError: It is larger than ``LIMITS.max_bytes`` or nested deeper than ``LIMITS.max_depth``.
+        yaml.YAMLError: It is not YAML.
     """
     loader = getattr(yaml, "CSafeLoader", None)
-    if len(text) > LIMITS.max_bytes or loader is None:
-        return construct(*compose_bounded(text))
+    if len(text) > LIMITS.max_bytes:
+        raise YamlLimitError(f"{len(text)} characters: larger than {LIMITS.max_bytes} bytes")
+    if loader is None:
+        return False
     depth = events = 0
     for event in yaml.parse(text, Loader=loader):
         events += 1
@@ -199,7 +204,21 @@ def _load(text: str) -> Any:
         elif isinstance(event, yaml.MappingEndEvent | yaml.SequenceEndEvent):
             depth -= 1
         elif isinstance(event, yaml.AliasEvent) or events > LIMITS.max_nodes:
-            return construct(*compose_bounded(text))
+            return False
+    return True
+
+
+def _load(text: str) -> Any:
+    """``text`` loaded within :data:`~bike_rig.core.safe_yaml.LIMITS`, by libyaml when it can be.
+
+    libyaml's events are counted first (its parser keeps its own stack; only its composer
+    recurses, and would crash the process on a document a few thousand levels deep); a document
+    within the limits and without aliases is then loaded by libyaml (about 1 ms for a bag's
+    metadata, where the pure-Python loader takes 15 ms); one with aliases by the bounded loader.
+    """
+    loader = getattr(yaml, "CSafeLoader", None)
+    if len(text) > LIMITS.max_bytes or loader is None or not within_limits(text):
+        return construct(*compose_bounded(text))
     try:
         return yaml.load(text, Loader=loader)
     except (ValueError, OverflowError) as exc:  # a scalar that does not convert (a date, a long integer)

@@ -24,7 +24,10 @@ from typing import Any, cast
 
 from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
 
-__all__ = ["MAGIC", "Chunk", "FastBag", "FastTopic", "Storage", "Unusual", "need", "open_fast"]
+from ..core.safe_yaml import YamlLimitError
+from .check import within_limits
+
+__all__ = ["MAGIC", "Chunk", "FastBag", "FastTopic", "Storage", "UnsafeYaml", "Unusual", "need", "open_fast"]
 
 MAGIC = b"\x89MCAP0\r\n"
 _FOOTER_HEAD = b"\x02\x14\x00\x00\x00\x00\x00\x00\x00"
@@ -48,10 +51,25 @@ class Unusual(Exception):
     """The bag is not the common kind this module reads: read it with rosbags instead."""
 
 
+class UnsafeYaml(Unusual):
+    """YAML text in the bag (a channel's QoS profiles) beyond bike_rig's YAML limits: no reader may load it.
+
+    (libyaml's and ruamel's composers recurse, and crash the process, on a text some
+    hundred thousand levels deep.)
+    """
+
+
 def _yaml_load(text: str) -> Any:
     """``text`` as rosbags' ruamel would load it, with libyaml (Unusual when they may differ)."""
     if _RISKY_YAML.search(text):
         raise Unusual("metadata YAML with scalars YAML 1.1 and 1.2 read differently")
+    try:
+        if not within_limits(text):
+            raise Unusual("YAML with aliases")
+    except YamlLimitError as exc:
+        raise UnsafeYaml(exc.reason) from None
+    except Exception as exc:  # a YAML error: rosbags says what is wrong
+        raise Unusual(f"metadata YAML ({exc})") from None
     try:
         return _libyaml_loader().load(text)
     except Exception as exc:  # no libyaml, a YAML error, a duplicate key: rosbags says what is wrong

@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 
 from .check import check_mcap, check_metadata
 from .errors import BagError, BagReadError, IncompleteBagError, NotABagError, ReplayError
-from .fastread import MAGIC, FastBag, Unusual, open_fast
+from .fastread import MAGIC, FastBag, UnsafeYaml, Unusual, open_fast
 from .msgtable import CorruptChunk, MessageTable, read_table
 from .typestore import rig_typestore, type_hash
 
@@ -144,6 +144,8 @@ class BagReader:
         self._resolved = resolved
         try:
             self._fast = open_fast(resolved)
+        except UnsafeYaml as exc:
+            raise BagReadError(self.shown, f"an MCAP channel's offered QoS profiles: {exc}") from None
         except Unusual:
             self._fast = None
         if self._fast is not None:

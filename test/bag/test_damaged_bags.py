@@ -251,3 +251,18 @@ def test_a_files_entry_without_a_path_is_skipped(bag: Path) -> None:
     """Found by the fuzzer (seed 20261126, bag-metadata#7666): a KeyError before."""
     _edit_metadata(bag, lambda t: t.replace("  - path: bag_0.mcap", "  - pat: bag_0.mcap", 1))
     assert read_session(bag).message_count == 287
+
+
+def test_channel_qos_text_nested_200000_deep_is_refused_without_a_crash(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The composer of libyaml recursed on it until the process died (SIGSEGV): it is refused in one line."""
+    monkeypatch.setattr("bike_rig.bag.writer._qos_yaml", lambda _profiles: "[" * 200_000 + "]" * 200_000)
+    bag = small_bag(tmp_path)
+    done = subprocess.run(
+        [sys.executable, "-m", "bike_rig.cli.main", "bag", "info", str(bag)],
+        cwd=REPO, capture_output=True, text=True, timeout=120, check=False,
+    )  # fmt: skip
+    lines = done.stderr.splitlines()
+    assert done.returncode == 2, done.stderr[-500:]
+    assert len(lines) == 1 and "offered QoS profiles: nested deeper than 64 levels" in lines[0], done.stderr
