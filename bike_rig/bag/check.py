@@ -40,7 +40,7 @@ _U64 = struct.Struct("<Q")
 _U32 = struct.Struct("<I")
 _MAGIC = b"\x89MCAP0\r\n"
 _FOOTER_LENGTH = 9 + 8 + 8 + 4 + 8  # opcode, length, summary start, summary offset start, crc, magic
-_OP_HEADER, _OP_FOOTER, _OP_CHUNK, _OP_CHUNK_INDEX = 0x01, 0x02, 0x06, 0x08
+_OP_HEADER, _OP_FOOTER, _OP_CHANNEL, _OP_CHUNK, _OP_CHUNK_INDEX = 0x01, 0x02, 0x04, 0x06, 0x08
 
 
 # --------------------------------------------------------------------------------------------
@@ -291,6 +291,32 @@ def _chunk_index(body: bytes, at: int, summary_start: int, f: BinaryIO) -> str:
     return ""
 
 
+def _channel_qos(body: bytes, at: int) -> str:
+    """The problem of a channel record's offered QoS text (YAML that rosbags' parser would load), "" if none."""
+    try:
+        pos = 4
+        for _ in range(2):  # topic, message encoding
+            pos += 4 + _U32.unpack_from(body, pos)[0]
+        end = pos + 4 + _U32.unpack_from(body, pos)[0]
+        pos += 4
+        while pos < end:
+            n = _U32.unpack_from(body, pos)[0]
+            key = body[pos + 4 : pos + 4 + n]
+            pos += 4 + n
+            n = _U32.unpack_from(body, pos)[0]
+            value = body[pos + 4 : pos + 4 + n]
+            pos += 4 + n
+            if key == b"offered_qos_profiles":
+                within_limits(value.decode("utf-8", "replace"))
+    except struct.error:
+        return ""  # a malformed record: the readers say so
+    except YamlLimitError as exc:
+        return f"channel at byte {at}: offered QoS profiles: {exc.reason}"
+    except yaml.YAMLError:
+        return ""  # not YAML: rosbags says so
+    return ""
+
+
 def _walk(f: BinaryIO, start: int, stop: int, summary_start: int) -> str:
     """The first problem of the records from ``start`` to ``stop`` ("" if none)."""
     pos = start
@@ -307,6 +333,10 @@ def _walk(f: BinaryIO, start: int, stop: int, summary_start: int) -> str:
             uncompressed = _U64.unpack(_read_at(f, pos + 9 + 16, 8))[0]
             if uncompressed > MAX_CHUNK_BYTES:
                 return f"chunk at byte {pos}: {uncompressed} bytes uncompressed, more than {MAX_CHUNK_BYTES}"
+        if op == _OP_CHANNEL:
+            problem = _channel_qos(_read_at(f, pos + 9, length), pos)
+            if problem:
+                return problem
         if op == _OP_CHUNK_INDEX:
             problem = _chunk_index(_read_at(f, pos + 9, length), pos, summary_start, f)
             if problem:

@@ -24,12 +24,14 @@ from io import BytesIO
 from pathlib import Path
 from typing import BinaryIO
 
+import yaml
 from mcap.data_stream import ReadDataStream
 from mcap.records import Channel, Chunk, Message, Schema
 from mcap.stream_reader import breakup_chunk
 from rosbags.rosbag2.errors import ReaderError
 from rosbags.rosbag2.metadata import parse_qos
 
+from .check import within_limits
 from .errors import BagError, BagExistsError, BagReadError, NotABagError
 from .reader import MCAP_MAGIC
 from .typestore import standard_typestore, type_hash
@@ -290,8 +292,10 @@ def _add_channels(
             continue
         if not writer.has_topic(ch.topic):
             try:
-                qos = parse_qos(ch.metadata.get("offered_qos_profiles", ""))
-            except (ReaderError, KeyError, TypeError):
+                text = ch.metadata.get("offered_qos_profiles", "")
+                within_limits(text)  # ruamel's and libyaml's composers recurse: a deep text crashes them
+                qos = parse_qos(text)
+            except (ReaderError, KeyError, TypeError, ValueError, yaml.YAMLError):  # YamlLimitError is a ValueError
                 qos = []
             writer.add_topic(
                 ch.topic,

@@ -266,3 +266,18 @@ def test_channel_qos_text_nested_200000_deep_is_refused_without_a_crash(
     lines = done.stderr.splitlines()
     assert done.returncode == 2, done.stderr[-500:]
     assert len(lines) == 1 and "offered QoS profiles: nested deeper than 64 levels" in lines[0], done.stderr
+
+
+def test_bag_recover_drops_a_channel_qos_text_nested_200000_deep(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The recovered bag keeps every message; the QoS text no parser may load is left out."""
+    monkeypatch.setattr("bike_rig.bag.writer._qos_yaml", lambda _profiles: "[" * 200_000 + "]" * 200_000)
+    bag = small_bag(tmp_path)
+    done = subprocess.run(
+        [sys.executable, "-m", "bike_rig.cli.main", "bag", "recover", str(bag)],
+        cwd=REPO, capture_output=True, text=True, timeout=120, check=False,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr[-500:]
+    assert "recovered 287 messages" in done.stdout
+    assert read_session(tmp_path / "bag_recovered").message_count == 287
