@@ -219,10 +219,7 @@ def _load(text: str) -> Any:
     loader = getattr(yaml, "CSafeLoader", None)
     if len(text) > LIMITS.max_bytes or loader is None or not within_limits(text):
         return construct(*compose_bounded(text))
-    try:
-        return yaml.load(text, Loader=loader)
-    except (ValueError, OverflowError) as exc:  # a scalar that does not convert (a date, a long integer)
-        raise YamlLimitError(f"a value cannot be read ({one_line(str(exc))})") from None
+    return yaml.load(text, Loader=loader)
 
 
 def check_metadata(path: Path, shown: str) -> None:
@@ -248,6 +245,10 @@ def check_metadata(path: Path, shown: str) -> None:
     except YamlLimitError as exc:
         where = f" line {exc.line}" if exc.line else ""
         raise BagReadError(shown, f"{name}{where}: {exc.reason}") from None
+    except (ValueError, OverflowError, TypeError, AttributeError) as exc:
+        # a scalar PyYAML's constructors cannot convert: a date, a long integer, a bad explicit tag
+        reason = f"a value cannot be read ({type(exc).__name__}: {one_line(str(exc))})"
+        raise BagReadError(shown, f"{name}: {reason}") from None
     except yaml.YAMLError as exc:
         reason, line = yaml_error_reason(exc, text)
         raise BagReadError(shown, f"{name}{f' line {line}' if line else ''}: {reason}") from None

@@ -281,3 +281,10 @@ def test_bag_recover_drops_a_channel_qos_text_nested_200000_deep(
     assert done.returncode == 0, done.stderr[-500:]
     assert "recovered 287 messages" in done.stdout
     assert read_session(tmp_path / "bag_recovered").message_count == 287
+
+
+def test_a_bad_explicit_tag_in_metadata_is_refused(bag: Path) -> None:
+    """Found by the fuzzer (seed 20261126, bag-metadata#8553): PyYAML's AttributeError before."""
+    tagged = "!!timestamp durability: transient_local"
+    _edit_metadata(bag, lambda t: t.replace("durability: transient_local", tagged, 1))
+    _refused(bag, "metadata.yaml: a value cannot be read")
