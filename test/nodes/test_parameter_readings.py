@@ -152,6 +152,8 @@ def test_readings_entered_live_complete_correct_record_and_replay(
         procs = [node, recorder]
         first = probe.wait_message(topics.PARAMETERS, lambda m: True, "the first status", procs)
         assert not first.complete and tuple(first.missing) == STATIC_KEYS + BROWSER_KEYS
+        # (another topic: it may come after the first status)
+        probe.wait_message(topics.STATIC_READINGS, lambda m: True, "the first static readings", procs)
         assert static_box[0].bicycle == "Browser" and len(static_box[0].keys) == 0
 
         readings = publisher(probe, topics.READINGS, ReadingEntryMsg, 2)  # the node and the recorder
