@@ -16,6 +16,7 @@ from ..core.period import FitOptions, WindowKind, WindowPolicy
 from ..params import ParamSpec
 from ..pipeline.fit import TrialFit, TrialFitOptions
 from ..pipeline.fit_state import FitterState
+from .publishers import publisher_source
 
 if TYPE_CHECKING:
     from rclpy.node import Node
@@ -58,17 +59,6 @@ def fitter_parameters() -> tuple[ParamSpec, ...]:
         ParamSpec("max_drift", d.fit.max_drift, "flag an offset drift above this fraction of the oscillation",
                   (0.0, big)),  # fmt: skip
     )
-
-
-def publisher_source(info: Any) -> str:
-    """The process that published a message: its DDS participant (hex), from rclpy's message info.
-
-    Every publisher of one process (one rclpy context) shares the first 12 bytes of its GUID;
-    "" when the middleware does not say.
-    """
-    gid = info.get("publisher_gid") if isinstance(info, dict) else None
-    data = gid.get("data") if isinstance(gid, dict) else None
-    return bytes(data[:12]).hex() if data else ""
 
 
 class FitterNode:

@@ -56,8 +56,9 @@ from ..pipeline.model import StabilitySweep
 from ..pipeline.readings import ReadingEntry
 from ..rosenv import ros_environment
 from ..rosqos import profile
+from .publishers import participant, publisher_source
 
-__all__ = ["OWNERS", "GraphMonitor", "MonitorRecord", "participant"]
+__all__ = ["OWNERS", "GraphMonitor", "MonitorRecord"]
 
 _msgs: Any = importlib.import_module("bike_rig_msgs.msg")
 
@@ -87,12 +88,6 @@ class _Held:
     source: str
     record: Any
     since: float
-
-
-def participant(gid: Any) -> str:
-    """The DDS participant (process) of a publisher GUID: its first 12 bytes, hex ("" if unknown)."""
-    data = gid.get("data") if isinstance(gid, dict) else gid
-    return bytes(data[:12]).hex() if data else ""
 
 
 #: Most callbacks taken in one :meth:`GraphMonitor.poll` after the first.
@@ -177,7 +172,7 @@ class GraphMonitor:
                 self.ignored.append(f"{type(msg).__name__} ignored: {exc}")
                 return
             self._taken += 1
-            source = participant(info.get("publisher_gid") if isinstance(info, dict) else None)
+            source = publisher_source(info)
             self._held.append(_Held(topic, source, record, time.monotonic()))
 
         return collect
