@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -35,8 +36,13 @@ def test_junk_from_another_process_never_touches_the_drivers_trial(tmp_path: Pat
         rogue.stdin.flush()
         assert rogue.stdout.readline().strip() == "DONE"
         result = s.trial("TcR1#1")  # the id the rogue sent junk for
-        s.send("status")
-        missing = s.until(lambda r: "missing" in r)["missing"]
+        deadline = time.monotonic() + 20  # the parameter node's update follows the result
+        while True:
+            s.send("status")
+            missing = s.until(lambda r: "missing" in r)["missing"]
+            if "TcR1" not in missing or time.monotonic() > deadline:
+                break
+            time.sleep(0.2)
         s.send("quit")
         s.proc.wait(60)
     finally:
