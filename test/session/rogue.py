@@ -2,7 +2,8 @@
 
     python rogue.py TRIAL_ID
 
-Waits until the fitter and the parameter node subscribe (``MATCHED``), then on ``GO`` from
+Waits until every reader of the session subscribes (``MATCHED``: the fitter or parameter
+node, the recorder and the console), then on ``GO`` from
 stdin publishes, from its own process: START events of 5,000 unknown trials, a batch of NaN at
 index 0 of ``TRIAL_ID`` (the driver's next trial), a STOP of ``TRIAL_ID`` after 100 samples,
 a 20,000-sample batch, and a usable-looking period estimate of 1e308 s for ``TcR1``; prints
@@ -49,7 +50,9 @@ def main() -> int:
     gyro = node.create_publisher(msgs.GyroBatch, GYRO.name, profile(GYRO))
     periods = node.create_publisher(msgs.PeriodEstimate, PERIODS.name, profile(PERIODS))
     deadline = time.monotonic() + 60
-    while min(p.get_subscription_count() for p in (events, gyro, periods)) < 1 and time.monotonic() < deadline:
+    # every reader the session has: fitter or parameter node, recorder and console (a transient-local
+    # reader matched late would get the junk only at the next heartbeat)
+    while min(p.get_subscription_count() for p in (events, gyro, periods)) < 3 and time.monotonic() < deadline:
         rclpy.spin_once(node, timeout_sec=0.05)
     print("MATCHED", flush=True)
     sys.stdin.readline()  # GO
