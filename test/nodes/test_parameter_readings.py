@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import subprocess
 import sys
+import time
 from collections import Counter
 from collections.abc import Iterator
 from pathlib import Path
@@ -21,6 +22,7 @@ import pytest
 
 from bike_rig import topics
 from bike_rig.bag.compare import relative_difference
+from bike_rig.bag.recover import scan_mcap
 from bike_rig.bag.replay import replay_bag
 from bike_rig.bag.session import read_session
 from bike_rig.bag.simulated import live_results, simulated_messages
@@ -127,6 +129,25 @@ def check_bag(bag: Path, published: list[ReadingEntry], used: int, session: Any)
     assert result.live.identical and result.live.compared_trials == len(session.trials), result.live.worst
 
 
+def wait_for_static_source(bag: Path, source: str, recorder: Any, timeout_s: float = 30.0) -> None:
+    """Wait until the recorder's flushed chunks hold a ``StaticReadings`` with this ``source``."""
+    data = bag / f"{bag.name}_0.mcap"
+    store = rig_typestore()
+    deadline = time.monotonic() + timeout_s
+    seen: list[str] = []
+    while time.monotonic() < deadline:
+        if data.exists():
+            scan = scan_mcap(data)
+            ids = {cid for cid, ch in scan.channels.items() if ch.topic == topics.STATIC_READINGS.name}
+            seen = [str(store.deserialize_cdr(m.data, "bike_rig_msgs/msg/StaticReadings").source)
+                    for m in scan.messages if m.channel_id in ids]  # fmt: skip
+            if source in seen:
+                return
+        assert recorder.proc.poll() is None, recorder.describe()
+        time.sleep(0.1)
+    raise AssertionError(f"recorded StaticReadings sources {seen}, waited for {source!r}\n{recorder.describe()}")
+
+
 def test_readings_entered_live_complete_correct_record_and_replay(
     probe: Probe, node_env: dict[str, str], tmp_path: Path
 ) -> None:
@@ -184,11 +205,13 @@ def test_readings_entered_live_complete_correct_record_and_replay(
         last = static_readings_from_msg(last_msg)
         assert list(last.readings) == list(STATIC_KEYS) and last.value(MISTAKE_KEY) == correction.value
         assert "rear_wheel:" in last_msg.document and repr(correction.value) in last_msg.document
-        assert node.stop() == 0, node.describe()
-        # everything published is in the recorder's flushed chunks (a reliable repair may take a heartbeat)
+        # everything published is in the recorder's flushed chunks (a reliable repair may take a heartbeat),
+        # the node's last StaticReadings too: stopped before, its writer could no longer repair it
         counts = Counter(m.topic for m in [*stream, *estimates])
         counts[topics.READINGS.name] = len(bad) + len(entries)
         wait_for_data(bag, counts, recorder)
+        wait_for_static_source(bag, last_msg.source, recorder)
+        assert node.stop() == 0, node.describe()
         assert recorder.stop() == 0, recorder.describe()
 
     # two bad entries: one warning line each, the node kept going
@@ -198,7 +221,6 @@ def test_readings_entered_live_complete_correct_record_and_replay(
     assert len(params_box) >= 3
 
     check_bag(bag, [*bad, *entries], len(entries), session)
-
 
 
 @pytest.mark.parametrize(
