@@ -33,6 +33,9 @@ acquisition, how the trials are run, and the standard deviation of every static 
       duration: 30                      # s; or a list of durations drawn per trial
       amplitude_deg: [0.2, 0.9]         # initial amplitude, uniform in this range (< 1°)
       damping_ratio: 0.001
+      dry_friction: [0.0, 0.0]          # optional: swing lost per cycle / initial swing, uniform
+                                        # in this range per trial, in [0, 1) (a number: fixed)
+      finite_swing: false               # optional: compound pendulums swing with sin θ
     coupled_swing:                      # optional: a second, close mode that beats
       probability: 0.05                 # per frame/fork torsional trial
       trials: []                        # and/or these trials, e.g. [frame_torsional_o2_t3]
@@ -173,12 +176,20 @@ class TrialPlan:
         durations: Trial duration, s; one value, or choices drawn uniformly per trial.
         amplitude_deg: Range (low, high) of the initial amplitude, degree, drawn uniformly.
         damping_ratio: ζ of every oscillation.
+        dry_friction: Range (low, high) of the dry (Coulomb) friction at the pivot, as the
+            swing lost per cycle over the initial swing, 1, drawn uniformly per trial; (0, 0)
+            for none. A linear oscillator loses 4 μ / ω₀² per cycle, so the friction torque
+            over the inertia is μ = fraction · θ₀ · ω₀² / 4, rad/s².
+        finite_swing: Compound pendulums swing with a restoring torque ∝ sin θ (their period
+            lengthens with the swing) rather than ∝ θ; torsional pendulums stay linear.
     """
 
     per_measurement: int
     durations: tuple[float, ...]
     amplitude_deg: tuple[float, float]
     damping_ratio: float
+    dry_friction: tuple[float, float] = (0.0, 0.0)
+    finite_swing: bool = False
 
 
 @dataclass(frozen=True)
@@ -338,6 +349,12 @@ class _Reader:
             raise self.error(where, f"must be {'>' if strict else '>='} {low:g}, got {x:g}")
         return x
 
+    def flag(self, value: Any, where: Where) -> bool:
+        """A YAML boolean (``true`` or ``false``)."""
+        if not isinstance(value, bool):
+            raise self.error(where, f"expected true or false, got {short_repr(value)}")
+        return value
+
     def count(self, value: Any, where: Where, low: int = 1, high: int = MAX_RIG_COUNT) -> int:
         if isinstance(value, bool) or not isinstance(value, int) or value < low:
             raise self.error(where, f"expected a whole number >= {low}, got {short_repr(value)}")
@@ -350,9 +367,11 @@ class _Reader:
             raise self.error(where, f"expected a non-empty list of numbers, got {short_repr(value)}")
         return [self.number(v, where + (i,), low=low, strict=strict) for i, v in enumerate(value)]
 
-    def interval(self, value: Any, where: Where, *, low: float, high: float | None = None) -> tuple[float, float]:
-        """A range [a, b] with low < a <= b (< high)."""
-        got = self.numbers(value, where, low=low)
+    def interval(
+        self, value: Any, where: Where, *, low: float, high: float | None = None, strict: bool = True
+    ) -> tuple[float, float]:
+        """A range [a, b] with low < a <= b (low <= a when not strict), and b < high."""
+        got = self.numbers(value, where, low=low, strict=strict)
         if len(got) != 2 or got[0] > got[1]:
             raise self.error(where, f"expected a range [low, high] with low <= high, got {short_repr(value)}")
         if high is not None and got[1] >= high:
@@ -446,8 +465,18 @@ def _adc(r: _Reader, value: Any, gyro: Gyro) -> Adc:
 
 
 def _trial_plan(r: _Reader, value: Any) -> TrialPlan:
-    """The ``trials`` section: trials per measurement, duration(s) [s], amplitude [deg], damping ratio (< 1)."""
-    t = r.section(value, ("trials",), ("per_measurement", "duration", "amplitude_deg", "damping_ratio"))
+    """The ``trials`` section.
+
+    Trials per measurement, duration(s) [s], amplitude [deg], damping ratio (< 1), and the
+    optional dry friction (a range, or one number, of the swing lost per cycle over the initial
+    swing, in [0, 1)) and finite swing (a bool).
+    """
+    t = r.section(
+        value,
+        ("trials",),
+        ("per_measurement", "duration", "amplitude_deg", "damping_ratio"),
+        ("dry_friction", "finite_swing"),
+    )
     dur = t["duration"]
     durations = r.numbers(dur if isinstance(dur, list) else [dur], ("trials", "duration"), low=0.0)
     damping = r.number(t["damping_ratio"], ("trials", "damping_ratio"), low=0.0, strict=False)
@@ -458,7 +487,18 @@ def _trial_plan(r: _Reader, value: Any) -> TrialPlan:
         durations=tuple(durations),
         amplitude_deg=r.interval(t["amplitude_deg"], ("trials", "amplitude_deg"), low=0.0, high=90.0),
         damping_ratio=damping,
+        dry_friction=_dry_friction(r, t.get("dry_friction", [0.0, 0.0])),
+        finite_swing=r.flag(t.get("finite_swing", False), ("trials", "finite_swing")),
     )
+
+
+def _dry_friction(r: _Reader, value: Any) -> tuple[float, float]:
+    """``trials.dry_friction``: a range [low, high] (or one number) of fractions in [0, 1)."""
+    where = ("trials", "dry_friction")
+    if not isinstance(value, list):
+        x = r.number(value, where, low=0.0, strict=False)  # named without an index
+        value = [x, x]
+    return r.interval(value, where, low=0.0, high=1.0, strict=False)
 
 
 def _coupled_swing(

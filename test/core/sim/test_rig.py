@@ -26,6 +26,7 @@ def test_shipped_rig_is_the_papers(rig: RigConfig) -> None:
     assert rig.coupled_swing is not None and rig.coupled_swing.probability == 0.05
     assert rig.sigma.hanging_angle_deg == 0.2 and rig.sigma.string_distance == 0.003
     assert rig.gyro.noise_sigma(1000.0) == pytest.approx(1e-4 * math.sqrt(500.0))
+    assert rig.trials.dry_friction == (0.0, 0.0) and rig.trials.finite_swing is False
 
 
 def _write(tmp_path: Path, old: str, new: str) -> tuple[Path, int]:
@@ -55,6 +56,37 @@ def test_durations_may_be_a_list_of_choices(tmp_path: Path) -> None:
     assert load_rig(path).trials.durations == (15.0, 30.0)
 
 
+def test_dry_friction_and_finite_swing_are_optional_and_off_by_default(tmp_path: Path, rig: RigConfig) -> None:
+    text = SHIPPED.read_text(encoding="utf-8")
+    lines = text.splitlines(keepends=True)
+    kept = [line for line in lines if "dry_friction" not in line and "finite_swing" not in line]
+    kept = [line for line in kept if not (line.startswith(" ") and line.lstrip().startswith("#"))]  # their comments
+    path = tmp_path / "rig.yaml"
+    path.write_text("".join(kept), encoding="utf-8")
+    assert "dry_friction" not in path.read_text(encoding="utf-8")
+    absent = load_rig(path)
+    assert absent.trials == rig.trials
+    assert absent.trials.dry_friction == (0.0, 0.0) and absent.trials.finite_swing is False
+
+
+@pytest.mark.parametrize(
+    ("friction", "swing", "want"),
+    [
+        ("[0.01, 0.03]", "true", ((0.01, 0.03), True)),
+        ("0.02", "false", ((0.02, 0.02), False)),  # one number: that fraction in every trial
+        ("['1e-3', 0.5]", "yes", ((1e-3, 0.5), True)),  # numeric strings; YAML 1.1's yes
+        ("[0, 0.999]", "false", ((0.0, 0.999), False)),
+    ],
+)
+def test_dry_friction_and_finite_swing(
+    tmp_path: Path, friction: str, swing: str, want: tuple[tuple[float, float], bool]
+) -> None:
+    path, _ = _write(tmp_path, "dry_friction: [0.0, 0.0]", f"dry_friction: {friction}")
+    path.write_text(path.read_text(encoding="utf-8").replace("finite_swing: false", f"finite_swing: {swing}"))
+    plan = load_rig(path).trials
+    assert (plan.dry_friction, plan.finite_swing) == want
+
+
 def test_coupled_swing_is_optional(tmp_path: Path) -> None:
     path, _ = _write(tmp_path, "coupled_swing:  ", "coupled_swing_unused:  ")
     text = path.read_text(encoding="utf-8")
@@ -76,6 +108,17 @@ BAD = [
     ("zero_rate_output: 2.5", "zero_rate_output: 7.5", "gyro.zero_rate_output", "outside the ADC range"),
     ("damping_ratio: 0.001", "damping_ratio: 1.5", "trials.damping_ratio", "below 1"),
     ("amplitude_deg: [0.2, 0.9]", "amplitude_deg: [0.9, 0.2]", "trials.amplitude_deg", "low <= high"),
+    ("dry_friction: [0.0, 0.0]", "dry_friction: [0.03, 0.01]", "trials.dry_friction", "low <= high"),
+    ("dry_friction: [0.0, 0.0]", "dry_friction: [0.0, 1.0]", "trials.dry_friction", "must stay below 1, got 1"),
+    ("dry_friction: [0.0, 0.0]", "dry_friction: 1.5", "trials.dry_friction", "must stay below 1, got 1.5"),
+    ("dry_friction: [0.0, 0.0]", "dry_friction: -0.1", "trials.dry_friction", "must be >= 0, got -0.1"),
+    ("dry_friction: [0.0, 0.0]", "dry_friction: [-0.1, 0.1]", "trials.dry_friction[0]", "must be >= 0, got -0.1"),
+    ("dry_friction: [0.0, 0.0]", "dry_friction: [0.0, 0.1, 0.2]", "trials.dry_friction", "[low, high]"),
+    ("dry_friction: [0.0, 0.0]", "dry_friction: lots", "trials.dry_friction", "expected a number"),
+    ("dry_friction: [0.0, 0.0]", "dry_friction: []", "trials.dry_friction", "non-empty list"),
+    ("finite_swing: false", "finite_swing: 1", "trials.finite_swing", "expected true or false, got 1"),
+    ("finite_swing: false", "finite_swing: 'true'", "trials.finite_swing", "expected true or false"),
+    ("finite_swing: false", "finite_swingy: false", "trials.finite_swingy", "unknown key"),
     ("probability: 0.05", "probability: 1.5", "coupled_swing.probability", "at most 1"),
     ("trials: []", "trials: [frame_torsional_o4_t1]", "coupled_swing.trials[0]", "no such trial"),
     ("noise_density: 1.0e-4", "noise_density: 1.0e-4\n  colour: red", "gyro.colour", "unknown key"),
