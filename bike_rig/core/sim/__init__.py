@@ -9,6 +9,7 @@ ADC model. Reproducible from one seed.
 - :mod:`.plan`: which periods a session measures and how its trials are named
 - :mod:`.physics`: the inverse of the paper's equations (true readings)
 - :mod:`.gyro`: the pendulum motion, the gyro and the ADC
+- :mod:`.pendulum`: a real pendulum's motion (dry friction, finite swing), integrated
 - :mod:`.session`: a whole session in memory (:func:`simulate_session`), or trial by trial on
   request (:class:`TrialSimulator`)
 - :mod:`.writer`: a session directory on disk (:func:`write_session`)

@@ -8,6 +8,11 @@ same session, bit for bit: every random draw comes from a :class:`numpy.random.G
 spawned from ``SeedSequence(seed)`` (static readings, the gyro, and each trial's motion and
 sensor noise each get their own stream, so adding a trial leaves the others unchanged).
 
+A trial's motion is the analytic damped oscillation of :mod:`.gyro` unless the rig adds dry
+friction at the pivot (``trials.dry_friction``) or a finite swing of the compound pendulums
+(``trials.finite_swing``); then it is integrated numerically (:mod:`.pendulum`), from the same
+drawn amplitude and phase. A beating trial (two modes) always stays analytic, without either.
+
 :class:`TrialSimulator` is the same rig driven by an operator: it simulates any planned trial
 on request (the ``sim`` gyro source's operator mode), with the same physics, sensor model and
 random streams.
@@ -30,9 +35,10 @@ from ..symbols import PARAMETER_NAMES
 from ..units import DEGREE
 from .errors import SimulationError
 from .gyro import Mode, adc_quantise, angular_rate, gyro_volts, rate_from_volts
+from .pendulum import PendulumMotion, pendulum_rate, small_swing_factor
 from .physics import TrueReadings, true_readings
 from .plan import PlannedMeasurement
-from .rig import ReadingSigma, RigConfig
+from .rig import ReadingSigma, RigConfig, TrialPlan
 
 __all__ = [
     "SessionTruth",
@@ -40,6 +46,7 @@ __all__ = [
     "SimulatedTrial",
     "TrialSimulator",
     "load_true_parameters",
+    "motion_rate",
     "reading_sigma",
     "simulate_session",
 ]
@@ -85,7 +92,16 @@ class SimulatedTrial:
         sample_rate: Hz; sample i is at t = i / sample_rate.
         volts: Raw ADC readings, V.
         rate: The readings converted back by the nominal scale factor, rad/s.
-        modes: The true motion: one mode, or two when the trial beats.
+        modes: The true motion: one mode, or two when the trial beats. With dry friction or a
+            finite swing, the one analytic mode that they alter: the motion starts from its
+            turning point before t = 0 (see :func:`motion_rate`).
+        dry_friction: Dry friction torque over the inertia μ, rad/s²; 0 for none (always 0
+            for a beating trial).
+        dry_friction_fraction: The same friction as the swing lost per cycle over the mode's
+            amplitude θ₀ (μ = fraction · θ₀ · ω₀² / 4, ω₀ = 2π / period), 1.
+        finite_swing: The restoring torque is ∝ sin θ (a compound pendulum's finite swing):
+            the period is T · :func:`~bike_rig.core.sim.pendulum.small_swing_factor` of the
+            swing, and shortens as the swing decays.
     """
 
     name: str
@@ -95,6 +111,9 @@ class SimulatedTrial:
     volts: FloatArray
     rate: FloatArray
     modes: tuple[Mode, ...]
+    dry_friction: float = 0.0
+    dry_friction_fraction: float = 0.0
+    finite_swing: bool = False
 
     @property
     def beating(self) -> bool:
@@ -110,6 +129,10 @@ class SimulatedTrial:
     def time(self) -> FloatArray:
         """Sample times, s."""
         return np.arange(self.rate.shape[0], dtype=np.float64) / self.sample_rate
+
+    def true_rate(self) -> FloatArray:
+        """The pendulum's true rate θ'(t) at the sample times, before the gyro and the ADC, rad/s."""
+        return motion_rate(self.time, self.modes, self.dry_friction, self.finite_swing)
 
     def samples(self) -> FloatArray:
         """The trial as stored: shape (N, 2), columns time s and rate rad/s, float64."""
@@ -248,6 +271,56 @@ def _modes(
     )
 
 
+def _dry_friction_fraction(plan: TrialPlan, rng: np.random.Generator) -> float:
+    """The trial's dry friction as the swing lost per cycle over the initial swing, 1.
+
+    Drawn from ``rng`` only when the rig has dry friction at all, so that a rig without it
+    consumes its motion stream exactly as before dry friction existed.
+    """
+    lo, hi = plan.dry_friction
+    return float(rng.uniform(lo, hi)) if hi > 0 else 0.0
+
+
+def motion_rate(t: FloatArray, modes: tuple[Mode, ...], dry_friction: float, finite_swing: bool) -> FloatArray:
+    """The rate of a trial's pendulum, rad/s: analytic, or integrated with friction or a finite swing.
+
+    Without dry friction and finite swing, :func:`~bike_rig.core.sim.gyro.angular_rate` of
+    the modes. Otherwise the one mode's pendulum is integrated
+    (:func:`~bike_rig.core.sim.pendulum.pendulum_rate`) from the turning point of the analytic
+    motion θ₀ e^(−ζωₙt) cos(ω_d t + φ) last before t = 0: at t = −(φ + δ) / ω_d with
+    sin δ = ζ, where θ = θ₀ √(1 − ζ²) e^(ζωₙ(φ + δ)/ω_d). So as the friction goes to 0 the
+    integrated motion is the analytic one; with a finite swing, the time back to that turning
+    point is stretched by :func:`~bike_rig.core.sim.pendulum.small_swing_factor` of its swing
+    (the phase is the same fraction of the longer first cycle).
+
+    Args:
+        t: Sample times, s.
+        modes: The trial's modes.
+        dry_friction: Friction torque over the inertia μ, rad/s².
+        finite_swing: Restoring torque ∝ sin θ rather than ∝ θ.
+
+    Returns:
+        θ'(t), rad/s.
+
+    Raises:
+        SimulationError: Dry friction or a finite swing with two modes (a beating trial), or a
+            compound swing that would reach π rad at its turning point.
+    """
+    if dry_friction == 0.0 and not finite_swing:
+        return angular_rate(t, modes)
+    if len(modes) != 1:
+        raise SimulationError("dry friction and a finite swing are simulated for one mode only, not a beating trial")
+    (mode,) = modes
+    zeta = mode.damping_ratio
+    wn = 2.0 * np.pi / mode.period
+    wd = wn * float(np.sqrt(1.0 - zeta**2))
+    back = (mode.phase + float(np.arcsin(zeta))) / wd  # s, to the turning point before t = 0
+    swing = mode.amplitude * float(np.sqrt(1.0 - zeta**2) * np.exp(zeta * wn * back))
+    phase_time = back * (small_swing_factor(swing) if finite_swing else 1.0)
+    motion = PendulumMotion(mode.period, swing, zeta, dry_friction, compound=finite_swing)
+    return pendulum_rate(t, motion, phase_time)
+
+
 def _check_seed(seed: object) -> int:
     """``seed`` as a non-negative integer.
 
@@ -277,7 +350,10 @@ def _simulate_trial(
     trial_ss: np.random.SeedSequence,
     duration_s: float | None = None,
 ) -> SimulatedTrial:
-    """One trial of ``m``: its motion (amplitude, phase, beating), the gyro and the ADC.
+    """One trial of ``m``: its motion (amplitude, phase, beating, friction, swing), the gyro and the ADC.
+
+    A beating trial (two modes) stays analytic: the rig's dry friction and finite swing apply
+    to single-mode trials only (its friction is still drawn, and recorded as 0).
 
     Args:
         m: The measurement.
@@ -290,7 +366,7 @@ def _simulate_trial(
         duration_s: Rig seconds to record; None for the rig's (drawn from its list, if a list).
 
     Returns:
-        The trial (raw volts, rate, true modes).
+        The trial (raw volts, rate, true modes, dry friction and finite swing).
     """
     motion_ss, sensor_ss = trial_ss.spawn(2)
     motion = np.random.default_rng(motion_ss)
@@ -299,11 +375,18 @@ def _simulate_trial(
     drawn = plan_t.durations[0] if len(plan_t.durations) == 1 else float(motion.choice(plan_t.durations))
     duration = drawn if duration_s is None else duration_s
     modes = _modes(m, name, period, rig, motion)
+    fraction = _dry_friction_fraction(plan_t, motion)  # the last draw of the motion stream
+    single = len(modes) == 1
+    fraction = fraction if single else 0.0
+    finite = single and plan_t.finite_swing and m.pendulum == "compound"
+    mu = fraction * modes[0].amplitude * (2.0 * np.pi / modes[0].period) ** 2 / 4.0
     t = np.arange(int(round(duration * adc.sample_rate)), dtype=np.float64) / adc.sample_rate
-    volts = adc_quantise(
-        gyro_volts(angular_rate(t, modes), gyro, adc.sample_rate, scale, np.random.default_rng(sensor_ss)), adc
-    )
-    return SimulatedTrial(name, m.key, repeat, adc.sample_rate, volts, rate_from_volts(volts, gyro), modes)
+    rate = motion_rate(t, modes, mu, finite)
+    volts = adc_quantise(gyro_volts(rate, gyro, adc.sample_rate, scale, np.random.default_rng(sensor_ss)), adc)
+    return SimulatedTrial(
+        name, m.key, repeat, adc.sample_rate, volts, rate_from_volts(volts, gyro), modes,
+        dry_friction=mu, dry_friction_fraction=fraction, finite_swing=finite,
+    )  # fmt: skip
 
 
 def simulate_session(

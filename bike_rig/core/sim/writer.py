@@ -63,7 +63,13 @@ def session_yaml(session: SimulatedSession) -> str:
 
 
 def truth_document(session: SimulatedSession) -> dict[str, Any]:
-    """The content of ``truth.yaml``: true parameters, static readings, periods and each trial's motion."""
+    """The content of ``truth.yaml``: true parameters, static readings, periods and each trial's motion.
+
+    Each trial's motion is its modes, its dry friction (``dry_friction``: μ, the friction
+    torque over the inertia, rad/s²; ``dry_friction_fraction``: the swing lost per cycle over
+    the initial swing, 1) and whether its swing is finite (``finite_swing``: restoring torque
+    ∝ sin θ).
+    """
     t = session.truth
     return {
         "format": TRUTH_FORMAT,
@@ -86,6 +92,9 @@ def truth_document(session: SimulatedSession) -> dict[str, Any]:
                 "sample_rate": tr.sample_rate,
                 "beating": tr.beating,
                 "modes": [asdict(m) for m in tr.modes],
+                "dry_friction": tr.dry_friction,
+                "dry_friction_fraction": tr.dry_friction_fraction,
+                "finite_swing": tr.finite_swing,
             }
             for tr in session.trials
         ],

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -118,3 +119,25 @@ def test_trial_files_read_back_with_read_trial(session: SimulatedSession, tmp_pa
         assert trial.name == t.name
         assert np.array_equal(trial.samples, t.rate)
         assert trial.times is not None and np.array_equal(trial.times, t.time)
+
+
+def test_truth_yaml_records_each_trials_friction_and_swing(
+    session: SimulatedSession, rig: RigConfig, browser_truth: dict[str, float], tmp_path: Path
+) -> None:
+    write_session(session, tmp_path / "off")
+    off = yaml.safe_load((tmp_path / "off" / "truth.yaml").read_text(encoding="utf-8"))
+    assert {(t["dry_friction"], t["dry_friction_fraction"], t["finite_swing"]) for t in off["trials"]} == {
+        (0.0, 0.0, False)
+    }
+    trials = replace(rig.trials, durations=(1.0,), dry_friction=(0.01, 0.03), finite_swing=True)
+    rubbing = simulate_session(browser_truth, replace(rig, trials=trials, coupled_swing=None), 7, "Browser")
+    write_session(rubbing, tmp_path / "on")
+    on = yaml.safe_load((tmp_path / "on" / "truth.yaml").read_text(encoding="utf-8"))
+    for doc, t in zip(on["trials"], rubbing.trials, strict=True):
+        assert doc["dry_friction"] == t.dry_friction > 0.0  # μ, rad/s²
+        assert doc["dry_friction_fraction"] == t.dry_friction_fraction
+        assert 0.01 <= doc["dry_friction_fraction"] <= 0.03
+        mode = doc["modes"][0]
+        w0 = 2.0 * np.pi / mode["period"]
+        assert doc["dry_friction"] == pytest.approx(doc["dry_friction_fraction"] * mode["amplitude"] * w0**2 / 4)
+        assert doc["finite_swing"] is t.finite_swing is ("compound" in t.name)
