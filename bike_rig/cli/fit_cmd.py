@@ -19,11 +19,14 @@ What the reader decided (a time unit told from the spacing, a signal column chos
 several) is noted on stderr. ``--json`` prints one JSON object per file (JSON Lines)::
 
     {"file": .., "period": .., "period_sigma": .., "valid": true, "flags": [{"code": .., "reason": ..}],
-     "r2": .., "zeta": .., "omega": .., "n_samples": .., "window": [start, stop]}
+     "r2": .., "zeta": .., "omega": .., "n_samples": .., "window": [start, stop],
+     "damping_model": "viscous" | "dry" | "combined", "friction": .., "friction_sigma": ..}
 
-(NaN as null). ``--plot DIR`` writes ``DIR/<trial name>.png``: the samples with the fit, and
-the residuals. A trial without a period is reported, not an error: the exit status is 0, or 1
-with ``--strict`` when any trial has no period. Unreadable files and bad options end with one
+(NaN as null; ``friction``: the envelope's linear fall per second relative to the amplitude at
+the window's start, 1/s, 0 for viscous damping; see :mod:`bike_rig.core.period.damping`).
+``--plot DIR`` writes ``DIR/<trial name>.png``: the samples with the fit, and the residuals. A
+trial without a period is reported, not an error: the exit status is 0, or 1 with ``--strict``
+when any trial has no period. Unreadable files and bad options end with one
 line on stderr and exit status 2 (raised as :class:`~bike_rig.core.errors.BikeRigError`).
 """
 
@@ -189,6 +192,9 @@ def fit_json(file: str, fit: PeriodFit) -> dict[str, Any]:
         "omega": _number(fit.omega),
         "n_samples": fit.n_samples,
         "window": [fit.window[0], fit.window[1]],
+        "damping_model": fit.damping_model,
+        "friction": _number(fit.friction),
+        "friction_sigma": _number(fit.friction_sigma),
     }
 
 
@@ -199,7 +205,7 @@ def _value_sigma(value: float, sigma: float) -> tuple[str, str]:
 
 
 def fit_table(trials: Sequence[Trial], fits: Sequence[PeriodFit]) -> str:
-    """One row per trial: period ± σ (s), r², cycles, ζ, status; the flags' reasons below.
+    """One row per trial: period ± σ (s), r², cycles, ζ, damping model, status; the flags' reasons below.
 
     Args:
         trials: The trials.
@@ -209,7 +215,9 @@ def fit_table(trials: Sequence[Trial], fits: Sequence[PeriodFit]) -> str:
         The table, its last line the window policy.
     """
     width = max(12, *(len(t.name) for t in trials))
-    head = f"{'trial':<{width}}  {'T [s]':>12}  {'σ [s]':>9}  {'r²':>6}  {'cycles':>6}  {'ζ':>8}  status"
+    head = (
+        f"{'trial':<{width}}  {'T [s]':>12}  {'σ [s]':>9}  {'r²':>6}  {'cycles':>6}  {'ζ':>8}  {'damping':>8}  status"
+    )
     rows = [head, "-" * len(head)]
     for trial, fit in zip(trials, fits):
         value, sigma = _value_sigma(fit.period, fit.period_sigma)
@@ -217,7 +225,10 @@ def fit_table(trials: Sequence[Trial], fits: Sequence[PeriodFit]) -> str:
         r2 = f"{fit.r2:.4f}" if math.isfinite(fit.r2) else "-"
         cycles = f"{fit.n_cycles:.1f}" if math.isfinite(fit.n_cycles) else "-"
         zeta = f"{fit.zeta:.2e}" if math.isfinite(fit.zeta) else "-"
-        rows.append(f"{trial.name:<{width}}  {value:>12}  {sigma:>9}  {r2:>6}  {cycles:>6}  {zeta:>8}  {status}")
+        damping = fit.damping_model if fit.valid else "-"
+        rows.append(
+            f"{trial.name:<{width}}  {value:>12}  {sigma:>9}  {r2:>6}  {cycles:>6}  {zeta:>8}  {damping:>8}  {status}"
+        )
         rows += [f"{'':<{width}}  ! {flag}" for flag in fit.flags]
     policy = fits[0].window_policy.describe() if fits else ""
     rows.append(f"(window: {policy}; σ robust to drift and correlated noise)")

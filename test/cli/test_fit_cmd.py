@@ -22,7 +22,8 @@ from bike_rig.cli.main import main
 from bike_rig.core.errors import BikeRigError
 from test.core.test_period_signals import coupled_trial, gyro_trial
 
-JSON_KEYS = {"file", "period", "period_sigma", "valid", "flags", "r2", "zeta", "omega", "n_samples", "window"}
+JSON_KEYS = {"file", "period", "period_sigma", "valid", "flags", "r2", "zeta", "omega", "n_samples", "window",
+             "damping_model", "friction", "friction_sigma"}  # fmt: skip
 
 
 def bare_parser_run(argv: Sequence[str]) -> int:
@@ -72,6 +73,7 @@ def test_json_lines(capsys: pytest.CaptureFixture[str], trials: list[Path]) -> N
         assert abs(doc["period"] - 1.6) < 4 * doc["period_sigma"]
         assert doc["window"][0] == 1000 and doc["window"][1] - doc["window"][0] == doc["n_samples"]
         assert 0.9 < doc["r2"] <= 1 and doc["omega"] > 0 and doc["zeta"] > 0
+        assert doc["damping_model"] == "viscous" and doc["friction"] == 0.0
 
 
 def test_table_and_combined_period(capsys: pytest.CaptureFixture[str], trials: list[Path]) -> None:

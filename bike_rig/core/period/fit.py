@@ -52,16 +52,17 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .damping_fit import fit_damping
 from .detection import detect
 from .oscillation import TWO_PI, damped_cosine, damped_cosine_even, zeta_omega
 from .quality import (
-    Modulation,
-    beating_flag,
     clipping_flag,
     drift_flag,
     held_flag,
     modulation_index,
     noise_and_quantum,
+    steady_phase,
+    two_mode_flag,
 )
 from .result import Flag, FlagCode, PeriodFit
 from .sigma import BlockDesign, period_sigma
@@ -469,6 +470,13 @@ class _Fitter:
             return lambda i: self.t0 + first + i * step
         return lambda i: self.t0 + float(t[i])
 
+    @staticmethod
+    def _tau_of(win: _Window, blocks: BlockDesign) -> FloatArray:
+        """Every sample's time from the window centre [s]."""
+        if win.tw is None:
+            return (win.first - blocks.center) + win.step * np.arange(win.n, dtype=float)
+        return win.tw - blocks.center
+
     def _sst(self, y: FloatArray, mean: float) -> float:
         """Σ (y − ȳ)² of the scaled samples, given their mean; ``y`` in ``self.units``."""
         c, o = self.units
@@ -542,7 +550,7 @@ class _Fitter:
             )
 
     def _flags(
-        self, win: _Window, r: FloatArray, n_cycles: float, r2: float, modulation: Modulation, drift: float
+        self, win: _Window, r: FloatArray, n_cycles: float, r2: float, beating: Flag | None, drift: float
     ) -> list[Flag]:
         """The flags gathered so far and the fit's own quality flags."""
         y = win.ys
@@ -560,7 +568,7 @@ class _Fitter:
             )
         noise, quantum = noise_and_quantum(y, r)  # (in the units of y)
         new += [
-            beating_flag(modulation, self.options.max_modulation),
+            beating,
             clipping_flag(y, r, noise, quantum, self.extremes, self._sample_units()),
             held_flag(y, r, noise, quantum, self.extremes, self._time_of(win.tw, win.first, win.step)),
             drift_flag(drift, self.options.max_drift),
@@ -594,8 +602,9 @@ class _Fitter:
         # per cycle: the residual's least-squares complex amplitude at the fitted frequency
         deviation = (score[2] - 1j * score[1]) * (2.0 / K) * (cycle_amplitude / power)
         modulation = modulation_index(deviation, cycle_amplitude)
+        steady = modulation_index(steady_phase(deviation), cycle_amplitude)
         drift = float(np.ptp(score[0] / per_cycle)) / (2.0 * abs(K)) if abs(K) > 0 else math.nan
-        flags = self._flags(win, r, n_cycles, r2, modulation, drift)
+        flags = self._flags(win, r, n_cycles, r2, two_mode_flag(modulation, steady, self.options.max_modulation), drift)
         sigma = stats.sigma
         if not sigma < MAX_RELATIVE_SIGMA * period:
             raise _Invalid(
@@ -604,7 +613,7 @@ class _Fitter:
             )
 
         K_ref = K * cmath.exp(s * (first - blocks.center))  # Eq 23's B, C refer to the window's first sample
-        return PeriodFit(
+        fit = PeriodFit(
             period=period,
             period_sigma=sigma,
             zeta=zeta,
@@ -625,7 +634,11 @@ class _Fitter:
             zeta_sigma=stats.zeta_sigma,
             omega_sigma=stats.omega_sigma,
             sigma_dof=stats.dof,
-            modulation=modulation.depth,
+            modulation=steady.depth,
             drift=drift,
             notes=tuple(self.notes),
+        )
+        tau = self._tau_of(win, blocks)
+        return fit_damping(
+            fit, blocks, sol, (win.ys, tau), (self.units, (self.scale, self.offset)), modulation, self.options
         )

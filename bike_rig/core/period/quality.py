@@ -49,6 +49,8 @@ __all__ = [
     "held_flag",
     "modulation_index",
     "noise_and_quantum",
+    "steady_phase",
+    "two_mode_flag",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -241,6 +243,39 @@ def modulation_index(deviation: ComplexArray, amplitude: FloatArray) -> Modulati
     peak3 = float(np.max(mean3)) / math.sqrt(noise2 / 3.0)
     depth = max(float(np.max(np.abs(q @ coef) / amplitude)), float(np.max(mean3 / amplitude[1:-1])))
     return Modulation(depth, max(chi2 / CHI2_LIMIT, peak3 / MA_LIMIT))
+
+
+def steady_phase(deviation: ComplexArray) -> ComplexArray:
+    """The per-cycle deviations with a quadratic trend of their phase (imaginary) part taken out.
+
+    A period that moves steadily along the record (a compound pendulum's finite swing shortens
+    its period as the swing decays) makes the phase depart from Eq 23 smoothly and
+    monotonically: a quadratic phase. Two close modes make envelope and phase wander together
+    beyond that, which is what is left.
+    """
+    n = deviation.size
+    if n < 6:
+        return deviation
+    x = np.linspace(-1.0, 1.0, n)
+    basis = np.polynomial.legendre.legvander(x, 2)
+    coef, *_ = np.linalg.lstsq(basis, deviation.imag, rcond=None)
+    return np.asarray(deviation.real + 1j * (deviation.imag - basis @ coef), dtype=np.complex128)
+
+
+def two_mode_flag(viscous: Modulation, model: Modulation, max_modulation: float) -> Flag | None:
+    """Flag beating: a modulation beyond both Eq 23 and the damping model with a steady phase.
+
+    Args:
+        viscous: The beating statistics of Eq 23's fit (an envelope and a phase wandering
+            from Eq 23).
+        model: Those of the chosen damping model's fit, with the phase's quadratic trend taken
+            out (:func:`steady_phase`): what a linear envelope (dry friction) or a steadily
+            moving period (a finite swing) cannot explain.
+        max_modulation: The relative depth above which a significant modulation is flagged.
+    """
+    if beating_flag(viscous, max_modulation) is None:
+        return None
+    return beating_flag(model, max_modulation)
 
 
 def beating_flag(modulation: Modulation, max_modulation: float) -> Flag | None:

@@ -122,6 +122,12 @@ class PeriodFit:
             window (the beating statistic) [-].
         drift: Peak-to-peak slow drift of the residuals over the peak-to-peak oscillation [-].
         notes: Remarks that need no action (e.g. timestamp gaps handled).
+        damping_model: How the swing decays, the model the data support
+            (:mod:`~bike_rig.core.period.damping`): ``viscous`` (Eq 23), ``dry`` (a linear
+            envelope: dry friction at the pivot) or ``combined``.
+        friction: The envelope's linear fall per second, relative to the amplitude at
+            ``t_ref`` (dry friction) [1/s]; 0 for ``viscous``.
+        friction_sigma: Its standard uncertainty [1/s].
     """
 
     period: float
@@ -147,6 +153,9 @@ class PeriodFit:
     modulation: float = math.nan
     drift: float = math.nan
     notes: tuple[str, ...] = field(default=())
+    damping_model: str = "viscous"
+    friction: float = 0.0
+    friction_sigma: float = math.nan
 
     @property
     def clean(self) -> bool:
@@ -169,7 +178,14 @@ class PeriodFit:
         tt = np.asarray(t, dtype=float) - self.t_ref
         if not self.valid:
             return np.full(tt.shape, math.nan)
-        return damped_oscillation(tt, self.A, self.B, self.C, self.zeta, self.omega)
+        if self.damping_model == "viscous":
+            return damped_oscillation(tt, self.A, self.B, self.C, self.zeta, self.omega)
+        from .damping import envelope
+
+        omega_d = self.omega * math.sqrt(1.0 - self.zeta**2)
+        e, _, _ = envelope(np.atleast_1d(tt).ravel(), self.zeta * self.omega, self.friction)
+        osc = self.B * np.sin(omega_d * tt) + self.C * np.cos(omega_d * tt)
+        return np.asarray(self.A + e.reshape(np.shape(tt)) * osc, dtype=np.float64)
 
     @classmethod
     def invalid(

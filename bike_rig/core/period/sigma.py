@@ -39,7 +39,7 @@ from numpy.typing import NDArray
 from .oscillation import TWO_PI, block_phasors, zeta_omega
 from .solver import FitFailed, Solution
 
-__all__ = ["BlockDesign", "PeriodSigma", "period_sigma", "sandwich"]
+__all__ = ["BlockDesign", "PeriodSigma", "cycle_starts", "period_sigma", "sandwich", "student_factor"]
 
 FloatArray = NDArray[np.float64]
 
@@ -163,11 +163,7 @@ def period_sigma(
 
     # per whole cycle (in blocks), in one pass: Σ J_i r_i (the score), Σ J_i h_i and Σ h_i²
     # (h: each sample's influence on omega_d), samples, Σ |exp(s τ)|²
-    n_blocks = max(1, int(math.floor(n_cycles + 0.25)))
-    cycle_of = ((tb - first) * (omega_d / TWO_PI)).astype(np.intp)
-    np.minimum(cycle_of, n_blocks - 1, out=cycle_of)
-    cycle_starts = np.searchsorted(cycle_of, np.arange(n_blocks))
-    cycle_starts = cycle_starts[np.diff(np.append(cycle_starts, nb)) > 0]
+    starts = cycle_starts(tb, first, omega_d, n_cycles)
     h = G[4] @ Jb
     rows = np.empty((13, nb))
     np.multiply(Jb, rb, out=rows[:5])
@@ -175,15 +171,13 @@ def period_sigma(
     np.multiply(counts, h * h, out=rows[10])
     rows[11] = counts
     np.multiply(counts, e.real**2 + e.imag**2, out=rows[12])
-    per_cycle_sums = np.add.reduceat(rows, cycle_starts, axis=1)
+    per_cycle_sums = np.add.reduceat(rows, starts, axis=1)
     score = per_cycle_sums[:5]
     cov2, dof = sandwich(G, score, per_cycle_sums[5:10], per_cycle_sums[10])
     fallback = cov2 is None
     if cov2 is None:
         cov2, dof = s2 * G[3:, 3:], float(n - 5)
-    from scipy.special import stdtrit  # here: importing scipy.special takes ~0.15 s
-
-    factor = float(stdtrit(dof, _PHI1)) if dof < 1e6 else 1.0
+    factor = student_factor(dof)
     sigma = dT * math.sqrt(max(0.0, float(cov2[1, 1]))) * factor
     _, omega = zeta_omega(alpha, omega_d)
     jac = np.array([[omega_d**2 / omega**3, -alpha * omega_d / omega**3], [alpha / omega, omega_d / omega]])
@@ -201,22 +195,53 @@ def period_sigma(
     )
 
 
-def sandwich(G: FloatArray, score: FloatArray, v: FloatArray, e: FloatArray) -> tuple[FloatArray | None, float]:
-    """Covariance of (ζω, omega_d) from the per-cycle score sums, and its degrees of freedom.
+def cycle_starts(tb: FloatArray, first: float, omega: float, n_cycles: float) -> NDArray[np.intp]:
+    """The first block of each whole cycle (the last cycle takes a partial one's blocks).
 
     Args:
-        G: H⁻¹ (5 × 5).
-        score: Σ J_i r_i per cycle, 5 × cycles.
-        v: Σ J_i h_i per cycle (h the influence of each sample on omega_d), 5 × cycles.
+        tb: Block centres, s.
+        first: Time of the window's first sample, s.
+        omega: The oscillation's angular frequency, rad/s.
+        n_cycles: Cycles in the window.
+    """
+    n_blocks = max(1, int(math.floor(n_cycles + 0.25)))
+    cycle_of = ((tb - first) * (omega / TWO_PI)).astype(np.intp)
+    np.minimum(cycle_of, n_blocks - 1, out=cycle_of)
+    starts = np.searchsorted(cycle_of, np.arange(n_blocks))
+    return np.asarray(starts[np.diff(np.append(starts, tb.size)) > 0], dtype=np.intp)
+
+
+def student_factor(dof: float) -> float:
+    """``t_ν(Φ(1))``: what widens a σ estimated with ν degrees of freedom to cover 68 %."""
+    if not dof < 1e6:
+        return 1.0
+    from scipy.special import stdtrit  # here: importing scipy.special takes ~0.15 s
+
+    return float(stdtrit(dof, _PHI1))
+
+
+def sandwich(
+    G: FloatArray, score: FloatArray, v: FloatArray, e: FloatArray, first: int = 3
+) -> tuple[FloatArray | None, float]:
+    """Covariance of the nonlinear parameters from the per-cycle score sums, and its degrees of freedom.
+
+    Args:
+        G: H⁻¹ (p × p); the parameters from ``first`` on are reported, the last is the one
+            whose influence ``h`` is.
+        score: Σ J_i r_i per cycle, p × cycles.
+        v: Σ J_i h_i per cycle (h the influence of each sample on the last parameter,
+            omega_d), p × cycles.
         e: Σ h_i² per cycle.
+        first: The first parameter reported (Eq 23's fit: 3, i.e. (ζω, omega_d)).
 
     Returns:
-        The 2 × 2 covariance of (ζω [1/s], omega_d [rad/s]) and ν, or (None, 0) with fewer
-        than two cycles or too little independent information.
+        The covariance of the parameters from ``first`` on (Eq 23's fit: (ζω [1/s], omega_d
+        [rad/s])) and ν, or (None, 0) with fewer than two cycles or too little independent
+        information.
     """
     if score.shape[1] < 2:
         return None, 0.0
-    rows = G[3:] @ score  # per-cycle contributions to the (ζω, omega_d) estimates
+    rows = G[first:] @ score  # per-cycle contributions to the estimates
     cov = rows @ rows.T
     expected = e - np.einsum("ic,ic->c", v, G @ v)  # E[contribution_c²] / σ² under white noise
     total = float(np.sum(expected))

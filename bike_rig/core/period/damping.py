@@ -1,0 +1,393 @@
+"""Damping models beyond Eq 23: dry (Coulomb) friction, and viscous and dry combined.
+
+The paper's Eq 23 is a linear oscillator with viscous damping: the envelope of the swing decays
+exponentially. A pendulum with dry friction at its pivot loses the same amplitude every cycle:
+its envelope falls linearly and the swing stops for good; with both kinds of damping the
+envelope obeys ``dE/dt = −α E − γ`` (α = ζω the viscous rate [1/s], γ the dry-friction loss
+[1/s of the amplitude at the window centre]). With t measured from the window centre and the
+envelope 1 there,
+
+``E(τ) = e^(−ατ) + γ φ(α, τ)``, ``φ(α, τ) = (e^(−ατ) − 1)/α`` (``−τ`` when α = 0),
+
+held at 0 once it reaches 0 (the swing has stopped). The fitted signal is
+``y = A + E(τ) Re(P e^(iωτ))`` with ω the oscillation's angular frequency [rad/s] (its period
+is 2π/ω whatever the damping: dry friction leaves a linear oscillator's period unchanged) and
+P = C − iB the complex amplitude at the centre. The three models:
+
+* ``viscous``: γ = 0 (Eq 23; fitted by :mod:`~bike_rig.core.period.fit`),
+* ``dry``: α = 0 (a linear envelope),
+* ``combined``: both.
+
+**Which model the data support.** After the viscous fit, the combined model is fitted (Gauss–
+Newton with Levenberg–Marquardt damping on the same block means, from the viscous solution).
+Its extra parameter γ is tested with a Wald test whose σ is the drift-robust per-cycle sandwich
+of :mod:`~bike_rig.core.period.sigma` (a likelihood criterion such as AIC or BIC would assume
+white residuals, which a drifting gyro does not give): |γ/σ_γ| ≥ ``Z_LIMIT`` means the envelope
+is not exponential. Then α is tested the same way in the combined fit: |α/σ_α| < ``Z_LIMIT``
+selects ``dry`` (refitted with α = 0), else ``combined``. Otherwise Eq 23 stays: ``viscous``.
+With ``Z_LIMIT = 3`` noise alone selects another model than the true one for about 0.3 % of the
+trials (two-sided normal tail; the sandwich's Student-t widening keeps it there for few cycles).
+
+The block means are modelled as ``E(τ_b) g_k(iω) e^(iωτ_b)`` (g_k the exact block gain of
+:func:`~bike_rig.core.period.oscillation.block_gain`): the envelope's change inside a block of
+1/16 cycle is left out, a relative error of about ``0.013 |E'/E| / ω``, far below the noise.
+"""
+
+from __future__ import annotations
+
+import cmath
+import math
+from dataclasses import dataclass
+from enum import Enum
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .oscillation import TWO_PI, block_phasors
+from .sigma import BlockDesign, cycle_starts, sandwich, student_factor
+from .solver import FitFailed, Solution
+
+__all__ = ["Z_LIMIT", "DampingModel", "EnvelopeFit", "envelope", "fit_envelope", "half_cycle_times", "select_damping"]
+
+FloatArray = NDArray[np.float64]
+ComplexArray = NDArray[np.complex128]
+
+#: |estimate / σ| at which an extra envelope parameter (γ, then α) is taken as supported.
+Z_LIMIT = 3.0
+#: Knot spacing of the drift model's piecewise linear offset, cycles.
+OFFSET_KNOT_CYCLES = 2
+#: Gauss–Newton iterations at most.
+_MAX_ITER = 40
+#: Converged when the weighted sum of squares falls by less than this fraction.
+_TOL = 1e-10
+#: |α τ| below which φ and its derivative come from their series.
+_SERIES = 1e-4
+
+
+class DampingModel(str, Enum):
+    """How a trial's swing decays."""
+
+    #: Eq 23: the envelope decays exponentially (viscous damping).
+    VISCOUS = "viscous"
+    #: The envelope falls linearly (dry friction at the pivot).
+    DRY = "dry"
+    #: Both.
+    COMBINED = "combined"
+
+
+def half_cycle_times(tau: FloatArray, omega: float, phase: float) -> FloatArray:
+    """Each time moved to the peak of its half cycle of ``cos(ωτ + phase)``, s.
+
+    Dry friction takes its amplitude from the swing half a cycle at a time: the rate's
+    amplitude is constant over each half cycle of the rate and steps down where the rate is 0.
+
+    Args:
+        tau: Times from the window centre, s.
+        omega: Angular frequency, rad/s.
+        phase: Phase of the oscillation at τ = 0, rad.
+    """
+    return (np.rint((omega * tau + phase) / math.pi) * math.pi - phase) / omega
+
+
+def envelope(
+    tau: FloatArray, alpha: float, gamma: float, steps: tuple[float, float] | None = None
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """The envelope E(τ), ∂E/∂α and ∂E/∂γ (module docstring), held at 0 where E ≤ 0.
+
+    Args:
+        tau: Times from the window centre, s.
+        alpha: Viscous decay rate α = ζω, 1/s.
+        gamma: Dry-friction decay rate γ, 1/s (of the envelope at the centre).
+        steps: (ω [rad/s], phase [rad]) of the oscillation: the dry-friction part then steps
+            at the rate's zeros (:func:`half_cycle_times`); None: it falls smoothly.
+
+    Returns:
+        E [-], ∂E/∂α [s], ∂E/∂γ = φ [s]; all 0 where the swing has stopped.
+    """
+    x = alpha * tau
+    ex = np.exp(-x)
+    held = tau if steps is None or gamma == 0.0 else half_cycle_times(tau, *steps)
+    xh = alpha * held
+    if abs(alpha) * float(np.max(np.abs(held), initial=0.0)) < _SERIES:
+        phi = -held * (1.0 - 0.5 * xh + xh * xh / 6.0)
+        dphi = held * held * (0.5 - xh / 3.0)
+    else:
+        exh = np.exp(-xh)
+        phi = np.expm1(-xh) / alpha
+        dphi = (-held * exh - phi) / alpha
+    e = ex + gamma * phi
+    de_da = -tau * ex + gamma * dphi
+    stopped = e <= 0.0
+    if np.any(stopped):
+        e[stopped] = 0.0
+        de_da[stopped] = 0.0
+        phi = phi.copy()
+        phi[stopped] = 0.0
+    return e, de_da, phi
+
+
+@dataclass(frozen=True)
+class EnvelopeFit:
+    """The fit of one damping model to a trial's block means (scaled units, τ from the centre).
+
+    Attributes:
+        model: The damping model.
+        omega: Angular frequency of the oscillation ω, rad/s.
+        alpha: Viscous decay rate α = ζω, 1/s (0 for ``dry``).
+        gamma: Dry-friction decay rate γ, 1/s of the centre amplitude (0 for ``viscous``).
+        A: Offset, scaled units.
+        P: Complex amplitude C − iB at the centre, scaled units.
+        sigma_omega: σ of ω, rad/s (drift-robust sandwich, Student-t widened).
+        sigma_alpha: σ of α, 1/s (NaN when not fitted).
+        sigma_gamma: σ of γ, 1/s (NaN when not fitted).
+        dof: Effective degrees of freedom of the σ.
+        white_fallback: Too few cycles for the sandwich: σ from the Hessian and Eq 26's
+            residual variance.
+        offset_knots: The drift model's knots (:func:`offset_hats`), s from the window centre.
+        offsets: The offset at each knot (linear between them, held beyond), scaled units.
+        residual: Residual sums per block (counts × (mean − model)), scaled units.
+        deviation: Per whole cycle, the residual's complex amplitude at ω relative to the
+            fitted oscillation, in the scaled units (the beating statistic's input).
+        amplitude: Per whole cycle, the fitted oscillation's amplitude, scaled units.
+    """
+
+    model: DampingModel
+    omega: float
+    alpha: float
+    gamma: float
+    A: float
+    P: complex
+    sigma_omega: float
+    sigma_alpha: float
+    sigma_gamma: float
+    dof: float
+    white_fallback: bool
+    offset_knots: FloatArray
+    offsets: FloatArray
+    residual: FloatArray
+    deviation: ComplexArray
+    amplitude: FloatArray
+
+    @property
+    def period(self) -> float:
+        """2π/ω, s."""
+        return TWO_PI / self.omega
+
+    @property
+    def sigma_period(self) -> float:
+        """σ of the period, s."""
+        return TWO_PI * self.sigma_omega / self.omega**2
+
+
+def offset_hats(tb: FloatArray, first: float, last: float, period: float) -> tuple[FloatArray, FloatArray]:
+    """The drift model's basis: hat functions with knots every ``OFFSET_KNOT_CYCLES`` cycles.
+
+    A piecewise linear offset with knots a whole number of cycles apart is orthogonal to a
+    steady oscillation of that period (each hat's integral against it vanishes), so it takes
+    the gyro's slow bias drift out of the envelope parameters without touching the oscillation.
+    The last knot is at the window's end (the last interval is between half and 1.5 spacings).
+
+    Returns:
+        The knots [s] and the hats (knots × blocks; the columns sum to 1).
+    """
+    spacing = OFFSET_KNOT_CYCLES * period
+    knots: FloatArray = first + spacing * np.arange(max(1, int((last - first) / spacing + 0.5)) + 1, dtype=np.float64)
+    knots[-1] = last
+    eye = np.eye(knots.size)
+    return knots, np.stack([np.interp(tb, knots, row) for row in eye]).astype(np.float64)
+
+
+class _Design:
+    """The block-mean model of one damping model and its Jacobian."""
+
+    def __init__(self, blocks: BlockDesign, model: DampingModel, period: float):
+        self.blocks = blocks
+        self.model = model
+        self.tau = blocks.tb - blocks.center
+        self.k_last = int(blocks.counts[-1])
+        self.w = blocks.counts
+        last = float(blocks.tb[-1]) + 0.5 * blocks.step * float(blocks.counts[-1])
+        self.knots, self.hats = offset_hats(blocks.tb, blocks.first, last, period)
+        self.n_offsets = self.hats.shape[0]
+
+    def names(self) -> tuple[str, ...]:
+        """The parameters, ω last (the sandwich's influence is ω's)."""
+        extra = {DampingModel.VISCOUS: ("alpha",), DampingModel.DRY: ("gamma",)}
+        offsets = tuple(f"D{j}" for j in range(self.n_offsets))
+        return (*offsets, "Pr", "Pi", *extra.get(self.model, ("alpha", "gamma")), "omega")
+
+    def evaluate(self, x: dict[str, float]) -> tuple[FloatArray, FloatArray, ComplexArray, FloatArray]:
+        """The model's block means, its Jacobian (parameters × blocks), e^(iωτ) block means, E."""
+        b = self.blocks
+        z = block_phasors(1j * x["omega"], self.tau, b.step, b.k, self.k_last, b.uniform)
+        P = complex(x["Pr"], x["Pi"])
+        e, de_da, phi = envelope(self.tau, x.get("alpha", 0.0), x.get("gamma", 0.0), (x["omega"], cmath.phase(P)))
+        pz = P * z
+        osc = pz.real
+        columns = {
+            **{f"D{j}": self.hats[j] for j in range(self.n_offsets)},
+            "Pr": e * z.real,
+            "Pi": -e * z.imag,
+            "alpha": de_da * osc,
+            "gamma": phi * osc,
+            "omega": -e * self.tau * pz.imag,
+        }
+        jac = np.stack([columns[name] for name in self.names()])
+        offset = np.array([x[f"D{j}"] for j in range(self.n_offsets)]) @ self.hats
+        return offset + e * osc, jac, z, e
+
+
+def fit_envelope(blocks: BlockDesign, start: Solution, model: DampingModel, n_cycles: float) -> EnvelopeFit:
+    """Fit ``model`` to the block means from the viscous fit ``start``.
+
+    Args:
+        blocks: The block means of the viscous fit (scaled units).
+        start: The viscous fit.
+        model: The damping model to fit.
+        n_cycles: Cycles in the window.
+
+    Raises:
+        FitFailed: The fit diverges or its Hessian is singular.
+    """
+    design = _Design(blocks, model, TWO_PI / start.omega_d)
+    x = {"Pr": start.K.real, "Pi": start.K.imag, "omega": start.omega_d}
+    x.update({f"D{j}": start.A for j in range(design.n_offsets)})
+    if model is not DampingModel.DRY:
+        x["alpha"] = start.alpha
+    if model is not DampingModel.VISCOUS:
+        x["gamma"] = 0.0
+        if model is DampingModel.DRY:
+            x["gamma"] = start.alpha  # e^(−ατ) ≈ 1 − ατ
+    names = design.names()
+    w = design.w
+    yb = blocks.yb
+    f, jac, _, _ = design.evaluate(x)
+    r = yb - f
+    sse = float(np.dot(w * r, r))
+    lam = 1e-3
+    for _ in range(_MAX_ITER):
+        jw = jac * w
+        h = jw @ jac.T
+        g = jw @ r
+        diag = np.diag(h).copy()
+        improved = False
+        while lam < 1e12:
+            try:
+                step = np.linalg.solve(h + lam * np.diag(diag), g)
+            except np.linalg.LinAlgError:
+                raise FitFailed(f"the {model.value}-damping fit's Hessian is singular") from None
+            trial = {name: x[name] + float(dx) for name, dx in zip(names, step, strict=True)}
+            if not trial["omega"] > 0:
+                lam *= 10.0
+                continue
+            f2, jac2, _, _ = design.evaluate(trial)
+            r2 = yb - f2
+            sse2 = float(np.dot(w * r2, r2))
+            if math.isfinite(sse2) and sse2 <= sse:
+                improved = True
+                done = sse - sse2 <= _TOL * sse
+                x, f, jac, r, sse = trial, f2, jac2, r2, sse2
+                lam = max(1e-9, lam / 10.0)
+                break
+            lam *= 10.0
+        if not improved or done:
+            break
+    return _statistics(design, x, r, n_cycles)
+
+
+def _statistics(design: _Design, x: dict[str, float], r: FloatArray, n_cycles: float) -> EnvelopeFit:
+    """σ of the fit's parameters (drift-robust per-cycle sandwich) and the per-cycle deviations."""
+    blocks, names = design.blocks, design.names()
+    f, jb, z, e = design.evaluate(x)
+    counts = blocks.counts
+    rb = counts * r
+    jc = jb * counts
+    hess = jc @ jb.T
+    try:
+        G = np.asarray(np.linalg.inv(hess), dtype=float)
+    except np.linalg.LinAlgError:
+        raise FitFailed(f"the {design.model.value}-damping fit's Hessian is singular") from None
+    omega = x["omega"]
+    starts = cycle_starts(blocks.tb, blocks.first, omega, n_cycles)
+    h = G[-1] @ jb  # each block's influence on ω
+    p = len(names)
+    score = np.add.reduceat(jb * rb, starts, axis=1)
+    v = np.add.reduceat(jc * h, starts, axis=1)
+    e2 = np.add.reduceat(counts * h * h, starts)
+    first = design.n_offsets + 2
+    cov, dof = sandwich(G, score, v, e2, first=first)
+    fallback = cov is None
+    if cov is None:
+        n = float(np.sum(counts))
+        s2 = float(np.dot(rb, r)) / max(1.0, n - p)
+        cov, dof = s2 * G[first:, first:], n - p
+    factor = student_factor(dof)
+    sig = {name: factor * math.sqrt(max(0.0, float(cov[i, i]))) for i, name in enumerate(names[first:])}
+    # per cycle: the residual's complex amplitude at ω relative to the oscillation (beating)
+    P = complex(x["Pr"], x["Pi"])
+    ez = e * z
+    power = np.add.reduceat(counts * (ez.real**2 + ez.imag**2), starts)
+    per_cycle = np.add.reduceat(counts, starts)
+    projection = np.add.reduceat(rb * np.conj(ez), starts)  # Σ r E conj(z)
+    safe = np.where(power > 0, power, 1.0)
+    deviation = (2.0 * projection / safe) * np.sqrt(power / per_cycle) * (abs(P) / P if P != 0 else 1.0)
+    amplitude = abs(P) * np.sqrt(power / per_cycle)
+    return EnvelopeFit(
+        model=design.model,
+        omega=omega,
+        alpha=x.get("alpha", 0.0),
+        gamma=x.get("gamma", 0.0),
+        A=float(np.mean([x[f"D{j}"] for j in range(design.n_offsets)])),
+        P=P,
+        sigma_omega=sig["omega"],
+        sigma_alpha=sig.get("alpha", math.nan),
+        sigma_gamma=sig.get("gamma", math.nan),
+        dof=dof,
+        white_fallback=fallback,
+        offset_knots=design.knots - blocks.center,
+        offsets=np.array([x[f"D{j}"] for j in range(design.n_offsets)]),
+        residual=rb,
+        deviation=np.asarray(deviation, dtype=np.complex128),
+        amplitude=np.asarray(amplitude, dtype=float),
+    )
+
+
+@dataclass(frozen=True)
+class DampingChoice:
+    """The damping model the data support, and the fit that decided it.
+
+    Attributes:
+        model: The chosen model.
+        fit: The chosen model's fit (None for ``viscous``: Eq 23's own fit stands).
+        z_gamma: γ/σ_γ of the combined fit (the test of a non-exponential envelope).
+        z_alpha: α/σ_α of the combined fit.
+    """
+
+    model: DampingModel
+    fit: EnvelopeFit | None
+    z_gamma: float
+    z_alpha: float
+
+    def describe(self) -> str:
+        """One line: the model and the statistics that chose it."""
+        return (
+            f"damping {self.model.value} (combined fit: γ/σ = {self.z_gamma:.1f}, α/σ = {self.z_alpha:.1f}; "
+            f"a term is kept at |z| ≥ {Z_LIMIT:g})"
+        )
+
+
+def select_damping(blocks: BlockDesign, viscous: Solution, n_cycles: float) -> DampingChoice:
+    """The damping model the trial's block means support (module docstring).
+
+    Raises:
+        FitFailed: A fit failed.
+    """
+    combined = fit_envelope(blocks, viscous, DampingModel.COMBINED, n_cycles)
+    z_gamma = combined.gamma / combined.sigma_gamma if combined.sigma_gamma > 0 else math.nan
+    z_alpha = combined.alpha / combined.sigma_alpha if combined.sigma_alpha > 0 else math.nan
+    if not abs(z_gamma) >= Z_LIMIT:
+        return DampingChoice(DampingModel.VISCOUS, None, z_gamma, z_alpha)
+    if abs(z_alpha) >= Z_LIMIT:
+        return DampingChoice(DampingModel.COMBINED, combined, z_gamma, z_alpha)
+    dry = fit_envelope(blocks, viscous, DampingModel.DRY, n_cycles)
+    return DampingChoice(DampingModel.DRY, dry, z_gamma, z_alpha)

@@ -1,0 +1,154 @@
+"""A trial's fit under the damping model its data support: period, σ, statistics and flags.
+
+:func:`apply_damping` turns Eq 23's fit (:mod:`~bike_rig.core.period.fit`) into the fit of the
+model :func:`~bike_rig.core.period.damping.select_damping` chose: the period and its σ, ζ, ω,
+Eq 23's A, B, C at the window's first sample, the dry-friction rate, r² and the residual RMS
+from every sample's residual, and the flags that depend on the model (a poor fit, beating).
+"""
+
+from __future__ import annotations
+
+import cmath
+import math
+from dataclasses import replace
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .damping import DampingChoice, EnvelopeFit, envelope, select_damping
+from .oscillation import zeta_omega
+from .quality import Modulation, modulation_index, steady_phase, two_mode_flag
+from .result import Flag, FlagCode, PeriodFit
+from .sigma import BlockDesign
+from .solver import FitFailed, Solution
+
+if TYPE_CHECKING:
+    from .fit import FitOptions
+
+__all__ = ["apply_damping", "fit_damping"]
+
+FloatArray = NDArray[np.float64]
+
+
+def _residuals(env: EnvelopeFit, y: FloatArray, tau: FloatArray, units: tuple[float, float]) -> FloatArray:
+    """Every sample's residual from the envelope model, in the samples' units."""
+    scale, offset = units
+    e, _, _ = envelope(tau, env.alpha, env.gamma, (env.omega, cmath.phase(env.P)))
+    osc = (env.P * np.exp(1j * env.omega * tau)).real
+    drift = np.interp(tau, env.offset_knots, env.offsets)
+    return y - (offset + scale * (drift + e * osc))
+
+
+def apply_damping(
+    fit: PeriodFit,
+    choice: DampingChoice,
+    env: EnvelopeFit,
+    y: FloatArray,
+    tau: FloatArray,
+    units: tuple[float, float],
+    caller: tuple[float, float],
+    viscous: Modulation,
+    options: FitOptions,
+) -> PeriodFit:
+    """``fit`` (Eq 23's) redone under the chosen damping model ``env``.
+
+    Args:
+        fit: Eq 23's fit of the trial.
+        choice: The model chosen and why.
+        env: The chosen model's fit (scaled units, τ from the window centre).
+        y: The window's samples, in ``units``.
+        tau: Their times from the window centre, s.
+        units: (scale, offset) from the fit's scaled units to those of ``y``.
+        caller: (scale, offset) from the fit's scaled units to the caller's samples.
+        viscous: Eq 23's beating statistics.
+        options: The fit's options (thresholds).
+
+    Returns:
+        The fit under ``env``'s model. Beating is flagged only when the envelope/phase
+        modulation stands out of both models' fits: an envelope the model explains (a linear
+        fall) is no second mode.
+    """
+    scale_units = units[0]
+    r = _residuals(env, y, tau, units)
+    sse = float(np.einsum("i,i->", r, r))
+    centred = y - float(np.mean(y))
+    sst = float(np.einsum("i,i->", centred, centred))
+    r2 = 1.0 - sse / sst if sst > 0 else math.nan
+    zeta, omega = zeta_omega(env.alpha, env.omega)
+    tau0 = float(tau[0])
+    e0, _, _ = envelope(np.array([tau0]), env.alpha, env.gamma)  # (smooth: B, C at the first sample)
+    norm = float(e0[0])
+    K_ref = env.P * norm * cmath.exp(1j * env.omega * tau0)
+    caller_scale, caller_offset = caller
+    modulation = modulation_index(steady_phase(env.deviation), env.amplitude)
+    flags = [f for f in fit.flags if f.code not in (FlagCode.BEATING, FlagCode.POOR_FIT)]
+    beating = two_mode_flag(viscous, modulation, options.max_modulation)
+    if beating is not None:
+        flags.append(beating)
+    if not r2 >= options.min_r2:
+        flags.append(
+            Flag(FlagCode.POOR_FIT, f"r² = {r2:.3f} < {options.min_r2:g}: no damping model describes the record")
+        )
+    return replace(
+        fit,
+        period=env.period,
+        period_sigma=env.sigma_period,
+        zeta=zeta,
+        omega=omega,
+        A=env.A * caller_scale + caller_offset,
+        B=float(-K_ref.imag) * caller_scale,
+        C=float(K_ref.real) * caller_scale,
+        r2=r2,
+        residual_rms=math.sqrt(sse / y.size) / scale_units * caller_scale,
+        zeta_sigma=env.sigma_alpha / env.omega if math.isfinite(env.sigma_alpha) else 0.0,
+        omega_sigma=env.sigma_omega,
+        sigma_dof=env.dof,
+        modulation=modulation.depth,
+        flags=tuple(flags),
+        notes=(*fit.notes, choice.describe()),
+        damping_model=env.model.value,
+        friction=env.gamma / norm if norm > 0 else math.nan,
+        friction_sigma=env.sigma_gamma / norm if norm > 0 else math.nan,
+    )
+
+
+def fit_damping(
+    fit: PeriodFit,
+    blocks: BlockDesign,
+    viscous_fit: Solution,
+    samples: tuple[FloatArray, FloatArray],
+    units: tuple[tuple[float, float], tuple[float, float]],
+    viscous: Modulation,
+    options: FitOptions,
+) -> PeriodFit:
+    """Eq 23's ``fit`` under the damping model the data support (:func:`select_damping`).
+
+    Args:
+        fit: Eq 23's fit.
+        blocks: The block means it was made on.
+        viscous_fit: Its solution (scaled units).
+        samples: The window's samples (in the fit's sample units) and their times from the
+            window centre [s].
+        units: (scale, offset) from the scaled units to the samples' units, and to the
+            caller's.
+        viscous: Eq 23's beating statistics.
+        options: The fit's options.
+
+    Returns:
+        ``fit`` itself when Eq 23 stands (or the other models fail, noted), else
+        :func:`apply_damping`'s fit — unless it does not fit the samples better than Eq 23
+        (the block-mean models are approximate with uneven samples).
+    """
+    try:
+        choice = select_damping(blocks, viscous_fit, fit.n_cycles)
+    except FitFailed as exc:
+        return replace(fit, notes=(*fit.notes, f"the dry-friction damping models could not be fitted ({exc})"))
+    env = choice.fit
+    if env is None:
+        return fit
+    y, tau = samples
+    chosen = apply_damping(fit, choice, env, y, tau, units[0], units[1], viscous, options)
+    if not chosen.residual_rms < fit.residual_rms:
+        return replace(fit, notes=(*fit.notes, f"{choice.describe()}, but Eq 23 fits the samples as well"))
+    return chosen
