@@ -23,7 +23,8 @@ from bike_rig.core.errors import BikeRigError
 from test.core.test_period_signals import coupled_trial, gyro_trial
 
 JSON_KEYS = {"file", "period", "period_sigma", "valid", "flags", "r2", "zeta", "omega", "n_samples", "window",
-             "damping_model", "friction", "friction_sigma"}  # fmt: skip
+             "damping_model", "friction", "friction_sigma", "swing_kappa", "small_swing_period",
+             "small_swing_period_sigma"}  # fmt: skip
 
 
 def bare_parser_run(argv: Sequence[str]) -> int:
@@ -73,7 +74,7 @@ def test_json_lines(capsys: pytest.CaptureFixture[str], trials: list[Path]) -> N
         assert abs(doc["period"] - 1.6) < 4 * doc["period_sigma"]
         assert doc["window"][0] == 1000 and doc["window"][1] - doc["window"][0] == doc["n_samples"]
         assert 0.9 < doc["r2"] <= 1 and doc["omega"] > 0 and doc["zeta"] > 0
-        assert doc["damping_model"] == "viscous" and doc["friction"] == 0.0
+        assert doc["damping_model"] == "viscous" and doc["friction"] == 0.0 and doc["small_swing_period"] is None
 
 
 def test_table_and_combined_period(capsys: pytest.CaptureFixture[str], trials: list[Path]) -> None:

@@ -89,14 +89,18 @@ def test_the_damping_model_the_data_support_is_chosen_and_its_period_is_honest(t
         assert all(any(f"damping {truth}" in note for note in f.notes) for f in fits if f.damping_model == truth)
 
 
-def test_the_chosen_model_predicts_the_record() -> None:
-    samples, _ = pendulum_trial(3, loss_per_cycle=0.04)
+@pytest.mark.parametrize(
+    ("kw", "model"), [({"loss_per_cycle": 0.04}, "dry"), ({"zeta": 0.004, "loss_per_cycle": 0.02}, "combined")]
+)
+def test_the_chosen_model_is_what_is_drawn(kw: dict, model: str) -> None:
+    samples, _ = pendulum_trial(3, **kw)
     fit = fit_period(samples, RATE_HZ)
-    assert fit.damping_model == "dry" and fit.r2 > 0.99
+    assert fit.damping_model == model and fit.r2 > 0.99
     t = np.arange(samples.size) / RATE_HZ
     a, b = fit.window
     residual = samples[a:b] - fit.predict(t[a:b])
-    assert np.sqrt(np.mean(residual**2)) < 2 * fit.residual_rms + 2 * LSB
+    assert np.sqrt(np.mean(residual**2)) == pytest.approx(fit.residual_rms, rel=1e-9)
+    assert a / RATE_HZ < fit.damping_origin < b / RATE_HZ
 
 
 def test_viscous_trials_keep_eq_23() -> None:
@@ -115,3 +119,29 @@ def test_a_finite_swing_is_not_beating(swing_deg: float) -> None:
     fits = _fits(20, zeta=0.003, compound=True, swing=math.radians(swing_deg), rate_amplitude=0.5)
     assert not any(f.has_flag(FlagCode.BEATING) for f in fits), [f.flag_codes for f in fits]
     assert all(f.valid for f in fits)
+
+
+@pytest.mark.parametrize(("kw", "model"), [({"zeta": 0.003}, "viscous"), ({"loss_per_cycle": 0.04}, "dry")])
+def test_a_finite_swing_gives_the_small_swing_period_of_the_integrated_pendulum(kw: dict, model: str) -> None:
+    # a compound pendulum swinging 16°: its period shortens by 0.5 % as the swing decays; the
+    # fit follows the period with the swing (κ) and reports the period of a vanishing swing
+    swing = math.radians(16.0)
+    fits = _fits(20, compound=True, swing=swing, rate_amplitude=0.5, **kw)
+    # (with a swing, dry friction's loss per half swing depends on the swing: the envelope of
+    # the nonlinear pendulum is not quite linear, and some fits keep a small viscous term)
+    models = Counter(f.damping_model for f in fits)
+    assert models[model] >= 0.85 * len(fits) and set(models) <= {model, "combined"}, models
+    assert all(f.valid and f.swing_kappa < 0 for f in fits)
+    t0 = 1.6 / math.sqrt(1 - kw.get("zeta", 0.0) ** 2)
+    z = np.array([(f.small_swing_period - t0) / f.small_swing_period_sigma for f in fits])
+    assert np.all(np.abs(z) < 4) and abs(np.mean(z)) < 1.0, z
+    # the first-order swing law: κ ≈ −θ²/16 at the window centre's swing
+    assert all(0.1 * swing**2 / 16 < -f.swing_kappa < swing**2 / 16 for f in fits)
+    assert all(any("the period follows the swing" in note for note in f.notes) for f in fits)
+    # the period at the centre's swing is longer than the small-swing one
+    assert all(f.period > f.small_swing_period for f in fits)
+
+
+def test_a_torsional_pendulum_has_no_swing_term() -> None:
+    fits = _fits(20, zeta=0.003, compound=False, swing=math.radians(20.0), rate_amplitude=0.5)
+    assert all(math.isnan(f.small_swing_period) and f.swing_kappa == 0.0 for f in fits)

@@ -19,7 +19,9 @@ P = C − iB the complex amplitude at the centre. The three models:
 * ``combined``: both.
 
 **Which model the data support.** After the viscous fit, the combined model is fitted (Gauss–
-Newton with Levenberg–Marquardt damping on the same block means, from the viscous solution).
+Newton with Levenberg–Marquardt damping on the same block means, from the viscous solution,
+with a piecewise linear offset of knots every ``OFFSET_KNOT_CYCLES`` cycles that takes the
+gyro's drifting bias out of the envelope; :func:`offset_hats`).
 Its extra parameter γ is tested with a Wald test whose σ is the drift-robust per-cycle sandwich
 of :mod:`~bike_rig.core.period.sigma` (a likelihood criterion such as AIC or BIC would assume
 white residuals, which a drifting gyro does not give): |γ/σ_γ| ≥ ``Z_LIMIT`` means the envelope
@@ -27,6 +29,23 @@ is not exponential. Then α is tested the same way in the combined fit: |α/σ_�
 selects ``dry`` (refitted with α = 0), else ``combined``. Otherwise Eq 23 stays: ``viscous``.
 With ``Z_LIMIT = 3`` noise alone selects another model than the true one for about 0.3 % of the
 trials (two-sided normal tail; the sandwich's Student-t widening keeps it there for few cycles).
+
+**A finite swing.** A compound pendulum's restoring torque is ∝ sin θ: the period lengthens
+with the swing, T ≈ T₀ (1 + θ²/16), and shortens along the record as the swing decays. To first
+order in θ² the frequency follows the envelope's square, ``ω(τ) = ω (1 + κ (E(τ)² − 1))``
+(κ ≈ −θ_c²/16 for the swing θ_c at the window centre), so the phase is ``ωτ + ωκ I(τ)`` with
+``I(τ) = ∫₀^τ (E² − 1)`` (:func:`swing_integral`). κ is fitted with the combined model and kept
+when ``κ/σ_κ ≤ −Z_LIMIT`` (only a softening restoring torque, as a pendulum's); then ``period``
+is the period at the centre's swing and 2π/(ω(1 − κ)) that of a vanishing swing, with σ. This
+needs no gyro calibration: the swing's effect on the period is measured, not computed from θ.
+The θ⁴ term is left out: at a 20° swing it moves T₀ by about 5e-5 of itself.
+
+**When they are tried.** Only when Eq 23's per-cycle envelope/phase deviations reach
+``TRY_FROM`` of the beating test's significance limit (noise alone: median 0.31, 95 % below
+0.46): elsewhere nothing departs from Eq 23 that another model could explain, and the fit costs
+what it did. A model whose swing stops inside the window while the record oscillates on
+(residual RMS after the stop above ``STOP_RATIO`` times that before) is refused: that is not
+dry friction (two modes exchanging energy can look like it).
 
 The block means are modelled as ``E(τ_b) g_k(iω) e^(iωτ_b)`` (g_k the exact block gain of
 :func:`~bike_rig.core.period.oscillation.block_gain`): the envelope's change inside a block of
@@ -47,19 +66,38 @@ from .oscillation import TWO_PI, block_phasors
 from .sigma import BlockDesign, cycle_starts, sandwich, student_factor
 from .solver import FitFailed, Solution
 
-__all__ = ["Z_LIMIT", "DampingModel", "EnvelopeFit", "envelope", "fit_envelope", "half_cycle_times", "select_damping"]
+__all__ = [
+    "TRY_FROM",
+    "Z_LIMIT",
+    "DampingChoice",
+    "DampingModel",
+    "EnvelopeFit",
+    "envelope",
+    "fit_envelope",
+    "half_cycle_times",
+    "select_damping",
+    "swing_integral",
+]
 
 FloatArray = NDArray[np.float64]
 ComplexArray = NDArray[np.complex128]
 
 #: |estimate / σ| at which an extra envelope parameter (γ, then α) is taken as supported.
 Z_LIMIT = 3.0
+#: The other models are tried when Eq 23's per-cycle envelope/phase deviations reach this
+#: fraction of the beating test's significance limit (noise alone: median 0.31, 95 % below 0.46).
+TRY_FROM = 0.5
+#: A model whose swing stops inside the window is refused when the residual RMS after the stop
+#: exceeds this multiple of that before it (the record still oscillates: not dry friction).
+STOP_RATIO = 2.0
 #: Knot spacing of the drift model's piecewise linear offset, cycles.
 OFFSET_KNOT_CYCLES = 2
 #: Gauss–Newton iterations at most.
 _MAX_ITER = 40
 #: Converged when the weighted sum of squares falls by less than this fraction.
 _TOL = 1e-10
+#: Grid points of :func:`swing_integral`.
+_SWING_GRID = 1025
 #: |α τ| below which φ and its derivative come from their series.
 _SERIES = 1e-4
 
@@ -75,7 +113,7 @@ class DampingModel(str, Enum):
     COMBINED = "combined"
 
 
-def half_cycle_times(tau: FloatArray, omega: float, phase: float) -> FloatArray:
+def half_cycle_times(tau: FloatArray, omega: float, phase: FloatArray | float) -> FloatArray:
     """Each time moved to the peak of its half cycle of ``cos(ωτ + phase)``, s.
 
     Dry friction takes its amplitude from the swing half a cycle at a time: the rate's
@@ -84,13 +122,15 @@ def half_cycle_times(tau: FloatArray, omega: float, phase: float) -> FloatArray:
     Args:
         tau: Times from the window centre, s.
         omega: Angular frequency, rad/s.
-        phase: Phase of the oscillation at τ = 0, rad.
+        phase: Phase of the oscillation beyond ωτ, rad (at τ = 0, or one per τ when the
+            frequency moves).
     """
-    return (np.rint((omega * tau + phase) / math.pi) * math.pi - phase) / omega
+    psi = omega * tau + phase
+    return np.asarray(tau - (psi - np.rint(psi / math.pi) * math.pi) / omega, dtype=np.float64)
 
 
 def envelope(
-    tau: FloatArray, alpha: float, gamma: float, steps: tuple[float, float] | None = None
+    tau: FloatArray, alpha: float, gamma: float, steps: tuple[float, FloatArray | float] | None = None
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
     """The envelope E(τ), ∂E/∂α and ∂E/∂γ (module docstring), held at 0 where E ≤ 0.
 
@@ -98,8 +138,9 @@ def envelope(
         tau: Times from the window centre, s.
         alpha: Viscous decay rate α = ζω, 1/s.
         gamma: Dry-friction decay rate γ, 1/s (of the envelope at the centre).
-        steps: (ω [rad/s], phase [rad]) of the oscillation: the dry-friction part then steps
-            at the rate's zeros (:func:`half_cycle_times`); None: it falls smoothly.
+        steps: (ω [rad/s], phase [rad], at τ = 0 or one per τ beyond ωτ) of the oscillation:
+            the dry-friction part then steps at the rate's zeros (:func:`half_cycle_times`);
+            None: it falls smoothly.
 
     Returns:
         E [-], ∂E/∂α [s], ∂E/∂γ = φ [s]; all 0 where the swing has stopped.
@@ -126,6 +167,29 @@ def envelope(
     return e, de_da, phi
 
 
+def swing_integral(tau: FloatArray, alpha: float, gamma: float) -> FloatArray:
+    """``I(τ) = ∫₀^τ (E(s)² − 1) ds`` of the smooth envelope (held at 0 once stopped), s.
+
+    A finite swing's frequency follows the swing's square: ω(τ) = ω (1 + κ (E(τ)² − 1)), so
+    its phase is ω τ + ω κ I(τ). Integrated by the trapezoid rule on ``_SWING_GRID`` points
+    over the span of ``tau`` and 0 (an error below 1e-8 s for any envelope of a record).
+
+    Args:
+        tau: Times from the window centre, s.
+        alpha: Viscous decay rate, 1/s.
+        gamma: Dry-friction decay rate, 1/s.
+    """
+    lo = min(float(np.min(tau)), 0.0)
+    hi = max(float(np.max(tau)), 0.0)
+    if hi <= lo:
+        return np.zeros_like(tau)
+    grid = np.linspace(lo, hi, _SWING_GRID)
+    e, _, _ = envelope(grid, alpha, gamma)
+    integrand = e * e - 1.0
+    cumulative = np.concatenate(([0.0], np.cumsum(0.5 * (integrand[1:] + integrand[:-1]) * np.diff(grid))))
+    return np.asarray(np.interp(tau, grid, cumulative) - np.interp(0.0, grid, cumulative), dtype=np.float64)
+
+
 @dataclass(frozen=True)
 class EnvelopeFit:
     """The fit of one damping model to a trial's block means (scaled units, τ from the centre).
@@ -140,6 +204,13 @@ class EnvelopeFit:
         sigma_omega: σ of ω, rad/s (drift-robust sandwich, Student-t widened).
         sigma_alpha: σ of α, 1/s (NaN when not fitted).
         sigma_gamma: σ of γ, 1/s (NaN when not fitted).
+        kappa: The finite swing's frequency change κ: ω(τ) = ω (1 + κ (E(τ)² − 1)), so the
+            small-swing frequency is ω (1 − κ) (0 when not fitted) [-].
+        sigma_kappa: σ of κ (NaN when not fitted) [-].
+        sigma_small_swing_period: σ of 2π / (ω (1 − κ)) (NaN when κ is not fitted), s.
+        stop_ratio: When the envelope reaches 0 inside the window (the swing stopped): the
+            residual RMS after the stop over that before it (≈ 1 when only noise is left,
+            large when the record still oscillates); 0 when it does not stop.
         dof: Effective degrees of freedom of the σ.
         white_fallback: Too few cycles for the sandwich: σ from the Hessian and Eq 26's
             residual variance.
@@ -160,6 +231,10 @@ class EnvelopeFit:
     sigma_omega: float
     sigma_alpha: float
     sigma_gamma: float
+    kappa: float
+    sigma_kappa: float
+    sigma_small_swing_period: float
+    stop_ratio: float
     dof: float
     white_fallback: bool
     offset_knots: FloatArray
@@ -177,6 +252,16 @@ class EnvelopeFit:
     def sigma_period(self) -> float:
         """σ of the period, s."""
         return TWO_PI * self.sigma_omega / self.omega**2
+
+    @property
+    def swing(self) -> bool:
+        """Whether the finite swing's frequency change κ was fitted."""
+        return math.isfinite(self.sigma_kappa)
+
+    @property
+    def small_swing_period(self) -> float:
+        """The period of a vanishing swing, 2π / (ω (1 − κ)), s (the period when κ is not fitted)."""
+        return TWO_PI / (self.omega * (1.0 - self.kappa))
 
 
 def offset_hats(tb: FloatArray, first: float, last: float, period: float) -> tuple[FloatArray, FloatArray]:
@@ -198,11 +283,12 @@ def offset_hats(tb: FloatArray, first: float, last: float, period: float) -> tup
 
 
 class _Design:
-    """The block-mean model of one damping model and its Jacobian."""
+    """The block-mean model of one damping model (with or without a finite swing) and its Jacobian."""
 
-    def __init__(self, blocks: BlockDesign, model: DampingModel, period: float):
+    def __init__(self, blocks: BlockDesign, model: DampingModel, swing: bool, period: float):
         self.blocks = blocks
         self.model = model
+        self.swing = swing
         self.tau = blocks.tb - blocks.center
         self.k_last = int(blocks.counts[-1])
         self.w = blocks.counts
@@ -214,30 +300,49 @@ class _Design:
         """The parameters, ω last (the sandwich's influence is ω's)."""
         extra = {DampingModel.VISCOUS: ("alpha",), DampingModel.DRY: ("gamma",)}
         offsets = tuple(f"D{j}" for j in range(self.n_offsets))
-        return (*offsets, "Pr", "Pi", *extra.get(self.model, ("alpha", "gamma")), "omega")
+        swing = ("kappa",) if self.swing else ()
+        return (*offsets, "Pr", "Pi", *extra.get(self.model, ("alpha", "gamma")), *swing, "omega")
 
     def evaluate(self, x: dict[str, float]) -> tuple[FloatArray, FloatArray, ComplexArray, FloatArray]:
-        """The model's block means, its Jacobian (parameters × blocks), e^(iωτ) block means, E."""
+        """The model's block means, its Jacobian (parameters × blocks), the oscillation's block means, E."""
         b = self.blocks
-        z = block_phasors(1j * x["omega"], self.tau, b.step, b.k, self.k_last, b.uniform)
+        omega, alpha, gamma = x["omega"], x.get("alpha", 0.0), x.get("gamma", 0.0)
+        z = block_phasors(1j * omega, self.tau, b.step, b.k, self.k_last, b.uniform)
         P = complex(x["Pr"], x["Pi"])
-        e, de_da, phi = envelope(self.tau, x.get("alpha", 0.0), x.get("gamma", 0.0), (x["omega"], cmath.phase(P)))
+        phase: FloatArray | float = cmath.phase(P)
+        integral = None
+        if self.swing:
+            integral = swing_integral(self.tau, alpha, gamma)
+            extra = (omega * x["kappa"]) * integral
+            z = z * np.exp(1j * extra)
+            phase = extra + cmath.phase(P)
+        e, de_da, phi = envelope(self.tau, alpha, gamma, (omega, phase))
         pz = P * z
         osc = pz.real
+        slope = self.tau if integral is None else self.tau + x["kappa"] * integral
         columns = {
             **{f"D{j}": self.hats[j] for j in range(self.n_offsets)},
             "Pr": e * z.real,
             "Pi": -e * z.imag,
             "alpha": de_da * osc,
             "gamma": phi * osc,
-            "omega": -e * self.tau * pz.imag,
+            "omega": -e * slope * pz.imag,
         }
+        if integral is not None:
+            columns["kappa"] = -e * (omega * integral) * pz.imag
         jac = np.stack([columns[name] for name in self.names()])
         offset = np.array([x[f"D{j}"] for j in range(self.n_offsets)]) @ self.hats
         return offset + e * osc, jac, z, e
 
 
-def fit_envelope(blocks: BlockDesign, start: Solution, model: DampingModel, n_cycles: float) -> EnvelopeFit:
+def fit_envelope(
+    blocks: BlockDesign,
+    start: Solution,
+    model: DampingModel,
+    n_cycles: float,
+    swing: bool = False,
+    guess: dict[str, float] | None = None,
+) -> EnvelopeFit:
     """Fit ``model`` to the block means from the viscous fit ``start``.
 
     Args:
@@ -245,19 +350,25 @@ def fit_envelope(blocks: BlockDesign, start: Solution, model: DampingModel, n_cy
         start: The viscous fit.
         model: The damping model to fit.
         n_cycles: Cycles in the window.
+        swing: Fit the finite swing's frequency change κ too.
+        guess: Starting values of the nonlinear parameters (``alpha``, ``gamma``, ``kappa``)
+            instead of the viscous fit's.
 
     Raises:
         FitFailed: The fit diverges or its Hessian is singular.
     """
-    design = _Design(blocks, model, TWO_PI / start.omega_d)
+    design = _Design(blocks, model, swing, TWO_PI / start.omega_d)
     x = {"Pr": start.K.real, "Pi": start.K.imag, "omega": start.omega_d}
     x.update({f"D{j}": start.A for j in range(design.n_offsets)})
     if model is not DampingModel.DRY:
         x["alpha"] = start.alpha
     if model is not DampingModel.VISCOUS:
-        x["gamma"] = 0.0
-        if model is DampingModel.DRY:
-            x["gamma"] = start.alpha  # e^(−ατ) ≈ 1 − ατ
+        x["gamma"] = start.alpha if model is DampingModel.DRY else 0.0  # (e^(−ατ) ≈ 1 − ατ)
+    if swing:
+        x["kappa"] = 0.0
+    for name, value in (guess or {}).items():
+        if name in x:
+            x[name] = value
     names = design.names()
     w = design.w
     yb = blocks.yb
@@ -277,7 +388,7 @@ def fit_envelope(blocks: BlockDesign, start: Solution, model: DampingModel, n_cy
             except np.linalg.LinAlgError:
                 raise FitFailed(f"the {model.value}-damping fit's Hessian is singular") from None
             trial = {name: x[name] + float(dx) for name, dx in zip(names, step, strict=True)}
-            if not trial["omega"] > 0:
+            if not (trial["omega"] > 0 and abs(trial.get("kappa", 0.0)) < 0.5):
                 lam *= 10.0
                 continue
             f2, jac2, _, _ = design.evaluate(trial)
@@ -323,6 +434,20 @@ def _statistics(design: _Design, x: dict[str, float], r: FloatArray, n_cycles: f
         cov, dof = s2 * G[first:, first:], n - p
     factor = student_factor(dof)
     sig = {name: factor * math.sqrt(max(0.0, float(cov[i, i]))) for i, name in enumerate(names[first:])}
+    sigma_t0 = math.nan
+    if design.swing:
+        k, w = names[first:].index("kappa"), names[first:].index("omega")
+        kappa = x["kappa"]
+        t0 = TWO_PI / (omega * (1.0 - kappa))
+        grad = np.zeros(len(names) - first)
+        grad[w], grad[k] = -t0 / omega, t0 / (1.0 - kappa)
+        sigma_t0 = factor * math.sqrt(max(0.0, float(grad @ cov @ grad)))
+    stop_ratio = 0.0
+    stopped = e <= 0.0
+    if np.any(stopped) and not np.all(stopped):
+        before = float(np.dot(rb[~stopped], r[~stopped])) / float(np.sum(counts[~stopped]))
+        after = float(np.dot(rb[stopped], r[stopped])) / float(np.sum(counts[stopped]))
+        stop_ratio = math.sqrt(after / before) if before > 0 else math.inf
     # per cycle: the residual's complex amplitude at ω relative to the oscillation (beating)
     P = complex(x["Pr"], x["Pi"])
     ez = e * z
@@ -342,6 +467,10 @@ def _statistics(design: _Design, x: dict[str, float], r: FloatArray, n_cycles: f
         sigma_omega=sig["omega"],
         sigma_alpha=sig.get("alpha", math.nan),
         sigma_gamma=sig.get("gamma", math.nan),
+        kappa=x.get("kappa", 0.0),
+        sigma_kappa=sig.get("kappa", math.nan),
+        sigma_small_swing_period=sigma_t0,
+        stop_ratio=stop_ratio,
         dof=dof,
         white_fallback=fallback,
         offset_knots=design.knots - blocks.center,
@@ -357,23 +486,37 @@ class DampingChoice:
     """The damping model the data support, and the fit that decided it.
 
     Attributes:
-        model: The chosen model.
-        fit: The chosen model's fit (None for ``viscous``: Eq 23's own fit stands).
+        model: The chosen damping model.
+        swing: Whether the period follows the swing (a finite swing's κ is kept).
+        fit: The chosen model's fit (None when Eq 23's own fit stands: viscous, no swing).
         z_gamma: γ/σ_γ of the combined fit (the test of a non-exponential envelope).
         z_alpha: α/σ_α of the combined fit.
+        z_kappa: κ/σ_κ of the combined fit with a finite swing.
     """
 
     model: DampingModel
+    swing: bool
     fit: EnvelopeFit | None
     z_gamma: float
     z_alpha: float
+    z_kappa: float
 
     def describe(self) -> str:
         """One line: the model and the statistics that chose it."""
+        swing = ""
+        if self.fit is not None and self.fit.swing:
+            swing = (
+                f", the period follows the swing (κ = {self.fit.kappa:.3g}: small-swing period "
+                f"{self.fit.small_swing_period:.6g} s ± {self.fit.sigma_small_swing_period:.2g} s)"
+            )
         return (
-            f"damping {self.model.value} (combined fit: γ/σ = {self.z_gamma:.1f}, α/σ = {self.z_alpha:.1f}; "
-            f"a term is kept at |z| ≥ {Z_LIMIT:g})"
+            f"damping {self.model.value}{swing} (γ/σ = {self.z_gamma:.1f}, α/σ = {self.z_alpha:.1f}, "
+            f"κ/σ = {self.z_kappa:.1f}; a term is kept at |z| ≥ {Z_LIMIT:g})"
         )
+
+
+def _z(value: float, sigma: float) -> float:
+    return value / sigma if sigma > 0 else math.nan
 
 
 def select_damping(blocks: BlockDesign, viscous: Solution, n_cycles: float) -> DampingChoice:
@@ -382,12 +525,22 @@ def select_damping(blocks: BlockDesign, viscous: Solution, n_cycles: float) -> D
     Raises:
         FitFailed: A fit failed.
     """
-    combined = fit_envelope(blocks, viscous, DampingModel.COMBINED, n_cycles)
-    z_gamma = combined.gamma / combined.sigma_gamma if combined.sigma_gamma > 0 else math.nan
-    z_alpha = combined.alpha / combined.sigma_alpha if combined.sigma_alpha > 0 else math.nan
+    full = fit_envelope(blocks, viscous, DampingModel.COMBINED, n_cycles, swing=True)
+    z_kappa = _z(full.kappa, full.sigma_kappa)
+    swing = z_kappa <= -Z_LIMIT  # (a pendulum's sin θ: a larger swing, a longer period)
+    z_gamma, z_alpha = _z(full.gamma, full.sigma_gamma), _z(full.alpha, full.sigma_alpha)
     if not abs(z_gamma) >= Z_LIMIT:
-        return DampingChoice(DampingModel.VISCOUS, None, z_gamma, z_alpha)
-    if abs(z_alpha) >= Z_LIMIT:
-        return DampingChoice(DampingModel.COMBINED, combined, z_gamma, z_alpha)
-    dry = fit_envelope(blocks, viscous, DampingModel.DRY, n_cycles)
-    return DampingChoice(DampingModel.DRY, dry, z_gamma, z_alpha)
+        model = DampingModel.VISCOUS
+    elif abs(z_alpha) >= Z_LIMIT:
+        model = DampingModel.COMBINED
+    else:
+        model = DampingModel.DRY
+    if model is DampingModel.VISCOUS and not swing:
+        return DampingChoice(model, False, None, z_gamma, z_alpha, z_kappa)
+    guess = {"alpha": full.alpha, "gamma": full.gamma, "kappa": full.kappa}
+    chosen = full if model is DampingModel.COMBINED and swing else None
+    if chosen is None:
+        chosen = fit_envelope(blocks, viscous, model, n_cycles, swing=swing, guess=guess)
+    if chosen.stop_ratio > STOP_RATIO:  # the swing "stopped", yet the record oscillates on
+        return DampingChoice(DampingModel.VISCOUS, False, None, z_gamma, z_alpha, z_kappa)
+    return DampingChoice(model, swing, chosen, z_gamma, z_alpha, z_kappa)

@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from .damping import DampingChoice, EnvelopeFit, envelope, select_damping
+from .damping import TRY_FROM, DampingChoice, EnvelopeFit, envelope, select_damping, swing_integral
 from .oscillation import zeta_omega
 from .quality import Modulation, modulation_index, steady_phase, two_mode_flag
 from .result import Flag, FlagCode, PeriodFit
@@ -26,18 +26,43 @@ from .solver import FitFailed, Solution
 if TYPE_CHECKING:
     from .fit import FitOptions
 
-__all__ = ["apply_damping", "fit_damping"]
+__all__ = ["apply_damping", "fit_damping", "swing_phase"]
 
 FloatArray = NDArray[np.float64]
 
 
-def _residuals(env: EnvelopeFit, y: FloatArray, tau: FloatArray, units: tuple[float, float]) -> FloatArray:
-    """Every sample's residual from the envelope model, in the samples' units."""
+def swing_phase(env_omega: float, kappa: float, tau: FloatArray, alpha: float, gamma: float) -> FloatArray:
+    """The finite swing's extra phase ω κ I(τ) at times ``tau`` from the origin, rad (0 without κ)."""
+    if kappa == 0.0:
+        return np.zeros_like(tau)
+    return np.asarray((env_omega * kappa) * swing_integral(tau, alpha, gamma), dtype=np.float64)
+
+
+def _model(env: EnvelopeFit, tau: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """The envelope and the oscillation ``E(τ)``, ``Re(P e^(i(ωτ + ω κ I(τ))))`` at ``tau``."""
+    extra = swing_phase(env.omega, env.kappa, tau, env.alpha, env.gamma)
+    e, _, _ = envelope(tau, env.alpha, env.gamma, (env.omega, extra + cmath.phase(env.P)))
+    return e, (env.P * np.exp(1j * (env.omega * tau + extra))).real
+
+
+def _residuals(
+    env: EnvelopeFit, y: FloatArray, tau: FloatArray, units: tuple[float, float]
+) -> tuple[FloatArray, float]:
+    """Every sample's residual from the envelope model with a constant offset, and that offset.
+
+    The fit's piecewise linear offset only keeps the drift out of the envelope parameters;
+    the residuals, r² and the drawn curve (:meth:`PeriodFit.predict`) use one constant offset,
+    the samples' mean residual, as Eq 23 does, so that the two models compare fairly.
+
+    Returns:
+        The residuals (samples' units) and the offset A (scaled units).
+    """
     scale, offset = units
-    e, _, _ = envelope(tau, env.alpha, env.gamma, (env.omega, cmath.phase(env.P)))
-    osc = (env.P * np.exp(1j * env.omega * tau)).real
-    drift = np.interp(tau, env.offset_knots, env.offsets)
-    return y - (offset + scale * (drift + e * osc))
+    e, osc = _model(env, tau)
+    r = y - (offset + scale * (e * osc))
+    constant = float(np.mean(r))
+    r -= constant
+    return r, constant / scale
 
 
 def apply_damping(
@@ -70,18 +95,20 @@ def apply_damping(
         fall) is no second mode.
     """
     scale_units = units[0]
-    r = _residuals(env, y, tau, units)
+    r, offset_a = _residuals(env, y, tau, units)
     sse = float(np.einsum("i,i->", r, r))
     centred = y - float(np.mean(y))
     sst = float(np.einsum("i,i->", centred, centred))
     r2 = 1.0 - sse / sst if sst > 0 else math.nan
     zeta, omega = zeta_omega(env.alpha, env.omega)
     tau0 = float(tau[0])
-    e0, _, _ = envelope(np.array([tau0]), env.alpha, env.gamma)  # (smooth: B, C at the first sample)
-    norm = float(e0[0])
-    K_ref = env.P * norm * cmath.exp(1j * env.omega * tau0)
+    extra0 = float(swing_phase(env.omega, env.kappa, tau, env.alpha, env.gamma)[0])  # (the window's grid)
+    e0, _, _ = envelope(np.array([tau0]), env.alpha, env.gamma, (env.omega, extra0 + cmath.phase(env.P)))
+    norm = float(e0[0])  # B, C: the amplitude at the first sample
+    K_ref = env.P * norm * cmath.exp(1j * (env.omega * tau0 + extra0))
     caller_scale, caller_offset = caller
-    modulation = modulation_index(steady_phase(env.deviation), env.amplitude)
+    swinging = env.amplitude > 0.1 * float(np.max(env.amplitude))  # (the cycles before a stop)
+    modulation = modulation_index(steady_phase(env.deviation[swinging]), env.amplitude[swinging])
     flags = [f for f in fit.flags if f.code not in (FlagCode.BEATING, FlagCode.POOR_FIT)]
     beating = two_mode_flag(viscous, modulation, options.max_modulation)
     if beating is not None:
@@ -96,7 +123,7 @@ def apply_damping(
         period_sigma=env.sigma_period,
         zeta=zeta,
         omega=omega,
-        A=env.A * caller_scale + caller_offset,
+        A=offset_a * caller_scale + caller_offset,
         B=float(-K_ref.imag) * caller_scale,
         C=float(K_ref.real) * caller_scale,
         r2=r2,
@@ -108,8 +135,12 @@ def apply_damping(
         flags=tuple(flags),
         notes=(*fit.notes, choice.describe()),
         damping_model=env.model.value,
-        friction=env.gamma / norm if norm > 0 else math.nan,
-        friction_sigma=env.sigma_gamma / norm if norm > 0 else math.nan,
+        friction=env.gamma,
+        friction_sigma=env.sigma_gamma,
+        damping_origin=fit.t_ref - tau0,
+        swing_kappa=env.kappa,
+        small_swing_period=env.small_swing_period if env.swing else math.nan,
+        small_swing_period_sigma=env.sigma_small_swing_period,
     )
 
 
@@ -140,6 +171,8 @@ def fit_damping(
         :func:`apply_damping`'s fit — unless it does not fit the samples better than Eq 23
         (the block-mean models are approximate with uneven samples).
     """
+    if not viscous.significance >= TRY_FROM:
+        return fit  # Eq 23's envelope and phase stand out of nothing: it fits
     try:
         choice = select_damping(blocks, viscous_fit, fit.n_cycles)
     except FitFailed as exc:

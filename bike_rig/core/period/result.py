@@ -125,9 +125,17 @@ class PeriodFit:
         damping_model: How the swing decays, the model the data support
             (:mod:`~bike_rig.core.period.damping`): ``viscous`` (Eq 23), ``dry`` (a linear
             envelope: dry friction at the pivot) or ``combined``.
-        friction: The envelope's linear fall per second, relative to the amplitude at
-            ``t_ref`` (dry friction) [1/s]; 0 for ``viscous``.
+        friction: The envelope's linear fall per second (dry friction), relative to the
+            amplitude at ``damping_origin`` [1/s]; 0 for ``viscous``.
         friction_sigma: Its standard uncertainty [1/s].
+        damping_origin: The time the damping model's envelope is referred to (the window's
+            centre) [s]; NaN for Eq 23.
+        swing_kappa: The period's dependence on the swing (a compound pendulum's finite
+            swing): the frequency is ω (1 + κ (E² − 1)) with E the envelope relative to the
+            swing at ``damping_origin`` (0: not fitted; ``period`` is the period there) [-].
+        small_swing_period: The period of a vanishing swing 2π / (ω_d (1 − κ)) [s]; NaN when
+            the period does not follow the swing.
+        small_swing_period_sigma: Its standard uncertainty [s].
     """
 
     period: float
@@ -156,6 +164,10 @@ class PeriodFit:
     damping_model: str = "viscous"
     friction: float = 0.0
     friction_sigma: float = math.nan
+    damping_origin: float = math.nan
+    swing_kappa: float = 0.0
+    small_swing_period: float = math.nan
+    small_swing_period_sigma: float = math.nan
 
     @property
     def clean(self) -> bool:
@@ -181,11 +193,21 @@ class PeriodFit:
         if self.damping_model == "viscous":
             return damped_oscillation(tt, self.A, self.B, self.C, self.zeta, self.omega)
         from .damping import envelope
+        from .damping_fit import swing_phase
 
         omega_d = self.omega * math.sqrt(1.0 - self.zeta**2)
-        e, _, _ = envelope(np.atleast_1d(tt).ravel(), self.zeta * self.omega, self.friction)
-        osc = self.B * np.sin(omega_d * tt) + self.C * np.cos(omega_d * tt)
-        return np.asarray(self.A + e.reshape(np.shape(tt)) * osc, dtype=np.float64)
+        alpha = self.zeta * self.omega
+        shift = self.t_ref - self.damping_origin
+        tau = np.atleast_1d(tt).ravel() + shift
+        extra = swing_phase(omega_d, self.swing_kappa, np.append(tau, shift), alpha, self.friction)
+        extra = extra[:-1] - extra[-1]  # from t_ref
+        start = math.atan2(-self.B, self.C)  # the phase at t_ref
+        steps = (omega_d, extra + (start - omega_d * shift))
+        e, _, _ = envelope(tau, alpha, self.friction, steps)
+        e0, _, _ = envelope(np.array([shift]), alpha, self.friction, (omega_d, start - omega_d * shift))
+        phase = omega_d * tt + extra.reshape(np.shape(tt))
+        osc = self.B * np.sin(phase) + self.C * np.cos(phase)
+        return np.asarray(self.A + (e / e0[0]).reshape(np.shape(tt)) * osc, dtype=np.float64)
 
     @classmethod
     def invalid(
