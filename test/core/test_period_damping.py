@@ -145,3 +145,32 @@ def test_a_finite_swing_gives_the_small_swing_period_of_the_integrated_pendulum(
 def test_a_torsional_pendulum_has_no_swing_term() -> None:
     fits = _fits(20, zeta=0.003, compound=False, swing=math.radians(20.0), rate_amplitude=0.5)
     assert all(math.isnan(f.small_swing_period) and f.swing_kappa == 0.0 for f in fits)
+
+
+def test_every_fit_reports_its_period_along_the_record() -> None:
+    # steady records: the windows agree within their σ (χ² about its 3 degrees of freedom)
+    chi2 = []
+    for seed in range(40):
+        fit = fit_period(gyro_trial(seed, period=1.5, zeta=0.003).samples, RATE_HZ)
+        assert len(fit.window_periods) == 4 and len(fit.window_period_sigmas) == 4
+        p, s = np.array(fit.window_periods), np.array(fit.window_period_sigmas)
+        chi2.append(np.sum(((p - np.sum(p / s**2) / np.sum(1 / s**2)) / s) ** 2))
+    assert 1.5 < np.mean(chi2) < 5.0, chi2
+    # a 16° compound swing with dry friction: the period shortens along the record, beyond σ
+    # (a note, no flag: 0.25 % is far from making the period meaningless)
+    fit = fit_period(pendulum_trial(4, loss_per_cycle=0.04, compound=True, swing=math.radians(16.0),
+                                    rate_amplitude=0.5)[0], RATE_HZ)  # fmt: skip
+    assert fit.window_periods[0] > fit.window_periods[-1] + 3 * max(fit.window_period_sigmas)
+    assert any("the period along the record" in n and "moves beyond its σ" in n for n in fit.notes)
+    assert not fit.has_flag(FlagCode.PERIOD_DRIFT) and fit.clean
+
+
+def test_a_period_that_moves_by_percents_is_flagged() -> None:
+    # a clamp slipping: the period steps by 3 % half way through the record
+    rng = np.random.default_rng(5)
+    t = np.arange(30000) / RATE_HZ
+    phase = 2 * math.pi * np.where(t < 15, t / 1.5, 15 / 1.5 + (t - 15) / 1.545)
+    y = quantise(0.05 * np.exp(-0.003 * 4.2 * t) * np.sin(phase) + LSB * rng.standard_normal(t.size))
+    fit = fit_period(y, RATE_HZ)
+    flag = next(f for f in fit.flags if f.code is FlagCode.PERIOD_DRIFT)
+    assert "the period moves by" in flag.reason and "limit 2 %" in flag.reason

@@ -68,6 +68,7 @@ from .result import Flag, FlagCode, PeriodFit
 from .sigma import BlockDesign, period_sigma
 from .solver import FitFailed, Solution, gauss_newton, varpro
 from .spectrum import MAX_SPECTRUM_POINTS, block_sums, block_times, peak_of_blocks
+from .stationarity import with_stationarity
 from .window import DEFAULT_WINDOW, WindowPolicy, first_at_or_after, select_window, select_window_even
 
 __all__ = ["FitOptions", "fit_period"]
@@ -638,6 +639,7 @@ class _Fitter:
             drift=drift,
             notes=tuple(self.notes),
         )
+        fit = with_stationarity(fit, deviation, cycle_amplitude, omega_d)
         tau = self._tau_of(win, blocks)
         return fit_damping(
             fit, blocks, sol, (win.ys, tau), (self.units, (self.scale, self.offset)), modulation, self.options

@@ -41,6 +41,8 @@ class FlagCode(str, Enum):
     GAP_FILLED = "gap_filled"
     #: The slow drift of the offset is large against the oscillation.
     DRIFT = "drift"
+    #: The period moves along the record by more than its limit (2 %).
+    PERIOD_DRIFT = "period_drift"
 
     # Trial-level codes: how the trial's samples were received (set by the fitting stage,
     # :mod:`bike_rig.pipeline.fit`, before the fit's own flags).
@@ -136,6 +138,9 @@ class PeriodFit:
         small_swing_period: The period of a vanishing swing 2π / (ω_d (1 − κ)) [s]; NaN when
             the period does not follow the swing.
         small_swing_period_sigma: Its standard uncertainty [s].
+        window_periods: The periods of consecutive windows of whole cycles, in record order
+            (:mod:`~bike_rig.core.period.stationarity`; empty for fewer than 8 cycles) [s].
+        window_period_sigmas: Their standard uncertainties [s].
     """
 
     period: float
@@ -168,6 +173,8 @@ class PeriodFit:
     swing_kappa: float = 0.0
     small_swing_period: float = math.nan
     small_swing_period_sigma: float = math.nan
+    window_periods: tuple[float, ...] = ()
+    window_period_sigmas: tuple[float, ...] = ()
 
     @property
     def clean(self) -> bool:
