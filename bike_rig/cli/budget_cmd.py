@@ -45,6 +45,7 @@ from ..core.uncertainty.budget import (
     reading_names,
     uncertainty_budget,
 )
+from ..pipeline.swing import swing_alternative
 from ..subjects import load_subject
 from .common import emit, rider_from_spec
 from .format import format_value_sigma
@@ -94,7 +95,7 @@ def run(args: argparse.Namespace) -> int:
     if rider is not None:
         ps = add_rider(ps, rider)
     names = reading_names(subject.measurements) if subject.measurements is not None else None
-    b = uncertainty_budget(ps, names)
+    b = uncertainty_budget(ps, names, swing_alternative(subject.trials))
     if args.json:
         text = json.dumps(budget_json(b), indent=2, allow_nan=False)
     else:
@@ -128,6 +129,8 @@ def _output_block(o: OutputBudget, top: int, width: int = 24) -> list[str]:
         lines.append(
             f"    ... {rest} more input{'s' if rest > 1 else ''}, {_percent(sum(s.share for s in o.shares[top:]))}"
         )
+    for x in o.systematic:
+        lines.append(f"    systematic, {x.source}: {x.shift:+.2g} {o.unit} ({abs(x.shift) / o.sigma:.2g} σ)")
     return lines
 
 

@@ -90,6 +90,12 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     q.add_argument("--rate", type=float, metavar="HZ", help="sample rate of files without times or rate")
     q.add_argument("--strict", action="store_true", help="exit with status 1 if any trial has no period")
     q.add_argument(
+        "--small-swing-period",
+        action="store_true",
+        help="when the period follows the swing (a compound pendulum's finite swing), report the period of "
+        "a vanishing swing instead of the fitted one",
+    )
+    q.add_argument(
         "--key",
         metavar="KEY",
         help="every file is a trial of this measurement (a period key such as TtB1), whatever its name says",
@@ -124,7 +130,8 @@ def run(args: argparse.Namespace) -> int:
     plot_dir = _plot_dir(args.plot) if args.plot else None
     columns = columns_from_args(args)
     trials = [read_trial(path, args.rate, columns) for path in args.files]  # all readable before output
-    fits = [fit_period(t.samples, **t.timing, window=policy, **options) for t in trials]
+    swing = bool(args.small_swing_period)
+    fits = [fit_period(t.samples, **t.timing, window=policy, small_swing_period=swing, **options) for t in trials]
     for trial in trials:
         for remark in trial.remarks:
             print(f"bike-rig fit: note: {trial.path}: {remark}", file=sys.stderr)
@@ -211,7 +218,7 @@ def _value_sigma(value: float, sigma: float) -> tuple[str, str]:
 
 
 def fit_table(trials: Sequence[Trial], fits: Sequence[PeriodFit]) -> str:
-    """One row per trial: period ± σ (s), r², cycles, ζ, damping model, status; the flags' reasons below.
+    """One row per trial: period ± σ (s), r², cycles, ζ, damping model, status; flags (!) and notes (·) below.
 
     Args:
         trials: The trials.
@@ -236,6 +243,7 @@ def fit_table(trials: Sequence[Trial], fits: Sequence[PeriodFit]) -> str:
             f"{trial.name:<{width}}  {value:>12}  {sigma:>9}  {r2:>6}  {cycles:>6}  {zeta:>8}  {damping:>8}  {status}"
         )
         rows += [f"{'':<{width}}  ! {flag}" for flag in fit.flags]
+        rows += [f"{'':<{width}}  · {note}" for note in fit.notes]
     policy = fits[0].window_policy.describe() if fits else ""
     rows.append(f"(window: {policy}; σ robust to drift and correlated noise)")
     return "\n".join(rows)

@@ -58,6 +58,8 @@ def fitter_parameters() -> tuple[ParamSpec, ...]:
                   (0.0, big)),  # fmt: skip
         ParamSpec("max_drift", d.fit.max_drift, "flag an offset drift above this fraction of the oscillation",
                   (0.0, big)),  # fmt: skip
+        ParamSpec("small_swing_period", d.fit.small_swing_period,
+                  "a period that follows the swing: report the small-swing one (else the fitted)"),  # fmt: skip
     )
 
 
@@ -122,7 +124,7 @@ class FitterNode:
             )
             options = TrialFitOptions(
                 FitOptions(window, values["min_cycles"], values["min_r2"], values["max_modulation"],
-                           values["max_drift"]),
+                           values["max_drift"], values["small_swing_period"]),
                 values["max_trial_samples"],
                 values["max_batch_samples"],
             )  # fmt: skip

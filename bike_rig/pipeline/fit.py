@@ -111,6 +111,8 @@ class TrialFitOptions:
             "max_drift": self.fit.max_drift,
             "max_trial_samples": self.max_trial_samples,
             "max_batch_samples": self.max_batch_samples,
+            # (only when set: the estimates recorded before the option keep their exact JSON)
+            **({"small_swing_period": True} if self.fit.small_swing_period else {}),
         }
 
     def to_json(self) -> str:
@@ -140,6 +142,7 @@ class TrialFitOptions:
             min_r2=float(data.get("min_r2", d.fit.min_r2)),
             max_modulation=float(data.get("max_modulation", d.fit.max_modulation)),
             max_drift=float(data.get("max_drift", d.fit.max_drift)),
+            small_swing_period=bool(data.get("small_swing_period", False)),
         )
         return cls(
             fit,
@@ -534,6 +537,7 @@ class TrialAccumulator:
         kwargs: dict[str, Any] = {
             "window": fo.window, "min_cycles": fo.min_cycles, "min_r2": fo.min_r2,
             "max_modulation": fo.max_modulation, "max_drift": fo.max_drift,
+            "small_swing_period": fo.small_swing_period,
         }  # fmt: skip
         times: FloatArray | None = None
         index: NDArray[np.intp] | None = None

@@ -305,3 +305,22 @@ def test_key_option_combines_files_as_one_measurement(capsys: pytest.CaptureFixt
     assert code == 0 and re.search(r"combined period of TtB2: T = [0-9.]+ ± [0-9.]+ s \(2 used", out), out
     code, out, err = run(capsys, "fit", *plain, "--key", "frame")
     assert code == 2 and out == "" and "--key must be a period key such as TtB1" in err
+
+
+def test_a_swinging_compound_pendulum_and_the_small_swing_period_option(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    from test.core.test_period_damping import pendulum_trial
+
+    samples, _ = pendulum_trial(2, loss_per_cycle=0.03, compound=True, swing=np.radians(15.0), rate_amplitude=0.5)
+    path = tmp_path / "fork_compound_t1.npy"
+    np.save(path, samples)
+    code, out, _ = run(capsys, "fit", str(path), "--json", "--rate", "1000")
+    fitted = json.loads(out)
+    code2, out2, _ = run(capsys, "fit", str(path), "--json", "--rate", "1000", "--small-swing-period")
+    small = json.loads(out2)
+    assert code == code2 == 0 and fitted["damping_model"] == "dry" and fitted["swing_kappa"] < 0
+    assert small["period"] == small["small_swing_period"] == fitted["small_swing_period"]
+    assert fitted["period"] > small["period"] and small["period"] == pytest.approx(1.6, abs=4 * small["period_sigma"])
+    code, table, _ = run(capsys, "fit", str(path), "--rate", "1000")
+    assert "dry" in table and "the period follows the swing" in table and "the period along the record" in table

@@ -117,7 +117,7 @@ def apply_damping(
         flags.append(
             Flag(FlagCode.POOR_FIT, f"r² = {r2:.3f} < {options.min_r2:g}: no damping model describes the record")
         )
-    return replace(
+    out = replace(
         fit,
         period=env.period,
         period_sigma=env.sigma_period,
@@ -141,7 +141,13 @@ def apply_damping(
         swing_kappa=env.kappa,
         small_swing_period=env.small_swing_period if env.swing else math.nan,
         small_swing_period_sigma=env.sigma_small_swing_period,
+        centre_period=env.period if env.swing else math.nan,
     )
+    if env.swing and options.small_swing_period:
+        note = "the small-swing period is reported (option small_swing_period)"
+        out = replace(out, period=out.small_swing_period, period_sigma=out.small_swing_period_sigma,
+                      notes=(*out.notes, note))  # fmt: skip
+    return out
 
 
 def fit_damping(

@@ -103,6 +103,9 @@ class FitOptions:
             amplitude (and above its noise) is flagged as beating.
         max_drift: A residual drift, peak to peak, above this fraction of the oscillation's
             peak to peak is flagged.
+        small_swing_period: When the period follows the swing (a compound pendulum's finite
+            swing, :mod:`~bike_rig.core.period.damping`), report the period of a vanishing
+            swing as ``period`` (else the period at the window centre's swing).
     """
 
     window: WindowPolicy = DEFAULT_WINDOW
@@ -110,6 +113,7 @@ class FitOptions:
     min_r2: float = 0.9
     max_modulation: float = 0.02
     max_drift: float = 0.5
+    small_swing_period: bool = False
 
 
 class _Invalid(Exception):
@@ -130,6 +134,7 @@ def fit_period(
     min_r2: float = 0.9,
     max_modulation: float = 0.02,
     max_drift: float = 0.5,
+    small_swing_period: bool = False,
 ) -> PeriodFit:
     """Fit Eq 23 to one trial and return its period with an honest σ and quality flags.
 
@@ -142,6 +147,8 @@ def fit_period(
         min_r2: Flag a fit with a lower r².
         max_modulation: Flag beating above this relative envelope/phase modulation.
         max_drift: Flag an offset drift above this fraction of the oscillation.
+        small_swing_period: Report the period of a vanishing swing when the period follows
+            the swing (:class:`FitOptions`).
 
     Returns:
         The fit. Bad data (empty, constant, noise, NaN, too short...) give ``valid=False`` and
@@ -158,7 +165,7 @@ def fit_period(
         rate = float(sample_rate_hz)
         if not (math.isfinite(rate) and rate > 0):
             raise ValueError(f"sample_rate_hz must be a positive number, got {sample_rate_hz!r}")
-    options = FitOptions(window, min_cycles, min_r2, max_modulation, max_drift)
+    options = FitOptions(window, min_cycles, min_r2, max_modulation, max_drift, small_swing_period)
     with np.errstate(all="ignore"):
         return _Fitter(options).run(samples, rate, times)
 

@@ -138,6 +138,9 @@ class PeriodFit:
         small_swing_period: The period of a vanishing swing 2π / (ω_d (1 − κ)) [s]; NaN when
             the period does not follow the swing.
         small_swing_period_sigma: Its standard uncertainty [s].
+        centre_period: The period at the swing of the window's centre [s] (the fitted
+            period; ``period`` unless the option ``small_swing_period`` reports the
+            small-swing one); NaN when the period does not follow the swing.
         window_periods: The periods of consecutive windows of whole cycles, in record order
             (:mod:`~bike_rig.core.period.stationarity`; empty for fewer than 8 cycles) [s].
         window_period_sigmas: Their standard uncertainties [s].
@@ -173,6 +176,7 @@ class PeriodFit:
     swing_kappa: float = 0.0
     small_swing_period: float = math.nan
     small_swing_period_sigma: float = math.nan
+    centre_period: float = math.nan
     window_periods: tuple[float, ...] = ()
     window_period_sigmas: tuple[float, ...] = ()
 

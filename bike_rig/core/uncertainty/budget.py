@@ -45,7 +45,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -66,6 +66,7 @@ __all__ = [
     "BudgetShare",
     "InputImportance",
     "OutputBudget",
+    "SystematicShift",
     "UncertaintyBudget",
     "budget_json",
     "input_ranking",
@@ -129,6 +130,19 @@ class BudgetShare:
 
 
 @dataclass(frozen=True)
+class SystematicShift:
+    """How much an output moves under a stated alternative of the analysis (not a σ).
+
+    Attributes:
+        source: The alternative, e.g. "finite swing: the small-swing periods instead of the fitted".
+        shift: The output's first-order change, ``Σ_j ∂y/∂x_j Δx_j``, in the output's unit.
+    """
+
+    source: str
+    shift: float
+
+
+@dataclass(frozen=True)
 class OutputBudget:
     """The variance budget of one output.
 
@@ -139,6 +153,7 @@ class OutputBudget:
             speed at a double root.
         unit: SI unit of value, σ and contributions (e.g. ``"kg m²"``, ``"m/s"``).
         shares: Every input with share > 0, largest first (empty when σ is 0 or NaN).
+        systematic: The output's shifts under the stated alternatives (the systematic lines).
     """
 
     output: str
@@ -146,6 +161,7 @@ class OutputBudget:
     sigma: float
     unit: str
     shares: tuple[BudgetShare, ...]
+    systematic: tuple[SystematicShift, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -271,7 +287,11 @@ def reading_names(m: Measurements) -> dict[str, str]:
     return {k: (r.origin.key if r.origin is not None and r.origin.key else k) for k, r in m.readings.items()}
 
 
-def uncertainty_budget(ps: ParameterSet, names: Mapping[str, str] | None = None) -> UncertaintyBudget:
+def uncertainty_budget(
+    ps: ParameterSet,
+    names: Mapping[str, str] | None = None,
+    systematic: Mapping[str, Mapping[str, float]] | None = None,
+) -> UncertaintyBudget:
     """Rank every input by its share of the variance of each parameter and critical speed.
 
     Args:
@@ -279,6 +299,10 @@ def uncertainty_budget(ps: ParameterSet, names: Mapping[str, str] | None = None)
             With ``ps.raw`` the inputs are the raw readings, else the 26 parameters.
         names: The input file's name of each input key (:func:`reading_names`); None (or a
             key missing from it) names an input by its key.
+        systematic: Alternatives of the analysis, each ``{source: {input key: Δx}}`` (e.g.
+            the small-swing periods instead of the fitted, per period key, s): every output
+            gets its first-order shift under each as a systematic line. Keys that are not
+            inputs are ignored.
 
     Returns:
         The budget: 25 parameters (PARAMETER_NAMES order without g), then the weave and
@@ -300,11 +324,28 @@ def uncertainty_budget(ps: ParameterSet, names: Mapping[str, str] | None = None)
     outputs = [
         _output_budget(n, values[n], to_input[r], covariance, groups, labels) for n, r in zip(BUDGET_PARAMETERS, rows)
     ]
+    shifts = _input_shifts(keys, systematic or {})
+    outputs = [replace(o, systematic=_shifts(to_input[r], shifts)) for o, r in zip(outputs, rows, strict=True)]
     for name, sp in _speeds(ps):
         grad = sp.gradient if sp.gradient is not None else np.full(len(PARAMETER_NAMES), math.nan)
-        outputs.append(_output_budget(name, sp.speed, grad @ to_input, covariance, groups, labels))
+        o = _output_budget(name, sp.speed, grad @ to_input, covariance, groups, labels)
+        outputs.append(replace(o, systematic=_shifts(grad @ to_input, shifts)))
     inputs = tuple(label for label, _ in labels)
     return UncertaintyBudget(ps.bicycle, kind, inputs, tuple(outputs), tuple(key for _, key in labels))
+
+
+def _input_shifts(keys: Sequence[str], systematic: Mapping[str, Mapping[str, float]]) -> list[tuple[str, FloatArray]]:
+    """Each alternative's input changes as a vector over ``keys`` (alternatives touching no input dropped)."""
+    out = []
+    for source, by_key in systematic.items():
+        delta = np.array([float(by_key.get(k, 0.0)) for k in keys])
+        if np.any(delta != 0.0):
+            out.append((source, delta))
+    return out
+
+
+def _shifts(sensitivity: FloatArray, shifts: list[tuple[str, FloatArray]]) -> tuple[SystematicShift, ...]:
+    return tuple(SystematicShift(source, float(sensitivity @ delta)) for source, delta in shifts)
 
 
 def input_ranking(b: UncertaintyBudget, outputs: Sequence[str] | None = None) -> tuple[InputImportance, ...]:
@@ -342,7 +383,8 @@ def budget_json(b: UncertaintyBudget) -> dict[str, Any]:
     """The budget as one JSON-ready object (NaN as None).
 
     ``{"bicycle", "input_kind", "inputs": [...], "input_keys": [...], "outputs": [{"output",
-    "value", "sigma", "unit", "shares": [{"input", "key", "share", "contribution"}]}]}``:
+    "value", "sigma", "unit", "shares": [{"input", "key", "share", "contribution"}],
+    "systematic": [{"source", "shift"}]}]}``:
     ``inputs`` and each share's ``input`` name the inputs as their file does, ``input_keys``
     and ``key`` by their BicycleParameters keys.
     """
@@ -361,6 +403,7 @@ def budget_json(b: UncertaintyBudget) -> dict[str, Any]:
                     {"input": s.input, "key": s.key, "share": _num(s.share), "contribution": _num(s.contribution)}
                     for s in o.shares
                 ],
+                "systematic": [{"source": x.source, "shift": _num(x.shift)} for x in o.systematic],
             }
             for o in b.outputs
         ],

@@ -270,7 +270,7 @@ def test_budget_json_is_plain_json() -> None:
     assert data["inputs"] == list(b.inputs)
     assert [o["output"] for o in data["outputs"]] == [o.output for o in b.outputs]
     first = data["outputs"][-1]
-    assert set(first) == {"output", "value", "sigma", "unit", "shares"}
+    assert set(first) == {"output", "value", "sigma", "unit", "shares", "systematic"} and first["systematic"] == []
     assert first["shares"][0] == {
         "input": b.outputs[-1].shares[0].input,
         "key": b.outputs[-1].shares[0].key,
