@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 __all__ = [
     "EIGEN_SWEEP",
+    "FIT_DETAILS",
     "GYRO",
     "MATRICES",
     "PARAMETERS",
@@ -65,6 +66,10 @@ class Topic:
 GYRO = Topic(f"{NAMESPACE}/gyro", "bike_rig_msgs/msg/GyroBatch", QosSpec(True, True, 50_000))
 TRIAL_EVENTS = Topic(f"{NAMESPACE}/trial_events", "bike_rig_msgs/msg/TrialEvent", QosSpec(True, True, 2000))
 PERIODS = Topic(f"{NAMESPACE}/periods", "bike_rig_msgs/msg/PeriodEstimate", QosSpec(True, True, 2000))
+#: What each trial's fit found beyond its period (damping model, finite swing, the period along
+#: the record), published with its estimate for the console. Not recorded: a replay computes it
+#: again from the recorded samples.
+FIT_DETAILS = Topic(f"{NAMESPACE}/fit_details", "bike_rig_msgs/msg/FitDetails", QosSpec(True, True, 2000))
 STATIC_READINGS = Topic(f"{NAMESPACE}/static_readings", "bike_rig_msgs/msg/StaticReadings", QosSpec(True, True, 1))
 #: Static readings entered while the session runs (one ``ReadingEntry`` each, corrections too):
 #: the whole session's entries stay in the publisher's history for a restarted parameter node.

@@ -25,6 +25,7 @@ from bike_rig.paths import config_file
 from bike_rig.pipeline.assemble import SessionParameters, assemble
 from bike_rig.pipeline.errors import AssemblyError
 from bike_rig.pipeline.fit import TrialFit
+from bike_rig.pipeline.fit_details import FitDetails
 from bike_rig.pipeline.model import ModelMatrices, StabilitySweep, StateSpaceAt, compute_model, state_space_at
 
 REPO = Path(__file__).resolve().parents[1]
@@ -207,6 +208,26 @@ def test_period_estimate_round_trip(make_msg: Callable[[str], Any]) -> None:
     assert conv.trial_fit_from_msg(msg) == trial
 
 
+def full_details() -> FitDetails:
+    return FitDetails(
+        "t7", 1_700_000_000_123_456_789, "dry", 0.0251, 0.0004, -0.00171, 1.6027834, 1.5999835, 2.7e-5,
+        (1.6057, 1.60347, 1.60175, 1.60184), (4e-4, 3e-4, 3e-4, 4e-4), ("damping dry (...)", "the period ..."),
+    )  # fmt: skip
+
+
+def test_fit_details_round_trip_and_join_their_estimate(make_msg: Callable[[str], Any]) -> None:
+    details = full_details()
+    back = conv.fit_details_from_msg(conv.fill_fit_details(make_msg("FitDetails"), details))
+    assert back == details
+    joined = back.apply(full_trial())
+    assert joined.fit.damping_model == "dry" and joined.fit.window_periods == details.window_periods
+    assert FitDetails.of(joined) == dataclasses.replace(details, trial_id=joined.trial_id, stamp_ns=joined.stamp_ns)
+    bad = conv.fill_fit_details(make_msg("FitDetails"), details)
+    bad.window_period_sigmas = bad.window_period_sigmas[:2]
+    with pytest.raises(conv.MessageError, match="window_period_sigmas: 2 entries, expected 4"):
+        conv.fit_details_from_msg(bad)
+
+
 def test_invalid_period_estimate_keeps_its_nans(make_msg: Callable[[str], Any]) -> None:
     trial = TrialFit.from_period("t9", "TcR1", math.nan, math.nan, False, ("no_oscillation",), ("flat signal",))
     back = conv.trial_fit_from_msg(conv.fill_period_estimate(make_msg("PeriodEstimate"), trial))
@@ -352,6 +373,8 @@ def test_rosbags_reads_what_rclpy_wrote(
     cases: list[tuple[str, Any, Callable[[Any], None]]] = [
         ("PeriodEstimate", conv.fill_period_estimate(rclpy_msg("PeriodEstimate"), full_trial()),
          lambda m: assert_equal_trial(conv.trial_fit_from_msg(m))),
+        ("FitDetails", conv.fill_fit_details(rclpy_msg("FitDetails"), full_details()),
+         lambda m: conv.fit_details_from_msg(m) == full_details() or pytest.fail("FitDetails changed")),
         ("BenchmarkParameters", conv.fill_benchmark_parameters(rclpy_msg("BenchmarkParameters"), complete),
          lambda m: assert_sessions_equal(conv.session_parameters_from_msg(m), complete)),
         ("CanonicalMatrices", conv.fill_canonical_matrices(rclpy_msg("CanonicalMatrices"), model[0]),

@@ -16,6 +16,8 @@ Pairs (message: record, converters):
   :func:`sample_batch_from_msg`, :func:`fill_gyro_batch`;
 * ``PeriodEstimate``: :class:`~bike_rig.pipeline.fit.TrialFit`,
   :func:`trial_fit_from_msg`, :func:`fill_period_estimate`;
+* ``FitDetails``: :class:`~bike_rig.pipeline.fit_details.FitDetails`,
+  :func:`fit_details_from_msg`, :func:`fill_fit_details`;
 * ``StaticReadings``: :class:`~bike_rig.core.measurements.Measurements`,
   :func:`static_readings_from_msg`, :func:`fill_static_readings`;
 * ``ReadingEntry``: :class:`~bike_rig.pipeline.readings.ReadingEntry`,
@@ -52,9 +54,11 @@ from .results import (
     static_readings_from_msg,
 )
 from .trials import (
+    fill_fit_details,
     fill_gyro_batch,
     fill_period_estimate,
     fill_trial_event,
+    fit_details_from_msg,
     sample_batch_from_msg,
     trial_event_from_msg,
     trial_fit_from_msg,
@@ -65,6 +69,7 @@ __all__ = [
     "fill_benchmark_parameters",
     "fill_canonical_matrices",
     "fill_eigen_sweep",
+    "fill_fit_details",
     "fill_gyro_batch",
     "fill_period_estimate",
     "fill_reading_entry",
@@ -72,6 +77,7 @@ __all__ = [
     "fill_state_space_response",
     "fill_static_readings",
     "fill_trial_event",
+    "fit_details_from_msg",
     "model_matrices_from_msg",
     "reading_entry_from_msg",
     "sample_batch_from_msg",

@@ -18,6 +18,7 @@ __all__ = [
     "BenchmarkParametersMsg",
     "CanonicalMatricesMsg",
     "EigenSweepMsg",
+    "FitDetailsMsg",
     "FloatField",
     "GyroBatchMsg",
     "HeaderMsg",
@@ -94,6 +95,23 @@ class PeriodEstimateMsg(Protocol):
     flags: Sequence[str]
     flag_reasons: Sequence[str]
     fit_options_json: str
+
+
+class FitDetailsMsg(Protocol):
+    """``bike_rig_msgs/msg/FitDetails``."""
+
+    header: HeaderMsg
+    trial_id: str
+    damping_model: str
+    friction: float
+    friction_sigma: float
+    swing_kappa: float
+    centre_period: float
+    small_swing_period: float
+    small_swing_period_sigma: float
+    window_periods: FloatField
+    window_period_sigmas: FloatField
+    notes: Sequence[str]
 
 
 class StaticReadingsMsg(Protocol):

@@ -1,4 +1,4 @@
-"""Converters of the trial messages: ``TrialEvent``, ``GyroBatch`` and ``PeriodEstimate``.
+"""Converters of the trial messages: ``TrialEvent``, ``GyroBatch``, ``PeriodEstimate`` and ``FitDetails``.
 
 Each message type has one pair: ``<record>_from_msg`` reads a message into the pipeline's
 record, ``fill_<message>`` writes a record into a given message object and returns it.
@@ -11,13 +11,16 @@ import numpy as np
 from ..pipeline.acquire import SampleBatch, TrialEventKind, TrialEventRecord
 from ..pipeline.errors import FlagCodeError
 from ..pipeline.fit import TrialFit
-from .fields import MessageError, floats, set_floats, set_stamp, stamp_ns, strings
-from .protocols import GyroBatchMsg, PeriodEstimateMsg, TrialEventMsg
+from ..pipeline.fit_details import FitDetails
+from .fields import MessageError, check_length, floats, set_floats, set_stamp, stamp_ns, strings
+from .protocols import FitDetailsMsg, GyroBatchMsg, PeriodEstimateMsg, TrialEventMsg
 
 __all__ = [
+    "fill_fit_details",
     "fill_gyro_batch",
     "fill_period_estimate",
     "fill_trial_event",
+    "fit_details_from_msg",
     "sample_batch_from_msg",
     "trial_event_from_msg",
     "trial_fit_from_msg",
@@ -161,3 +164,49 @@ def fill_period_estimate(msg: PeriodEstimateMsg, trial: TrialFit) -> PeriodEstim
     msg.fit_options_json = trial.fit_options_json
     return msg
 
+
+
+# --------------------------------------------------------------------------------------------
+# FitDetails
+# --------------------------------------------------------------------------------------------
+
+
+def fit_details_from_msg(msg: FitDetailsMsg) -> FitDetails:
+    """A ``FitDetails`` message as a :class:`FitDetails` (the stamp in ns).
+
+    Raises:
+        MessageError: The window periods and their σ differ in number.
+    """
+    periods, sigmas = floats(msg.window_periods), floats(msg.window_period_sigmas)
+    check_length("window_period_sigmas", sigmas.size, periods.size)
+    return FitDetails(
+        str(msg.trial_id),
+        stamp_ns(msg.header),
+        str(msg.damping_model),
+        float(msg.friction),
+        float(msg.friction_sigma),
+        float(msg.swing_kappa),
+        float(msg.centre_period),
+        float(msg.small_swing_period),
+        float(msg.small_swing_period_sigma),
+        tuple(float(x) for x in periods),
+        tuple(float(x) for x in sigmas),
+        strings(msg.notes),
+    )
+
+
+def fill_fit_details(msg: FitDetailsMsg, details: FitDetails) -> FitDetailsMsg:
+    """Write :class:`FitDetails` into a ``FitDetails`` message (header stamp included)."""
+    set_stamp(msg, details.stamp_ns)
+    msg.trial_id = details.trial_id
+    msg.damping_model = details.damping_model
+    msg.friction = float(details.friction)
+    msg.friction_sigma = float(details.friction_sigma)
+    msg.swing_kappa = float(details.swing_kappa)
+    msg.centre_period = float(details.centre_period)
+    msg.small_swing_period = float(details.small_swing_period)
+    msg.small_swing_period_sigma = float(details.small_swing_period_sigma)
+    set_floats(msg, "window_periods", details.window_periods)
+    set_floats(msg, "window_period_sigmas", details.window_period_sigmas)
+    msg.notes = list(details.notes)
+    return msg

@@ -15,6 +15,7 @@ from .. import messages
 from ..core.period import FitOptions, WindowKind, WindowPolicy
 from ..params import ParamSpec
 from ..pipeline.fit import TrialFit, TrialFitOptions
+from ..pipeline.fit_details import FitDetails
 from ..pipeline.fit_state import FitterState
 from .publishers import publisher_source
 
@@ -81,7 +82,7 @@ class FitterNode:
         from rclpy.node import Node
 
         from ..rosqos import profile
-        from ..topics import GYRO, PERIODS, TRIAL_EVENTS
+        from ..topics import FIT_DETAILS, GYRO, PERIODS, TRIAL_EVENTS
 
         # (bike_rig_msgs ships no type information: imported by name)
         msgs: Any = importlib.import_module("bike_rig_msgs.msg")
@@ -89,6 +90,7 @@ class FitterNode:
 
         self.node: Node = Node("fitter")
         self._estimate_type = PeriodEstimate
+        self._details_type = msgs.FitDetails
         options, grace, max_open, history_grace = self._parameters()
         self.state = FitterState(options, self.node.get_logger(), grace, max_open, history_grace_s=history_grace)
         # (events first: when both are ready, the executor takes them in creation order)
@@ -96,6 +98,7 @@ class FitterNode:
                                                         profile(TRIAL_EVENTS))  # fmt: skip
         self.gyro_sub = self.node.create_subscription(GyroBatch, GYRO.name, self._on_batch, profile(GYRO))
         self.periods_pub = self.node.create_publisher(PeriodEstimate, PERIODS.name, profile(PERIODS))
+        self.details_pub = self.node.create_publisher(msgs.FitDetails, FIT_DETAILS.name, profile(FIT_DETAILS))
         self._live = False
         self.timer = self.node.create_timer(0.05, self._on_timer)
         self.node.get_logger().info(f"fitting trials with {options.to_json()}")
@@ -162,7 +165,8 @@ class FitterNode:
             self.node.get_logger().error(f"fitter timer failed: {exc!r}")
 
     def _publish(self, results: list[TrialFit]) -> None:
-        for r in results:
+        for r in results:  # (the details first: the console joins them to the estimate either way)
+            self.details_pub.publish(messages.fill_fit_details(self._details_type(), FitDetails.of(r)))
             self.periods_pub.publish(self.estimate(r))
 
     def estimate(self, r: TrialFit) -> Any:

@@ -42,6 +42,7 @@ from rclpy.signals import SignalHandlerOptions
 from .. import topics
 from ..messages import (
     MessageError,
+    fit_details_from_msg,
     reading_entry_from_msg,
     sample_batch_from_msg,
     session_parameters_from_msg,
@@ -52,6 +53,7 @@ from ..messages import (
 from ..pipeline.acquire import SampleBatch, TrialEventRecord
 from ..pipeline.assemble import SessionParameters
 from ..pipeline.fit import TrialFit
+from ..pipeline.fit_details import FitDetails
 from ..pipeline.model import StabilitySweep
 from ..pipeline.readings import ReadingEntry
 from ..rosenv import ros_environment
@@ -68,6 +70,7 @@ OWNERS: dict[str, tuple[str, ...]] = {
     topics.TRIAL_EVENTS.name: ("driver", "bag_republisher"),
     topics.GYRO.name: ("driver", "bag_republisher"),
     topics.PERIODS.name: ("fitter",),
+    topics.FIT_DETAILS.name: ("fitter",),
     topics.PARAMETERS.name: ("parameter",),
     topics.EIGEN_SWEEP.name: ("model",),
 }
@@ -100,7 +103,9 @@ _COUNTED_ONLY = QoSProfile(
 )  # fmt: skip
 
 #: What the monitor hands on.
-MonitorRecord: TypeAlias = TrialEventRecord | TrialFit | SessionParameters | StabilitySweep | SampleBatch | ReadingEntry
+MonitorRecord: TypeAlias = (
+    TrialEventRecord | TrialFit | FitDetails | SessionParameters | StabilitySweep | SampleBatch | ReadingEntry
+)
 
 
 def _drop(_data: bytes) -> None:
@@ -149,6 +154,9 @@ class GraphMonitor:
         self._taken = 0  # callbacks run
         subscriptions: tuple[tuple[Any, topics.Topic, Callable[[Any], MonitorRecord]], ...] = (
             (_msgs.TrialEvent, topics.TRIAL_EVENTS, trial_event_from_msg),
+            # (the details before their estimate: when both are ready the executor takes them in
+            # creation order, and the fitter publishes the details first)
+            (_msgs.FitDetails, topics.FIT_DETAILS, fit_details_from_msg),
             (_msgs.PeriodEstimate, topics.PERIODS, trial_fit_from_msg),
             (_msgs.BenchmarkParameters, topics.PARAMETERS, session_parameters_from_msg),
             (_msgs.EigenSweep, topics.EIGEN_SWEEP, stability_sweep_from_msg),

@@ -37,6 +37,7 @@ from ..core.symbols import PARAMETER_NAMES
 from ..pipeline.acquire import SampleBatch, TrialEventRecord
 from ..pipeline.assemble import SessionParameters
 from ..pipeline.fit import TrialFit
+from ..pipeline.fit_details import FitDetails
 from ..pipeline.model import StabilitySweep
 from ..pipeline.readings import ReadingEntry
 from ..textfmt import format_speed
@@ -45,7 +46,7 @@ from .state import OperatorSession
 
 __all__ = ["COMMANDS", "GraphEvent", "GraphLink", "Reply", "SessionController", "StartReply"]
 
-GraphEvent = TrialEventRecord | SampleBatch | TrialFit | SessionParameters | StabilitySweep | ReadingEntry
+GraphEvent = TrialEventRecord | SampleBatch | TrialFit | FitDetails | SessionParameters | StabilitySweep | ReadingEntry
 
 COMMANDS = ("start", "stop", "abort", "reading", "status", "next", "best", "plan", "params", "help", "quit")
 
@@ -345,6 +346,33 @@ class SessionController:
         return out + [Reply("done", "bye")]
 
     # ------------------------------------------------------------------ graph
+    def _apply(self, ev: GraphEvent, now: float) -> list[Reply]:
+        """Apply one thing the graph published; the replies it makes."""
+        s = self.session
+        if isinstance(ev, SampleBatch):
+            s.on_samples(ev, now)
+        elif isinstance(ev, TrialEventRecord):
+            before = len(s.results)
+            s.on_trial_event(ev, now)
+            return [Reply("result", r, {"trial_id": ev.trial_id, "state": "REDO"}) for r in s.results[before:]]
+        elif isinstance(ev, FitDetails):
+            late = s.on_fit_details(ev)  # (after its result line: what it adds)
+            return [Reply("info", late, {"trial_id": ev.trial_id, "damping_model": ev.damping_model})] if late else []
+        elif isinstance(ev, TrialFit):
+            line = s.on_period(ev)
+            state = ItemState.OK.value if ev.usable else ItemState.REDO.value
+            return [Reply("result", line, _fit_data(ev, state))]
+        elif isinstance(ev, SessionParameters):
+            s.on_parameters(ev)
+            self.updated_at = now
+        elif isinstance(ev, StabilitySweep):
+            s.on_stability(ev)
+            self.updated_at = now
+        elif isinstance(ev, ReadingEntry):
+            if not any(e.stamp_ns == ev.stamp_ns and e.value == ev.value for e in s.readings.get(ev.key, [])):
+                s.on_reading(ev)
+        return []
+
     def _new_warnings(self, now: float) -> list[Reply]:
         """Each live warning once per trial and kind (its first words), as it appears."""
         live = self.session.live_status(now)
@@ -364,25 +392,7 @@ class SessionController:
         now = self.clock()
         s = self.session
         for ev in self.link.events():
-            if isinstance(ev, SampleBatch):
-                s.on_samples(ev, now)
-            elif isinstance(ev, TrialEventRecord):
-                before = len(s.results)
-                s.on_trial_event(ev, now)
-                out += [Reply("result", r, {"trial_id": ev.trial_id, "state": "REDO"}) for r in s.results[before:]]
-            elif isinstance(ev, TrialFit):
-                line = s.on_period(ev)
-                state = ItemState.OK.value if ev.usable else ItemState.REDO.value
-                out.append(Reply("result", line, _fit_data(ev, state)))
-            elif isinstance(ev, SessionParameters):
-                s.on_parameters(ev)
-                self.updated_at = now
-            elif isinstance(ev, StabilitySweep):
-                s.on_stability(ev)
-                self.updated_at = now
-            elif isinstance(ev, ReadingEntry):
-                if not any(e.stamp_ns == ev.stamp_ns and e.value == ev.value for e in s.readings.get(ev.key, [])):
-                    s.on_reading(ev)
+            out += self._apply(ev, now)
         out += self._new_warnings(now)
         out += [Reply("error", line, {"node": node}) for node, line in self.watch()]
         out += self._resume_replies()

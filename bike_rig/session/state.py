@@ -25,6 +25,7 @@ from ..core.period.advice import flag_advice
 from ..pipeline.acquire import SampleBatch, TrialEventKind, TrialEventRecord
 from ..pipeline.assemble import SessionParameters
 from ..pipeline.fit import TrialFit
+from ..pipeline.fit_details import FitDetails
 from ..pipeline.model import StabilitySweep
 from ..pipeline.readings import ReadingEntry
 from .live import LiveStatus, LiveTrace
@@ -68,6 +69,10 @@ def _cycles(fit: TrialFit, rate_hz: float) -> float:
 def result_line(view: SessionTrialView) -> str:
     """The trial's result in one line: period ± σ, cycles, r², then ok, or REDO with every flag's reason and advice.
 
+    What the fit found beyond the period follows, when there is something to say: the damping
+    model when not Eq 23's, the small-swing period, a period that moves along the record
+    (:meth:`~bike_rig.pipeline.fit_details.FitDetails.summary`).
+
     A flag reads ``code: reason → advice`` (:func:`~bike_rig.core.period.advice.flag_advice`,
     the advice ``bike-rig run`` prints too).
     """
@@ -81,13 +86,15 @@ def result_line(view: SessionTrialView) -> str:
         if fit.valid
         else "no period"
     )
+    details = FitDetails.of(fit).summary(fit.period) if fit.valid else ""
+    more = f"; {details}" if details else ""
     if fit.usable:
-        return f"{head} {numbers} — ok"
+        return f"{head} {numbers} — ok{more}"
     reasons = "; ".join(
         f"{c}: {r} → {flag_advice(c)}" for c, r in zip(fit.flag_codes, fit.flag_reasons, strict=True)
     )
     reasons = reasons or "no period"
-    return f"{head} {numbers} — REDO ({reasons})"
+    return f"{head} {numbers} — REDO ({reasons}){more}"
 
 
 @dataclass
@@ -111,6 +118,7 @@ class OperatorSession:
     results: list[str] = field(default_factory=list)
     resumed: tuple[str, ...] = ()
     _item_trial: dict[str, str] = field(default_factory=dict)
+    _details: dict[str, FitDetails] = field(default_factory=dict)  # arrived before their estimate
 
     # ------------------------------------------------------------------ feeding
     def resume(self, trial_ids: Sequence[str]) -> None:
@@ -184,13 +192,28 @@ class OperatorSession:
                 self._item_trial.setdefault(item_id, fit.trial_id)
         if math.isnan(view.sample_rate_hz) and math.isfinite(fit.sample_rate_hz):
             view.sample_rate_hz = fit.sample_rate_hz
-        view.fit = fit
+        details = self._details.pop(fit.trial_id, None)
+        view.fit = fit if details is None else details.apply(fit)
         view.state = ItemState.OK if fit.usable else ItemState.REDO
         if self.live is not None and self.live.trial_id == fit.trial_id:
             self.live = None  # its result proves it stopped (the STOP may arrive after: another topic)
         line = result_line(view)
         self.results.append(line)
         return line
+
+    def on_fit_details(self, details: FitDetails) -> str:
+        """What a trial's fit found beyond its period: joined to its estimate (before or after it).
+
+        Returns:
+            When its result line was already given: what it adds, as one line ("" when nothing).
+        """
+        view = self.trials.get(details.trial_id)
+        if view is None or view.fit is None:
+            self._details[details.trial_id] = details
+            return ""
+        view.fit = details.apply(view.fit)
+        summary = details.summary(view.fit.period) if view.fit.valid else ""
+        return f"{view.item_id or view.key} {view.trial_id}: {summary}" if summary else ""
 
     def on_reading(self, entry: ReadingEntry) -> None:
         """A reading entered (its newest entry wins; every entry is kept)."""

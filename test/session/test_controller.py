@@ -13,6 +13,7 @@ from bike_rig.paths import config_file
 from bike_rig.session.plain import run_plain
 from bike_rig.session.plan import ItemState, ReadingItem, TrialItem, plan_from_rig
 from bike_rig.session.setup import build_controller
+from bike_rig.session.state import result_line
 from test.session.fakelink import FakeLink, browser_truth
 
 
@@ -244,3 +245,37 @@ def test_a_resumed_session_starts_nothing_until_its_recorded_trials_are_back(ctl
     started = ctl.execute("start")
     assert started[0].kind == "ok" and started[0].data["item"] == items[0].item_id  # the redo first
     assert not any("resumed" in r.data for r in ctl.pump())  # announced once
+
+
+@pytest.mark.parametrize("details_first", [True, False])
+def test_the_fit_details_join_the_result_before_or_after_it(ctl_link, details_first: bool) -> None:  # type: ignore[no-untyped-def]
+    from bike_rig.pipeline.fit_details import FitDetails
+
+    ctl, link, _ = ctl_link
+    first = ctl.session.plan.trials[0]
+    ctl.execute("start")
+    trial_id = link.started[0][0]
+    details = FitDetails(
+        trial_id, damping_model="dry", friction=0.025, friction_sigma=4e-4, swing_kappa=-0.0017,
+        centre_period=1.2027, small_swing_period=1.19998, small_swing_period_sigma=2.7e-5,
+        window_periods=(1.2057, 1.2035, 1.2017, 1.2018), window_period_sigmas=(4e-4,) * 4,
+        notes=("the period along the record: ...: moves beyond its σ",),
+    )  # fmt: skip
+    if details_first:
+        link.events_out.append(details)
+    link.period(trial_id, first.key, 1.2, 1e-4)
+    if not details_first:
+        link.events_out.append(details)
+    replies = ctl.pump()
+    view = ctl.session.trials[trial_id]
+    assert view.fit is not None and view.fit.fit.damping_model == "dry" and ctl.session.state(first) == ItemState.OK
+    line = result_line(view)
+    assert line.split(" — ")[1].startswith("ok; damping dry, small-swing T₀ 1.19998 ± 2.7e-05 s")
+    assert "period moves 1.2057 → 1.2018 s (0.33 %)" in line
+    results = [r.text for r in replies if r.kind == "result"]
+    if details_first:  # the line the operator saw has them
+        assert results == [line]
+    else:  # the result line came first: what the details add follows as its own line
+        assert results == [line.split("; ")[0]]
+        info = [r.text for r in replies if r.kind == "info"]
+        assert info == [f"{first.item_id} {trial_id}: {line.split('; ', 1)[1]}"]

@@ -103,9 +103,8 @@ class FitOptions:
             amplitude (and above its noise) is flagged as beating.
         max_drift: A residual drift, peak to peak, above this fraction of the oscillation's
             peak to peak is flagged.
-        small_swing_period: When the period follows the swing (a compound pendulum's finite
-            swing, :mod:`~bike_rig.core.period.damping`), report the period of a vanishing
-            swing as ``period`` (else the period at the window centre's swing).
+        small_swing_period: When the period follows the swing (:mod:`.damping`), report that of
+            a vanishing swing as ``period`` (else the period at the window centre's swing).
     """
 
     window: WindowPolicy = DEFAULT_WINDOW
@@ -147,8 +146,7 @@ def fit_period(
         min_r2: Flag a fit with a lower r².
         max_modulation: Flag beating above this relative envelope/phase modulation.
         max_drift: Flag an offset drift above this fraction of the oscillation.
-        small_swing_period: Report the period of a vanishing swing when the period follows
-            the swing (:class:`FitOptions`).
+        small_swing_period: Report the period of a vanishing swing (:class:`FitOptions`).
 
     Returns:
         The fit. Bad data (empty, constant, noise, NaN, too short...) give ``valid=False`` and
@@ -619,7 +617,6 @@ class _Fitter:
                 *flags[len(self.flags) :],
                 Flag(FlagCode.NO_OSCILLATION, f"the period is not determined: {period:.4g} s ± {sigma:.2g} s"),
             )
-
         K_ref = K * cmath.exp(s * (first - blocks.center))  # Eq 23's B, C refer to the window's first sample
         fit = PeriodFit(
             period=period,
@@ -647,7 +644,5 @@ class _Fitter:
             notes=tuple(self.notes),
         )
         fit = with_stationarity(fit, deviation, cycle_amplitude, omega_d)
-        tau = self._tau_of(win, blocks)
-        return fit_damping(
-            fit, blocks, sol, (win.ys, tau), (self.units, (self.scale, self.offset)), modulation, self.options
-        )
+        units = (self.units, (self.scale, self.offset))
+        return fit_damping(fit, blocks, sol, (win.ys, self._tau_of(win, blocks)), units, modulation, self.options)

@@ -1,0 +1,97 @@
+"""What a trial's fit found beyond its period, as the fitter publishes it (``FitDetails``).
+
+The ``PeriodEstimate`` carries what the parameters need (the period, σ, flags); the fit also
+tells how the swing decays, whether the period follows the swing, and how it moves along the
+record (:mod:`bike_rig.core.period.damping`, :mod:`bike_rig.core.period.stationarity`). Those
+travel in a ``FitDetails`` message of their own, so that recordings made before them keep
+their ``PeriodEstimate`` definition; the console joins the two by trial id.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+from ..core.period import PeriodFit
+from .fit import TrialFit
+
+__all__ = ["FitDetails"]
+
+
+@dataclass(frozen=True)
+class FitDetails:
+    """A trial's fit beyond its period (:class:`~bike_rig.core.period.PeriodFit`'s fields of the same names).
+
+    Attributes:
+        trial_id: The trial.
+        stamp_ns: As its estimate's (rig time of the STOP), ns.
+        damping_model: ``viscous``, ``dry`` or ``combined``.
+        friction: The dry-friction decay rate, 1/s.
+        friction_sigma: Its σ, 1/s.
+        swing_kappa: The period's dependence on the swing (0: none).
+        centre_period: The period at the window centre's swing, s (NaN: no swing term).
+        small_swing_period: The period of a vanishing swing, s (NaN: no swing term).
+        small_swing_period_sigma: Its σ, s.
+        window_periods: The period along the record, s.
+        window_period_sigmas: Their σ, s.
+        notes: The fit's remarks.
+    """
+
+    trial_id: str
+    stamp_ns: int = 0
+    damping_model: str = "viscous"
+    friction: float = 0.0
+    friction_sigma: float = math.nan
+    swing_kappa: float = 0.0
+    centre_period: float = math.nan
+    small_swing_period: float = math.nan
+    small_swing_period_sigma: float = math.nan
+    window_periods: tuple[float, ...] = ()
+    window_period_sigmas: tuple[float, ...] = ()
+    notes: tuple[str, ...] = ()
+
+    @classmethod
+    def of(cls, trial: TrialFit) -> FitDetails:
+        """The details of a trial's fit."""
+        f = trial.fit
+        return cls(
+            trial.trial_id, trial.stamp_ns, f.damping_model, f.friction, f.friction_sigma, f.swing_kappa,
+            f.centre_period, f.small_swing_period, f.small_swing_period_sigma, f.window_periods,
+            f.window_period_sigmas, f.notes,
+        )  # fmt: skip
+
+    def apply(self, trial: TrialFit) -> TrialFit:
+        """``trial`` (e.g. read from its ``PeriodEstimate``) with these details in its fit."""
+        fit: PeriodFit = replace(
+            trial.fit,
+            damping_model=self.damping_model,
+            friction=self.friction,
+            friction_sigma=self.friction_sigma,
+            swing_kappa=self.swing_kappa,
+            centre_period=self.centre_period,
+            small_swing_period=self.small_swing_period,
+            small_swing_period_sigma=self.small_swing_period_sigma,
+            window_periods=self.window_periods,
+            window_period_sigmas=self.window_period_sigmas,
+            notes=self.notes,
+        )
+        return replace(trial, fit=fit)
+
+    def summary(self, period: float) -> str:
+        """What an operator should see, in a few words ("" when the fit is plain Eq 23 and steady).
+
+        Args:
+            period: The trial's reported period, s (to say how far the windows move).
+        """
+        parts = []
+        if self.damping_model != "viscous":
+            parts.append(f"damping {self.damping_model}")
+        if math.isfinite(self.small_swing_period):
+            parts.append(f"small-swing T₀ {self.small_swing_period:.6g} ± {self.small_swing_period_sigma:.2g} s")
+        moves = any("moves beyond its σ" in n for n in self.notes)
+        if moves and self.window_periods and math.isfinite(period) and period > 0:
+            spread = (max(self.window_periods) - min(self.window_periods)) / period
+            parts.append(
+                f"period moves {self.window_periods[0]:.5g} → {self.window_periods[-1]:.5g} s ({100 * spread:.2g} %)"
+            )
+        return ", ".join(parts)
