@@ -21,10 +21,11 @@ several) is noted on stderr. ``--json`` prints one JSON object per file (JSON Li
     {"file": .., "period": .., "period_sigma": .., "valid": true, "flags": [{"code": .., "reason": ..}],
      "r2": .., "zeta": .., "omega": .., "n_samples": .., "window": [start, stop],
      "damping_model": "viscous" | "dry" | "combined", "friction": .., "friction_sigma": ..,
-     "swing_kappa": .., "small_swing_period": .., "small_swing_period_sigma": ..}
+     "swing_amplitude": .., "swing_kappa": .., "small_swing_period": .., "small_swing_period_sigma": ..}
 
 (NaN as null; ``friction``: the envelope's linear fall per second relative to the amplitude at
-the window's centre, 1/s, 0 for viscous damping; ``small_swing_period``: the period of a
+the window's centre, 1/s, 0 for viscous damping; ``swing_amplitude``: the swing at the window's
+start, rad for samples in rad/s; ``small_swing_period``: the period of a
 vanishing swing, s, when the period follows the swing (κ < 0), else null; see
 :mod:`bike_rig.core.period.damping`).
 ``--plot DIR`` writes ``DIR/<trial name>.png``: the samples with the fit, and the residuals. A
@@ -205,6 +206,7 @@ def fit_json(file: str, fit: PeriodFit) -> dict[str, Any]:
         "damping_model": fit.damping_model,
         "friction": _number(fit.friction),
         "friction_sigma": _number(fit.friction_sigma),
+        "swing_amplitude": _number(fit.swing_amplitude),
         "swing_kappa": _number(fit.swing_kappa),
         "small_swing_period": _number(fit.small_swing_period),
         "small_swing_period_sigma": _number(fit.small_swing_period_sigma),

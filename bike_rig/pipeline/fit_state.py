@@ -12,7 +12,11 @@ first 12 bytes of the publisher's GUID, shared by all publishers of one driver p
 trial is the pair (source, trial id): batches and events of the same id from another process
 (a second driver, a rogue publisher on the domain) never enter, evict, cut short or duplicate
 it, and the limits on open trials and buffered samples hold per source, so junk from one
-process can only evict that process's own trials.
+process can only evict that process's own trials. A trial id belongs to the source whose START
+opened it first: another source's batches of that id are dropped as they come (counted, one
+warning per source and trial), and what another source sent of it before the START (the two
+topics are not ordered) is dropped, not published, when it would end without a START of its
+own: no estimate ever carries a real trial's id for another process's samples.
 """
 
 from __future__ import annotations
@@ -111,6 +115,11 @@ class FitterState:
         self.outside = 0
         #: When each source's last batch was received, monotonic s.
         self.last_batch_s: dict[str, float] = {}
+        #: The source whose START opened each trial id first.
+        self.opener: OrderedDict[str, str] = OrderedDict()
+        #: Batches dropped because another source had opened their trial id.
+        self.foreign_batches = 0
+        self._foreign_warned: set[_Key] = set()
 
     # ------------------------------------------------------------------ input
     def on_event(self, event: TrialEventRecord, source: str = "") -> list[TrialFit]:
@@ -129,6 +138,10 @@ class FitterState:
                     del self.done[key]
                 t = self.open[key] = _Open(tid, source, TrialAccumulator(self.options), now)
             t.start, t.seen_s = event, now
+            if tid not in self.opener:
+                self.opener[tid] = source
+                while len(self.opener) > _DONE_MEMORY:
+                    self.opener.popitem(last=False)
             return self._evict(out, source)
         # STOP or ABORT
         t = self.open.get(key)
@@ -161,6 +174,12 @@ class FitterState:
             return []
         key = (source, tid)
         self.last_batch_s[source] = now
+        if self.opener.get(tid, source) != source:
+            self.foreign_batches += 1
+            if key not in self._foreign_warned and len(self._foreign_warned) < _DONE_MEMORY:
+                self._foreign_warned.add(key)
+                self.log.warning(f"trial {tid}: batches from another process than the one that started it: dropped")
+            return []
         t = self.open.get(key)
         if t is None:
             if key in self.done:
@@ -238,6 +257,12 @@ class FitterState:
         self.done[(t.source, t.trial_id)] = t.stop.stamp_ns if t.stop is not None else None
         while len(self.done) > _DONE_MEMORY:
             self.done.popitem(last=False)
+        if t.start is None and self.opener.get(t.trial_id, t.source) != t.source:
+            self.log.warning(
+                f"trial {t.trial_id}: {t.acc.kept} samples and events from another process than the one that "
+                "started it: dropped, not published"
+            )
+            return None
         if (
             t.start is not None
             and not t.acc.has_first_sample

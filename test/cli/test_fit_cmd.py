@@ -23,7 +23,7 @@ from bike_rig.core.errors import BikeRigError
 from test.core.test_period_signals import coupled_trial, gyro_trial
 
 JSON_KEYS = {"file", "period", "period_sigma", "valid", "flags", "r2", "zeta", "omega", "n_samples", "window",
-             "damping_model", "friction", "friction_sigma", "swing_kappa", "small_swing_period",
+             "damping_model", "friction", "friction_sigma", "swing_amplitude", "swing_kappa", "small_swing_period",
              "small_swing_period_sigma"}  # fmt: skip
 
 
@@ -270,9 +270,7 @@ def _sim_named(tmp_path: Path, names_periods: Sequence[tuple[str, float]]) -> li
     return files
 
 
-def test_trials_of_different_measurements_are_not_combined(
-    capsys: pytest.CaptureFixture[str], tmp_path: Path
-) -> None:
+def test_trials_of_different_measurements_are_not_combined(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
     named = _sim_named(
         tmp_path,
         [("frame_torsional_o1_t1.npy", 1.3), ("frame_torsional_o1_t2.npy", 1.3), ("fork_compound_t1.npy", 1.9)],
@@ -312,7 +310,10 @@ def test_a_swinging_compound_pendulum_and_the_small_swing_period_option(
 ) -> None:
     from test.core.test_period_damping import pendulum_trial
 
-    samples, _ = pendulum_trial(2, loss_per_cycle=0.03, compound=True, swing=np.radians(15.0), rate_amplitude=0.5)
+    swing = np.radians(15.0)  # (the rate in rad/s of this swing: its amplitude is the swing's)
+    samples, _ = pendulum_trial(
+        2, loss_per_cycle=0.03, compound=True, swing=swing, rate_amplitude=swing * 2 * np.pi / 1.6
+    )
     path = tmp_path / "fork_compound_t1.npy"
     np.save(path, samples)
     code, out, _ = run(capsys, "fit", str(path), "--json", "--rate", "1000")
@@ -322,5 +323,8 @@ def test_a_swinging_compound_pendulum_and_the_small_swing_period_option(
     assert code == code2 == 0 and fitted["damping_model"] == "dry" and fitted["swing_kappa"] < 0
     assert small["period"] == small["small_swing_period"] == fitted["small_swing_period"]
     assert fitted["period"] > small["period"] and small["period"] == pytest.approx(1.6, abs=4 * small["period_sigma"])
+    # the swing at the window's start (1 s in): below the 15° release, and κ ≈ −θ²/16 of the centre's
+    assert np.radians(10.0) < fitted["swing_amplitude"] < np.radians(15.0)
+    assert 0.3 * fitted["swing_amplitude"] ** 2 / 16 < -fitted["swing_kappa"] < fitted["swing_amplitude"] ** 2 / 16
     code, table, _ = run(capsys, "fit", str(path), "--rate", "1000")
     assert "dry" in table and "the period follows the swing" in table and "the period along the record" in table

@@ -252,9 +252,29 @@ def test_a_rogue_process_never_evicts_cuts_or_duplicates_the_drivers_trials() ->
     assert len(real) == 1 and same(real[0].period, expected.period) and real[0].flag_codes == ()
     assert len([k for k in s.open if k[0] == rogue]) <= 5  # the rogue bounded by its own limit (+ its "t")
     clock.now = 10.0
+    # the rogue's batch of "t" came after the driver's START: dropped as it came; its STOP of
+    # "t" ends without a START of its own: dropped, never published under the driver's id
     junk = [r for r in out + s.poll() if r.trial_id == "t" and r is not real[0]]
-    assert len(junk) == 1 and not junk[0].usable  # the rogue's own "t": NaN and cut short, flagged
+    assert junk == [] and s.foreign_batches == 1
+    assert sum("another process than the one that started it" in m for m in log.lines) == 2
     assert ("driver-participant", "t2") not in s.done  # still the driver's, open until its STOP
+
+
+def test_another_process_batches_of_a_trial_before_its_start_are_never_published() -> None:
+    """The two topics are not ordered: a rogue's batches of the driver's next trial id may come first."""
+    rates = signal()
+    s, log, clock = state()
+    batches = batches_of(rates)
+    out = s.on_batch(SampleBatch("t", 0, 250.0, np.ones(50)), T0, "rogue")  # before any START of "t"
+    out += s.on_event(event(0), "driver")
+    for b in batches:
+        out += s.on_batch(b, T0 + round(b.first_index * 1e6), "driver")
+    out += s.on_event(event(1, count=N), "driver")
+    out += s.on_batch(SampleBatch("t", 50, 250.0, np.ones(50)), T0, "rogue")  # after: dropped at once
+    assert [(r.trial_id, r.n_samples, r.flag_codes) for r in out] == [("t", N, ())]
+    clock.now = 100.0
+    assert s.poll() == [] and ("rogue", "t") not in s.open and s.foreign_batches == 1
+    assert any("another process" in line and "dropped, not published" in line for line in log.lines)
 
 
 def test_a_stop_waits_while_its_sources_batches_still_arrive() -> None:

@@ -8,7 +8,9 @@ import time
 from pathlib import Path
 
 import numpy as np
+import yaml
 
+from bike_rig.bag.session import read_session
 from bike_rig.core.sim import load_rig, load_true_parameters, simulate_session
 from bike_rig.paths import config_file
 from bike_rig.pipeline.acquire import SampleBatch, TrialEventKind, TrialEventRecord
@@ -71,3 +73,67 @@ def test_junk_from_another_process_never_touches_the_drivers_trial(tmp_path: Pat
     fitter_log = (folder / "logs" / "fitter.log").read_text()
     evicted = [line for line in fitter_log.splitlines() if "fitted as it is" in line]
     assert not any(trial.name in line for line in evicted), evicted  # only the rogue's own junk, if any
+
+
+ROGUE_FLOOD = Path(__file__).with_name("rogue_flood.py")
+FLOOD_S = 12.0
+
+
+def test_a_flood_at_ten_times_the_rate_with_backward_stamps_and_wrong_rates(
+    tmp_path: Path, ros_env: dict[str, str]
+) -> None:
+    """A rogue sends 10× the driver's batches while a 12 s trial records in real time.
+
+    Its own trial, and the driver's trial id with indices and stamps going backwards at a wrong
+    rate: the driver's trial is fitted exactly, the recorder records every one of its batches,
+    the fitter drops the rest.
+    """
+    rig = yaml.safe_load(config_file("rig.yaml").read_text())
+    rig["trials"]["duration"] = FLOOD_S
+    rig.pop("coupled_swing", None)
+    rig_file = tmp_path / "rig.yaml"
+    rig_file.write_text(yaml.safe_dump(rig))
+    folder = tmp_path / "s"
+    argv = [str(BIKE_RIG), "session", "--plain", "--json", "--time-scale", "1", "--seed", str(SEED),
+            "--rig", str(rig_file), "--output", str(folder)]  # fmt: skip
+    s = Session(argv, ros_env)
+    name, truth = load_true_parameters(config_file("bicycles/browser.yaml"))
+    trial = simulate_session(truth, load_rig(rig_file), SEED, name).trials[0]
+    flood = subprocess.Popen([sys.executable, str(ROGUE_FLOOD), trial.name, str(FLOOD_S), "10"], stdin=subprocess.PIPE,
+                             stdout=subprocess.PIPE, text=True, env={**ros_env, "PYTHONPATH": str(REPO)})  # fmt: skip
+    try:
+        assert flood.stdin is not None and flood.stdout is not None
+        assert flood.stdout.readline().strip() == "MATCHED"
+        s.send("start TcR1#1")
+        started = s.until(lambda r: r.get("command") == "start")
+        assert started["kind"] == "ok" and started["trial_id"] == trial.name, started
+        flood.stdin.write("GO\n")
+        flood.stdin.flush()
+        result = s.until(lambda r: r["kind"] == "result" and r.get("trial_id") == trial.name, timeout_s=90)
+        done = flood.stdout.readline().split()
+        assert done[0] == "DONE" and int(done[1]) >= 0.8 * FLOOD_S * 200, done  # 10× the driver's 20 per second
+        s.send("quit")
+        s.proc.wait(60)
+    finally:
+        flood.kill()
+        flood.wait(10)
+        for stream in (flood.stdin, flood.stdout):
+            if stream is not None:
+                stream.close()
+        s.close()
+        kill_session(folder)
+    rate, n = float(trial.sample_rate), trial.rate.size
+    batches = [SampleBatch(trial.name, a, rate, np.asarray(trial.rate[a : a + 50])) for a in range(0, n, 50)]
+    start = TrialEventRecord(TrialEventKind.START, trial.name, "TcR1", sample_rate_hz=rate)
+    stop = TrialEventRecord(TrialEventKind.STOP, trial.name, "TcR1", sample_rate_hz=rate, sample_count=n)
+    expected = fit_trial(batches, start, stop)
+    assert result["state"] == "ok" and result["flags"] == [], result
+    assert result["period"] == expected.period and result["period_sigma"] == expected.period_sigma
+    # the recorder kept every batch of the driver's (and the rogue's too: it records what was said)
+    recorded = read_session(folder / "bag").trials[trial.name].batches
+    driver = {b.first_index for b in recorded if b.sample_rate_hz == rate}
+    assert driver == set(range(0, n, 50))
+    fitter_log = (folder / "logs" / "fitter.log").read_text()
+    assert f"trial {trial.name}: batches from another process than the one that started it: dropped" in fitter_log
+    assert "flood_e20: STOP without START" in fitter_log  # the rogue's own events: its own trials
+    assert len(fitter_log.splitlines()) < 0.2 * int(done[1])  # lines for the rogue's junk trials, not per batch

@@ -181,6 +181,16 @@ class PeriodFit:
     window_period_sigmas: tuple[float, ...] = ()
 
     @property
+    def swing_amplitude(self) -> float:
+        """The swing at the window's first sample, √(B² + C²)/ω_d [rad when the samples are rad/s].
+
+        A rate gyro's amplitude over the angular frequency: the pendulum's angle amplitude, for
+        a calibrated gyro (the rig's samples are rad/s; a trial file in volts gives V·s).
+        """
+        omega_d = self.omega * math.sqrt(max(0.0, 1.0 - self.zeta**2))
+        return math.hypot(self.B, self.C) / omega_d if omega_d > 0 else math.nan
+
+    @property
     def clean(self) -> bool:
         """Valid and without flags: usable in a combined period."""
         return self.valid and not self.flags
