@@ -11,7 +11,7 @@ one log line and exit status 2.
 Stopping: SIGINT and SIGTERM only set a flag (rclpy's own signal handlers are not installed, so
 the context stays valid); the spin loop ends, then the node's ``close()`` runs while it can
 still publish (the driver sends ABORT for a trial in progress there), then the node is
-destroyed.
+destroyed; a teardown still running :data:`TEARDOWN_S` later is cut short (``os._exit(0)``).
 """
 
 from __future__ import annotations
@@ -19,6 +19,7 @@ from __future__ import annotations
 import os
 import signal
 import sys
+import threading
 from collections.abc import Callable, Sequence
 from types import FrameType
 
@@ -33,6 +34,23 @@ from ..rosenv import ros_environment
 __all__ = ["EXIT_USER_ERROR", "run_node"]
 
 EXIT_USER_ERROR = 2
+
+
+#: Seconds the middleware's teardown (destroying the node, shutting rclpy down) may take after
+#: the node closed; a process still there then exits (status 0: everything was written).
+TEARDOWN_S = 10.0
+
+
+def _exit_if_stuck(seconds: float) -> None:
+    """End the process after ``seconds`` unless it has ended by then.
+
+    The node's own ``close()`` has run (a bag is closed, an ABORT sent): what is left is the
+    middleware's teardown, which Fast DDS has been seen to block in for more than 30 s on a
+    loaded machine, keeping a node alive after its launcher asked it to stop.
+    """
+    timer = threading.Timer(seconds, os._exit, args=(0,))
+    timer.daemon = True
+    timer.start()
 
 
 def _prepare_environment() -> None:
@@ -78,6 +96,7 @@ def run_node(factory: Callable[[], Node], args: Sequence[str] | None = None, nam
         closer = getattr(node, "close", None)
         if callable(closer):
             closer()
+        _exit_if_stuck(TEARDOWN_S)
         return 0
     except BikeRigError as exc:
         label = node.get_name() if node is not None else name

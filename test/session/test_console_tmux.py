@@ -13,6 +13,7 @@ import json
 import re
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -41,12 +42,33 @@ def _enter(tmux: TmuxSession, key: str, value: float, sigma: float, mistake: boo
         tmux.wait_for(rf"corrected {key} =")
 
 
+def _new_trial(tmux: TmuxSession, item_id: str, known: set[str], timeout_s: float = 30.0) -> str:
+    """The trial id of ``item_id``'s new recording (not one of ``known``).
+
+    From its start line, or, on a loaded machine when warnings have scrolled that away, from its
+    result line.
+    """
+    pattern = rf"recording {re.escape(item_id)} as (\S+) \(|{re.escape(item_id)} (\S+): (?:T = |no period)"
+    deadline = time.monotonic() + timeout_s
+    screen = ""
+    while time.monotonic() < deadline:
+        screen = tmux.screen()
+        fresh = [a or b for a, b in re.findall(pattern, flatten(screen)) if (a or b) not in known]
+        if fresh:
+            return fresh[-1]
+        time.sleep(0.05)
+    raise AssertionError(f"no new recording of {item_id} in {timeout_s} s; last screen:\n{screen}")
+
+
 def _record(tmux: TmuxSession, item_id: str) -> int:
     """Record ``item_id`` with F2 until its result is ok (a flagged trial is redone, as offered); the redos."""
+    # (trials of the item already on the screen, e.g. a REDO before: not this recording)
+    known = {a or b for a, b in re.findall(rf"recording {re.escape(item_id)} as (\S+) \(|{re.escape(item_id)} (\S+): "
+                                           r"(?:T = |no period)", flatten(tmux.screen()))}  # fmt: skip
     for attempt in range(3):
         tmux.keys("F2")
-        started = tmux.wait_for(rf"recording {re.escape(item_id)} as (\S+) \(", 30, flat=True)
-        trial = re.findall(rf"recording {re.escape(item_id)} as (\S+) \(", flatten(started))[-1]
+        trial = _new_trial(tmux, item_id, known)
+        known.add(trial)
         head = rf"{re.escape(item_id)} {re.escape(trial)}: "
         screen = tmux.wait_for(rf"{head}(T = [0-9.]+ ± \S+ s, \d+ cycles, r² [0-9.]+\s+— ok|.*REDO)", 60, flat=True)
         if re.search(rf"{head}T = [0-9.]+ ± \S+ s, \d+ cycles, r² [0-9.]+\s+— ok", flatten(screen)):
