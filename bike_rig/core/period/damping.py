@@ -97,7 +97,7 @@ _MAX_ITER = 40
 #: Converged when the weighted sum of squares falls by less than this fraction.
 _TOL = 1e-10
 #: Grid points of :func:`swing_integral`.
-_SWING_GRID = 1025
+_SWING_GRID = 513
 #: |α τ| below which φ and its derivative come from their series.
 _SERIES = 1e-4
 
@@ -172,7 +172,9 @@ def swing_integral(tau: FloatArray, alpha: float, gamma: float) -> FloatArray:
 
     A finite swing's frequency follows the swing's square: ω(τ) = ω (1 + κ (E(τ)² − 1)), so
     its phase is ω τ + ω κ I(τ). Integrated by the trapezoid rule on ``_SWING_GRID`` points
-    over the span of ``tau`` and 0 (an error below 1e-8 s for any envelope of a record).
+    over the span of ``tau`` and 0, interpolated linearly: for a 30 s record an error of a few
+    1e-5 s (1e-3 s where the swing stops inside the record), i.e. ω κ I below 1e-5 rad of
+    phase for any pendulum's κ, far below the phase noise.
 
     Args:
         tau: Times from the window centre, s.
@@ -184,7 +186,13 @@ def swing_integral(tau: FloatArray, alpha: float, gamma: float) -> FloatArray:
     if hi <= lo:
         return np.zeros_like(tau)
     grid = np.linspace(lo, hi, _SWING_GRID)
-    e, _, _ = envelope(grid, alpha, gamma)
+    x = alpha * grid
+    if abs(alpha) * max(-lo, hi) < _SERIES:
+        e = 1.0 - gamma * grid * (1.0 - 0.5 * x) - x * (1.0 - 0.5 * x)
+    else:
+        ex = np.exp(-x)
+        e = ex + (gamma / alpha) * (ex - 1.0)
+    np.maximum(e, 0.0, out=e)
     integrand = e * e - 1.0
     cumulative = np.concatenate(([0.0], np.cumsum(0.5 * (integrand[1:] + integrand[:-1]) * np.diff(grid))))
     return np.asarray(np.interp(tau, grid, cumulative) - np.interp(0.0, grid, cumulative), dtype=np.float64)

@@ -256,10 +256,9 @@ def steady_phase(deviation: ComplexArray) -> ComplexArray:
     n = deviation.size
     if n < 6:
         return deviation
-    x = np.linspace(-1.0, 1.0, n)
-    basis = np.polynomial.legendre.legvander(x, 2)
-    coef, *_ = np.linalg.lstsq(basis, deviation.imag, rcond=None)
-    return np.asarray(deviation.real + 1j * (deviation.imag - basis @ coef), dtype=np.complex128)
+    q = _cubic_basis(n)[:, :3]  # (orthonormal, nested: its first 3 columns span degree ≤ 2)
+    imag = deviation.imag - q @ (q.T @ deviation.imag)
+    return np.asarray(deviation.real + 1j * imag, dtype=np.complex128)
 
 
 def two_mode_flag(viscous: Modulation, model: Modulation, max_modulation: float) -> Flag | None:
