@@ -19,6 +19,7 @@ from ..bag.timeline import TIME_BASE
 from ..core.uncertainty.budget import CAPSIZE, PARAMETERS, WEAVE, OutputBudget, UncertaintyBudget, input_ranking
 from ..core.uncertainty.matrix_sigma import MATRIX_NAMES
 from ..core.uncertainty.speed_sigma import SpeedWithSigma
+from ..pipeline.fit_details import FitDetails
 from ..subjects import SessionTrial, Subject
 from ..textfmt import LABELS, TABLE2_ORDER
 from .figures import ReportFigure
@@ -372,6 +373,7 @@ def _trial_rows(trials: Sequence[SessionTrial]) -> list[list[str]]:
             t.note,
             _time_cell(t.start_s),
             _time_cell(t.stop_s),
+            FitDetails.of(t.result).summary(f.period) if f.valid else "",
         ]
         rows.append(row)
     return rows
@@ -386,7 +388,8 @@ def trials_section(subject: Subject) -> Raw:
             "are no trials to show.",
         }.get(subject.kind, "This input holds no trials.")
         return section("trials", "Trials", [_p(why, "note")])
-    head = ["trial", "key", "period [s]", "σ", "r²", "ζ", "cycles", "used", "flags", "note", "start [s]", "stop [s]"]
+    head = ["trial", "key", "period [s]", "σ", "r²", "ζ", "cycles", "used", "flags", "note", "start [s]", "stop [s]",
+            "beyond Eq 23"]  # fmt: skip
     rows = _trial_rows(subject.trials)
     classes = ["bad" if t.fit.flags else "" if t.used else "unused" for t in subject.trials]
     html_table = table(head, rows, "trials", "table-trials", f"Every trial ({_trial_counts(subject)})", classes)
@@ -395,7 +398,9 @@ def trials_section(subject: Subject) -> Raw:
         _p(
             "A flagged trial keeps its period but is left out of its period's combination and should be redone; "
             "r² and the cycle count describe the fit window; ζ is the damping ratio. Start and stop are on the "
-            f"timeline's clock ({TIME_BASE}).",
+            f"timeline's clock ({TIME_BASE}). The last column says what the fit found beyond Eq 23: a damping "
+            "model other than viscous, the small-swing period of a swing-dependent period, a period that moves "
+            "along the record.",
             "note",
         ),
     ]

@@ -34,6 +34,7 @@ from bike_rig.core.uncertainty.matrix_sigma import MATRIX_NAMES, canonical_with_
 from bike_rig.core.uncertainty.speed_sigma import critical_speeds_with_sigma
 from bike_rig.core.whipple import stable_speed_range
 from bike_rig.paths import config_file
+from bike_rig.pipeline.fit_details import FitDetails
 from bike_rig.report import REPORT_FILE, Report, ReportOutputError, build_report, write_report
 from bike_rig.report.figures import FigureSpec, draw_figures
 from bike_rig.subjects import Subject, load_subject
@@ -379,6 +380,7 @@ def test_bag_report_every_trial_with_fit_and_flags(bag_report: Built) -> None:
         assert row[7].text == ("yes" if t.used else "no")
         assert float(row[10].attrs["data-value"]) == t.start_s
         assert float(row[11].attrs["data-value"]) == t.stop_s
+        assert row[12].text == (FitDetails.of(t.result).summary(t.fit.period) if t.fit.valid else "")
     flagged = subject.trials[FLAGGED]
     assert page.flags == [("beating", f"beating: {FLAG_REASON}")]
     assert rows[flagged.trial_id][9].text == "left out: <flagged>"
