@@ -10,7 +10,7 @@ their ``PeriodEstimate`` definition; the console joins the two by trial id.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, fields, replace
 
 from ..core.period import PeriodFit
 from .fit import TrialFit
@@ -53,28 +53,11 @@ class FitDetails:
     @classmethod
     def of(cls, trial: TrialFit) -> FitDetails:
         """The details of a trial's fit."""
-        f = trial.fit
-        return cls(
-            trial.trial_id, trial.stamp_ns, f.damping_model, f.friction, f.friction_sigma, f.swing_kappa,
-            f.centre_period, f.small_swing_period, f.small_swing_period_sigma, f.window_periods,
-            f.window_period_sigmas, f.notes,
-        )  # fmt: skip
+        return cls(trial.trial_id, trial.stamp_ns, **{name: getattr(trial.fit, name) for name in _OF_THE_FIT})
 
     def apply(self, trial: TrialFit) -> TrialFit:
         """``trial`` (e.g. read from its ``PeriodEstimate``) with these details in its fit."""
-        fit: PeriodFit = replace(
-            trial.fit,
-            damping_model=self.damping_model,
-            friction=self.friction,
-            friction_sigma=self.friction_sigma,
-            swing_kappa=self.swing_kappa,
-            centre_period=self.centre_period,
-            small_swing_period=self.small_swing_period,
-            small_swing_period_sigma=self.small_swing_period_sigma,
-            window_periods=self.window_periods,
-            window_period_sigmas=self.window_period_sigmas,
-            notes=self.notes,
-        )
+        fit: PeriodFit = replace(trial.fit, **{name: getattr(self, name) for name in _OF_THE_FIT})
         return replace(trial, fit=fit)
 
     def summary(self, period: float) -> str:
@@ -95,3 +78,7 @@ class FitDetails:
                 f"period moves {self.window_periods[0]:.5g} → {self.window_periods[-1]:.5g} s ({100 * spread:.2g} %)"
             )
         return ", ".join(parts)
+
+
+#: The fields that are the fit's own (:class:`~bike_rig.core.period.PeriodFit`'s of the same names).
+_OF_THE_FIT = tuple(f.name for f in fields(FitDetails) if f.name not in ("trial_id", "stamp_ns"))

@@ -207,7 +207,6 @@ class EnvelopeFit:
         omega: Angular frequency of the oscillation ω, rad/s.
         alpha: Viscous decay rate α = ζω, 1/s (0 for ``dry``).
         gamma: Dry-friction decay rate γ, 1/s of the centre amplitude (0 for ``viscous``).
-        A: Offset, scaled units.
         P: Complex amplitude C − iB at the centre, scaled units.
         sigma_omega: σ of ω, rad/s (drift-robust sandwich, Student-t widened).
         sigma_alpha: σ of α, 1/s (NaN when not fitted).
@@ -222,9 +221,6 @@ class EnvelopeFit:
         dof: Effective degrees of freedom of the σ.
         white_fallback: Too few cycles for the sandwich: σ from the Hessian and Eq 26's
             residual variance.
-        offset_knots: The drift model's knots (:func:`offset_hats`), s from the window centre.
-        offsets: The offset at each knot (linear between them, held beyond), scaled units.
-        residual: Residual sums per block (counts × (mean − model)), scaled units.
         deviation: Per whole cycle, the residual's complex amplitude at ω relative to the
             fitted oscillation, in the scaled units (the beating statistic's input).
         amplitude: Per whole cycle, the fitted oscillation's amplitude, scaled units.
@@ -234,7 +230,6 @@ class EnvelopeFit:
     omega: float
     alpha: float
     gamma: float
-    A: float
     P: complex
     sigma_omega: float
     sigma_alpha: float
@@ -245,9 +240,6 @@ class EnvelopeFit:
     stop_ratio: float
     dof: float
     white_fallback: bool
-    offset_knots: FloatArray
-    offsets: FloatArray
-    residual: FloatArray
     deviation: ComplexArray
     amplitude: FloatArray
 
@@ -272,7 +264,7 @@ class EnvelopeFit:
         return TWO_PI / (self.omega * (1.0 - self.kappa))
 
 
-def offset_hats(tb: FloatArray, first: float, last: float, period: float) -> tuple[FloatArray, FloatArray]:
+def offset_hats(tb: FloatArray, first: float, last: float, period: float) -> FloatArray:
     """The drift model's basis: hat functions with knots every ``OFFSET_KNOT_CYCLES`` cycles.
 
     A piecewise linear offset with knots a whole number of cycles apart is orthogonal to a
@@ -281,13 +273,13 @@ def offset_hats(tb: FloatArray, first: float, last: float, period: float) -> tup
     The last knot is at the window's end (the last interval is between half and 1.5 spacings).
 
     Returns:
-        The knots [s] and the hats (knots × blocks; the columns sum to 1).
+        The hats (knots × blocks; the columns sum to 1).
     """
     spacing = OFFSET_KNOT_CYCLES * period
     knots: FloatArray = first + spacing * np.arange(max(1, int((last - first) / spacing + 0.5)) + 1, dtype=np.float64)
     knots[-1] = last
     eye = np.eye(knots.size)
-    return knots, np.stack([np.interp(tb, knots, row) for row in eye]).astype(np.float64)
+    return np.stack([np.interp(tb, knots, row) for row in eye]).astype(np.float64)
 
 
 class _Design:
@@ -301,7 +293,7 @@ class _Design:
         self.k_last = int(blocks.counts[-1])
         self.w = blocks.counts
         last = float(blocks.tb[-1]) + 0.5 * blocks.step * float(blocks.counts[-1])
-        self.knots, self.hats = offset_hats(blocks.tb, blocks.first, last, period)
+        self.hats = offset_hats(blocks.tb, blocks.first, last, period)
         self.n_offsets = self.hats.shape[0]
 
     def names(self) -> tuple[str, ...]:
@@ -470,7 +462,6 @@ def _statistics(design: _Design, x: dict[str, float], r: FloatArray, n_cycles: f
         omega=omega,
         alpha=x.get("alpha", 0.0),
         gamma=x.get("gamma", 0.0),
-        A=float(np.mean([x[f"D{j}"] for j in range(design.n_offsets)])),
         P=P,
         sigma_omega=sig["omega"],
         sigma_alpha=sig.get("alpha", math.nan),
@@ -481,9 +472,6 @@ def _statistics(design: _Design, x: dict[str, float], r: FloatArray, n_cycles: f
         stop_ratio=stop_ratio,
         dof=dof,
         white_fallback=fallback,
-        offset_knots=design.knots - blocks.center,
-        offsets=np.array([x[f"D{j}"] for j in range(design.n_offsets)]),
-        residual=rb,
         deviation=np.asarray(deviation, dtype=np.complex128),
         amplitude=np.asarray(amplitude, dtype=float),
     )

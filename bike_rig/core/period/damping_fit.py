@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import cmath
 import math
+from collections.abc import Callable
 from dataclasses import replace
 from typing import TYPE_CHECKING
 
@@ -154,7 +155,7 @@ def fit_damping(
     fit: PeriodFit,
     blocks: BlockDesign,
     viscous_fit: Solution,
-    samples: tuple[FloatArray, FloatArray],
+    samples: tuple[FloatArray, Callable[[], FloatArray]],
     units: tuple[tuple[float, float], tuple[float, float]],
     viscous: Modulation,
     options: FitOptions,
@@ -165,8 +166,8 @@ def fit_damping(
         fit: Eq 23's fit.
         blocks: The block means it was made on.
         viscous_fit: Its solution (scaled units).
-        samples: The window's samples (in the fit's sample units) and their times from the
-            window centre [s].
+        samples: The window's samples (in the fit's sample units), and what gives their times
+            from the window centre [s] (only asked for when another model is chosen).
         units: (scale, offset) from the scaled units to the samples' units, and to the
             caller's.
         viscous: Eq 23's beating statistics.
@@ -186,8 +187,8 @@ def fit_damping(
     env = choice.fit
     if env is None:
         return fit
-    y, tau = samples
-    chosen = apply_damping(fit, choice, env, y, tau, units[0], units[1], viscous, options)
+    y, tau_of = samples
+    chosen = apply_damping(fit, choice, env, y, tau_of(), units[0], units[1], viscous, options)
     if not chosen.residual_rms < fit.residual_rms:
         return replace(fit, notes=(*fit.notes, f"{choice.describe()}, but Eq 23 fits the samples as well"))
     return chosen

@@ -645,4 +645,5 @@ class _Fitter:
         )
         fit = with_stationarity(fit, deviation, cycle_amplitude, omega_d)
         units = (self.units, (self.scale, self.offset))
-        return fit_damping(fit, blocks, sol, (win.ys, self._tau_of(win, blocks)), units, modulation, self.options)
+        samples = (win.ys, lambda: self._tau_of(win, blocks))  # (the times only when another model is chosen)
+        return fit_damping(fit, blocks, sol, samples, units, modulation, self.options)
