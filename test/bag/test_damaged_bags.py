@@ -253,16 +253,25 @@ def test_a_files_entry_without_a_path_is_skipped(bag: Path) -> None:
     assert read_session(bag).message_count == 287
 
 
+def _deep_qos_bag(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    """A small bag whose channels' offered-QoS text nests 200,000 lists deep."""
+    monkeypatch.setattr("bike_rig.bag.writer._qos_yaml", lambda _profiles: "[" * 200_000 + "]" * 200_000)
+    return small_bag(tmp_path)
+
+
+def _bag_command(command: str, bag: Path) -> subprocess.CompletedProcess[str]:
+    """``bike-rig bag COMMAND BAG`` in a process of its own (a crash must not take the test down)."""
+    return subprocess.run(
+        [sys.executable, "-m", "bike_rig.cli.main", "bag", command, str(bag)],
+        cwd=REPO, capture_output=True, text=True, timeout=120, check=False,
+    )  # fmt: skip
+
+
 def test_channel_qos_text_nested_200000_deep_is_refused_without_a_crash(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """The composer of libyaml recursed on it until the process died (SIGSEGV): it is refused in one line."""
-    monkeypatch.setattr("bike_rig.bag.writer._qos_yaml", lambda _profiles: "[" * 200_000 + "]" * 200_000)
-    bag = small_bag(tmp_path)
-    done = subprocess.run(
-        [sys.executable, "-m", "bike_rig.cli.main", "bag", "info", str(bag)],
-        cwd=REPO, capture_output=True, text=True, timeout=120, check=False,
-    )  # fmt: skip
+    done = _bag_command("info", _deep_qos_bag(tmp_path, monkeypatch))
     lines = done.stderr.splitlines()
     assert done.returncode == 2, done.stderr[-500:]
     assert len(lines) == 1 and "offered QoS profiles: nested deeper than 64 levels" in lines[0], done.stderr
@@ -272,12 +281,7 @@ def test_bag_recover_drops_a_channel_qos_text_nested_200000_deep(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """The recovered bag keeps every message; the QoS text no parser may load is left out."""
-    monkeypatch.setattr("bike_rig.bag.writer._qos_yaml", lambda _profiles: "[" * 200_000 + "]" * 200_000)
-    bag = small_bag(tmp_path)
-    done = subprocess.run(
-        [sys.executable, "-m", "bike_rig.cli.main", "bag", "recover", str(bag)],
-        cwd=REPO, capture_output=True, text=True, timeout=120, check=False,
-    )  # fmt: skip
+    done = _bag_command("recover", _deep_qos_bag(tmp_path, monkeypatch))
     assert done.returncode == 0, done.stderr[-500:]
     assert "recovered 287 messages" in done.stdout
     assert read_session(tmp_path / "bag_recovered").message_count == 287

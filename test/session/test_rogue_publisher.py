@@ -12,16 +12,26 @@ import yaml
 
 from bike_rig.bag.session import read_session
 from bike_rig.core.sim import load_rig, load_true_parameters, simulate_session
+from bike_rig.core.sim.session import SimulatedTrial
 from bike_rig.paths import config_file
 from bike_rig.pipeline.acquire import SampleBatch, TrialEventKind, TrialEventRecord
-from bike_rig.pipeline.fit import fit_trial
+from bike_rig.pipeline.fit import TrialFit, fit_trial
 from test.session.test_session_faults import Session
-from test.support.sessions import kill_session
+from test.support.sessions import end_process, kill_session
 
 BIKE_RIG = Path(sys.executable).parent / "bike-rig"
 ROGUE = Path(__file__).with_name("rogue.py")
 REPO = Path(__file__).resolve().parents[2]
 SEED = 4
+
+
+def _alone(trial: SimulatedTrial) -> TrialFit:
+    """The simulated trial fitted from its own samples alone, in the driver's 50-sample batches."""
+    rate, n = float(trial.sample_rate), trial.rate.size
+    batches = [SampleBatch(trial.name, a, rate, np.asarray(trial.rate[a : a + 50])) for a in range(0, n, 50)]
+    start = TrialEventRecord(TrialEventKind.START, trial.name, trial.key, sample_rate_hz=rate)
+    stop = TrialEventRecord(TrialEventKind.STOP, trial.name, trial.key, sample_rate_hz=rate, sample_count=n)
+    return fit_trial(batches, start, stop)
 
 
 def test_junk_from_another_process_never_touches_the_drivers_trial(tmp_path: Path, ros_env: dict[str, str]) -> None:
@@ -48,23 +58,14 @@ def test_junk_from_another_process_never_touches_the_drivers_trial(tmp_path: Pat
         s.send("quit")
         s.proc.wait(60)
     finally:
-        rogue.kill()
-        rogue.wait(10)
-        for stream in (rogue.stdin, rogue.stdout):
-            if stream is not None:
-                stream.close()
+        end_process(rogue)
         s.close()
         kill_session(folder)
     # the driver's trial is fitted exactly as from the simulated rig's samples alone
     name, truth = load_true_parameters(config_file("bicycles/browser.yaml"))
     trial = simulate_session(truth, load_rig(config_file("rig.yaml")), SEED, name).trials[0]
     assert trial.key == "TcR1"
-    rate = float(trial.sample_rate)
-    n = trial.rate.size
-    batches = [SampleBatch(trial.name, a, rate, np.asarray(trial.rate[a : a + 50])) for a in range(0, n, 50)]
-    start = TrialEventRecord(TrialEventKind.START, trial.name, "TcR1", sample_rate_hz=rate)
-    stop = TrialEventRecord(TrialEventKind.STOP, trial.name, "TcR1", sample_rate_hz=rate, sample_count=n)
-    expected = fit_trial(batches, start, stop)
+    expected = _alone(trial)
     assert result["trial_id"] == trial.name and result["state"] == "ok" and result["flags"] == []
     assert result["period"] == expected.period and result["period_sigma"] == expected.period_sigma
     assert "TcR1" not in missing  # the absurd estimate blocked nothing
@@ -115,18 +116,11 @@ def test_a_flood_at_ten_times_the_rate_with_backward_stamps_and_wrong_rates(
         s.send("quit")
         s.proc.wait(60)
     finally:
-        flood.kill()
-        flood.wait(10)
-        for stream in (flood.stdin, flood.stdout):
-            if stream is not None:
-                stream.close()
+        end_process(flood)
         s.close()
         kill_session(folder)
     rate, n = float(trial.sample_rate), trial.rate.size
-    batches = [SampleBatch(trial.name, a, rate, np.asarray(trial.rate[a : a + 50])) for a in range(0, n, 50)]
-    start = TrialEventRecord(TrialEventKind.START, trial.name, "TcR1", sample_rate_hz=rate)
-    stop = TrialEventRecord(TrialEventKind.STOP, trial.name, "TcR1", sample_rate_hz=rate, sample_count=n)
-    expected = fit_trial(batches, start, stop)
+    expected = _alone(trial)
     assert result["state"] == "ok" and result["flags"] == [], result
     assert result["period"] == expected.period and result["period_sigma"] == expected.period_sigma
     # the recorder kept every batch of the driver's (and the rogue's too: it records what was said)

@@ -19,7 +19,7 @@ import time
 from pathlib import Path
 from typing import IO, Any
 
-from test.support.sessions import kill_session, session_pids
+from test.support.sessions import end_process, kill_session, session_pids
 
 BIKE_RIG = Path(sys.executable).parent / "bike-rig"
 ITEMS = ["TcR1#1", "TcR1#2", "TcR1#3", "TtR1#1", "TtR1#2", "TtR1#3"]
@@ -60,11 +60,7 @@ class Session:
         return self.until(lambda r: r["kind"] == "result" and r.get("trial_id") == started["trial_id"])
 
     def close(self) -> None:
-        self.proc.kill()
-        self.proc.wait(10)
-        for stream in (self.proc.stdin, self.proc.stdout):
-            if stream is not None:
-                stream.close()
+        end_process(self.proc)
 
 
 def test_killed_nodes_are_said_restarted_and_a_killed_driver_resumed(tmp_path: Path, ros_env: dict[str, str]) -> None:
