@@ -94,8 +94,10 @@ STOP_RATIO = 2.0
 OFFSET_KNOT_CYCLES = 2
 #: Gauss–Newton iterations at most.
 _MAX_ITER = 40
-#: Converged when the weighted sum of squares falls by less than this fraction.
+#: Converged when the weighted sum of squares falls by less than this fraction, or when no
+#: parameter moves by more than ``_STEP_SIGMA`` of its σ (white-residual σ from the Hessian).
 _TOL = 1e-10
+_STEP_SIGMA = 1e-3
 #: Grid points of :func:`swing_integral`.
 _SWING_GRID = 513
 #: |α τ| below which φ and its derivative come from their series.
@@ -369,41 +371,58 @@ def fit_envelope(
     for name, value in (guess or {}).items():
         if name in x:
             x[name] = value
+    x, r = _minimise(design, x)
+    return _statistics(design, x, r, n_cycles)
+
+
+def _minimise(design: _Design, x: dict[str, float]) -> tuple[dict[str, float], FloatArray]:
+    """Levenberg–Marquardt from ``x`` (Nielsen's damping update): the parameters and residuals.
+
+    Raises:
+        FitFailed: The Hessian is singular.
+    """
+    singular = f"the {design.model.value}-damping fit's Hessian is singular"
     names = design.names()
-    w = design.w
-    yb = blocks.yb
+    w, yb = design.w, design.blocks.yb
     f, jac, _, _ = design.evaluate(x)
     r = yb - f
     sse = float(np.dot(w * r, r))
-    lam = 1e-3
+    dof = max(1.0, float(np.sum(w)) - len(names))
+    lam, nu = 1e-3, 2.0
     for _ in range(_MAX_ITER):
         jw = jac * w
         h = jw @ jac.T
         g = jw @ r
         diag = np.diag(h).copy()
-        improved = False
+        try:
+            scale = np.sqrt(np.maximum(np.diag(np.linalg.inv(h)), 0.0) * (sse / dof))
+        except np.linalg.LinAlgError:
+            raise FitFailed(singular) from None
+        improved = done = False
         while lam < 1e12:
             try:
                 step = np.linalg.solve(h + lam * np.diag(diag), g)
             except np.linalg.LinAlgError:
-                raise FitFailed(f"the {model.value}-damping fit's Hessian is singular") from None
+                raise FitFailed(singular) from None
             trial = {name: x[name] + float(dx) for name, dx in zip(names, step, strict=True)}
             if not (trial["omega"] > 0 and abs(trial.get("kappa", 0.0)) < 0.5):
-                lam *= 10.0
+                lam, nu = lam * nu, 2.0 * nu
                 continue
             f2, jac2, _, _ = design.evaluate(trial)
             r2 = yb - f2
             sse2 = float(np.dot(w * r2, r2))
             if math.isfinite(sse2) and sse2 <= sse:
+                predicted = float(step @ (g + lam * diag * step))
+                rho = (sse - sse2) / predicted if predicted > 0 else 0.0
                 improved = True
-                done = sse - sse2 <= _TOL * sse
-                x, f, jac, r, sse = trial, f2, jac2, r2, sse2
-                lam = max(1e-9, lam / 10.0)
+                done = sse - sse2 <= _TOL * sse or bool(np.all(np.abs(step) <= _STEP_SIGMA * scale))
+                x, jac, r, sse = trial, jac2, r2, sse2
+                lam, nu = max(1e-9, lam * max(1.0 / 3.0, 1.0 - (2.0 * rho - 1.0) ** 3)), 2.0
                 break
-            lam *= 10.0
+            lam, nu = lam * nu, 2.0 * nu
         if not improved or done:
             break
-    return _statistics(design, x, r, n_cycles)
+    return x, r
 
 
 def _statistics(design: _Design, x: dict[str, float], r: FloatArray, n_cycles: float) -> EnvelopeFit:

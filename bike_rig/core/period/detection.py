@@ -24,7 +24,8 @@ noise — white, quantised, 1/f or a random walk:
   Fourier frequencies of the searched band: by the union bound the record's false-alarm
   probability is at most M times that. The floor is tried with K = 8, 16 and 32 bins (fewer
   bins are less inflated by a red slope, more are less noisy) and the best is kept, at the
-  price of a factor 3 (Bonferroni).
+  price of a factor 3 (Bonferroni); the first floor whose bound decides "found" ends the
+  search (the verdict is the same, and a record that stands out costs one floor).
 
 A record is called an oscillation when that bound is at most ``FALSE_ALARM``. For white noise
 and many cycles the peak must stand 42–47× above the floor (K = 32, 256–1024 frequencies:
@@ -167,7 +168,8 @@ def detect(
         even: The blocks are evenly spaced.
 
     Returns:
-        The detection; ``found`` says whether the record holds an oscillation.
+        The detection; ``found`` says whether the record holds an oscillation (a found one
+        carries the first floor that decided it, a miss the best of all floors).
     """
     frequency = omega_d / (2.0 * math.pi)
     data = periodogram(tb, yb, duration, even)
@@ -191,4 +193,6 @@ def detect(
         bound = min(1.0, searched * len(FLOOR_BINS) * per_bin)
         if best.floor_bins == 0 or bound < best.false_alarm:
             best = Detection(bound, ratio, frequency, int(bins.size), slope)
+        if best.found:
+            break  # (the smallest floor already decides; larger ones are only tried for a miss)
     return best

@@ -30,9 +30,8 @@ Stages
    (:mod:`~bike_rig.core.period.detection`), and swing by more than half an ADC step; else
    ``valid=False`` with ``no_oscillation``: a period means an oscillation was found.
 
-For a 30 s trial at 1 kHz this takes about 0.9 ms (``bench/bench_period.py``): a few passes
-over the samples (block sums, the residuals, boolean scans for the flags), everything else on
-a few hundred block means.
+A 30 s trial at 1 kHz takes about 1 ms (``bench/bench_period.py``): a few passes over the
+samples, everything else on a few hundred block means.
 
 σ of the period
 ---------------
@@ -499,11 +498,8 @@ class _Fitter:
 
     @staticmethod
     def _too_few(n_cycles: float, period: float) -> Flag:
-        return Flag(
-            FlagCode.TOO_FEW_CYCLES,
-            f"{n_cycles:.2f} cycles of {period:.4g} s in the window, at least {MIN_VALID_CYCLES:g} are needed: "
-            "record longer (or shorten the lead-in)",
-        )
+        why = f"{n_cycles:.2f} cycles of {period:.4g} s in the window, at least {MIN_VALID_CYCLES:g} are needed"
+        return Flag(FlagCode.TOO_FEW_CYCLES, f"{why}: record longer (or shorten the lead-in)")
 
     # ------------------------------------------------------------------ statistics and flags
     def _residuals(self, win: _Window, blocks: BlockDesign, sol: Solution) -> tuple[FloatArray, float, float]:
@@ -526,8 +522,8 @@ class _Fitter:
         sst = self._sst(y, float(np.dot(blocks.yb, blocks.counts)) / n)
         return r, sse, sst
 
-    def _detect(self, win: _Window, r: FloatArray, sol: Solution) -> None:
-        """An invalid result unless the fit found an oscillation.
+    def _detect(self, win: _Window, r: FloatArray, sol: Solution) -> tuple[float, float]:
+        """An invalid result unless the fit found an oscillation; else the residuals' (noise, quantum).
 
         It must stand out of the residuals' noise floor (:mod:`~bike_rig.core.period.detection`,
         on block means of the window's samples and residuals ``r``, as the initial guess) and
@@ -542,7 +538,7 @@ class _Fitter:
         found = detect(tb, sums / sizes, residual_sums / sizes, duration, sol.omega_d, win.even is not None)
         if not found.found:
             raise _Invalid(Flag(FlagCode.NO_OSCILLATION, f"no oscillation stands out of the noise: {found.describe()}"))
-        _, quantum = noise_and_quantum(win.ys, r)  # (in the units of the samples)
+        noise, quantum = noise_and_quantum(win.ys, r)  # (in the units of the samples)
         largest = abs(sol.K) * self.units[0] * math.exp(abs(sol.alpha) * 0.5 * duration)  # amplitude, window's ends
         if largest <= MIN_STEPS * quantum:
             factor, _ = self._sample_units()
@@ -554,11 +550,13 @@ class _Fitter:
                     "quantised drift, not an oscillation",
                 )
             )
+        return noise, quantum
 
     def _flags(
-        self, win: _Window, r: FloatArray, n_cycles: float, r2: float, beating: Flag | None, drift: float
-    ) -> list[Flag]:
-        """The flags gathered so far and the fit's own quality flags."""
+        self, win: _Window, r: FloatArray, n_cycles: float, r2: float, beating: Flag | None, drift: float,
+        noise_quantum: tuple[float, float],
+    ) -> list[Flag]:  # fmt: skip
+        """The flags gathered so far and the fit's own quality flags (noise, quantum: the residuals')."""
         y = win.ys
         new: list[Flag | None] = []
         if n_cycles < self.options.min_cycles - CYCLE_TOLERANCE:
@@ -572,7 +570,7 @@ class _Fitter:
             new.append(
                 Flag(FlagCode.POOR_FIT, f"r² = {r2:.3f} < {self.options.min_r2:g}: Eq 23 does not describe the record")
             )
-        noise, quantum = noise_and_quantum(y, r)  # (in the units of y)
+        noise, quantum = noise_quantum  # (in the units of y)
         new += [
             beating,
             clipping_flag(y, r, noise, quantum, self.extremes, self._sample_units()),
@@ -590,7 +588,7 @@ class _Fitter:
         if n_cycles < MIN_VALID_CYCLES - CYCLE_TOLERANCE:
             raise _Invalid(self._too_few(n_cycles, TWO_PI / omega_d))
         r, sse, sst = self._residuals(win, blocks, sol)
-        self._detect(win, r, sol)
+        noise_quantum = self._detect(win, r, sol)
         r2 = 1.0 - sse / sst if sst > 0 else math.nan
         s2 = sse / max(1, n - 5)  # Eq 26
         try:
@@ -610,7 +608,8 @@ class _Fitter:
         modulation = modulation_index(deviation, cycle_amplitude)
         steady = modulation_index(steady_phase(deviation), cycle_amplitude)
         drift = float(np.ptp(score[0] / per_cycle)) / (2.0 * abs(K)) if abs(K) > 0 else math.nan
-        flags = self._flags(win, r, n_cycles, r2, two_mode_flag(modulation, steady, self.options.max_modulation), drift)
+        beating = two_mode_flag(modulation, steady, self.options.max_modulation)
+        flags = self._flags(win, r, n_cycles, r2, beating, drift, noise_quantum)
         sigma = stats.sigma
         if not sigma < MAX_RELATIVE_SIGMA * period:
             raise _Invalid(
