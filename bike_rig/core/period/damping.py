@@ -56,12 +56,14 @@ from __future__ import annotations
 
 import cmath
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from enum import Enum
 
 import numpy as np
 from numpy.typing import NDArray
 
+from .lm import SingularError, minimise
 from .oscillation import TWO_PI, block_phasors
 from .sigma import BlockDesign, cycle_starts, sandwich, student_factor
 from .solver import FitFailed, Solution
@@ -376,53 +378,29 @@ def fit_envelope(
 
 
 def _minimise(design: _Design, x: dict[str, float]) -> tuple[dict[str, float], FloatArray]:
-    """Levenberg–Marquardt from ``x`` (Nielsen's damping update): the parameters and residuals.
+    """Levenberg–Marquardt (:mod:`.lm`) from ``x``: the parameters and the block residuals.
 
     Raises:
         FitFailed: The Hessian is singular.
     """
-    singular = f"the {design.model.value}-damping fit's Hessian is singular"
     names = design.names()
-    w, yb = design.w, design.blocks.yb
-    f, jac, _, _ = design.evaluate(x)
-    r = yb - f
-    sse = float(np.dot(w * r, r))
-    dof = max(1.0, float(np.sum(w)) - len(names))
-    lam, nu = 1e-3, 2.0
-    for _ in range(_MAX_ITER):
-        jw = jac * w
-        h = jw @ jac.T
-        g = jw @ r
-        diag = np.diag(h).copy()
-        try:
-            scale = np.sqrt(np.maximum(np.diag(np.linalg.inv(h)), 0.0) * (sse / dof))
-        except np.linalg.LinAlgError:
-            raise FitFailed(singular) from None
-        improved = done = False
-        while lam < 1e12:
-            try:
-                step = np.linalg.solve(h + lam * np.diag(diag), g)
-            except np.linalg.LinAlgError:
-                raise FitFailed(singular) from None
-            trial = {name: x[name] + float(dx) for name, dx in zip(names, step, strict=True)}
-            if not (trial["omega"] > 0 and abs(trial.get("kappa", 0.0)) < 0.5):
-                lam, nu = lam * nu, 2.0 * nu
-                continue
-            f2, jac2, _, _ = design.evaluate(trial)
-            r2 = yb - f2
-            sse2 = float(np.dot(w * r2, r2))
-            if math.isfinite(sse2) and sse2 <= sse:
-                predicted = float(step @ (g + lam * diag * step))
-                rho = (sse - sse2) / predicted if predicted > 0 else 0.0
-                improved = True
-                done = sse - sse2 <= _TOL * sse or bool(np.all(np.abs(step) <= _STEP_SIGMA * scale))
-                x, jac, r, sse = trial, jac2, r2, sse2
-                lam, nu = max(1e-9, lam * max(1.0 / 3.0, 1.0 - (2.0 * rho - 1.0) ** 3)), 2.0
-                break
-            lam, nu = lam * nu, 2.0 * nu
-        if not improved or done:
-            break
-    return x, r
+    root_w = np.sqrt(design.w)
+    yb = design.blocks.yb
+    omega, kappa = names.index("omega"), names.index("kappa") if design.swing else None
+
+    def model(v: FloatArray) -> tuple[FloatArray, Callable[[], FloatArray]]:
+        f, jac, _, _ = design.evaluate(dict(zip(names, v.tolist(), strict=True)))
+        return root_w * (yb - f), lambda: -(jac * root_w)
+
+    def feasible(v: FloatArray) -> bool:
+        return bool(v[omega] > 0 and (kappa is None or abs(v[kappa]) < 0.5))
+
+    try:
+        found = minimise(model, np.array([x[n] for n in names]), rel_tol=_TOL, step_sigma=_STEP_SIGMA,
+                         max_iter=_MAX_ITER, feasible=feasible)  # fmt: skip
+    except SingularError:
+        raise FitFailed(f"the {design.model.value}-damping fit's Hessian is singular") from None
+    return dict(zip(names, found.x.tolist(), strict=True)), found.r / root_w
 
 
 def _statistics(design: _Design, x: dict[str, float], r: FloatArray, n_cycles: float) -> EnvelopeFit:

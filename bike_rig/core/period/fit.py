@@ -17,9 +17,8 @@ Stages
    of Eq 23 to the samples, restricted to the block averages (it gives up the signal inside the
    blocks, ~1 % of the oscillation's information) at a small fraction of the cost. For fixed
    (ζω, ω sqrt(1 − ζ²)) Eq 23 is linear in A, B, C, which are solved for; Levenberg–Marquardt
-   (``scipy.optimize.leastsq``, MINPACK) fits the two nonlinear parameters with the analytic
-   (Kaufman) Jacobian of the projected residual; it stops when the sum of squares falls by
-   less than 1e-4 of itself, by then the period is within 0.02 σ of the optimum.
+   (:mod:`~bike_rig.core.period.lm`) fits the two nonlinear parameters with the analytic
+   (Kaufman) Jacobian of the projected residual, until neither moves by 1e-3 of its σ.
 5. **Uneven timestamps** (``times`` with jitter or gaps, or samples left out): the block means
    are then only nearly exact, and Gauss–Newton steps on every sample, with the analytic
    Jacobian of all five parameters, finish the fit.

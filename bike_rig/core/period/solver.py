@@ -2,9 +2,8 @@
 
 * :func:`varpro` fits the block means (stage 4 of :mod:`~bike_rig.core.period.fit`). For fixed
   (ζω, ω sqrt(1 − ζ²)) Eq 23 is linear in A, B, C, which are solved for; Levenberg–Marquardt
-  (``scipy.optimize.leastsq``, MINPACK) fits the two nonlinear parameters with the analytic
-  (Kaufman) Jacobian of the projected residual; it stops when the sum of squares falls by less
-  than 1e-4 of itself, by then the period is within 0.02 σ of the optimum.
+  (:mod:`~bike_rig.core.period.lm`) fits the two nonlinear parameters with the analytic
+  (Kaufman) Jacobian of the projected residual, until neither moves by 1e-3 of its σ.
 * :func:`gauss_newton` finishes the fit on every sample when the timestamps are uneven (stage 5),
   with the analytic Jacobian of all five parameters.
 
@@ -15,12 +14,13 @@ raise :class:`FitFailed` when the fit does not converge to an oscillation.
 from __future__ import annotations
 
 import math
-import warnings
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
+from .lm import Stop, minimise
 from .oscillation import block_phasors
 
 __all__ = ["FitFailed", "Solution", "gauss_newton", "inverse3", "varpro"]
@@ -28,13 +28,10 @@ __all__ = ["FitFailed", "Solution", "gauss_newton", "inverse3", "varpro"]
 FloatArray = NDArray[np.float64]
 ComplexArray = NDArray[np.complex128]
 
-#: Why MINPACK's Levenberg–Marquardt stopped without converging.
-_LEASTSQ_STOPS = {
-    5: "too many function evaluations",
-    6: "no further reduction of the sum of squares possible",
-    7: "no further improvement of the parameters possible",
-    8: "the residuals are orthogonal to the Jacobian",
-}
+#: The variable-projection fit stops when Σ r² falls by less than this fraction of itself, or
+#: when neither nonlinear parameter moves by more than ``_STEP_SIGMA`` of its σ (:mod:`.lm`).
+_REL_TOL = 1e-4
+_STEP_SIGMA = 1e-3
 
 
 class FitFailed(Exception):
@@ -170,35 +167,31 @@ def varpro(
     Raises:
         FitFailed: The fit failed or did not converge to an oscillation.
     """
-    from scipy.optimize import leastsq  # here: importing scipy.optimize takes ~0.3 s
-
     problem = _Projection(tau, yb, counts, step, even)
+
+    def model(x: FloatArray) -> tuple[FloatArray, Callable[[], FloatArray]]:
+        return problem.residual(x), lambda: problem.jacobian(x)
+
     try:
-        with warnings.catch_warnings():  # a fit that stops short is reported below, not warned about
-            warnings.simplefilter("ignore", RuntimeWarning)
-            x, status = leastsq(
-                problem.residual,
-                np.array([0.0, omega0]),
-                Dfun=problem.jacobian,
-                col_deriv=True,
-                xtol=1e-10,
-                ftol=1e-4,
-            )
+        with np.errstate(all="ignore"):  # a fit that runs away is reported below
+            found = minimise(model, np.array([0.0, omega0]), rel_tol=_REL_TOL, step_sigma=_STEP_SIGMA)
+        x = found.x
         coef = np.array(problem.solve(x)[2])
-    except (ValueError, TypeError, np.linalg.LinAlgError) as exc:
+    except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
         raise FitFailed(f"the least-squares fit failed ({exc})") from None
     alpha, omega_d = float(x[0]), float(x[1])
     K = complex(coef[2], -coef[1])
     if omega_d < 0:  # the same curve, with the sine's sign flipped
         omega_d, K = -omega_d, K.conjugate()
     if not (
-        status in (1, 2, 3, 4)
+        found.stop is not Stop.ITERATIONS
         and math.isfinite(alpha)
         and omega_d > 0
         and abs(alpha) * duration < 30.0
         and np.all(np.isfinite(coef))
     ):
-        why = _LEASTSQ_STOPS.get(int(status), f"MINPACK status {status}")
+        why = f"ζω = {alpha:.3g} 1/s, ω_d = {omega_d:.3g} rad/s"
+        why = "too many iterations" if found.stop is Stop.ITERATIONS else why
         raise FitFailed(f"the fit did not converge to an oscillation ({why})")
     return Solution(alpha, omega_d, float(coef[0]), K)
 
