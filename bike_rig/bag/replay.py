@@ -30,6 +30,7 @@ import json
 import math
 from collections import Counter
 from dataclasses import dataclass, field
+from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
@@ -89,7 +90,7 @@ class FitOverrides:
     def active(self) -> bool:
         """Whether anything is overridden."""
         return self.use_defaults or any(
-            v is not None for k, v in dataclasses.asdict(self).items() if k != "use_defaults"
+            getattr(self, f.name) is not None for f in dataclasses.fields(self) if f.name != "use_defaults"
         )
 
     def apply(self, options: TrialFitOptions) -> TrialFitOptions:
@@ -182,9 +183,15 @@ class ReplayResult:
 # ---------------------------------------------------------------- trials
 
 
+@lru_cache(maxsize=64)
+def _parsed_options(text: str) -> TrialFitOptions:
+    """The (frozen) options a ``fit_options_json`` text names: a session's trials share a few texts."""
+    return TrialFitOptions.from_json(text)
+
+
 def _options(text: str, where: str, bag: str) -> TrialFitOptions:
     try:
-        return TrialFitOptions.from_json(text)
+        return _parsed_options(text)
     except (ValueError, TypeError, KeyError, AttributeError) as exc:
         raise ReplayError(bag, f"{where}: fit_options_json is not the fitter's options ({exc})") from None
 

@@ -109,19 +109,20 @@ def windowed_periods(
     phase = deviation.imag / amplitude  # rad
     var = np.maximum(0.5 * noise2 / amplitude**2, np.finfo(float).tiny)  # rad²
     t = (np.arange(n) + 0.5) * (TWO_PI / omega)  # cycle centres [s]
-    periods, sigmas = [], []
-    for part in np.array_split(np.arange(n), windows):
-        w = 1.0 / var[part]
-        tc = t[part] - float(np.dot(w, t[part])) / float(np.sum(w))
-        sxx = float(np.dot(w * tc, tc))
-        slope = float(np.dot(w * tc, phase[part])) / sxx
-        omega_w = omega + slope
-        periods.append(TWO_PI / omega_w)
-        sigmas.append(TWO_PI / omega_w**2 / math.sqrt(sxx))
-    p, s = np.array(periods), np.array(sigmas)
+    # each window's weighted least-squares slope of the phase against time (all windows at once)
+    size, extra = divmod(n, windows)
+    starts = np.arange(windows) * size + np.minimum(np.arange(windows), extra)  # (np.array_split's)
+    w = 1.0 / var
+    sw = np.add.reduceat(w, starts)
+    tm = np.add.reduceat(w * t, starts) / sw  # weighted mean time per window
+    tc = t - np.repeat(tm, np.diff(np.append(starts, n)))
+    sxx = np.add.reduceat(w * tc * tc, starts)
+    omega_w = omega + np.add.reduceat(w * tc * phase, starts) / sxx
+    p = TWO_PI / omega_w
+    s = TWO_PI / omega_w**2 / np.sqrt(sxx)
     mean = float(np.sum(p / s**2) / np.sum(1.0 / s**2))
     chi2 = float(np.sum(((p - mean) / s) ** 2))
-    return Stationarity(tuple(periods), tuple(sigmas), chi2)
+    return Stationarity(tuple(p.tolist()), tuple(s.tolist()), chi2)
 
 
 def with_stationarity(
