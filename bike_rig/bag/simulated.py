@@ -125,6 +125,7 @@ def write_simulated_bag(
     session: SimulatedSession,
     extra: Iterable[SimulatedMessage] = (),
     compression: Compression | str = Compression.ZSTD,
+    chunk_size: int = 1 << 20,
     **options: Any,
 ) -> Path:
     """Write a simulated session as a bag (every rig topic, with its contract QoS).
@@ -134,6 +135,7 @@ def write_simulated_bag(
         session: The session.
         extra: More messages (e.g. live results computed from it), merged in by log time.
         compression: Chunk compression.
+        chunk_size: Largest chunk, bytes (uncompressed).
         options: Passed to :func:`simulated_messages`.
 
     Returns:
@@ -141,7 +143,7 @@ def write_simulated_bag(
     """
     store = rig_typestore()
     messages = sorted([*simulated_messages(session, **options), *extra], key=lambda m: m.log_time)
-    with BagWriter(path, compression=compression, flush_period_s=3600.0) as w:
+    with BagWriter(path, compression=compression, flush_period_s=3600.0, chunk_size=chunk_size) as w:
         for t in topics.TOPICS:
             w.add_topic(t.name, t.type, offered_qos=[contract_qos(t.qos)])
         types = {t.name: t.type for t in topics.TOPICS}

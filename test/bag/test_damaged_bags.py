@@ -134,6 +134,26 @@ def _summary_start(data: bytearray) -> int:
     return int(struct.unpack_from("<Q", data, len(data) - 37 + 9)[0])
 
 
+def test_of_several_corrupt_chunks_the_first_is_named(tmp_path: Path) -> None:
+    """Chunks unpack on every core; the error still names the first corrupt one in the file."""
+    name, truth = load_true_parameters(config_file("bicycles/browser.yaml"))
+    session = simulate_session(truth, load_rig(small_rig(tmp_path, duration_s=1.0)), 3, name)
+    bag = write_simulated_bag(tmp_path / "bag", session, chunk_size=4096)
+    assert read_session(bag).trials  # (it reads, undamaged)
+    chunks = read_storage(bag / "bag_0.mcap").chunks
+    assert len(chunks) >= 6
+
+    def corrupt(data: bytearray) -> None:
+        for chunk in (chunks[2], chunks[5]):
+            at = chunk.offset + 9 + 8 + 8 + 8 + 4  # opcode, length, start, end, uncompressed size, crc
+            at += 4 + struct.unpack_from("<I", data, at)[0] + 8  # compression name, compressed size
+            for i in range(at + 20, at + 60):
+                data[i] ^= 0x55
+
+    _edit_mcap(bag, corrupt)
+    _refused(bag, f"bag_0.mcap: chunk at byte {chunks[2].offset} is corrupt", "decompress")
+
+
 @pytest.mark.parametrize("length", [2**63, 2**64 - 1, 10**10])
 def test_an_impossible_summary_record_length_is_refused(bag: Path, length: int) -> None:
     def lengthen(data: bytearray) -> None:
