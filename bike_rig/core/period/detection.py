@@ -44,7 +44,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from .spectrum import Periodogram, periodogram
+from .spectrum import Periodogram, periodograms
 
 __all__ = ["FALSE_ALARM", "FLOOR_BINS", "Detection", "detect", "false_alarm_of_bin"]
 
@@ -172,10 +172,10 @@ def detect(
         carries the first floor that decided it, a miss the best of all floors).
     """
     frequency = omega_d / (2.0 * math.pi)
-    data = periodogram(tb, yb, duration, even)
-    residual = periodogram(tb, rb, duration, even)
-    if data is None or residual is None or not frequency > 0:
+    both = periodograms(tb, np.stack((yb, rb)), duration, even)
+    if both is None or not frequency > 0:
         return Detection(1.0, math.nan, frequency, 0, math.nan)
+    data, residual = both
     at = frequency / data.df  # the fitted frequency, in padded bins
     reach = math.ceil(data.pad)
     centre = int(round(at))

@@ -23,6 +23,7 @@ __all__ = [
     "block_times",
     "peak_of_blocks",
     "periodogram",
+    "periodograms",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -122,6 +123,14 @@ def periodogram(
         The periodogram, or None when the series is too short (fewer than 8 points, or no
         bin between ``min_cycles`` per record and a quarter of the block rate).
     """
+    found = periodograms(tb, yb[np.newaxis], duration, even, min_cycles)
+    return None if found is None else found[0]
+
+
+def periodograms(
+    tb: FloatArray, yb: FloatArray, duration: float, even: bool = False, min_cycles: float = 1.0
+) -> list[Periodogram] | None:
+    """:func:`periodogram` of each row of ``yb`` (series × blocks) at the same times, in one FFT."""
     m = tb.size
     if m < 8 or not duration > 0:
         return None
@@ -130,21 +139,21 @@ def periodogram(
     if not even:
         grid = tb[0] + step * np.arange(m)
         if not np.allclose(tb, grid, rtol=0.0, atol=0.01 * step):
-            yb = np.interp(grid, tb, yb)
+            yb = np.stack([np.interp(grid, tb, row) for row in yb])
     x, xx = _ramp(m)
-    detrended = yb - float(np.mean(yb))
-    detrended -= x * (float(np.dot(x, yb)) / xx)
+    detrended = yb - np.mean(yb, axis=1, keepdims=True)
+    detrended -= np.outer(np.einsum("ij,j->i", yb, x) / xx, x)
     detrended *= _hann(m)
     nfft = 1 << (int(m - 1).bit_length() + 1)
-    spectrum = np.fft.rfft(detrended, nfft)
+    spectrum = np.fft.rfft(detrended, nfft, axis=1)
     power = spectrum.real**2
     power += spectrum.imag**2
     df = 1.0 / (nfft * step)
     lo = max(1, math.ceil(min_cycles / (duration * df)))
-    hi = min(power.size - 2, int(0.25 / (step * df)))
+    hi = min(power.shape[1] - 2, int(0.25 / (step * df)))
     if hi <= lo:
         return None
-    return Periodogram(power, nfft, m, df, lo, hi)
+    return [Periodogram(row, nfft, m, df, lo, hi) for row in power]
 
 
 def peak_of_blocks(
