@@ -20,7 +20,7 @@ import yaml
 
 from .benchmark import PARAMETER_NAMES, ParameterSet, parameters_from_values
 from .errors import InputFileError, MeasurementError, one_line
-from .measurements import REQUIRED_KEYS, Measurements, Origin, Reading, check_value_sigma
+from .measurements import KNOWN_KEYS, Measurements, Origin, Reading, check_value_sigma
 
 __all__ = [
     "TextEntry",
@@ -137,7 +137,7 @@ def read_bp_measured(path: str | Path) -> Measurements:
     readings: dict[str, Reading] = {}
     extras: dict[str, object] = {}
     for key, e in entries.items():
-        if key in REQUIRED_KEYS or _NUMBER_KEYS.match(key):
+        if key in KNOWN_KEYS or _NUMBER_KEYS.match(key):
             v, s = _value_sigma(p, key, e)
             readings[key] = Reading(v, s, Origin(p, key, e.line))
         else:
