@@ -112,10 +112,13 @@ def _speeds(spec: Sequence[str] | None) -> np.ndarray:
 
 def _params_json(ps: ParameterSet) -> dict[str, Any]:
     pv = ps.parameters
-    return {
+    out: dict[str, Any] = {
         "bicycle": ps.bicycle,
         "parameters": {k: {"value": pv.value(k), "sigma": pv.sigma(k)} for k in pv.names},
     }
+    if ps.parts is not None:
+        out["parts"] = {k: {"value": ps.parts.value(k), "sigma": ps.parts.sigma(k)} for k in ps.parts.names}
+    return out
 
 
 def cmd_params(args: argparse.Namespace) -> int:

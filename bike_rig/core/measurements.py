@@ -63,6 +63,7 @@ __all__ = [
     "geometry_from_surface_plate",
     "hung_parts",
     "is_period_key",
+    "missing_reason",
     "required_keys",
     "Measurements",
     "Origin",
@@ -245,7 +246,7 @@ def required_keys(readings: Mapping[str, object]) -> tuple[str, ...]:
     return COMMON_KEYS + geometry + front
 
 
-def _missing_reason(key: str, readings: Mapping[str, object]) -> str:
+def missing_reason(key: str) -> str:
     """Why ``key`` is needed, naming the other way of measuring where there is one."""
     if key in DIRECT_GEOMETRY_KEYS:
         return (
@@ -270,7 +271,7 @@ def validate(m: Measurements) -> None:
     """
     for key in required_keys(m.readings):
         if key not in m.readings:
-            raise MeasurementError(m.path, _missing_reason(key, m.readings), key=key)
+            raise MeasurementError(m.path, missing_reason(key), key=key)
     for key, r in m.readings.items():
         check_reading(key, r)
     parts = hung_parts(m.readings)
