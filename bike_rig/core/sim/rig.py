@@ -226,6 +226,9 @@ class ReadingSigma:
         string_distance: m.
         rod_length: m.
         rod_diameter: m.
+        plate_height: m, the surface plate's heights h1…h7 (refined method; optional in the file).
+        plate_diameter: m, its diameters d1…d6 (optional in the file).
+        plate_distance: m, its distances d and l (optional in the file).
     """
 
     gravity: float
@@ -239,6 +242,13 @@ class ReadingSigma:
     string_distance: float
     rod_length: float
     rod_diameter: float
+    plate_height: float = 8e-5
+    plate_diameter: float = 4e-5
+    plate_distance: float = 8e-5
+
+
+#: Reading σ a rig file may leave out (the refined method's; defaults as RigidMeasured.txt's).
+OPTIONAL_SIGMAS = ("plate_height", "plate_diameter", "plate_distance")
 
 
 @dataclass(frozen=True)
@@ -560,9 +570,9 @@ def rig_from_document(path: str, data: Any, lines: Mapping[tuple[object, ...], i
     if top.get("coupled_swing") is not None:
         swing = _coupled_swing(r, top["coupled_swing"], frame, fork, trials.per_measurement)
 
-    skeys = tuple(ReadingSigma.__dataclass_fields__)
-    s = r.section(top["reading_sigma"], ("reading_sigma",), skeys)
-    sigma = ReadingSigma(**{k: r.number(s[k], ("reading_sigma", k), low=0.0, strict=False) for k in skeys})
+    skeys = tuple(k for k in ReadingSigma.__dataclass_fields__ if k not in OPTIONAL_SIGMAS)
+    s = r.section(top["reading_sigma"], ("reading_sigma",), skeys, OPTIONAL_SIGMAS)
+    sigma = ReadingSigma(**{k: r.number(s[k], ("reading_sigma", k), low=0.0, strict=False) for k in s})
 
     name = top.get("name", Path(path).stem)
     return RigConfig(
