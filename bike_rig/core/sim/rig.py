@@ -53,6 +53,9 @@ acquisition, how the trials are run, and the standard deviation of every static 
       string_distance: 0.003            # m
       rod_length: 0.001                 # m
       rod_diameter: 0.0001              # m
+      plate_height: 8.0e-5              # m, optional (refined method: h1..h7)
+      plate_diameter: 4.0e-5            # m, optional (d1..d6)
+      plate_distance: 8.0e-5            # m, optional (d and l)
 
 Numbers may be written as YAML numbers or as numeric strings (``1e-4``, which YAML 1.1 reads
 as a string).
