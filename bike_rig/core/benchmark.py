@@ -16,9 +16,17 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from . import com, geometry, inertia, split_fork, surface_plate
+from . import com, flywheel, geometry, inertia, split_fork, surface_plate
 from .errors import GeometryError
-from .measurements import PART_NAMES, Measurements, fork_is_split, geometry_from_surface_plate, hung_parts, validate
+from .measurements import (
+    PART_NAMES,
+    Measurements,
+    fork_is_split,
+    geometry_from_surface_plate,
+    has_flywheel,
+    hung_parts,
+    validate,
+)
 from .symbols import PARAMETER_NAMES
 from .uncertainty.uncertain import Propagated, UncertainVector, complex_step_jacobian, monte_carlo
 from .units import radians
@@ -27,6 +35,8 @@ __all__ = [
     "PARAMETER_NAMES",
     "ComEstimate",
     "ComMethod",
+    "FLYWHEEL_PART_NAMES",
+    "PART_GROUPS",
     "ParameterSet",
     "RawPropagation",
     "SPLIT_PART_NAMES",
@@ -127,9 +137,29 @@ SPLIT_PART_NAMES: tuple[str, ...] = tuple(
 )
 
 
+#: Per-part outputs of a flywheel D on the front wheel (:mod:`~bike_rig.core.flywheel`).
+FLYWHEEL_PART_NAMES: tuple[str, ...] = ("mD", "IDxx", "IDyy")
+
+
+#: The groups of per-part outputs, each reported whole or not at all.
+PART_GROUPS: tuple[tuple[str, ...], ...] = (SPLIT_PART_NAMES, FLYWHEEL_PART_NAMES)
+
+
 def part_output_names(readings: Mapping[str, Any]) -> tuple[str, ...]:
     """Names of the per-part outputs beyond the 26 parameters for these readings (may be empty)."""
-    return SPLIT_PART_NAMES if fork_is_split(readings) else ()
+    split = SPLIT_PART_NAMES if fork_is_split(readings) else ()
+    return split + (FLYWHEEL_PART_NAMES if has_flywheel(readings) else ())
+
+
+def _flywheel(x: Mapping[str, Any], k: Any, IFxx: Any, IFyy: Any) -> dict[str, Any]:
+    """The flywheel D's mass and moments about the wheel centre (differences of Eq 28 and Eq 29)."""
+    I_FD_yy = inertia.compound_pendulum_inertia(x["mD"], x["g"], x["lF"], x["TcD1"])  # Eq 28
+    I_FD_xx = inertia.torsional_pendulum_inertia(k, x["TtD1"])  # Eq 29
+    return {
+        "mD": flywheel.flywheel_mass(x["mD"], x["mF"]),
+        "IDxx": flywheel.flywheel_inertia(I_FD_xx, IFxx),
+        "IDyy": flywheel.flywheel_inertia(I_FD_yy, IFyy),
+    }
 
 
 def com_estimate_names(readings: Mapping[str, Any]) -> tuple[str, ...]:
@@ -232,7 +262,9 @@ def _front_assembly(
     return out
 
 
-def benchmark_formulas(x: Mapping[str, Any], method: ComMethod = ComMethod.CENTROID) -> dict[str, Any]:
+def benchmark_formulas(
+    x: Mapping[str, Any], method: ComMethod = ComMethod.CENTROID, lump_flywheel: bool = False
+) -> dict[str, Any]:
     """The paper's chain of equations from raw readings to the benchmark parameters.
 
     The geometry is given (w, gamma, f) or measured on a surface plate
@@ -244,6 +276,9 @@ def benchmark_formulas(x: Mapping[str, Any], method: ComMethod = ComMethod.CENTR
         x: Readings by flat key (see :mod:`bike_rig.core.measurements`); each a float or a
             broadcasting array (samples, or complex-step perturbations).
         method: Mass-centre method feeding x_B, z_B, x_H, z_H (and x_S, z_S, x_G, z_G).
+        lump_flywheel: With a flywheel D, give the model's front wheel its mass and moments
+            (m_F, I_Fxx, I_Fyy of the wheel with it); by default the 26 parameters are those of
+            the wheel alone, as BicycleParameters reports them.
 
     Returns:
         The 26 parameters (PARAMETER_NAMES), the per-part outputs (:func:`part_output_names`),
@@ -283,6 +318,11 @@ def benchmark_formulas(x: Mapping[str, Any], method: ComMethod = ComMethod.CENTR
     }
     out.update(frame)
     out.update(front)
+    if has_flywheel(x):
+        out.update(_flywheel(x, k, out["IFxx"], out["IFyy"]))
+        if lump_flywheel:
+            for name in ("mF", "IFxx", "IFyy"):
+                out[name] = flywheel.wheel_with_flywheel(out[name], out[name.replace("F", "D", 1)])
     result = {name: out[name] for name in PARAMETER_NAMES}
     result.update({name: out[name] for name in part_output_names(x)})
     result.update(coms)
@@ -325,16 +365,20 @@ def _inputs(m: Measurements) -> tuple[dict[str, float], list[str], NDArray[np.fl
     return values, perturbed, cov
 
 
-def _evaluator(method: ComMethod) -> Any:
-    return lambda x: benchmark_formulas(x, method)
+def _evaluator(method: ComMethod, lump_flywheel: bool = False) -> Any:
+    return lambda x: benchmark_formulas(x, method, lump_flywheel)
 
 
-def compute_parameters(m: Measurements, method: ComMethod = ComMethod.CENTROID) -> ParameterSet:
+def compute_parameters(
+    m: Measurements, method: ComMethod = ComMethod.CENTROID, lump_flywheel: bool = False
+) -> ParameterSet:
     """Benchmark parameters of a measured bicycle with linear σ and correlations.
 
     Args:
         m: The bicycle's readings (validated here).
         method: Mass-centre method (the paper's centroid by default).
+        lump_flywheel: A flywheel D turns with the front wheel: include it in m_F, I_Fxx, I_Fyy
+            (see :func:`benchmark_formulas`).
 
     Returns:
         The parameter set, its Jacobian to the readings and both mass-centre estimates.
@@ -349,7 +393,7 @@ def compute_parameters(m: Measurements, method: ComMethod = ComMethod.CENTROID) 
     extra = part_output_names(m.readings)
     parts = hung_parts(m.readings)
     names = PARAMETER_NAMES + extra + com_estimate_names(m.readings)
-    prop: Propagated = complex_step_jacobian(_evaluator(method), values, perturbed, names)
+    prop: Propagated = complex_step_jacobian(_evaluator(method, lump_flywheel), values, perturbed, names)
     n = len(PARAMETER_NAMES)
     full = prop.with_covariance(cov)
     params = UncertainVector(PARAMETER_NAMES, full.values[:n], full.covariance[:n, :n])

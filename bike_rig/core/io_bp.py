@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from .benchmark import PARAMETER_NAMES, SPLIT_PART_NAMES, ParameterSet, parameters_from_values
+from .benchmark import PARAMETER_NAMES, PART_GROUPS, ParameterSet, parameters_from_values
 from .errors import InputFileError, MeasurementError, one_line
 from .measurements import KNOWN_KEYS, Measurements, Origin, Reading, check_value_sigma
 from .uncertainty.uncertain import UncertainVector
@@ -151,7 +151,8 @@ def read_bp_parameters(path: str | Path) -> ParameterSet:
     """Read a BicycleParameters ``<Name>Benchmark.txt`` parameter file (values ± σ).
 
     The 26 parameters are required; the per-part outputs of a split fork (``mG, xG, zG, IGxx,
-    IGxz, IGyy, IGzz`` and the same for S), when all are present, become ``ParameterSet.parts``.
+    IGxz, IGyy, IGzz`` and the same for S) and of a flywheel (``mD, IDxx, IDyy``), each group
+    when all of it is present, become ``ParameterSet.parts``.
     Every other key is ignored unread: BicycleParameters 1.5.2 copies the lateral force point
     ``xcl``, ``zcl`` into this file in numpy 2's repr (``xcl = np.float64(0.1984375)+/-0.0``),
     which is not a parameter and not a number in this format.
@@ -167,10 +168,11 @@ def read_bp_parameters(path: str | Path) -> ParameterSet:
             raise MeasurementError(p, "missing (one of the benchmark parameters)", key=key)
         values[key], sigmas[key] = _value_sigma(p, key, entries[key])
     ps = parameters_from_values(_bicycle_name(path, "Benchmark"), values, sigmas, p)
-    if not all(k in entries for k in SPLIT_PART_NAMES):
+    names = tuple(k for group in PART_GROUPS if all(n in entries for n in group) for k in group)
+    if not names:
         return ps
-    parts = [_value_sigma(p, k, entries[k]) for k in SPLIT_PART_NAMES]
-    vec = UncertainVector(SPLIT_PART_NAMES, np.array([v for v, _ in parts]), np.diag([s * s for _, s in parts]))
+    parts = [_value_sigma(p, k, entries[k]) for k in names]
+    vec = UncertainVector(names, np.array([v for v, _ in parts]), np.diag([s * s for _, s in parts]))
     return replace(ps, parts=vec)
 
 

@@ -34,7 +34,8 @@ The refined method (Moore's dissertation) replaces ``geometry`` by a ``surface_p
 (``h1``..``h5``, ``d1``..``d4``, ``d`` in m, the keys of BicycleParameters' ``Measured.txt``), and
 the ``fork`` section by ``fork_only`` (the fork S, distances to the front axle) and ``handlebar``
 (G, distances to its reference centre, located by ``h6, h7, d5, d6, l`` in ``surface_plate``);
-both with the keys of ``frame``.
+both with the keys of ``frame``. A ``flywheel`` section (``mass``, ``compound_period``,
+``torsional_period``) holds the front wheel measured again with a flywheel D fixed in it.
 
 Parameter file (``format: bike_rig-parameters/1``): ``bicycle``, and ``parameters`` mapping
 each of the 26 BicycleParameters keys to ``[value, sigma]`` (SI, ``lam`` in rad).
@@ -50,7 +51,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from .benchmark import PARAMETER_NAMES, SPLIT_PART_NAMES, ParameterSet, parameters_from_values
+from .benchmark import PARAMETER_NAMES, PART_GROUPS, ParameterSet, parameters_from_values
 from .errors import InputFileError, MeasurementError, one_line, short_repr
 from .io_bp import parse_value
 from .measurements import (
@@ -115,6 +116,11 @@ _ROD = {
     "diameter": ("dP", "m"),
     "torsional_period": ("TtP1", "s"),
 }
+_FLYWHEEL = {
+    "mass": ("mD", "kg, the front wheel with the flywheel in it"),
+    "compound_period": ("TcD1", "s, the front wheel with the flywheel"),
+    "torsional_period": ("TtD1", "s, the front wheel with the flywheel"),
+}
 _SURFACE_PLATE = {
     k: (k, "m") for k in SURFACE_PLATE_KEYS + tuple(k for k in SPLIT_FORK_KEYS if not k.startswith(("m", "T")))
 }
@@ -126,7 +132,12 @@ _PARTS = {
     "handlebar": ("G", "handlebar reference"),
 }
 #: Sections of plain fields (not wheels nor hung parts).
-_FIELD_SECTIONS = (("geometry", _GEOMETRY), ("surface_plate", _SURFACE_PLATE), ("calibration_rod", _ROD))
+_FIELD_SECTIONS = (
+    ("geometry", _GEOMETRY),
+    ("surface_plate", _SURFACE_PLATE),
+    ("flywheel", _FLYWHEEL),
+    ("calibration_rod", _ROD),
+)
 
 
 Lines = dict[tuple[object, ...], int]
@@ -433,17 +444,21 @@ def parameters_from_document(path: str, data: Any, lines: Lines) -> ParameterSet
 
 
 def _parts(doc: _Doc, value: Any) -> UncertainVector:
-    """The ``parts:`` section of a parameter file: the per-part outputs, all of them, with σ."""
+    """The ``parts:`` section of a parameter file: per-part outputs with σ, each group whole."""
     table = doc.mapping(("parts",), value)
+    known = [k for group in PART_GROUPS for k in group]
     for key in table:
-        if key not in SPLIT_PART_NAMES:
-            raise doc.error(("parts", key), f"unknown key; expected one of {', '.join(SPLIT_PART_NAMES)}")
-    got = []
-    for key in SPLIT_PART_NAMES:
-        if key not in table:
-            raise doc.error(("parts", key), "missing (the per-part outputs come as a whole)")
-        got.append(doc.reading(("parts", key), table[key]))
-    return UncertainVector(SPLIT_PART_NAMES, np.array([v for v, _ in got]), np.diag([s * s for _, s in got]))
+        if key not in known:
+            raise doc.error(("parts", key), f"unknown key; expected one of {', '.join(known)}")
+    names: list[str] = []
+    for group in PART_GROUPS:
+        if any(k in table for k in group):
+            for key in group:
+                if key not in table:
+                    raise doc.error(("parts", key), f"missing (the per-part outputs {', '.join(group)} come whole)")
+            names += group
+    got = [doc.reading(("parts", key), table[key]) for key in names]
+    return UncertainVector(tuple(names), np.array([v for v, _ in got]), np.diag([s * s for _, s in got]))
 
 
 def _pair(r: Reading) -> str:
@@ -500,6 +515,7 @@ def dump_measurements_yaml(m: Measurements, attribution: str | None = None) -> s
     _section(out, "surface_plate", _rows(r, _SURFACE_PLATE, {}))
     for name, p in _WHEELS.items():
         _section(out, name, _rows(r, _WHEEL, {"p": p}))
+    _section(out, "flywheel", _rows(r, _FLYWHEEL, {}))
     for name, (p, axle) in _PARTS.items():
         _section(out, name, _part_rows(m, p, axle))
     _section(out, "calibration_rod", _rows(r, _ROD, {}))

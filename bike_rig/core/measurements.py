@@ -26,6 +26,8 @@ TtP1                calibration rod torsional period                      s
 h1 … h5             surface-plate heights (refined method; replace w,     m
                     gamma, f: see :mod:`bike_rig.core.surface_plate`)
 d1 … d4, d          surface-plate diameters and axle-to-axle distance     m
+mD, TcD1, TtD1      front wheel with a flywheel D: mass, compound and     kg, s, s
+                    torsional periods (see :mod:`bike_rig.core.flywheel`)
 mS, mG              fork and handlebar masses (fork measured split)       kg
 TcS1, TcG1          fork / handlebar compound-pendulum periods            s
 alphaS<i>, aS<i>,   fork / handlebar hanging angle, string distance and   degree, m, s
@@ -54,12 +56,14 @@ from .errors import MeasurementError
 __all__ = [
     "COMMON_KEYS",
     "DIRECT_GEOMETRY_KEYS",
+    "FLYWHEEL_KEYS",
     "FORK_KEYS",
     "KNOWN_KEYS",
     "PART_NAMES",
     "SPLIT_FORK_KEYS",
     "SURFACE_PLATE_KEYS",
     "fork_is_split",
+    "has_flywheel",
     "geometry_from_surface_plate",
     "hung_parts",
     "is_period_key",
@@ -92,12 +96,14 @@ SURFACE_PLATE_KEYS: tuple[str, ...] = ("h1", "h2", "h3", "h4", "h5", "d1", "d2",
 FORK_KEYS: tuple[str, ...] = ("mH", "TcH1")
 #: The fork S and handlebar G hung separately, with the handlebar's pivot (refined method).
 SPLIT_FORK_KEYS: tuple[str, ...] = ("mS", "TcS1", "mG", "TcG1", "h6", "h7", "d5", "d6", "l")
+#: An extra rigid part on the front wheel, a flywheel D: the mass and periods of the wheel with it.
+FLYWHEEL_KEYS: tuple[str, ...] = ("mD", "TcD1", "TtD1")
 #: Keys every measurement set needs whatever its method.
 COMMON_KEYS: tuple[str, ...] = tuple(k for k in REQUIRED_KEYS if k not in DIRECT_GEOMETRY_KEYS and k not in FORK_KEYS)
 #: Every non-orientation key the science reads (the readings a file reader keeps as numbers).
-KNOWN_KEYS: frozenset[str] = frozenset(REQUIRED_KEYS + SURFACE_PLATE_KEYS + SPLIT_FORK_KEYS)
+KNOWN_KEYS: frozenset[str] = frozenset(REQUIRED_KEYS + SURFACE_PLATE_KEYS + SPLIT_FORK_KEYS + FLYWHEEL_KEYS)
 #: Keys that must be strictly positive.
-_POSITIVE = re.compile(r"^(g|w|n[RF]|d[RF]|m[RFBHPSG]|l[RFP]|dP|T[ct][RFBHPSG]\d+|h[1-7]|d[1-6]?|l)$")
+_POSITIVE = re.compile(r"^(g|w|n[RF]|d[RF]|m[RFBHPSGD]|l[RFP]|dP|T[ct][RFBHPSGD]\d+|h[1-7]|d[1-6]?|l)$")
 #: Names of the parts hung as pendulums at several orientations, for messages.
 PART_NAMES = {"B": "frame", "H": "fork", "S": "fork (S)", "G": "handlebar (G)"}
 #: Exact counts.
@@ -234,6 +240,11 @@ def fork_is_split(readings: Mapping[str, object]) -> bool:
     return any(pattern.match(k) for k in readings)
 
 
+def has_flywheel(readings: Mapping[str, object]) -> bool:
+    """True when a flywheel D on the front wheel was measured (any of its readings given)."""
+    return any(k in readings for k in FLYWHEEL_KEYS)
+
+
 def hung_parts(readings: Mapping[str, object]) -> str:
     """The parts hung at several orientations: ``"BH"`` (paper), or ``"BSG"`` (fork split)."""
     return "BSG" if fork_is_split(readings) else "BH"
@@ -243,7 +254,7 @@ def required_keys(readings: Mapping[str, object]) -> tuple[str, ...]:
     """The non-orientation keys needed for the methods ``readings`` use (geometry, front assembly)."""
     geometry = SURFACE_PLATE_KEYS if geometry_from_surface_plate(readings) else DIRECT_GEOMETRY_KEYS
     front = SPLIT_FORK_KEYS if fork_is_split(readings) else FORK_KEYS
-    return COMMON_KEYS + geometry + front
+    return COMMON_KEYS + geometry + front + (FLYWHEEL_KEYS if has_flywheel(readings) else ())
 
 
 def missing_reason(key: str) -> str:
@@ -259,6 +270,11 @@ def missing_reason(key: str) -> str:
         return (
             "missing: the fork (S) and handlebar (G) measured separately need mS, TcS1, mG, TcG1 "
             "and the handlebar reference h6, h7, d5, d6, l"
+        )
+    if key in FLYWHEEL_KEYS:
+        return (
+            "missing: a flywheel D on the front wheel needs mD (the front wheel with it), and that "
+            "wheel's compound and torsional periods TcD1, TtD1"
         )
     return "missing (needed for the benchmark parameters)"
 

@@ -31,6 +31,7 @@ from ..core.measurements import (
     Origin,
     Reading,
     check_reading,
+    has_flywheel,
     hung_parts,
     is_period_key,
     orientation_indices,
@@ -93,6 +94,8 @@ def _anchors(static: Mapping[str, Reading]) -> dict[str, list[str]]:
     parts = hung_parts(static)
     for part in parts:
         anchors[f"m{part}"] = [f"Tc{part}1"]
+    if has_flywheel(static):
+        anchors["mD"] = ["TcD1", "TtD1"]
     for part in parts:
         for i in _orientations(static, part):
             anchors.setdefault(f"a{part}{i}", []).append(f"Tt{part}{i}")

@@ -51,10 +51,11 @@ STATIC_KEYS: tuple[str, ...] = (
     "g", "w", "gamma", "f", "mP", "lP", "dP",
     "mR", "nR", "dR", "lR", "mF", "nF", "dF", "lF", "mB", "mH",
 )  # fmt: skip
-#: The refined method's static keys (surface plate, handlebar reference, split fork masses).
+#: The refined method's static keys (surface plate, handlebar reference, split fork masses);
+#: ``mD``, the front wheel weighed with a flywheel in it, is one too.
 REFINED_STATIC_KEYS: tuple[str, ...] = SURFACE_PLATE_KEYS + ("h6", "h7", "d5", "d6", "l", "mS", "mG")
 #: Every static key in the order of a measurement file (as :mod:`bike_rig.core.io_yaml` reads one).
-_ORDER: tuple[str, ...] = STATIC_KEYS[:4] + REFINED_STATIC_KEYS[:-2] + STATIC_KEYS[4:] + ("mS", "mG")
+_ORDER: tuple[str, ...] = STATIC_KEYS[:4] + REFINED_STATIC_KEYS[:-2] + ("mD",) + STATIC_KEYS[4:] + ("mS", "mG")
 _ORIENTATION_KEY = re.compile(r"^(alpha|a)([BHSG])([1-9]\d*)$")
 #: Each part's hanging orientations follow its mass in a measurement file.
 _PART_RANK = {part: _ORDER.index(f"m{part}") for part in "BHSG"}

@@ -151,6 +151,7 @@ _FIXED_RANGES: dict[str, PlausibleRange] = {
     # the refined method: fork and handlebar hung separately, geometry from a surface plate
     "mS": PlausibleRange(0.2, 10.0, "fork mass", _MASS_UNITS),
     "mG": PlausibleRange(0.2, 10.0, "handlebar mass", _MASS_UNITS),
+    "mD": PlausibleRange(0.5, 40.0, "front wheel with its flywheel, mass", _MASS_UNITS),
     **{f"h{i}": PlausibleRange(0.0, 2.0, "surface-plate height", _LENGTH_UNITS) for i in range(1, 8)},
     **{f"d{i}": PlausibleRange(0.001, 0.1, "surface-plate diameter", _LENGTH_UNITS) for i in range(1, 7)},
     "d": PlausibleRange(0.3, 2.5, "distance between the axles on the surface plate", _LENGTH_UNITS),

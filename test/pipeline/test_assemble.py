@@ -303,3 +303,20 @@ def test_refined_static_keys_are_required_by_the_method_in_use() -> None:
     missing = SessionAssembly(cut, partial=True).result().missing
     assert "h4" in missing
     assert "w" not in missing and "mH" not in missing and "TcH1" not in missing
+
+
+def test_a_flywheel_is_measured_live_too() -> None:
+    """A flywheel D's periods are asked for and its readings reach the parameters as from the file."""
+    full = load_measurements(bicycle("browser"))
+    extra = {"mD": Reading(full.value("mF") + 2.0, 0.01), "TcD1": Reading(1.5, 1e-5), "TtD1": Reading(0.8, 1e-5)}
+    full = Measurements(full.bicycle, {**full.readings, **extra}, full.path)
+    static = Measurements(full.bicycle, {k: r for k, r in full.readings.items() if not k.startswith("T")}, full.path)
+    session = SessionAssembly(static)
+    assert {"TcD1", "TtD1"} <= set(session.required_keys)
+    session.add_all(file_trials(full, session.required_keys))
+    result = session.result()
+    assert result.complete and result.parameters is not None and result.parameters.parts is not None
+    expected = compute_parameters(full).parts
+    assert expected is not None
+    assert result.parameters.parts.names == ("mD", "IDxx", "IDyy")
+    assert np.allclose(result.parameters.parts.values, expected.values, rtol=1e-12, atol=0)
