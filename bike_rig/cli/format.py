@@ -8,6 +8,7 @@ import numpy as np
 
 from ..core.benchmark import PARAMETER_NAMES, ComEstimate, ParameterSet
 from ..core.uncertainty.matrix_sigma import MatrixSet
+from ..core.uncertainty.uncertain import UncertainVector
 from ..core.whipple import CriticalSpeeds
 from ..textfmt import LABELS, TABLE2_ORDER, format_value_sigma
 
@@ -18,6 +19,7 @@ __all__ = [
     "format_value_sigma",
     "matrix_table",
     "parameter_table",
+    "part_table",
     "speeds_summary",
 ]
 
@@ -32,15 +34,35 @@ def parameter_table(ps: ParameterSet) -> str:
         label, unit = LABELS[key]
         v, s = format_value_sigma(pv.value(key), pv.sigma(key))
         rows.append(f"{label + ' [' + unit + ']':<16}{v:>12}{s:>10}")
+    if ps.parts is not None:
+        rows.append("")
+        rows.append(part_table(ps.parts))
     if ps.com:
         rows.append("")
         rows.append(com_summary(ps.com))
     return "\n".join(rows)
 
 
+#: Names and units of the per-part outputs' quantities (the part letter follows the first symbol).
+_PART_QUANTITIES = {"m": ("mass", "kg"), "x": ("x", "m"), "z": ("z", "m"), "I": ("I", "kg m²")}
+#: What each extra part is.
+PART_TITLES = {"G": "handlebar G", "S": "fork S", "D": "flywheel D"}
+
+
+def part_table(parts: UncertainVector) -> str:
+    """The per-part outputs (fork S, handlebar G measured separately): value and σ per quantity."""
+    rows = [f"per-part outputs ({', '.join(PART_TITLES[p] for p in dict.fromkeys(n[1] for n in parts.names))}):"]
+    rows.append(f"{'quantity':<16}{'value':>12}{'σ':>10}")
+    for name in parts.names:
+        _label, unit = _PART_QUANTITIES[name[0]]
+        v, s = format_value_sigma(parts.value(name), parts.sigma(name))
+        rows.append(f"{name + ' [' + unit + ']':<16}{v:>12}{s:>10}")
+    return "\n".join(rows)
+
+
 def com_summary(coms: Mapping[str, ComEstimate]) -> str:
     """One line per part: both mass-centre solutions' σ and which is more accurate."""
-    names = {"B": "rear frame", "H": "fork/handlebar"}
+    names = {"B": "rear frame", "H": "fork/handlebar", "S": "fork S", "G": "handlebar G"}
     lines = ["mass centres (x, z) [m], centroid Eq 17-19 vs least squares Eq 20:"]
     for part, est in coms.items():
         c, s = est.centroid, est.least_squares

@@ -70,14 +70,14 @@ def single_threaded_blas() -> None:
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 
-def _parameters(path: str, com_method: str) -> ParameterSet:
+def _parameters(path: str, com_method: str, lump_flywheel: bool = False) -> ParameterSet:
     from ..core.benchmark import ComMethod, compute_parameters
     from ..core.loader import load_input
     from ..core.measurements import Measurements
 
     got = load_input(path)
     if isinstance(got, Measurements):
-        return compute_parameters(got, ComMethod(com_method))
+        return compute_parameters(got, ComMethod(com_method), lump_flywheel)
     return got
 
 
@@ -112,10 +112,13 @@ def _speeds(spec: Sequence[str] | None) -> np.ndarray:
 
 def _params_json(ps: ParameterSet) -> dict[str, Any]:
     pv = ps.parameters
-    return {
+    out: dict[str, Any] = {
         "bicycle": ps.bicycle,
         "parameters": {k: {"value": pv.value(k), "sigma": pv.sigma(k)} for k in pv.names},
     }
+    if ps.parts is not None:
+        out["parts"] = {k: {"value": ps.parts.value(k), "sigma": ps.parts.sigma(k)} for k in ps.parts.names}
+    return out
 
 
 def cmd_params(args: argparse.Namespace) -> int:
@@ -124,7 +127,7 @@ def cmd_params(args: argparse.Namespace) -> int:
     from . import format as fmt
     from .common import emit
 
-    ps = _parameters(args.file, args.com_method)
+    ps = _parameters(args.file, args.com_method, args.flywheel_in_wheel)
     form = "json" if args.json else args.format
     if form == "json":
         text = json.dumps(_params_json(ps), indent=2)
@@ -236,6 +239,12 @@ def _add_params(sub: Any) -> None:
     _common(q)
     q.add_argument("--json", action="store_true", help="one JSON object on standard output")
     q.add_argument("--format", choices=["table", "json", "yaml", "bp-yaml"], default="table")
+    q.add_argument(
+        "--flywheel-in-wheel",
+        action="store_true",
+        help="a flywheel D measured in the front wheel turns with it: include its mass and moments in "
+        "mF, IFxx, IFyy (default: the wheel alone, as BicycleParameters)",
+    )
     q.set_defaults(func=cmd_params)
 
 

@@ -8,7 +8,7 @@ step to get the exact Jacobian to every reading (linear σ with correlations, pa
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from enum import Enum
 from typing import Any
@@ -16,9 +16,17 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from . import com, geometry, inertia
+from . import com, flywheel, geometry, inertia, split_fork, surface_plate
 from .errors import GeometryError
-from .measurements import Measurements, validate
+from .measurements import (
+    PART_NAMES,
+    Measurements,
+    fork_is_split,
+    geometry_from_surface_plate,
+    has_flywheel,
+    hung_parts,
+    validate,
+)
 from .symbols import PARAMETER_NAMES
 from .uncertainty.uncertain import Propagated, UncertainVector, complex_step_jacobian, monte_carlo
 from .units import radians
@@ -27,9 +35,14 @@ __all__ = [
     "PARAMETER_NAMES",
     "ComEstimate",
     "ComMethod",
+    "FLYWHEEL_PART_NAMES",
+    "PART_GROUPS",
     "ParameterSet",
     "RawPropagation",
+    "SPLIT_PART_NAMES",
     "benchmark_formulas",
+    "com_estimate_names",
+    "part_output_names",
     "check_orientations",
     "compute_parameters",
     "monte_carlo_parameters",
@@ -53,7 +66,7 @@ class ComEstimate:
     """One part's mass centre by both methods, with σ.
 
     Attributes:
-        part: 'B' (rear frame) or 'H' (fork/handlebar).
+        part: 'B' (rear frame), 'H' (fork/handlebar), or 'S' (fork) and 'G' (handlebar).
         centroid: (x, z) by Eq 17–19 with its 2 × 2 covariance.
         least_squares: (x, z) by Eq 20 with its covariance.
         used: The method that fed the parameters.
@@ -97,6 +110,9 @@ class ParameterSet:
         source: Where they came from (a file path).
         raw: The link to the raw readings, when computed from measurements.
         com: Mass-centre estimates by both methods, when computed from measurements.
+        parts: Per-part outputs beyond the 26 parameters (fork S and handlebar G measured
+            separately: ``mG, xG, zG, IGxx, IGxz, IGyy, IGzz`` and the same for S), with their
+            covariance; None when there are none.
     """
 
     bicycle: str
@@ -104,6 +120,7 @@ class ParameterSet:
     source: str
     raw: RawPropagation | None = None
     com: Mapping[str, ComEstimate] | None = None
+    parts: UncertainVector | None = None
 
     def values(self) -> dict[str, float]:
         """``{name: value}`` for the 26 parameters."""
@@ -114,21 +131,56 @@ def _orientation_keys(readings: Mapping[str, Any], part: str) -> list[int]:
     return sorted(int(k[len("alpha") + 1 :]) for k in readings if k.startswith(f"alpha{part}"))
 
 
-def _part_com(
-    x: Mapping[str, Any], part: str, lam: Any, rR: Any, rF: Any, w: Any
-) -> tuple[list[Any], dict[str, Any]]:
-    """Hanging-line geometry of one part: its β_i and both mass-centre solutions."""
+#: Per-part outputs of a split fork (fork S, handlebar G), reported beside the 26 parameters.
+SPLIT_PART_NAMES: tuple[str, ...] = tuple(
+    n for p in "GS" for n in (f"m{p}", f"x{p}", f"z{p}", f"I{p}xx", f"I{p}xz", f"I{p}yy", f"I{p}zz")
+)
+
+
+#: Per-part outputs of a flywheel D on the front wheel (:mod:`~bike_rig.core.flywheel`).
+FLYWHEEL_PART_NAMES: tuple[str, ...] = ("mD", "IDxx", "IDyy")
+
+
+#: The groups of per-part outputs, each reported whole or not at all.
+PART_GROUPS: tuple[tuple[str, ...], ...] = (SPLIT_PART_NAMES, FLYWHEEL_PART_NAMES)
+
+
+def part_output_names(readings: Mapping[str, Any]) -> tuple[str, ...]:
+    """Names of the per-part outputs beyond the 26 parameters for these readings (may be empty)."""
+    split = SPLIT_PART_NAMES if fork_is_split(readings) else ()
+    return split + (FLYWHEEL_PART_NAMES if has_flywheel(readings) else ())
+
+
+def _flywheel(x: Mapping[str, Any], k: Any, IFxx: Any, IFyy: Any) -> dict[str, Any]:
+    """The flywheel D's mass and moments about the wheel centre (differences of Eq 28 and Eq 29)."""
+    I_FD_yy = inertia.compound_pendulum_inertia(x["mD"], x["g"], x["lF"], x["TcD1"])  # Eq 28
+    I_FD_xx = inertia.torsional_pendulum_inertia(k, x["TtD1"])  # Eq 29
+    return {
+        "mD": flywheel.flywheel_mass(x["mD"], x["mF"]),
+        "IDxx": flywheel.flywheel_inertia(I_FD_xx, IFxx),
+        "IDyy": flywheel.flywheel_inertia(I_FD_yy, IFyy),
+    }
+
+
+def com_estimate_names(readings: Mapping[str, Any]) -> tuple[str, ...]:
+    """Names of both mass-centre solutions of every hung part (``xB_centroid``, ...)."""
+    return tuple(f"{q}{p}_{s}" for p in hung_parts(readings) for s in ("centroid", "lstsq") for q in "xz")
+
+
+Line = Callable[[Any, Any], Any]
+
+
+def _part_com(x: Mapping[str, Any], part: str, lam: Any, line: Line) -> tuple[list[Any], dict[str, Any]]:
+    """Hanging-line geometry of one part: its β_i and both mass-centre solutions.
+
+    ``line(a, β)`` is the z-intercept of the pendulum axis for the part's pivot (Eq 14, 21).
+    """
     betas, slopes, intercepts = [], [], []
     for i in _orientation_keys(x, part):
         beta = com.pendulum_rotation_angle(lam, radians(x[f"alpha{part}{i}"]))
-        a = x[f"a{part}{i}"]
-        if part == "B":
-            b = com.frame_com_line_intercept(a, beta, rR)
-        else:
-            b = com.fork_com_line_intercept(a, beta, w, rF)
         betas.append(beta)
         slopes.append(com.com_line_slope(beta))
-        intercepts.append(b)
+        intercepts.append(line(x[f"a{part}{i}"], beta))
     xc, zc = com.centroid_com(slopes, intercepts)
     xl, zl = com.least_squares_com(slopes, intercepts)
     return betas, {
@@ -139,67 +191,143 @@ def _part_com(
     }
 
 
-def benchmark_formulas(x: Mapping[str, Any], method: ComMethod = ComMethod.CENTROID) -> dict[str, Any]:
+def _geometry(x: Mapping[str, Any]) -> dict[str, Any]:
+    """Wheel radii (Eq 6), steer-axis tilt, wheelbase and fork offset: given, or from the surface plate."""
+    rR = geometry.wheel_radius(x["dR"], x["nR"])  # Eq 6
+    rF = geometry.wheel_radius(x["dF"], x["nF"])  # Eq 6
+    if not geometry_from_surface_plate(x):
+        lam = geometry.steer_axis_tilt(radians(x["gamma"]))  # Eq 7
+        return {"rR": rR, "rF": rF, "lam": lam, "w": x["w"], "f": x["f"]}
+    a = surface_plate.rear_frame_offset(x["h1"], x["h2"], x["h3"], x["d1"], x["d2"])
+    b = surface_plate.fork_offset(x["h4"], x["h5"], x["d3"], x["d4"])
+    c_s = surface_plate.steer_axis_distance(a, b, x["d"], x["d2"], x["d3"])
+    lam = surface_plate.steer_axis_tilt_from_offsets(rF, rR, a, b, c_s)
+    w = surface_plate.wheelbase_from_offsets(a, b, c_s, lam)
+    return {"rR": rR, "rF": rF, "lam": lam, "w": w, "f": b}
+
+
+def _in_plane_part(
+    x: Mapping[str, Any], part: str, k: Any, betas: list[Any], com_xz: tuple[Any, Any], pivot: Line
+) -> dict[str, Any]:
+    """A hung part's mass, mass centre and inertia.
+
+    I_xx, I_xz, I_zz from the torsional periods (Eq 30–35), I_yy from its compound pendulum
+    (Eq 28), ``pivot(x, z)`` being the distance from its pivot to the mass centre (Eq 36–37).
+    """
+    J = [inertia.torsional_pendulum_inertia(k, x[f"Tt{part}{i}"]) for i in _orientation_keys(x, part)]  # Eq 30
+    Ixx, Ixz, Izz = inertia.inertia_from_pendulum_axes(J, betas)  # Eq 31–35
+    length = pivot(com_xz[0], com_xz[1])  # Eq 36–37
+    Iyy = inertia.compound_pendulum_inertia(x[f"m{part}"], x["g"], length, x[f"Tc{part}1"])  # Eq 28
+    return {f"m{part}": x[f"m{part}"], f"x{part}": com_xz[0], f"z{part}": com_xz[1],
+            f"I{part}xx": Ixx, f"I{part}xz": Ixz, f"I{part}yy": Iyy, f"I{part}zz": Izz}  # fmt: skip
+
+
+def _front_assembly(
+    x: Mapping[str, Any], geo: Mapping[str, Any], k: Any, suffix: str, method_coms: dict[str, Any]
+) -> dict[str, Any]:
+    """The front assembly H: hung as one part, or combined from the fork S and handlebar G."""
+    lam, w, rF = geo["lam"], geo["w"], geo["rF"]
+
+    def axle(xc: Any, zc: Any) -> Any:
+        return inertia.fork_pendulum_length(xc, zc, w, rF)  # Eq 37
+
+    if not fork_is_split(x):
+        betas, coms = _part_com(x, "H", lam, lambda a, beta: com.fork_com_line_intercept(a, beta, w, rF))  # Eq 21
+        method_coms.update(coms)
+        return _in_plane_part(x, "H", k, betas, (coms[f"xH_{suffix}"], coms[f"zH_{suffix}"]), axle)
+    l1, l2 = split_fork.handlebar_reference_offsets(x["h6"], x["h7"], x["d5"], x["d6"], x["l"])
+    u1, u2 = split_fork.handlebar_reference_point(lam, l1, l2)
+    lines: dict[str, Line] = {
+        "S": lambda a, beta: com.fork_com_line_intercept(a, beta, w, rF),  # Eq 21
+        "G": lambda a, beta: split_fork.handlebar_com_line_intercept(a, beta, w, rF, u1, u2),
+    }
+    pivots: dict[str, Line] = {
+        "S": axle,
+        "G": lambda xc, zc: split_fork.pivot_distance(xc, zc, w - u1, -rF - u2),
+    }
+    out: dict[str, Any] = {}
+    for part in "GS":
+        betas, coms = _part_com(x, part, lam, lines[part])
+        method_coms.update(coms)
+        xz = (coms[f"x{part}_{suffix}"], coms[f"z{part}_{suffix}"])
+        out.update(_in_plane_part(x, part, k, betas, xz, pivots[part]))
+    mH, xH, zH = split_fork.combined_mass_centre([out["mG"], out["mS"]], [out["xG"], out["xS"]], [out["zG"], out["zS"]])
+    IH = [0.0, 0.0, 0.0, 0.0]
+    for part in "GS":
+        I_xx, I_yy, I_zz, I_xz = (out[f"I{part}{ax}"] for ax in ("xx", "yy", "zz", "xz"))
+        dx, dz = out[f"x{part}"] - xH, out[f"z{part}"] - zH
+        moved = split_fork.parallel_axis_inertia(I_xx, I_yy, I_zz, I_xz, out[f"m{part}"], dx, dz)
+        IH = [total + one for total, one in zip(IH, moved)]
+    out.update({"mH": mH, "xH": xH, "zH": zH, "IHxx": IH[0], "IHyy": IH[1], "IHzz": IH[2], "IHxz": IH[3]})
+    return out
+
+
+def benchmark_formulas(
+    x: Mapping[str, Any], method: ComMethod = ComMethod.CENTROID, lump_flywheel: bool = False
+) -> dict[str, Any]:
     """The paper's chain of equations from raw readings to the benchmark parameters.
+
+    The geometry is given (w, gamma, f) or measured on a surface plate
+    (:mod:`~bike_rig.core.surface_plate`); the front assembly is hung as one part H or as the
+    fork S and handlebar G (:mod:`~bike_rig.core.split_fork`); which one is decided by the keys
+    present, never by values (the complex step stays analytic).
 
     Args:
         x: Readings by flat key (see :mod:`bike_rig.core.measurements`); each a float or a
             broadcasting array (samples, or complex-step perturbations).
-        method: Mass-centre method feeding x_B, z_B, x_H, z_H.
+        method: Mass-centre method feeding x_B, z_B, x_H, z_H (and x_S, z_S, x_G, z_G).
+        lump_flywheel: With a flywheel D, give the model's front wheel its mass and moments
+            (m_F, I_Fxx, I_Fyy of the wheel with it); by default the 26 parameters are those of
+            the wheel alone, as BicycleParameters reports them.
 
     Returns:
-        The 26 parameters (PARAMETER_NAMES) followed by intermediate results: both
-        mass-centre solutions per part and the torsion-rod stiffness ``k``.
+        The 26 parameters (PARAMETER_NAMES), the per-part outputs (:func:`part_output_names`),
+        both mass-centre solutions per hung part and the torsion-rod stiffness ``k``.
     """
-    g, w = x["g"], x["w"]
-    rR = geometry.wheel_radius(x["dR"], x["nR"])  # Eq 6
-    rF = geometry.wheel_radius(x["dF"], x["nF"])  # Eq 6
-    lam = geometry.steer_axis_tilt(radians(x["gamma"]))  # Eq 7
-    c = geometry.trail(rF, lam, x["f"])  # Eq 8
-    betas_B, com_B = _part_com(x, "B", lam, rR, rF, w)  # Eq 10–20
-    betas_H, com_H = _part_com(x, "H", lam, rR, rF, w)  # Eq 10–22
+    g = x["g"]
+    geo = _geometry(x)
+    rR, rF, lam = geo["rR"], geo["rF"], geo["lam"]
+    c = geometry.trail(rF, lam, geo["f"])  # Eq 8
     suffix = "centroid" if method is ComMethod.CENTROID else "lstsq"
-    xB, zB = com_B[f"xB_{suffix}"], com_B[f"zB_{suffix}"]
-    xH, zH = com_H[f"xH_{suffix}"], com_H[f"zH_{suffix}"]
     k = inertia.torsional_stiffness(inertia.rod_inertia(x["mP"], x["lP"], x["dP"]), x["TtP1"])  # Fig 9
-    J_B = [inertia.torsional_pendulum_inertia(k, x[f"TtB{i}"]) for i in _orientation_keys(x, "B")]  # Eq 30
-    J_H = [inertia.torsional_pendulum_inertia(k, x[f"TtH{i}"]) for i in _orientation_keys(x, "H")]
-    IBxx, IBxz, IBzz = inertia.inertia_from_pendulum_axes(J_B, betas_B)  # Eq 31–35
-    IHxx, IHxz, IHzz = inertia.inertia_from_pendulum_axes(J_H, betas_H)
-    lB = inertia.frame_pendulum_length(xB, zB, rR)  # Eq 36
-    lH = inertia.fork_pendulum_length(xH, zH, w, rF)  # Eq 37
+    coms: dict[str, Any] = {}
+    betas_B, com_B = _part_com(x, "B", lam, lambda a, beta: com.frame_com_line_intercept(a, beta, rR))  # Eq 14
+    coms.update(com_B)
+    frame = _in_plane_part(
+        x,
+        "B",
+        k,
+        betas_B,
+        (com_B[f"xB_{suffix}"], com_B[f"zB_{suffix}"]),
+        lambda xc, zc: inertia.frame_pendulum_length(xc, zc, rR),  # Eq 36
+    )
+    front = _front_assembly(x, geo, k, suffix, coms)
     out: dict[str, Any] = {
-        "IBxx": IBxx,
-        "IBxz": IBxz,
-        "IByy": inertia.compound_pendulum_inertia(x["mB"], g, lB, x["TcB1"]),  # Eq 28
-        "IBzz": IBzz,
         "IFxx": inertia.torsional_pendulum_inertia(k, x["TtF1"]),  # Eq 29
         "IFyy": inertia.compound_pendulum_inertia(x["mF"], g, x["lF"], x["TcF1"]),  # Eq 28
-        "IHxx": IHxx,
-        "IHxz": IHxz,
-        "IHyy": inertia.compound_pendulum_inertia(x["mH"], g, lH, x["TcH1"]),  # Eq 28
-        "IHzz": IHzz,
         "IRxx": inertia.torsional_pendulum_inertia(k, x["TtR1"]),  # Eq 29
         "IRyy": inertia.compound_pendulum_inertia(x["mR"], g, x["lR"], x["TcR1"]),  # Eq 28
         "c": c,
         "g": g,
         "lam": lam,
-        "mB": x["mB"],
         "mF": x["mF"],
-        "mH": x["mH"],
         "mR": x["mR"],
         "rF": rF,
         "rR": rR,
-        "w": w,
-        "xB": xB,
-        "xH": xH,
-        "zB": zB,
-        "zH": zH,
+        "w": geo["w"],
     }
-    out.update(com_B)
-    out.update(com_H)
-    out["k"] = k
-    return out
+    out.update(frame)
+    out.update(front)
+    if has_flywheel(x):
+        out.update(_flywheel(x, k, out["IFxx"], out["IFyy"]))
+        if lump_flywheel:
+            for name in ("mF", "IFxx", "IFyy"):
+                out[name] = flywheel.wheel_with_flywheel(out[name], out[name.replace("F", "D", 1)])
+    result = {name: out[name] for name in PARAMETER_NAMES}
+    result.update({name: out[name] for name in part_output_names(x)})
+    result.update(coms)
+    result["k"] = k
+    return result
 
 
 def check_orientations(m: Measurements) -> None:
@@ -211,8 +339,8 @@ def check_orientations(m: Measurements) -> None:
     Raises:
         GeometryError: naming the part, the two orientations and their angle difference.
     """
-    names = {"B": "frame", "H": "fork"}
-    for part, name in names.items():
+    for part in hung_parts(m.readings):
+        name = PART_NAMES[part]
         idx = m.orientations(part)
         for n, i in enumerate(idx):
             for j in idx[n + 1 :]:
@@ -237,16 +365,20 @@ def _inputs(m: Measurements) -> tuple[dict[str, float], list[str], NDArray[np.fl
     return values, perturbed, cov
 
 
-def _evaluator(method: ComMethod) -> Any:
-    return lambda x: benchmark_formulas(x, method)
+def _evaluator(method: ComMethod, lump_flywheel: bool = False) -> Any:
+    return lambda x: benchmark_formulas(x, method, lump_flywheel)
 
 
-def compute_parameters(m: Measurements, method: ComMethod = ComMethod.CENTROID) -> ParameterSet:
+def compute_parameters(
+    m: Measurements, method: ComMethod = ComMethod.CENTROID, lump_flywheel: bool = False
+) -> ParameterSet:
     """Benchmark parameters of a measured bicycle with linear σ and correlations.
 
     Args:
         m: The bicycle's readings (validated here).
         method: Mass-centre method (the paper's centroid by default).
+        lump_flywheel: A flywheel D turns with the front wheel: include it in m_F, I_Fxx, I_Fyy
+            (see :func:`benchmark_formulas`).
 
     Returns:
         The parameter set, its Jacobian to the readings and both mass-centre estimates.
@@ -258,20 +390,26 @@ def compute_parameters(m: Measurements, method: ComMethod = ComMethod.CENTROID) 
     validate(m)
     check_orientations(m)
     values, perturbed, cov = _inputs(m)
-    names = PARAMETER_NAMES + tuple(f"{q}{p}_{s}" for p in "BH" for s in ("centroid", "lstsq") for q in "xz")
-    prop: Propagated = complex_step_jacobian(_evaluator(method), values, perturbed, names)
+    extra = part_output_names(m.readings)
+    parts = hung_parts(m.readings)
+    names = PARAMETER_NAMES + extra + com_estimate_names(m.readings)
+    prop: Propagated = complex_step_jacobian(_evaluator(method, lump_flywheel), values, perturbed, names)
     n = len(PARAMETER_NAMES)
     full = prop.with_covariance(cov)
     params = UncertainVector(PARAMETER_NAMES, full.values[:n], full.covariance[:n, :n])
+    per_part = None
+    if extra:
+        sel = list(range(n, n + len(extra)))
+        per_part = UncertainVector(extra, full.values[sel], full.covariance[np.ix_(sel, sel)])
     coms = {}
-    for part in "BH":
+    for part in parts:
         ests = []
         for s in ("centroid", "lstsq"):
             sel = [full.index(f"x{part}_{s}"), full.index(f"z{part}_{s}")]
             ests.append(UncertainVector(("x", "z"), full.values[sel], full.covariance[np.ix_(sel, sel)]))
         coms[part] = ComEstimate(part, ests[0], ests[1], method)
     raw = RawPropagation(tuple(perturbed), cov, prop.jacobian[:n])
-    return ParameterSet(m.bicycle, params, m.path, raw, coms)
+    return ParameterSet(m.bicycle, params, m.path, raw, coms, per_part)
 
 
 def monte_carlo_parameters(

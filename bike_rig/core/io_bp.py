@@ -13,14 +13,16 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
+import numpy as np
 import yaml
 
-from .benchmark import PARAMETER_NAMES, ParameterSet, parameters_from_values
+from .benchmark import PARAMETER_NAMES, PART_GROUPS, ParameterSet, parameters_from_values
 from .errors import InputFileError, MeasurementError, one_line
-from .measurements import REQUIRED_KEYS, Measurements, Origin, Reading, check_value_sigma
+from .measurements import KNOWN_KEYS, Measurements, Origin, Reading, check_value_sigma
+from .uncertainty.uncertain import UncertainVector
 
 __all__ = [
     "TextEntry",
@@ -137,7 +139,7 @@ def read_bp_measured(path: str | Path) -> Measurements:
     readings: dict[str, Reading] = {}
     extras: dict[str, object] = {}
     for key, e in entries.items():
-        if key in REQUIRED_KEYS or _NUMBER_KEYS.match(key):
+        if key in KNOWN_KEYS or _NUMBER_KEYS.match(key):
             v, s = _value_sigma(p, key, e)
             readings[key] = Reading(v, s, Origin(p, key, e.line))
         else:
@@ -147,6 +149,13 @@ def read_bp_measured(path: str | Path) -> Measurements:
 
 def read_bp_parameters(path: str | Path) -> ParameterSet:
     """Read a BicycleParameters ``<Name>Benchmark.txt`` parameter file (values ± σ).
+
+    The 26 parameters are required; the per-part outputs of a split fork (``mG, xG, zG, IGxx,
+    IGxz, IGyy, IGzz`` and the same for S) and of a flywheel (``mD, IDxx, IDyy``), each group
+    when all of it is present, become ``ParameterSet.parts``.
+    Every other key is ignored unread: BicycleParameters 1.5.2 copies the lateral force point
+    ``xcl``, ``zcl`` into this file in numpy 2's repr (``xcl = np.float64(0.1984375)+/-0.0``),
+    which is not a parameter and not a number in this format.
 
     Raises:
         InputFileError: unreadable, a parameter missing or not a number.
@@ -158,7 +167,13 @@ def read_bp_parameters(path: str | Path) -> ParameterSet:
         if key not in entries:
             raise MeasurementError(p, "missing (one of the benchmark parameters)", key=key)
         values[key], sigmas[key] = _value_sigma(p, key, entries[key])
-    return parameters_from_values(_bicycle_name(path, "Benchmark"), values, sigmas, p)
+    ps = parameters_from_values(_bicycle_name(path, "Benchmark"), values, sigmas, p)
+    names = tuple(k for group in PART_GROUPS if all(n in entries for n in group) for k in group)
+    if not names:
+        return ps
+    parts = [_value_sigma(p, k, entries[k]) for k in names]
+    vec = UncertainVector(names, np.array([v for v, _ in parts]), np.diag([s * s for _, s in parts]))
+    return replace(ps, parts=vec)
 
 
 def dump_bp_parameter_yaml(params: ParameterSet, description: str = "") -> str:

@@ -30,6 +30,13 @@ or ``"v +/- s"``); wheel rotations are exact whole counts::
       torsional_period: [1.894, 5.9e-06]  # s
     other: {}                             # anything else recorded, kept verbatim
 
+The refined method (Moore's dissertation) replaces ``geometry`` by a ``surface_plate`` section
+(``h1``..``h5``, ``d1``..``d4``, ``d`` in m, the keys of BicycleParameters' ``Measured.txt``), and
+the ``fork`` section by ``fork_only`` (the fork S, distances to the front axle) and ``handlebar``
+(G, distances to its reference centre, located by ``h6, h7, d5, d6, l`` in ``surface_plate``);
+both with the keys of ``frame``. A ``flywheel`` section (``mass``, ``compound_period``,
+``torsional_period``) holds the front wheel measured again with a flywheel D fixed in it.
+
 Parameter file (``format: bike_rig-parameters/1``): ``bicycle``, and ``parameters`` mapping
 each of the 26 BicycleParameters keys to ``[value, sigma]`` (SI, ``lam`` in rad).
 """
@@ -37,17 +44,30 @@ each of the 26 BicycleParameters keys to ``[value, sigma]`` (SI, ``lam`` in rad)
 from __future__ import annotations
 
 from collections.abc import Iterator, Mapping
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import yaml
 
-from .benchmark import PARAMETER_NAMES, ParameterSet, parameters_from_values
+from .benchmark import PARAMETER_NAMES, PART_GROUPS, ParameterSet, parameters_from_values
 from .errors import InputFileError, MeasurementError, one_line, short_repr
 from .io_bp import parse_value
-from .measurements import MAX_MAGNITUDE, REQUIRED_KEYS, Measurements, Origin, Reading, check_value_sigma
+from .measurements import (
+    MAX_MAGNITUDE,
+    SPLIT_FORK_KEYS,
+    SURFACE_PLATE_KEYS,
+    Measurements,
+    Origin,
+    Reading,
+    check_value_sigma,
+    missing_reason,
+    required_keys,
+)
 from .safe_yaml import LIMITS, YamlLimitError, compose_bounded, construct, yaml_error_reason
 from .trial_periods import PeriodEvidence, period_from_trials
+from .uncertainty.uncertain import UncertainVector
 
 __all__ = [
     "MEASUREMENTS_FORMAT",
@@ -96,8 +116,28 @@ _ROD = {
     "diameter": ("dP", "m"),
     "torsional_period": ("TtP1", "s"),
 }
+_FLYWHEEL = {
+    "mass": ("mD", "kg, the front wheel with the flywheel in it"),
+    "compound_period": ("TcD1", "s, the front wheel with the flywheel"),
+    "torsional_period": ("TtD1", "s, the front wheel with the flywheel"),
+}
+_SURFACE_PLATE = {
+    k: (k, "m") for k in SURFACE_PLATE_KEYS + tuple(k for k in SPLIT_FORK_KEYS if not k.startswith(("m", "T")))
+}
 _WHEELS = {"rear_wheel": "R", "front_wheel": "F"}
-_PARTS = {"frame": ("B", "rear"), "fork": ("H", "front")}
+_PARTS = {
+    "frame": ("B", "rear"),
+    "fork": ("H", "front"),
+    "fork_only": ("S", "front"),
+    "handlebar": ("G", "handlebar reference"),
+}
+#: Sections of plain fields (not wheels nor hung parts).
+_FIELD_SECTIONS = (
+    ("geometry", _GEOMETRY),
+    ("surface_plate", _SURFACE_PLATE),
+    ("flywheel", _FLYWHEEL),
+    ("calibration_rod", _ROD),
+)
 
 
 Lines = dict[tuple[object, ...], int]
@@ -263,7 +303,7 @@ def _yaml_location(flat: str) -> tuple[str, ...]:
     """Where a flat key lives in the YAML layout, e.g. 'TcB1' -> ('frame', 'compound_period')."""
     if flat == "g":
         return ("gravity",)
-    for section, table in (("geometry", _GEOMETRY), ("calibration_rod", _ROD)):
+    for section, table in _FIELD_SECTIONS:
         for key, (f, _u) in table.items():
             if f == flat:
                 return (section, key)
@@ -279,24 +319,19 @@ def _yaml_location(flat: str) -> tuple[str, ...]:
 
 
 def _check_complete(doc: _Doc, readings: Mapping[str, Reading]) -> None:
-    for flat in REQUIRED_KEYS:
+    for flat in required_keys(readings):
         if doc.static_only and flat.startswith(("Tc", "Tt")):
             continue
         if flat not in readings:
             where = _yaml_location(flat)
             parent = where[:-1]
             line = doc.lines.get(parent) if parent else None
-            raise MeasurementError(
-                doc.path,
-                "missing (needed for the benchmark parameters)",
-                key=_label(where),
-                line=line,
-            )
+            raise MeasurementError(doc.path, missing_reason(flat), key=_label(where), line=line)
 
 
 def _check_sections(doc: _Doc, top: Mapping[str, Any]) -> None:
     """Reject a top-level key that is not a section of a measurement document."""
-    known = {"format", "bicycle", "attribution", "notes", "gravity", "geometry", "calibration_rod", "other"}
+    known = {"format", "bicycle", "attribution", "notes", "gravity", "other"} | {s for s, _t in _FIELD_SECTIONS}
     known |= set(_WHEELS) | set(_PARTS)
     for key in top:
         if key not in known:
@@ -349,7 +384,7 @@ def measurements_from_document(path: str, data: Any, lines: Lines, static_only: 
     if "gravity" in top:
         v, s = doc.reading(("gravity",), top["gravity"])
         readings["g"] = Reading(v, s, doc.origin(("gravity",)))
-    for section, table in (("geometry", _GEOMETRY), ("calibration_rod", _ROD)):
+    for section, table in _FIELD_SECTIONS:
         if section in top:
             readings.update(_fields(doc, (section,), top[section], table, {}))
     for section, p in _WHEELS.items():
@@ -402,7 +437,28 @@ def parameters_from_document(path: str, data: Any, lines: Lines) -> ParameterSet
             check_value_sigma(values[key], sigmas.get(key, 0.0))
         except ValueError as exc:
             raise doc.error(w, str(exc)) from None
-    return parameters_from_values(name, values, sigmas, path)
+    ps = parameters_from_values(name, values, sigmas, path)
+    if with_sigma and top.get("parts") is not None:
+        return replace(ps, parts=_parts(doc, top["parts"]))
+    return ps
+
+
+def _parts(doc: _Doc, value: Any) -> UncertainVector:
+    """The ``parts:`` section of a parameter file: per-part outputs with σ, each group whole."""
+    table = doc.mapping(("parts",), value)
+    known = [k for group in PART_GROUPS for k in group]
+    for key in table:
+        if key not in known:
+            raise doc.error(("parts", key), f"unknown key; expected one of {', '.join(known)}")
+    names: list[str] = []
+    for group in PART_GROUPS:
+        if any(k in table for k in group):
+            for key in group:
+                if key not in table:
+                    raise doc.error(("parts", key), f"missing (the per-part outputs {', '.join(group)} come whole)")
+            names += group
+    got = [doc.reading(("parts", key), table[key]) for key in names]
+    return UncertainVector(tuple(names), np.array([v for v, _ in got]), np.diag([s * s for _, s in got]))
 
 
 def _pair(r: Reading) -> str:
@@ -456,8 +512,10 @@ def dump_measurements_yaml(m: Measurements, attribution: str | None = None) -> s
         out.append(f"gravity: {_pair(r['g'])}  # m/s^2")
 
     _section(out, "geometry", _rows(r, _GEOMETRY, {}))
+    _section(out, "surface_plate", _rows(r, _SURFACE_PLATE, {}))
     for name, p in _WHEELS.items():
         _section(out, name, _rows(r, _WHEEL, {"p": p}))
+    _section(out, "flywheel", _rows(r, _FLYWHEEL, {}))
     for name, (p, axle) in _PARTS.items():
         _section(out, name, _part_rows(m, p, axle))
     _section(out, "calibration_rod", _rows(r, _ROD, {}))
@@ -478,4 +536,8 @@ def dump_parameters_yaml(params: ParameterSet, attribution: str | None = None) -
     pv = params.parameters
     for name in PARAMETER_NAMES:
         out.append(f"  {name}: [{pv.value(name)!r}, {pv.sigma(name)!r}]")
+    if params.parts is not None:
+        out.append("parts:  # per-part outputs (fork S, handlebar G measured separately), [value, sigma]")
+        for name in params.parts.names:
+            out.append(f"  {name}: [{params.parts.value(name)!r}, {params.parts.sigma(name)!r}]")
     return "\n".join(out) + "\n"

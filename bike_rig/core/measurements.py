@@ -23,7 +23,22 @@ alphaH<i>, aH<i>    fork hanging angle and string-to-front-axle distance  degree
 TtH<i>              fork torsional period at orientation i                s
 mP, lP, dP          calibration rod mass, length, diameter                kg, m, m
 TtP1                calibration rod torsional period                      s
+h1 … h5             surface-plate heights (refined method; replace w,     m
+                    gamma, f: see :mod:`bike_rig.core.surface_plate`)
+d1 … d4, d          surface-plate diameters and axle-to-axle distance     m
+mD, TcD1, TtD1      front wheel with a flywheel D: mass, compound and     kg, s, s
+                    torsional periods (see :mod:`bike_rig.core.flywheel`)
+mS, mG              fork and handlebar masses (fork measured split)       kg
+TcS1, TcG1          fork / handlebar compound-pendulum periods            s
+alphaS<i>, aS<i>,   fork / handlebar hanging angle, string distance and   degree, m, s
+TtS<i> (G alike)    torsional period at orientation i
+h6, h7, d5, d6, l   handlebar reference point (split fork: the            m
+                    handlebar's pivot, see :mod:`bike_rig.core.split_fork`)
 ==================  ====================================================  ======
+
+The geometry is either given directly (``w``, ``gamma``, ``f``) or measured on a surface plate
+(``h1``…``h5``, ``d1``…``d4``, ``d``); the front assembly is either hung as one part ``H`` or as
+the fork ``S`` and handlebar ``G`` separately (Moore's dissertation's refined method).
 
 Degrees occur only in ``gamma`` and ``alpha*``; the science converts them to radians first.
 """
@@ -39,7 +54,21 @@ from typing import Any
 from .errors import MeasurementError
 
 __all__ = [
+    "COMMON_KEYS",
+    "DIRECT_GEOMETRY_KEYS",
+    "FLYWHEEL_KEYS",
+    "FORK_KEYS",
+    "KNOWN_KEYS",
+    "PART_NAMES",
+    "SPLIT_FORK_KEYS",
+    "SURFACE_PLATE_KEYS",
+    "fork_is_split",
+    "has_flywheel",
+    "geometry_from_surface_plate",
+    "hung_parts",
     "is_period_key",
+    "missing_reason",
+    "required_keys",
     "Measurements",
     "Origin",
     "Reading",
@@ -51,7 +80,7 @@ __all__ = [
     "validate",
 ]
 
-#: Keys every measurement set needs (orientation keys are checked separately).
+#: Keys a measurement set of the paper's method needs (orientation keys are checked separately).
 REQUIRED_KEYS: tuple[str, ...] = (
     "g", "w", "gamma", "f",
     "nR", "dR", "mR", "lR", "TcR1", "TtR1",
@@ -59,8 +88,24 @@ REQUIRED_KEYS: tuple[str, ...] = (
     "mB", "TcB1", "mH", "TcH1",
     "mP", "lP", "dP", "TtP1",
 )  # fmt: skip
+#: The geometry given directly (the paper's method).
+DIRECT_GEOMETRY_KEYS: tuple[str, ...] = ("w", "gamma", "f")
+#: The geometry measured on a surface plate (refined method), instead of DIRECT_GEOMETRY_KEYS.
+SURFACE_PLATE_KEYS: tuple[str, ...] = ("h1", "h2", "h3", "h4", "h5", "d1", "d2", "d3", "d4", "d")
+#: The front assembly hung as one part (the paper's method).
+FORK_KEYS: tuple[str, ...] = ("mH", "TcH1")
+#: The fork S and handlebar G hung separately, with the handlebar's pivot (refined method).
+SPLIT_FORK_KEYS: tuple[str, ...] = ("mS", "TcS1", "mG", "TcG1", "h6", "h7", "d5", "d6", "l")
+#: An extra rigid part on the front wheel, a flywheel D: the mass and periods of the wheel with it.
+FLYWHEEL_KEYS: tuple[str, ...] = ("mD", "TcD1", "TtD1")
+#: Keys every measurement set needs whatever its method.
+COMMON_KEYS: tuple[str, ...] = tuple(k for k in REQUIRED_KEYS if k not in DIRECT_GEOMETRY_KEYS and k not in FORK_KEYS)
+#: Every non-orientation key the science reads (the readings a file reader keeps as numbers).
+KNOWN_KEYS: frozenset[str] = frozenset(REQUIRED_KEYS + SURFACE_PLATE_KEYS + SPLIT_FORK_KEYS + FLYWHEEL_KEYS)
 #: Keys that must be strictly positive.
-_POSITIVE = re.compile(r"^(g|w|n[RF]|d[RF]|m[RFBHP]|l[RFP]|dP|T[ct][RFBHP]\d+)$")
+_POSITIVE = re.compile(r"^(g|w|n[RF]|d[RF]|m[RFBHPSGD]|l[RFP]|dP|T[ct][RFBHPSGD]\d+|h[1-7]|d[1-6]?|l)$")
+#: Names of the parts hung as pendulums at several orientations, for messages.
+PART_NAMES = {"B": "frame", "H": "fork", "S": "fork (S)", "G": "handlebar (G)"}
 #: Exact counts.
 _COUNTS = ("nR", "nF")
 #: The largest magnitude a reading or its σ may have, in its unit (SI, or degrees): far beyond
@@ -131,7 +176,7 @@ class Measurements:
         return self.readings[key].value
 
     def orientations(self, part: str) -> list[int]:
-        """The orientation indices of ``part`` ('B' frame or 'H' fork), in order."""
+        """The orientation indices of ``part`` ('B' frame, 'H' fork, 'S' or 'G'), in order."""
         return orientation_indices(self.readings, part)
 
 
@@ -184,19 +229,77 @@ def check_reading(key: str, r: Reading) -> None:
         raise r.error(f"hanging angle must be in [-360, 360] degrees, got {r.value:g}")
 
 
+def geometry_from_surface_plate(readings: Mapping[str, object]) -> bool:
+    """True when the geometry comes from the surface plate (no ``w`` given, as BicycleParameters decides)."""
+    return "w" not in readings and any(k in readings for k in SURFACE_PLATE_KEYS)
+
+
+def fork_is_split(readings: Mapping[str, object]) -> bool:
+    """True when the fork ``S`` and handlebar ``G`` were hung separately (any of their readings given)."""
+    pattern = re.compile(r"^(m|Tc|Tt|alpha|a)[SG]\d*$")
+    return any(pattern.match(k) for k in readings)
+
+
+def has_flywheel(readings: Mapping[str, object]) -> bool:
+    """True when a flywheel D on the front wheel was measured (any of its readings given)."""
+    return any(k in readings for k in FLYWHEEL_KEYS)
+
+
+def hung_parts(readings: Mapping[str, object]) -> str:
+    """The parts hung at several orientations: ``"BH"`` (paper), or ``"BSG"`` (fork split)."""
+    return "BSG" if fork_is_split(readings) else "BH"
+
+
+def required_keys(readings: Mapping[str, object]) -> tuple[str, ...]:
+    """The non-orientation keys needed for the methods ``readings`` use (geometry, front assembly)."""
+    geometry = SURFACE_PLATE_KEYS if geometry_from_surface_plate(readings) else DIRECT_GEOMETRY_KEYS
+    front = SPLIT_FORK_KEYS if fork_is_split(readings) else FORK_KEYS
+    return COMMON_KEYS + geometry + front + (FLYWHEEL_KEYS if has_flywheel(readings) else ())
+
+
+def missing_reason(key: str) -> str:
+    """Why ``key`` is needed, naming the other way of measuring where there is one."""
+    if key in DIRECT_GEOMETRY_KEYS:
+        return (
+            "missing: the geometry needs either the wheelbase, head-tube angle and fork offset "
+            "(w, gamma, f) or the surface-plate heights and diameters (h1..h5, d1..d4, d)"
+        )
+    if key in SURFACE_PLATE_KEYS:
+        return "missing: the surface-plate geometry (no 'w' given) needs h1..h5, d1..d4 and d"
+    if key in SPLIT_FORK_KEYS:
+        return (
+            "missing: the fork (S) and handlebar (G) measured separately need mS, TcS1, mG, TcG1 "
+            "and the handlebar reference h6, h7, d5, d6, l"
+        )
+    if key in FLYWHEEL_KEYS:
+        return (
+            "missing: a flywheel D on the front wheel needs mD (the front wheel with it), and that "
+            "wheel's compound and torsional periods TcD1, TtD1"
+        )
+    return "missing (needed for the benchmark parameters)"
+
+
 def validate(m: Measurements) -> None:
     """Check that ``m`` has every reading the 25 parameters need, each physically possible.
 
     Raises:
         MeasurementError: naming the file, key, line and reason of the first problem.
     """
-    for key in REQUIRED_KEYS:
+    for key in required_keys(m.readings):
         if key not in m.readings:
-            raise MeasurementError(m.path, "missing (needed for the benchmark parameters)", key=key)
+            raise MeasurementError(m.path, missing_reason(key), key=key)
     for key, r in m.readings.items():
         check_reading(key, r)
-    names = {"B": "frame", "H": "fork"}
-    for part, name in names.items():
+    parts = hung_parts(m.readings)
+    if parts == "BSG":
+        for key in ("mH", "TcH1", *(f"{p}H{i}" for p in ("alpha", "a", "Tt") for i in m.orientations("H"))):
+            if key in m.readings:
+                raise m.readings[key].error(
+                    "the fork and handlebar were measured separately (S, G readings given), so the "
+                    "combined fork/handlebar H must not be measured too: remove one of the two"
+                )
+    for part in parts:
+        name = PART_NAMES[part]
         idx = m.orientations(part)
         for i in idx:
             for prefix in ("alpha", "a", "Tt"):

@@ -31,14 +31,17 @@ from ..core.measurements import (
     Origin,
     Reading,
     check_reading,
+    has_flywheel,
+    hung_parts,
     is_period_key,
     orientation_indices,
+    required_keys,
     validate,
 )
 from ..core.period import CombinedPeriod, PeriodFit, combine_periods
 from .errors import AssemblyError
 from .fit import TrialFit
-from .readings import STATIC_KEYS, canonical_order
+from .readings import canonical_order
 
 __all__ = [
     "PLAUSIBLE_PERIOD_S",
@@ -88,9 +91,12 @@ def _combinable(trial: TrialFit) -> PeriodFit:
 def _anchors(static: Mapping[str, Reading]) -> dict[str, list[str]]:
     """Period keys placed after each static key (the order of a measurement file)."""
     anchors: dict[str, list[str]] = {"dP": ["TtP1"], "lR": ["TcR1", "TtR1"], "lF": ["TcF1", "TtF1"]}
-    anchors["mB"] = ["TcB1"]
-    anchors["mH"] = ["TcH1"]
-    for part in "BH":
+    parts = hung_parts(static)
+    for part in parts:
+        anchors[f"m{part}"] = [f"Tc{part}1"]
+    if has_flywheel(static):
+        anchors["mD"] = ["TcD1", "TtD1"]
+    for part in parts:
         for i in _orientations(static, part):
             anchors.setdefault(f"a{part}{i}", []).append(f"Tt{part}{i}")
     return anchors
@@ -122,8 +128,11 @@ def required_period_keys(static: Measurements) -> tuple[str, ...]:
 def required_readings(static: Measurements, period_keys: Iterable[str] = ()) -> tuple[str, ...]:
     """Every static reading key the parameters need, given the readings and periods so far.
 
-    The fixed keys (``g``, ``w``, ``gamma``, ... ``dP``) and, for the frame (``B``) and the
-    fork (``H``), ``alpha<part><i>`` and ``a<part><i>`` for every hanging orientation ``i``
+    The fixed keys of the method the readings so far use (``g``, ``w``, ``gamma``, ... ``dP``;
+    or the surface plate's ``h1``... instead of ``w, gamma, f``, and ``mS, mG`` and the handlebar
+    reference instead of ``mH`` once a split-fork reading or trial arrives) and, for each hung
+    part (frame ``B`` and fork ``H``, or ``B``, ``S`` and ``G``), ``alpha<part><i>`` and
+    ``a<part><i>`` for every hanging orientation ``i``
     known so far: from the readings given (``alpha``/``a`` keys) and from the periods measured
     (``Tt<part><i>``). While fewer than ``MIN_ORIENTATIONS`` (3) are known, the lowest unused
     indices make up the number, so a bicycle with no readings yet needs orientations 1, 2 and
@@ -133,8 +142,9 @@ def required_readings(static: Measurements, period_keys: Iterable[str] = ()) -> 
         static: The static readings so far.
         period_keys: The measurement keys of the trials received.
     """
-    keys = list(STATIC_KEYS)
-    for part in "BH":
+    so_far: dict[str, object] = {**static.readings, **{k: None for k in period_keys}}
+    keys = [k for k in required_keys(so_far) if not is_period_key(k)]
+    for part in hung_parts(so_far):
         known = set(orientation_indices(static.readings, part))
         known |= set(orientation_indices({k: None for k in period_keys if k.startswith("Tt")}, part))
         i = 1

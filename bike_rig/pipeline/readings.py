@@ -28,10 +28,11 @@ from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 
 from ..core.errors import MeasurementError
-from ..core.measurements import Measurements, Origin, Reading, check_reading, is_period_key
+from ..core.measurements import SURFACE_PLATE_KEYS, Measurements, Origin, Reading, check_reading, is_period_key
 from .errors import PipelineError
 
 __all__ = [
+    "REFINED_STATIC_KEYS",
     "STATIC_KEYS",
     "ImpossibleReadingError",
     "NegativeSigmaError",
@@ -50,9 +51,14 @@ STATIC_KEYS: tuple[str, ...] = (
     "g", "w", "gamma", "f", "mP", "lP", "dP",
     "mR", "nR", "dR", "lR", "mF", "nF", "dF", "lF", "mB", "mH",
 )  # fmt: skip
-_ORIENTATION_KEY = re.compile(r"^(alpha|a)([BH])([1-9]\d*)$")
+#: The refined method's static keys (surface plate, handlebar reference, split fork masses);
+#: ``mD``, the front wheel weighed with a flywheel in it, is one too.
+REFINED_STATIC_KEYS: tuple[str, ...] = SURFACE_PLATE_KEYS + ("h6", "h7", "d5", "d6", "l", "mS", "mG")
+#: Every static key in the order of a measurement file (as :mod:`bike_rig.core.io_yaml` reads one).
+_ORDER: tuple[str, ...] = STATIC_KEYS[:4] + REFINED_STATIC_KEYS[:-2] + ("mD",) + STATIC_KEYS[4:] + ("mS", "mG")
+_ORIENTATION_KEY = re.compile(r"^(alpha|a)([BHSG])([1-9]\d*)$")
 #: Each part's hanging orientations follow its mass in a measurement file.
-_PART_RANK = {"B": STATIC_KEYS.index("mB"), "H": STATIC_KEYS.index("mH")}
+_PART_RANK = {part: _ORDER.index(f"m{part}") for part in "BHSG"}
 
 
 @dataclass(frozen=True)
@@ -115,7 +121,7 @@ class ImpossibleReadingError(ReadingEntryError):
 
 def is_static_key(key: str) -> bool:
     """Whether ``key`` names a static reading an entry may give (see the module docstring)."""
-    return key in STATIC_KEYS or _ORIENTATION_KEY.match(key) is not None
+    return key in _ORDER or _ORIENTATION_KEY.match(key) is not None
 
 
 def canonical_order(key: str) -> tuple[int, int, int]:
@@ -125,11 +131,11 @@ def canonical_order(key: str) -> tuple[int, int, int]:
     and its orientations (``alphaB1, aB1, alphaB2, ...``) and the same for the fork. Keys that
     are not static readings sort last.
     """
-    if key in STATIC_KEYS:
-        return (STATIC_KEYS.index(key), 0, 0)
+    if key in _ORDER:
+        return (_ORDER.index(key), 0, 0)
     m = _ORIENTATION_KEY.match(key)
     if m is None:
-        return (len(STATIC_KEYS), 0, 0)
+        return (len(_ORDER), 0, 0)
     return (_PART_RANK[m.group(2)], int(m.group(3)), 0 if m.group(1) == "alpha" else 1)
 
 
@@ -148,8 +154,9 @@ def check_entry(entry: ReadingEntry) -> None:
     if not is_static_key(entry.key):
         raise UnknownReadingKeyError(
             entry,
-            f"unknown key '{entry.key}'; expected one of {', '.join(STATIC_KEYS)} or alpha<part><i>, "
-            "a<part><i> (part B frame or H fork, orientation i = 1, 2, ...)",
+            f"unknown key '{entry.key}'; expected one of {', '.join(_ORDER)} or alpha<part><i>, "
+            "a<part><i> (part B frame, H fork, or S fork and G handlebar hung separately; orientation "
+            "i = 1, 2, ...)",
         )
     if not (math.isfinite(entry.value) and math.isfinite(entry.sigma)):
         raise NonFiniteReadingError(entry, "value and sigma must be finite numbers")

@@ -42,7 +42,7 @@ from dataclasses import dataclass
 
 from ..core.benchmark import ComMethod, compute_parameters
 from ..core.errors import BikeRigError
-from ..core.measurements import REQUIRED_KEYS, Measurements, is_period_key, orientation_indices
+from ..core.measurements import Measurements, hung_parts, is_period_key, orientation_indices, required_keys
 from ..core.rider import add_rider, resolve_rider
 from ..core.sim.rig import ReadingSigma
 from ..core.sim.session import reading_sigma
@@ -170,8 +170,8 @@ def sigma_after_one_more_trial(combined_sigma: float, trial_sigmas: Sequence[flo
 
 
 def _required(m: Measurements) -> list[str]:
-    keys = list(REQUIRED_KEYS)
-    for part in "BH":
+    keys = list(required_keys(m.readings))
+    for part in hung_parts(m.readings):
         for i in orientation_indices(m.readings, part):
             keys += [f"alpha{part}{i}", f"a{part}{i}", f"Tt{part}{i}"]
     return keys

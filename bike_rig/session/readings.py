@@ -148,6 +148,14 @@ _FIXED_RANGES: dict[str, PlausibleRange] = {
     "nF": PlausibleRange(1.0, 100.0, "front wheel rotations"),
     "dR": PlausibleRange(0.5, 200.0, "rear wheel distance rolled", _LENGTH_UNITS),
     "dF": PlausibleRange(0.5, 200.0, "front wheel distance rolled", _LENGTH_UNITS),
+    # the refined method: fork and handlebar hung separately, geometry from a surface plate
+    "mS": PlausibleRange(0.2, 10.0, "fork mass", _MASS_UNITS),
+    "mG": PlausibleRange(0.2, 10.0, "handlebar mass", _MASS_UNITS),
+    "mD": PlausibleRange(0.5, 40.0, "front wheel with its flywheel, mass", _MASS_UNITS),
+    **{f"h{i}": PlausibleRange(0.0, 2.0, "surface-plate height", _LENGTH_UNITS) for i in range(1, 8)},
+    **{f"d{i}": PlausibleRange(0.001, 0.1, "surface-plate diameter", _LENGTH_UNITS) for i in range(1, 7)},
+    "d": PlausibleRange(0.3, 2.5, "distance between the axles on the surface plate", _LENGTH_UNITS),
+    "l": PlausibleRange(0.05, 2.0, "front axle to handlebar reference distance", _LENGTH_UNITS),
 }
 #: Hanging angle of the head / steer tube, degree (as the digital level reads it).
 _ALPHA_RANGE = PlausibleRange(0.0, 360.0, "hanging angle")

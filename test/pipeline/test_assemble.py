@@ -273,3 +273,50 @@ def test_an_absurd_estimate_is_refused_and_blocks_nothing(period: float, sigma: 
     assert_same_set(after.parameters, before.parameters)
     # the same trial id, well formed, is taken afterwards (nothing was remembered of the bad one)
     assert session.add(TrialFit.from_period("rogue-t1", "TcR1", full.value("TcR1"), 1e-4, True))
+
+
+RIGID_SPLIT_KEYS = ("TcS1", "TtS1", "TtS2", "TtS3", "TtS4", "TtS5", "TcG1", "TtG1", "TtG2", "TtG3")
+
+
+def test_refined_file_periods_as_trials_give_the_files_parameters_exactly() -> None:
+    """The refined method (surface plate, fork S and handlebar G hung separately) through the live assembly."""
+    full = load_measurements(bicycle("rigid"))
+    static = load_static_readings(bicycle("rigid"))
+    session = SessionAssembly(static)
+    assert set(RIGID_SPLIT_KEYS) <= set(session.required_keys)
+    assert not any(k.endswith("H1") or k.startswith("TtH") for k in session.required_keys)
+    session.add_all(file_trials(full, session.required_keys))
+    result = session.result()
+    assert result.complete and result.missing == ()
+    expected = compute_parameters(full)
+    assert_same_set(result.parameters, expected)
+    assert result.parameters is not None and result.parameters.parts is not None and expected.parts is not None
+    assert np.array_equal(result.parameters.parts.values, expected.parts.values)
+
+
+def test_refined_static_keys_are_required_by_the_method_in_use() -> None:
+    static = load_static_readings(bicycle("rigid"))
+    readings = {k: r for k, r in static.readings.items() if k != "h4"}
+    cut = Measurements(static.bicycle, readings, static.path)
+    with pytest.raises(MeasurementError, match="'h4': missing: the surface-plate geometry"):
+        SessionAssembly(cut)
+    missing = SessionAssembly(cut, partial=True).result().missing
+    assert "h4" in missing
+    assert "w" not in missing and "mH" not in missing and "TcH1" not in missing
+
+
+def test_a_flywheel_is_measured_live_too() -> None:
+    """A flywheel D's periods are asked for and its readings reach the parameters as from the file."""
+    full = load_measurements(bicycle("browser"))
+    extra = {"mD": Reading(full.value("mF") + 2.0, 0.01), "TcD1": Reading(1.5, 1e-5), "TtD1": Reading(0.8, 1e-5)}
+    full = Measurements(full.bicycle, {**full.readings, **extra}, full.path)
+    static = Measurements(full.bicycle, {k: r for k, r in full.readings.items() if not k.startswith("T")}, full.path)
+    session = SessionAssembly(static)
+    assert {"TcD1", "TtD1"} <= set(session.required_keys)
+    session.add_all(file_trials(full, session.required_keys))
+    result = session.result()
+    assert result.complete and result.parameters is not None and result.parameters.parts is not None
+    expected = compute_parameters(full).parts
+    assert expected is not None
+    assert result.parameters.parts.names == ("mD", "IDxx", "IDyy")
+    assert np.allclose(result.parameters.parts.values, expected.values, rtol=1e-12, atol=0)

@@ -214,7 +214,8 @@ def true_readings(params: Mapping[str, float], rig: RigConfig) -> TrueReadings:
 
     Args:
         params: The 25 benchmark parameters and g (:data:`~bike_rig.core.symbols.PARAMETER_NAMES`),
-            SI, ``lam`` in rad.
+            SI, ``lam`` in rad; with the refined method's truth (:func:`.refined.refined_truth`)
+            the geometry is read on a surface plate and/or the fork and handlebar are hung apart.
         rig: The rig: orientations, wheel fixtures, torsion and calibration rods.
 
     Returns:
@@ -223,7 +224,10 @@ def true_readings(params: Mapping[str, float], rig: RigConfig) -> TrueReadings:
     Raises:
         SimulationError: the parameters are impossible or the rig cannot measure them.
     """
+    from . import refined  # the refined method's inverses build on this module's
+
     _check_parameters(params, rig)
+    split, plate = refined.is_split(params), refined.uses_surface_plate(params)
     p = {k: float(params[k]) for k in PARAMETER_NAMES}
     g, w, lam, rR, rF = p["g"], p["w"], p["lam"], p["rR"], p["rF"]
     rod = rig.calibration_rod
@@ -257,7 +261,20 @@ def true_readings(params: Mapping[str, float], rig: RigConfig) -> TrueReadings:
         "TcH1": compound_period(p["IHyy"], p["mH"], inertia.fork_pendulum_length(p["xH"], p["zH"], w, rF), g),  # 37
         "TtP1": torsional_period(rod_inertia, k),
     }
-    for part, angles in (("B", rig.frame_orientations_deg), ("H", rig.fork_orientations_deg)):
+    extra = {k: float(v) for k, v in params.items() if k not in p}
+    if plate:
+        for key in ("w", "gamma", "f"):
+            del static[key]
+        static.update(refined.surface_plate_readings({**p, **extra}))
+    hung = [("B", rig.frame_orientations_deg)]
+    if split:
+        del static["mH"], periods["TcH1"]
+        split_static, split_periods = refined.split_fork_readings({**p, **extra}, rig.fork_orientations_deg, k)
+        static.update(split_static)
+        periods.update(split_periods)
+    else:
+        hung.append(("H", rig.fork_orientations_deg))
+    for part, angles in hung:
         for i, alpha in enumerate(angles, start=1):
             beta = com.pendulum_rotation_angle(lam, radians(alpha))  # Eq 10
             if abs(np.cos(beta)) < MIN_COS_BETA:
@@ -273,6 +290,6 @@ def true_readings(params: Mapping[str, float], rig: RigConfig) -> TrueReadings:
             static[f"a{part}{i}"] = float(a)
             J = pendulum_axis_inertia(p[f"I{part}xx"], p[f"I{part}xz"], p[f"I{part}zz"], beta)  # Eq 31–34
             periods[f"Tt{part}{i}"] = torsional_period(J, k)  # Eq 30
-    plan = measurement_plan(len(rig.frame_orientations_deg), len(rig.fork_orientations_deg))
+    plan = measurement_plan(len(rig.frame_orientations_deg), len(rig.fork_orientations_deg), split)
     ordered = {m.key: float(periods[m.key]) for m in plan}
     return TrueReadings({k_: float(v) for k_, v in static.items()}, ordered, k, rod_inertia, plan)

@@ -19,6 +19,8 @@ PART_LETTERS: dict[str, str] = {
     "front_wheel": "F",
     "frame": "B",
     "fork": "H",
+    "fork_only": "S",
+    "handlebar": "G",
     "calibration_rod": "P",
 }
 
@@ -29,7 +31,7 @@ class PlannedMeasurement:
 
     Attributes:
         part: The measurement-file section (``rear_wheel``, ``front_wheel``, ``frame``,
-            ``fork`` or ``calibration_rod``).
+            ``fork``, ``fork_only``, ``handlebar`` or ``calibration_rod``).
         pendulum: ``compound`` or ``torsional``.
         orientation: The 1-based hanging orientation of the frame or fork (torsional), else None.
     """
@@ -55,16 +57,21 @@ class PlannedMeasurement:
         return f"{self.stem}_t{trial}"
 
 
-def measurement_plan(frame_orientations: int, fork_orientations: int) -> tuple[PlannedMeasurement, ...]:
+def measurement_plan(
+    frame_orientations: int, fork_orientations: int, split_fork: bool = False
+) -> tuple[PlannedMeasurement, ...]:
     """Every period of a session, in the order the paper describes them (sections 9.1–9.4).
 
     Args:
         frame_orientations: Number of hanging orientations of the rear frame.
-        fork_orientations: Number of hanging orientations of the fork/handlebar.
+        fork_orientations: Number of hanging orientations of the fork/handlebar (of the fork
+            alone and of the handlebar each, when split).
+        split_fork: The fork S (``fork_only``) and handlebar G (``handlebar``) are hung
+            separately (Moore's refined method) instead of the fork/handlebar H together.
 
     Returns:
         Wheels (compound, torsional), frame (compound, torsional at each orientation), fork
-        (likewise) and the calibration rod (torsional).
+        (likewise; or the fork alone, then the handlebar) and the calibration rod (torsional).
     """
     plan = [
         PlannedMeasurement("rear_wheel", "compound"),
@@ -74,7 +81,8 @@ def measurement_plan(frame_orientations: int, fork_orientations: int) -> tuple[P
         PlannedMeasurement("frame", "compound"),
     ]
     plan += [PlannedMeasurement("frame", "torsional", i + 1) for i in range(frame_orientations)]
-    plan.append(PlannedMeasurement("fork", "compound"))
-    plan += [PlannedMeasurement("fork", "torsional", i + 1) for i in range(fork_orientations)]
+    for part in ("fork_only", "handlebar") if split_fork else ("fork",):
+        plan.append(PlannedMeasurement(part, "compound"))
+        plan += [PlannedMeasurement(part, "torsional", i + 1) for i in range(fork_orientations)]
     plan.append(PlannedMeasurement("calibration_rod", "torsional"))
     return tuple(plan)

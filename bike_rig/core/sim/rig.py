@@ -53,6 +53,9 @@ acquisition, how the trials are run, and the standard deviation of every static 
       string_distance: 0.003            # m
       rod_length: 0.001                 # m
       rod_diameter: 0.0001              # m
+      plate_height: 8.0e-5              # m, optional (refined method: h1..h7)
+      plate_diameter: 4.0e-5            # m, optional (d1..d6)
+      plate_distance: 8.0e-5            # m, optional (d and l)
 
 Numbers may be written as YAML numbers or as numeric strings (``1e-4``, which YAML 1.1 reads
 as a string).
@@ -226,6 +229,9 @@ class ReadingSigma:
         string_distance: m.
         rod_length: m.
         rod_diameter: m.
+        plate_height: m, the surface plate's heights h1…h7 (refined method; optional in the file).
+        plate_diameter: m, its diameters d1…d6 (optional in the file).
+        plate_distance: m, its distances d and l (optional in the file).
     """
 
     gravity: float
@@ -239,6 +245,13 @@ class ReadingSigma:
     string_distance: float
     rod_length: float
     rod_diameter: float
+    plate_height: float = 8e-5
+    plate_diameter: float = 4e-5
+    plate_distance: float = 8e-5
+
+
+#: Reading σ a rig file may leave out (the refined method's; defaults as RigidMeasured.txt's).
+OPTIONAL_SIGMAS = ("plate_height", "plate_diameter", "plate_distance")
 
 
 @dataclass(frozen=True)
@@ -560,9 +573,9 @@ def rig_from_document(path: str, data: Any, lines: Mapping[tuple[object, ...], i
     if top.get("coupled_swing") is not None:
         swing = _coupled_swing(r, top["coupled_swing"], frame, fork, trials.per_measurement)
 
-    skeys = tuple(ReadingSigma.__dataclass_fields__)
-    s = r.section(top["reading_sigma"], ("reading_sigma",), skeys)
-    sigma = ReadingSigma(**{k: r.number(s[k], ("reading_sigma", k), low=0.0, strict=False) for k in skeys})
+    skeys = tuple(k for k in ReadingSigma.__dataclass_fields__ if k not in OPTIONAL_SIGMAS)
+    s = r.section(top["reading_sigma"], ("reading_sigma",), skeys, OPTIONAL_SIGMAS)
+    sigma = ReadingSigma(**{k: r.number(s[k], ("reading_sigma", k), low=0.0, strict=False) for k in s})
 
     name = top.get("name", Path(path).stem)
     return RigConfig(

@@ -20,15 +20,16 @@ random streams.
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
 
-from ..benchmark import compute_parameters
+from ..benchmark import SPLIT_PART_NAMES, compute_parameters
 from ..loader import load_input
 from ..measurements import Measurements, Origin, Reading
 from ..symbols import PARAMETER_NAMES
@@ -38,6 +39,7 @@ from .gyro import Mode, adc_quantise, angular_rate, gyro_volts, rate_from_volts
 from .pendulum import PendulumMotion, pendulum_rate, small_swing_factor
 from .physics import TrueReadings, true_readings
 from .plan import PlannedMeasurement
+from .refined import refined_truth
 from .rig import ReadingSigma, RigConfig, TrialPlan
 
 __all__ = [
@@ -58,8 +60,14 @@ def reading_sigma(key: str, sigma: ReadingSigma) -> float:
     """The rig's standard deviation of the static reading ``key`` (flat key), in its unit."""
     if key.startswith("alpha"):
         return sigma.hanging_angle_deg
-    if key[0] == "a" and key[1:2] in ("B", "H"):
+    if key[0] == "a" and key[1:2] in ("B", "H", "S", "G"):
         return sigma.string_distance
+    if re.fullmatch(r"h[1-7]", key):
+        return sigma.plate_height
+    if re.fullmatch(r"d[1-6]", key):
+        return sigma.plate_diameter
+    if key in ("d", "l"):
+        return sigma.plate_distance
     if key in ("nR", "nF"):
         return 0.0  # exact counts
     table = {
@@ -151,6 +159,8 @@ class SessionTruth:
         stiffness: Torsion-rod stiffness k, N m/rad.
         rod_inertia: Calibration rod inertia, kg m².
         scale_factor: The gyro's true scale factor in this session, V / (rad/s).
+        parts: The per-part truth of a fork and handlebar hung apart (``mG``, ... ``ISzz``),
+            else empty.
     """
 
     parameters: Mapping[str, float]
@@ -160,6 +170,7 @@ class SessionTruth:
     stiffness: float
     rod_inertia: float
     scale_factor: float
+    parts: Mapping[str, float] = field(default_factory=dict)
 
 
 @dataclass(frozen=True, eq=False)
@@ -222,14 +233,19 @@ def load_true_parameters(path: str | Path) -> tuple[str, dict[str, float]]:
     """The bicycle's name and true parameters from any accepted input file.
 
     A parameter file gives them directly; a measurement file gives the parameters it
-    computes to (:func:`~bike_rig.core.benchmark.compute_parameters`).
+    computes to (:func:`~bike_rig.core.benchmark.compute_parameters`), and for the refined
+    method what its simulation needs beyond them (:func:`.refined.refined_truth`): its
+    simulated sessions then read a surface plate and/or hang the fork and handlebar apart.
 
     Raises:
         InputFileError: the file cannot be read (see :func:`~bike_rig.core.loader.load_input`).
     """
     got = load_input(path)
-    ps = compute_parameters(got) if isinstance(got, Measurements) else got
-    return ps.bicycle, ps.values()
+    if not isinstance(got, Measurements):
+        return got.bicycle, got.values()
+    ps = compute_parameters(got)
+    computed = {**ps.values(), **(ps.parts.as_dict() if ps.parts is not None else {})}
+    return ps.bicycle, {**ps.values(), **refined_truth(got, computed)}
 
 
 def _static_readings(truth: TrueReadings, rig: RigConfig, rng: np.random.Generator, label: str) -> dict[str, Reading]:
@@ -424,6 +440,7 @@ def simulate_session(
     zeta = plan_t.damping_ratio
     st = SessionTruth(
         parameters={k: float(true_params[k]) for k in PARAMETER_NAMES},
+        parts={k: float(true_params[k]) for k in SPLIT_PART_NAMES if k in true_params},
         static=truth.static,
         periods=truth.periods,
         damped_periods={k: T / float(np.sqrt(1.0 - zeta**2)) for k, T in truth.periods.items()},
