@@ -1,0 +1,246 @@
+"""Linear state feedback on the steer torque: the feedback file and its gains at any speed.
+
+A controller adds ``T_δ = −(kφ φ + kδ δ + kφ̇ φ̇ + kδ̇ δ̇)`` (N m) to the steer-torque input of the
+Whipple model (state ``x = [φ, δ, φ̇, δ̇]``, input ``u = [T_φ, T_δ]``), so the closed loop is
+``ẋ = (A − B K) x`` with ``K = [[0, 0, 0, 0], [kφ, kδ, kφ̇, kδ̇]]``. A feedback file
+(``format: bike_rig-feedback/1``)::
+
+    format: bike_rig-feedback/1
+    name: balance assist            # optional label (default: the file's stem)
+    k_phi: 0.0                      # N m/rad: a number ...
+    k_phidot:                       # N m s/rad: ... or a table over speed (m/s)
+      speeds: [0.0, 2.0, 4.0]
+      values: [-12.0, -6.0, 0.0]
+
+Keys ``k_phi``, ``k_delta`` (N m/rad), ``k_phidot``, ``k_deltadot`` (N m s/rad); a missing key
+is zero, an unknown key an error. A table interpolates linearly in speed and holds its end
+values outside its speeds (strictly increasing, finite, as many values as speeds). The gains
+are exact (no σ). This module is the one place a feedback choice becomes a :class:`Feedback`
+(:func:`resolve_feedback`), for the command line, the pipeline and the model node.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .errors import InputFileError, short_repr
+from .io_yaml import load_yaml_document
+from .measurements import MAX_MAGNITUDE
+
+__all__ = [
+    "FEEDBACK_FORMAT",
+    "GAIN_KEYS",
+    "NO_FEEDBACK",
+    "Feedback",
+    "FeedbackError",
+    "GainSchedule",
+    "feedback_key",
+    "load_feedback",
+    "resolve_feedback",
+]
+
+FloatArray = NDArray[np.float64]
+
+#: The ``format`` of a feedback file.
+FEEDBACK_FORMAT = "bike_rig-feedback/1"
+#: The gain keys in state order ``[φ, δ, φ̇, δ̇]`` (N m/rad, N m/rad, N m s/rad, N m s/rad).
+GAIN_KEYS: tuple[str, str, str, str] = ("k_phi", "k_delta", "k_phidot", "k_deltadot")
+#: The record name of "no feedback".
+NO_FEEDBACK = ""
+_OTHER_KEYS = ("format", "name")
+
+
+class FeedbackError(InputFileError):
+    """A feedback file is missing, unreadable, or has an unknown key or a bad gain."""
+
+
+@dataclass(frozen=True)
+class GainSchedule:
+    """One gain over speed: a constant, or a piecewise-linear table held constant outside.
+
+    Attributes:
+        speeds: The table's speeds (m/s), strictly increasing; empty for a constant gain.
+        values: The gain at each speed (one value for a constant), N m/rad or N m s/rad.
+    """
+
+    speeds: tuple[float, ...]
+    values: tuple[float, ...]
+
+    @classmethod
+    def constant(cls, value: float) -> GainSchedule:
+        """A gain that does not depend on the speed."""
+        return cls((), (float(value),))
+
+    def at(self, v: ArrayLike) -> FloatArray:
+        """The gain at the speeds ``v`` (m/s): linear between table speeds, constant outside."""
+        speed = np.asarray(v, dtype=float)
+        if not self.speeds:
+            return np.full(speed.shape, self.values[0])
+        return np.asarray(np.interp(speed, self.speeds, self.values), dtype=float)
+
+    @property
+    def is_zero(self) -> bool:
+        """Whether the gain is zero at every speed."""
+        return all(x == 0.0 for x in self.values)
+
+
+_ZERO = GainSchedule.constant(0.0)
+
+
+@dataclass(frozen=True)
+class Feedback:
+    """Steer-torque state feedback ``T_δ = −(kφ φ + kδ δ + kφ̇ φ̇ + kδ̇ δ̇)``.
+
+    Attributes:
+        name: A label for outputs.
+        k_phi: Roll-angle gain, N m/rad.
+        k_delta: Steer-angle gain, N m/rad.
+        k_phidot: Roll-rate gain, N m s/rad.
+        k_deltadot: Steer-rate gain, N m s/rad.
+        source: The file it was read from ("" when built in code).
+    """
+
+    name: str
+    k_phi: GainSchedule = _ZERO
+    k_delta: GainSchedule = _ZERO
+    k_phidot: GainSchedule = _ZERO
+    k_deltadot: GainSchedule = _ZERO
+    source: str = ""
+
+    @property
+    def schedules(self) -> tuple[GainSchedule, GainSchedule, GainSchedule, GainSchedule]:
+        """The four gains in state order (:data:`GAIN_KEYS`)."""
+        return (self.k_phi, self.k_delta, self.k_phidot, self.k_deltadot)
+
+    @property
+    def breakpoints(self) -> tuple[float, ...]:
+        """Every table speed of every gain (m/s), sorted: the gains are linear between them."""
+        return tuple(sorted({v for s in self.schedules for v in s.speeds}))
+
+    def gains(self, v: ArrayLike) -> FloatArray:
+        """``[kφ, kδ, kφ̇, kδ̇]`` at the speeds ``v`` (m/s): shape ``shape(v) + (4,)``, SI."""
+        return np.stack([s.at(v) for s in self.schedules], axis=-1)
+
+    def gains_at(self, v: ArrayLike) -> FloatArray:
+        """The steer-torque gain row ``K`` (the input's steer row), shape ``shape(v) + (1, 4)``.
+
+        The closed loop is ``A − B[:, 1:] K`` (``B[:, 1]`` is the steer-torque column).
+        """
+        return self.gains(v)[..., None, :]
+
+
+def _error(path: str, lines: Mapping[tuple[object, ...], int], where: tuple[object, ...], reason: str) -> FeedbackError:
+    """A :class:`FeedbackError` at the key ``where`` (its line, else its parent's)."""
+    line = lines.get(where, lines.get(where[:1]))
+    key = ".".join(str(x) if not isinstance(x, int) else f"[{x}]" for x in where).replace(".[", "[") or None
+    return FeedbackError(path, reason, key=key, line=line)
+
+
+def _number(x: Any) -> float | None:
+    """``x`` as a finite float within :data:`MAX_MAGNITUDE`, or None when it is not one."""
+    if isinstance(x, bool) or not isinstance(x, (int, float)):
+        return None
+    if abs(x) > MAX_MAGNITUDE:
+        return None
+    value = float(x)
+    return value if math.isfinite(value) else None
+
+
+def _numbers(path: str, lines: Mapping[tuple[object, ...], int], where: tuple[object, ...], items: Any) -> list[float]:
+    """A non-empty list of finite numbers, or a :class:`FeedbackError` naming the bad item."""
+    if not isinstance(items, list) or not items:
+        raise _error(path, lines, where, f"expected a non-empty list of numbers, got {short_repr(items)}")
+    out = []
+    for i, x in enumerate(items):
+        value = _number(x)
+        if value is None:
+            raise _error(path, lines, where + (i,), f"needs a finite number ({short_repr(x)} given)")
+        out.append(value)
+    return out
+
+
+def _schedule(path: str, lines: Mapping[tuple[object, ...], int], key: str, spec: Any) -> GainSchedule:
+    """One gain: a number, or a table ``{speeds: [...], values: [...]}``."""
+    where: tuple[object, ...] = (key,)
+    if not isinstance(spec, Mapping):
+        value = _number(spec)
+        if value is None:
+            reason = f"a gain is a finite number or {{speeds: [...], values: [...]}} ({short_repr(spec)} given)"
+            raise _error(path, lines, where, reason)
+        return GainSchedule.constant(value)
+    unknown = sorted(str(k) for k in spec if k not in ("speeds", "values"))
+    if unknown or "speeds" not in spec or "values" not in spec:
+        extra = f"; unknown {', '.join(unknown)}" if unknown else ""
+        raise _error(path, lines, where, f"a gain table has exactly the keys speeds (m/s) and values{extra}")
+    speeds = _numbers(path, lines, where + ("speeds",), spec["speeds"])
+    values = _numbers(path, lines, where + ("values",), spec["values"])
+    if len(speeds) != len(values):
+        reason = f"{len(values)} values for {len(speeds)} speeds: a table needs one value per speed"
+        raise _error(path, lines, where + ("values",), reason)
+    for i in range(1, len(speeds)):
+        if not speeds[i] > speeds[i - 1]:
+            reason = f"speeds must increase strictly ({speeds[i - 1]:g} then {speeds[i]:g} m/s)"
+            raise _error(path, lines, where + ("speeds", i), reason)
+    return GainSchedule(tuple(speeds), tuple(values))
+
+
+def load_feedback(path: str | Path) -> Feedback:
+    """A feedback from a YAML file (``format: bike_rig-feedback/1``, see the module docstring).
+
+    Raises:
+        FeedbackError: The file is missing, unreadable or not YAML, has the wrong format, an
+            unknown key, or a bad gain (not a finite number; a table with non-increasing speeds,
+            a length mismatch or a non-finite entry), with the file, key and line.
+    """
+    spec = str(path)
+    try:
+        data, lines = load_yaml_document(spec)
+    except InputFileError as exc:
+        raise FeedbackError(exc.path, exc.reason, exc.key, exc.line) from None
+    if not isinstance(data, dict):
+        raise FeedbackError(spec, f"a feedback file is a mapping with format: {FEEDBACK_FORMAT} and gain keys")
+    if data.get("format") != FEEDBACK_FORMAT:
+        reason = f"expected format: {FEEDBACK_FORMAT}, got {short_repr(data.get('format'))}"
+        raise _error(spec, lines, ("format",), reason)
+    for k in data:
+        if k not in GAIN_KEYS and k not in _OTHER_KEYS:
+            allowed = ", ".join(GAIN_KEYS + _OTHER_KEYS)
+            raise _error(spec, lines, (str(k),), f"unknown key (a feedback file has {allowed})")
+    gains = {k: _schedule(spec, lines, k, data[k]) for k in GAIN_KEYS if k in data}
+    name = data.get("name", Path(spec).stem)
+    return Feedback(name=str(name), source=spec, **gains)
+
+
+def feedback_key(spec: str | Path | None) -> str:
+    """The feedback choice's name in records: ``""`` (none) or the feedback file's path.
+
+    Args:
+        spec: ``None``, ``""`` or ``"none"`` (no feedback), or the path of a feedback file.
+    """
+    if spec is None or spec in (NO_FEEDBACK, "none"):
+        return NO_FEEDBACK
+    return str(spec)
+
+
+def resolve_feedback(spec: str | Path | None) -> Feedback | None:
+    """The feedback chosen by ``spec``: the one place a feedback choice becomes a :class:`Feedback`.
+
+    Args:
+        spec: ``None``, ``""`` or ``"none"`` (no feedback), or the path of a feedback file
+            (:func:`load_feedback`).
+
+    Returns:
+        The feedback, or ``None`` for none.
+
+    Raises:
+        FeedbackError: The file cannot be read or is not a valid feedback file.
+    """
+    key = feedback_key(spec)
+    return None if key == NO_FEEDBACK else load_feedback(key)
