@@ -85,6 +85,19 @@ class GainSchedule:
             return np.full(speed.shape, self.values[0])
         return np.asarray(np.interp(speed, self.speeds, self.values), dtype=float)
 
+    def slope(self, v: ArrayLike) -> FloatArray:
+        """``d gain/dv`` at the speeds ``v`` (m/s): the slope of the table piece holding ``v``.
+
+        Zero outside the table and for a constant; at a table speed, the slope of the piece
+        above it (the gains have a kink there).
+        """
+        speed = np.asarray(v, dtype=float)
+        if len(self.speeds) < 2:
+            return np.zeros(speed.shape)
+        knots, values = np.asarray(self.speeds), np.asarray(self.values)
+        rates = np.concatenate([[0.0], np.diff(values) / np.diff(knots), [0.0]])
+        return np.asarray(rates[np.searchsorted(knots, speed, side="right")], dtype=float)
+
     @property
     def is_zero(self) -> bool:
         """Whether the gain is zero at every speed."""
@@ -127,6 +140,10 @@ class Feedback:
     def gains(self, v: ArrayLike) -> FloatArray:
         """``[kφ, kδ, kφ̇, kδ̇]`` at the speeds ``v`` (m/s): shape ``shape(v) + (4,)``, SI."""
         return np.stack([s.at(v) for s in self.schedules], axis=-1)
+
+    def slopes(self, v: ArrayLike) -> FloatArray:
+        """``d/dv [kφ, kδ, kφ̇, kδ̇]`` at the speeds ``v`` (:meth:`GainSchedule.slope`), shape ``shape(v) + (4,)``."""
+        return np.stack([s.slope(v) for s in self.schedules], axis=-1)
 
     def gains_at(self, v: ArrayLike) -> FloatArray:
         """The steer-torque gain row ``K`` (the input's steer row), shape ``shape(v) + (1, 4)``.
