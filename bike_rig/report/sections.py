@@ -16,6 +16,7 @@ from collections.abc import Sequence
 
 from .. import __version__
 from ..bag.timeline import TIME_BASE
+from ..core.feedback import GAIN_KEYS, GainSchedule
 from ..core.uncertainty.budget import CAPSIZE, PARAMETERS, WEAVE, OutputBudget, UncertaintyBudget, input_ranking
 from ..core.uncertainty.matrix_sigma import MATRIX_NAMES
 from ..core.uncertainty.speed_sigma import SpeedWithSigma
@@ -96,6 +97,7 @@ def header_section(subject: Subject, results: ReportResults, figures: int, gener
         ("parameters", "Benchmark parameters (Table 2)"),
         ("matrices", "Canonical matrices (Table 3)"),
         ("speeds", "Critical speeds and stable range"),
+        *([("closed-loop", "Closed loop (feedback)")] if results.closed_loop is not None else []),
         ("budget", "Uncertainty budget"),
         ("trials", "Trials"),
         ("timeline", "Timeline"),
@@ -258,6 +260,52 @@ def speeds_section(results: ReportResults) -> Raw:
         *_monte_carlo_table(results),
     ]
     return section("speeds", "Critical speeds", body)
+
+
+def _gain_text(s: GainSchedule) -> str:
+    """One gain for people: ``2.5`` or ``−50 at 0 m/s, 0 at 5 m/s (linear, held outside)``."""
+    if not s.speeds:
+        return f"{s.values[0]:g}"
+    points = ", ".join(f"{k:g} at {v:g} m/s" for v, k in zip(s.speeds, s.values, strict=True))
+    return points + " (linear between, held outside)"
+
+
+def closed_loop_section(results: ReportResults) -> Raw:
+    """The closed loop of the steer-torque feedback: its gains, speeds with σ and stable ranges.
+
+    Raises:
+        ValueError: The results have no closed loop.
+    """
+    cl = results.closed_loop
+    if cl is None:
+        raise ValueError("no closed loop in these results")
+    fb = cl.feedback
+    units = ("N m/rad", "N m/rad", "N m s/rad", "N m s/rad")
+    gains = [[Raw(f'<td data-key="{k}">{k}</td>'), u, _gain_text(s)] for k, u, s in zip(GAIN_KEYS, units, fb.schedules)]
+    rows: list[list[str]] = []
+    for name, attr in (("weave speed", "weave"), ("capsize speed", "capsize")):
+        row: list[str] = [Raw(f'<td data-key="{attr}">{esc(name)}</td>')]
+        row += [_speed_cells(getattr(cs, attr)) for cs in cl.speeds]
+        rows.append(row)
+    stable: list[str] = [Raw('<td data-key="stable">stable speed range</td>')]
+    stable += [Raw(f'<td colspan="2">{esc(_range_text(r))}</td>') for r in cl.stable]
+    rows.append(stable)
+    head = ["", "without rider [m/s]", "σ", f"{results.rider.label} [m/s]", "σ"]
+    body = [
+        _p(
+            f"Steer-torque state feedback '{fb.name}' ({fb.source or 'built in'}): "
+            "T_δ = −(kφ φ + kδ δ + kφ̇ φ̇ + kδ̇ δ̇) added to the steer torque; the closed loop is A − B K."
+        ),
+        table(["gain", "unit", "value"], gains, "gains", "table-gains", "Feedback gains"),
+        table(head, rows, "speeds", "table-closed-loop", "Critical speeds of the closed loop"),
+        _p(
+            "Weave speed: the lowest speed where an oscillatory pair becomes stable; capsize speed: the lowest "
+            "where a real root becomes unstable (of the closed loop). σ to first order from the parameter "
+            "covariance; the gains are exact.",
+            "note",
+        ),
+    ]
+    return section("closed-loop", "Closed loop (feedback)", body)
 
 
 def _share_list(o: OutputBudget) -> Raw:
