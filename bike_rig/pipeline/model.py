@@ -86,7 +86,7 @@ def compute_model(
     speeds: ArrayLike,
     rider: str = "",
     convention: SigmaConvention | str = SigmaConvention.CORRELATED,
-    feedback: str = "",
+    feedback: str | Feedback | None = "",
 ) -> tuple[ModelMatrices, StabilitySweep]:
     """The model products of a parameter set.
 
@@ -95,9 +95,9 @@ def compute_model(
         speeds: Speeds of the eigenvalue sweep, m/s.
         rider: "" (none) or "paper" (lumped into the rear frame, σ carried through).
         convention: σ convention of the matrices and the critical speeds.
-        feedback: "" (none) or a feedback file (:func:`bike_rig.core.feedback.resolve_feedback`):
-            the sweep and the speeds are then the closed loop's (the matrices stay the
-            bicycle's own).
+        feedback: "" or None (none), a feedback file
+            (:func:`bike_rig.core.feedback.resolve_feedback`) or a loaded feedback: the sweep
+            and the speeds are then the closed loop's (the matrices stay the bicycle's own).
 
     Raises:
         ModelError: unknown rider, bad speeds or a singular mass matrix.
@@ -105,7 +105,11 @@ def compute_model(
     """
     convention = SigmaConvention(convention)
     name = rider_key(rider, files=False)
-    fb = resolve_feedback(feedback)
+    if isinstance(feedback, Feedback):
+        fb: Feedback | None = feedback
+        fb_key = feedback.source or feedback.name
+    else:
+        fb, fb_key = resolve_feedback(feedback), feedback_key(feedback)
     full = _with_rider(ps, name)
     ms = canonical_with_sigma(full, convention)
     if fb is None:
@@ -115,7 +119,7 @@ def compute_model(
     cs = critical_speeds_with_sigma(full, convention, ms, feedback=fb)
     return (
         ModelMatrices(ps.bicycle, name, ms.g, ms.matrices, ms.sigma, convention),
-        StabilitySweep(ps.bicycle, name, sweep, cs.weave, cs.capsize, feedback_key(feedback)),
+        StabilitySweep(ps.bicycle, name, sweep, cs.weave, cs.capsize, fb_key),
     )
 
 
