@@ -243,3 +243,39 @@ def test_balance_assist_stabilises_low_speed(shared_dir: Path) -> None:
         assert _max_real(m, g, fb, v)[0] < 0.0, name
         assert any(lo < 2.0 < hi for lo, hi in closed_loop_stable_range(m, g, fb)), name
         assert not any(lo < 2.0 < hi for lo, hi in stable_speed_range(m, g)), name
+
+
+def _random_feedback(rng: np.random.Generator) -> Feedback:
+    """Constant or tabled gains (1–4 random speeds in 0–15 m/s) of typical size per gain."""
+    schedules = []
+    for scale in (20.0, 5.0, 20.0, 2.0):
+        if rng.random() < 0.4:
+            schedules.append(GainSchedule.constant(float(rng.normal() * scale)))
+        else:
+            n = int(rng.integers(1, 5))
+            speeds = np.sort(rng.uniform(0.0, 15.0, n))
+            schedules.append(GainSchedule(tuple(speeds.tolist()), tuple((rng.normal(size=n) * scale).tolist())))
+    return Feedback("random", *schedules)
+
+
+def test_random_schedules_match_eig(shared_dir: Path) -> None:
+    """60 random schedules: stable ranges equal ``max Re eig(A − B K) < 0`` on a grid; crossings are sign changes."""
+    rng = np.random.default_rng(20261126)
+    bikes = _bicycles(shared_dir)
+    grid = np.linspace(1e-3, 20.0, 2001)
+    for trial in range(60):
+        name, m, g = bikes[trial % len(bikes)]
+        fb = _random_feedback(rng)
+        ranges = closed_loop_stable_range(m, g, fb, v_max=20.0)
+        inside = np.zeros(grid.shape, dtype=bool)
+        for lo, hi in ranges:
+            inside |= (grid > lo) & (grid <= hi)
+        edges = np.array([x for r in ranges for x in r if 0.0 < x < 20.0])
+        far = np.ones(grid.shape, dtype=bool) if edges.size == 0 else np.abs(grid[:, None] - edges).min(axis=1) > 1e-3
+        stable = _max_real(m, g, fb, grid) < 0.0
+        assert np.array_equal(stable[far], inside[far]), (trial, name, fb)
+        for c in closed_loop_critical_speeds(m, g, fb, v_max=20.0).crossings:
+            around = np.array([c.speed - 1e-6, c.speed + 1e-6])
+            z = _reference_eigenvalues(m, g, around, fb.gains(around))
+            nearest = z[np.arange(2), np.argmin(np.abs(z.real), axis=1)]
+            assert np.sign(nearest[1].real - nearest[0].real) == np.sign(c.rate), (trial, name, c)

@@ -237,6 +237,12 @@ def _newton(func: Any, v: float) -> float:
     return v
 
 
+def _changes_sign(func: Any, v: float) -> bool:
+    """Whether ``func(x)[0]`` changes sign across ``v`` (±1e-9 relative): a crossing, not a touch."""
+    step = 1e-9 * max(1.0, abs(v))
+    return bool(func(v - step)[0] * func(v + step)[0] < 0.0)
+
+
 def _pieces(feedback: SteerFeedback, v_max: float) -> list[tuple[float, float]]:
     """Speed intervals of ``(0, v_max]`` on which every gain is linear."""
     edges = [0.0, *(b for b in feedback.breakpoints if 0.0 < b < v_max), v_max]
@@ -249,16 +255,25 @@ def _crossings_on(ev: _Evaluator, lo: float, hi: float) -> list[tuple[float, str
     a = [p / ev.lead for p in _piece(ev.matrices, ev.g, alpha, beta)]
     h = a[3] * a[2] * a[1] - a[4] * a[1] ** 2 - a[0] * a[3] ** 2
     found: list[tuple[float, str, Crossing | None]] = []
+
+    def a0(x: float) -> tuple[float, float]:
+        ak, dak = ev(x, lo, hi)
+        return ak[0], dak[0]
+
+    def hurwitz(x: float) -> tuple[float, float]:
+        h_x, dh_x = hurwitz_determinant(*ev(x, lo, hi))
+        return float(h_x), float(dh_x)
+
     for v0 in _real_roots(a[0], lo, hi):
-        v = _newton(lambda x: (ev(x, lo, hi)[0][0], ev(x, lo, hi)[1][0]), v0)
+        v = _newton(a0, v0)
         ak, dak = ev(v, lo, hi)
-        ok = ak[1] != 0.0 and dak[0] != 0.0
+        ok = ak[1] != 0.0 and dak[0] != 0.0 and _changes_sign(a0, v)
         found.append((v, "real", Crossing(v, "real", 0.0, -dak[0] / ak[1]) if ok else None))
     for v0 in _real_roots(h, lo, hi):
-        v = _newton(lambda x: hurwitz_determinant(*ev(x, lo, hi)), v0)
+        v = _newton(hurwitz, v0)
         ak, dak = ev(v, lo, hi)
         crossing = None
-        if ak[3] != 0.0 and ak[1] / ak[3] > 0.0:
+        if ak[3] != 0.0 and ak[1] / ak[3] > 0.0 and _changes_sign(hurwitz, v):
             omega = math.sqrt(ak[1] / ak[3])
             try:
                 crossing = Crossing(v, "oscillatory", omega, float(pair_crossing_rate(ak, dak, omega)))
