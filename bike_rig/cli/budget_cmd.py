@@ -23,7 +23,8 @@ per output ``value ± σ`` and the top N inputs with share (%) and contribution 
 with every share (not only the top N); ``input``/``inputs`` are the file's names and
 ``key``/``input_keys`` the BicycleParameters keys of the same inputs. With ``--feedback FILE`` the
 weave and capsize speeds are those of the closed loop ``A − B K`` of that steer-torque feedback
-(gains exact) and the JSON has ``"feedback"`` (its name) after ``"bicycle"``. Bad inputs and options
+(a gain value given with σ is one more input, ``feedback.<key>``) and the JSON has ``"feedback"``
+(its name) after ``"bicycle"``. Bad inputs and options
 end in one line on stderr and exit status 2 (:class:`~bike_rig.core.errors.BikeRigError`).
 """
 
@@ -157,7 +158,7 @@ def budget_text(b: UncertaintyBudget, top: int = 5, source: str | None = None) -
     origin = f" (from {source})" if source else ""
     lines = [f"{b.bicycle}: uncertainty budget over {what}{origin}"]
     if b.feedback:
-        lines.append(f"weave and capsize speeds of the closed loop with feedback '{b.feedback}' (gains exact)")
+        lines.append(f"weave and capsize speeds of the closed loop with feedback '{b.feedback}' ")
     if b.input_kind == PARAMETERS:
         lines.append(
             "a parameter file has no raw readings: the inputs are the parameters themselves "

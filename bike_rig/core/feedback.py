@@ -14,8 +14,10 @@ Whipple model (state ``x = [φ, δ, φ̇, δ̇]``, input ``u = [T_φ, T_δ]``), 
 
 Keys ``k_phi``, ``k_delta`` (N m/rad), ``k_phidot``, ``k_deltadot`` (N m s/rad); a missing key
 is zero, an unknown key an error. A table interpolates linearly in speed and holds its end
-values outside its speeds (strictly increasing, finite, as many values as speeds). The gains
-are exact (no σ). This module is the one place a feedback choice becomes a :class:`Feedback`
+values outside its speeds (strictly increasing, finite, as many values as speeds). A gain is
+exact unless given with σ: ``[value, sigma]`` for a number, ``sigmas: [...]`` (one per value)
+in a table; each such σ is an independent uncertain input (:meth:`Feedback.uncertain_knots`).
+This module is the one place a feedback choice becomes a :class:`Feedback`
 (:func:`resolve_feedback`), for the command line, the pipeline and the model node.
 """
 
@@ -68,10 +70,12 @@ class GainSchedule:
     Attributes:
         speeds: The table's speeds (m/s), strictly increasing; empty for a constant gain.
         values: The gain at each speed (one value for a constant), N m/rad or N m s/rad.
+        sigmas: σ of each value (same unit), independent; empty when the gain is exact.
     """
 
     speeds: tuple[float, ...]
     values: tuple[float, ...]
+    sigmas: tuple[float, ...] = ()
 
     @classmethod
     def constant(cls, value: float) -> GainSchedule:
@@ -97,6 +101,15 @@ class GainSchedule:
         knots, values = np.asarray(self.speeds), np.asarray(self.values)
         rates = np.concatenate([[0.0], np.diff(values) / np.diff(knots), [0.0]])
         return np.asarray(rates[np.searchsorted(knots, speed, side="right")], dtype=float)
+
+    def weight(self, v: ArrayLike, j: int) -> FloatArray:
+        """``∂ gain(v) / ∂ values[j]`` at the speeds ``v`` (m/s): the interpolation weight (-)."""
+        speed = np.asarray(v, dtype=float)
+        if not self.speeds:
+            return np.ones(speed.shape)
+        unit = np.zeros(len(self.values))
+        unit[j] = 1.0
+        return np.asarray(np.interp(speed, self.speeds, unit), dtype=float)
 
     @property
     def is_zero(self) -> bool:
@@ -145,6 +158,31 @@ class Feedback:
         """``d/dv [kφ, kδ, kφ̇, kδ̇]`` at the speeds ``v`` (:meth:`GainSchedule.slope`), shape ``shape(v) + (4,)``."""
         return np.stack([s.slope(v) for s in self.schedules], axis=-1)
 
+    def uncertain_knots(self) -> tuple[tuple[int, int, float, str], ...]:
+        """Every gain value given with σ > 0: ``(gain index, value index, σ, label)``.
+
+        The gain index is in :data:`GAIN_KEYS` order; the label names the value as the file
+        does (``k_phi`` or ``k_phidot.values[1]``).
+        """
+        out = []
+        for i, (key, s) in enumerate(zip(GAIN_KEYS, self.schedules, strict=True)):
+            for j, sigma in enumerate(s.sigmas):
+                if sigma > 0.0:
+                    out.append((i, j, float(sigma), key if not s.speeds else f"{key}.values[{j}]"))
+        return tuple(out)
+
+    def knot_jacobian(self, v: ArrayLike) -> FloatArray:
+        """``∂[kφ, kδ, kφ̇, kδ̇](v) / ∂`` each uncertain value: shape ``shape(v) + (n, 4)``.
+
+        ``n`` is the number of :meth:`uncertain_knots`.
+        """
+        speed = np.asarray(v, dtype=float)
+        knots = self.uncertain_knots()
+        out = np.zeros(speed.shape + (len(knots), 4))
+        for n, (i, j, _, _) in enumerate(knots):
+            out[..., n, i] = self.schedules[i].weight(speed, j)
+        return out
+
     def gains_at(self, v: ArrayLike) -> FloatArray:
         """The steer-torque gain row ``K`` (the input's steer row), shape ``shape(v) + (1, 4)``.
 
@@ -183,29 +221,58 @@ def _numbers(path: str, lines: Mapping[tuple[object, ...], int], where: tuple[ob
     return out
 
 
+def _sigmas(path: str, lines: Mapping[tuple[object, ...], int], where: tuple[object, ...], items: Any) -> list[float]:
+    """σ values: finite numbers ≥ 0."""
+    out = _numbers(path, lines, where, items)
+    for i, s in enumerate(out):
+        if s < 0.0:
+            raise _error(path, lines, where + (i,), f"a σ must be >= 0 ({s:g} given)")
+    return out
+
+
+def _constant(path: str, lines: Mapping[tuple[object, ...], int], key: str, spec: Any) -> GainSchedule:
+    """A constant gain: a number, or ``[value, sigma]``."""
+    where: tuple[object, ...] = (key,)
+    if isinstance(spec, list) and len(spec) == 2:
+        value, sigma = _number(spec[0]), _number(spec[1])
+        if value is not None and sigma is not None:
+            if sigma < 0.0:
+                raise _error(path, lines, where, f"a σ must be >= 0 ({sigma:g} given)")
+            return GainSchedule((), (value,), (sigma,))
+    value = _number(spec)
+    if value is None:
+        reason = (
+            "a gain is a finite number, [value, sigma] or {speeds: [...], values: [...]} "
+            f"({short_repr(spec)} given)"
+        )
+        raise _error(path, lines, where, reason)
+    return GainSchedule.constant(value)
+
+
 def _schedule(path: str, lines: Mapping[tuple[object, ...], int], key: str, spec: Any) -> GainSchedule:
-    """One gain: a number, or a table ``{speeds: [...], values: [...]}``."""
+    """One gain: a number, ``[value, sigma]``, or a table ``{speeds: [...], values: [...], sigmas: [...]}``."""
     where: tuple[object, ...] = (key,)
     if not isinstance(spec, Mapping):
-        value = _number(spec)
-        if value is None:
-            reason = f"a gain is a finite number or {{speeds: [...], values: [...]}} ({short_repr(spec)} given)"
-            raise _error(path, lines, where, reason)
-        return GainSchedule.constant(value)
-    unknown = sorted(str(k) for k in spec if k not in ("speeds", "values"))
+        return _constant(path, lines, key, spec)
+    unknown = sorted(str(k) for k in spec if k not in ("speeds", "values", "sigmas"))
     if unknown or "speeds" not in spec or "values" not in spec:
         extra = f"; unknown {', '.join(unknown)}" if unknown else ""
-        raise _error(path, lines, where, f"a gain table has exactly the keys speeds (m/s) and values{extra}")
+        reason = f"a gain table has the keys speeds (m/s) and values, and optionally sigmas{extra}"
+        raise _error(path, lines, where, reason)
     speeds = _numbers(path, lines, where + ("speeds",), spec["speeds"])
     values = _numbers(path, lines, where + ("values",), spec["values"])
     if len(speeds) != len(values):
         reason = f"{len(values)} values for {len(speeds)} speeds: a table needs one value per speed"
         raise _error(path, lines, where + ("values",), reason)
+    sigmas = _sigmas(path, lines, where + ("sigmas",), spec["sigmas"]) if "sigmas" in spec else []
+    if sigmas and len(sigmas) != len(values):
+        reason = f"{len(sigmas)} sigmas for {len(values)} values: one σ per value"
+        raise _error(path, lines, where + ("sigmas",), reason)
     for i in range(1, len(speeds)):
         if not speeds[i] > speeds[i - 1]:
             reason = f"speeds must increase strictly ({speeds[i - 1]:g} then {speeds[i]:g} m/s)"
             raise _error(path, lines, where + ("speeds", i), reason)
-    return GainSchedule(tuple(speeds), tuple(values))
+    return GainSchedule(tuple(speeds), tuple(values), tuple(sigmas))
 
 
 def load_feedback(path: str | Path) -> Feedback:

@@ -377,7 +377,7 @@ def eigen_curves(
             :data:`DEFAULT_SPEEDS`.
         convention: σ convention (``correlated`` keeps the parameter correlations).
         feedback: Steer-torque state feedback: the closed loop ``A − B K`` (σ from the
-            parameters, gains exact); None: the open loop.
+            parameters and the gains given with σ); None: the open loop.
 
     Returns:
         The curves (see :class:`EigenCurves`).

@@ -66,7 +66,7 @@ REPORT_DPI = 100
 #: Most processes the figures are drawn in.
 MAX_WORKERS = 4
 #: Added to the caption of a closed-loop figure.
-_CLOSED_NOTE = " Closed loop A − B K of the steer-torque feedback (σ from the parameters; gains exact)."
+_CLOSED_NOTE = " Closed loop A − B K of the steer-torque feedback (σ from the parameters and the gains given with σ)."
 #: Fewer figures than this are drawn in this process (a pool costs more than it saves).
 MIN_PARALLEL = 4
 

@@ -68,7 +68,7 @@ class ClosedLoop:
 
     Attributes:
         feedback: The feedback.
-        speeds: Weave and capsize speeds of the closed loop with σ (m/s; gains exact), one per
+        speeds: Weave and capsize speeds of the closed loop with σ (m/s; the gains' σ too), one per
             variant (without, then with the rider).
         stable: The closed loop's stable speed intervals (m/s), one tuple per variant.
     """

@@ -301,7 +301,7 @@ def closed_loop_section(results: ReportResults) -> Raw:
         _p(
             "Weave speed: the lowest speed where an oscillatory pair becomes stable; capsize speed: the lowest "
             "where a real root becomes unstable (of the closed loop). σ to first order from the parameter "
-            "covariance; the gains are exact.",
+            "covariance and the gains given with σ (independent; the others exact).",
             "note",
         ),
     ]

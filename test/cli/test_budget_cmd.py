@@ -167,3 +167,21 @@ def test_feedback_budgets_the_closed_loop_speeds(capsys: pytest.CaptureFixture[s
     assert outputs[WEAVE]["value"] < 2.0  # the assist's low-speed stabilisation
     assert main(["budget", BROWSER, "--feedback", str(assist)]) == 0
     assert "closed loop with feedback 'balance assist'" in capsys.readouterr().out
+
+
+def test_feedback_gains_with_sigma_are_budget_inputs(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    """A gain given with σ is one more input of the speeds' budget; its σ equals the speeds' σ."""
+    path = tmp_path / "fb.yaml"
+    path.write_text(
+        "format: bike_rig-feedback/1\nk_phidot: {speeds: [0, 5], values: [-50, 0], sigmas: [5, 0]}\n"
+        "k_phi: {speeds: [5, 15], values: [0, -5]}\n"
+    )
+    data = run_json(capsys, BROWSER, "--feedback", str(path))
+    assert data["inputs"][-1] == "feedback.k_phidot.values[0]"
+    cs = critical_speeds_with_sigma(compute_parameters(load_measurements(BROWSER)), feedback=load_feedback(path))
+    outputs = {o["output"]: o for o in data["outputs"]}
+    assert cs.weave is not None
+    assert outputs[WEAVE]["sigma"] == pytest.approx(cs.weave.sigma, rel=1e-9)
+    shares = {s["input"]: s["share"] for s in outputs[WEAVE]["shares"]}
+    assert shares["feedback.k_phidot.values[0]"] > 0.0
+    assert all("feedback." not in s["input"] for s in outputs["w"]["shares"])  # parameters do not depend on it

@@ -129,8 +129,11 @@ def test_missing_keys_are_zero_and_names(tmp_path: Path) -> None:
         ),
         ("k_delta: .inf\n", r":2: key 'k_delta': a gain is a finite number"),
         ("k_delta: true\n", r":2: key 'k_delta': a gain is a finite number"),
-        ("k_delta: [1, 0.1]\n", r":2: key 'k_delta': a gain is a finite number"),
-        ("k_delta: {speeds: [1]}\n", r":2: key 'k_delta': a gain table has exactly the keys speeds"),
+        ("k_delta: [1, 0.1, 2]\n", r":2: key 'k_delta': a gain is a finite number, \[value, sigma\]"),
+        ("k_delta: [1, -0.1]\n", r":2: key 'k_delta': a σ must be >= 0 \(-0.1 given\)"),
+        ("k_delta: {speeds: [1]}\n", r":2: key 'k_delta': a gain table has the keys speeds"),
+        ("k_delta: {speeds: [1, 2], values: [1, 2], sigmas: [0.1]}\n", r":2: key 'k_delta.sigmas': 1 sigmas for 2"),
+        ("k_delta: {speeds: [1, 2], values: [1, 2], sigmas: [0.1, -1]}\n", r":2: key 'k_delta.sigmas\[1\]': a σ"),
         ("k_delta: {speeds: [], values: []}\n", r":2: key 'k_delta.speeds': expected a non-empty list"),
     ],
 )
@@ -139,6 +142,28 @@ def test_bad_files_name_file_key_and_line(tmp_path: Path, text: str, message: st
     path = _write(tmp_path, text)
     with pytest.raises(FeedbackError, match="^" + str(path).replace(".", r"\.") + message):
         load_feedback(path)
+
+
+def test_gains_with_sigma(tmp_path: Path) -> None:
+    """``[value, sigma]`` and a table's ``sigmas`` make uncertain inputs; their Jacobian is the interpolation's."""
+    fb = load_feedback(
+        _write(
+            tmp_path, "k_phi: [2.0, 0.5]\nk_delta: 1.0\nk_phidot: {speeds: [0, 4], values: [-20, 0], sigmas: [2, 0]}\n"
+        )
+    )
+    assert fb.uncertain_knots() == ((0, 0, 0.5, "k_phi"), (2, 0, 2.0, "k_phidot.values[0]"))
+    v = np.array([-1.0, 1.0, 3.0, 6.0])
+    jac = fb.knot_jacobian(v)
+    assert jac.shape == (4, 2, 4)
+    h = 1e-6
+    for n, (i, j, _, _) in enumerate(fb.uncertain_knots()):
+        s = fb.schedules[i]
+        up = list(s.values)
+        up[j] += h
+        moved = GainSchedule(s.speeds, tuple(up))
+        np.testing.assert_allclose(jac[:, n, i], (moved.at(v) - s.at(v)) / h, rtol=1e-6, atol=1e-9)
+        assert np.count_nonzero(jac[:, n, :] != 0, axis=1).max() == 1  # one gain per value
+    assert Feedback("exact", GainSchedule.constant(3.0)).uncertain_knots() == ()
 
 
 def test_bad_format_and_missing_file(tmp_path: Path) -> None:

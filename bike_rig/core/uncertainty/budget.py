@@ -309,7 +309,8 @@ def uncertainty_budget(
             gets its first-order shift under each as a systematic line. Keys that are not
             inputs are ignored.
         feedback: Steer-torque state feedback: the weave and capsize speeds are the closed
-            loop's (gains exact); None: the open loop.
+            loop's; its gain values given with σ are further inputs (``feedback.<key>``,
+            independent). None: the open loop.
 
     Returns:
         The budget: 25 parameters (PARAMETER_NAMES order without g), then the weave and
@@ -325,6 +326,15 @@ def uncertainty_budget(
         kind, keys = PARAMETERS, list(PARAMETER_NAMES)
         covariance = np.asarray(ps.parameters.covariance, dtype=float)
         to_input = np.eye(len(PARAMETER_NAMES))
+    knots = feedback.uncertain_knots() if feedback is not None else ()
+    if knots:  # the feedback's gains given with σ: further independent inputs, after the others
+        n, m = len(keys), len(knots)
+        keys = keys + [f"feedback.{k[3]}" for k in knots]
+        covariance = np.block([
+            [covariance, np.zeros((n, m))],
+            [np.zeros((m, n)), np.diag([k[2] ** 2 for k in knots])],
+        ])  # fmt: skip
+        to_input = np.hstack([to_input, np.zeros((to_input.shape[0], m))])
     groups = _groups(covariance)
     own = names or {}
     labels = [("+".join(own.get(keys[i], keys[i]) for i in g), "+".join(keys[i] for i in g)) for g in groups]
@@ -335,8 +345,11 @@ def uncertainty_budget(
     outputs = [replace(o, systematic=_shifts(to_input[r], shifts)) for o, r in zip(outputs, rows, strict=True)]
     for name, sp in _speeds(ps, feedback):
         grad = sp.gradient if sp.gradient is not None else np.full(len(PARAMETER_NAMES), math.nan)
-        o = _output_budget(name, sp.speed, grad @ to_input, covariance, groups, labels)
-        outputs.append(replace(o, systematic=_shifts(grad @ to_input, shifts)))
+        sens = grad @ to_input
+        if knots:
+            sens[-len(knots) :] = sp.gain_gradient if sp.gain_gradient is not None else math.nan
+        o = _output_budget(name, sp.speed, sens, covariance, groups, labels)
+        outputs.append(replace(o, systematic=_shifts(sens, shifts)))
     inputs = tuple(label for label, _ in labels)
     keys_out = tuple(key for _, key in labels)
     fb_name = "" if feedback is None else feedback.name

@@ -54,6 +54,7 @@ __all__ = [
     "CrossingKind",
     "CriticalSpeedsWithSigma",
     "SpeedWithSigma",
+    "closed_loop_gain_gradient",
     "closed_loop_speed_gradient",
     "critical_speed_gradient",
     "critical_speeds_with_sigma",
@@ -82,11 +83,15 @@ class SpeedWithSigma:
         sigma: Its standard uncertainty, m/s (NaN if the root is not simple).
         gradient: ∂speed/∂p for the 26 parameters in PARAMETER_NAMES order (m/s per SI unit
             of each parameter); None when not known (e.g. read back from a message).
+        gain_gradient: For a closed loop, ∂speed/∂ each feedback gain value given with σ
+            (:meth:`bike_rig.core.feedback.Feedback.uncertain_knots` order; m/s per N m/rad or
+            N m s/rad); their variance is in ``sigma``. None for the open loop.
     """
 
     speed: float
     sigma: float
     gradient: FloatArray | None = None
+    gain_gradient: FloatArray | None = None
 
 
 @dataclass(frozen=True)
@@ -199,6 +204,33 @@ def closed_loop_speed_gradient(
     return np.asarray(-df_dp / dv, dtype=float)
 
 
+def closed_loop_gain_gradient(
+    values: Mapping[str, float], speed: float, kind: CrossingKind | str, feedback: Feedback
+) -> FloatArray:
+    """``∂v/∂k`` of a closed-loop critical speed for each gain value given with σ.
+
+    Implicit function theorem as :func:`closed_loop_speed_gradient`, with the complex step in
+    the uncertain gain values (:meth:`bike_rig.core.feedback.Feedback.knot_jacobian`).
+
+    Returns:
+        Shape ``(n,)``, :meth:`~bike_rig.core.feedback.Feedback.uncertain_knots` order; NaN
+        where ``∂F/∂v = 0``.
+    """
+    kind = CrossingKind(kind)
+    n = len(feedback.uncertain_knots())
+    if n == 0:
+        return np.zeros(0)
+    v = float(speed)
+    gains = feedback.gains(v) + 1j * COMPLEX_STEP * feedback.knot_jacobian(v)
+    a, da = closed_loop_rows(canonical_matrices(values), values["g"], v, gains, feedback.slopes(v))
+    f, df = (a[0], da[0]) if kind is CrossingKind.REAL else hurwitz_determinant(a, da)
+    df_dk = np.asarray(f).imag / COMPLEX_STEP
+    dv = float(np.asarray(df).real.reshape(-1)[0])
+    if dv == 0.0 or not math.isfinite(dv):
+        return np.full(n, math.nan)
+    return np.asarray(-df_dk / dv, dtype=float)
+
+
 def _with_sigma(
     values: Mapping[str, float],
     speed: float | None,
@@ -208,12 +240,16 @@ def _with_sigma(
 ) -> SpeedWithSigma | None:
     if speed is None:
         return None
+    gain_grad, gain_var = None, 0.0
     if feedback is None:
         grad = critical_speed_gradient(values, speed, kind)
     else:
         grad = closed_loop_speed_gradient(values, speed, kind, feedback)
-    var = float(grad @ covariance @ grad)
-    return SpeedWithSigma(float(speed), math.sqrt(var) if var >= 0.0 else math.nan, grad)
+        gain_grad = closed_loop_gain_gradient(values, speed, kind, feedback)
+        sigmas = np.array([k[2] for k in feedback.uncertain_knots()])
+        gain_var = float(np.sum((gain_grad * sigmas) ** 2))  # the gains' σ: independent inputs
+    var = float(grad @ covariance @ grad) + gain_var
+    return SpeedWithSigma(float(speed), math.sqrt(var) if var >= 0.0 else math.nan, grad, gain_grad)
 
 
 def critical_speeds_with_sigma(
@@ -235,7 +271,7 @@ def critical_speeds_with_sigma(
         v_max: Only crossings in ``(0, v_max]`` count (m/s).
         feedback: Steer-torque state feedback: the speeds are the closed loop's
             (:func:`bike_rig.core.whipple.closed_loop.closed_loop_critical_speeds`), σ from the
-            parameters with the gains exact. None: the open loop.
+            parameters and from the gain values given with σ (independent). None: the open loop.
 
     Returns:
         The speeds with σ; ``weave``/``capsize`` are None when absent.

@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 
 from bike_rig.core.benchmark import compute_parameters
-from bike_rig.core.feedback import Feedback, load_feedback
+from bike_rig.core.feedback import Feedback, GainSchedule, load_feedback
 from bike_rig.core.loader import load_measurements
 from bike_rig.core.symbols import PARAMETER_NAMES
-from bike_rig.core.uncertainty.eigen_sigma import eigenvalues_with_sigma
+from bike_rig.core.uncertainty.eigen_sigma import eigenvalue_gain_gradient, eigenvalues_with_sigma
 from bike_rig.core.uncertainty.speed_sigma import critical_speeds_with_sigma
 from bike_rig.core.whipple import canonical_matrices, eigenvalues
 from bike_rig.core.whipple.closed_loop import closed_loop_critical_speeds
@@ -81,3 +81,71 @@ def test_closed_loop_eigenvalue_gradient_equals_central_differences() -> None:
         assert np.abs(fd - es.gradient[..., k]).max() < 1e-5 * max(scale, np.abs(es.gradient).max() * 1e-3), name
     assert np.all(np.isfinite(es.sigma_real) | np.isnan(es.sigma_real))
     assert np.nanmax(es.sigma_real) > 0.0
+
+
+#: The assist with σ on two gain values (a constant and a table value).
+UNCERTAIN = Feedback(
+    "uncertain assist",
+    k_phi=GainSchedule((5.0, 15.0), (0.0, -5.0)),
+    k_delta=GainSchedule((), (0.3,), (0.05,)),
+    k_phidot=GainSchedule((0.0, 5.0), (-50.0, 0.0), (4.0, 0.0)),
+)
+
+
+def _moved(fb: Feedback, i: int, j: int, h: float) -> Feedback:
+    """``fb`` with value ``j`` of gain ``i`` moved by ``h``."""
+    s = fb.schedules[i]
+    values = list(s.values)
+    values[j] += h
+    schedules = list(fb.schedules)
+    schedules[i] = GainSchedule(s.speeds, tuple(values), s.sigmas)
+    return Feedback(fb.name, *schedules)
+
+
+def test_gain_sigma_of_the_closed_loop_speeds() -> None:
+    """∂v/∂k by differences; σ² = the parameters' part + Σ (∂v/∂k σ_k)²; σ_k = 0 is the exact case."""
+    ps = compute_parameters(load_measurements(config_file("bicycles/browser.yaml")))
+    values = ps.parameters.as_dict()
+    result = critical_speeds_with_sigma(ps, feedback=UNCERTAIN)
+    knots = UNCERTAIN.uncertain_knots()
+    assert [k[3] for k in knots] == ["k_delta", "k_phidot.values[0]"]
+    for index, got in ((0, result.weave), (1, result.capsize)):
+        assert got is not None and got.gain_gradient is not None and got.gradient is not None
+        h = 1e-6
+        for n, (i, j, _, label) in enumerate(knots):
+            hi = _speeds(values, _moved(UNCERTAIN, i, j, h))[index]
+            lo = _speeds(values, _moved(UNCERTAIN, i, j, -h))[index]
+            assert hi is not None and lo is not None
+            assert got.gain_gradient[n] == pytest.approx((hi - lo) / (2 * h), rel=1e-5, abs=1e-9), label
+        params = float(got.gradient @ ps.parameters.covariance @ got.gradient)
+        gains = sum((g * k[2]) ** 2 for g, k in zip(got.gain_gradient, knots, strict=True))
+        assert got.sigma == pytest.approx(np.sqrt(params + gains), rel=1e-12)
+        assert gains > 0.0
+    exact = Feedback("exact", *(GainSchedule(s.speeds, s.values) for s in UNCERTAIN.schedules))
+    plain = critical_speeds_with_sigma(ps, feedback=exact)
+    assert plain.weave is not None and result.weave is not None
+    assert plain.weave.speed == result.weave.speed and plain.weave.sigma < result.weave.sigma
+
+
+def test_gain_sigma_of_the_closed_loop_eigenvalues() -> None:
+    """∂λ/∂k by differences of the closed-loop sweep; the gains' σ widens the eigenvalues' σ."""
+    ps = compute_parameters(load_measurements(config_file("bicycles/browser.yaml")))
+    values = ps.parameters.as_dict()
+    v = np.array([1.5, 3.0, 7.0])
+    grad = eigenvalue_gain_gradient(
+        values, v, eigenvalues_with_sigma(ps, v, feedback=UNCERTAIN).sweep.eigenvalues, UNCERTAIN
+    )
+    m = canonical_matrices(values)
+    h = 1e-6
+    for n, (i, j, _, label) in enumerate(UNCERTAIN.uncertain_knots()):
+        up, down = _moved(UNCERTAIN, i, j, h), _moved(UNCERTAIN, i, j, -h)
+        fd = (
+            eigenvalues(m, values["g"], v, gains=up.gains(v)).eigenvalues
+            - eigenvalues(m, values["g"], v, gains=down.gains(v)).eigenvalues
+        ) / (2 * h)
+        assert np.abs(fd - grad[..., n]).max() < 1e-5 * max(1.0, np.abs(grad[..., n]).max()), label
+    exact = Feedback("exact", *(GainSchedule(s.speeds, s.values) for s in UNCERTAIN.schedules))
+    wide = eigenvalues_with_sigma(ps, v, feedback=UNCERTAIN).sigma_real
+    narrow = eigenvalues_with_sigma(ps, v, feedback=exact).sigma_real
+    ok = np.isfinite(wide) & np.isfinite(narrow)
+    assert ok.any() and np.all(wide[ok] >= narrow[ok]) and np.any(wide[ok] > narrow[ok])
