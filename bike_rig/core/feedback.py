@@ -111,6 +111,18 @@ class GainSchedule:
         unit[j] = 1.0
         return np.asarray(np.interp(speed, self.speeds, unit), dtype=float)
 
+    def describe(self) -> str:
+        """The gain for people: ``2.5 ± 0.1`` or ``-50 at 0 m/s, 0 at 5 m/s (linear between, held outside)``."""
+
+        def value(j: int) -> str:
+            sigma = self.sigmas[j] if self.sigmas else 0.0
+            return f"{self.values[j]:g}" + (f" ± {sigma:g}" if sigma > 0.0 else "")
+
+        if not self.speeds:
+            return value(0)
+        points = ", ".join(f"{value(j)} at {v:g} m/s" for j, v in enumerate(self.speeds))
+        return points + " (linear between, held outside)"
+
     @property
     def is_zero(self) -> bool:
         """Whether the gain is zero at every speed."""

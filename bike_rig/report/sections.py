@@ -16,7 +16,7 @@ from collections.abc import Sequence
 
 from .. import __version__
 from ..bag.timeline import TIME_BASE
-from ..core.feedback import GAIN_KEYS, GainSchedule
+from ..core.feedback import GAIN_KEYS
 from ..core.uncertainty.budget import CAPSIZE, PARAMETERS, WEAVE, OutputBudget, UncertaintyBudget, input_ranking
 from ..core.uncertainty.matrix_sigma import MATRIX_NAMES
 from ..core.uncertainty.speed_sigma import SpeedWithSigma
@@ -262,14 +262,6 @@ def speeds_section(results: ReportResults) -> Raw:
     return section("speeds", "Critical speeds", body)
 
 
-def _gain_text(s: GainSchedule) -> str:
-    """One gain for people: ``2.5`` or ``−50 at 0 m/s, 0 at 5 m/s (linear, held outside)``."""
-    if not s.speeds:
-        return f"{s.values[0]:g}"
-    points = ", ".join(f"{k:g} at {v:g} m/s" for v, k in zip(s.speeds, s.values, strict=True))
-    return points + " (linear between, held outside)"
-
-
 def closed_loop_section(results: ReportResults) -> Raw:
     """The closed loop of the steer-torque feedback: its gains, speeds with σ and stable ranges.
 
@@ -281,7 +273,7 @@ def closed_loop_section(results: ReportResults) -> Raw:
         raise ValueError("no closed loop in these results")
     fb = cl.feedback
     units = ("N m/rad", "N m/rad", "N m s/rad", "N m s/rad")
-    gains = [[Raw(f'<td data-key="{k}">{k}</td>'), u, _gain_text(s)] for k, u, s in zip(GAIN_KEYS, units, fb.schedules)]
+    gains = [[Raw(f'<td data-key="{k}">{k}</td>'), u, s.describe()] for k, u, s in zip(GAIN_KEYS, units, fb.schedules)]
     rows: list[list[str]] = []
     for name, attr in (("weave speed", "weave"), ("capsize speed", "capsize")):
         row: list[str] = [Raw(f'<td data-key="{attr}">{esc(name)}</td>')]

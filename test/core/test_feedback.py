@@ -152,6 +152,8 @@ def test_gains_with_sigma(tmp_path: Path) -> None:
         )
     )
     assert fb.uncertain_knots() == ((0, 0, 0.5, "k_phi"), (2, 0, 2.0, "k_phidot.values[0]"))
+    assert fb.k_phi.describe() == "2 ± 0.5" and fb.k_delta.describe() == "1"
+    assert fb.k_phidot.describe() == "-20 ± 2 at 0 m/s, 0 at 4 m/s (linear between, held outside)"
     v = np.array([-1.0, 1.0, 3.0, 6.0])
     jac = fb.knot_jacobian(v)
     assert jac.shape == (4, 2, 4)
