@@ -9,11 +9,14 @@ The feedback ``T_δ = −(kφ φ + kδ δ + kφ̇ φ̇ + kδ̇ δ̇)`` (gains po
 (:func:`steer_feedback_terms`), still a quartic in ``s`` with ``a4 = det M``. With gains linear
 in ``v`` (a piecewise-linear schedule, between its table speeds) every ``a_k(v)`` is a
 polynomial in ``v`` of the open loop's degree (``a3 ≤ 1, a2 ≤ 2, a1 ≤ 3, a0 ≤ 4``), so the
-critical speeds of each piece are real roots of polynomials: ``a0(v)`` (a real root through ``s = 0``) and the Hurwitz
-determinant ``H = a3 a2 a1 − a4 a1² − a0 a3²`` (a pair through ``±iω``). They are found piece
-by piece with :mod:`numpy.polynomial` (companion-matrix roots) and polished by Newton on the
-unexpanded ``a_k(v)``; so, as for the open loop (:mod:`.stability`), no crossing is missed
-and every speed is exact to rounding (no grid). Units: SI, speeds m/s, eigenvalues 1/s.
+critical speeds of each piece are real roots of polynomials: of ``a0(v)`` (a real root through
+``s = 0``) and of the Hurwitz determinant ``H = a3 a2 a1 − a4 a1² − a0 a3²`` (degree ≤ 6; a
+pair through ``±iω``). They are found piece by piece with :mod:`numpy.polynomial`
+(companion-matrix roots) and polished by Newton on the unexpanded ``a_k(v)``; a root counts as
+a crossing only where its function changes sign. So, as for the open loop (:mod:`.stability`),
+no crossing is missed and every speed is exact to rounding (no grid, no bracketing step);
+``test/core/test_feedback.py`` checks the stable ranges and each crossing's direction against
+``numpy.linalg.eigvals(A − B K)``. Units: SI, speeds m/s, eigenvalues 1/s.
 """
 
 from __future__ import annotations
