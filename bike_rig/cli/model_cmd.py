@@ -36,7 +36,7 @@ from typing import Any
 
 import numpy as np
 
-from ..core.feedback import GAIN_KEYS, Feedback
+from ..core.feedback import GAIN_KEYS, GAIN_UNITS, Feedback
 from ..core.rider import add_rider
 from ..core.uncertainty.matrix_sigma import MatrixSet, SigmaConvention, canonical_with_sigma
 from ..core.uncertainty.speed_sigma import CriticalSpeedsWithSigma, critical_speeds_with_sigma
@@ -105,8 +105,9 @@ def feedback_text(fb: Feedback, ranges: tuple[tuple[float, float], ...], open_cs
     """The closed loop's heading: the feedback, its stable speed ranges and the open loop's speeds."""
     weave = "none" if open_cs.weave is None else f"{open_cs.weave:.3f} m/s"
     capsize = "none" if open_cs.capsize is None else f"{open_cs.capsize:.3f} m/s"
-    units = ("N m/rad", "N m/rad", "N m s/rad", "N m s/rad")
-    gains = "".join(f"  {k} [{u}]: {s.describe()}\n" for k, u, s in zip(GAIN_KEYS, units, fb.schedules, strict=True))
+    gains = "".join(
+        f"  {k} [{u}]: {s.describe()}\n" for k, u, s in zip(GAIN_KEYS, GAIN_UNITS, fb.schedules, strict=True)
+    )
     return (
         f"closed loop with feedback '{fb.name}' ({fb.source or 'built in'}): T_δ = −(kφ φ + kδ δ + kφ̇ φ̇ + kδ̇ δ̇)\n"
         f"{gains}"

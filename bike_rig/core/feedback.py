@@ -39,6 +39,7 @@ from .measurements import MAX_MAGNITUDE
 __all__ = [
     "FEEDBACK_FORMAT",
     "GAIN_KEYS",
+    "GAIN_UNITS",
     "NO_FEEDBACK",
     "Feedback",
     "FeedbackError",
@@ -54,6 +55,8 @@ FloatArray = NDArray[np.float64]
 FEEDBACK_FORMAT = "bike_rig-feedback/1"
 #: The gain keys in state order ``[φ, δ, φ̇, δ̇]`` (N m/rad, N m/rad, N m s/rad, N m s/rad).
 GAIN_KEYS: tuple[str, str, str, str] = ("k_phi", "k_delta", "k_phidot", "k_deltadot")
+#: The unit of each gain of :data:`GAIN_KEYS`.
+GAIN_UNITS: tuple[str, str, str, str] = ("N m/rad", "N m/rad", "N m s/rad", "N m s/rad")
 #: The record name of "no feedback".
 NO_FEEDBACK = ""
 _OTHER_KEYS = ("format", "name")

@@ -16,7 +16,7 @@ from collections.abc import Sequence
 
 from .. import __version__
 from ..bag.timeline import TIME_BASE
-from ..core.feedback import GAIN_KEYS
+from ..core.feedback import GAIN_KEYS, GAIN_UNITS
 from ..core.uncertainty.budget import CAPSIZE, PARAMETERS, WEAVE, OutputBudget, UncertaintyBudget, input_ranking
 from ..core.uncertainty.matrix_sigma import MATRIX_NAMES
 from ..core.uncertainty.speed_sigma import SpeedWithSigma
@@ -272,8 +272,10 @@ def closed_loop_section(results: ReportResults) -> Raw:
     if cl is None:
         raise ValueError("no closed loop in these results")
     fb = cl.feedback
-    units = ("N m/rad", "N m/rad", "N m s/rad", "N m s/rad")
-    gains = [[Raw(f'<td data-key="{k}">{k}</td>'), u, s.describe()] for k, u, s in zip(GAIN_KEYS, units, fb.schedules)]
+    gains = [
+        [Raw(f'<td data-key="{k}">{k}</td>'), u, s.describe()]
+        for k, u, s in zip(GAIN_KEYS, GAIN_UNITS, fb.schedules, strict=True)
+    ]
     rows: list[list[str]] = []
     for name, attr in (("weave speed", "weave"), ("capsize speed", "capsize")):
         row: list[str] = [Raw(f'<td data-key="{attr}">{esc(name)}</td>')]

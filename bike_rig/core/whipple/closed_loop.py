@@ -31,7 +31,7 @@ from numpy.polynomial import Polynomial
 from numpy.typing import ArrayLike, NDArray
 
 from .matrices import WhippleMatrices, characteristic_polynomial, check_one_bicycle, state_space
-from .stability import CriticalSpeeds, Crossing, hurwitz_determinant, pair_crossing_rate
+from .stability import CriticalSpeeds, Crossing, _newton, hurwitz_determinant, pair_crossing_rate
 
 __all__ = [
     "SteerFeedback",
@@ -225,19 +225,6 @@ class _Evaluator:
         alpha, beta = _gain_slopes(self.feedback, lo, hi)
         a, da = closed_loop_rows(self.matrices, self.g, v, alpha + beta * v, beta)
         return [float(x) / self.lead for x in a], [float(x) / self.lead for x in da]
-
-
-def _newton(func: Any, v: float) -> float:
-    """Polish a simple root ``v`` of ``func(v) -> (f, df)`` (as :mod:`.stability` does)."""
-    for _ in range(20):
-        f, df = func(v)
-        if df == 0.0 or not math.isfinite(f / df):
-            break
-        step = f / df
-        v -= step
-        if abs(step) <= 1e-15 * max(abs(v), 1e-300):
-            break
-    return v
 
 
 def _changes_sign(func: Any, v: float) -> bool:
