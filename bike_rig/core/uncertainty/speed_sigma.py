@@ -54,8 +54,7 @@ __all__ = [
     "CrossingKind",
     "CriticalSpeedsWithSigma",
     "SpeedWithSigma",
-    "closed_loop_gain_gradient",
-    "closed_loop_speed_gradient",
+    "closed_loop_speed_gradients",
     "critical_speed_gradient",
     "critical_speeds_with_sigma",
     "perturbed_coefficients",
@@ -181,54 +180,42 @@ def critical_speed_gradient(values: Mapping[str, float], speed: float, kind: Cro
     return np.asarray(-df_dp / dv, dtype=float)
 
 
-def closed_loop_speed_gradient(
+def closed_loop_speed_gradients(
     values: Mapping[str, float], speed: float, kind: CrossingKind | str, feedback: Feedback
-) -> FloatArray:
-    """``∂v/∂p`` of a closed-loop critical speed (implicit function theorem, exact gains).
+) -> tuple[FloatArray, FloatArray]:
+    """``∂v/∂p`` and ``∂v/∂k`` of a closed-loop critical speed (implicit function theorem).
 
     As :func:`critical_speed_gradient` with ``F`` the closed loop's ``a0`` or Hurwitz
-    determinant (:func:`bike_rig.core.whipple.closed_loop.closed_loop_rows`); ``∂F/∂v`` includes
-    the gains' slope ``dK/dv`` (of the schedule piece above ``speed``).
+    determinant (:func:`bike_rig.core.whipple.closed_loop.closed_loop_rows`): the complex step
+    in the 26 parameters, then in each gain value given with σ
+    (:meth:`bike_rig.core.feedback.Feedback.knot_jacobian`); ``∂F/∂v`` includes the gains'
+    slope ``dK/dv`` (of the schedule piece above ``speed``).
 
     Returns:
-        Shape (26,), PARAMETER_NAMES order; NaN where ``∂F/∂v = 0``.
+        ``∂v/∂p``, shape (26,), PARAMETER_NAMES order, and ``∂v/∂k``, shape ``(n,)``,
+        :meth:`~bike_rig.core.feedback.Feedback.uncertain_knots` order; NaN where
+        ``∂F/∂v = 0``.
     """
     kind = CrossingKind(kind)
-    matrices, g = perturbed_matrices(values)
-    a, da = closed_loop_rows(matrices, g, float(speed), feedback.gains(float(speed)), feedback.slopes(float(speed)))
-    f, df = (a[0], da[0]) if kind is CrossingKind.REAL else hurwitz_determinant(a, da)
-    df_dp = np.asarray(f).imag / COMPLEX_STEP
-    dv = float(np.asarray(df).real[0])
-    if dv == 0.0 or not math.isfinite(dv):
-        return np.full(len(PARAMETER_NAMES), math.nan)
-    return np.asarray(-df_dp / dv, dtype=float)
-
-
-def closed_loop_gain_gradient(
-    values: Mapping[str, float], speed: float, kind: CrossingKind | str, feedback: Feedback
-) -> FloatArray:
-    """``∂v/∂k`` of a closed-loop critical speed for each gain value given with σ.
-
-    Implicit function theorem as :func:`closed_loop_speed_gradient`, with the complex step in
-    the uncertain gain values (:meth:`bike_rig.core.feedback.Feedback.knot_jacobian`).
-
-    Returns:
-        Shape ``(n,)``, :meth:`~bike_rig.core.feedback.Feedback.uncertain_knots` order; NaN
-        where ``∂F/∂v = 0``.
-    """
-    kind = CrossingKind(kind)
-    n = len(feedback.uncertain_knots())
-    if n == 0:
-        return np.zeros(0)
     v = float(speed)
-    gains = feedback.gains(v) + 1j * COMPLEX_STEP * feedback.knot_jacobian(v)
-    a, da = closed_loop_rows(canonical_matrices(values), values["g"], v, gains, feedback.slopes(v))
-    f, df = (a[0], da[0]) if kind is CrossingKind.REAL else hurwitz_determinant(a, da)
-    df_dk = np.asarray(f).imag / COMPLEX_STEP
+    gains, slopes = feedback.gains(v), feedback.slopes(v)
+
+    def criterion(matrices: WhippleMatrices, g: Any, k: Any) -> tuple[Any, Any]:
+        a, da = closed_loop_rows(matrices, g, v, k, slopes)
+        return (a[0], da[0]) if kind is CrossingKind.REAL else hurwitz_determinant(a, da)
+
+    f_p, df = criterion(*perturbed_matrices(values), gains)
+    n = len(feedback.uncertain_knots())
+    f_k = np.zeros(0)
+    if n:
+        moved = gains + 1j * COMPLEX_STEP * feedback.knot_jacobian(v)
+        f_k, _ = criterion(canonical_matrices(values), values["g"], moved)
     dv = float(np.asarray(df).real.reshape(-1)[0])
     if dv == 0.0 or not math.isfinite(dv):
-        return np.full(n, math.nan)
-    return np.asarray(-df_dk / dv, dtype=float)
+        return np.full(len(PARAMETER_NAMES), math.nan), np.full(n, math.nan)
+    df_dp = np.asarray(f_p).imag / COMPLEX_STEP
+    df_dk = np.asarray(f_k).imag / COMPLEX_STEP
+    return np.asarray(-df_dp / dv, dtype=float), np.asarray(-df_dk / dv, dtype=float)
 
 
 def _with_sigma(
@@ -244,8 +231,7 @@ def _with_sigma(
     if feedback is None:
         grad = critical_speed_gradient(values, speed, kind)
     else:
-        grad = closed_loop_speed_gradient(values, speed, kind, feedback)
-        gain_grad = closed_loop_gain_gradient(values, speed, kind, feedback)
+        grad, gain_grad = closed_loop_speed_gradients(values, speed, kind, feedback)
         sigmas = np.array([k[2] for k in feedback.uncertain_knots()])
         gain_var = float(np.sum((gain_grad * sigmas) ** 2))  # the gains' σ: independent inputs
     var = float(grad @ covariance @ grad) + gain_var
