@@ -2,7 +2,8 @@
 
 ::
 
-    bike-rig budget INPUT [--json] [--rider none|paper] [--top N] [--com-method centroid|lstsq] [-o FILE]
+    bike-rig budget INPUT [--json] [--rider none|paper] [--feedback FILE] [--top N] [--com-method centroid|lstsq]
+                          [-o FILE]
 
 INPUT is a measurement file, a parameter file or a session bag
 (:func:`bike_rig.subjects.load_subject`). For each of the 25 parameters and the weave and
@@ -20,7 +21,10 @@ per output ``value ± σ`` and the top N inputs with share (%) and contribution 
      "key": .., "share": .., "contribution": ..}]}]}
 
 with every share (not only the top N); ``input``/``inputs`` are the file's names and
-``key``/``input_keys`` the BicycleParameters keys of the same inputs. Bad inputs and options
+``key``/``input_keys`` the BicycleParameters keys of the same inputs. With ``--feedback FILE`` the
+weave and capsize speeds are those of the closed loop ``A − B K`` of that steer-torque feedback
+(a gain value given with σ is one more input, ``feedback.<key>``) and the JSON has ``"feedback"``
+(its name) after ``"bicycle"``. Bad inputs and options
 end in one line on stderr and exit status 2 (:class:`~bike_rig.core.errors.BikeRigError`).
 """
 
@@ -47,8 +51,9 @@ from ..core.uncertainty.budget import (
 )
 from ..pipeline.swing import swing_alternative
 from ..subjects import load_subject
-from .common import emit, rider_from_spec
+from .common import emit, feedback_from_spec, rider_from_spec
 from .format import format_value_sigma
+from .options import add_feedback_option
 
 __all__ = ["BudgetUsageError", "add_parser", "budget_text", "run"]
 
@@ -74,6 +79,7 @@ def add_parser(sub: Any) -> None:
     q.add_argument(
         "--rider", default="none", help="'paper' for the paper's rigid rider (Table 1), or a rider YAML file"
     )
+    add_feedback_option(q)
     q.add_argument("--top", type=int, default=5, metavar="N", help="inputs shown per output in the table (default 5)")
     q.add_argument(
         "--com-method",
@@ -95,7 +101,8 @@ def run(args: argparse.Namespace) -> int:
     if rider is not None:
         ps = add_rider(ps, rider)
     names = reading_names(subject.measurements) if subject.measurements is not None else None
-    b = uncertainty_budget(ps, names, swing_alternative(subject.trials))
+    fb = feedback_from_spec(args.feedback)
+    b = uncertainty_budget(ps, names, swing_alternative(subject.trials), fb)
     if args.json:
         text = json.dumps(budget_json(b), indent=2, allow_nan=False)
     else:
@@ -150,6 +157,8 @@ def budget_text(b: UncertaintyBudget, top: int = 5, source: str | None = None) -
     what = f"{len(b.inputs)} raw readings" if b.input_kind != PARAMETERS else "the 26 parameters"
     origin = f" (from {source})" if source else ""
     lines = [f"{b.bicycle}: uncertainty budget over {what}{origin}"]
+    if b.feedback:
+        lines.append(f"weave and capsize speeds of the closed loop with feedback '{b.feedback}' ")
     if b.input_kind == PARAMETERS:
         lines.append(
             "a parameter file has no raw readings: the inputs are the parameters themselves "

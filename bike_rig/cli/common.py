@@ -1,13 +1,14 @@
-"""What several ``bike-rig`` commands share: writing their output, and reading a rider."""
+"""What several ``bike-rig`` commands share: writing their output, and reading a rider or a feedback."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
 from ..core.errors import BikeRigError, InputFileError
+from ..core.feedback import Feedback, resolve_feedback
 from ..core.rider import Rider, resolve_rider
 
-__all__ = ["UsageError", "emit", "rider_from_spec"]
+__all__ = ["UsageError", "emit", "feedback_from_spec", "rider_from_spec"]
 
 
 class UsageError(BikeRigError):
@@ -39,3 +40,15 @@ def rider_from_spec(spec: str | None) -> Rider | None:
         RiderError: The rider file is missing, unreadable or lacks a number.
     """
     return resolve_rider(spec)
+
+
+def feedback_from_spec(spec: str | None) -> Feedback | None:
+    """The feedback named by ``--feedback`` (see :func:`~bike_rig.core.feedback.resolve_feedback`).
+
+    None, ``""`` or ``none`` (the open loop), or a feedback YAML file (``format:
+    bike_rig-feedback/1``: gains ``k_phi, k_delta, k_phidot, k_deltadot``, numbers or tables).
+
+    Raises:
+        FeedbackError: The file is missing, unreadable or invalid (file, key and line).
+    """
+    return resolve_feedback(spec)

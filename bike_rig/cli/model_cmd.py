@@ -2,8 +2,8 @@
 
 ::
 
-    bike-rig model FILE [--rider paper|RIDER.yaml] [--speeds START STOP N] [--sigma correlated|paper]
-                        [--com-method centroid|lstsq] [--json] [-o OUT]
+    bike-rig model FILE [--rider paper|RIDER.yaml] [--feedback FEEDBACK.yaml] [--speeds START STOP N]
+                        [--sigma correlated|paper] [--com-method centroid|lstsq] [--json] [-o OUT]
 
 FILE is a measurement file or a parameter file. The text shows the matrices M, C1, K0, K2 with
 σ, the weave and capsize speeds with σ (m/s), and the eigenvalues (1/s) at the speeds. The
@@ -19,7 +19,12 @@ prints one object::
      "eigenvalues": [[{"re": .., "im": ..}, ...], ...]}
 
 A speed is null when the bicycle has no such crossing; its σ is null then, or when the root
-is not simple. Bad inputs end in one line on stderr with exit status 2.
+is not simple. With ``--feedback FILE`` the speeds and eigenvalues are the closed loop's
+(``A − B K``, :mod:`bike_rig.core.whipple.closed_loop`; the matrices stay the bicycle's), the text
+adds the closed loop's stable speed ranges and the open loop's speeds, and the JSON adds
+``"feedback": {"name", "file", "gains": [[kφ, kδ, kφ̇, kδ̇] per speed]}``,
+``"stable_speed_ranges": [[low, high|null], ...]`` and ``"open_loop": {"weave_speed",
+"capsize_speed"}``. Bad inputs end in one line on stderr with exit status 2.
 """
 
 from __future__ import annotations
@@ -31,16 +36,19 @@ from typing import Any
 
 import numpy as np
 
+from ..core.feedback import GAIN_KEYS, GAIN_UNITS, Feedback
 from ..core.rider import add_rider
 from ..core.uncertainty.matrix_sigma import MatrixSet, SigmaConvention, canonical_with_sigma
 from ..core.uncertainty.speed_sigma import CriticalSpeedsWithSigma, critical_speeds_with_sigma
-from ..core.whipple import EigenvalueSweep, eigenvalues
+from ..core.whipple import EigenvalueSweep, critical_speeds, eigenvalues
+from ..core.whipple.closed_loop import closed_loop_stable_range
 from ..textfmt import format_speed
 from . import format as fmt
-from .common import emit, rider_from_spec
+from .common import emit, feedback_from_spec, rider_from_spec
 from .main import _common, _parameters, _speeds
+from .options import add_feedback_option
 
-__all__ = ["add_parser", "model_json", "run", "speeds_text"]
+__all__ = ["add_parser", "feedback_json", "feedback_text", "model_json", "run", "speeds_text"]
 
 
 def add_parser(sub: Any) -> None:
@@ -48,6 +56,7 @@ def add_parser(sub: Any) -> None:
     q = sub.add_parser("model", help="canonical matrices, critical speeds and eigenvalues")
     _common(q)
     q.add_argument("--rider", help="'paper' for the paper's rigid rider (Table 1), or a rider YAML file")
+    add_feedback_option(q)
     q.add_argument("--speeds", nargs=3, metavar=("START", "STOP", "N"), help="speeds in m/s (default 0 10 11)")
     q.add_argument("--sigma", choices=[c.value for c in SigmaConvention], default="correlated")
     q.add_argument("--json", action="store_true", help="one JSON object on standard output")
@@ -74,6 +83,40 @@ def model_json(ms: MatrixSet, cs: CriticalSpeedsWithSigma, speeds: np.ndarray, e
     return out
 
 
+def _ranges(ranges: tuple[tuple[float, float], ...]) -> str:
+    """Stable speed ranges for people: ``1.02–4.35, 6.02–∞ m/s`` (or ``none``)."""
+    if not ranges:
+        return "none"
+    return ", ".join(f"{lo:.3f}–{hi:.3f}" if math.isfinite(hi) else f"{lo:.3f}–∞" for lo, hi in ranges) + " m/s"
+
+
+def feedback_json(
+    fb: Feedback, speeds: np.ndarray, ranges: tuple[tuple[float, float], ...], open_cs: Any
+) -> dict[str, Any]:
+    """The keys ``--feedback`` adds to the ``--json`` object (gains SI, speeds m/s)."""
+    return {
+        "feedback": {"name": fb.name, "file": fb.source, "gains": fb.gains(speeds).tolist()},
+        "stable_speed_ranges": [[lo, hi if math.isfinite(hi) else None] for lo, hi in ranges],
+        "open_loop": {"weave_speed": open_cs.weave, "capsize_speed": open_cs.capsize},
+    }
+
+
+def feedback_text(fb: Feedback, ranges: tuple[tuple[float, float], ...], open_cs: Any) -> str:
+    """The closed loop's heading: the feedback, its stable speed ranges and the open loop's speeds."""
+    weave = "none" if open_cs.weave is None else f"{open_cs.weave:.3f} m/s"
+    capsize = "none" if open_cs.capsize is None else f"{open_cs.capsize:.3f} m/s"
+    gains = "".join(
+        f"  {k} [{u}]: {s.describe()}\n" for k, u, s in zip(GAIN_KEYS, GAIN_UNITS, fb.schedules, strict=True)
+    )
+    return (
+        f"closed loop with feedback '{fb.name}' ({fb.source or 'built in'}): T_δ = −(kφ φ + kδ δ + kφ̇ φ̇ + kδ̇ δ̇)\n"
+        f"{gains}"
+        + ("(the σ below include the gains given with σ)\n" if fb.uncertain_knots() else "")
+        + f"stable speeds (closed loop): {_ranges(ranges)}\n"
+        f"open loop: weave {weave}, capsize {capsize}"
+    )
+
+
 def speeds_text(cs: CriticalSpeedsWithSigma) -> str:
     """The weave and capsize speeds with σ (σ to two significant digits), or why one is absent."""
     return (
@@ -93,18 +136,28 @@ def run(args: argparse.Namespace) -> int:
     rider = rider_from_spec(args.rider)
     if rider is not None:
         ps = add_rider(ps, rider)
+    fb = feedback_from_spec(args.feedback)
     speeds = _speeds(args.speeds)
     convention = SigmaConvention(args.sigma)
     ms = canonical_with_sigma(ps, convention)
-    cs = critical_speeds_with_sigma(ps, convention, ms)
-    eig = eigenvalues(ms.matrices, ms.g, speeds)
+    cs = critical_speeds_with_sigma(ps, convention, ms, feedback=fb)
+    eig = eigenvalues(ms.matrices, ms.g, speeds, gains=None if fb is None else fb.gains(speeds))
+    closed: list[str] = []
+    if fb is not None:
+        ranges = closed_loop_stable_range(ms.matrices, ms.g, fb)
+        open_cs = critical_speeds(ms.matrices, ms.g)
+        closed = [feedback_text(fb, ranges, open_cs)]
     if args.json:
-        emit(json.dumps(model_json(ms, cs, speeds, eig), indent=2), args.output)
+        doc = model_json(ms, cs, speeds, eig)
+        if fb is not None:
+            doc.update(feedback_json(fb, speeds, ranges, open_cs))
+        emit(json.dumps(doc, indent=2), args.output)
         return 0
     text = "\n\n".join(
         [
             f"{ps.bicycle}: Whipple model (from {ps.source})",
             fmt.matrix_table(ms),
+            *closed,
             speeds_text(cs),
             fmt.eigen_table(speeds.tolist(), eig.eigenvalues, eig.labels),
         ]

@@ -12,6 +12,9 @@ messages are the same for both; each command raises its own usage error class.
     --no-whole-cycles                                            do not cut it to whole cycles
     --min-cycles N  --min-r2 R2  --max-modulation M  --max-drift D   the quality thresholds
     --time COLUMN  --signal COLUMN  --time-unit s|ms|us|ns           a trial file's columns (name or 0-based index)
+
+:func:`add_feedback_option` adds ``--feedback FILE`` (steer-torque state feedback, the closed loop
+``A − B K``), shared by ``model``, ``plot``, ``report`` and ``budget``.
 """
 
 from __future__ import annotations
@@ -29,6 +32,7 @@ __all__ = [
     "THRESHOLDS",
     "Threshold",
     "add_column_options",
+    "add_feedback_option",
     "add_threshold_options",
     "add_window_options",
     "columns_from_args",
@@ -209,3 +213,19 @@ def columns_from_args(args: argparse.Namespace) -> ColumnChoice:
         The choice; a column given as digits is a 0-based index, anything else a header name.
     """
     return ColumnChoice.from_text(args.time, args.signal, args.time_unit)
+
+
+def add_feedback_option(group: argparse._ActionsContainer) -> None:
+    """Add ``--feedback FILE``: a feedback file (``format: bike_rig-feedback/1``) for the closed loop.
+
+    The value is resolved by :func:`bike_rig.cli.common.feedback_from_spec`; absent, ``""`` or
+    ``none``: the open loop.
+
+    Args:
+        group: The parser or argument group to add it to.
+    """
+    group.add_argument(
+        "--feedback",
+        metavar="FILE",
+        help="steer-torque state feedback (a bike_rig-feedback/1 YAML file): results of the closed loop A - B K",
+    )

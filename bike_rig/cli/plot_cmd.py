@@ -4,7 +4,7 @@
 
     bike-rig plot KIND INPUT... -o DIR [--format png,svg] [--rider none|paper|both]
                   [--speed V] [--speeds START STOP N] [--mode LABEL]
-                  [--input NAME] [--output NAME] [--com-method centroid|lstsq]
+                  [--input NAME] [--output NAME] [--com-method centroid|lstsq] [--feedback FILE]
 
 KIND is one of :data:`KINDS`, or ``all`` for every kind. Each INPUT is a measurement file, a
 parameter file or a session bag (:func:`bike_rig.subjects.load_subject`). The model figures
@@ -22,6 +22,8 @@ asked for by name, an input without trials is an error). Files written (see
 ``<bicycle>`` is the bicycle's name in lower case with anything but letters, digits, ``-``
 and ``.`` replaced by ``-`` (``-2``, ``-3``... when two inputs share a name). Every written
 file's path is printed on standard output, one per line. DIR is created when missing.
+``--feedback FILE`` draws ``eigen``, ``locus`` and ``bode`` of the closed loop ``A − B K`` of that
+steer-torque feedback (:mod:`bike_rig.core.feedback`; the titles name it).
 User mistakes (unknown kind, format, mode, input or output, bad speeds, an unwritable DIR, an
 input without trials for ``trials``/``fits``) raise :class:`PlotUsageError` or
 :class:`~bike_rig.core.errors.InputFileError` before anything is drawn.
@@ -45,11 +47,14 @@ from numpy.typing import NDArray
 
 from ..core.benchmark import ComMethod
 from ..core.errors import BikeRigError
+from ..core.feedback import Feedback
 from ..core.frequency import INPUTS, OUTPUTS
 from ..core.whipple import MODE_LABELS
 from ..plots.model_data import MAX_SPEED
 from ..plots.output import check_out_dir, trial_name, unique_names
 from ..plots.registry import FIGURES, KINDS, FigureKind, Scope, figure_stem
+from .common import feedback_from_spec
+from .options import add_feedback_option
 
 if TYPE_CHECKING:
     from ..subjects import Subject
@@ -116,6 +121,8 @@ class PlotOptions:
         mode: Mode of ``modes``.
         input: Input of ``bode`` (one of :data:`bike_rig.core.frequency.INPUTS`).
         output: Output of ``bode`` (one of :data:`bike_rig.core.frequency.OUTPUTS`).
+        feedback: Steer-torque feedback of ``eigen``, ``locus`` and ``bode`` (their closed
+            loop), or None.
     """
 
     formats: tuple[str, ...]
@@ -125,6 +132,7 @@ class PlotOptions:
     mode: str
     input: str
     output: str
+    feedback: Feedback | None = None
 
 
 def options_from_args(args: argparse.Namespace) -> PlotOptions:
@@ -149,6 +157,7 @@ def options_from_args(args: argparse.Namespace) -> PlotOptions:
         mode=args.mode,
         input=_pair_name(args.input, INPUTS, "--input") or INPUTS[1],
         output=_pair_name(args.output, OUTPUTS, "--output") or OUTPUTS[0],
+        feedback=feedback_from_spec(getattr(args, "feedback", None)),
     )
 
 
@@ -323,5 +332,6 @@ def add_parser(sub: Any) -> None:
     q.add_argument("--com-method", choices=[m.value for m in ComMethod], default=None,
                    help="mass-centre method for raw readings: centroid (paper) or lstsq "
                         "(default: centroid; a bag: as recorded)")  # fmt: skip
+    add_feedback_option(q)
     q.add_argument("--timings", action="store_true", help="print how long each figure took on standard error")
     q.set_defaults(func=run)

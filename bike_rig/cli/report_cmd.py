@@ -2,6 +2,9 @@
 
 INPUT is a measurement file, a parameter file or a session bag. The page ``DIR/index.html``
 embeds every figure, so the one file is the whole report and needs no network to view.
+``--feedback FILE`` adds the closed loop ``A − B K`` of a steer-torque feedback: a section (its
+gains, the closed loop's weave and capsize speeds with σ and stable speed ranges, without and with
+the rider) and the closed loop's eigenvalue and Bode figures.
 """
 
 from __future__ import annotations
@@ -11,6 +14,7 @@ import sys
 from typing import Any
 
 from ..core.benchmark import ComMethod
+from .options import add_feedback_option
 
 __all__ = ["add_parser", "run"]
 
@@ -26,7 +30,7 @@ def run(args: argparse.Namespace) -> int:
     """
     from ..report import report_input
 
-    written = report_input(args.input, args.output, args.com_method, workers=args.jobs)
+    written = report_input(args.input, args.output, args.com_method, workers=args.jobs, feedback=args.feedback)
     rep = written.report
     for f in rep.figures:
         if f.uri is None:
@@ -71,6 +75,7 @@ def add_parser(sub: Any) -> None:
         default=None,
         help="mass-centre method for raw readings: centroid (paper) or lstsq (default: centroid; a bag: as recorded)",
     )
+    add_feedback_option(q)
     q.add_argument(
         "-j",
         "--jobs",

@@ -6,8 +6,11 @@ benchmark) has, for ``s = iω``, the transfer matrix
 
     G(s) = (M s² + v C1 s + g K0 + v² K2)⁻¹        (angles per torque, rad/(N m))
 
-and the rates are ``s G(s)`` (rad/s per N m). The 2 × 2 inverse is written out, so any number
-of frequencies is one vectorised expression. ``test/core/test_frequency.py`` checks it against
+and the rates are ``s G(s)`` (rad/s per N m). With steer-torque state feedback
+``T_δ = T_δ,in − (kφ φ + kδ δ + kφ̇ φ̇ + kδ̇ δ̇)`` the steer row of the matrix gains
+``[kφ + kφ̇ s, kδ + kδ̇ s]`` (the closed loop ``A − B K``, input the torque added to the
+controller's). The 2 × 2 inverse is written out, so any number of frequencies is one vectorised
+expression. ``test/core/test_frequency.py`` checks it against
 :func:`scipy.signal.freqresp` of the state-space form.
 """
 
@@ -72,6 +75,7 @@ def frequency_response(
     omega: ArrayLike,
     input: str = "steer torque",
     output: str = "roll angle",
+    gains: ArrayLike | None = None,
 ) -> ComplexArray:
     """``G(iω)`` of one input → output pair at one speed.
 
@@ -82,6 +86,8 @@ def frequency_response(
         omega: Angular frequencies ``ω`` ≥ 0, rad/s.
         input: One of :data:`INPUTS`.
         output: One of :data:`OUTPUTS`.
+        gains: Steer-torque feedback ``[kφ, kδ, kφ̇, kδ̇]`` at ``speed`` (N m/rad, N m s/rad):
+            the closed loop's response; None: the open loop.
 
     Returns:
         Complex array shaped like ``omega``, in :func:`output_unit` of ``output``.
@@ -99,6 +105,10 @@ def frequency_response(
     m, c1, k0, k2 = (np.asarray(x, dtype=float) for x in (matrices.M, matrices.C1, matrices.K0, matrices.K2))
     ss = s[..., None, None]
     d = m * ss**2 + v * c1 * ss + (g * k0 + v**2 * k2)  # shape omega.shape + (2, 2)
+    if gains is not None:
+        k = np.asarray(gains, dtype=float).reshape(4)
+        d[..., 1, 0] += k[0] + k[2] * s
+        d[..., 1, 1] += k[1] + k[3] * s
     det = d[..., 0, 0] * d[..., 1, 1] - d[..., 0, 1] * d[..., 1, 0]
     # inverse of [[a, b], [c, e]] is [[e, -b], [-c, a]] / det
     adj = {(0, 0): d[..., 1, 1], (0, 1): -d[..., 0, 1], (1, 0): -d[..., 1, 0], (1, 1): d[..., 0, 0]}
@@ -113,10 +123,11 @@ def bode(
     omega: ArrayLike,
     input: str = "steer torque",
     output: str = "roll angle",
+    gains: ArrayLike | None = None,
 ) -> Bode:
-    """Magnitude (dB) and unwrapped phase (degrees) of :func:`frequency_response`."""
+    """Magnitude (dB) and unwrapped phase (degrees) of :func:`frequency_response` (closed loop with ``gains``)."""
     w = np.atleast_1d(np.asarray(omega, dtype=float))
-    resp = frequency_response(matrices, g, speed, w, input, output)
+    resp = frequency_response(matrices, g, speed, w, input, output, gains)
     with np.errstate(divide="ignore"):
         mag = 20.0 * np.log10(np.abs(resp))
     phase = np.degrees(np.unwrap(np.angle(resp)))

@@ -13,6 +13,9 @@ depth 1):
 Both carry the parameter set's header stamp, so a consumer can tell which set they belong to.
 Incomplete sets are ignored (the last model stays published).
 
+With a ``feedback`` file the sweep, the critical speeds and the state space (``A − B K``) are
+those of the closed loop of that steer-torque state feedback (the matrices stay the bicycle's).
+
 It serves ``/bike_rig/model/state_space`` (``StateSpace``): A, B and the eigenvalues at a
 requested speed, for the node's rider (``rider: ""``), no rider (``"none"``) or the paper's
 (``"paper"``); ``ok = false`` with a reason before any parameter set arrived, for a speed that
@@ -21,6 +24,8 @@ is not a finite number ≥ 0, or for an unknown rider.
 Parameters (``config/model.yaml``, node name ``model``), all read-only:
 
 * ``rider`` (string): ``""`` (none, default) or ``"paper"`` (Table 1 rider in the rear frame).
+* ``feedback`` (string): ``""`` (none, default) or the path of a feedback file
+  (``format: bike_rig-feedback/1``, :mod:`bike_rig.core.feedback`), read at start.
 * ``sigma_convention`` (string): ``correlated`` (default) or ``paper`` (independent
   parameters, the paper's Table 3); for the matrices' and the critical speeds' σ.
 * ``speed_min``, ``speed_max`` (double, m/s): the sweep's range, default 0 to 10.
@@ -43,6 +48,7 @@ from rclpy.node import Node
 from .. import topics
 from ..core.benchmark import ParameterSet
 from ..core.errors import BikeRigError
+from ..core.feedback import resolve_feedback
 from ..core.rider import rider_key
 from ..core.uncertainty.matrix_sigma import SigmaConvention
 from ..messages import (
@@ -71,6 +77,12 @@ _srvs: Any = importlib.import_module("bike_rig_msgs.srv")
 PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec("rider", "", "Rider lumped into the rear frame: '' (none) or 'paper' (Table 1).",
               constraints="one of: '', paper"),  # fmt: skip
+    ParamSpec(
+        "feedback", "",
+        "Steer-torque state feedback file (format bike_rig-feedback/1), '' for none: the eigen sweep, "
+        "critical speeds and state space are then of the closed loop A - B K.",
+        constraints="'' or a readable feedback file",
+    ),  # fmt: skip
     ParamSpec(
         "sigma_convention", SigmaConvention.CORRELATED.value,
         "Sigma of the matrices and critical speeds: 'correlated' (full parameter covariance) or "
@@ -102,6 +114,10 @@ class ModelNode(Node):
             raise parameter_error("rider", str(exc)) from None
         if rider == "none":
             rider = ""
+        try:
+            self._feedback = resolve_feedback(values["feedback"])
+        except BikeRigError as exc:
+            raise parameter_error("feedback", str(exc)) from None
         self._convention = SigmaConvention(values["sigma_convention"])
         if not speed_min <= speed_max:
             raise NodeParameterError(f"parameters 'speed_min' {speed_min} > 'speed_max' {speed_max}")
@@ -122,6 +138,7 @@ class ModelNode(Node):
         self.create_service(_srvs.StateSpace, topics.STATE_SPACE, self._on_state_space)
         self.get_logger().info(
             f"waiting for parameter sets on {topics.PARAMETERS.name}; rider '{self._rider}', "
+            f"{'feedback ' + repr(self._feedback.name) + ', ' if self._feedback is not None else ''}"
             f"sigma {self._convention.value}, {self._speeds.size} speeds {self._speeds[0]:g}..{self._speeds[-1]:g} m/s"
         )
 
@@ -132,7 +149,7 @@ class ModelNode(Node):
         started = time.perf_counter()
         try:
             ps = session_parameters_from_msg(msg, topics.PARAMETERS.name).complete_parameters()
-            matrices, stability = compute_model(ps, self._speeds, self._rider, self._convention)
+            matrices, stability = compute_model(ps, self._speeds, self._rider, self._convention, self._feedback)
         except BikeRigError as exc:
             self.get_logger().error(f"{msg.bicycle}: parameter set not usable: {exc}")
             return
@@ -171,10 +188,12 @@ class ModelNode(Node):
             )
         try:
             rider_key(rider, files=False)
-            state = state_space_at(self._model(rider), float(request.speed))
+            state = state_space_at(self._model(rider), float(request.speed), self._feedback)
         except BikeRigError as exc:
             return fill_state_space_error(response, str(exc))
         label = f"{self._parameter_set.bicycle}" + (f" + {rider} rider" if rider else "")
+        if self._feedback is not None:
+            label += f", closed loop ({self._feedback.name})"
         return fill_state_space_response(response, state, f"{label} at {state.speed:g} m/s")
 
 

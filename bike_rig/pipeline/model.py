@@ -16,10 +16,12 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..core.benchmark import ParameterSet
 from ..core.errors import ModelError
+from ..core.feedback import Feedback, feedback_key, resolve_feedback
 from ..core.rider import add_rider, resolve_rider, rider_key
 from ..core.uncertainty.matrix_sigma import SigmaConvention, canonical_with_sigma
 from ..core.uncertainty.speed_sigma import SpeedWithSigma, critical_speeds_with_sigma
 from ..core.whipple import MODE_LABELS, EigenvalueSweep, WhippleMatrices, eigenvalues, state_space
+from ..core.whipple.closed_loop import closed_loop_state_space
 
 __all__ = [
     "ModelMatrices",
@@ -62,6 +64,8 @@ class StabilitySweep:
         sweep: Speeds (m/s), eigenvalues (1/s, shape (N, 4)) and mode labels.
         weave: Weave speed with σ (m/s), None when absent.
         capsize: Capsize speed with σ (m/s), None when absent.
+        feedback: "" (the open loop) or the feedback file whose closed loop ``A − B K`` the
+            eigenvalues and speeds are of.
     """
 
     bicycle: str
@@ -69,6 +73,7 @@ class StabilitySweep:
     sweep: EigenvalueSweep
     weave: SpeedWithSigma | None
     capsize: SpeedWithSigma | None
+    feedback: str = ""
 
 
 def _with_rider(ps: ParameterSet, rider: str) -> ParameterSet:
@@ -81,6 +86,7 @@ def compute_model(
     speeds: ArrayLike,
     rider: str = "",
     convention: SigmaConvention | str = SigmaConvention.CORRELATED,
+    feedback: str | Feedback | None = "",
 ) -> tuple[ModelMatrices, StabilitySweep]:
     """The model products of a parameter set.
 
@@ -89,19 +95,31 @@ def compute_model(
         speeds: Speeds of the eigenvalue sweep, m/s.
         rider: "" (none) or "paper" (lumped into the rear frame, σ carried through).
         convention: σ convention of the matrices and the critical speeds.
+        feedback: "" or None (none), a feedback file
+            (:func:`bike_rig.core.feedback.resolve_feedback`) or a loaded feedback: the sweep
+            and the speeds are then the closed loop's (the matrices stay the bicycle's own).
 
     Raises:
         ModelError: unknown rider, bad speeds or a singular mass matrix.
+        FeedbackError: the feedback file cannot be read or is invalid.
     """
     convention = SigmaConvention(convention)
     name = rider_key(rider, files=False)
+    if isinstance(feedback, Feedback):
+        fb: Feedback | None = feedback
+        fb_key = feedback.source or feedback.name
+    else:
+        fb, fb_key = resolve_feedback(feedback), feedback_key(feedback)
     full = _with_rider(ps, name)
     ms = canonical_with_sigma(full, convention)
-    sweep = eigenvalues(ms.matrices, ms.g, speeds)
-    cs = critical_speeds_with_sigma(full, convention, ms)
+    if fb is None:
+        sweep = eigenvalues(ms.matrices, ms.g, speeds)
+    else:
+        sweep = eigenvalues(ms.matrices, ms.g, speeds, gains=fb.gains(np.asarray(speeds, dtype=float).reshape(-1)))
+    cs = critical_speeds_with_sigma(full, convention, ms, feedback=fb)
     return (
         ModelMatrices(ps.bicycle, name, ms.g, ms.matrices, ms.sigma, convention),
-        StabilitySweep(ps.bicycle, name, sweep, cs.weave, cs.capsize),
+        StabilitySweep(ps.bicycle, name, sweep, cs.weave, cs.capsize, fb_key),
     )
 
 
@@ -130,8 +148,10 @@ class StateSpaceAt:
     labels: tuple[str, ...] = MODE_LABELS
 
 
-def state_space_at(model: ModelMatrices, speed: float) -> StateSpaceAt:
+def state_space_at(model: ModelMatrices, speed: float, feedback: Feedback | None = None) -> StateSpaceAt:
     """A, B and the labelled eigenvalues of ``model`` at ``speed``.
+
+    With ``feedback``, ``a`` is the closed loop's ``A − B K`` and the eigenvalues are its own.
 
     Raises:
         ModelError: the speed is not a finite number ≥ 0 m/s.
@@ -139,10 +159,15 @@ def state_space_at(model: ModelMatrices, speed: float) -> StateSpaceAt:
     v = float(speed)
     if not (math.isfinite(v) and v >= 0.0):
         raise ModelError(f"speed must be a finite number >= 0 m/s, got {speed}")
-    a, b = state_space(model.matrices, v, model.g)
     # Labels come from the structure at the highest speed of a sweep and are carried back along
     # the tracks; one speed alone would name the low-speed capsize–caster pair "weave".
-    sweep = eigenvalues(model.matrices, model.g, np.linspace(v, v + LABEL_SWEEP_SPAN, LABEL_SWEEP_COUNT))
+    label_speeds = np.linspace(v, v + LABEL_SWEEP_SPAN, LABEL_SWEEP_COUNT)
+    if feedback is None:
+        a, b = state_space(model.matrices, v, model.g)
+        sweep = eigenvalues(model.matrices, model.g, label_speeds)
+    else:
+        a, b = closed_loop_state_space(model.matrices, v, model.g, feedback.gains(v))
+        sweep = eigenvalues(model.matrices, model.g, label_speeds, gains=feedback.gains(label_speeds))
     return StateSpaceAt(v, np.asarray(a, dtype=float), np.asarray(b, dtype=float), sweep.eigenvalues[0], sweep.labels)
 
 

@@ -21,10 +21,11 @@ import numpy as np
 from matplotlib.figure import Figure
 from numpy.typing import NDArray
 
+from ..core.feedback import Feedback
 from ..core.frequency import output_unit
 from ..subjects import Subject
 from .model_data import BodeCurves, FigureInputError, bode_curves
-from .style import bicycle_line_style, new_figure
+from .style import bicycle_line_style, closed_loop_text, new_figure
 
 __all__ = ["PAPER_BODE_SPEED", "bode_figure", "speeds_text"]
 
@@ -61,6 +62,7 @@ def bode_figure(
     input: str = "steer torque",
     output: str = "roll angle",
     omega: NDArray[np.float64] | None = None,
+    feedback: Feedback | None = None,
 ) -> Figure:
     """Bode diagram of ``input → output`` for one or several bicycles at one or several speeds.
 
@@ -72,6 +74,8 @@ def bode_figure(
         input: ``roll torque`` or ``steer torque``.
         output: ``roll angle``, ``steer angle``, ``roll rate`` or ``steer rate``.
         omega: Angular frequencies, rad/s (default 0.1 to 100 rad/s, log-spaced).
+        feedback: Steer-torque state feedback: the closed loop's response (the title names
+            it); None: the open loop.
 
     Returns:
         The figure; each line draws :func:`.model_data.bode_curves`, with its own style
@@ -86,7 +90,7 @@ def bode_figure(
     if not subjects:
         raise FigureInputError("a figure needs at least one bicycle")
     speeds = _speeds(speed)
-    curves = [bode_curves(s, v, rider, input, output, omega) for s in subjects for v in speeds]
+    curves = [bode_curves(s, v, rider, input, output, omega, feedback) for s in subjects for v in speeds]
     fig = new_figure(7.5, 6.0 + 0.25 * ((len(curves) + 3) // 4))
     ax_mag, ax_ph = fig.subplots(2, 1, sharex=True)
     for k, c in enumerate(curves):
@@ -103,6 +107,6 @@ def bode_figure(
     ax_ph.set_xlabel("frequency ω (rad/s)")
     handles, labels = ax_mag.get_legend_handles_labels()
     fig.legend(handles, labels, loc="outside lower center", ncols=min(len(curves), 4), fontsize=8, frameon=False)
-    rider_text = _RIDER_TEXT.get(curves[0].rider, curves[0].rider)
+    rider_text = _RIDER_TEXT.get(curves[0].rider, curves[0].rider) + closed_loop_text(curves[0].feedback)
     fig.suptitle(f"{input} → {output} at {speeds_text(speeds)}, {rider_text}", fontsize=11)
     return fig

@@ -23,9 +23,10 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 from numpy.typing import NDArray
 
+from ..core.feedback import Feedback
 from ..subjects import Subject
 from .model_data import COMPLEX_TOL, EigenCurves, FigureInputError, eigen_curves
-from .style import MODE_COLOURS, new_figure
+from .style import MODE_COLOURS, closed_loop_text, new_figure
 
 __all__ = ["PAIR_COLOUR", "Y_LIMITS", "eigen_vs_speed", "panel_grid"]
 
@@ -124,6 +125,7 @@ def eigen_vs_speed(
     rider: str = "",
     speeds: NDArray[np.float64] | None = None,
     bands: bool = True,
+    feedback: Feedback | None = None,
 ) -> Figure:
     """Eigenvalues versus speed for one or several bicycles (paper Figs 13 and 16).
 
@@ -133,6 +135,8 @@ def eigen_vs_speed(
         speeds: Speeds, m/s (default 0 to 10 m/s in 0.02 m/s steps).
         bands: Draw ±σ bands of the real parts (first-order, from the parameter covariance;
             left out near branch points where the linearisation fails).
+        feedback: Steer-torque state feedback: the closed loop's eigenvalues (the title
+            names it); None: the open loop.
 
     Returns:
         The figure (Agg canvas). Each panel's data are :func:`.model_data.eigen_curves`.
@@ -141,7 +145,7 @@ def eigen_vs_speed(
         FigureInputError: No bicycles or bad speeds.
         ModelError: Unknown rider.
     """
-    curves = [eigen_curves(s, rider, speeds) for s in subjects] if subjects else []
+    curves = [eigen_curves(s, rider, speeds, feedback=feedback) for s in subjects] if subjects else []
     rows, cols = panel_grid(len(curves))
     fig = new_figure(4.2 * cols + 0.6, 3.3 * rows + 0.9)
     axes = fig.subplots(rows, cols, sharex=True, sharey=True, squeeze=False)
@@ -154,6 +158,7 @@ def eigen_vs_speed(
             ax.set_ylabel("eigenvalue (1/s)")
         if k >= len(curves) - cols:
             ax.set_xlabel("speed v (m/s)")
-    fig.suptitle(f"Eigenvalues versus speed, {_RIDER_TEXT.get(curves[0].rider, curves[0].rider)}", fontsize=11)
+    rider_text = _RIDER_TEXT.get(curves[0].rider, curves[0].rider) + closed_loop_text(curves[0].feedback)
+    fig.suptitle(f"Eigenvalues versus speed, {rider_text}", fontsize=11)
     _legend(fig, bands, any(c.capsize_caster_complex for c in curves), cols)
     return fig

@@ -19,10 +19,11 @@ from matplotlib.colors import Normalize
 from matplotlib.figure import Figure
 from numpy.typing import NDArray
 
+from ..core.feedback import Feedback
 from ..subjects import Subject
 from .eigen import panel_grid
 from .model_data import eigen_curves
-from .style import new_figure
+from .style import closed_loop_text, new_figure
 
 __all__ = ["X_LIMITS", "root_locus"]
 
@@ -35,6 +36,7 @@ def root_locus(
     subjects: Sequence[Subject],
     rider: str = "",
     speeds: NDArray[np.float64] | None = None,
+    feedback: Feedback | None = None,
 ) -> Figure:
     """Root loci of one or several bicycles, speed as the parameter (paper Fig 14).
 
@@ -42,6 +44,7 @@ def root_locus(
         subjects: The bicycles, one panel each (up to three per row, shared axes).
         rider: "" (none) or "paper".
         speeds: Speeds, m/s (default 0 to 10 m/s in 0.02 m/s steps).
+        feedback: Steer-torque state feedback: the closed loop's loci; None: the open loop.
 
     Returns:
         The figure; each panel draws :func:`.model_data.eigen_curves` (without σ bands).
@@ -50,7 +53,7 @@ def root_locus(
         FigureInputError: No bicycles or bad speeds.
         ModelError: Unknown rider.
     """
-    curves = [eigen_curves(s, rider, speeds) for s in subjects] if subjects else []
+    curves = [eigen_curves(s, rider, speeds, feedback=feedback) for s in subjects] if subjects else []
     rows, cols = panel_grid(len(curves))
     fig = new_figure(4.2 * cols + 1.2, 3.6 * rows + 0.6)
     axes = fig.subplots(rows, cols, sharex=True, sharey=True, squeeze=False)
@@ -86,6 +89,6 @@ def root_locus(
             ax.set_xlabel("Re λ (1/s)")
     if scatter is not None:
         fig.colorbar(scatter, ax=axes, label="speed v (m/s); markers every 1 m/s", shrink=0.8)
-    rider_text = _RIDER_TEXT.get(curves[0].rider, curves[0].rider)
+    rider_text = _RIDER_TEXT.get(curves[0].rider, curves[0].rider) + closed_loop_text(curves[0].feedback)
     fig.suptitle(f"Root locus, speed as the parameter, {rider_text}", fontsize=11)
     return fig

@@ -30,12 +30,14 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..core.benchmark import ParameterSet
 from ..core.errors import BikeRigError, ModelError
+from ..core.feedback import Feedback
 from ..core.frequency import INPUTS, OUTPUTS, bode, frequency_response
 from ..core.rider import add_rider, resolve_rider, rider_key
 from ..core.uncertainty.eigen_sigma import eigenvalues_with_sigma
 from ..core.uncertainty.matrix_sigma import MatrixSet, SigmaConvention, canonical_with_sigma
 from ..core.uncertainty.speed_sigma import SpeedWithSigma, critical_speeds_with_sigma
 from ..core.whipple import MODE_LABELS, WhippleMatrices, characteristic_coefficients, eigenvalues
+from ..core.whipple.closed_loop import closed_loop_coefficients
 from ..subjects import Subject
 
 __all__ = [
@@ -98,6 +100,8 @@ class EigenCurves:
         capsize_caster_complex: Speed intervals ``(start, stop)`` (m/s) in which the capsize and
             caster roots are a complex pair; an end strictly inside the sweep is the speed of the
             double root (branch point), an end at the sweep's edge is that edge.
+        feedback: "" (the open loop) or the name of the steer-torque feedback whose closed
+            loop these are.
     """
 
     bicycle: str
@@ -110,6 +114,7 @@ class EigenCurves:
     weave: SpeedWithSigma | None
     capsize: SpeedWithSigma | None
     capsize_caster_complex: tuple[tuple[float, float], ...]
+    feedback: str = ""
 
     def mode(self, label: str) -> ComplexArray:
         """The columns of one mode.
@@ -184,6 +189,7 @@ class BodeCurves:
         response: ``G(iω)``, rad/(N m) for angles, rad/(s N m) for rates.
         magnitude_db: ``20 log10 |G|``, dB.
         phase_deg: ``arg G`` unwrapped along ω, degrees.
+        feedback: "" (the open loop) or the name of the feedback whose closed loop this is.
     """
 
     bicycle: str
@@ -195,6 +201,7 @@ class BodeCurves:
     response: ComplexArray
     magnitude_db: FloatArray
     phase_deg: FloatArray
+    feedback: str = ""
 
 
 # --------------------------------------------------------------------------------------------
@@ -280,11 +287,17 @@ def quartic_discriminant(coefficients: ArrayLike) -> FloatArray:
     )  # fmt: skip
 
 
-def _branch_point(matrices: WhippleMatrices, g: float, lo: float, hi: float) -> float:
-    """The speed in ``[lo, hi]`` (m/s) where the discriminant changes sign, by bisection."""
+def _branch_point(matrices: WhippleMatrices, g: float, lo: float, hi: float, feedback: Feedback | None = None) -> float:
+    """The speed in ``[lo, hi]`` (m/s) where the discriminant changes sign, by bisection.
+
+    Of the closed loop's characteristic polynomial with ``feedback``, else the open loop's.
+    """
 
     def disc(v: float) -> float:
-        return float(quartic_discriminant(characteristic_coefficients(matrices, g, np.array([v])))[0])
+        speed = np.array([v])
+        if feedback is None:
+            return float(quartic_discriminant(characteristic_coefficients(matrices, g, speed))[0])
+        return float(quartic_discriminant(closed_loop_coefficients(matrices, g, speed, feedback.gains(speed)))[0])
 
     f_lo = disc(lo)
     if f_lo == 0.0:
@@ -308,7 +321,7 @@ def _is_complex(z: ComplexArray) -> NDArray[np.bool_]:
 
 
 def complex_intervals(
-    matrices: WhippleMatrices, g: float, speeds: FloatArray, roots: ComplexArray
+    matrices: WhippleMatrices, g: float, speeds: FloatArray, roots: ComplexArray, feedback: Feedback | None = None
 ) -> tuple[tuple[float, float], ...]:
     """Speed intervals (m/s) in which ``roots`` (shape (N,)) is complex.
 
@@ -320,6 +333,7 @@ def complex_intervals(
         g: Gravity, m/s².
         speeds: The sweep's speeds, m/s, increasing.
         roots: One root's track over ``speeds``, 1/s.
+        feedback: The steer-torque feedback of a closed loop's ``roots``; None: the open loop.
 
     Returns:
         (start, stop) pairs, m/s, in order.
@@ -334,8 +348,14 @@ def complex_intervals(
         j = i
         while j + 1 < n and flag[j + 1]:
             j += 1
-        start = float(speeds[0]) if i == 0 else _branch_point(matrices, g, float(speeds[i - 1]), float(speeds[i]))
-        stop = float(speeds[-1]) if j == n - 1 else _branch_point(matrices, g, float(speeds[j]), float(speeds[j + 1]))
+        if i == 0:
+            start = float(speeds[0])
+        else:
+            start = _branch_point(matrices, g, float(speeds[i - 1]), float(speeds[i]), feedback)
+        if j == n - 1:
+            stop = float(speeds[-1])
+        else:
+            stop = _branch_point(matrices, g, float(speeds[j]), float(speeds[j + 1]), feedback)
         out.append((start, stop))
         i = j + 1
     return tuple(out)
@@ -346,6 +366,7 @@ def eigen_curves(
     rider: str = "",
     speeds: ArrayLike | None = None,
     convention: SigmaConvention | str = SigmaConvention.CORRELATED,
+    feedback: Feedback | None = None,
 ) -> EigenCurves:
     """Eigenvalues with σ, critical speeds with σ and the complex capsize–caster intervals.
 
@@ -355,6 +376,8 @@ def eigen_curves(
         speeds: Speeds, m/s (at least two, ≥ 0; sorted and made distinct); default
             :data:`DEFAULT_SPEEDS`.
         convention: σ convention (``correlated`` keeps the parameter correlations).
+        feedback: Steer-torque state feedback: the closed loop ``A − B K`` (σ from the
+            parameters and the gains given with σ); None: the open loop.
 
     Returns:
         The curves (see :class:`EigenCurves`).
@@ -367,8 +390,8 @@ def eigen_curves(
     v = _speeds(speeds)
     ps = model_parameters(subject, key)
     ms: MatrixSet = canonical_with_sigma(ps, SigmaConvention(convention))
-    es = eigenvalues_with_sigma(ps, v, convention)
-    cs = critical_speeds_with_sigma(ps, SigmaConvention(convention), ms)
+    es = eigenvalues_with_sigma(ps, v, convention, feedback=feedback)
+    cs = critical_speeds_with_sigma(ps, SigmaConvention(convention), ms, feedback=feedback)
     z = es.sweep.eigenvalues
     return EigenCurves(
         bicycle=subject.name,
@@ -380,7 +403,8 @@ def eigen_curves(
         sigma_imag=es.sigma_imag,
         weave=cs.weave,
         capsize=cs.capsize,
-        capsize_caster_complex=complex_intervals(ms.matrices, ms.g, v, z[:, MODE_LABELS.index("capsize")]),
+        capsize_caster_complex=complex_intervals(ms.matrices, ms.g, v, z[:, MODE_LABELS.index("capsize")], feedback),
+        feedback="" if feedback is None else feedback.name,
     )
 
 
@@ -490,6 +514,7 @@ def bode_curves(
     input: str = "steer torque",
     output: str = "roll angle",
     omega: ArrayLike | None = None,
+    feedback: Feedback | None = None,
 ) -> BodeCurves:
     """Magnitude (dB) and unwrapped phase (deg) of ``input → output`` at one speed.
 
@@ -500,6 +525,8 @@ def bode_curves(
         input: One of :data:`bike_rig.core.frequency.INPUTS`.
         output: One of :data:`bike_rig.core.frequency.OUTPUTS`.
         omega: Frequencies, rad/s (all > 0); default :data:`DEFAULT_OMEGA`.
+        feedback: Steer-torque state feedback: the closed loop's response to the torque added
+            to the controller's; None: the open loop.
 
     Returns:
         The response (see :class:`BodeCurves`).
@@ -519,8 +546,10 @@ def bode_curves(
     key = _rider_key(rider)
     ms = canonical_with_sigma(model_parameters(subject, key))
     try:
-        resp = frequency_response(ms.matrices, ms.g, v, w, input, output)
-        diagram = bode(ms.matrices, ms.g, v, w, input, output)
+        gains = None if feedback is None else feedback.gains(v)
+        resp = frequency_response(ms.matrices, ms.g, v, w, input, output, gains)
+        diagram = bode(ms.matrices, ms.g, v, w, input, output, gains)
     except ModelError as exc:
         raise FigureInputError(str(exc)) from None
-    return BodeCurves(subject.name, key, v, input, output, w, resp, diagram.magnitude_db, diagram.phase_deg)
+    name = "" if feedback is None else feedback.name
+    return BodeCurves(subject.name, key, v, input, output, w, resp, diagram.magnitude_db, diagram.phase_deg, name)

@@ -41,8 +41,9 @@ __all__ = [
 ]
 
 #: The plot options a kind may take: keywords of its drawing function, and fields of
-#: :class:`bike_rig.cli.plot_cmd.PlotOptions` (``rider``: one figure per rider asked for).
-PLOT_OPTIONS: tuple[str, ...] = ("rider", "speeds", "speed", "mode", "input", "output")
+#: :class:`bike_rig.cli.plot_cmd.PlotOptions` (``rider``: one figure per rider asked for;
+#: ``feedback``: the closed loop of a steer-torque feedback, :class:`bike_rig.core.feedback.Feedback`).
+PLOT_OPTIONS: tuple[str, ...] = ("rider", "speeds", "speed", "mode", "input", "output", "feedback")
 #: A report option value: a speed inside the bicycle's stable range, m/s (the report computes it).
 STABLE_SPEED = "stable"
 #: A report option value: a speed inside the interval where the bicycle's capsize and caster
@@ -214,7 +215,7 @@ _KINDS = (
         "eigen:eigen_vs_speed",
         Scope.BICYCLES,
         "eigenvalues vs speed",
-        ("rider", "speeds"),
+        ("rider", "speeds", "feedback"),
         report=_both_riders((10, 30), "eigen", "Eigenvalues against speed, {rider}", _EIGEN_CAPTION),
     ),
     FigureKind(
@@ -222,7 +223,7 @@ _KINDS = (
         "locus:root_locus",
         Scope.BICYCLES,
         "root locus",
-        ("rider", "speeds"),
+        ("rider", "speeds", "feedback"),
         report=_both_riders((20, 40), "locus", "Root locus, {rider}", _LOCUS_CAPTION),
     ),
     FigureKind(
@@ -238,7 +239,7 @@ _KINDS = (
         "bode:bode_figure",
         Scope.BICYCLES,
         "",
-        ("rider", "speed", "input", "output"),
+        ("rider", "speed", "input", "output", "feedback"),
         report=_both_riders((70, 80), "bode", _BODE_TITLE, _BODE_CAPTION, speed=BODE_SPEEDS),
     ),
     FigureKind(

@@ -18,6 +18,7 @@ from matplotlib.figure import Figure
 from ..core.errors import InputFileError
 
 __all__ = [
+    "closed_loop_text",
     "FORMATS",
     "LINE_STYLES",
     "MARKERS",
@@ -164,3 +165,12 @@ def save_figure(fig: Figure, stem: Path, formats: Sequence[str] = FORMATS) -> li
             raise InputFileError(str(path), f"cannot write the figure ({exc.strerror})") from None
         written.append(path)
     return written
+
+
+def closed_loop_text(feedback: str) -> str:
+    """A title's closed-loop suffix: ``", closed loop (<feedback>)"``, or "" for the open loop.
+
+    Args:
+        feedback: The feedback's name ("" for none).
+    """
+    return f", closed loop ({feedback})" if feedback else ""

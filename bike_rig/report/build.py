@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..core.benchmark import ComMethod
+from ..core.feedback import Feedback, resolve_feedback
 from ..plots.output import check_out_dir
 from ..subjects import Subject, load_subject
 from . import sections
@@ -67,7 +68,11 @@ class WrittenReport:
 
 
 def build_report(
-    subject: Subject, generated: str | None = None, dpi: float = REPORT_DPI, workers: int | None = None
+    subject: Subject,
+    generated: str | None = None,
+    dpi: float = REPORT_DPI,
+    workers: int | None = None,
+    feedback: Feedback | None = None,
 ) -> Report:
     """The report of one bicycle.
 
@@ -77,13 +82,15 @@ def build_report(
         dpi: Resolution of the embedded figures, dots per inch.
         workers: Processes to draw the figures in (default: one per CPU, at most
             :data:`~.figures.MAX_WORKERS`; see :func:`~.figures.draw_figures`).
+        feedback: A steer-torque feedback: the page adds its closed loop (a section and the
+            closed-loop eigenvalue and Bode figures); None: the open loop only.
 
     Returns:
         The report, its page in memory.
     """
     t0 = time.perf_counter()
     when = generated or dt.datetime.now(dt.UTC).strftime("%Y-%m-%d %H:%M:%S UTC")
-    results = compute_results(subject)
+    results = compute_results(subject, feedback=feedback)
     figures = draw_figures(figure_specs(subject, results), dpi, workers)
     drawn = sum(f.uri is not None for f in figures)
     body = [
@@ -91,6 +98,7 @@ def build_report(
         sections.parameters_section(results),
         sections.matrices_section(results),
         sections.speeds_section(results),
+        *([sections.closed_loop_section(results)] if results.closed_loop is not None else []),
         sections.budget_section(results),
         sections.trials_section(subject),
         sections.timeline_section(subject),
@@ -102,7 +110,11 @@ def build_report(
 
 
 def write_report(
-    subject: Subject, out_dir: str | Path, generated: str | None = None, workers: int | None = None
+    subject: Subject,
+    out_dir: str | Path,
+    generated: str | None = None,
+    workers: int | None = None,
+    feedback: Feedback | None = None,
 ) -> WrittenReport:
     """Build the report of ``subject`` and write it as ``out_dir/index.html``.
 
@@ -113,6 +125,7 @@ def write_report(
         out_dir: The output directory.
         generated: The creation time printed on the page (default: now).
         workers: Processes to draw the figures in (default: one per CPU, at most 4).
+        feedback: A steer-torque feedback whose closed loop the page adds, or None.
 
     Returns:
         Where it went, with the report.
@@ -121,7 +134,7 @@ def write_report(
         ReportOutputError: The directory cannot be created or the file cannot be written.
     """
     t0 = time.perf_counter()
-    report = build_report(subject, generated, workers=workers)
+    report = build_report(subject, generated, workers=workers, feedback=feedback)
     path = _write(Path(out_dir), report.html)
     return WrittenReport(path, report, time.perf_counter() - t0)
 
@@ -131,6 +144,7 @@ def report_input(
     out_dir: str | Path,
     com_method: ComMethod | str | None = None,
     workers: int | None = None,
+    feedback: str | None = None,
 ) -> WrittenReport:
     """Open an input (measurement file, parameter file or session bag) and write its report.
 
@@ -142,6 +156,8 @@ def report_input(
         out_dir: The output directory.
         com_method: Mass-centre method for raw readings (default: centroid; a bag: as recorded).
         workers: Processes to draw the figures in (default: one per CPU, at most 4).
+        feedback: A feedback file (:func:`bike_rig.core.feedback.resolve_feedback`; None, ""
+            or "none": the open loop only); read before the input.
 
     Returns:
         Where it went, with the report; its time counts from opening the input.
@@ -152,8 +168,9 @@ def report_input(
     """
     t0 = time.perf_counter()
     out = check_out_dir(out_dir, ReportOutputError, create=False)  # before the input: nothing written for a bad one
+    fb = resolve_feedback(feedback)
     subject = load_subject(path, com_method)
-    written = write_report(subject, out, workers=workers)
+    written = write_report(subject, out, workers=workers, feedback=fb)
     return WrittenReport(written.path, written.report, time.perf_counter() - t0)
 
 

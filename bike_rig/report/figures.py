@@ -35,7 +35,17 @@ from typing import Any
 from matplotlib.figure import Figure
 
 from ..core.errors import BikeRigError
-from ..plots.registry import FIT_DPI, PAIR_SPEED, STABLE_SPEED, FigureKind, ReportEntry, Scope, report_entries
+from ..core.feedback import Feedback
+from ..plots.registry import (
+    FIGURES,
+    FIT_DPI,
+    PAIR_SPEED,
+    STABLE_SPEED,
+    FigureKind,
+    ReportEntry,
+    Scope,
+    report_entries,
+)
 from ..subjects import Subject
 from .results import ReportResults
 
@@ -55,6 +65,8 @@ __all__ = [
 REPORT_DPI = 100
 #: Most processes the figures are drawn in.
 MAX_WORKERS = 4
+#: Added to the caption of a closed-loop figure.
+_CLOSED_NOTE = " Closed loop A − B K of the steer-torque feedback (σ from the parameters and the gains given with σ)."
 #: Fewer figures than this are drawn in this process (a pool costs more than it saves).
 MIN_PARALLEL = 4
 
@@ -192,7 +204,24 @@ def figure_specs(subject: Subject, results: ReportResults) -> list[FigureSpec]:
                 specs.append(_spec(kind, entry, subject, options, rider=rider, speed=options.get("speed")))
         else:
             specs.append(_spec(kind, entry, [subject], options, note, rider=rider, speed=options.get("speed")))
+    if results.closed_loop is not None:
+        specs += _closed_loop_specs(subject, results.closed_loop.feedback)
     return specs
+
+
+def _closed_loop_specs(subject: Subject, feedback: Feedback) -> list[FigureSpec]:
+    """The closed loop's eigenvalues against speed and Bode diagram, without rider."""
+    out = []
+    for name, key, title in (
+        ("eigen", "eigen-closed-loop", "Eigenvalues against speed, closed loop ({feedback}), without rider"),
+        ("bode", "bode-closed-loop", "Steer torque to roll angle, closed loop ({feedback}), without rider"),
+    ):
+        kind = FIGURES[name]
+        entry = kind.report[0]
+        options = {**entry.options, "feedback": feedback}
+        closed = ReportEntry(entry.page, key, title, entry.caption + _CLOSED_NOTE, options, entry.size_in, entry.dpi)
+        out.append(_spec(kind, closed, [subject], options, feedback=feedback.name, speed=options.get("speed")))
+    return out
 
 
 def _unavailable(exc: BaseException) -> str | None:

@@ -1,7 +1,8 @@
 """The numbers a report shows, computed once.
 
 Per rider variant the parameters, canonical matrices with σ, critical speeds with σ and the
-stable speed range; the uncertainty budget.
+stable speed range; the uncertainty budget; with a steer-torque feedback, the closed loop's
+speeds with σ and stable ranges per variant (:class:`ClosedLoop`).
 
 Nothing here draws or formats; :mod:`.sections` turns these into HTML and :mod:`.figures`
 reuses them where the figure functions accept them.
@@ -12,15 +13,26 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ..core.benchmark import ComMethod, ParameterSet
+from ..core.feedback import Feedback
 from ..core.rider import PAPER_RIDER, Rider, add_rider
 from ..core.uncertainty.budget import UncertaintyBudget, uncertainty_budget
 from ..core.uncertainty.matrix_sigma import MatrixSet, SigmaConvention, canonical_with_sigma
 from ..core.uncertainty.speed_mc import SpeedMonteCarlo, speed_monte_carlo, speed_monte_carlo_from_parameters
 from ..core.uncertainty.speed_sigma import CriticalSpeedsWithSigma, critical_speeds_with_sigma
 from ..core.whipple import stable_speed_range
+from ..core.whipple.closed_loop import closed_loop_stable_range
 from ..subjects import Subject
 
-__all__ = ["MONTE_CARLO_SAMPLES", "ReportResults", "Variant", "compute_results", "compute_variant", "monte_carlo"]
+__all__ = [
+    "MONTE_CARLO_SAMPLES",
+    "ClosedLoop",
+    "ReportResults",
+    "Variant",
+    "compute_closed_loop",
+    "compute_results",
+    "compute_variant",
+    "monte_carlo",
+]
 
 #: Draws of the Monte Carlo check of the speeds' σ (about 1 % standard error of a σ).
 MONTE_CARLO_SAMPLES = 4000
@@ -51,6 +63,32 @@ class Variant:
 
 
 @dataclass(frozen=True)
+class ClosedLoop:
+    """The closed loop ``A − B K`` of a steer-torque feedback, per rider variant.
+
+    Attributes:
+        feedback: The feedback.
+        speeds: Weave and capsize speeds of the closed loop with σ (m/s; the gains' σ too), one per
+            variant (without, then with the rider).
+        stable: The closed loop's stable speed intervals (m/s), one tuple per variant.
+    """
+
+    feedback: Feedback
+    speeds: tuple[CriticalSpeedsWithSigma, ...]
+    stable: tuple[tuple[tuple[float, float], ...], ...]
+
+
+def compute_closed_loop(variants: tuple[Variant, ...], feedback: Feedback) -> ClosedLoop:
+    """The closed loop of ``feedback`` for each variant (from its matrices)."""
+    speeds = tuple(
+        critical_speeds_with_sigma(v.parameters, SigmaConvention.CORRELATED, matrices=v.matrices, feedback=feedback)
+        for v in variants
+    )
+    stable = tuple(closed_loop_stable_range(v.matrices.matrices, v.matrices.g, feedback) for v in variants)
+    return ClosedLoop(feedback, speeds, stable)
+
+
+@dataclass(frozen=True)
 class ReportResults:
     """Everything numeric in a report.
 
@@ -60,6 +98,7 @@ class ReportResults:
         budget: The uncertainty budget of the bicycle alone.
         rider_budget: The budget of the bicycle with the rider (only its speeds are shown).
         monte_carlo: Monte Carlo checks of the speeds' σ, without and with the rider.
+        closed_loop: The closed loop of a steer-torque feedback, or None (the open loop only).
     """
 
     bare: Variant
@@ -67,6 +106,7 @@ class ReportResults:
     budget: UncertaintyBudget
     rider_budget: UncertaintyBudget
     monte_carlo: tuple[SpeedMonteCarlo, ...]
+    closed_loop: ClosedLoop | None = None
 
     @property
     def variants(self) -> tuple[Variant, Variant]:
@@ -97,8 +137,11 @@ def monte_carlo(subject: Subject, rider: Rider | None, samples: int = MONTE_CARL
     return speed_monte_carlo_from_parameters(ps, samples, MONTE_CARLO_SEED, rider)
 
 
-def compute_results(subject: Subject, rider: Rider = PAPER_RIDER) -> ReportResults:
-    """All numbers of the report of ``subject`` (with ``rider`` as the rider variant)."""
+def compute_results(subject: Subject, rider: Rider = PAPER_RIDER, feedback: Feedback | None = None) -> ReportResults:
+    """All numbers of the report of ``subject`` (with ``rider`` as the rider variant).
+
+    With ``feedback`` also the closed loop of each variant (everything else is the open loop's).
+    """
     bare = compute_variant(subject.parameters, None)
     with_rider = compute_variant(subject.parameters, rider)
     return ReportResults(
@@ -107,4 +150,5 @@ def compute_results(subject: Subject, rider: Rider = PAPER_RIDER) -> ReportResul
         uncertainty_budget(bare.parameters),
         uncertainty_budget(with_rider.parameters),
         (monte_carlo(subject, None), monte_carlo(subject, rider)),
+        None if feedback is None else compute_closed_loop((bare, with_rider), feedback),
     )

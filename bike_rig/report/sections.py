@@ -16,6 +16,7 @@ from collections.abc import Sequence
 
 from .. import __version__
 from ..bag.timeline import TIME_BASE
+from ..core.feedback import GAIN_KEYS, GAIN_UNITS
 from ..core.uncertainty.budget import CAPSIZE, PARAMETERS, WEAVE, OutputBudget, UncertaintyBudget, input_ranking
 from ..core.uncertainty.matrix_sigma import MATRIX_NAMES
 from ..core.uncertainty.speed_sigma import SpeedWithSigma
@@ -96,6 +97,7 @@ def header_section(subject: Subject, results: ReportResults, figures: int, gener
         ("parameters", "Benchmark parameters (Table 2)"),
         ("matrices", "Canonical matrices (Table 3)"),
         ("speeds", "Critical speeds and stable range"),
+        *([("closed-loop", "Closed loop (feedback)")] if results.closed_loop is not None else []),
         ("budget", "Uncertainty budget"),
         ("trials", "Trials"),
         ("timeline", "Timeline"),
@@ -258,6 +260,46 @@ def speeds_section(results: ReportResults) -> Raw:
         *_monte_carlo_table(results),
     ]
     return section("speeds", "Critical speeds", body)
+
+
+def closed_loop_section(results: ReportResults) -> Raw:
+    """The closed loop of the steer-torque feedback: its gains, speeds with σ and stable ranges.
+
+    Raises:
+        ValueError: The results have no closed loop.
+    """
+    cl = results.closed_loop
+    if cl is None:
+        raise ValueError("no closed loop in these results")
+    fb = cl.feedback
+    gains = [
+        [Raw(f'<td data-key="{k}">{k}</td>'), u, s.describe()]
+        for k, u, s in zip(GAIN_KEYS, GAIN_UNITS, fb.schedules, strict=True)
+    ]
+    rows: list[list[str]] = []
+    for name, attr in (("weave speed", "weave"), ("capsize speed", "capsize")):
+        row: list[str] = [Raw(f'<td data-key="{attr}">{esc(name)}</td>')]
+        row += [_speed_cells(getattr(cs, attr)) for cs in cl.speeds]
+        rows.append(row)
+    stable: list[str] = [Raw('<td data-key="stable">stable speed range</td>')]
+    stable += [Raw(f'<td colspan="2">{esc(_range_text(r))}</td>') for r in cl.stable]
+    rows.append(stable)
+    head = ["", "without rider [m/s]", "σ", f"{results.rider.label} [m/s]", "σ"]
+    body = [
+        _p(
+            f"Steer-torque state feedback '{fb.name}' ({fb.source or 'built in'}): "
+            "T_δ = −(kφ φ + kδ δ + kφ̇ φ̇ + kδ̇ δ̇) added to the steer torque; the closed loop is A − B K."
+        ),
+        table(["gain", "unit", "value"], gains, "gains", "table-gains", "Feedback gains"),
+        table(head, rows, "speeds", "table-closed-loop", "Critical speeds of the closed loop"),
+        _p(
+            "Weave speed: the lowest speed where an oscillatory pair becomes stable; capsize speed: the lowest "
+            "where a real root becomes unstable (of the closed loop). σ to first order from the parameter "
+            "covariance and the gains given with σ (independent; the others exact).",
+            "note",
+        ),
+    ]
+    return section("closed-loop", "Closed loop (feedback)", body)
 
 
 def _share_list(o: OutputBudget) -> Raw:

@@ -12,9 +12,11 @@ import yaml
 
 from bike_rig.cli.main import main
 from bike_rig.core.benchmark import compute_parameters
+from bike_rig.core.feedback import load_feedback
 from bike_rig.core.loader import load_measurements
 from bike_rig.core.rider import PAPER_RIDER, add_rider
 from bike_rig.core.uncertainty.budget import BUDGET_PARAMETERS, CAPSIZE, WEAVE, reading_names, uncertainty_budget
+from bike_rig.core.uncertainty.speed_sigma import critical_speeds_with_sigma
 from bike_rig.paths import config_file
 from test.support.paper import shared_dir
 
@@ -148,3 +150,38 @@ def test_a_measured_txt_keeps_bicycleparameters_keys(capsys: pytest.CaptureFixtu
     assert data["inputs"] == data["input_keys"] and {"aH3", "mP", "gamma", "TcB1"} <= set(data["inputs"])
     yaml_data = run_json(capsys, BROWSER)
     assert sorted(data["input_keys"]) == sorted(yaml_data["input_keys"])  # the same readings, other names
+
+
+def test_feedback_budgets_the_closed_loop_speeds(capsys: pytest.CaptureFixture[str]) -> None:
+    """``--feedback``: the speeds are the closed loop's, their σ the parameter covariance's (gains exact)."""
+    assist = config_file("feedback/balance_assist.yaml")
+    data = run_json(capsys, BROWSER, "--feedback", str(assist))
+    assert data["feedback"] == "balance assist" and "feedback" not in run_json(capsys, BROWSER)
+    cs = critical_speeds_with_sigma(compute_parameters(load_measurements(BROWSER)), feedback=load_feedback(assist))
+    outputs = {o["output"]: o for o in data["outputs"]}
+    for name, speed in ((WEAVE, cs.weave), (CAPSIZE, cs.capsize)):
+        assert speed is not None
+        assert outputs[name]["value"] == speed.speed
+        assert outputs[name]["sigma"] == pytest.approx(speed.sigma, rel=1e-9)
+        assert sum(s["share"] for s in outputs[name]["shares"]) == pytest.approx(1.0)
+    assert outputs[WEAVE]["value"] < 2.0  # the assist's low-speed stabilisation
+    assert main(["budget", BROWSER, "--feedback", str(assist)]) == 0
+    assert "closed loop with feedback 'balance assist'" in capsys.readouterr().out
+
+
+def test_feedback_gains_with_sigma_are_budget_inputs(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    """A gain given with σ is one more input of the speeds' budget; its σ equals the speeds' σ."""
+    path = tmp_path / "fb.yaml"
+    path.write_text(
+        "format: bike_rig-feedback/1\nk_phidot: {speeds: [0, 5], values: [-50, 0], sigmas: [5, 0]}\n"
+        "k_phi: {speeds: [5, 15], values: [0, -5]}\n"
+    )
+    data = run_json(capsys, BROWSER, "--feedback", str(path))
+    assert data["inputs"][-1] == "feedback.k_phidot.values[0]"
+    cs = critical_speeds_with_sigma(compute_parameters(load_measurements(BROWSER)), feedback=load_feedback(path))
+    outputs = {o["output"]: o for o in data["outputs"]}
+    assert cs.weave is not None
+    assert outputs[WEAVE]["sigma"] == pytest.approx(cs.weave.sigma, rel=1e-9)
+    shares = {s["input"]: s["share"] for s in outputs[WEAVE]["shares"]}
+    assert shares["feedback.k_phidot.values[0]"] > 0.0
+    assert all("feedback." not in s["input"] for s in outputs["w"]["shares"])  # parameters do not depend on it

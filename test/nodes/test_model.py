@@ -19,6 +19,7 @@ import pytest
 
 from bike_rig import topics
 from bike_rig.core.benchmark import ComMethod, ParameterSet
+from bike_rig.core.feedback import load_feedback
 from bike_rig.core.loader import load_static_readings
 from bike_rig.core.rider import PAPER_RIDER, add_rider
 from bike_rig.core.uncertainty.matrix_sigma import SigmaConvention, canonical_with_sigma
@@ -26,6 +27,7 @@ from bike_rig.core.uncertainty.speed_sigma import critical_speeds_with_sigma
 from bike_rig.core.whipple import eigenvalues, state_space
 from bike_rig.messages import fill_benchmark_parameters, session_parameters_from_msg, set_stamp
 from bike_rig.pipeline.assemble import assemble
+from bike_rig.pipeline.model import compute_model
 from test.nodes.test_parameter import (
     BROWSER,
     REPO,
@@ -184,3 +186,49 @@ def test_bad_model_parameter_is_one_error_line_and_status_2(node_env: dict[str, 
     done = subprocess.run(argv, env=node_env, capture_output=True, text=True, timeout=60)
     assert done.returncode == 2
     assert done.stderr.strip().splitlines() == ["model: error: parameters 'speed_min' 5.0 > 'speed_max' 1.0"]
+
+
+ASSIST = REPO / "config" / "feedback" / "balance_assist.yaml"
+
+
+def test_model_node_with_feedback_publishes_the_closed_loop(
+    probe: Probe, node_env: dict[str, str], tmp_path: Path
+) -> None:
+    """``feedback``: the sweep and speeds are the closed loop's (as compute_model), the service gives A − B K."""
+    from bike_rig_msgs.msg import EigenSweep
+    from bike_rig_msgs.srv import StateSpace
+
+    probe.listen(topics.EIGEN_SWEEP, EigenSweep)
+    args = ("-p", f"feedback:={ASSIST}", "-p", "speed_count:=21")
+    with start_node("model", "model_feedback", node_env, tmp_path, *args) as node:
+        publish_set(probe, ComMethod.CENTROID, STAMP_NS)
+        sweep = probe.wait_message(topics.EIGEN_SWEEP, lambda m: stamp_of(m) == STAMP_NS, "eigen sweep", [node])
+        speeds = np.linspace(0.0, 10.0, 21)
+        _, expected = compute_model(offline_set(), speeds, feedback=str(ASSIST))
+        assert np.array_equal(np.asarray(sweep.eigenvalues_real), expected.sweep.eigenvalues.real.ravel())
+        assert expected.weave is not None and (sweep.weave_speed, sweep.has_weave) == (expected.weave.speed, True)
+        got = probe.call(StateSpace, topics.STATE_SPACE, state_space_request(2.0, ""))
+        assert got.ok and "closed loop (balance assist)" in got.message
+        ms = canonical_with_sigma(offline_set())
+        a, b = state_space(ms.matrices, 2.0, ms.g)
+        k = np.zeros((2, 4))
+        k[1] = load_feedback(ASSIST).gains(2.0)
+        a_cl = np.asarray(got.a).reshape(4, 4)
+        np.testing.assert_allclose(a_cl, a - b @ k, rtol=1e-13, atol=1e-12)
+        ours = np.asarray(got.eigenvalues_real) + 1j * np.asarray(got.eigenvalues_imag)
+        ref = np.linalg.eigvals(a - b @ k)
+        assert np.abs(ours[:, None] - ref[None, :]).min(axis=1).max() < 1e-9
+        assert ref.real.max() < 0.0  # the assist makes 2 m/s stable
+        code = node.stop()
+    assert code == 0, node.describe()
+
+
+def test_bad_feedback_parameter_is_one_error_line(node_env: dict[str, str], tmp_path: Path) -> None:
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("format: bike_rig-feedback/1\nk_phi: .nan\n")
+    argv = [sys.executable, "-m", "bike_rig.nodes.model", "--ros-args", "-p", f"feedback:={bad}"]
+    done = subprocess.run(argv, env=node_env, capture_output=True, text=True, timeout=60)
+    assert done.returncode == 2
+    lines = done.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("model: error: parameter 'feedback'")
+    assert f"{bad}:2: key 'k_phi': a gain is a finite number" in lines[0]

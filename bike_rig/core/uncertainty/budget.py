@@ -53,6 +53,7 @@ from numpy.typing import NDArray
 
 from ..benchmark import ParameterSet
 from ..errors import BikeRigError
+from ..feedback import Feedback
 from ..measurements import Measurements
 from ..symbols import PARAMETER_NAMES
 from .speed_sigma import CriticalSpeedsWithSigma, SpeedWithSigma, critical_speeds_with_sigma
@@ -177,6 +178,8 @@ class UncertaintyBudget:
         outputs: The 25 parameters in PARAMETER_NAMES order, then the weave and capsize
             speeds when the bicycle has them.
         input_keys: The BicycleParameters key of each of ``inputs``, in the same order.
+        feedback: "" (the open loop) or the name of the steer-torque feedback whose closed
+            loop the weave and capsize speeds are of.
     """
 
     bicycle: str
@@ -184,6 +187,7 @@ class UncertaintyBudget:
     inputs: tuple[str, ...]
     outputs: tuple[OutputBudget, ...]
     input_keys: tuple[str, ...] = ()
+    feedback: str = ""
 
     def output(self, name: str) -> OutputBudget:
         """The budget of output ``name`` (a parameter name, ``"weave speed"`` or ``"capsize speed"``).
@@ -264,8 +268,8 @@ def _output_budget(
     return OutputBudget(name, value, math.sqrt(total), unit, shares)
 
 
-def _speeds(ps: ParameterSet) -> list[tuple[str, SpeedWithSigma]]:
-    cs: CriticalSpeedsWithSigma = critical_speeds_with_sigma(ps)
+def _speeds(ps: ParameterSet, feedback: Feedback | None = None) -> list[tuple[str, SpeedWithSigma]]:
+    cs: CriticalSpeedsWithSigma = critical_speeds_with_sigma(ps, feedback=feedback)
     out = []
     for name, sp in ((WEAVE, cs.weave), (CAPSIZE, cs.capsize)):
         if sp is not None:
@@ -291,6 +295,7 @@ def uncertainty_budget(
     ps: ParameterSet,
     names: Mapping[str, str] | None = None,
     systematic: Mapping[str, Mapping[str, float]] | None = None,
+    feedback: Feedback | None = None,
 ) -> UncertaintyBudget:
     """Rank every input by its share of the variance of each parameter and critical speed.
 
@@ -303,6 +308,9 @@ def uncertainty_budget(
             the small-swing periods instead of the fitted, per period key, s): every output
             gets its first-order shift under each as a systematic line. Keys that are not
             inputs are ignored.
+        feedback: Steer-torque state feedback: the weave and capsize speeds are the closed
+            loop's; its gain values given with σ are further inputs (``feedback.<key>``,
+            independent). None: the open loop.
 
     Returns:
         The budget: 25 parameters (PARAMETER_NAMES order without g), then the weave and
@@ -318,6 +326,15 @@ def uncertainty_budget(
         kind, keys = PARAMETERS, list(PARAMETER_NAMES)
         covariance = np.asarray(ps.parameters.covariance, dtype=float)
         to_input = np.eye(len(PARAMETER_NAMES))
+    knots = feedback.uncertain_knots() if feedback is not None else ()
+    if knots:  # the feedback's gains given with σ: further independent inputs, after the others
+        n, m = len(keys), len(knots)
+        keys = keys + [f"feedback.{k[3]}" for k in knots]
+        covariance = np.block([
+            [covariance, np.zeros((n, m))],
+            [np.zeros((m, n)), np.diag([k[2] ** 2 for k in knots])],
+        ])  # fmt: skip
+        to_input = np.hstack([to_input, np.zeros((to_input.shape[0], m))])
     groups = _groups(covariance)
     own = names or {}
     labels = [("+".join(own.get(keys[i], keys[i]) for i in g), "+".join(keys[i] for i in g)) for g in groups]
@@ -326,12 +343,17 @@ def uncertainty_budget(
     ]
     shifts = _input_shifts(keys, systematic or {})
     outputs = [replace(o, systematic=_shifts(to_input[r], shifts)) for o, r in zip(outputs, rows, strict=True)]
-    for name, sp in _speeds(ps):
+    for name, sp in _speeds(ps, feedback):
         grad = sp.gradient if sp.gradient is not None else np.full(len(PARAMETER_NAMES), math.nan)
-        o = _output_budget(name, sp.speed, grad @ to_input, covariance, groups, labels)
-        outputs.append(replace(o, systematic=_shifts(grad @ to_input, shifts)))
+        sens = grad @ to_input
+        if knots:
+            sens[-len(knots) :] = sp.gain_gradient if sp.gain_gradient is not None else math.nan
+        o = _output_budget(name, sp.speed, sens, covariance, groups, labels)
+        outputs.append(replace(o, systematic=_shifts(sens, shifts)))
     inputs = tuple(label for label, _ in labels)
-    return UncertaintyBudget(ps.bicycle, kind, inputs, tuple(outputs), tuple(key for _, key in labels))
+    keys_out = tuple(key for _, key in labels)
+    fb_name = "" if feedback is None else feedback.name
+    return UncertaintyBudget(ps.bicycle, kind, inputs, tuple(outputs), keys_out, fb_name)
 
 
 def _input_shifts(keys: Sequence[str], systematic: Mapping[str, Mapping[str, float]]) -> list[tuple[str, FloatArray]]:
@@ -386,10 +408,14 @@ def budget_json(b: UncertaintyBudget) -> dict[str, Any]:
     "value", "sigma", "unit", "shares": [{"input", "key", "share", "contribution"}],
     "systematic": [{"source", "shift"}]}]}``:
     ``inputs`` and each share's ``input`` name the inputs as their file does, ``input_keys``
-    and ``key`` by their BicycleParameters keys.
+    and ``key`` by their BicycleParameters keys. With a feedback, ``"feedback"`` (its name)
+    follows ``"bicycle"``: the speeds are then the closed loop's.
     """
+    head: dict[str, Any] = {"bicycle": b.bicycle}
+    if b.feedback:
+        head["feedback"] = b.feedback
     return {
-        "bicycle": b.bicycle,
+        **head,
         "input_kind": b.input_kind,
         "inputs": list(b.inputs),
         "input_keys": list(b.input_keys),

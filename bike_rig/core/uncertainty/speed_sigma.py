@@ -36,14 +36,17 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..benchmark import ParameterSet
+from ..feedback import Feedback
 from ..symbols import PARAMETER_NAMES
 from ..whipple import (
     CriticalSpeeds,
+    WhippleMatrices,
     canonical_matrices,
     characteristic_polynomial,
     critical_speeds,
     hurwitz_determinant,
 )
+from ..whipple.closed_loop import closed_loop_critical_speeds, closed_loop_rows
 from .matrix_sigma import MatrixSet, SigmaConvention, canonical_with_sigma
 from .uncertain import COMPLEX_STEP
 
@@ -51,9 +54,11 @@ __all__ = [
     "CrossingKind",
     "CriticalSpeedsWithSigma",
     "SpeedWithSigma",
+    "closed_loop_speed_gradients",
     "critical_speed_gradient",
     "critical_speeds_with_sigma",
     "perturbed_coefficients",
+    "perturbed_matrices",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -77,11 +82,15 @@ class SpeedWithSigma:
         sigma: Its standard uncertainty, m/s (NaN if the root is not simple).
         gradient: ∂speed/∂p for the 26 parameters in PARAMETER_NAMES order (m/s per SI unit
             of each parameter); None when not known (e.g. read back from a message).
+        gain_gradient: For a closed loop, ∂speed/∂ each feedback gain value given with σ
+            (:meth:`bike_rig.core.feedback.Feedback.uncertain_knots` order; m/s per N m/rad or
+            N m s/rad); their variance is in ``sigma``. None for the open loop.
     """
 
     speed: float
     sigma: float
     gradient: FloatArray | None = None
+    gain_gradient: FloatArray | None = None
 
 
 @dataclass(frozen=True)
@@ -101,6 +110,22 @@ class CriticalSpeedsWithSigma:
     convention: SigmaConvention
 
 
+def perturbed_matrices(values: Mapping[str, float]) -> tuple[WhippleMatrices, NDArray[np.complex128]]:
+    """Canonical matrices (batch (26,)) and ``g`` with parameter ``k`` perturbed by ``i h`` in row ``k``.
+
+    Args:
+        values: The 26 benchmark parameters (SI, ``lam`` in rad).
+
+    Returns:
+        The complex matrices and gravity (m/s², shape (26,)); ``Im / h`` of anything computed
+        from them analytically is its derivative by each parameter (complex step).
+    """
+    n = len(PARAMETER_NAMES)
+    step = np.eye(n) * COMPLEX_STEP
+    args = {name: float(values[name]) + 1j * step[k] for k, name in enumerate(PARAMETER_NAMES)}
+    return canonical_matrices(args), np.asarray(args["g"])
+
+
 def perturbed_coefficients(values: Mapping[str, float]) -> NDArray[np.complex128]:
     """Characteristic-polynomial coefficients with each parameter perturbed by ``i h`` in turn.
 
@@ -115,10 +140,8 @@ def perturbed_coefficients(values: Mapping[str, float]) -> NDArray[np.complex128
     Returns:
         Shape (26, 5, 5): parameter (PARAMETER_NAMES order), power of ``s``, power of ``v``.
     """
-    n = len(PARAMETER_NAMES)
-    step = np.eye(n) * COMPLEX_STEP
-    args = {name: float(values[name]) + 1j * step[k] for k, name in enumerate(PARAMETER_NAMES)}
-    return np.asarray(characteristic_polynomial(canonical_matrices(args), args["g"]).coefficients)
+    matrices, g = perturbed_matrices(values)
+    return np.asarray(characteristic_polynomial(matrices, g).coefficients)
 
 
 def _criterion(coef: NDArray[Any], v: float, kind: CrossingKind) -> tuple[NDArray[Any], NDArray[Any]]:
@@ -157,14 +180,62 @@ def critical_speed_gradient(values: Mapping[str, float], speed: float, kind: Cro
     return np.asarray(-df_dp / dv, dtype=float)
 
 
+def closed_loop_speed_gradients(
+    values: Mapping[str, float], speed: float, kind: CrossingKind | str, feedback: Feedback
+) -> tuple[FloatArray, FloatArray]:
+    """``∂v/∂p`` and ``∂v/∂k`` of a closed-loop critical speed (implicit function theorem).
+
+    As :func:`critical_speed_gradient` with ``F`` the closed loop's ``a0`` or Hurwitz
+    determinant (:func:`bike_rig.core.whipple.closed_loop.closed_loop_rows`): the complex step
+    in the 26 parameters, then in each gain value given with σ
+    (:meth:`bike_rig.core.feedback.Feedback.knot_jacobian`); ``∂F/∂v`` includes the gains'
+    slope ``dK/dv`` (of the schedule piece above ``speed``).
+
+    Returns:
+        ``∂v/∂p``, shape (26,), PARAMETER_NAMES order, and ``∂v/∂k``, shape ``(n,)``,
+        :meth:`~bike_rig.core.feedback.Feedback.uncertain_knots` order; NaN where
+        ``∂F/∂v = 0``.
+    """
+    kind = CrossingKind(kind)
+    v = float(speed)
+    gains, slopes = feedback.gains(v), feedback.slopes(v)
+
+    def criterion(matrices: WhippleMatrices, g: Any, k: Any) -> tuple[Any, Any]:
+        a, da = closed_loop_rows(matrices, g, v, k, slopes)
+        return (a[0], da[0]) if kind is CrossingKind.REAL else hurwitz_determinant(a, da)
+
+    f_p, df = criterion(*perturbed_matrices(values), gains)
+    n = len(feedback.uncertain_knots())
+    f_k = np.zeros(0)
+    if n:
+        moved = gains + 1j * COMPLEX_STEP * feedback.knot_jacobian(v)
+        f_k, _ = criterion(canonical_matrices(values), values["g"], moved)
+    dv = float(np.asarray(df).real.reshape(-1)[0])
+    if dv == 0.0 or not math.isfinite(dv):
+        return np.full(len(PARAMETER_NAMES), math.nan), np.full(n, math.nan)
+    df_dp = np.asarray(f_p).imag / COMPLEX_STEP
+    df_dk = np.asarray(f_k).imag / COMPLEX_STEP
+    return np.asarray(-df_dp / dv, dtype=float), np.asarray(-df_dk / dv, dtype=float)
+
+
 def _with_sigma(
-    values: Mapping[str, float], speed: float | None, kind: CrossingKind, covariance: FloatArray
+    values: Mapping[str, float],
+    speed: float | None,
+    kind: CrossingKind,
+    covariance: FloatArray,
+    feedback: Feedback | None = None,
 ) -> SpeedWithSigma | None:
     if speed is None:
         return None
-    grad = critical_speed_gradient(values, speed, kind)
-    var = float(grad @ covariance @ grad)
-    return SpeedWithSigma(float(speed), math.sqrt(var) if var >= 0.0 else math.nan, grad)
+    gain_grad, gain_var = None, 0.0
+    if feedback is None:
+        grad = critical_speed_gradient(values, speed, kind)
+    else:
+        grad, gain_grad = closed_loop_speed_gradients(values, speed, kind, feedback)
+        sigmas = np.array([k[2] for k in feedback.uncertain_knots()])
+        gain_var = float(np.sum((gain_grad * sigmas) ** 2))  # the gains' σ: independent inputs
+    var = float(grad @ covariance @ grad) + gain_var
+    return SpeedWithSigma(float(speed), math.sqrt(var) if var >= 0.0 else math.nan, grad, gain_grad)
 
 
 def critical_speeds_with_sigma(
@@ -172,6 +243,7 @@ def critical_speeds_with_sigma(
     convention: SigmaConvention | str = SigmaConvention.CORRELATED,
     matrices: MatrixSet | None = None,
     v_max: float = math.inf,
+    feedback: Feedback | None = None,
 ) -> CriticalSpeedsWithSigma:
     """Weave and capsize speeds (m/s) of a parameter set with their σ (m/s).
 
@@ -183,18 +255,24 @@ def critical_speeds_with_sigma(
             (:func:`canonical_with_sigma`); the speeds are found from exactly these, so they
             equal ``critical_speeds(matrices.matrices, matrices.g)``.
         v_max: Only crossings in ``(0, v_max]`` count (m/s).
+        feedback: Steer-torque state feedback: the speeds are the closed loop's
+            (:func:`bike_rig.core.whipple.closed_loop.closed_loop_critical_speeds`), σ from the
+            parameters and from the gain values given with σ (independent). None: the open loop.
 
     Returns:
         The speeds with σ; ``weave``/``capsize`` are None when absent.
     """
     convention = SigmaConvention(convention)
     ms = matrices if matrices is not None else canonical_with_sigma(ps, convention)
-    cs = critical_speeds(ms.matrices, ms.g, v_max)
+    if feedback is None:
+        cs = critical_speeds(ms.matrices, ms.g, v_max)
+    else:
+        cs = closed_loop_critical_speeds(ms.matrices, ms.g, feedback, v_max)
     params = ps.parameters if convention is SigmaConvention.CORRELATED else ps.parameters.independent()
     values = ps.parameters.as_dict()
     return CriticalSpeedsWithSigma(
-        weave=_with_sigma(values, cs.weave, CrossingKind.OSCILLATORY, params.covariance),
-        capsize=_with_sigma(values, cs.capsize, CrossingKind.REAL, params.covariance),
+        weave=_with_sigma(values, cs.weave, CrossingKind.OSCILLATORY, params.covariance, feedback),
+        capsize=_with_sigma(values, cs.capsize, CrossingKind.REAL, params.covariance, feedback),
         speeds=cs,
         convention=convention,
     )

@@ -14,7 +14,9 @@ and ``f = [T_φ, T_δ]`` (N m). The package provides, one job per module:
   closed-form quartic roots, tracked across speeds and labelled weave / capsize / caster
   (:class:`EigenvalueSweep`, :data:`MODE_LABELS`);
 * :mod:`.stability`: :func:`critical_speeds` / :func:`stable_speed_range`, the weave and capsize
-  speeds (m/s) from the Routh–Hurwitz structure of the quartic, in closed form and then polished.
+  speeds (m/s) from the Routh–Hurwitz structure of the quartic, in closed form and then polished;
+* :mod:`.closed_loop`: the model under steer-torque state feedback (``A − B K``): its
+  characteristic polynomial, state space, critical speeds and stable speed ranges.
 
 Units are SI throughout: lengths in m, masses in kg, inertias in kg m², angles in rad, ``g`` in
 m/s², speeds in m/s, eigenvalues in 1/s.

@@ -9,12 +9,14 @@ optionally with the state-space eigenvectors. The result is an :class:`Eigenvalu
 from __future__ import annotations
 
 import itertools
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import ModelError
+from .closed_loop import closed_loop_coefficients
 from .matrices import WhippleMatrices, characteristic_polynomial, check_one_bicycle
 from .quartic import quartic_into
 
@@ -25,6 +27,8 @@ MODE_LABELS: tuple[str, str, str, str] = ("weave", "weave", "capsize", "caster")
 
 FloatArray = NDArray[np.float64]
 ComplexArray = NDArray[np.complex128]
+#: ``monic(lo, hi)``: monic quartic coefficients ``b, c, d, e`` of the sorted speeds ``lo:hi``.
+MonicCoefficients = Callable[[int, int], tuple[FloatArray, FloatArray, FloatArray, FloatArray]]
 
 
 # --------------------------------------------------------------------------------------------
@@ -202,12 +206,21 @@ def _abs2(z: ComplexArray) -> FloatArray:
     return np.asarray(z.real * z.real + z.imag * z.imag)
 
 
-def _eigenvector_block(entries: list[tuple[float, ...]], v: FloatArray, s: ComplexArray) -> ComplexArray:
-    """Eigenvectors (see :func:`_eigenvectors`) for one block of speeds ``v`` and roots ``s``."""
+def _eigenvector_block(
+    entries: list[tuple[float, ...]], v: FloatArray, s: ComplexArray, gains: FloatArray | None = None
+) -> ComplexArray:
+    """Eigenvectors (see :func:`_eigenvectors`) for one block of speeds ``v`` and roots ``s``.
+
+    ``gains`` (shape ``(n, 4)``, or None) add the feedback row ``[kφ + kφ̇ s, kδ + kδ̇ s]`` to
+    the steer row of ``P(s)``.
+    """
     vv = v[:, None]
     s2 = s * s
     mat = [m * s2 + (c1 * vv) * s + (k0 + k2 * vv * vv) for m, c1, k0, k2 in entries]
     p00, p01, p10, p11 = mat
+    if gains is not None:
+        p10 = p10 + gains[:, 0:1] + gains[:, 2:3] * s
+        p11 = p11 + gains[:, 1:2] + gains[:, 3:4] * s
     first = (_abs2(p00) + _abs2(p01)) >= (_abs2(p10) + _abs2(p11))
     phi = np.where(first, p01, p11)
     delta = np.where(first, -p00, -p10)
@@ -220,8 +233,12 @@ def _eigenvector_block(entries: list[tuple[float, ...]], v: FloatArray, s: Compl
     return np.stack([phi, delta, s * phi, s * delta], axis=-2)
 
 
-def _eigenvectors(matrices: WhippleMatrices, g: float, v: FloatArray, s: ComplexArray) -> ComplexArray:
+def _eigenvectors(
+    matrices: WhippleMatrices, g: float, v: FloatArray, s: ComplexArray, gains: FloatArray | None = None
+) -> ComplexArray:
     """State-space eigenvectors ``[q, s q]`` with ``(M s² + v C1 s + g K0 + v² K2) q = 0``.
+
+    With ``gains`` (shape ``(N, 4)``) the steer row has the feedback added (closed loop).
 
     ``q`` is orthogonal to the larger row of the singular 2x2 matrix, so it is exact for a
     simple root; scaled to unit 2-norm with the larger of ``|φ|, |δ|`` real positive.
@@ -233,12 +250,17 @@ def _eigenvectors(matrices: WhippleMatrices, g: float, v: FloatArray, s: Complex
     out = np.empty(s.shape[:1] + (4, 4), dtype=complex)
     for lo in range(0, v.size, _BLOCK):
         block = slice(lo, lo + _BLOCK)
-        out[block] = _eigenvector_block(entries, v[block], s[block])
+        out[block] = _eigenvector_block(entries, v[block], s[block], None if gains is None else gains[block])
     return out
 
 
-def _sorted_roots(coef: FloatArray, v: FloatArray) -> tuple[FloatArray, FloatArray, NDArray[np.intp]]:
+def _sorted_roots(
+    coef: FloatArray, v: FloatArray, monic: MonicCoefficients | None = None
+) -> tuple[FloatArray, FloatArray, NDArray[np.intp]]:
     """Quartic roots at the sorted speeds ``v``, block by block, and the flagged steps.
+
+    ``monic(lo, hi)`` gives the monic coefficients of the speeds ``v[lo:hi]`` (default: the open
+    loop's, from ``coef``).
 
     Returns:
         ``(re, im, steps)``: roots of shape ``(4, N)`` in factor order, and the steps that
@@ -250,7 +272,8 @@ def _sorted_roots(coef: FloatArray, v: FloatArray) -> tuple[FloatArray, FloatArr
     steps = [np.zeros(0, dtype=np.intp)]
     for lo in range(0, n, _BLOCK):
         hi = min(lo + _BLOCK, n)
-        quartic_into(*_monic_speed_coefficients(coef, v[lo:hi]), re[:, lo:hi], im[:, lo:hi])
+        bcde = _monic_speed_coefficients(coef, v[lo:hi]) if monic is None else monic(lo, hi)
+        quartic_into(*bcde, re[:, lo:hi], im[:, lo:hi])
         start = max(lo - 1, 0)  # include the step from the previous block
         steps.append(_flagged_steps(re[:, start:hi], im[:, start:hi]) + start)
     return re, im, np.concatenate(steps)
@@ -288,7 +311,30 @@ def _gather(
     return out.T
 
 
-def eigenvalues(matrices: WhippleMatrices, g: float, speeds: ArrayLike, vectors: bool = False) -> EigenvalueSweep:
+def _closed_loop_monic(matrices: WhippleMatrices, g: float, v: FloatArray, gains: FloatArray) -> MonicCoefficients:
+    """``monic(lo, hi)`` of the closed loop with ``gains[i]`` at the (sorted) speed ``v[i]``."""
+
+    def monic(lo: int, hi: int) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+        a = closed_loop_coefficients(matrices, g, v[lo:hi], gains[lo:hi])
+        a = a / a[..., :1]
+        return a[:, 1], a[:, 2], a[:, 3], a[:, 4]
+
+    return monic
+
+
+def _gain_array(gains: ArrayLike, n: int) -> FloatArray:
+    """Gains as a finite ``(n, 4)`` float array (one row per speed, or one row for all)."""
+    arr = np.asarray(gains, dtype=float)
+    if arr.shape == (4,):
+        arr = np.broadcast_to(arr, (n, 4))
+    if arr.shape != (n, 4) or not np.all(np.isfinite(arr)):
+        raise ModelError(f"feedback gains must be finite, shape (4,) or ({n}, 4), got shape {arr.shape}")
+    return np.ascontiguousarray(arr)
+
+
+def eigenvalues(
+    matrices: WhippleMatrices, g: float, speeds: ArrayLike, vectors: bool = False, gains: ArrayLike | None = None
+) -> EigenvalueSweep:
     """Eigenvalues (1/s) of the Whipple model at many speeds, tracked and labelled.
 
     All speeds are solved at once by closed-form quartic roots of
@@ -317,6 +363,10 @@ def eigenvalues(matrices: WhippleMatrices, g: float, speeds: ArrayLike, vectors:
             Tracking is along increasing speed, so it is only meaningful where neighbouring
             speeds are close.
         vectors: Also compute state-space eigenvectors.
+        gains: Steer-torque state feedback ``[kφ, kδ, kφ̇, kδ̇]`` (N m/rad, N m s/rad) at each
+            speed, shape ``(N, 4)`` in the order of ``speeds`` (or ``(4,)`` for all): the
+            eigenvalues are those of the closed loop ``A − B K``
+            (:func:`.closed_loop.closed_loop_coefficients`). None: the open loop.
 
     Returns:
         The sweep, columns ordered as :data:`MODE_LABELS`.
@@ -329,10 +379,13 @@ def eigenvalues(matrices: WhippleMatrices, g: float, speeds: ArrayLike, vectors:
     order = None if np.all(v[1:] >= v[:-1]) else np.argsort(v, kind="stable")
     v_sorted = v if order is None else v[order]
     coef = np.asarray(characteristic_polynomial(matrices, float(g)).coefficients, dtype=float)
-    re, im, steps = _sorted_roots(coef, v_sorted)
+    k = None if gains is None else _gain_array(gains, v.size)
+    k_sorted = k if k is None or order is None else k[order]
+    monic = None if k_sorted is None else _closed_loop_monic(matrices, float(g), v_sorted, k_sorted)
+    re, im, steps = _sorted_roots(coef, v_sorted, monic)
     codes = _track(re, im, steps)
     top = _PERMS[codes[-1]]
     labels = _label_order(re[top, -1] + 1j * im[top, -1])
     values = _gather(re, im, _PERMS[:, labels], codes, order)
-    vecs = _eigenvectors(matrices, float(g), v, values) if vectors else None
+    vecs = _eigenvectors(matrices, float(g), v, values, k) if vectors else None
     return EigenvalueSweep(speeds=v, eigenvalues=values, labels=MODE_LABELS, eigenvectors=vecs)
