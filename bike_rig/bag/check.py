@@ -17,6 +17,8 @@ from __future__ import annotations
 
 import math
 import struct
+from dataclasses import dataclass
+from functools import lru_cache
 from pathlib import Path
 from typing import Any, BinaryIO
 
@@ -26,7 +28,7 @@ from ..core.errors import one_line
 from ..core.safe_yaml import LIMITS, YamlLimitError, compose_bounded, construct, yaml_error_reason
 from .errors import BagReadError
 
-__all__ = ["MAX_CHUNK_BYTES", "check_mcap", "check_metadata", "within_limits"]
+__all__ = ["MAX_CHUNK_BYTES", "Metadata", "check_mcap", "check_metadata", "within_limits"]
 
 #: The largest uncompressed chunk accepted [bytes]; bike_rig's recorder closes a chunk every
 #: second or at 1 MiB, rosbags' and ros2 bag's at 1 MiB by default.
@@ -208,26 +210,65 @@ def within_limits(text: str) -> bool:
     return True
 
 
-def _load(text: str) -> Any:
+@dataclass(frozen=True)
+class Metadata:
+    """A bag's ``metadata.yaml`` as :func:`check_metadata` read it.
+
+    Attributes:
+        text: The file's text.
+        doc: The loaded document (type-checked; not to be modified).
+        plain: Loaded by libyaml: within the limits, without aliases.
+        duplicate_keys: Some mapping repeats a key (libyaml keeps the last; other readers refuse).
+    """
+
+    text: str
+    doc: Any
+    plain: bool
+    duplicate_keys: bool
+
+
+@lru_cache(maxsize=1)
+def _libyaml_loader() -> Any:
+    """The libyaml loader that notes (instead of refusing) a mapping that repeats a key."""
+
+    class Loader(yaml.CSafeLoader):
+        duplicates = False
+
+        def construct_mapping(self, node: Any, deep: bool = False) -> Any:
+            made = super().construct_mapping(node, deep)
+            if len(made) < len(node.value):  # (keys equal in Python collapse too: noted, never missed)
+                type(self).duplicates = True
+            return made
+
+    return Loader
+
+
+def _load(text: str) -> tuple[Any, bool, bool]:
     """``text`` loaded within :data:`~bike_rig.core.safe_yaml.LIMITS`, by libyaml when it can be.
 
     libyaml's events are counted first (its parser keeps its own stack; only its composer
     recurses, and would crash the process on a document a few thousand levels deep); a document
     within the limits and without aliases is then loaded by libyaml (about 1 ms for a bag's
     metadata, where the pure-Python loader takes 15 ms); one with aliases by the bounded loader.
+
+    Returns:
+        The document, whether libyaml loaded it, and whether a mapping repeats a key (libyaml only).
     """
-    loader = getattr(yaml, "CSafeLoader", None)
-    if len(text) > LIMITS.max_bytes or loader is None or not within_limits(text):
-        return construct(*compose_bounded(text))
-    return yaml.load(text, Loader=loader)
+    if len(text) > LIMITS.max_bytes or getattr(yaml, "CSafeLoader", None) is None or not within_limits(text):
+        return construct(*compose_bounded(text)), False, False
+    loader: Any = type("Load", (_libyaml_loader(),), {"duplicates": False})  # (its own flag)
+    return yaml.load(text, Loader=loader), True, bool(loader.duplicates)
 
 
-def check_metadata(path: Path, shown: str) -> None:
+def check_metadata(path: Path, shown: str) -> Metadata:
     """Read ``metadata.yaml`` within bike_rig's YAML limits and check its values' types.
 
     Args:
         path: The bag's ``metadata.yaml``.
         shown: The bag as the user named it (for the error).
+
+    Returns:
+        The text and the document (for the fast reader, which then need not load it again).
 
     Raises:
         BagReadError: It cannot be read, is not YAML within the limits, or holds a value of
@@ -241,7 +282,7 @@ def check_metadata(path: Path, shown: str) -> None:
     except UnicodeDecodeError as exc:
         raise BagReadError(shown, f"{name}: byte {exc.start}: not UTF-8 text") from None
     try:
-        doc = _load(text)
+        doc, plain, duplicates = _load(text)
     except YamlLimitError as exc:
         where = f" line {exc.line}" if exc.line else ""
         raise BagReadError(shown, f"{name}{where}: {exc.reason}") from None
@@ -257,6 +298,7 @@ def check_metadata(path: Path, shown: str) -> None:
         _check_info(_map(top.get("rosbag2_bagfile_information"), "rosbag2_bagfile_information"))
     except _Bad as exc:
         raise BagReadError(shown, f"{name}: {exc.place}: {exc.reason}") from None
+    return Metadata(text, doc, plain, duplicates)
 
 
 # --------------------------------------------------------------------------------------------

@@ -25,7 +25,7 @@ from typing import Any, cast
 from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
 
 from ..core.safe_yaml import YamlLimitError
-from .check import within_limits
+from .check import Metadata, within_limits
 
 __all__ = ["MAGIC", "Chunk", "FastBag", "FastTopic", "Storage", "UnsafeYaml", "Unusual", "need", "open_fast"]
 
@@ -369,8 +369,21 @@ def _topic_entries(meta: dict[str, Any]) -> list[tuple[FastTopic, str]]:
     return out
 
 
-def _open_directory(path: Path) -> FastBag:
-    meta = _yaml_load((path / "metadata.yaml").read_text())
+def _metadata(path: Path, read: Metadata | None) -> Any:
+    """The bag's metadata.yaml loaded as rosbags' ruamel would (Unusual when they may differ).
+
+    ``read`` is the document as the reader's checks loaded it (then not loaded again).
+    """
+    if read is None:
+        return _yaml_load((path / "metadata.yaml").read_text())
+    need(not _RISKY_YAML.search(read.text), "metadata YAML with scalars YAML 1.1 and 1.2 read differently")
+    need(read.plain, "YAML with aliases")
+    need(not read.duplicate_keys, "metadata YAML (duplicate key)")
+    return read.doc
+
+
+def _open_directory(path: Path, read: Metadata | None) -> FastBag:
+    meta = _metadata(path, read)
     need(isinstance(meta, dict) and isinstance(meta.get("rosbag2_bagfile_information"), dict), "metadata")
     info = meta["rosbag2_bagfile_information"]
     try:
@@ -429,14 +442,16 @@ def _open_mcap(path: Path) -> FastBag:
     )
 
 
-def open_fast(path: Path) -> FastBag:
+def open_fast(path: Path, metadata: Metadata | None = None) -> FastBag:
     """Open a bag directory or ``.mcap`` file (as resolved by the reader) by the fast path.
+
+    ``metadata``: the directory's metadata.yaml as the reader's checks read it (else read here).
 
     Raises:
         Unusual: It is not the common kind (see the module docstring).
     """
     if path.is_dir():
-        return _open_directory(path)
+        return _open_directory(path, metadata)
     if path.suffix == ".mcap":
         return _open_mcap(path)
     raise Unusual("neither a bag directory nor an .mcap file")

@@ -20,7 +20,7 @@ from pathlib import Path
 from types import TracebackType
 from typing import TYPE_CHECKING, Any, NamedTuple
 
-from .check import check_mcap, check_metadata
+from .check import Metadata, check_mcap, check_metadata
 from .errors import BagError, BagReadError, IncompleteBagError, NotABagError, ReplayError
 from .fastread import MAGIC, FastBag, UnsafeYaml, Unusual, open_fast
 from .msgtable import CorruptChunk, MessageTable, read_table
@@ -86,8 +86,8 @@ def _check_mcap_file(path: Path, shown: str) -> None:
     check_mcap(path, shown)
 
 
-def _resolve(path: Path, shown: str) -> Path:
-    """The path rosbags should open, after checking what it is."""
+def _resolve(path: Path, shown: str) -> tuple[Path, Metadata | None]:
+    """The path rosbags should open, after checking what it is, and its metadata.yaml as read."""
     if not path.exists():
         raise BagError(shown, "no such file or directory")
     if path.is_file() and path.name == "metadata.yaml":
@@ -102,13 +102,13 @@ def _resolve(path: Path, shown: str) -> Path:
                     f"(run 'bike-rig bag recover {shown}' to make it readable)",
                 )
             raise NotABagError(shown, "not a rosbag2 bag (no metadata.yaml and no .mcap file)")
-        check_metadata(path / "metadata.yaml", shown)
+        metadata = check_metadata(path / "metadata.yaml", shown)
         for f in storage:
             _check_mcap_file(f, shown)
-        return path
+        return path, metadata
     if path.suffix.lower() == ".mcap":
         _check_mcap_file(path, shown)
-        return path
+        return path, None
     try:
         with path.open("rb") as stream:
             head = stream.read(8)
@@ -140,10 +140,10 @@ class BagReader:
 
     def open(self) -> BagReader:
         """Open the bag and read its index (by the fast path when the bag is the common kind)."""
-        resolved = _resolve(self.path, self.shown)
+        resolved, metadata = _resolve(self.path, self.shown)
         self._resolved = resolved
         try:
-            self._fast = open_fast(resolved)
+            self._fast = open_fast(resolved, metadata)
         except UnsafeYaml as exc:
             raise BagReadError(self.shown, f"an MCAP channel's offered QoS profiles: {exc}") from None
         except Unusual:
