@@ -73,20 +73,42 @@ class Minimum:
     evaluations: int
 
 
-def _inverse(m: FloatArray) -> FloatArray:
-    """The inverse of the symmetric matrix ``m`` (a 2 × 2 in closed form: LAPACK's call costs more).
+def _inverse_diagonal(h: FloatArray) -> FloatArray:
+    """The diagonal of h⁻¹, h symmetric positive semi-definite.
 
     Raises:
-        SingularError: ``m`` is singular.
+        SingularError: ``h`` is singular.
     """
-    if m.shape == (2, 2):
-        a, b, d = float(m[0, 0]), float(m[0, 1]), float(m[1, 1])
+    if h.shape == (2, 2):  # (Eq 23's problem, on every trial: closed form, no LAPACK call)
+        (a, b), (_, d) = h.tolist()
         det = a * d - b * b
         if not abs(det) > 1e-300 * max(1.0, a * d):
             raise SingularError("singular normal equations")
-        return np.array([[d / det, -b / det], [-b / det, a / det]])
+        return np.array([d / det, a / det])
     try:
-        return np.asarray(np.linalg.inv(m), dtype=np.float64)
+        return np.asarray(np.diag(np.linalg.inv(h)), dtype=np.float64)
+    except np.linalg.LinAlgError:
+        raise SingularError("singular normal equations") from None
+
+
+def _damped_step(h: FloatArray, g: FloatArray, diag: FloatArray, lam: float) -> FloatArray:
+    """The step (h + λ diag(h))⁻¹ g.
+
+    Raises:
+        SingularError: The damped matrix is singular.
+    """
+    if h.shape == (2, 2):
+        (a, b), (_, d) = h.tolist()
+        g0, g1 = g.tolist()
+        a, d = a + lam * float(diag[0]), d + lam * float(diag[1])
+        det = a * d - b * b
+        if not abs(det) > 1e-300 * max(1.0, a * d):
+            raise SingularError("singular normal equations")
+        return np.array([(d * g0 - b * g1) / det, (a * g1 - b * g0) / det])
+    damped = h.copy()
+    damped.flat[:: diag.size + 1] += lam * diag
+    try:
+        return np.asarray(np.linalg.solve(damped, g), dtype=np.float64)
     except np.linalg.LinAlgError:
         raise SingularError("singular normal equations") from None
 
@@ -126,12 +148,10 @@ def minimise(
         h = jac @ jac.T
         g = -(jac @ r)
         diag = h.diagonal().copy()
-        limit = (step_sigma * step_sigma * sse / dof) * _inverse(h).diagonal()  # (step_sigma · σ)²
+        limit = (step_sigma * step_sigma * sse / dof) * _inverse_diagonal(h)  # (step_sigma · σ)²
         accepted = False
         while lam < _LAMBDA_MAX:
-            damped = h.copy()
-            damped.flat[:: diag.size + 1] += lam * diag
-            step = _inverse(damped) @ g
+            step = _damped_step(h, g, diag, lam)
             trial = x + step
             if feasible is not None and not feasible(trial):
                 lam, nu = lam * nu, 2.0 * nu
