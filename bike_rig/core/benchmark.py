@@ -9,7 +9,7 @@ step to get the exact Jacobian to every reading (linear σ with correlations, pa
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from enum import Enum
 from typing import Any
 
@@ -97,6 +97,8 @@ class ParameterSet:
         source: Where they came from (a file path).
         raw: The link to the raw readings, when computed from measurements.
         com: Mass-centre estimates by both methods, when computed from measurements.
+        extras: The raw file's entries the parameters do not need (e.g. the rider-geometry keys
+            a Yeadon rider is seated with), when computed from measurements.
     """
 
     bicycle: str
@@ -104,6 +106,7 @@ class ParameterSet:
     source: str
     raw: RawPropagation | None = None
     com: Mapping[str, ComEstimate] | None = None
+    extras: Mapping[str, object] = field(default_factory=dict)
 
     def values(self) -> dict[str, float]:
         """``{name: value}`` for the 26 parameters."""
@@ -271,7 +274,7 @@ def compute_parameters(m: Measurements, method: ComMethod = ComMethod.CENTROID) 
             ests.append(UncertainVector(("x", "z"), full.values[sel], full.covariance[np.ix_(sel, sel)]))
         coms[part] = ComEstimate(part, ests[0], ests[1], method)
     raw = RawPropagation(tuple(perturbed), cov, prop.jacobian[:n])
-    return ParameterSet(m.bicycle, params, m.path, raw, coms)
+    return ParameterSet(m.bicycle, params, m.path, raw, coms, m.extras)
 
 
 def monte_carlo_parameters(
