@@ -38,6 +38,7 @@ __all__ = [
     "RiderPoseError",
     "bottom_bracket_point",
     "grip_point",
+    "limb_end_point",
     "limb_residual",
     "pose_residual",
     "seat_point",
@@ -190,7 +191,7 @@ LIMBS = (
 _GUESS = {False: (-1.4, 1.3), True: (-0.4, -0.05, 0.05, -0.6)}
 
 
-def _end_point(human: Any, limb: Limb) -> NDArray[np.float64]:
+def limb_end_point(human: Any, limb: Limb) -> NDArray[np.float64]:
     """The limb's end point in Yeadon's frame, m: ``reach`` from the proximal joint along the limb."""
     upper, lower = getattr(human, limb.upper), getattr(human, limb.lower)
     beyond = sum(float(human.meas[k]) for k in limb.reach) - float(np.linalg.norm(upper.end_pos - upper.pos))
@@ -205,7 +206,7 @@ def limb_residual(human: Any, limb: Limb, target: NDArray[np.float64]) -> NDArra
     the grip (x, y, z), and the vertical component of the elbow's hinge axis (the upper arm's x
     axis, about which the elbow extends), which the pose makes zero.
     """
-    miss = _end_point(human, limb) - target
+    miss = limb_end_point(human, limb) - target
     if not limb.arm:
         return np.asarray(miss[1:], dtype=float)
     hinge_vertical = float(getattr(human, limb.upper).rot_mat[2, 0])

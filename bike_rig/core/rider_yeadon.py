@@ -44,6 +44,7 @@ from .rider_pose import (
     RiderPoseError,
     bottom_bracket_point,
     grip_point,
+    limb_end_point,
     pose_residual,
     seat_point,
     solve_pose,
@@ -59,7 +60,9 @@ __all__ = [
     "YeadonRider",
     "load_yeadon_rider",
     "rider_geometry",
+    "SeatedPose",
     "seat_rider",
+    "seated_pose",
 ]
 
 #: The bicycle's rider-geometry keys (BicycleParameters' raw file): seat-tube and seat-post
@@ -80,8 +83,9 @@ YEADON_RIDER_KEYS = (
     "mass_sigma",
     "bicycle_geometry",
 )
-#: Forward-difference steps: body lengths (m), total mass (kg), joint angles (rad).
-_STEP_LENGTH, _STEP_MASS, _STEP_ANGLE = 1e-7, 1e-6, 1e-8
+#: Forward-difference steps: body lengths (m), total mass (kg; it enters linearly, so only round-off
+#: limits the step), joint angles (rad).
+_STEP_LENGTH, _STEP_MASS, _STEP_ANGLE = 1e-7, 1e-3, 1e-8
 
 
 @dataclass(frozen=True)
@@ -356,6 +360,63 @@ def _angles(human: Any) -> NDArray[np.float64]:
     return np.array([human.CFG[a] for limb in LIMBS for a in limb.angles], dtype=float)
 
 
+@dataclass(frozen=True)
+class SeatedPose:
+    """A Yeadon human posed on a bicycle.
+
+    Attributes:
+        human: The posed ``yeadon.Human`` (Yeadon's frame).
+        origin: Yeadon's origin (hip joint centre) in the benchmark frame, m.
+        targets: Limb name -> its target (bottom bracket or grip) in Yeadon's frame, m.
+        angles: The solved joint angles, rad.
+    """
+
+    human: Any
+    origin: NDArray[np.float64]
+    targets: Mapping[str, NDArray[np.float64]]
+    angles: Mapping[str, float]
+
+    def end_point(self, limb: str) -> NDArray[np.float64]:
+        """The end point of a limb (``"left arm"``...: hand or heel point) in the benchmark frame, m."""
+        chosen = next(x for x in LIMBS if x.name == limb)
+        return yeadon_to_benchmark(limb_end_point(self.human, chosen), self.origin)
+
+
+def _pose(yeadon: Any, rider: YeadonRider, ps: ParameterSet) -> SeatedPose:
+    """Build the rider's yeadon human and pose it on the bicycle of ``ps`` (inside :func:`_yeadon_guard`)."""
+    g = rider_geometry(rider, ps)
+    p = ps.values()
+    try:
+        origin = seat_point(g["lst"], g["lsp"], g["lamst"], g["hbb"], g["lcs"], p["rR"])
+        bb = bottom_bracket_point(g["hbb"], g["lcs"], p["rR"])
+        grip = grip_point(p["w"], p["rR"], p["rF"], g["whb"], g["LhbR"], g["LhbF"])
+        to_yeadon = YEADON_TO_BENCHMARK  # its own inverse
+        targets = {
+            "left leg": to_yeadon @ (bb - origin),
+            "right leg": to_yeadon @ (bb - origin),
+            "left arm": to_yeadon @ (grip - origin),
+            "right arm": to_yeadon @ (grip * np.array([1.0, -1.0, 1.0]) - origin),
+        }
+        m = rider.measurements
+        human = _human(yeadon, m.lengths, m.mass, rider.configuration)
+        angles = solve_pose(human, targets)
+    except RiderPoseError as exc:
+        keys = ", ".join(f"{k} = {v:.4g}" for k, v in g.items())
+        raise RiderPoseError(f"{exc} (bicycle {ps.source}: {keys}; rider {rider.path})") from None
+    return SeatedPose(human, origin, targets, angles)
+
+
+def seated_pose(rider: YeadonRider, ps: ParameterSet) -> SeatedPose:
+    """The rider's yeadon human posed on the bicycle of ``ps`` (feet on the bottom bracket, hands on the grips).
+
+    Raises:
+        RiderError: Missing rider-geometry keys, or a yeadon model that cannot be built.
+        RiderPoseError: The rider cannot be seated (the geometry that cannot be reached is named).
+    """
+    with _yeadon_guard() as yeadon:
+        return _pose(yeadon, rider, ps)
+
+
 def seat_rider(rider: YeadonRider, ps: ParameterSet) -> Rider:
     """The Yeadon rider seated on the bicycle of ``ps``, as a rigid rider with its σ.
 
@@ -364,23 +425,9 @@ def seat_rider(rider: YeadonRider, ps: ParameterSet) -> Rider:
         RiderPoseError: The rider cannot be seated (a limb cannot reach, or the pose is not
             symmetric about the bicycle's plane).
     """
-    g = rider_geometry(rider, ps)
-    p = ps.values()
-    origin = seat_point(g["lst"], g["lsp"], g["lamst"], g["hbb"], g["lcs"], p["rR"])
-    bb = bottom_bracket_point(g["hbb"], g["lcs"], p["rR"])
-    grip = grip_point(p["w"], p["rR"], p["rF"], g["whb"], g["LhbR"], g["LhbF"])
-    mirror = np.array([1.0, -1.0, 1.0])
-    to_yeadon = YEADON_TO_BENCHMARK  # its own inverse
-    targets = {
-        "left leg": to_yeadon @ (bb - origin),
-        "right leg": to_yeadon @ (bb - origin),
-        "left arm": to_yeadon @ (grip - origin),
-        "right arm": to_yeadon @ (grip * mirror - origin),
-    }
-    m = rider.measurements
     with _yeadon_guard() as yeadon:
-        human = _human(yeadon, m.lengths, m.mass, rider.configuration)
-        solve_pose(human, targets)
+        pose = _pose(yeadon, rider, ps)
+        human, origin = pose.human, pose.origin
         com = yeadon_to_benchmark(np.asarray(human.center_of_mass, dtype=float), origin)
         if abs(com[1]) > 1e-6:
             raise RiderPoseError(
@@ -388,7 +435,7 @@ def seat_rider(rider: YeadonRider, ps: ParameterSet) -> Rider:
                 f"rider symmetric about it (tilt, twist, PTbending, TCspinalTorsion of {rider.path}'s configuration)"
             )
         values = _outputs(human, origin, rider.inertia)
-        sensitivity = _sensitivity(yeadon, rider, human, targets, origin, values)
+        sensitivity = _sensitivity(yeadon, rider, human, pose.targets, origin, values)
     mass, x, z, Ixx, Iyy, Izz, Ixz = (float(v) for v in values)
     return Rider(mass, x, z, Ixx, Iyy, Izz, Ixz, name=rider.name, sensitivity=sensitivity)
 
