@@ -209,7 +209,8 @@ def rider_key(spec: str | Path | None, files: bool = True) -> str:
         files: Whether a rider file may be named (else only the names above are known).
 
     Raises:
-        RiderError: ``files`` is false and ``spec`` is none of the names.
+        RiderError: ``spec`` is none of the names, and ``files`` is false or it is neither an
+            existing file nor a ``.yaml``/``.yml`` name (a missing YAML file is named when read).
     """
     if spec is None or spec in (NO_RIDER, "none"):
         return NO_RIDER
@@ -217,6 +218,8 @@ def rider_key(spec: str | Path | None, files: bool = True) -> str:
         return PAPER
     if not files:
         raise RiderError(f"unknown rider '{spec}': expected '', 'none' or 'paper'")
+    if Path(spec).suffix.lower() not in (".yaml", ".yml") and not Path(spec).exists():
+        raise RiderError(f"unknown rider '{spec}': expected '', 'none', 'paper' or a rider YAML file")
     return str(spec)
 
 

@@ -425,6 +425,9 @@ def seat_rider(rider: YeadonRider, ps: ParameterSet) -> Rider:
         RiderPoseError: The rider cannot be seated (a limb cannot reach, or the pose is not
             symmetric about the bicycle's plane).
     """
+    key = _seat_key(rider, ps)
+    if key in _SEATED:
+        return _SEATED[key]
     with _yeadon_guard() as yeadon:
         pose = _pose(yeadon, rider, ps)
         human, origin = pose.human, pose.origin
@@ -437,7 +440,37 @@ def seat_rider(rider: YeadonRider, ps: ParameterSet) -> Rider:
         values = _outputs(human, origin, rider.inertia)
         sensitivity = _sensitivity(yeadon, rider, human, pose.targets, origin, values)
     mass, x, z, Ixx, Iyy, Izz, Ixz = (float(v) for v in values)
-    return Rider(mass, x, z, Ixx, Iyy, Izz, Ixz, name=rider.name, sensitivity=sensitivity)
+    seated = Rider(mass, x, z, Ixx, Iyy, Izz, Ixz, name=rider.name, sensitivity=sensitivity)
+    if len(_SEATED) >= _SEATED_MAX:
+        _SEATED.pop(next(iter(_SEATED)))
+    _SEATED[key] = seated
+    return seated
+
+
+#: Riders seated in this process, by everything the result depends on (a figure run or a report
+#: seats the same rider on the same bicycle many times; the rider's σ cost ~1 s each).
+_SEATED: dict[tuple[Any, ...], Rider] = {}
+_SEATED_MAX = 16
+
+
+def _seat_key(rider: YeadonRider, ps: ParameterSet) -> tuple[Any, ...]:
+    """Everything :func:`seat_rider`'s result depends on, hashable."""
+    m = rider.measurements
+    return (
+        rider.name,
+        rider.path,
+        tuple(sorted(m.lengths.items())),
+        m.mass,
+        tuple(sorted(rider.configuration.items())),
+        rider.inertia,
+        rider.measurement_sigma,
+        rider.mass_sigma,
+        tuple(sorted(rider.geometry.items())),
+        tuple(sorted(ps.values().items())),
+        tuple(str(ps.extras.get(k)) for k in RIDER_GEOMETRY_KEYS),
+        ps.source,
+        ps.bicycle,
+    )
 
 
 def _sensitivity(

@@ -24,7 +24,7 @@ from matplotlib.patches import Patch
 from numpy.typing import NDArray
 
 from ..subjects import Subject
-from .model_data import COMPLEX_TOL, EigenCurves, FigureInputError, eigen_curves
+from .model_data import COMPLEX_TOL, EigenCurves, FigureInputError, eigen_curves, rider_title
 from .style import MODE_COLOURS, new_figure
 
 __all__ = ["PAIR_COLOUR", "Y_LIMITS", "eigen_vs_speed", "panel_grid"]
@@ -33,7 +33,6 @@ __all__ = ["PAIR_COLOUR", "Y_LIMITS", "eigen_vs_speed", "panel_grid"]
 PAIR_COLOUR = "C4"
 #: Vertical range of every panel, 1/s (as the paper's figures: the caster root leaves it).
 Y_LIMITS = (-10.0, 10.0)
-_RIDER_TEXT = {"": "without rider", "paper": "with the paper's rider"}
 
 
 def panel_grid(n: int) -> tuple[int, int]:
@@ -154,6 +153,6 @@ def eigen_vs_speed(
             ax.set_ylabel("eigenvalue (1/s)")
         if k >= len(curves) - cols:
             ax.set_xlabel("speed v (m/s)")
-    fig.suptitle(f"Eigenvalues versus speed, {_RIDER_TEXT.get(curves[0].rider, curves[0].rider)}", fontsize=11)
+    fig.suptitle(f"Eigenvalues versus speed, {rider_title(curves[0].rider)}", fontsize=11)
     _legend(fig, bands, any(c.capsize_caster_complex for c in curves), cols)
     return fig

@@ -74,3 +74,22 @@ def test_parameter_file_without_geometry_is_one_line_exit_2(tmp_path: Path, caps
     assert main(["model", str(BP / "Browser" / "Parameters" / "BrowserBenchmark.txt"), "--rider", rider]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "needs the bicycle's rider-geometry keys lst, lsp, lamst" in err[0]
+
+
+def test_plot_with_a_yeadon_rider(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    rider = _rider(tmp_path, "measurement_sigma: 0\nmass_sigma: 0\n")
+    assert main(["plot", "eigen", BROWSER, "-o", str(tmp_path / "figs"), "--rider", rider]) == 0
+    assert (tmp_path / "figs" / "eigen_rider.png").stat().st_size > 0
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("yeadon_measurements: nowhere.txt\nyeadon_configuration: nowhere.txt\n", encoding="utf-8")
+    assert main(["plot", "eigen", BROWSER, "-o", str(tmp_path / "figs2"), "--rider", str(bad)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "nowhere.txt" in err[0]
+    assert not (tmp_path / "figs2").exists() or not any((tmp_path / "figs2").iterdir())
+
+
+def test_rider_titles() -> None:
+    from bike_rig.plots.model_data import rider_title
+
+    assert rider_title("") == "without rider" and rider_title("paper") == "with the paper's rider"
+    assert rider_title("/some/where/jason.yaml") == "with the rider of jason.yaml"

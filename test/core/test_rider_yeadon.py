@@ -244,3 +244,8 @@ def test_bad_measurement_file_names_file_key_and_line(tmp_path: Path) -> None:
     path.write_text(f"yeadon_measurements: nowhere.txt\nyeadon_configuration: {cfg}\n", encoding="utf-8")
     with pytest.raises(RiderError, match="nowhere.txt"):
         resolve_rider(path)
+
+
+def test_a_name_that_is_no_rider_and_no_yaml_file() -> None:
+    with pytest.raises(RiderError, match=r"^unknown rider 'tall': expected '', 'none', 'paper' or a rider YAML file$"):
+        resolve_rider("tall")
