@@ -71,8 +71,8 @@ class StabilitySweep:
     capsize: SpeedWithSigma | None
 
 
-def _with_rider(ps: ParameterSet, rider: str) -> ParameterSet:
-    r = resolve_rider(rider, files=False)
+def _with_rider(ps: ParameterSet, rider: str, files: bool) -> ParameterSet:
+    r = resolve_rider(rider, files=files)
     return ps if r is None else add_rider(ps, r)
 
 
@@ -81,21 +81,25 @@ def compute_model(
     speeds: ArrayLike,
     rider: str = "",
     convention: SigmaConvention | str = SigmaConvention.CORRELATED,
+    files: bool = False,
 ) -> tuple[ModelMatrices, StabilitySweep]:
     """The model products of a parameter set.
 
     Args:
         ps: The bicycle's parameter set (without rider).
         speeds: Speeds of the eigenvalue sweep, m/s.
-        rider: "" (none) or "paper" (lumped into the rear frame, σ carried through).
+        rider: "" (none) or "paper" (lumped into the rear frame, σ carried through), or with
+            ``files`` a rider file (rigid or Yeadon).
         convention: σ convention of the matrices and the critical speeds.
+        files: Whether ``rider`` may name a rider file.
 
     Raises:
-        ModelError: unknown rider, bad speeds or a singular mass matrix.
+        ModelError: unknown rider, a rider file that cannot be read or seated, bad speeds or a
+            singular mass matrix.
     """
     convention = SigmaConvention(convention)
-    name = rider_key(rider, files=False)
-    full = _with_rider(ps, name)
+    name = rider_key(rider, files=files)
+    full = _with_rider(ps, name, files)
     ms = canonical_with_sigma(full, convention)
     sweep = eigenvalues(ms.matrices, ms.g, speeds)
     cs = critical_speeds_with_sigma(full, convention, ms)
