@@ -83,12 +83,17 @@ class RiderSensitivity:
         sigma: Their σ, independent, in their units.
         jacobian: d(rider number)/d(input), shape (7, n), rows in ``outputs`` order.
         outputs: The rider numbers of the rows (:data:`RIDER_FILE_KEYS`).
+        bicycle: Benchmark parameters of the bicycle the rider's numbers depend on (e.g. the
+            wheelbase through the pose), shared with the bicycle, so correlated with it.
+        bicycle_jacobian: d(rider number)/d(those parameters), shape (7, k).
     """
 
     names: tuple[str, ...]
     sigma: NDArray[np.float64]
     jacobian: NDArray[np.float64]
     outputs: tuple[str, ...] = RIDER_FILE_KEYS
+    bicycle: tuple[str, ...] = ()
+    bicycle_jacobian: NDArray[np.float64] = field(default_factory=lambda: np.zeros((len(RIDER_FILE_KEYS), 0)))
 
 
 @dataclass(frozen=True)
@@ -163,8 +168,9 @@ def add_rider(ps: ParameterSet, rider: AnyRider) -> ParameterSet:
 
     A Yeadon rider is first seated on this bicycle (:meth:`YeadonRider.seated`). σ of the
     combined parameters come from the bicycle's parameter covariance and, for a rider with a
-    :class:`RiderSensitivity`, from the rider's own inputs (independent of the bicycle's), both
-    through the exact Jacobian of :func:`combine_rear_frame_values`; a rider without one is exact.
+    :class:`RiderSensitivity`, from the rider's own inputs (independent of the bicycle's) and its
+    dependence on bicycle parameters, all through the exact Jacobian of
+    :func:`combine_rear_frame_values`; a rider without one is exact.
     The link to the raw readings gains the rider's inputs as further readings.
     """
     from .rider_yeadon import YeadonRider
@@ -181,7 +187,10 @@ def add_rider(ps: ParameterSet, rider: AnyRider) -> ParameterSet:
 
     prop = complex_step_jacobian(combined, {**values, **rider_inputs}, perturbed, PARAMETER_NAMES)
     n = len(PARAMETER_NAMES)
-    jb = prop.jacobian[:, :n]
+    jb = prop.jacobian[:, :n].copy()
+    if sens is not None:
+        for k, name in enumerate(sens.bicycle):  # the rider moves with these bicycle parameters
+            jb[:, PARAMETER_NAMES.index(name)] += prop.jacobian[:, n:] @ sens.bicycle_jacobian[:, k]
     cov = jb @ ps.parameters.covariance @ jb.T
     jr = np.zeros((n, 0))
     if sens is not None:

@@ -13,9 +13,10 @@ The rider's σ: each body measurement has a σ (``measurement_sigma``, default
 :data:`DEFAULT_MASS_SIGMA`), independent of each other. The Jacobian of the rider's seven numbers
 to them is taken by forward differences through yeadon (the complex step cannot pass through
 it), with the pose moving along: the implicit-function theorem on the pose equations gives the
-joint angles' derivatives (d q/d m = -(∂r/∂q)⁻¹ ∂r/∂m). The bicycle's geometry keys and the
-configuration's torso angles are taken as exact, and the pose's dependence on the bicycle's own
-parameters (w, rR, rF) is left out, as BicycleParameters does.
+joint angles' derivatives (d q/d m = -(∂r/∂q)⁻¹ ∂r/∂m). The pose also follows the bicycle's own
+w, rR and rF (``pose_sigma``, default true; BicycleParameters takes the rider as exact), so their
+σ reach the rider, correlated with the rest of the bicycle. The bicycle's rider-geometry keys and
+the configuration's torso angles are taken as exact.
 
 The yeadon package is imported only when a Yeadon rider is read.
 """
@@ -54,6 +55,7 @@ from .rider_pose import (
 __all__ = [
     "DEFAULT_MASS_SIGMA",
     "DEFAULT_MEASUREMENT_SIGMA",
+    "POSE_PARAMETERS",
     "RIDER_GEOMETRY_KEYS",
     "YEADON_RIDER_KEYS",
     "YeadonMeasurements",
@@ -81,6 +83,7 @@ YEADON_RIDER_KEYS = (
     "inertia",
     "measurement_sigma",
     "mass_sigma",
+    "pose_sigma",
     "bicycle_geometry",
 )
 #: Forward-difference steps: body lengths (m), total mass (kg; it enters linearly, so only round-off
@@ -117,6 +120,8 @@ class YeadonRider:
         mass_sigma: σ of the total mass, kg.
         geometry: Rider-geometry keys given in the rider file (they win over the bicycle's).
         path: The rider file.
+        pose_sigma: Whether the pose follows the bicycle's w, rR, rF in the covariance (their σ
+            move the seat, grips and bottom bracket); False: as BicycleParameters, the pose is exact.
     """
 
     name: str
@@ -127,6 +132,7 @@ class YeadonRider:
     mass_sigma: float = DEFAULT_MASS_SIGMA
     geometry: Mapping[str, float] = field(default_factory=dict)
     path: str = "<memory>"
+    pose_sigma: bool = True
 
     def seated(self, ps: ParameterSet) -> Rider:
         """This rider seated on the bicycle of ``ps`` (:func:`seat_rider`)."""
@@ -156,8 +162,9 @@ def load_yeadon_rider(path: str, data: Mapping[str, Any], lines: Mapping[Any, in
 
     Keys: ``yeadon_measurements`` and ``yeadon_configuration`` (file paths, relative to the rider
     file), optional ``name``, ``inertia`` (bool, default true), ``measurement_sigma`` (m, default
-    :data:`DEFAULT_MEASUREMENT_SIGMA`), ``mass_sigma`` (kg, default :data:`DEFAULT_MASS_SIGMA`) and
-    ``bicycle_geometry`` (a mapping of some of :data:`RIDER_GEOMETRY_KEYS`).
+    :data:`DEFAULT_MEASUREMENT_SIGMA`), ``mass_sigma`` (kg, default :data:`DEFAULT_MASS_SIGMA`),
+    ``pose_sigma`` (bool, default true) and ``bicycle_geometry`` (a mapping of some of
+    :data:`RIDER_GEOMETRY_KEYS`).
 
     Raises:
         RiderError: An unknown key, a missing or unreadable file, a bad value (file, key, line).
@@ -171,9 +178,12 @@ def load_yeadon_rider(path: str, data: Mapping[str, Any], lines: Mapping[Any, in
     )
     cfg_key = "yeadon_configuration"
     cfg_path = _relative(path, data.get(cfg_key), cfg_key, lines.get((cfg_key,)))
-    inertia = data.get("inertia", True)
-    if not isinstance(inertia, bool):
-        raise RiderError(f"needs true or false ({short_repr(inertia)} given)", path, "inertia", lines.get(("inertia",)))
+    flags = {}
+    for key in ("inertia", "pose_sigma"):
+        v = data.get(key, True)
+        if not isinstance(v, bool):
+            raise RiderError(f"needs true or false ({short_repr(v)} given)", path, key, lines.get((key,)))
+        flags[key] = v
     sigmas = {}
     for key, default in (("measurement_sigma", DEFAULT_MEASUREMENT_SIGMA), ("mass_sigma", DEFAULT_MASS_SIGMA)):
         v = data.get(key, default)
@@ -199,7 +209,8 @@ def load_yeadon_rider(path: str, data: Mapping[str, Any], lines: Mapping[Any, in
         name=str(data.get("name", Path(path).stem)),
         measurements=read_yeadon_measurements(meas_path),
         configuration=read_yeadon_configuration(cfg_path),
-        inertia=inertia,
+        inertia=flags["inertia"],
+        pose_sigma=flags["pose_sigma"],
         geometry=geometry,
         path=path,
         **sigmas,
@@ -382,21 +393,33 @@ class SeatedPose:
         return yeadon_to_benchmark(limb_end_point(self.human, chosen), self.origin)
 
 
+#: The bicycle's parameters the pose depends on (the seat and bottom bracket through rR, the grips
+#: through w, rR, rF).
+POSE_PARAMETERS = ("rR", "rF", "w")
+
+
+def _targets(
+    g: Mapping[str, float], p: Mapping[str, float]
+) -> tuple[NDArray[np.float64], dict[str, NDArray[np.float64]]]:
+    """Yeadon's origin in the benchmark frame and each limb's target in Yeadon's frame, m."""
+    origin = seat_point(g["lst"], g["lsp"], g["lamst"], g["hbb"], g["lcs"], p["rR"])
+    bb = bottom_bracket_point(g["hbb"], g["lcs"], p["rR"])
+    grip = grip_point(p["w"], p["rR"], p["rF"], g["whb"], g["LhbR"], g["LhbF"])
+    to_yeadon = YEADON_TO_BENCHMARK  # its own inverse
+    targets = {
+        "left leg": to_yeadon @ (bb - origin),
+        "right leg": to_yeadon @ (bb - origin),
+        "left arm": to_yeadon @ (grip - origin),
+        "right arm": to_yeadon @ (grip * np.array([1.0, -1.0, 1.0]) - origin),
+    }
+    return origin, targets
+
+
 def _pose(yeadon: Any, rider: YeadonRider, ps: ParameterSet) -> SeatedPose:
     """Build the rider's yeadon human and pose it on the bicycle of ``ps`` (inside :func:`_yeadon_guard`)."""
     g = rider_geometry(rider, ps)
-    p = ps.values()
     try:
-        origin = seat_point(g["lst"], g["lsp"], g["lamst"], g["hbb"], g["lcs"], p["rR"])
-        bb = bottom_bracket_point(g["hbb"], g["lcs"], p["rR"])
-        grip = grip_point(p["w"], p["rR"], p["rF"], g["whb"], g["LhbR"], g["LhbF"])
-        to_yeadon = YEADON_TO_BENCHMARK  # its own inverse
-        targets = {
-            "left leg": to_yeadon @ (bb - origin),
-            "right leg": to_yeadon @ (bb - origin),
-            "left arm": to_yeadon @ (grip - origin),
-            "right arm": to_yeadon @ (grip * np.array([1.0, -1.0, 1.0]) - origin),
-        }
+        origin, targets = _targets(g, ps.values())
         m = rider.measurements
         human = _human(yeadon, m.lengths, m.mass, rider.configuration)
         angles = solve_pose(human, targets)
@@ -438,7 +461,7 @@ def seat_rider(rider: YeadonRider, ps: ParameterSet) -> Rider:
                 f"rider symmetric about it (tilt, twist, PTbending, TCspinalTorsion of {rider.path}'s configuration)"
             )
         values = _outputs(human, origin, rider.inertia)
-        sensitivity = _sensitivity(yeadon, rider, human, pose.targets, origin, values)
+        sensitivity = _sensitivity(yeadon, rider, human, ps, origin, values)
     mass, x, z, Ixx, Iyy, Izz, Ixz = (float(v) for v in values)
     seated = Rider(mass, x, z, Ixx, Iyy, Izz, Ixz, name=rider.name, sensitivity=sensitivity)
     if len(_SEATED) >= _SEATED_MAX:
@@ -465,6 +488,7 @@ def _seat_key(rider: YeadonRider, ps: ParameterSet) -> tuple[Any, ...]:
         rider.inertia,
         rider.measurement_sigma,
         rider.mass_sigma,
+        rider.pose_sigma,
         tuple(sorted(rider.geometry.items())),
         tuple(sorted(ps.values().items())),
         tuple(str(ps.extras.get(k)) for k in RIDER_GEOMETRY_KEYS),
@@ -477,19 +501,26 @@ def _sensitivity(
     yeadon: Any,
     rider: YeadonRider,
     human: Any,
-    targets: Mapping[str, NDArray[np.float64]],
+    ps: ParameterSet,
     origin: NDArray[np.float64],
     values: NDArray[np.float64],
 ) -> RiderSensitivity | None:
-    """d(rider's seven numbers)/d(body measurements), with the pose following (implicit-function theorem)."""
+    """d(rider's seven numbers)/d(body measurements, and the bicycle's w, rR, rF), the pose following.
+
+    Forward differences of the pose residual r and the outputs o at the solved angles q, then the
+    implicit-function theorem: dq/dx = -(∂r/∂q)⁻¹ ∂r/∂x, do/dx = ∂o/∂x + ∂o/∂q dq/dx.
+    """
     m = rider.measurements
     inputs: list[tuple[str, float, float]] = []  # name, σ, step
     if rider.measurement_sigma > 0:
         inputs += [(k, rider.measurement_sigma, _STEP_LENGTH) for k in m.lengths]
     if rider.mass_sigma > 0 and m.mass is not None:
         inputs.append(("totalmass", rider.mass_sigma, _STEP_MASS))
-    if not inputs:
+    bicycle = POSE_PARAMETERS if rider.pose_sigma else ()
+    if not inputs and not bicycle:
         return None
+    g, p = rider_geometry(rider, ps), ps.values()
+    _, targets = _targets(g, p)
     q0, cfg = _angles(human), dict(human.CFG)
     r0 = pose_residual(human, targets)
     dr_dq = np.empty((r0.size, q0.size))
@@ -500,8 +531,8 @@ def _sensitivity(
         dr_dq[:, j] = (pose_residual(human, targets) - r0) / _STEP_ANGLE
         do_dq[:, j] = (_outputs(human, origin, rider.inertia) - values) / _STEP_ANGLE
     human.set_CFG_dict(cfg)
-    dr_dm = np.empty((r0.size, len(inputs)))
-    do_dm = np.empty((values.size, len(inputs)))
+    n = len(inputs) + len(bicycle)
+    dr_dx, do_dx = np.empty((r0.size, n)), np.empty((values.size, n))
     for j, (name, _, step) in enumerate(inputs):
         lengths, mass = dict(m.lengths), m.mass
         if name == "totalmass":
@@ -509,9 +540,19 @@ def _sensitivity(
         else:
             lengths[name] += step
         moved = _human(yeadon, lengths, mass, cfg)
-        dr_dm[:, j] = (pose_residual(moved, targets) - r0) / step
-        do_dm[:, j] = (_outputs(moved, origin, rider.inertia) - values) / step
-    dq_dm = -np.linalg.solve(dr_dq, dr_dm)
-    jacobian = do_dm + do_dq @ dq_dm
-    labels = tuple(f"rider {name}" for name, _, _ in inputs)
-    return RiderSensitivity(labels, np.array([s for _, s, _ in inputs]), jacobian, RIDER_FILE_KEYS)
+        dr_dx[:, j] = (pose_residual(moved, targets) - r0) / step
+        do_dx[:, j] = (_outputs(moved, origin, rider.inertia) - values) / step
+    for j, name in enumerate(bicycle, start=len(inputs)):
+        origin_h, targets_h = _targets(g, {**p, name: p[name] + _STEP_LENGTH})
+        dr_dx[:, j] = (pose_residual(human, targets_h) - r0) / _STEP_LENGTH
+        do_dx[:, j] = (_outputs(human, origin_h, rider.inertia) - values) / _STEP_LENGTH
+    jacobian = do_dx - do_dq @ np.linalg.solve(dr_dq, dr_dx)
+    k = len(inputs)
+    return RiderSensitivity(
+        tuple(f"rider {name}" for name, _, _ in inputs),
+        np.array([s for _, s, _ in inputs]),
+        jacobian[:, :k],
+        RIDER_FILE_KEYS,
+        bicycle,
+        jacobian[:, k:],
+    )

@@ -33,7 +33,7 @@ def _rider(tmp_path: Path, extra: str = "", somersault: str | None = None) -> st
 
 
 def test_params_json_with_a_yeadon_rider(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    rider = _rider(tmp_path, "measurement_sigma: 0\nmass_sigma: 0\n")
+    rider = _rider(tmp_path, "measurement_sigma: 0\nmass_sigma: 0\npose_sigma: false\n")
     assert main(["params", BROWSER, "--rider", rider, "--json"]) == 0
     data = json.loads(capsys.readouterr().out)  # nothing but the JSON object on stdout
     assert data["bicycle"] == "Browser + Jason" and list(data["parameters"]) == list(PARAMETER_NAMES)

@@ -3,11 +3,13 @@
 Every ``riders/<Rider>/Parameters/<Rider><Bike>Benchmark.txt`` under the shared data (what
 BicycleParameters 1.5.2 computes for ``Bicycle(<Bike>).add_rider(<Rider>)``, BSD-2-Clause,
 (c) 2011-2025 BicycleParameters Authors) is checked: values to 1e-6 relative, and σ to 1e-3 with
-the rider's own σ set to zero (BicycleParameters carries none).
+the rider's own σ set to zero and the pose exact (``pose_sigma: false``): BicycleParameters
+carries neither.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from pathlib import Path
 
@@ -20,10 +22,13 @@ from bike_rig.core.rider import Rider, RiderError, add_rider, resolve_rider
 from bike_rig.core.rider_pose import RiderPoseError
 from bike_rig.core.rider_yeadon import RIDER_GEOMETRY_KEYS, YeadonRider, seat_rider, seated_pose
 from bike_rig.core.uncertainty.speed_sigma import critical_speeds_with_sigma
+from bike_rig.core.uncertainty.uncertain import UncertainVector
 from test.support.paper import shared_dir
 
 BP = shared_dir() / "data" / "bicycleparameters"
 REAR_FRAME = ("mB", "xB", "zB", "IBxx", "IByy", "IBzz", "IBxz")
+#: A rider file's lines that make the rider exact, as BicycleParameters takes it.
+EXACT = "measurement_sigma: 0\nmass_sigma: 0\npose_sigma: false\n"
 
 
 def _cases() -> list[tuple[str, str]]:
@@ -67,7 +72,7 @@ def test_there_is_a_case() -> None:
 
 @pytest.mark.parametrize(("rider", "bike"), CASES)
 def test_combined_parameters_equal_bicycleparameters(tmp_path: Path, rider: str, bike: str) -> None:
-    r = _yeadon(_write_rider(tmp_path, rider, bike, "measurement_sigma: 0\nmass_sigma: 0\n"))
+    r = _yeadon(_write_rider(tmp_path, rider, bike, EXACT))
     ours = add_rider(_bike(bike), r).parameters
     ref = read_bp_parameters(BP / "riders" / rider / "Parameters" / f"{rider}{bike}Benchmark.txt").parameters
     for name in PARAMETER_NAMES:
@@ -160,6 +165,7 @@ def test_rider_sigma_widens_only_the_rear_frame_and_the_speeds(tmp_path: Path, j
     assert r.measurement_sigma == 0.005 and r.mass_sigma == 0.5
     ps = _bike("Browser")
     exact = add_rider(ps, _yeadon(_write_rider(tmp_path, "Jason", "Browser", "measurement_sigma: 0\nmass_sigma: 0\n")))
+    # (both follow the pose's dependence on w, rR, rF: only the body measurements differ)
     with_sigma = add_rider(ps, seated)
     for name in PARAMETER_NAMES:
         a, b = with_sigma.parameters.sigma(name), exact.parameters.sigma(name)
@@ -179,6 +185,33 @@ def test_rider_sigma_widens_only_the_rear_frame_and_the_speeds(tmp_path: Path, j
     wide, narrow = critical_speeds_with_sigma(with_sigma), critical_speeds_with_sigma(exact)
     assert wide.weave is not None and narrow.weave is not None
     assert wide.weave.speed == narrow.weave.speed and wide.weave.sigma > narrow.weave.sigma > 0
+
+
+def test_pose_follows_the_bicycle(tmp_path: Path) -> None:
+    """The rider's dependence on w, rR, rF equals re-seating on a changed bicycle, and widens the rear frame's σ."""
+    ps = _bike("Browser")
+    follows = _yeadon(_write_rider(tmp_path, "Jason", "Browser", "measurement_sigma: 0\nmass_sigma: 0\n"))
+    seated = seat_rider(follows, ps)
+    sens = seated.sensitivity
+    assert sens is not None and sens.names == () and sens.bicycle == ("rR", "rF", "w")
+    exact = _yeadon(_write_rider(tmp_path, "Jason", "Browser", EXACT))
+    h = 1e-5
+    for k, name in enumerate(sens.bicycle):
+        moved = []
+        for sign in (1, -1):
+            values = ps.parameters.values.copy()
+            values[PARAMETER_NAMES.index(name)] += sign * h
+            changed = dataclasses.replace(
+                ps, parameters=UncertainVector(PARAMETER_NAMES, values, ps.parameters.covariance)
+            )
+            s = seat_rider(exact, changed)
+            moved.append(np.array([s.mass, s.x, s.z, s.Ixx, s.Iyy, s.Izz, s.Ixz]))
+        assert np.allclose(sens.bicycle_jacobian[:, k], (moved[0] - moved[1]) / (2 * h), rtol=1e-4, atol=1e-6), name
+    wide, narrow = add_rider(ps, seated), add_rider(ps, exact)
+    assert np.array_equal(wide.parameters.values, narrow.parameters.values)
+    for name in PARAMETER_NAMES:
+        a, b = wide.parameters.sigma(name), narrow.parameters.sigma(name)
+        assert (a > b * 1.01) if name in ("xB", "zB", "IBxx", "IByy", "IBzz", "IBxz") else a == pytest.approx(b), name
 
 
 @pytest.mark.parametrize("key", ["La4L", "Ls4L", "Lj5L"])
