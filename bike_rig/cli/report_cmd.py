@@ -26,7 +26,7 @@ def run(args: argparse.Namespace) -> int:
     """
     from ..report import report_input
 
-    written = report_input(args.input, args.output, args.com_method, workers=args.jobs)
+    written = report_input(args.input, args.output, args.com_method, workers=args.jobs, rider=args.rider)
     rep = written.report
     for f in rep.figures:
         if f.uri is None:
@@ -70,6 +70,11 @@ def add_parser(sub: Any) -> None:
         choices=[m.value for m in ComMethod],
         default=None,
         help="mass-centre method for raw readings: centroid (paper) or lstsq (default: centroid; a bag: as recorded)",
+    )
+    q.add_argument(
+        "--rider",
+        default="paper",
+        help="the rider variant: 'paper' (Table 1, default) or a rider YAML file (rigid or Yeadon)",
     )
     q.add_argument(
         "-j",

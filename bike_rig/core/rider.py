@@ -44,6 +44,7 @@ __all__ = [
     "combine_rear_frame",
     "load_rider",
     "resolve_rider",
+    "rider_draws",
     "rider_key",
 ]
 
@@ -161,6 +162,39 @@ def combine_rear_frame_values(p: Mapping[str, Any], r: Mapping[str, Any]) -> dic
         IBxz=p["IBxz"] - mB * dxB * dzB + r["Ixz"] - mP * dxP * dzP,
     )
     return out
+
+
+def rider_draws(
+    rider: Rider, bicycle: Mapping[str, Any], nominal: Mapping[str, float], samples: int, seed: int
+) -> dict[str, Any]:
+    """The rider's ``mass, x, z, Ixx, Iyy, Izz, Ixz`` over Monte Carlo draws (linear in its inputs).
+
+    A rider without :class:`RiderSensitivity` is the same in every draw. Otherwise its numbers
+    move by its Jacobian times normal draws of its own inputs (a generator seeded from ``[seed,
+    1]``, independent of the bicycle's) plus its Jacobian to the bicycle parameters it depends
+    on times their drawn deviations from ``nominal``.
+
+    Args:
+        rider: The (seated) rider.
+        bicycle: The bicycle's drawn parameters, ``{name: array of samples}``.
+        nominal: The bicycle's nominal parameters.
+        samples: Number of draws.
+        seed: The Monte Carlo's seed.
+
+    Returns:
+        ``{key: float or array of samples}``.
+    """
+    out: dict[str, Any] = {k: getattr(rider, k) for k in RIDER_FILE_KEYS}
+    sens = rider.sensitivity
+    if sens is None:
+        return out
+    delta = np.zeros((len(RIDER_FILE_KEYS), samples))
+    if sens.names:
+        z = np.random.default_rng([seed, 1]).standard_normal((len(sens.names), samples))
+        delta += sens.jacobian @ (sens.sigma[:, None] * z)
+    for k, name in enumerate(sens.bicycle):
+        delta += np.outer(sens.bicycle_jacobian[:, k], np.asarray(bicycle[name], dtype=float) - nominal[name])
+    return {key: out[key] + delta[i] for i, key in enumerate(RIDER_FILE_KEYS)}
 
 
 def add_rider(ps: ParameterSet, rider: AnyRider) -> ParameterSet:

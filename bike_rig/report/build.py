@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..core.benchmark import ComMethod
+from ..core.rider import Rider, RiderError, resolve_rider, rider_key
 from ..plots.output import check_out_dir
 from ..subjects import Subject, load_subject
 from . import sections
@@ -66,8 +67,26 @@ class WrittenReport:
     seconds: float
 
 
+def report_rider(spec: str, subject: Subject) -> Rider:
+    """The report's rider variant: ``"paper"`` (Table 1) or a rider file's rider, seated on ``subject``.
+
+    Raises:
+        RiderError: No rider named (the report compares the bicycle without and with one), or a
+            rider file that cannot be read or seated.
+    """
+    r = resolve_rider(spec)
+    if r is None:
+        reason = "the report shows the bicycle without and with a rider: name 'paper' or a rider file"
+        raise RiderError(f"{reason}, not '{spec}'")
+    return r if isinstance(r, Rider) else r.seated(subject.parameters)
+
+
 def build_report(
-    subject: Subject, generated: str | None = None, dpi: float = REPORT_DPI, workers: int | None = None
+    subject: Subject,
+    generated: str | None = None,
+    dpi: float = REPORT_DPI,
+    workers: int | None = None,
+    rider: str = "paper",
 ) -> Report:
     """The report of one bicycle.
 
@@ -77,14 +96,18 @@ def build_report(
         dpi: Resolution of the embedded figures, dots per inch.
         workers: Processes to draw the figures in (default: one per CPU, at most
             :data:`~.figures.MAX_WORKERS`; see :func:`~.figures.draw_figures`).
+        rider: The rider variant: ``"paper"`` or a rider file (:func:`report_rider`).
 
     Returns:
         The report, its page in memory.
+
+    Raises:
+        RiderError: A rider that cannot be used (see :func:`report_rider`).
     """
     t0 = time.perf_counter()
     when = generated or dt.datetime.now(dt.UTC).strftime("%Y-%m-%d %H:%M:%S UTC")
-    results = compute_results(subject)
-    figures = draw_figures(figure_specs(subject, results), dpi, workers)
+    results = compute_results(subject, report_rider(rider, subject))
+    figures = draw_figures(figure_specs(subject, results, rider_key(rider)), dpi, workers)
     drawn = sum(f.uri is not None for f in figures)
     body = [
         sections.header_section(subject, results, drawn, when),
@@ -102,7 +125,11 @@ def build_report(
 
 
 def write_report(
-    subject: Subject, out_dir: str | Path, generated: str | None = None, workers: int | None = None
+    subject: Subject,
+    out_dir: str | Path,
+    generated: str | None = None,
+    workers: int | None = None,
+    rider: str = "paper",
 ) -> WrittenReport:
     """Build the report of ``subject`` and write it as ``out_dir/index.html``.
 
@@ -113,6 +140,7 @@ def write_report(
         out_dir: The output directory.
         generated: The creation time printed on the page (default: now).
         workers: Processes to draw the figures in (default: one per CPU, at most 4).
+        rider: The rider variant: ``"paper"`` or a rider file.
 
     Returns:
         Where it went, with the report.
@@ -121,7 +149,7 @@ def write_report(
         ReportOutputError: The directory cannot be created or the file cannot be written.
     """
     t0 = time.perf_counter()
-    report = build_report(subject, generated, workers=workers)
+    report = build_report(subject, generated, workers=workers, rider=rider)
     path = _write(Path(out_dir), report.html)
     return WrittenReport(path, report, time.perf_counter() - t0)
 
@@ -131,6 +159,7 @@ def report_input(
     out_dir: str | Path,
     com_method: ComMethod | str | None = None,
     workers: int | None = None,
+    rider: str = "paper",
 ) -> WrittenReport:
     """Open an input (measurement file, parameter file or session bag) and write its report.
 
@@ -142,6 +171,7 @@ def report_input(
         out_dir: The output directory.
         com_method: Mass-centre method for raw readings (default: centroid; a bag: as recorded).
         workers: Processes to draw the figures in (default: one per CPU, at most 4).
+        rider: The rider variant: ``"paper"`` (Table 1) or a rider file (rigid or Yeadon).
 
     Returns:
         Where it went, with the report; its time counts from opening the input.
@@ -153,7 +183,7 @@ def report_input(
     t0 = time.perf_counter()
     out = check_out_dir(out_dir, ReportOutputError, create=False)  # before the input: nothing written for a bad one
     subject = load_subject(path, com_method)
-    written = write_report(subject, out, workers=workers)
+    written = write_report(subject, out, workers=workers, rider=rider)
     return WrittenReport(written.path, written.report, time.perf_counter() - t0)
 
 
