@@ -140,7 +140,13 @@ class YeadonRider:
 
 
 def _number(value: object) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+    """A finite int or float (not a bool; an int beyond any float is not one)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return False
+    try:
+        return math.isfinite(float(value))
+    except OverflowError:
+        return False
 
 
 def _positive(value: object, most: float = 1e4) -> float | None:
@@ -227,7 +233,7 @@ def _read_mapping(path: str) -> tuple[dict[Any, Any], Mapping[Any, int]]:
     return data, lines
 
 
-def read_yeadon_measurements(path: str) -> YeadonMeasurements:
+def read_yeadon_measurements(file: str | Path) -> YeadonMeasurements:
     """Read a yeadon measurement file: ``measurementconversionfactor``, optional ``totalmass`` (kg), 95 lengths.
 
     Raises:
@@ -235,6 +241,7 @@ def read_yeadon_measurements(path: str) -> YeadonMeasurements:
     """
     import yeadon
 
+    path = str(file)
     data, lines = _read_mapping(path)
     names = tuple(yeadon.Human.measnames)
     factor = _positive(data.get("measurementconversionfactor"))
@@ -267,7 +274,7 @@ def read_yeadon_measurements(path: str) -> YeadonMeasurements:
     return YeadonMeasurements(lengths, mass, path)
 
 
-def read_yeadon_configuration(path: str) -> dict[str, float]:
+def read_yeadon_configuration(file: str | Path) -> dict[str, float]:
     """Read a yeadon configuration file: configuration names -> rad (absent ones are 0).
 
     Raises:
@@ -275,6 +282,7 @@ def read_yeadon_configuration(path: str) -> dict[str, float]:
     """
     import yeadon
 
+    path = str(file)
     data, lines = _read_mapping(path)
     cfg = {name: 0.0 for name in yeadon.Human.CFGnames}
     for key, v in data.items():
