@@ -189,6 +189,13 @@ LIMBS = (
 #: Initial guess of each limb's angles, rad: thigh forward and knee bent; upper arm forward and
 #: a little out, elbow bent (the natural branch; the sign mirrors the right side).
 _GUESS = {False: (-1.4, 1.3), True: (-0.4, -0.05, 0.05, -0.6)}
+#: Further starts, tried in turn when a start ends off the target or on the unnatural branch.
+_MORE_GUESSES = {False: ((-0.8, 0.6), (-2.0, 2.2)), True: ((-1.0, -0.2, 0.3, -1.2), (0.2, -0.1, 0.1, -0.2))}
+
+
+def _natural(limb: Limb, q: NDArray[np.float64]) -> bool:
+    """The knee bends forward (flexion > 0), the elbow bends the same way (extension < 0)."""
+    return bool(q[-1] < 0.0) if limb.arm else bool(q[-1] > 0.0)
 
 
 def limb_end_point(human: Any, limb: Limb) -> NDArray[np.float64]:
@@ -264,20 +271,29 @@ def solve_pose(human: Any, targets: Mapping[str, NDArray[np.float64]]) -> dict[s
     for limb in LIMBS:
         what = "grip" if limb.arm else "bottom bracket"
         _reach_check(human, limb, targets[limb.name], what)
-        guess = np.array(_GUESS[limb.arm]) * (np.array([1.0, limb.sign, limb.sign, 1.0]) if limb.arm else 1.0)
+        mirror = np.array([1.0, limb.sign, limb.sign, 1.0]) if limb.arm else 1.0
 
         def residual(q: NDArray[np.float64], limb: Limb = limb) -> NDArray[np.float64]:
             _set_angles(human, limb, q)
             return limb_residual(human, limb, targets[limb.name])
 
-        sol = root(residual, guess, method="hybr", options={"xtol": 1e-13})
-        _set_angles(human, limb, sol.x)
-        miss = float(np.max(np.abs(limb_residual(human, limb, targets[limb.name]))))
-        if not sol.success or miss > POSE_TOLERANCE:
-            raise RiderPoseError(
-                f"the rider's {limb.name} could not be placed on the {what} (closest {miss:.2g} m away: {sol.message})"
-            )
-        solved.update(zip(limb.angles, (float(v) for v in sol.x), strict=True))
+        best: tuple[float, NDArray[np.float64], str] | None = None
+        for start in (_GUESS[limb.arm], *_MORE_GUESSES[limb.arm]):
+            sol = root(residual, np.array(start) * mirror, method="hybr", options={"xtol": 1e-13})
+            miss = float(np.max(np.abs(residual(sol.x))))
+            if miss <= POSE_TOLERANCE and _natural(limb, sol.x):
+                best = (miss, sol.x, "")
+                break
+            if best is None or miss < best[0]:
+                reason = "" if _natural(limb, sol.x) else "; only with the joint bent backwards"
+                best = (miss, sol.x, f"{sol.message}{reason}")
+        assert best is not None
+        miss, q, why = best
+        _set_angles(human, limb, q)
+        if miss > POSE_TOLERANCE or why:
+            reason = f"the rider's {limb.name} could not be placed on the {what} (closest {miss:.2g} m away: {why})"
+            raise RiderPoseError(reason)
+        solved.update(zip(limb.angles, (float(v) for v in q), strict=True))
     _check_bounds(human, solved)
     return solved
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -80,11 +81,40 @@ def test_combined_parameters_equal_bicycleparameters(tmp_path: Path, rider: str,
         assert ours.sigma(name) == pytest.approx(ref.sigma(name), rel=1e-3, abs=1e-15), name
 
 
+def _seatable() -> list[str]:
+    """Every shared bicycle whose raw file has the rider-geometry keys."""
+    out = []
+    for f in sorted(BP.glob("*/RawData/*Measured.txt")):
+        extras = read_bp_measured(f).extras
+        if all(k in extras for k in RIDER_GEOMETRY_KEYS) and "w" in read_bp_measured(f).readings:
+            out.append(f.parent.parent.name)
+    return out
+
+
+@pytest.mark.parametrize("bike", _seatable())
+def test_on_every_bicycle_hands_on_the_grips_or_a_clear_error(tmp_path: Path, bike: str) -> None:
+    """Jason in his Browser pose on every bicycle: seated with hands and heels in place, or refused by name."""
+    r = _yeadon(_write_rider(tmp_path, "Jason", "Browser"))
+    error: RiderPoseError | None = None
+    try:
+        seated_pose(r, _bike(bike))
+    except RiderPoseError as exc:
+        error = exc
+    if error is None:
+        _check_hands_and_feet(r, bike)
+    else:
+        assert re.search(r"cannot reach the (grip|bottom bracket): it is \d\.\d+ m from the", str(error)), str(error)
+        assert f"{bike}Measured.txt" in str(error)
+
+
 @pytest.mark.parametrize(("rider", "bike"), CASES)
 def test_hands_on_the_grips_and_feet_on_the_bottom_bracket(tmp_path: Path, rider: str, bike: str) -> None:
+    _check_hands_and_feet(_yeadon(_write_rider(tmp_path, rider, bike)), bike)
+
+
+def _check_hands_and_feet(r: YeadonRider, bike: str) -> None:
     """Checked against the raw keys' own definitions, not against the solver's targets."""
     ps = _bike(bike)
-    r = _yeadon(_write_rider(tmp_path, rider, bike))
     pose = seated_pose(r, ps)
     raw = read_bp_measured(BP / bike / "RawData" / f"{bike}Measured.txt").extras
     g = {k: float(str(raw[k])) for k in RIDER_GEOMETRY_KEYS}
