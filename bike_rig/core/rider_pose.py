@@ -41,6 +41,7 @@ __all__ = [
     "limb_end_point",
     "limb_residual",
     "pose_residual",
+    "reaching_lean",
     "seat_point",
     "solve_pose",
     "yeadon_to_benchmark",
@@ -231,22 +232,62 @@ def _set_angles(human: Any, limb: Limb, q: NDArray[np.float64]) -> None:
     human.set_CFG_dict(cfg)
 
 
-def _reach_check(human: Any, limb: Limb, target: NDArray[np.float64], what: str) -> None:
-    """Raise if the target lies beyond the limb's reach from its proximal joint."""
+def _span(human: Any, limb: Limb, target: NDArray[np.float64]) -> tuple[float, float, float]:
+    """The target's distance from the limb's proximal joint, and the shortest and longest the limb spans, m."""
     upper = getattr(human, limb.upper)
     joint = np.asarray(upper.pos, dtype=float).reshape(3)
     if not limb.arm:  # a leg moves in its sagittal plane: only y and z count
         joint, target = joint[1:], target[1:]
-    distance = float(np.linalg.norm(target - joint))
     first = float(np.linalg.norm(upper.end_pos - upper.pos))
     second = sum(float(human.meas[k]) for k in limb.reach) - first
-    longest, shortest = first + second, abs(first - second)
+    return float(np.linalg.norm(target - joint)), abs(first - second), first + second
+
+
+def reaching_lean(human: Any, limb: Limb, target: NDArray[np.float64], most: float = 1.2) -> float | None:
+    """The least forward lean (``somersault``, rad) at which an arm, straight, reaches its grip.
+
+    Scans the lean from the human's own up to ``most`` in 0.01 rad steps, then refines the first
+    that reaches by bisection to 1e-6 rad; the human's configuration is restored.
+
+    Returns:
+        The lean, or None if none up to ``most`` reaches.
+    """
+    cfg = dict(human.CFG)
+
+    def gap(lean: float) -> float:
+        human.set_CFG_dict({**cfg, "somersault": lean})
+        distance, _, longest = _span(human, limb, target)
+        return distance - longest
+
+    try:
+        leans = np.arange(cfg["somersault"], most, 0.01)
+        hit = next((k for k, lean in enumerate(leans) if gap(float(lean)) <= 0.0), None)
+        if hit is None or hit == 0:
+            return None
+        lo, hi = float(leans[hit - 1]), float(leans[hit])
+        while hi - lo > 1e-6:
+            mid = 0.5 * (lo + hi)
+            lo, hi = (lo, mid) if gap(mid) <= 0.0 else (mid, hi)
+        return hi
+    finally:
+        human.set_CFG_dict(cfg)
+
+
+def _reach_check(human: Any, limb: Limb, target: NDArray[np.float64], what: str) -> None:
+    """Raise if the target lies beyond the limb's reach from its proximal joint (an arm: naming a lean that reaches)."""
+    distance, shortest, longest = _span(human, limb, target)
     if distance > longest or distance < shortest:
         keys = "LhbF, LhbR, whb" if limb.arm else "hbb, lcs"
+        hint = ""
+        if limb.arm and distance > longest:
+            lean = reaching_lean(human, limb, target)
+            if lean is not None:
+                was = human.CFG["somersault"]
+                hint = f"; straight arms reach it from a lean of somersault = {lean:.3f} rad (the file's: {was:g})"
         raise RiderPoseError(
             f"the rider's {limb.name} cannot reach the {what}: it is {distance:.3f} m from the "
             f"{'shoulder' if limb.arm else 'hip'}, and the limb spans {shortest:.3f} to {longest:.3f} m "
-            f"({' + '.join(limb.reach)}); the geometry: the bicycle's {keys} and the seat (lst, lsp, lamst), "
+            f"({' + '.join(limb.reach)}){hint}; the geometry: the bicycle's {keys} and the seat (lst, lsp, lamst), "
             "and the rider's lean (somersault in the configuration file)"
         )
 

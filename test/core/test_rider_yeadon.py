@@ -156,8 +156,19 @@ def test_bicycleparameters_issue_19_lean_is_a_clear_error(tmp_path: Path) -> Non
     src = BP / "riders" / "Jason" / "RawData" / "JasonBrowserYeadonCFG.txt"
     cfg.write_text(src.read_text(encoding="utf-8").replace("somersault: 0.175", "somersault: 0.123918377"))
     r = _yeadon(_write_rider(tmp_path, "Jason", "Browser", cfg=cfg))
-    with pytest.raises(RiderPoseError, match=r"cannot reach the grip: it is 0\.6\d\d m from the shoulder"):
+    with pytest.raises(RiderPoseError, match=r"cannot reach the grip: it is 0\.6\d\d m from the shoulder") as info:
         add_rider(_bike("Browser"), r)
+    # the message names the least lean at which straight arms reach; seated at it, the hands are on the grips
+    found = re.search(r"reach it from a lean of somersault = (0\.\d+) rad \(the file's: 0\.123918\)", str(info.value))
+    assert found is not None
+    lean = float(found.group(1))
+    assert 0.124 < lean < 0.175  # more than the measured lean, less than the shipped configuration's
+    leaned = YeadonRider(r.name, r.measurements, {**r.configuration, "somersault": lean + 1e-4})
+    pose = seated_pose(leaned, _bike("Browser"))
+    assert pose.angles["A1A2extension"] > -0.1  # the elbows nearly straight
+    too_upright = YeadonRider(r.name, r.measurements, {**r.configuration, "somersault": lean - 1e-3})
+    with pytest.raises(RiderPoseError, match="cannot reach the grip"):
+        seated_pose(too_upright, _bike("Browser"))
 
 
 def test_grips_that_cannot_exist_are_a_clear_error(tmp_path: Path) -> None:
