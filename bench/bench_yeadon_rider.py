@@ -29,6 +29,7 @@ from bike_rig.core.rider_pose import LIMBS, RiderPoseError, limb_end_point
 from bike_rig.core.rider_yeadon import (
     RIDER_GEOMETRY_KEYS,
     YeadonRider,
+    pose_targets,
     read_yeadon_configuration,
     read_yeadon_measurements,
     rider_geometry,
@@ -59,9 +60,7 @@ def _bp_seat(
 
 def _hand_miss(human: object, bike: str, ps: object, rider: YeadonRider) -> float:
     """Largest distance of a posed hand from its grip, m (BicycleParameters' human, our grip definition)."""
-    from bike_rig.core.rider_yeadon import _targets
-
-    _, targets = _targets(rider_geometry(rider, ps), ps.values())  # type: ignore[attr-defined]
+    _, targets = pose_targets(rider_geometry(rider, ps), ps.values())  # type: ignore[attr-defined]
     return max(float(np.linalg.norm(limb_end_point(human, limb) - targets[limb.name])) for limb in LIMBS if limb.arm)
 
 

@@ -61,6 +61,7 @@ __all__ = [
     "YeadonMeasurements",
     "YeadonRider",
     "load_yeadon_rider",
+    "pose_targets",
     "rider_geometry",
     "SeatedPose",
     "seat_rider",
@@ -406,7 +407,7 @@ class SeatedPose:
 POSE_PARAMETERS = ("rR", "rF", "w")
 
 
-def _targets(
+def pose_targets(
     g: Mapping[str, float], p: Mapping[str, float]
 ) -> tuple[NDArray[np.float64], dict[str, NDArray[np.float64]]]:
     """Yeadon's origin in the benchmark frame and each limb's target in Yeadon's frame, m."""
@@ -427,7 +428,7 @@ def _pose(yeadon: Any, rider: YeadonRider, ps: ParameterSet) -> SeatedPose:
     """Build the rider's yeadon human and pose it on the bicycle of ``ps`` (inside :func:`_yeadon_guard`)."""
     g = rider_geometry(rider, ps)
     try:
-        origin, targets = _targets(g, ps.values())
+        origin, targets = pose_targets(g, ps.values())
         m = rider.measurements
         human = _human(yeadon, m.lengths, m.mass, rider.configuration)
         angles = solve_pose(human, targets)
@@ -528,7 +529,7 @@ def _sensitivity(
     if not inputs and not bicycle:
         return None
     g, p = rider_geometry(rider, ps), ps.values()
-    _, targets = _targets(g, p)
+    _, targets = pose_targets(g, p)
     q0, cfg = _angles(human), dict(human.CFG)
     r0 = pose_residual(human, targets)
     dr_dq = np.empty((r0.size, q0.size))
@@ -551,7 +552,7 @@ def _sensitivity(
         dr_dx[:, j] = (pose_residual(moved, targets) - r0) / step
         do_dx[:, j] = (_outputs(moved, origin, rider.inertia) - values) / step
     for j, name in enumerate(bicycle, start=len(inputs)):
-        origin_h, targets_h = _targets(g, {**p, name: p[name] + _STEP_LENGTH})
+        origin_h, targets_h = pose_targets(g, {**p, name: p[name] + _STEP_LENGTH})
         dr_dx[:, j] = (pose_residual(human, targets_h) - r0) / _STEP_LENGTH
         do_dx[:, j] = (_outputs(human, origin_h, rider.inertia) - values) / _STEP_LENGTH
     jacobian = do_dx - do_dq @ np.linalg.solve(dr_dq, dr_dx)
