@@ -357,14 +357,20 @@ def _human(yeadon: Any, lengths: Mapping[str, float], mass: float | None, cfg: M
     return human
 
 
-def _outputs(human: Any, origin: NDArray[np.float64], inertia: bool) -> NDArray[np.float64]:
-    """The rider's ``mass, x, z, Ixx, Iyy, Izz, Ixz`` (kg, m, kg m²; benchmark frame, about its mass centre)."""
+def _outputs(human: Any, origin: NDArray[np.float64], inertia: bool, mass: float | None = None) -> NDArray[np.float64]:
+    """The rider's ``mass, x, z, Ixx, Iyy, Izz, Ixz`` (kg, m, kg m²; benchmark frame, about its mass centre).
+
+    With ``mass``, as if yeadon had scaled the human's densities to it (``scale_human_by_mass``):
+    every density times one factor scales the mass and the inertia by it and keeps the mass centre,
+    so the human need not be rebuilt.
+    """
     com = yeadon_to_benchmark(np.asarray(human.center_of_mass, dtype=float), origin)
     tensor = np.asarray(human.inertia_transformed(rotmat=YEADON_TO_BENCHMARK), dtype=float)
-    scale = 1.0 if inertia else 0.0
+    factor = 1.0 if mass is None else mass / float(human.mass)
+    scale = factor if inertia else 0.0
     return np.array(
         [
-            human.mass,
+            human.mass * factor,
             com[0],
             com[2],
             tensor[0, 0] * scale,
@@ -548,9 +554,9 @@ def _sensitivity(
             mass = (mass or 0.0) + step
         else:
             lengths[name] += step
-        moved = _human(yeadon, lengths, mass, cfg)
+        moved = _human(yeadon, lengths, None, cfg)  # unscaled: scaling the densities is linear (below)
         dr_dx[:, j] = (pose_residual(moved, targets) - r0) / step
-        do_dx[:, j] = (_outputs(moved, origin, rider.inertia) - values) / step
+        do_dx[:, j] = (_outputs(moved, origin, rider.inertia, mass) - values) / step
     for j, name in enumerate(bicycle, start=len(inputs)):
         origin_h, targets_h = pose_targets(g, {**p, name: p[name] + _STEP_LENGTH})
         dr_dx[:, j] = (pose_residual(human, targets_h) - r0) / _STEP_LENGTH
