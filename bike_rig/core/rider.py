@@ -42,6 +42,7 @@ __all__ = [
     "RiderSensitivity",
     "add_rider",
     "combine_rear_frame",
+    "combine_rear_frame_values",
     "load_rider",
     "resolve_rider",
     "rider_draws",
