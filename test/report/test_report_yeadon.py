@@ -11,6 +11,7 @@ from bike_rig.cli.main import main
 from bike_rig.core.rider import RiderError, add_rider, resolve_rider
 from bike_rig.core.rider_yeadon import YeadonRider
 from bike_rig.core.uncertainty.speed_mc import speed_monte_carlo
+from bike_rig.report import sections
 from bike_rig.report.build import report_rider
 from bike_rig.report.figures import figure_specs
 from bike_rig.report.results import compute_results
@@ -51,6 +52,8 @@ def test_rider_variant_numbers_monte_carlo_and_figures(tmp_path: Path) -> None:
     # the figures with a rider are drawn with this rider, the others without
     riders = {s.draw.keywords.get("rider") for s in figure_specs(subject, results, spec)}  # type: ignore[attr-defined]
     assert spec in riders and "paper" not in riders
+    note = sections.speeds_section(results)
+    assert "own inputs (body measurements) are drawn too" in str(note)
 
 
 def test_monte_carlo_sees_the_rider_sigma(tmp_path: Path) -> None:
