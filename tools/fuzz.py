@@ -3,7 +3,8 @@
 
 Usage: ``.venv/bin/python tools/fuzz.py [--inputs N] [--seconds S] [--seed N] [--reader NAME]...``
 
-Readers: measurements, parameters, bp-text, rig, graph, rider, trial-csv, trial-npy, trial-mat,
+Readers: measurements, parameters, bp-text, rig, graph, rider, yeadon-measurements,
+yeadon-configuration, trial-csv, trial-npy, trial-mat,
 bag (a small simulated session's bag with its MCAP storage file mutated, read as ``bike-rig bag
 info`` reads it) and bag-metadata (the same bag with its metadata.yaml mutated).
 

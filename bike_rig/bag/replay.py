@@ -115,7 +115,7 @@ class ReplaySettings:
     Attributes:
         fit: Fit settings overriding the recorded ones.
         com_method: Mass-centre method (None: the live parameter set's, else centroid).
-        rider: Rider of the model, "" or "paper" (None: the live model's, else none).
+        rider: Rider of the model, "", "paper" or a rider file (None: the live model's, else none).
         sigma_convention: σ convention (None: the live model's, else correlated).
         readings: A measurement file whose static readings replace the bag's (e.g. corrected
             after the session); its periods are ignored (None: the bag's own).

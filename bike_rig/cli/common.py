@@ -6,7 +6,7 @@ from pathlib import Path
 
 from ..core.errors import BikeRigError, InputFileError
 from ..core.feedback import Feedback, resolve_feedback
-from ..core.rider import Rider, resolve_rider
+from ..core.rider import AnyRider, resolve_rider
 
 __all__ = ["UsageError", "emit", "feedback_from_spec", "rider_from_spec"]
 
@@ -30,11 +30,12 @@ def emit(text: str, output: str | None) -> None:
         print(text)
 
 
-def rider_from_spec(spec: str | None) -> Rider | None:
+def rider_from_spec(spec: str | None) -> AnyRider | None:
     """The rider named on the command line (see :func:`~bike_rig.core.rider.resolve_rider`).
 
     None, ``""`` or ``none`` (no rider), ``paper`` (Table 1) or a rider YAML file (a mapping of
-    ``mass, x, z, Ixx, Iyy, Izz, Ixz`` in kg, m and kg m², benchmark frame).
+    ``mass, x, z, Ixx, Iyy, Izz, Ixz`` in kg, m and kg m², benchmark frame, or a Yeadon rider:
+    ``yeadon_measurements`` and ``yeadon_configuration``).
 
     Raises:
         RiderError: The rider file is missing, unreadable or lacks a number.

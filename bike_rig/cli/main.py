@@ -128,6 +128,13 @@ def cmd_params(args: argparse.Namespace) -> int:
     from .common import emit
 
     ps = _parameters(args.file, args.com_method, args.flywheel_in_wheel)
+    if args.rider not in (None, "", "none"):
+        from ..core.rider import add_rider
+        from .common import rider_from_spec
+
+        rider = rider_from_spec(args.rider)
+        if rider is not None:
+            ps = add_rider(ps, rider)
     form = "json" if args.json else args.format
     if form == "json":
         text = json.dumps(_params_json(ps), indent=2)
@@ -244,6 +251,10 @@ def _add_params(sub: Any) -> None:
         action="store_true",
         help="a flywheel D measured in the front wheel turns with it: include its mass and moments in "
         "mF, IFxx, IFyy (default: the wheel alone, as BicycleParameters)",
+    )
+    q.add_argument(
+        "--rider",
+        help="lump a rider into the rear frame: 'paper' (Table 1), or a rider YAML file (rigid or Yeadon)",
     )
     q.set_defaults(func=cmd_params)
 

@@ -2,7 +2,7 @@
 
 ::
 
-    bike-rig plot KIND INPUT... -o DIR [--format png,svg] [--rider none|paper|both]
+    bike-rig plot KIND INPUT... -o DIR [--format png,svg] [--rider none|paper|both|RIDER.yaml]
                   [--speed V] [--speeds START STOP N] [--mode LABEL]
                   [--input NAME] [--output NAME] [--com-method centroid|lstsq] [--feedback FILE]
 
@@ -95,6 +95,20 @@ class PlotUsageError(BikeRigError):
     """An argument of ``bike-rig plot`` is invalid, or asks for a figure an input cannot give."""
 
 
+def _riders(spec: str) -> tuple[str, ...]:
+    """The riders of ``--rider``: none, paper, both, or a rider file (read now, so a bad one stops the run early).
+
+    Raises:
+        RiderError: The rider file is missing or malformed.
+    """
+    if spec in _RIDERS:
+        return _RIDERS[spec]
+    from ..core.rider import resolve_rider
+
+    resolve_rider(spec)
+    return (spec,)
+
+
 @dataclass(frozen=True)
 class FigureJob:
     """One figure to draw and where to write it.
@@ -114,7 +128,7 @@ class PlotOptions:
 
     Attributes:
         formats: File formats to write (``png``, ``svg``).
-        riders: Riders of the model figures: "" (none) and/or "paper".
+        riders: Riders of the model figures: "" (none) and/or "paper", or a rider file.
         speeds: Speeds of ``eigen`` and ``locus``, m/s, or None for the figures' default.
         speed: Speed of ``modes`` and ``bode``, m/s, or None for the figures' default
             (:data:`DEFAULT_SPEED_TEXT`).
@@ -151,7 +165,7 @@ def options_from_args(args: argparse.Namespace) -> PlotOptions:
         raise PlotUsageError(f"--speed must be a finite number from 0 to {MAX_SPEED:g} m/s, got {args.speed}")
     return PlotOptions(
         formats=parse_formats(args.format),
-        riders=_RIDERS[args.rider],
+        riders=_riders(args.rider),
         speeds=_parse_speeds(args.speeds),
         speed=None if args.speed is None else float(args.speed),
         mode=args.mode,
@@ -319,9 +333,9 @@ def add_parser(sub: Any) -> None:
     q.add_argument("--format", default="png", help="comma-separated file formats: png, svg (default png)")
     q.add_argument(
         "--rider",
-        choices=tuple(_RIDERS),
         default="none",
-        help="model figures without the rider, with the paper's rigid rider (Table 1), or both (default none)",
+        help="model figures without the rider (none, default), with the paper's rigid rider (Table 1: paper), "
+        "both, or with the rider of a rider YAML file (rigid or Yeadon)",
     )
     q.add_argument("--speed", type=float, help=f"speed of modes and bode, m/s (default: {DEFAULT_SPEED_TEXT})")
     q.add_argument("--speeds", nargs=3, metavar=("START", "STOP", "N"), help="speeds of eigen and locus, m/s")

@@ -4,7 +4,7 @@
 
     bike-rig replay BAG [--json] [--default-fit] [--lead-in S | --start S [--stop S] | --envelope F]
                         [--no-whole-cycles] [--min-cycles N] [--min-r2 R2] [--max-modulation M]
-                        [--max-drift D] [--com-method centroid|lstsq] [--rider none|paper]
+                        [--max-drift D] [--com-method centroid|lstsq] [--rider none|paper|RIDER.yaml]
                         [--sigma correlated|paper] [--readings FILE]
     bike-rig replay BAG --republish [--rate-scale X] [--wait S]
 
@@ -69,7 +69,7 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     add_threshold_options(f, overrides=True)
     s = q.add_argument_group("parameters and model (default: as the live graph ran)")
     s.add_argument("--com-method", choices=[m.value for m in ComMethod], help="mass-centre method")
-    s.add_argument("--rider", choices=["none", "paper"], help="rider lumped into the rear frame")
+    s.add_argument("--rider", help="rider in the rear frame: none, paper or a rider YAML file (rigid or Yeadon)")
     s.add_argument("--sigma", choices=[c.value for c in SigmaConvention], help="σ convention")
     s.add_argument("--readings", metavar="FILE",
                    help="static readings from this measurement file, not the bag's (periods ignored)")  # fmt: skip

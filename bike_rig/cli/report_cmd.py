@@ -30,7 +30,9 @@ def run(args: argparse.Namespace) -> int:
     """
     from ..report import report_input
 
-    written = report_input(args.input, args.output, args.com_method, workers=args.jobs, feedback=args.feedback)
+    written = report_input(
+        args.input, args.output, args.com_method, workers=args.jobs, rider=args.rider, feedback=args.feedback
+    )
     rep = written.report
     for f in rep.figures:
         if f.uri is None:
@@ -76,6 +78,11 @@ def add_parser(sub: Any) -> None:
         help="mass-centre method for raw readings: centroid (paper) or lstsq (default: centroid; a bag: as recorded)",
     )
     add_feedback_option(q)
+    q.add_argument(
+        "--rider",
+        default="paper",
+        help="the rider variant: 'paper' (Table 1, default) or a rider YAML file (rigid or Yeadon)",
+    )
     q.add_argument(
         "-j",
         "--jobs",

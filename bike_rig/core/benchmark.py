@@ -9,7 +9,7 @@ step to get the exact Jacobian to every reading (linear σ with correlations, pa
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from enum import Enum
 from typing import Any
 
@@ -113,6 +113,8 @@ class ParameterSet:
         parts: Per-part outputs beyond the 26 parameters (fork S and handlebar G measured
             separately: ``mG, xG, zG, IGxx, IGxz, IGyy, IGzz`` and the same for S), with their
             covariance; None when there are none.
+        extras: The raw file's entries the parameters do not need (e.g. the rider-geometry keys
+            a Yeadon rider is seated with), when computed from measurements.
     """
 
     bicycle: str
@@ -121,6 +123,7 @@ class ParameterSet:
     raw: RawPropagation | None = None
     com: Mapping[str, ComEstimate] | None = None
     parts: UncertainVector | None = None
+    extras: Mapping[str, object] = field(default_factory=dict)
 
     def values(self) -> dict[str, float]:
         """``{name: value}`` for the 26 parameters."""
@@ -409,7 +412,7 @@ def compute_parameters(
             ests.append(UncertainVector(("x", "z"), full.values[sel], full.covariance[np.ix_(sel, sel)]))
         coms[part] = ComEstimate(part, ests[0], ests[1], method)
     raw = RawPropagation(tuple(perturbed), cov, prop.jacobian[:n])
-    return ParameterSet(m.bicycle, params, m.path, raw, coms, per_part)
+    return ParameterSet(m.bicycle, params, m.path, raw, coms, per_part, m.extras)
 
 
 def monte_carlo_parameters(

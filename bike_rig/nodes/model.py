@@ -23,7 +23,10 @@ is not a finite number ≥ 0, or for an unknown rider.
 
 Parameters (``config/model.yaml``, node name ``model``), all read-only:
 
-* ``rider`` (string): ``""`` (none, default) or ``"paper"`` (Table 1 rider in the rear frame).
+* ``rider`` (string): ``""`` (none, default), ``"paper"`` (Table 1 rider in the rear frame) or a
+  rider YAML file (read at start; a Yeadon rider needs ``bicycle_geometry`` in it, since the
+  parameter sets on the topic carry no rider geometry). A state-space request names only
+  ``""``, ``"none"`` or ``"paper"``.
 * ``feedback`` (string): ``""`` (none, default) or the path of a feedback file
   (``format: bike_rig-feedback/1``, :mod:`bike_rig.core.feedback`), read at start.
 * ``sigma_convention`` (string): ``correlated`` (default) or ``paper`` (independent
@@ -49,7 +52,7 @@ from .. import topics
 from ..core.benchmark import ParameterSet
 from ..core.errors import BikeRigError
 from ..core.feedback import resolve_feedback
-from ..core.rider import rider_key
+from ..core.rider import resolve_rider, rider_key
 from ..core.uncertainty.matrix_sigma import SigmaConvention
 from ..messages import (
     fill_canonical_matrices,
@@ -75,8 +78,9 @@ _srvs: Any = importlib.import_module("bike_rig_msgs.srv")
 
 #: The model node's parameters (``config/model.yaml``).
 PARAMETERS: tuple[ParamSpec, ...] = (
-    ParamSpec("rider", "", "Rider lumped into the rear frame: '' (none) or 'paper' (Table 1).",
-              constraints="one of: '', paper"),  # fmt: skip
+    ParamSpec("rider", "", "Rider lumped into the rear frame: '' (none), 'paper' (Table 1) or a rider YAML file "
+              "(rigid, or Yeadon with its bicycle_geometry: a parameter set on the topic has no rider geometry).",
+              constraints="'', paper or a rider YAML file"),  # fmt: skip
     ParamSpec(
         "feedback", "",
         "Steer-torque state feedback file (format bike_rig-feedback/1), '' for none: the eigen sweep, "
@@ -109,7 +113,8 @@ class ModelNode(Node):
         rider = values["rider"]
         speed_min, speed_max, speed_count = values["speed_min"], values["speed_max"], values["speed_count"]
         try:
-            rider_key(rider, files=False)
+            if rider_key(rider) not in ("", "paper"):
+                resolve_rider(rider)  # a rider file: read it now, so a bad one stops the node at start
         except BikeRigError as exc:
             raise parameter_error("rider", str(exc)) from None
         if rider == "none":
@@ -149,7 +154,9 @@ class ModelNode(Node):
         started = time.perf_counter()
         try:
             ps = session_parameters_from_msg(msg, topics.PARAMETERS.name).complete_parameters()
-            matrices, stability = compute_model(ps, self._speeds, self._rider, self._convention, self._feedback)
+            matrices, stability = compute_model(
+                ps, self._speeds, self._rider, self._convention, self._feedback, files=True
+            )
         except BikeRigError as exc:
             self.get_logger().error(f"{msg.bicycle}: parameter set not usable: {exc}")
             return
@@ -175,7 +182,9 @@ class ModelNode(Node):
         """The matrices for ``rider`` ('' = none) from the current set, computed once per set."""
         assert self._parameter_set is not None
         if rider not in self._models:
-            matrices, _ = compute_model(self._parameter_set, self._speeds[:1], rider, self._convention)
+            # only the node's own rider (a parameter) may be a file; a request names '', none or paper
+            own = rider == self._rider
+            matrices, _ = compute_model(self._parameter_set, self._speeds[:1], rider, self._convention, files=own)
             self._models[rider] = matrices
         return self._models[rider]
 
@@ -187,7 +196,8 @@ class ModelNode(Node):
                 response, f"no parameter set yet: waiting for a complete set on {topics.PARAMETERS.name}"
             )
         try:
-            rider_key(rider, files=False)
+            if rider != self._rider:
+                rider_key(rider, files=False)
             state = state_space_at(self._model(rider), float(request.speed), self._feedback)
         except BikeRigError as exc:
             return fill_state_space_error(response, str(exc))

@@ -76,8 +76,8 @@ class StabilitySweep:
     feedback: str = ""
 
 
-def _with_rider(ps: ParameterSet, rider: str) -> ParameterSet:
-    r = resolve_rider(rider, files=False)
+def _with_rider(ps: ParameterSet, rider: str, files: bool) -> ParameterSet:
+    r = resolve_rider(rider, files=files)
     return ps if r is None else add_rider(ps, r)
 
 
@@ -87,30 +87,34 @@ def compute_model(
     rider: str = "",
     convention: SigmaConvention | str = SigmaConvention.CORRELATED,
     feedback: str | Feedback | None = "",
+    files: bool = False,
 ) -> tuple[ModelMatrices, StabilitySweep]:
     """The model products of a parameter set.
 
     Args:
         ps: The bicycle's parameter set (without rider).
         speeds: Speeds of the eigenvalue sweep, m/s.
-        rider: "" (none) or "paper" (lumped into the rear frame, σ carried through).
+        rider: "" (none) or "paper" (lumped into the rear frame, σ carried through), or with
+            ``files`` a rider file (rigid or Yeadon).
         convention: σ convention of the matrices and the critical speeds.
         feedback: "" or None (none), a feedback file
             (:func:`bike_rig.core.feedback.resolve_feedback`) or a loaded feedback: the sweep
             and the speeds are then the closed loop's (the matrices stay the bicycle's own).
+        files: Whether ``rider`` may name a rider file.
 
     Raises:
-        ModelError: unknown rider, bad speeds or a singular mass matrix.
+        ModelError: unknown rider, a rider file that cannot be read or seated, bad speeds or a
+            singular mass matrix.
         FeedbackError: the feedback file cannot be read or is invalid.
     """
     convention = SigmaConvention(convention)
-    name = rider_key(rider, files=False)
+    name = rider_key(rider, files=files)
     if isinstance(feedback, Feedback):
         fb: Feedback | None = feedback
         fb_key = feedback.source or feedback.name
     else:
         fb, fb_key = resolve_feedback(feedback), feedback_key(feedback)
-    full = _with_rider(ps, name)
+    full = _with_rider(ps, name, files)
     ms = canonical_with_sigma(full, convention)
     if fb is None:
         sweep = eigenvalues(ms.matrices, ms.g, speeds)

@@ -70,7 +70,7 @@ class GraphSettings:
     Attributes:
         fit_options: The fitter's options (a trial may be given its own, see :meth:`OfflineGraph.run`).
         com_method: The parameter node's mass-centre method.
-        rider: The model node's rider ("" none, "paper").
+        rider: The model node's rider ("" none, "paper", or a rider file).
         convention: The model node's σ convention.
         speeds: The model node's sweep speeds, m/s.
     """
@@ -147,7 +147,7 @@ class OfflineGraph:
         if session.parameters is None:
             return None, None
         s = self.settings
-        return compute_model(session.parameters, s.speeds, s.rider, s.convention)
+        return compute_model(session.parameters, s.speeds, s.rider, s.convention, files=True)
 
     def _add(self, result: TrialFit) -> str:
         try:

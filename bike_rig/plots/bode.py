@@ -24,14 +24,13 @@ from numpy.typing import NDArray
 from ..core.feedback import Feedback
 from ..core.frequency import output_unit
 from ..subjects import Subject
-from .model_data import BodeCurves, FigureInputError, bode_curves
+from .model_data import BodeCurves, FigureInputError, bode_curves, rider_title
 from .style import bicycle_line_style, closed_loop_text, new_figure
 
 __all__ = ["PAPER_BODE_SPEED", "bode_figure", "speeds_text"]
 
 #: The speed of the paper's Figs 17 and 18, m/s.
 PAPER_BODE_SPEED = 2.0
-_RIDER_TEXT = {"": "without rider", "paper": "with the paper's rider"}
 
 
 def speeds_text(speeds: Sequence[float]) -> str:
@@ -107,6 +106,6 @@ def bode_figure(
     ax_ph.set_xlabel("frequency ω (rad/s)")
     handles, labels = ax_mag.get_legend_handles_labels()
     fig.legend(handles, labels, loc="outside lower center", ncols=min(len(curves), 4), fontsize=8, frameon=False)
-    rider_text = _RIDER_TEXT.get(curves[0].rider, curves[0].rider) + closed_loop_text(curves[0].feedback)
+    rider_text = rider_title(curves[0].rider) + closed_loop_text(curves[0].feedback)
     fig.suptitle(f"{input} → {output} at {speeds_text(speeds)}, {rider_text}", fontsize=11)
     return fig

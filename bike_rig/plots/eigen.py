@@ -25,7 +25,7 @@ from numpy.typing import NDArray
 
 from ..core.feedback import Feedback
 from ..subjects import Subject
-from .model_data import COMPLEX_TOL, EigenCurves, FigureInputError, eigen_curves
+from .model_data import COMPLEX_TOL, EigenCurves, FigureInputError, eigen_curves, rider_title
 from .style import MODE_COLOURS, closed_loop_text, new_figure
 
 __all__ = ["PAIR_COLOUR", "Y_LIMITS", "eigen_vs_speed", "panel_grid"]
@@ -34,7 +34,6 @@ __all__ = ["PAIR_COLOUR", "Y_LIMITS", "eigen_vs_speed", "panel_grid"]
 PAIR_COLOUR = "C4"
 #: Vertical range of every panel, 1/s (as the paper's figures: the caster root leaves it).
 Y_LIMITS = (-10.0, 10.0)
-_RIDER_TEXT = {"": "without rider", "paper": "with the paper's rider"}
 
 
 def panel_grid(n: int) -> tuple[int, int]:
@@ -158,7 +157,7 @@ def eigen_vs_speed(
             ax.set_ylabel("eigenvalue (1/s)")
         if k >= len(curves) - cols:
             ax.set_xlabel("speed v (m/s)")
-    rider_text = _RIDER_TEXT.get(curves[0].rider, curves[0].rider) + closed_loop_text(curves[0].feedback)
+    rider_text = rider_title(curves[0].rider) + closed_loop_text(curves[0].feedback)
     fig.suptitle(f"Eigenvalues versus speed, {rider_text}", fontsize=11)
     _legend(fig, bands, any(c.capsize_caster_complex for c in curves), cols)
     return fig

@@ -22,14 +22,13 @@ from numpy.typing import NDArray
 from ..core.feedback import Feedback
 from ..subjects import Subject
 from .eigen import panel_grid
-from .model_data import eigen_curves
+from .model_data import eigen_curves, rider_title
 from .style import closed_loop_text, new_figure
 
 __all__ = ["X_LIMITS", "root_locus"]
 
 #: Real-axis range of every panel, 1/s (the fast caster root leaves it at higher speed).
 X_LIMITS = (-10.0, 6.0)
-_RIDER_TEXT = {"": "without rider", "paper": "with the paper's rider"}
 
 
 def root_locus(
@@ -89,6 +88,6 @@ def root_locus(
             ax.set_xlabel("Re λ (1/s)")
     if scatter is not None:
         fig.colorbar(scatter, ax=axes, label="speed v (m/s); markers every 1 m/s", shrink=0.8)
-    rider_text = _RIDER_TEXT.get(curves[0].rider, curves[0].rider) + closed_loop_text(curves[0].feedback)
+    rider_text = rider_title(curves[0].rider) + closed_loop_text(curves[0].feedback)
     fig.suptitle(f"Root locus, speed as the parameter, {rider_text}", fontsize=11)
     return fig

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -59,6 +60,7 @@ __all__ = [
     "mode_shape",
     "model_parameters",
     "quartic_discriminant",
+    "rider_title",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -209,9 +211,18 @@ class BodeCurves:
 # --------------------------------------------------------------------------------------------
 
 
+def rider_title(key: str) -> str:
+    """A figure title's words for a rider key: "without rider", "with the paper's rider" or the rider file's name."""
+    if key == "":
+        return "without rider"
+    if key == "paper":
+        return "with the paper's rider"
+    return f"with the rider of {Path(key).name}"
+
+
 def _rider_key(rider: str) -> str:
-    """The rider's key, "" or "paper" (checks the name; "none" means no rider)."""
-    return rider_key(rider, files=False)
+    """The rider's key, "", "paper" or a rider file's path ("none" means no rider)."""
+    return rider_key(rider)
 
 
 def model_parameters(subject: Subject, rider: str = "") -> ParameterSet:
@@ -219,15 +230,16 @@ def model_parameters(subject: Subject, rider: str = "") -> ParameterSet:
 
     Args:
         subject: The bicycle.
-        rider: "" or "none" (no rider), or "paper" (Table 1, lumped into the rear frame).
+        rider: "" or "none" (no rider), "paper" (Table 1, lumped into the rear frame), or a
+            rider file (rigid or Yeadon; :func:`~bike_rig.core.rider.resolve_rider`).
 
     Returns:
         The parameters with σ.
 
     Raises:
-        ModelError: Unknown rider.
+        ModelError: Unknown rider, or a rider file that cannot be read or seated.
     """
-    r = resolve_rider(rider, files=False)
+    r = resolve_rider(rider)
     return subject.parameters if r is None else add_rider(subject.parameters, r)
 
 

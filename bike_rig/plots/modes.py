@@ -26,7 +26,7 @@ from matplotlib.figure import Figure
 
 from ..subjects import Subject
 from .eigen import panel_grid
-from .model_data import ModeShape, capsize_caster_speed, mode_shape
+from .model_data import ModeShape, capsize_caster_speed, mode_shape, rider_title
 from .style import new_figure
 
 __all__ = ["COMPONENT_COLOURS", "FALLBACK_SPEED", "default_mode_speed", "eigenvector_figure", "phasor_lengths"]
@@ -37,7 +37,6 @@ COMPONENT_COLOURS = ("C0", "C3", "C0", "C3")
 #: without a capsize–caster complex pair).
 FALLBACK_SPEED = 2.0
 _PAIR_MODES = ("capsize", "caster")
-_RIDER_TEXT = {"": "without rider", "paper": "with the paper's rider"}
 
 
 def default_mode_speed(subject: Subject, mode: str = "capsize", rider: str = "") -> tuple[float, str]:
@@ -142,7 +141,7 @@ def eigenvector_figure(
         )
     handles, labels = axes.flat[0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="outside lower center", ncols=4 if cols > 1 else 2, fontsize=8, frameon=False)
-    rider_text = _RIDER_TEXT.get(shapes[0].rider, shapes[0].rider)
+    rider_text = rider_title(shapes[0].rider)
     fig.suptitle(f"Eigenvector of the {mode} mode {_title_speeds(shapes, reasons)}, {rider_text}\n"
                  "(larger angle = 1 at 0°; counter-clockwise leads)", fontsize=10, wrap=True)  # fmt: skip
     return fig

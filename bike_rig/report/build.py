@@ -14,6 +14,7 @@ from pathlib import Path
 
 from ..core.benchmark import ComMethod
 from ..core.feedback import Feedback, resolve_feedback
+from ..core.rider import Rider, RiderError, resolve_rider, rider_key
 from ..plots.output import check_out_dir
 from ..subjects import Subject, load_subject
 from . import sections
@@ -67,12 +68,27 @@ class WrittenReport:
     seconds: float
 
 
+def report_rider(spec: str, subject: Subject) -> Rider:
+    """The report's rider variant: ``"paper"`` (Table 1) or a rider file's rider, seated on ``subject``.
+
+    Raises:
+        RiderError: No rider named (the report compares the bicycle without and with one), or a
+            rider file that cannot be read or seated.
+    """
+    r = resolve_rider(spec)
+    if r is None:
+        reason = "the report shows the bicycle without and with a rider: name 'paper' or a rider file"
+        raise RiderError(f"{reason}, not '{spec}'")
+    return r if isinstance(r, Rider) else r.seated(subject.parameters)
+
+
 def build_report(
     subject: Subject,
     generated: str | None = None,
     dpi: float = REPORT_DPI,
     workers: int | None = None,
     feedback: Feedback | None = None,
+    rider: str = "paper",
 ) -> Report:
     """The report of one bicycle.
 
@@ -84,14 +100,18 @@ def build_report(
             :data:`~.figures.MAX_WORKERS`; see :func:`~.figures.draw_figures`).
         feedback: A steer-torque feedback: the page adds its closed loop (a section and the
             closed-loop eigenvalue and Bode figures); None: the open loop only.
+        rider: The rider variant: ``"paper"`` or a rider file (:func:`report_rider`).
 
     Returns:
         The report, its page in memory.
+
+    Raises:
+        RiderError: A rider that cannot be used (see :func:`report_rider`).
     """
     t0 = time.perf_counter()
     when = generated or dt.datetime.now(dt.UTC).strftime("%Y-%m-%d %H:%M:%S UTC")
-    results = compute_results(subject, feedback=feedback)
-    figures = draw_figures(figure_specs(subject, results), dpi, workers)
+    results = compute_results(subject, report_rider(rider, subject), feedback=feedback)
+    figures = draw_figures(figure_specs(subject, results, rider_key(rider)), dpi, workers)
     drawn = sum(f.uri is not None for f in figures)
     body = [
         sections.header_section(subject, results, drawn, when),
@@ -115,6 +135,7 @@ def write_report(
     generated: str | None = None,
     workers: int | None = None,
     feedback: Feedback | None = None,
+    rider: str = "paper",
 ) -> WrittenReport:
     """Build the report of ``subject`` and write it as ``out_dir/index.html``.
 
@@ -126,6 +147,7 @@ def write_report(
         generated: The creation time printed on the page (default: now).
         workers: Processes to draw the figures in (default: one per CPU, at most 4).
         feedback: A steer-torque feedback whose closed loop the page adds, or None.
+        rider: The rider variant: ``"paper"`` or a rider file.
 
     Returns:
         Where it went, with the report.
@@ -134,7 +156,7 @@ def write_report(
         ReportOutputError: The directory cannot be created or the file cannot be written.
     """
     t0 = time.perf_counter()
-    report = build_report(subject, generated, workers=workers, feedback=feedback)
+    report = build_report(subject, generated, workers=workers, feedback=feedback, rider=rider)
     path = _write(Path(out_dir), report.html)
     return WrittenReport(path, report, time.perf_counter() - t0)
 
@@ -145,6 +167,7 @@ def report_input(
     com_method: ComMethod | str | None = None,
     workers: int | None = None,
     feedback: str | None = None,
+    rider: str = "paper",
 ) -> WrittenReport:
     """Open an input (measurement file, parameter file or session bag) and write its report.
 
@@ -158,6 +181,7 @@ def report_input(
         workers: Processes to draw the figures in (default: one per CPU, at most 4).
         feedback: A feedback file (:func:`bike_rig.core.feedback.resolve_feedback`; None, ""
             or "none": the open loop only); read before the input.
+        rider: The rider variant: ``"paper"`` (Table 1) or a rider file (rigid or Yeadon).
 
     Returns:
         Where it went, with the report; its time counts from opening the input.
@@ -170,7 +194,7 @@ def report_input(
     out = check_out_dir(out_dir, ReportOutputError, create=False)  # before the input: nothing written for a bad one
     fb = resolve_feedback(feedback)
     subject = load_subject(path, com_method)
-    written = write_report(subject, out, workers=workers, feedback=fb)
+    written = write_report(subject, out, workers=workers, feedback=fb, rider=rider)
     return WrittenReport(written.path, written.report, time.perf_counter() - t0)
 
 

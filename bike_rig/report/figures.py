@@ -169,7 +169,7 @@ def _spec(
     )
 
 
-def figure_specs(subject: Subject, results: ReportResults) -> list[FigureSpec]:
+def figure_specs(subject: Subject, results: ReportResults, rider_choice: str = "paper") -> list[FigureSpec]:
     """Every figure of the report of ``subject``, in page order.
 
     The figures are the report entries of :data:`bike_rig.plots.registry.FIGURES`; a trial
@@ -179,6 +179,7 @@ def figure_specs(subject: Subject, results: ReportResults) -> list[FigureSpec]:
     Args:
         subject: The bicycle.
         results: Its numbers (the rider's name, and the stable range for the mode shapes' speed).
+        rider_choice: The rider of the figures drawn with a rider: ``"paper"`` or a rider file.
 
     Returns:
         The specs, in page order.
@@ -189,6 +190,8 @@ def figure_specs(subject: Subject, results: ReportResults) -> list[FigureSpec]:
     for kind, entry in report_entries():
         note = ""
         options = dict(entry.options)
+        if options.get("rider"):
+            options["rider"] = rider_choice
         if options.get("speed") == STABLE_SPEED:
             options["speed"] = stable_speed
         elif options.get("speed") == PAIR_SPEED:

@@ -94,7 +94,7 @@ class ReportResults:
 
     Attributes:
         bare: The bicycle alone.
-        rider: The bicycle with the paper's rigid rider (Table 1).
+        rider: The bicycle with the rider (the paper's rigid rider, Table 1, unless another is chosen).
         budget: The uncertainty budget of the bicycle alone.
         rider_budget: The budget of the bicycle with the rider (only its speeds are shown).
         monte_carlo: Monte Carlo checks of the speeds' σ, without and with the rider.

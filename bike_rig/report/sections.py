@@ -229,10 +229,21 @@ def _monte_carlo_table(results: ReportResults) -> list[str]:
         _p(
             f"{mc.samples} normal draws of the {mc.input_kind} (seed {mc.seed}), each carried through the whole "
             "chain; the ratio is the Monte Carlo σ over the linear σ (1 when the first-order σ is right). "
-            "Robust σ: half the 15.9 to 84.1 % percentile range.",
+            "Robust σ: half the 15.9 to 84.1 % percentile range." + _rider_draws_note(results),
             "note",
         ),
     ]
+
+
+def _rider_draws_note(results: ReportResults) -> str:
+    """What the Monte Carlo does with a rider that has σ of its own (a Yeadon rider), or ""."""
+    rider = results.rider.rider
+    if rider is None or rider.sensitivity is None:
+        return ""
+    return (
+        f" {rider.name}'s own inputs (body measurements) are drawn too, and the rider moves with the drawn "
+        "bicycle parameters of its pose, both through its first-order Jacobian."
+    )
 
 
 def speeds_section(results: ReportResults) -> Raw:

@@ -21,6 +21,7 @@ from bike_rig.bag.writer import Compression
 from bike_rig.core.io_bp import dump_bp_parameter_yaml
 from bike_rig.core.loader import load_input
 from bike_rig.core.rider import PAPER_RIDER, load_rider
+from bike_rig.core.rider_yeadon import read_yeadon_configuration, read_yeadon_measurements
 from bike_rig.core.sim import load_true_parameters, simulate_session
 from bike_rig.core.sim.rig import load_rig
 from bike_rig.core.trials import read_trial
@@ -104,10 +105,15 @@ def _mat_seeds() -> list[bytes]:
 
 def _rider_seeds() -> list[bytes]:
     r = PAPER_RIDER
+    jason = shared_dir() / "data" / "bicycleparameters" / "riders" / "Jason" / "RawData"
     return [
         f"name: paper\nmass: {r.mass}\nx: {r.x}\nz: {r.z}\n".encode()
         + f"Ixx: {r.Ixx}\nIyy: {r.Iyy}\nIzz: {r.Izz}\nIxz: {r.Ixz}\n".encode(),
         b"{mass: 80, x: 0.3, z: -1.1, Ixx: 8, Iyy: 8, Izz: 2.4, Ixz: -1.9}\n",
+        f"name: Jason\nyeadon_measurements: {jason / 'JasonYeadonMeas.txt'}\n".encode()
+        + f"yeadon_configuration: {jason / 'JasonBrowserYeadonCFG.txt'}\n".encode()
+        + b"inertia: true\nmeasurement_sigma: 0.005\nmass_sigma: 0.5\npose_sigma: false\n"
+        + b"bicycle_geometry: {lst: 0.53, whb: 0.58}\n",
     ]
 
 
@@ -152,6 +158,7 @@ def targets(workdir: Path) -> list[Target]:
     """
     bicycles = config_dir() / "bicycles"
     raw = shared_dir() / "data" / "bicycleparameters"
+    jason = raw / "riders" / "Jason" / "RawData"
     for params in config_dir().glob("*.yaml"):
         shutil.copy(params, workdir / params.name)
     parameter_seeds = [(bicycles / "benchmark.yaml").read_bytes()]
@@ -165,6 +172,10 @@ def targets(workdir: Path) -> list[Target]:
         Target("rig", load_rig, ".yaml", [(config_dir() / "rig.yaml").read_bytes()], YAML_TOKENS),
         Target("graph", load_graph, ".yaml", [(config_dir() / "graph.yaml").read_bytes()], YAML_TOKENS),
         Target("rider", load_rider, ".yaml", _rider_seeds(), YAML_TOKENS),
+        Target("yeadon-measurements", read_yeadon_measurements, ".txt",
+               [(jason / "JasonYeadonMeas.txt").read_bytes()], YAML_TOKENS),
+        Target("yeadon-configuration", read_yeadon_configuration, ".txt",
+               [(jason / "JasonBrowserYeadonCFG.txt").read_bytes()], YAML_TOKENS),
         Target("trial-csv", lambda p: read_trial(p, 1000.0), ".csv", _csv_seeds(), _CSV_TOKENS),
         Target("trial-npy", lambda p: read_trial(p, 1000.0), ".npy", _npy_seeds(), _NPY_TOKENS),
         Target("trial-mat", lambda p: read_trial(p, 1000.0), ".mat", _mat_seeds(), _MAT_TOKENS),

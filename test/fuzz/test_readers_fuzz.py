@@ -23,7 +23,7 @@ from test.fuzz.targets import Target, targets
 
 #: The suite's campaign: seed and mutated inputs per reader (about 25 s in all on one core).
 SEED = 20261125
-INPUTS = {"trial-mat": 150, "bag": 200, "bag-metadata": 250}  # the bag readers: about 4 s each
+INPUTS = {"trial-mat": 150, "bag": 200, "bag-metadata": 250, "yeadon-measurements": 150, "yeadon-configuration": 150}
 DEFAULT_INPUTS = 300
 #: No reader may take longer on one input in the suite [s].
 TIME_LIMIT_S = 5.0
@@ -43,8 +43,8 @@ def by_name(fuzz_dir: Path) -> dict[str, Target]:
     return {t.name: t for t in targets(fuzz_dir)}
 
 
-NAMES = ["measurements", "parameters", "bp-text", "rig", "graph", "rider", "trial-csv", "trial-npy", "trial-mat",
-         "bag", "bag-metadata"]
+NAMES = ["measurements", "parameters", "bp-text", "rig", "graph", "rider", "yeadon-measurements",
+         "yeadon-configuration", "trial-csv", "trial-npy", "trial-mat", "bag", "bag-metadata"]
 
 
 @pytest.mark.parametrize("name", NAMES)
@@ -86,7 +86,10 @@ def _replace_leaves(doc: object, tree: object, depth: int = 0) -> object:
     return tree
 
 
-@pytest.mark.parametrize("name", ["measurements", "parameters", "rig", "graph", "rider", "bag-metadata"])
+@pytest.mark.parametrize(
+    "name", ["measurements", "parameters", "rig", "graph", "rider", "yeadon-measurements", "yeadon-configuration",
+             "bag-metadata"]
+)  # fmt: skip
 def test_yaml_readers_take_any_value_anywhere(name: str, by_name: dict[str, Target], fuzz_dir: Path) -> None:
     """A valid document with any YAML value (a scalar of any type, a list, a mapping) in place of one of its own."""
     target = by_name[name]

@@ -12,7 +12,8 @@ speeds with the linear σ:
 * :func:`speed_monte_carlo_from_parameters`: from a parameter set's covariance (a parameter
   file), multivariate normal draws of the 26 parameters.
 
-Either may add a rigid rider to every draw (:func:`bike_rig.core.rider.combine_rear_frame`).
+Either may add a rider to every draw (:func:`bike_rig.core.rider.combine_rear_frame_values`); a rider with
+σ of its own (a Yeadon rider) is drawn too, linearly (:func:`bike_rig.core.rider.rider_draws`).
 The canonical matrices of all draws are computed at once; the critical speeds of all draws are
 found by :func:`critical_speeds_batch`, a vectorised form of
 :func:`bike_rig.core.whipple.critical_speeds` (the same closed-form candidates, Newton polish and
@@ -33,7 +34,7 @@ from numpy.typing import NDArray
 from ..benchmark import ComMethod, ParameterSet, compute_parameters, monte_carlo_parameters
 from ..errors import BikeRigError
 from ..measurements import Measurements
-from ..rider import Rider, add_rider, combine_rear_frame
+from ..rider import Rider, add_rider, combine_rear_frame_values, rider_draws
 from ..symbols import PARAMETER_NAMES
 from ..whipple import (
     WhippleMatrices,
@@ -227,7 +228,7 @@ def _run(
     bicycle: str, kind: str, draws: dict[str, Any], nominal: ParameterSet, samples: int, seed: int, rider: Rider | None
 ) -> SpeedMonteCarlo:
     if rider is not None:
-        draws = combine_rear_frame(draws, rider)
+        draws = combine_rear_frame_values(draws, rider_draws(rider, draws, nominal.values(), samples, seed))
         nominal = add_rider(nominal, rider)
         bicycle = nominal.bicycle
     params = {n: np.broadcast_to(np.asarray(draws[n], dtype=float), (samples,)) for n in PARAMETER_NAMES}
