@@ -28,6 +28,9 @@ published when the speed differs from the last published one by more than ``ride
 (or a new parameter set arrived), at most ``ride_max_rate`` times a second: a change that comes
 too soon is published when the interval is over (the latest speed then).
 
+Diagnostics (``/diagnostics``, 1 Hz): ``model: model`` (WARN until a complete set arrived) and
+``model: ride`` (the latest speed, the state spaces published, the time the last took).
+
 Parameters (``config/model.yaml``, node name ``model``), all read-only:
 
 * ``rider`` (string): ``""`` (none, default) or ``"paper"`` (Table 1 rider in the rear frame).
@@ -72,8 +75,10 @@ from ..messages import (
     session_parameters_from_msg,
 )
 from ..params import ParamSpec
+from ..pipeline.health import ModelHealth, model_statuses
 from ..pipeline.model import ModelMatrices, compute_model, state_space_at, state_space_with_sigma_at
 from ..rosqos import profile
+from .diagnostics import DiagnosticsUpdater
 from .params import NodeParameterError, declare_parameters, parameter_error
 from .runner import run_node
 
@@ -168,6 +173,10 @@ class ModelNode(Node):
         )
         self.create_subscription(_std.Float64, topics.RIDE_SPEED.name, self._on_speed, profile(topics.RIDE_SPEED))
         self.create_timer(self._ride_interval_s, self._publish_ride)
+        self._models_published = 0
+        self._last_model_ms = math.nan
+        self._speed_at = -math.inf  # monotonic time of the latest speed
+        self.diagnostics = DiagnosticsUpdater(self, self._health)
         self.get_logger().info(
             f"waiting for parameter sets on {topics.PARAMETERS.name}; rider '{self._rider}', "
             f"{'feedback ' + repr(self._feedback.name) + ', ' if self._feedback is not None else ''}"
@@ -196,6 +205,8 @@ class ModelNode(Node):
         self._ride_published = None  # a new model: publish the ride state space again
         self._publish_ride()
         elapsed_ms = 1e3 * (time.perf_counter() - started)
+        self._models_published += 1
+        self._last_model_ms = elapsed_ms
 
         def speed(s: Any) -> str:
             return "none" if s is None else f"{s.speed:.4f} ± {s.sigma:.2g} m/s"
@@ -237,6 +248,7 @@ class ModelNode(Node):
         except BikeRigError as exc:
             self.get_logger().warning(str(exc), throttle_duration_sec=5.0)
             return
+        self._speed_at = time.monotonic()
         if self._ride_speeds == 0:
             self.get_logger().info(
                 f"first ride speed {self._ride_speed:g} m/s on {topics.RIDE_SPEED.name}"
@@ -244,6 +256,15 @@ class ModelNode(Node):
             )
         self._ride_speeds += 1
         self._publish_ride()
+
+    def _health(self) -> list[Any]:
+        """The model's and the ride's statuses (:func:`bike_rig.pipeline.health.model_statuses`)."""
+        ps = self._parameter_set
+        speed = math.nan if self._ride_speed is None else self._ride_speed
+        return model_statuses(ModelHealth(
+            "" if ps is None else ps.bicycle, self._models_published, self._last_model_ms, speed,
+            time.monotonic() - self._speed_at, self._ride_count, self._ride_compute_ms,
+        ))  # fmt: skip
 
     def _publish_ride(self) -> None:
         """Publish the state space at the latest speed if it moved by more than the step and the rate allows."""
