@@ -81,6 +81,9 @@ def test_driver_levels() -> None:
     slow = by_concern(driver_statuses(driver(measured_rate_hz=850.0)))["samples"]
     assert slow.level == Level.WARN and "expected 1000 Hz" in slow.message
     assert by_concern(driver_statuses(driver(samples_missing=3)))["samples"].level == Level.WARN
+    late = by_concern(driver_statuses(driver(behind_s=1.2)))["samples"]
+    assert late.level == Level.WARN and late.message == "samples late: 1.2 s behind the rate"
+    assert by_concern(driver_statuses(driver(behind_s=0.3)))["samples"].level == Level.OK
     clipped = by_concern(driver_statuses(driver(range_rad_s=5.0, clipped=2)))["gyro range"]
     assert clipped.level == Level.WARN and clipped.message == "2 sample(s) clipped"
     assert by_concern(driver_statuses(driver(source_errors=1)))["source"].level == Level.ERROR

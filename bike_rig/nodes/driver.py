@@ -32,7 +32,8 @@ trials are published first, unpaced, and the session continues with the source
 Diagnostics (``/diagnostics``, 1 Hz): ``driver: source`` (read errors), ``driver: samples`` (the
 sample rate over the last 2 s of wall time against the recording trial's rate times
 ``time_scale``, the time since the last sample — WARN from ``silence_warning_s``, ERROR from 3
-times it —, samples missing) and ``driver: gyro range`` (samples at or beyond
+times it —, samples late — WARN when the trial's samples are ``silence_warning_s`` or more
+behind its rate since its START —, samples missing) and ``driver: gyro range`` (samples at or beyond
 ``gyro_range_rad_s``).
 """
 
@@ -41,6 +42,7 @@ from __future__ import annotations
 import array
 import importlib
 import sys
+import time
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -133,6 +135,7 @@ class _Trial:
     first: int = 0
     buffered: int = 0
     missing: int = 0
+    started_s: float = field(default_factory=time.monotonic)  # wall time the START was handled
 
 
 class DriverNode(Node):
@@ -220,10 +223,13 @@ class DriverNode(Node):
         expected = sum(t.info.sample_rate_hz for t in self._trials.values()) * self._time_scale
         # while a trial records: since its request, START or last samples; else since any sample
         since = self.silence.longest() if self.silence.watched else self._rate.age()
+        now = time.monotonic()
+        behind = max((now - t.started_s - (t.published + t.buffered + t.missing) / (t.info.sample_rate_hz *
+                      self._time_scale) for t in self._trials.values()), default=0.0)  # fmt: skip
         return driver_statuses(DriverHealth(
             self.source.describe(), self._errors, self.silence.watched, expected if self._trials else float("nan"),
             self._rate.rate(), since, self.silence.limit_s, self.samples_published,
-            self.samples_missing, self.clipped, self._range,
+            self.samples_missing, self.clipped, self._range, max(behind, 0.0),
         ))  # fmt: skip
 
     def _wait_for_acks(self, timeout_s: float = ACK_TIMEOUT_S) -> None:

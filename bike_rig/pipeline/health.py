@@ -55,6 +55,9 @@ class DriverHealth:
             delivered, since the start.
         clipped: Samples at or beyond the gyro's range since the start (0 when no range is set).
         range_rad_s: The gyro's range, rad/s (0: not configured).
+        behind_s: How late the recording trials' samples are: wall time since their START less
+            the samples received over the expected rate (the most behind trial; 0 when none
+            records), s.
     """
 
     source: str
@@ -68,10 +71,11 @@ class DriverHealth:
     samples_missing: int
     clipped: int
     range_rad_s: float
+    behind_s: float = 0.0
 
 
 def driver_statuses(h: DriverHealth, node: str = "driver") -> list[Status]:
-    """``source``, ``samples`` (rate, silence, missing) and ``gyro range`` (clipping)."""
+    """``source``, ``samples`` (rate, silence, late, missing) and ``gyro range`` (clipping)."""
     src_level = Level.ERROR if h.source_errors else Level.OK
     src_msg = f"{h.source_errors} read error(s)" if h.source_errors else "reading"
     out = [Status.of(node, "source", src_level, src_msg, source=h.source, errors=h.source_errors)]
@@ -82,6 +86,7 @@ def driver_statuses(h: DriverHealth, node: str = "driver") -> list[Status]:
         "since last sample (s)": h.since_sample_s,
         "samples published": h.samples_published,
         "samples missing": h.samples_missing,
+        "behind (s)": h.behind_s,
     }
     if not h.recording:
         level, message = Level.OK, "idle: no trial recording"
@@ -89,6 +94,8 @@ def driver_statuses(h: DriverHealth, node: str = "driver") -> list[Status]:
         level = age_level(h.since_sample_s, h.silence_limit_s, SILENCE_ERROR_FACTOR * h.silence_limit_s)
         if level is not Level.OK:
             message = f"no samples for {h.since_sample_s:.1f} s"
+        elif h.behind_s >= h.silence_limit_s:
+            level, message = Level.WARN, f"samples late: {h.behind_s:.1f} s behind the rate"
         elif h.expected_rate_hz > 0 and h.measured_rate_hz < RATE_WARN_FRACTION * h.expected_rate_hz:
             level = Level.WARN
             message = f"sample rate {h.measured_rate_hz:.0f} Hz, expected {h.expected_rate_hz:.0f} Hz"

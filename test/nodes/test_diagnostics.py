@@ -141,3 +141,30 @@ def test_every_node_publishes_its_statuses_at_1_hz_and_levels_follow(
         wait(lambda: level("driver", "samples") == Level.OK, "the driver's samples OK again")
         codes = {name: p.stop() for name, p in procs.items()}
     assert all(code == 0 for code in codes.values()), (codes, describe())
+
+
+def test_a_streaming_trial_is_ok_at_its_rate(probe: Probe, node_env: dict[str, str], tmp_path: Path) -> None:
+    """The simulated rig in operator mode: while a trial records, samples OK at ~1 kHz, not behind."""
+    from bike_rig_msgs.srv import StartTrial
+    from diagnostic_msgs.msg import DiagnosticArray
+
+    box = probe.listen(topics.DIAGNOSTICS, DiagnosticArray)
+    args = ("-p", "source:=sim", "-p", "mode:=operator", "-p", f"bicycle:={BROWSER}", "-p", "seed:=3")
+    with start_node("driver", "driver_sim", node_env, tmp_path, *args) as driver:
+        started = probe.call(StartTrial, topics.START_TRIAL, StartTrial.Request(part="fork", pendulum="torsional",
+                                                                                 orientation=1, duration_s=6.0))  # fmt: skip
+        assert started.accepted, started.message
+
+        def recording_for_2_s() -> bool:
+            s = latest(box, "driver", "samples")
+            return s is not None and s.message.startswith("recording") and int(s.value("samples published")) > 2500
+
+        try:
+            probe.wait_for(recording_for_2_s, "2.5 s of samples", timeout=40.0)
+        except AssertionError as exc:
+            raise AssertionError(f"{exc}\n{[str(latest(box, 'driver', 'samples'))]}\n{driver.describe()}") from None
+        s = latest(box, "driver", "samples")
+        assert s is not None and s.level == Level.OK, s
+        assert 900.0 <= float(s.value("sample rate (Hz)")) <= 1100.0 and float(s.value("expected rate (Hz)")) == 1000.0
+        assert float(s.value("behind (s)")) < 0.5 and s.value("samples missing") == "0"
+        assert driver.stop() == 0, driver.describe()
