@@ -145,8 +145,9 @@ def test_every_node_publishes_its_statuses_at_1_hz_and_levels_follow(
 
 def test_a_streaming_trial_is_ok_at_its_rate(probe: Probe, node_env: dict[str, str], tmp_path: Path) -> None:
     """The simulated rig in operator mode: while a trial records, samples OK at ~1 kHz, not behind."""
-    from bike_rig_msgs.srv import StartTrial
     from diagnostic_msgs.msg import DiagnosticArray
+
+    from bike_rig_msgs.srv import StartTrial
 
     box = probe.listen(topics.DIAGNOSTICS, DiagnosticArray)
     args = ("-p", "source:=sim", "-p", "mode:=operator", "-p", f"bicycle:={BROWSER}", "-p", "seed:=3")
