@@ -152,8 +152,8 @@ def test_a_streaming_trial_is_ok_at_its_rate(probe: Probe, node_env: dict[str, s
     box = probe.listen(topics.DIAGNOSTICS, DiagnosticArray)
     args = ("-p", "source:=sim", "-p", "mode:=operator", "-p", f"bicycle:={BROWSER}", "-p", "seed:=3")
     with start_node("driver", "driver_sim", node_env, tmp_path, *args) as driver:
-        started = probe.call(StartTrial, topics.START_TRIAL, StartTrial.Request(part="fork", pendulum="torsional",
-                                                                                 orientation=1, duration_s=6.0))  # fmt: skip
+        request = StartTrial.Request(part="fork", pendulum="torsional", orientation=1, duration_s=6.0)
+        started = probe.call(StartTrial, topics.START_TRIAL, request)
         assert started.accepted, started.message
 
         def recording_for_2_s() -> bool:
