@@ -15,6 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 __all__ = [
+    "DIAGNOSTICS",
     "EIGEN_SWEEP",
     "FIT_DETAILS",
     "GYRO",
@@ -23,6 +24,8 @@ __all__ = [
     "PERIODS",
     "QosSpec",
     "READINGS",
+    "RIDE_SPEED",
+    "RIDE_STATE_SPACE",
     "START_TRIAL",
     "STATE_SPACE",
     "STATIC_READINGS",
@@ -77,8 +80,22 @@ READINGS = Topic(f"{NAMESPACE}/readings", "bike_rig_msgs/msg/ReadingEntry", QosS
 PARAMETERS = Topic(f"{NAMESPACE}/parameters", "bike_rig_msgs/msg/BenchmarkParameters", QosSpec(True, True, 1))
 MATRICES = Topic(f"{NAMESPACE}/model/matrices", "bike_rig_msgs/msg/CanonicalMatrices", QosSpec(True, True, 1))
 EIGEN_SWEEP = Topic(f"{NAMESPACE}/model/eigen_sweep", "bike_rig_msgs/msg/EigenSweep", QosSpec(True, True, 1))
+#: The riding speed, m/s (``std_msgs/Float64``: any speed source can publish it without
+#: bike_rig's messages). Best effort, volatile, depth 1: the model node only wants the latest
+#: speed, and a best-effort subscription matches reliable and best-effort publishers alike.
+RIDE_SPEED = Topic(f"{NAMESPACE}/ride/speed", "std_msgs/msg/Float64", QosSpec(False, False, 1))
+#: The state space (A, B, eigenvalues, with σ) at the riding speed, from the model node:
+#: latched, so a controller started late gets the current one.
+RIDE_STATE_SPACE = Topic(
+    f"{NAMESPACE}/ride/state_space", "bike_rig_msgs/msg/StateSpaceModel", QosSpec(True, True, 1)
+)
+#: Every node's health (REP-107), once a second: the ROS-wide topic, default QoS (reliable,
+#: volatile, depth 10) as every diagnostics tool expects. Not recorded.
+DIAGNOSTICS = Topic("/diagnostics", "diagnostic_msgs/msg/DiagnosticArray", QosSpec(True, False, 10))
 
-#: Every topic the recorder records.
+#: Every topic the recorder records. Not the ride topics: the speed belongs to a ride record
+#: (recorded on the bicycle, read by ``bike-rig ride``), and the state space is computed again
+#: from the recorded parameter set.
 TOPICS: tuple[Topic, ...] = (
     GYRO, TRIAL_EVENTS, PERIODS, STATIC_READINGS, PARAMETERS, MATRICES, EIGEN_SWEEP, READINGS,
 )  # fmt: skip

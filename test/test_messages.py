@@ -351,6 +351,34 @@ def test_state_space_round_trip(
         conv.state_space_from_response(failed, 4.5)
 
 
+def test_state_space_model_round_trip(make_msg: Callable[[str], Any], complete: SessionParameters) -> None:
+    from bike_rig.core.feedback import load_feedback
+    from bike_rig.pipeline.model import state_space_with_sigma_at
+
+    ps = complete.complete_parameters()
+    feedback = load_feedback(config_file("feedback/balance_assist.yaml"))
+    matrices, _ = compute_model(ps, [0.0], "paper", "paper", feedback)
+    model = state_space_with_sigma_at(ps, matrices, 2.5, feedback)
+    got = conv.state_space_model_from_msg(conv.fill_state_space_model(make_msg("StateSpaceModel"), model))
+    assert_states_equal(got.state, model.state)
+    for name in ("a_sigma", "b_sigma", "eigenvalues_sigma_real", "eigenvalues_sigma_imag"):
+        assert np.array_equal(getattr(got, name), getattr(model, name), equal_nan=True), name
+    assert (got.bicycle, got.rider, got.feedback, got.convention) == ("Browser", "paper", "balance assist", "paper")
+    short = conv.fill_state_space_model(make_msg("StateSpaceModel"), model)
+    short.sigma_convention = "guessed"
+    with pytest.raises(conv.MessageError, match="sigma_convention: unknown 'guessed'"):
+        conv.state_space_model_from_msg(short)
+
+
+@pytest.mark.parametrize("bad", [-0.1, math.nan, math.inf])
+def test_ride_speed_must_be_finite_and_not_negative(bad: float) -> None:
+    from std_msgs.msg import Float64
+
+    assert conv.ride_speed_from_msg(conv.fill_ride_speed(Float64(), 4.25)) == 4.25
+    with pytest.raises(conv.MessageError, match="/bike_rig/ride/speed: ride speed must be a finite number >= 0"):
+        conv.ride_speed_from_msg(conv.fill_ride_speed(Float64(), bad), "/bike_rig/ride/speed")
+
+
 # --------------------------------------------------------------------------------- rosbags + CDR
 
 

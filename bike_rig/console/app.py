@@ -1,8 +1,10 @@
 """The operator's console: a textual app over :class:`~bike_rig.session.controller.SessionController`.
 
 Works in an 80×24 terminal (over SSH, under tmux). Layout: the plan with each item's state
-(left), what to do next and the recording trial's live trace, amplitude and warnings (right),
-the log of results and replies, and the command line. Keys:
+(left), what to do next, the recording trial's live trace, amplitude and warnings, and the
+nodes' health from ``/diagnostics`` (right: each node's worst level, the reason when not OK), the
+log of results and replies (a line whenever a node's health level changes), and the command
+line. Keys:
 
 * **F2** — do the next item: start the next trial to do or redo (or the redo just offered),
   or, when the next item is a reading, put ``reading KEY `` on the command line;
@@ -22,6 +24,7 @@ from textual.binding import Binding
 from textual.containers import Horizontal, Vertical
 from textual.widgets import DataTable, Footer, Input, RichLog, Sparkline, Static
 
+from ..diagnostics import Level, node_of
 from ..pipeline.model import StabilitySweep
 from ..session.controller import Reply, SessionController
 from ..session.plan import ItemState, ReadingItem, TrialItem
@@ -39,7 +42,8 @@ _STATE_STYLE = {
     ItemState.REDO: "bold red",
     ItemState.DONE: "green",
 }
-_REPLY_STYLE = {"error": "bold red", "warning": "yellow", "result": "bold", "ok": "cyan", "done": "green"}
+_REPLY_STYLE = {"error": "bold red", "warning": "yellow", "result": "bold", "ok": "cyan", "done": "green",
+                "health": "magenta"}
 
 
 def title_text(bicycle: str, done: int, total: int, speeds: StabilitySweep | None) -> str:
@@ -64,6 +68,7 @@ class SessionApp(App[int]):
     #next { height: 6; }
     #trace { height: 2; }
     #live { height: 1fr; }
+    #health { height: 3; }
     #log { height: 6; border-top: solid $accent; }
     #cmd { height: 3; }
     """
@@ -91,6 +96,7 @@ class SessionApp(App[int]):
                 yield Static(id="next")
                 yield Sparkline([0.0], id="trace")
                 yield Static(id="live")
+                yield Static(id="health")
         yield RichLog(id="log", wrap=True, markup=False, max_lines=500)
         yield Input(placeholder="command (help) — F2 next item, F3 stop, F4 abort, F5 next best, F10 quit", id="cmd")
         yield Footer()
@@ -141,7 +147,15 @@ class SessionApp(App[int]):
         speeds = s.stability if s.complete else None
         self.query_one("#title", Static).update(Text(title_text(s.bicycle, done, total, speeds), style="bold reverse"))
 
+    def _refresh_health(self) -> None:
+        board = self.ctl.health
+        line = board.line(reasons=False)  # (the reasons are in the log, said when a level changes)
+        level = max((board.node_level(n) for n in {node_of(st) for st in board.statuses.values()}), default=Level.OK)
+        style = {Level.OK: "green", Level.WARN: "bold yellow"}.get(level, "bold red")
+        self.query_one("#health", Static).update(Text("Health: " + (line or "no /diagnostics yet"), style=style))
+
     def _refresh_side(self) -> None:
+        self._refresh_health()
         s = self.ctl.session
         if self.offer and s.state(s.plan.item(self.offer)) != ItemState.REDO:
             self.offer = ""

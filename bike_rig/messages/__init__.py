@@ -30,7 +30,11 @@ Pairs (message: record, converters):
   :func:`stability_sweep_from_msg`, :func:`fill_eigen_sweep`;
 * the ``StateSpace`` response: :class:`~bike_rig.pipeline.model.StateSpaceAt`,
   :func:`state_space_from_response`, :func:`fill_state_space_response` (and
-  :func:`fill_state_space_error`).
+  :func:`fill_state_space_error`);
+* ``StateSpaceModel``: :class:`~bike_rig.pipeline.model.StateSpaceWithSigma`,
+  :func:`state_space_model_from_msg`, :func:`fill_state_space_model`;
+* the ride speed, ``std_msgs/Float64`` (m/s): a float, :func:`ride_speed_from_msg`,
+  :func:`fill_ride_speed`.
 
 Header stamps are integer ns (:func:`stamp_ns`, :func:`set_stamp`); TrialEvent kinds are
 :class:`~bike_rig.pipeline.acquire.TrialEventKind`.
@@ -53,6 +57,7 @@ from .results import (
     state_space_from_response,
     static_readings_from_msg,
 )
+from .ride import fill_ride_speed, fill_state_space_model, ride_speed_from_msg, state_space_model_from_msg
 from .trials import (
     fill_fit_details,
     fill_gyro_batch,
@@ -73,18 +78,22 @@ __all__ = [
     "fill_gyro_batch",
     "fill_period_estimate",
     "fill_reading_entry",
+    "fill_ride_speed",
     "fill_state_space_error",
+    "fill_state_space_model",
     "fill_state_space_response",
     "fill_static_readings",
     "fill_trial_event",
     "fit_details_from_msg",
     "model_matrices_from_msg",
     "reading_entry_from_msg",
+    "ride_speed_from_msg",
     "sample_batch_from_msg",
     "session_parameters_from_msg",
     "set_stamp",
     "stability_sweep_from_msg",
     "state_space_from_response",
+    "state_space_model_from_msg",
     "static_readings_from_msg",
     "stamp_ns",
     "trial_event_from_msg",

@@ -19,11 +19,13 @@ __all__ = [
     "CanonicalMatricesMsg",
     "EigenSweepMsg",
     "FitDetailsMsg",
+    "Float64Msg",
     "FloatField",
     "GyroBatchMsg",
     "HeaderMsg",
     "PeriodEstimateMsg",
     "ReadingEntryMsg",
+    "StateSpaceModelMsg",
     "StateSpaceResponse",
     "StaticReadingsMsg",
     "TimeMsg",
@@ -200,3 +202,29 @@ class StateSpaceResponse(Protocol):
     eigenvalues_real: FloatField
     eigenvalues_imag: FloatField
     mode_labels: Sequence[str]
+
+
+class StateSpaceModelMsg(Protocol):
+    """``bike_rig_msgs/msg/StateSpaceModel``."""
+
+    header: HeaderMsg
+    speed: float
+    bicycle: str
+    rider: str
+    feedback: str
+    sigma_convention: str
+    a: FloatField
+    a_sigma: FloatField
+    b: FloatField
+    b_sigma: FloatField
+    eigenvalues_real: FloatField
+    eigenvalues_real_sigma: FloatField
+    eigenvalues_imag: FloatField
+    eigenvalues_imag_sigma: FloatField
+    mode_labels: Sequence[str]
+
+
+class Float64Msg(Protocol):
+    """``std_msgs/msg/Float64`` (the ride speed, m/s)."""
+
+    data: float

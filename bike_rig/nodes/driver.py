@@ -28,6 +28,13 @@ topics' history — or exits (``exit_when_done``, after the subscribers have ack
 everything, up to 10 s). With ``resume`` (an interrupted session's bag) the bag's recorded
 trials are published first, unpaced, and the session continues with the source
 (:mod:`bike_rig.sources.resume`).
+
+Diagnostics (``/diagnostics``, 1 Hz): ``driver: source`` (read errors), ``driver: samples`` (the
+sample rate over the last 2 s of wall time against the recording trial's rate times
+``time_scale``, the time since the last sample — WARN from ``silence_warning_s``, ERROR from 3
+times it —, samples late — WARN when the trial's samples are ``silence_warning_s`` or more
+behind its rate since its START —, samples missing) and ``driver: gyro range`` (samples at or beyond
+``gyro_range_rad_s``).
 """
 
 from __future__ import annotations
@@ -35,6 +42,7 @@ from __future__ import annotations
 import array
 import importlib
 import sys
+import time
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -42,8 +50,10 @@ import numpy as np
 from rclpy.duration import Duration
 from rclpy.node import Node
 
+from ..diagnostics import RateMeter
 from ..params import ParamSpec, merge_specs
 from ..pipeline.acquire import sample_stamp_ns
+from ..pipeline.health import DriverHealth, driver_statuses
 from ..rosqos import profile
 from ..sources import (
     BACKENDS,
@@ -63,6 +73,7 @@ from ..sources.errors import SourceError
 from ..sources.resume import DEFAULT_RESUME_TIME_SCALE, ResumedSource
 from ..sources.silence import DEFAULT_SILENCE_S, SilenceWatch
 from ..topics import GYRO, START_TRIAL, STOP_TRIAL, TRIAL_EVENTS
+from .diagnostics import DiagnosticsUpdater
 from .params import declare_parameters
 
 __all__ = ["COMMON_PARAMETERS", "DriverNode", "driver_parameters", "main"]
@@ -92,6 +103,8 @@ COMMON_PARAMETERS: tuple[ParamSpec, ...] = (
               (1.0, 10_000.0)),  # fmt: skip
     ParamSpec("silence_warning_s", DEFAULT_SILENCE_S,
               "warn when a recording trial has had no samples this long, s (wall clock)", (0.05, 60.0)),  # fmt: skip
+    ParamSpec("gyro_range_rad_s", 0.0, "the gyro's measuring range, rad/s: samples at or beyond it count as "
+              "clipped on /diagnostics (0: not checked)", (0.0, 1e6)),  # fmt: skip
 )
 
 
@@ -121,6 +134,8 @@ class _Trial:
     volts: list[FloatArray | None] = field(default_factory=list)
     first: int = 0
     buffered: int = 0
+    missing: int = 0
+    started_s: float = field(default_factory=time.monotonic)  # wall time the START was handled
 
 
 class DriverNode(Node):
@@ -156,6 +171,12 @@ class DriverNode(Node):
         self.trials_published = 0
         self.samples_published = 0
         self.timer = self.create_timer(float(self.values["poll_period_s"]), self._on_timer)
+        self._rate = RateMeter()
+        self._time_scale = float(self.values["time_scale"]) if self.values["source"] in ("sim", "bag") else 1.0
+        self._range = float(self.values["gyro_range_rad_s"])
+        self.samples_missing = 0
+        self.clipped = 0
+        self.diagnostics = DiagnosticsUpdater(self, self._health)
         waiting = f"; waiting for {self.wait_for} gyro subscriber(s)" if self.wait_for else ""
         self.get_logger().info(f"driver ready: {self.source.describe()}{waiting}")
 
@@ -197,6 +218,20 @@ class DriverNode(Node):
                 f"{self.source.silence_hint()}"
             )
 
+    def _health(self) -> list[Any]:
+        """Source, samples and gyro-range statuses (:func:`bike_rig.pipeline.health.driver_statuses`)."""
+        expected = sum(t.info.sample_rate_hz for t in self._trials.values()) * self._time_scale
+        # while a trial records: since its request, START or last samples; else since any sample
+        since = self.silence.longest() if self.silence.watched else self._rate.age()
+        now = time.monotonic()
+        behind = max((now - t.started_s - (t.published + t.buffered + t.missing) / (t.info.sample_rate_hz *
+                      self._time_scale) for t in self._trials.values()), default=0.0)  # fmt: skip
+        return driver_statuses(DriverHealth(
+            self.source.describe(), self._errors, self.silence.watched, expected if self._trials else float("nan"),
+            self._rate.rate(), since, self.silence.limit_s, self.samples_published,
+            self.samples_missing, self.clipped, self._range, max(behind, 0.0),
+        ))  # fmt: skip
+
     def _wait_for_acks(self, timeout_s: float = ACK_TIMEOUT_S) -> None:
         timeout = Duration(seconds=timeout_s)
         for pub in (self.events_pub, self.gyro_pub):
@@ -233,6 +268,8 @@ class DriverNode(Node):
         if ev.info.trial_id in self._trials:
             self.get_logger().warning(f"trial {ev.info.trial_id} started twice; the second START is ignored")
             return
+        if not self._trials:
+            self._rate.restart()  # the rate of this trial, not of the idle time before it
         self._trials[ev.info.trial_id] = _Trial(ev.info, ev.stamp_ns)
         self.silence.started(ev.info.trial_id)
         self.events_pub.publish(self._event(ev.info, _msgs.TrialEvent.START, ev.stamp_ns))
@@ -245,6 +282,13 @@ class DriverNode(Node):
             return
         if block.rates.size:
             self.silence.samples(block.trial_id)
+            self._rate.add(block.rates.size)
+            if self._range > 0:
+                self.clipped += int(np.count_nonzero(np.abs(block.rates) >= self._range))
+        gap = block.first_index - (t.first + t.buffered)
+        if gap > 0:
+            t.missing += gap
+            self.samples_missing += gap
         if t.buffered and block.first_index != t.first + t.buffered:
             self._flush(t)  # a gap: the next batch starts at the block's own index
         if not t.buffered:
@@ -299,6 +343,9 @@ class DriverNode(Node):
         self.trials_published += 1
         how = "aborted" if ev.aborted else "stopped"
         self.get_logger().info(f"trial {ev.trial_id} {how}: {t.published} samples published")
+        unaccounted = ev.sample_count - t.published - t.missing
+        if unaccounted > 0:
+            self.samples_missing += unaccounted
         if t.published != ev.sample_count:
             self.get_logger().warning(
                 f"trial {ev.trial_id}: {t.published} samples published, the source reports {ev.sample_count}"

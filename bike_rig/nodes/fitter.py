@@ -3,12 +3,19 @@
 Buffers each trial's gyro batches between its START and STOP events
 (:class:`~bike_rig.pipeline.fit_state.FitterState`), fits the period (paper Eq 23–27) on STOP and
 publishes a ``PeriodEstimate`` — valid or not, with its flags and their reasons.
+
+Diagnostics (``/diagnostics``, 1 Hz): ``fitter: buffer`` (open trials, buffered samples against
+the budget ``max_trial_samples · max_open_trials``, the process's memory) and ``fitter: fits``
+(fits pending, estimates published, the time the last fit took, foreign batches dropped).
 """
 
 from __future__ import annotations
 
 import importlib
+import math
+import os
 import sys
+import time
 from typing import TYPE_CHECKING, Any
 
 from .. import messages
@@ -17,6 +24,7 @@ from ..params import ParamSpec
 from ..pipeline.fit import TrialFit, TrialFitOptions
 from ..pipeline.fit_details import FitDetails
 from ..pipeline.fit_state import FitterState
+from ..pipeline.health import FitterHealth, fitter_statuses
 from .publishers import publisher_source
 
 if TYPE_CHECKING:
@@ -101,6 +109,11 @@ class FitterNode:
         self.details_pub = self.node.create_publisher(msgs.FitDetails, FIT_DETAILS.name, profile(FIT_DETAILS))
         self._live = False
         self.timer = self.node.create_timer(0.05, self._on_timer)
+        self._budget = options.max_trial_samples * max_open
+        self._last_fit_ms = math.nan
+        from .diagnostics import DiagnosticsUpdater
+
+        self.diagnostics = DiagnosticsUpdater(self.node, self._health)
         self.node.get_logger().info(f"fitting trials with {options.to_json()}")
 
     def _parameters(self) -> tuple[TrialFitOptions, float, int, float]:
@@ -139,7 +152,8 @@ class FitterNode:
     def _on_batch(self, msg: Any, info: Any) -> None:
         try:
             batch = messages.sample_batch_from_msg(msg)
-            self._publish(self.state.on_batch(batch, batch.stamp_ns, publisher_source(info)))
+            started = time.perf_counter()
+            self._publish(self.state.on_batch(batch, batch.stamp_ns, publisher_source(info)), started)
         except Exception as exc:  # a callback must never raise: log and keep serving
             self.node.get_logger().error(f"gyro batch of trial {getattr(msg, 'trial_id', '?')!r} failed: {exc!r}")
 
@@ -150,7 +164,8 @@ class FitterNode:
             self.node.get_logger().warning(f"trial {getattr(msg, 'trial_id', '?')}: {exc}; ignored")
             return
         try:
-            self._publish(self.state.on_event(event, publisher_source(info)))
+            started = time.perf_counter()
+            self._publish(self.state.on_event(event, publisher_source(info)), started)
         except Exception as exc:
             self.node.get_logger().error(f"trial event of trial {getattr(msg, 'trial_id', '?')!r} failed: {exc!r}")
 
@@ -160,11 +175,22 @@ class FitterNode:
             if live and not self._live:
                 self.state.matched_at = self.state.clock()
             self._live = live
-            self._publish(self.state.poll(live))
+            started = time.perf_counter()
+            self._publish(self.state.poll(live), started)
         except Exception as exc:
             self.node.get_logger().error(f"fitter timer failed: {exc!r}")
 
-    def _publish(self, results: list[TrialFit]) -> None:
+    def _health(self) -> list[Any]:
+        """The buffer's and the fits' statuses (:func:`bike_rig.pipeline.health.fitter_statuses`)."""
+        opened = list(self.state.open.values())
+        return fitter_statuses(FitterHealth(
+            len(opened), sum(o.stop is not None for o in opened), sum(o.acc.kept for o in opened), self._budget,
+            _rss_bytes(), self.state.published, self._last_fit_ms, self.state.foreign_batches,
+        ))  # fmt: skip
+
+    def _publish(self, results: list[TrialFit], started: float | None = None) -> None:
+        if results and started is not None:
+            self._last_fit_ms = 1e3 * (time.perf_counter() - started)
         for r in results:  # (the details first: the console joins them to the estimate either way)
             self.details_pub.publish(messages.fill_fit_details(self._details_type(), FitDetails.of(r)))
             self.periods_pub.publish(self.estimate(r))
@@ -172,6 +198,15 @@ class FitterNode:
     def estimate(self, r: TrialFit) -> Any:
         """The PeriodEstimate message of a result."""
         return messages.fill_period_estimate(self._estimate_type(), r)
+
+
+def _rss_bytes() -> int:
+    """The process's resident memory, bytes (0 where ``/proc`` does not say)."""
+    try:
+        with open("/proc/self/statm", encoding="ascii") as f:
+            return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+    except (OSError, ValueError, IndexError):
+        return 0
 
 
 def main(args: list[str] | None = None) -> int:

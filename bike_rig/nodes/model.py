@@ -21,6 +21,16 @@ requested speed, for the node's rider (``rider: ""``), no rider (``"none"``) or 
 (``"paper"``); ``ok = false`` with a reason before any parameter set arrived, for a speed that
 is not a finite number ≥ 0, or for an unknown rider.
 
+It subscribes to the riding speed ``/bike_rig/ride/speed`` (``std_msgs/Float64``, m/s) and
+publishes, latched, ``/bike_rig/ride/state_space`` (``StateSpaceModel``): A, B and the labelled
+eigenvalues at that speed for the node's rider and feedback, each with its σ. A new model is
+published when the speed differs from the last published one by more than ``ride_speed_step``
+(or a new parameter set arrived), at most ``ride_max_rate`` times a second: a change that comes
+too soon is published when the interval is over (the latest speed then).
+
+Diagnostics (``/diagnostics``, 1 Hz): ``model: model`` (WARN until a complete set arrived) and
+``model: ride`` (the latest speed, the state spaces published, the time the last took).
+
 Parameters (``config/model.yaml``, node name ``model``), all read-only:
 
 * ``rider`` (string): ``""`` (none, default), ``"paper"`` (Table 1 rider in the rear frame) or a
@@ -33,6 +43,9 @@ Parameters (``config/model.yaml``, node name ``model``), all read-only:
   parameters, the paper's Table 3); for the matrices' and the critical speeds' σ.
 * ``speed_min``, ``speed_max`` (double, m/s): the sweep's range, default 0 to 10.
 * ``speed_count`` (integer): number of speeds, default 201.
+* ``ride_speed_step`` (double, m/s): smallest speed change that gives a new ride state space,
+  default 0.1.
+* ``ride_max_rate`` (double, 1/s): most ride state spaces per second, default 5.
 
 Run: ``python -m bike_rig.nodes.model --ros-args --params-file config/model.yaml``.
 """
@@ -40,6 +53,7 @@ Run: ``python -m bike_rig.nodes.model --ros-args --params-file config/model.yaml
 from __future__ import annotations
 
 import importlib
+import math
 import sys
 import time
 from collections.abc import Sequence
@@ -58,12 +72,16 @@ from ..messages import (
     fill_canonical_matrices,
     fill_eigen_sweep,
     fill_state_space_error,
+    fill_state_space_model,
     fill_state_space_response,
+    ride_speed_from_msg,
     session_parameters_from_msg,
 )
 from ..params import ParamSpec
-from ..pipeline.model import ModelMatrices, compute_model, state_space_at
+from ..pipeline.health import ModelHealth, model_statuses
+from ..pipeline.model import ModelMatrices, compute_model, state_space_at, state_space_with_sigma_at
 from ..rosqos import profile
+from .diagnostics import DiagnosticsUpdater
 from .params import NodeParameterError, declare_parameters, parameter_error
 from .runner import run_node
 
@@ -75,6 +93,7 @@ MAX_SPEED_COUNT = 100_000
 
 _msgs: Any = importlib.import_module("bike_rig_msgs.msg")
 _srvs: Any = importlib.import_module("bike_rig_msgs.srv")
+_std: Any = importlib.import_module("std_msgs.msg")
 
 #: The model node's parameters (``config/model.yaml``).
 PARAMETERS: tuple[ParamSpec, ...] = (
@@ -96,6 +115,10 @@ PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec("speed_min", 0.0, "Lowest speed of the eigenvalue sweep, m/s.", (0.0, 1000.0)),
     ParamSpec("speed_max", 10.0, "Highest speed of the eigenvalue sweep, m/s.", (0.0, 1000.0)),
     ParamSpec("speed_count", 201, "Number of equally spaced speeds in the eigenvalue sweep.", (1, MAX_SPEED_COUNT)),
+    ParamSpec("ride_speed_step", 0.1, "Smallest change of the riding speed that gives a new ride state space, m/s.",
+              (0.0, 100.0)),  # fmt: skip
+    ParamSpec("ride_max_rate", 5.0, "Most ride state spaces published per second, 1/s.", (0.0, 1000.0),
+              open_low=True),  # fmt: skip
 )
 
 
@@ -141,6 +164,24 @@ class ModelNode(Node):
             _msgs.BenchmarkParameters, topics.PARAMETERS.name, self._on_parameters, profile(topics.PARAMETERS)
         )
         self.create_service(_srvs.StateSpace, topics.STATE_SPACE, self._on_state_space)
+
+        self._ride_step = float(values["ride_speed_step"])
+        self._ride_interval_s = 1.0 / float(values["ride_max_rate"])
+        self._ride_speed: float | None = None  # the latest speed received, m/s
+        self._ride_published: float | None = None  # the speed of the last published model
+        self._ride_last_ns = -math.inf  # node-clock time of the last publication, ns
+        self._ride_compute_ms = math.nan  # time the last one took to compute
+        self._ride_count = 0  # ride state spaces published
+        self._ride_speeds = 0  # speeds received
+        self._ride_pub = self.create_publisher(
+            _msgs.StateSpaceModel, topics.RIDE_STATE_SPACE.name, profile(topics.RIDE_STATE_SPACE)
+        )
+        self.create_subscription(_std.Float64, topics.RIDE_SPEED.name, self._on_speed, profile(topics.RIDE_SPEED))
+        self.create_timer(self._ride_interval_s, self._publish_ride)
+        self._models_published = 0
+        self._last_model_ms = math.nan
+        self._speed_at = -math.inf  # monotonic time of the latest speed
+        self.diagnostics = DiagnosticsUpdater(self, self._health)
         self.get_logger().info(
             f"waiting for parameter sets on {topics.PARAMETERS.name}; rider '{self._rider}', "
             f"{'feedback ' + repr(self._feedback.name) + ', ' if self._feedback is not None else ''}"
@@ -168,7 +209,11 @@ class ModelNode(Node):
         out_s.header.stamp = msg.header.stamp
         self._matrices_pub.publish(out_m)
         self._sweep_pub.publish(out_s)
+        self._ride_published = None  # a new model: publish the ride state space again
+        self._publish_ride()
         elapsed_ms = 1e3 * (time.perf_counter() - started)
+        self._models_published += 1
+        self._last_model_ms = elapsed_ms
 
         def speed(s: Any) -> str:
             return "none" if s is None else f"{s.speed:.4f} ± {s.sigma:.2g} m/s"
@@ -205,6 +250,55 @@ class ModelNode(Node):
         if self._feedback is not None:
             label += f", closed loop ({self._feedback.name})"
         return fill_state_space_response(response, state, f"{label} at {state.speed:g} m/s")
+
+
+    def _on_speed(self, msg: Any) -> None:
+        try:
+            self._ride_speed = ride_speed_from_msg(msg, topics.RIDE_SPEED.name)
+        except BikeRigError as exc:
+            self.get_logger().warning(str(exc), throttle_duration_sec=5.0)
+            return
+        self._speed_at = time.monotonic()
+        if self._ride_speeds == 0:
+            self.get_logger().info(
+                f"first ride speed {self._ride_speed:g} m/s on {topics.RIDE_SPEED.name}"
+                + ("" if self._parameter_set is not None else "; the state space follows the first parameter set")
+            )
+        self._ride_speeds += 1
+        self._publish_ride()
+
+    def _health(self) -> list[Any]:
+        """The model's and the ride's statuses (:func:`bike_rig.pipeline.health.model_statuses`)."""
+        ps = self._parameter_set
+        speed = math.nan if self._ride_speed is None else self._ride_speed
+        return model_statuses(ModelHealth(
+            "" if ps is None else ps.bicycle, self._models_published, self._last_model_ms, speed,
+            time.monotonic() - self._speed_at, self._ride_count, self._ride_compute_ms,
+        ))  # fmt: skip
+
+    def _publish_ride(self) -> None:
+        """Publish the state space at the latest speed if it moved by more than the step and the rate allows."""
+        v, last = self._ride_speed, self._ride_published
+        if v is None or self._parameter_set is None:
+            return
+        if last is not None and abs(v - last) <= self._ride_step:
+            return
+        now = self.get_clock().now()
+        if now.nanoseconds - self._ride_last_ns < 1e9 * self._ride_interval_s:
+            return  # the timer publishes it when the interval is over
+        started = time.perf_counter()
+        try:
+            model = state_space_with_sigma_at(self._parameter_set, self._model(self._rider), v, self._feedback)
+        except BikeRigError as exc:
+            self.get_logger().error(f"ride state space at {v:g} m/s: {exc}")
+            self._ride_published = v
+            return
+        out = fill_state_space_model(_msgs.StateSpaceModel(), model)
+        out.header.stamp = now.to_msg()  # the time the rate limit counts from
+        self._ride_pub.publish(out)
+        self._ride_published, self._ride_last_ns = v, now.nanoseconds
+        self._ride_compute_ms = 1e3 * (time.perf_counter() - started)
+        self._ride_count += 1
 
 
 def main(args: Sequence[str] | None = None) -> int:

@@ -78,8 +78,10 @@ from ..params import ParamSpec
 from ..paths import config_file
 from ..pipeline.assemble import KeyPeriod, SessionAssembly, SessionParameters
 from ..pipeline.errors import AssemblyError
+from ..pipeline.health import ParameterHealth, parameter_statuses
 from ..pipeline.readings import ReadingEntry, apply_entries
 from ..rosqos import profile
+from .diagnostics import DiagnosticsUpdater
 from .params import NodeParameterError, declare_parameters
 from .runner import run_node
 
@@ -206,10 +208,13 @@ class ParameterNode(Node):
         self._published: tuple[Any, ...] | None = None
         self._complete = False
         self._status_period = float(status_period)
+        self._last: SessionParameters | None = None
+        self._error = ""
         self.create_subscription(_msgs.PeriodEstimate, topics.PERIODS.name, self._on_period, profile(topics.PERIODS))
         self.create_subscription(_msgs.ReadingEntry, topics.READINGS.name, self._on_entry, profile(topics.READINGS))
         self.create_timer(EVALUATE_PERIOD_S, self._evaluate)
         self.create_timer(self._status_period, self._status)
+        self.diagnostics = DiagnosticsUpdater(self, self._health)
         source = f"static readings from {self._base.path}" if self._base.path else "no static readings yet"
         self.get_logger().info(
             f"{self._base.bicycle}: {source} (entries on {topics.READINGS.name} are applied on top); waiting for "
@@ -275,10 +280,23 @@ class ParameterNode(Node):
             result = self._session.result()
         except BikeRigError as exc:
             self.get_logger().error(f"cannot compute the parameters: {exc}")
+            self._error = str(exc)
             return
+        self._error = ""
+        self._last = result
         self._published = key
         self._complete = result.complete
         self._publish(result)
+
+    def _health(self) -> list[Any]:
+        """The completeness status (:func:`bike_rig.pipeline.health.parameter_statuses`)."""
+        r = self._last
+        return parameter_statuses(ParameterHealth(
+            self._base.bicycle, r is not None, bool(r is not None and r.complete),
+            0 if r is None else len(r.periods), len(self._session.required_keys),
+            () if r is None else tuple(r.missing_periods), () if r is None else tuple(r.missing_readings),
+            self._error,
+        ))  # fmt: skip
 
     def _status(self) -> None:
         if self._published is not None and not self._complete:

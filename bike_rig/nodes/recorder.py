@@ -25,6 +25,9 @@ Parameters (``config/recorder.yaml``):
   or relative to ``/bike_rig`` (``gyro``, ``model/matrices``).
 * ``compression`` (string): chunk compression, ``zstd`` (default), ``lz4`` or ``none``.
 * ``flush_period`` (double, s): in (0, 1]; default 0.5.
+* ``min_free_disk_mb`` (double, MB): ``recorder: disk`` on ``/diagnostics`` warns below this
+  free space; default 500. (``recorder: bag``: bytes and messages written, dropped, the longest
+  write of the last second.)
 
 Run: ``python -m bike_rig.nodes.recorder --ros-args -p output:=session1`` (or
 ``--params-file config/recorder.yaml``).
@@ -35,6 +38,7 @@ from __future__ import annotations
 import contextlib
 import importlib
 import os
+import shutil
 import signal
 import sys
 import time
@@ -55,8 +59,10 @@ from .. import topics as contract
 from ..bag.writer import BagWriter, Compression, contract_qos
 from ..core.errors import BikeRigError
 from ..params import ParamSpec
+from ..pipeline.health import RecorderHealth, recorder_statuses
 from ..rosenv import ros_environment
 from ..rosqos import profile
+from .diagnostics import DiagnosticsUpdater
 from .params import declare_parameters, parameter_error
 
 __all__ = ["EXIT_USER_ERROR", "PARAMETERS", "Recorder", "main", "resolve_topics"]
@@ -78,6 +84,8 @@ PARAMETERS: tuple[ParamSpec, ...] = (
               choices=tuple(c.value for c in Compression)),  # fmt: skip
     ParamSpec("flush_period", 0.5, "longest time a received message stays in memory, s", (0.0, 1.0),
               open_low=True, loose_type=True),  # fmt: skip
+    ParamSpec("min_free_disk_mb", 500.0, "free disk space below which /diagnostics warns, MB", (0.0, 1e12),
+              loose_type=True),  # fmt: skip
 )
 
 
@@ -172,6 +180,9 @@ class Recorder(Node):
         self.failed: OSError | None = None
         self.dropped = 0
         self._closed = False
+        self._min_free_bytes = int(1e6 * float(values["min_free_disk_mb"]))
+        self._write_ms = 0.0  # the longest write since the last diagnostics, ms
+        self.diagnostics = DiagnosticsUpdater(self, self._health)
         for topic in self.topics:
             self.create_subscription(
                 _message_class(topic.type), topic.name, self._callback(topic), profile(topic), raw=True
@@ -207,10 +218,27 @@ class Recorder(Node):
         try:
             if not self.writer.has_topic(topic.name):
                 self._add_channel(topic, first=True)
+            started = time.perf_counter()
             self.writer.write(topic.name, received, bytes(data), sent, sequence)
+            self._write_ms = max(self._write_ms, 1e3 * (time.perf_counter() - started))
         except OSError as exc:
             self.dropped += 1
             self._fail(exc)
+
+    def _health(self) -> list[Any]:
+        """Bag and disk statuses (:func:`bike_rig.pipeline.health.recorder_statuses`)."""
+        path = Path(self.writer.path)
+        try:
+            written = sum(f.stat().st_size for f in path.iterdir() if f.is_file())
+            free = shutil.disk_usage(path).free
+        except OSError:
+            written, free = 0, 0
+        latency, self._write_ms = self._write_ms, 0.0
+        failed = "" if self.failed is None else str(self.failed.strerror or self.failed)
+        return recorder_statuses(RecorderHealth(
+            str(path), written, self.writer.message_count, self.dropped + self.errors, latency, free,
+            self._min_free_bytes, failed,
+        ))  # fmt: skip
 
     def _fail(self, exc: OSError) -> None:
         """The bag cannot be written any more (disk full, read-only, removed): say so once, stop.

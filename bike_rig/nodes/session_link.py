@@ -5,7 +5,8 @@ It follows the graph with :class:`~bike_rig.nodes.run_monitor.GraphMonitor` (the
 (reliable but volatile: the live trace needs them contiguous, never the session's whole
 history); trial events, period estimates and readings are transient-local, so a console that
 joins late gets the session so far. On top it calls the driver's StartTrial/StopTrial services
-and publishes the operator's readings on ``/bike_rig/readings``. Everything runs in the
+and publishes the operator's readings on ``/bike_rig/readings``; it also listens to
+``/diagnostics`` and hands each array on as a :class:`~bike_rig.diagnostics.StatusReport`. Everything runs in the
 caller's thread: :meth:`SessionLink.events` takes in what is ready, and a service call spins
 until its answer (what arrives meanwhile is kept for the next :meth:`~SessionLink.events`).
 
@@ -21,7 +22,9 @@ from typing import Any
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from .. import topics
-from ..messages import fill_reading_entry
+from ..diagnostics import StatusReport
+from ..messages import MessageError, fill_reading_entry
+from ..messages.diagnostics import statuses_from_msg
 from ..pipeline.readings import ReadingEntry
 from ..rosqos import profile
 from ..session.controller import GraphEvent, StartReply
@@ -32,6 +35,7 @@ __all__ = ["SERVICE_TIMEOUT_S", "SessionLink"]
 
 _msgs: Any = importlib.import_module("bike_rig_msgs.msg")
 _srvs: Any = importlib.import_module("bike_rig_msgs.srv")
+_diag: Any = importlib.import_module("diagnostic_msgs.msg")
 
 #: Longest wait for the driver's answer to a start or stop, s.
 SERVICE_TIMEOUT_S = 5.0
@@ -59,12 +63,23 @@ class SessionLink:
         self._stop: Any = n.create_client(_srvs.StopTrial, topics.STOP_TRIAL)
         self._readings = n.create_publisher(_msgs.ReadingEntry, topics.READINGS.name, profile(topics.READINGS))
         self._pending: list[GraphEvent] = []
+        self._health: list[GraphEvent] = []
+        n.create_subscription(_diag.DiagnosticArray, topics.DIAGNOSTICS.name, self._on_diagnostics,
+                              profile(topics.DIAGNOSTICS))  # fmt: skip
+
+    def _on_diagnostics(self, msg: Any) -> None:
+        """Keep a node's ``/diagnostics`` array for :meth:`events` (a malformed one is skipped)."""
+        try:
+            self._health.append(StatusReport(tuple(statuses_from_msg(msg))))
+        except MessageError:
+            return
 
     # ------------------------------------------------------------------ GraphLink
     def events(self) -> list[GraphEvent]:
         """What arrived since the last call, in arrival order."""
-        out = self._pending + self.monitor.poll(timeout_s=0.0)
-        self._pending = []
+        polled = self.monitor.poll(timeout_s=0.0)  # (runs the diagnostics callback too)
+        out = self._pending + polled + self._health
+        self._pending, self._health = [], []
         return out
 
     def _call(self, client: Any, request: Any) -> Any:

@@ -2,7 +2,8 @@
 
 :func:`compute_model` turns a parameter set into the canonical matrices with σ, the eigenvalue
 sweep and the weave and capsize speeds with σ; :func:`state_space_at` gives A, B and the
-labelled eigenvalues at one speed. The model node and the offline runner call these same
+labelled eigenvalues at one speed, :func:`state_space_with_sigma_at` the same with the σ of
+every number (for the ride-speed topic). The model node and the offline runner call these same
 functions. Units: SI (speeds in m/s, eigenvalues in 1/s).
 """
 
@@ -18,8 +19,10 @@ from ..core.benchmark import ParameterSet
 from ..core.errors import ModelError
 from ..core.feedback import Feedback, feedback_key, resolve_feedback
 from ..core.rider import add_rider, resolve_rider, rider_key
+from ..core.uncertainty.eigen_sigma import eigenvalues_with_sigma
 from ..core.uncertainty.matrix_sigma import SigmaConvention, canonical_with_sigma
 from ..core.uncertainty.speed_sigma import SpeedWithSigma, critical_speeds_with_sigma
+from ..core.uncertainty.state_space_sigma import state_space_sigma
 from ..core.whipple import MODE_LABELS, EigenvalueSweep, WhippleMatrices, eigenvalues, state_space
 from ..core.whipple.closed_loop import closed_loop_state_space
 
@@ -27,8 +30,10 @@ __all__ = [
     "ModelMatrices",
     "StabilitySweep",
     "StateSpaceAt",
+    "StateSpaceWithSigma",
     "compute_model",
     "state_space_at",
+    "state_space_with_sigma_at",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -175,3 +180,66 @@ def state_space_at(model: ModelMatrices, speed: float, feedback: Feedback | None
     return StateSpaceAt(v, np.asarray(a, dtype=float), np.asarray(b, dtype=float), sweep.eigenvalues[0], sweep.labels)
 
 
+
+
+@dataclass(frozen=True)
+class StateSpaceWithSigma:
+    """:class:`StateSpaceAt` with the σ of every number (the fields of a ``StateSpaceModel`` message).
+
+    Attributes:
+        state: A, B and the labelled eigenvalues, equal to :func:`state_space_at`'s.
+        a_sigma: σ of A's entries, shape (4, 4) (1/s, 1/s²).
+        b_sigma: σ of B's entries, shape (4, 2) (1/(kg m²)).
+        eigenvalues_sigma_real: σ of the eigenvalues' real parts, shape (4,), 1/s; NaN near a
+            branch point (:mod:`bike_rig.core.uncertainty.eigen_sigma`).
+        eigenvalues_sigma_imag: σ of the imaginary parts, likewise.
+        bicycle: The bicycle's name (without the rider).
+        rider: "" or "paper".
+        feedback: "" (open loop) or the feedback's name (A is then the closed loop's A − B K).
+        convention: How σ were computed.
+    """
+
+    state: StateSpaceAt
+    a_sigma: FloatArray
+    b_sigma: FloatArray
+    eigenvalues_sigma_real: FloatArray
+    eigenvalues_sigma_imag: FloatArray
+    bicycle: str
+    rider: str
+    feedback: str
+    convention: SigmaConvention
+
+
+def state_space_with_sigma_at(
+    ps: ParameterSet,
+    model: ModelMatrices,
+    speed: float,
+    feedback: Feedback | None = None,
+) -> StateSpaceWithSigma:
+    """A, B and the labelled eigenvalues at ``speed`` (m/s) with their σ from the parameter covariance.
+
+    Args:
+        ps: The bicycle's parameter set (without rider; ``model.rider`` is added).
+        model: Its canonical matrices (from :func:`compute_model` with the rider and convention).
+        speed: m/s, finite and ≥ 0.
+        feedback: Steer-torque state feedback (the closed loop), None for the open loop.
+
+    Raises:
+        ModelError: the speed is not a finite number ≥ 0 m/s.
+    """
+    state = state_space_at(model, speed, feedback)
+    full = _with_rider(ps, model.rider)
+    sig = state_space_sigma(full, state.speed, model.convention, feedback)
+    label_speeds = np.linspace(state.speed, state.speed + LABEL_SWEEP_SPAN, LABEL_SWEEP_COUNT)
+    eig = eigenvalues_with_sigma(full, label_speeds, model.convention, feedback)
+    return StateSpaceWithSigma(
+        state,
+        sig.a_sigma,
+        sig.b_sigma,
+        eig.sigma_real[0],
+        eig.sigma_imag[0],
+        model.bicycle,
+        model.rider,
+        "" if feedback is None else feedback.name,
+        model.convention,
+    )

@@ -34,6 +34,7 @@ from typing import Any, Protocol
 
 from ..core.period.advice import flag_advice
 from ..core.symbols import PARAMETER_NAMES
+from ..diagnostics import HealthBoard, StatusReport
 from ..pipeline.acquire import SampleBatch, TrialEventRecord
 from ..pipeline.assemble import SessionParameters
 from ..pipeline.fit import TrialFit
@@ -46,7 +47,10 @@ from .state import OperatorSession
 
 __all__ = ["COMMANDS", "GraphEvent", "GraphLink", "Reply", "SessionController", "StartReply"]
 
-GraphEvent = TrialEventRecord | SampleBatch | TrialFit | FitDetails | SessionParameters | StabilitySweep | ReadingEntry
+GraphEvent = (
+    TrialEventRecord | SampleBatch | TrialFit | FitDetails | SessionParameters | StabilitySweep | ReadingEntry
+    | StatusReport
+)
 
 COMMANDS = ("start", "stop", "abort", "reading", "status", "next", "best", "plan", "params", "help", "quit")
 
@@ -91,7 +95,8 @@ class Reply:
     """One line of output.
 
     Attributes:
-        kind: ``ok``, ``error``, ``warning``, ``result``, ``info`` or ``done``.
+        kind: ``ok``, ``error``, ``warning``, ``result``, ``info``, ``health`` (a node's
+            ``/diagnostics`` level changed; ``data`` has ``node`` and ``level``) or ``done``.
         text: The line.
         data: The same for ``--json``.
     """
@@ -141,6 +146,8 @@ class SessionController:
     _pending: list[Reply] = field(default_factory=list)
     #: When the last parameter set or stability sweep arrived (``clock``), s.
     updated_at: float = 0.0
+    #: The nodes' latest ``/diagnostics`` statuses (a line when a node's worst level changes).
+    health: HealthBoard = field(default_factory=HealthBoard)
 
     # ------------------------------------------------------------------ resume
     def resume(self, trial_ids: Sequence[str], entries: Sequence[ReadingEntry], note: str) -> None:
@@ -368,6 +375,11 @@ class SessionController:
         elif isinstance(ev, StabilitySweep):
             s.on_stability(ev)
             self.updated_at = now
+        elif isinstance(ev, StatusReport):
+            return [
+                Reply("health", f"health: {node} {level.name}: {message}", {"node": node, "level": level.name})
+                for node, level, message in self.health.update(ev.statuses)
+            ]  # fmt: skip
         elif isinstance(ev, ReadingEntry):
             if not any(e.stamp_ns == ev.stamp_ns and e.value == ev.value for e in s.readings.get(ev.key, [])):
                 s.on_reading(ev)

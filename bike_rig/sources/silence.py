@@ -80,6 +80,11 @@ class SilenceWatch:
         """The trials being watched."""
         return tuple(self._trials)
 
+    def longest(self) -> float:
+        """Wall seconds the most silent recording trial has had no samples (0 when none records), s."""
+        now = self._monotonic()
+        return max((now - w.since for w in self._trials.values()), default=0.0)
+
     def due(self) -> list[Silence]:
         """The trials that have gone silent since the last call (each silence once)."""
         now = self._monotonic()

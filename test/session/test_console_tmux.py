@@ -140,6 +140,8 @@ def test_closing_the_terminal_ends_the_session_and_its_graph(tmp_path: Path, ros
     tmux = TmuxSession([str(BIKE_RIG), "session", "--output", str(folder)], ros_env, tmp_path)
     try:
         tmux.wait_for(r"· 0/68 done", 60)
+        # the nodes' /diagnostics: one level per node on the health line
+        tmux.wait_for(r"Health:(?=.*\bdriver OK\b)(?=.*\bfitter OK\b)(?=.*\bparameter WARN\b)", 30, flat=True)
         pids = session_pids(folder)
         assert set(pids) >= {"console", "driver", "recorder"}
     finally:

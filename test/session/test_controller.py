@@ -279,3 +279,26 @@ def test_the_fit_details_join_the_result_before_or_after_it(ctl_link, details_fi
         assert results == [line.split("; ")[0]]
         info = [r.text for r in replies if r.kind == "info"]
         assert info == [f"{first.item_id} {trial_id}: {line.split('; ', 1)[1]}"]
+
+
+def test_diagnostics_give_a_health_line_and_a_reply_when_a_node_changes_level(ctl_link) -> None:  # type: ignore[no-untyped-def]
+    from bike_rig.diagnostics import Level, Status, StatusReport
+
+    ctl, link, _ = ctl_link
+
+    def report(node: str, **levels: Level) -> StatusReport:
+        return StatusReport(tuple(Status.of(node, c, lv, f"{c} is {lv.name}") for c, lv in levels.items()))
+
+    link.events_out += [report("driver", source=Level.OK, samples=Level.OK), report("recorder", disk=Level.OK)]
+    assert [r for r in ctl.pump() if r.text.startswith("health")] == []  # first seen OK: nothing to say
+    assert ctl.health.line() == "driver OK · recorder OK"
+    link.events_out.append(report("driver", source=Level.OK, samples=Level.ERROR))
+    (reply,) = ctl.pump()
+    assert (reply.kind, reply.text) == ("health", "health: driver ERROR: samples: samples is ERROR")
+    assert reply.data == {"node": "driver", "level": "ERROR"}
+    assert ctl.health.line() == "driver ERROR (samples: samples is ERROR) · recorder OK"
+    link.events_out.append(report("driver", source=Level.OK, samples=Level.ERROR))
+    assert ctl.pump() == []  # the same level again: no new line
+    link.events_out.append(report("driver", source=Level.OK, samples=Level.OK))
+    (back,) = ctl.pump()
+    assert back.kind == "health" and back.text.startswith("health: driver OK")

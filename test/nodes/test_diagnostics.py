@@ -1,0 +1,171 @@
+"""``/diagnostics`` from the five nodes as real processes (REP-107, 1 Hz).
+
+Every node's array arrives about once a second with the documented statuses; levels follow the
+conditions: the model is WARN until a parameter set arrives, then OK; the driver's samples go
+OK (idle) → WARN → ERROR while a trial on a silent CAN bus gets no samples, and back to OK when
+it is aborted; the recorder's disk status is WARN with a free-space threshold above the disk's;
+the parameter node is WARN while incomplete.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import uuid
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from bike_rig import topics
+from bike_rig.core.benchmark import ComMethod
+from bike_rig.diagnostics import HARDWARE_ID, Level, Status
+from bike_rig.messages.diagnostics import statuses_from_msg
+from test.nodes.test_model import STAMP_NS, publish_set
+from test.nodes.test_parameter import BROWSER, Probe, node_environment, start_node
+
+pytestmark = pytest.mark.ros
+
+#: The statuses each node publishes (README, Diagnostics).
+CONCERNS = {
+    "driver": {"source", "samples", "gyro range"},
+    "fitter": {"buffer", "fits"},
+    "parameter": {"completeness"},
+    "model": {"model", "ride"},
+    "recorder": {"bag", "disk"},
+}
+
+
+@pytest.fixture
+def probe(ros_env: dict[str, str]) -> Iterator[Probe]:
+    with Probe(ros_env) as p:
+        yield p
+
+
+@pytest.fixture
+def node_env(ros_env: dict[str, str]) -> dict[str, str]:
+    return node_environment(ros_env)
+
+
+def stamp_s(msg: Any) -> float:
+    return int(msg.header.stamp.sec) + 1e-9 * int(msg.header.stamp.nanosec)
+
+
+def arrays_of(box: list[Any], node: str) -> list[tuple[float, list[Status]]]:
+    """Every array of ``node`` received so far: (stamp, statuses)."""
+    out = []
+    for msg in box:
+        statuses = statuses_from_msg(msg)
+        if statuses and statuses[0].name.startswith(f"{node}: "):
+            out.append((stamp_s(msg), statuses))
+    return out
+
+
+def latest(box: list[Any], node: str, concern: str) -> Status | None:
+    arrays = arrays_of(box, node)
+    if not arrays:
+        return None
+    return next((s for s in arrays[-1][1] if s.name == f"{node}: {concern}"), None)
+
+
+def test_every_node_publishes_its_statuses_at_1_hz_and_levels_follow(
+    probe: Probe, node_env: dict[str, str], tmp_path: Path
+) -> None:
+    from diagnostic_msgs.msg import DiagnosticArray
+
+    from bike_rig_msgs.srv import StartTrial, StopTrial
+
+    box = probe.listen(topics.DIAGNOSTICS, DiagnosticArray)
+    channel = f"silent-{uuid.uuid4().hex[:8]}"
+    with contextlib.ExitStack() as stack:
+        procs = {
+            "driver": start_node("driver", "driver", node_env, tmp_path, "-p", "source:=can",
+                                 "-p", "can_interface:=virtual", "-p", f"can_channel:={channel}",
+                                 "-p", "silence_warning_s:=0.5"),
+            "fitter": start_node("fitter", "fitter", node_env, tmp_path),
+            "parameter": start_node("parameter", "parameter", node_env, tmp_path, "-p", f"measurements:={BROWSER}"),
+            "model": start_node("model", "model", node_env, tmp_path),
+            "recorder": start_node("recorder", "recorder", node_env, tmp_path, "-p", f"output:={tmp_path / 'bag'}",
+                                   "-p", "min_free_disk_mb:=1000000000.0"),
+        }  # fmt: skip
+        for p in procs.values():
+            stack.enter_context(p)
+        running = list(procs.values())
+
+        def describe() -> str:
+            return "\n".join(p.describe() for p in running)
+
+        def wait(condition: Any, what: str) -> None:
+            try:
+                probe.wait_for(condition, what, timeout=40.0)
+            except AssertionError as exc:
+                raise AssertionError(f"{exc}\n{describe()}") from None
+
+        wait(lambda: all(len(arrays_of(box, n)) >= 4 for n in CONCERNS), "4 arrays from every node")
+        for node, concerns in CONCERNS.items():
+            arrays = arrays_of(box, node)
+            for _, statuses in arrays:
+                assert {s.name for s in statuses} == {f"{node}: {c}" for c in concerns}, statuses
+                assert all(s.hardware_id == HARDWARE_ID and s.message for s in statuses)
+            gaps = [b[0] - a[0] for a, b in zip(arrays, arrays[1:], strict=False)]
+            assert all(0.7 <= g <= 1.5 for g in gaps), (node, gaps)  # 1 Hz on a shared 2-core machine
+
+        def level(node: str, concern: str) -> Level | None:
+            s = latest(box, node, concern)
+            return None if s is None else s.level
+
+        assert level("parameter", "completeness") == Level.WARN
+        assert "incomplete" in str(latest(box, "parameter", "completeness"))
+        assert level("recorder", "disk") == Level.WARN and level("recorder", "bag") == Level.OK
+        assert level("fitter", "buffer") == Level.OK and level("fitter", "fits") == Level.OK
+        assert level("driver", "source") == Level.OK and level("driver", "samples") == Level.OK
+        assert level("model", "model") == Level.WARN
+
+        # a parameter set: the model turns OK
+        publish_set(probe, ComMethod.CENTROID, STAMP_NS)
+        wait(lambda: level("model", "model") == Level.OK, "the model's status OK")
+        model_status = latest(box, "model", "model")
+        assert model_status is not None and model_status.value("bicycle") == "Browser"
+
+        # a trial on a silent bus: samples WARN, then ERROR (3 x silence_warning_s), OK again once aborted
+        started = probe.call(StartTrial, topics.START_TRIAL, StartTrial.Request(part="fork", pendulum="torsional",
+                                                                                 orientation=1))  # fmt: skip
+        assert started.accepted, started.message
+        wait(lambda: level("driver", "samples") == Level.WARN, "the driver's samples WARN")
+        wait(lambda: level("driver", "samples") == Level.ERROR, "the driver's samples ERROR")
+        error = latest(box, "driver", "samples")
+        assert error is not None and started.trial_id in error.value("recording")
+        assert float(error.value("since last sample (s)")) >= 1.5 or error.value("since last sample (s)") == "inf"
+        stopped = probe.call(StopTrial, topics.STOP_TRIAL, StopTrial.Request(trial_id=started.trial_id, abort=True))
+        assert stopped.accepted, stopped.message
+        wait(lambda: level("driver", "samples") == Level.OK, "the driver's samples OK again")
+        codes = {name: p.stop() for name, p in procs.items()}
+    assert all(code == 0 for code in codes.values()), (codes, describe())
+
+
+def test_a_streaming_trial_is_ok_at_its_rate(probe: Probe, node_env: dict[str, str], tmp_path: Path) -> None:
+    """The simulated rig in operator mode: while a trial records, samples OK at ~1 kHz, not behind."""
+    from diagnostic_msgs.msg import DiagnosticArray
+
+    from bike_rig_msgs.srv import StartTrial
+
+    box = probe.listen(topics.DIAGNOSTICS, DiagnosticArray)
+    args = ("-p", "source:=sim", "-p", "mode:=operator", "-p", f"bicycle:={BROWSER}", "-p", "seed:=3")
+    with start_node("driver", "driver_sim", node_env, tmp_path, *args) as driver:
+        request = StartTrial.Request(part="fork", pendulum="torsional", orientation=1, duration_s=6.0)
+        started = probe.call(StartTrial, topics.START_TRIAL, request)
+        assert started.accepted, started.message
+
+        def recording_for_2_s() -> bool:
+            s = latest(box, "driver", "samples")
+            return s is not None and s.message.startswith("recording") and int(s.value("samples published")) > 2500
+
+        try:
+            probe.wait_for(recording_for_2_s, "2.5 s of samples", timeout=40.0)
+        except AssertionError as exc:
+            raise AssertionError(f"{exc}\n{[str(latest(box, 'driver', 'samples'))]}\n{driver.describe()}") from None
+        s = latest(box, "driver", "samples")
+        assert s is not None and s.level == Level.OK, s
+        assert 900.0 <= float(s.value("sample rate (Hz)")) <= 1100.0 and float(s.value("expected rate (Hz)")) == 1000.0
+        assert float(s.value("behind (s)")) < 0.5 and s.value("samples missing") == "0"
+        assert driver.stop() == 0, driver.describe()
