@@ -16,6 +16,7 @@ from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
+from websockets.exceptions import ConnectionClosed
 from websockets.sync.client import ClientConnection, connect
 from websockets.typing import Subprotocol
 
@@ -44,6 +45,7 @@ class FoxgloveClient:
     subscriptions: dict[int, int] = field(default_factory=dict)
     received: dict[str, list[Received]] = field(default_factory=dict)
     others: list[dict[str, Any]] = field(default_factory=list)
+    closed: bool = False
 
     def by_topic(self) -> dict[str, dict[str, Any]]:
         """The advertised channels by topic."""
@@ -68,16 +70,24 @@ class FoxgloveClient:
             self.others.append(msg)
 
     def read_until(self, condition: Callable[[], bool], timeout: float, what: str) -> None:
-        """Take frames until ``condition()``; fail after ``timeout`` s."""
+        """Take frames until ``condition()``; fail after ``timeout`` s or when the server closes first.
+
+        A closed connection sets :attr:`closed` (a condition may wait for it).
+        """
         deadline = time.monotonic() + timeout
         while not condition():
             remaining = deadline - time.monotonic()
+            got = {t: len(v) for t, v in self.received.items()}
             if remaining <= 0:
-                got = {t: len(v) for t, v in self.received.items()}
                 raise AssertionError(f"{self.url}: no {what} within {timeout} s (received {got})")
+            if self.closed:
+                raise AssertionError(f"{self.url}: closed by the server before {what} (received {got})")
             try:
                 frame = self.ws.recv(timeout=min(remaining, 0.2))
             except TimeoutError:
+                continue
+            except ConnectionClosed:
+                self.closed = True
                 continue
             self._take(frame)
 
