@@ -189,6 +189,7 @@ def test_every_channel_carries_what_was_published(
                 assert_same(store_for(msgtype).deserialize_cdr(rec.payload, msgtype), msg, f"late {topic}")
     assert proc.stop() == 0, proc.describe()
     log = proc.stderr_path.read_text()
+    assert "Callback failed" not in log and "not forwarded" not in log, log  # (the SDK's and ours)
     if _diagnostics_module() is None:
         assert "/diagnostics not served: diagnostic_msgs/msg/DiagnosticArray is not installed" in log
 
