@@ -70,7 +70,6 @@ class _Forwarder:
         self.view = view
         self.channel = channel
         self.kept: collections.deque[tuple[bytes, int]] = collections.deque(maxlen=max(view.replay_depth, 1))
-        self.forwarded = 0
         self._lock = lock
 
     def forward(self, data: bytes) -> None:
@@ -80,7 +79,6 @@ class _Forwarder:
             if self.view.replay_depth:
                 self.kept.append((data, now))
             self.channel.log(data, log_time=now)
-        self.forwarded += 1
 
     def replay(self, sink_id: int) -> int:
         """Send the kept messages to one client; returns how many."""

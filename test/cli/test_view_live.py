@@ -7,8 +7,9 @@ it receives is what the recorder recorded, byte for byte (both take the CDR that
 delivers): every gyro batch it got is one of the bag's, in the bag's order, and the whole last
 trial arrived; the trial events and periods are the bag's (those before the client subscribed
 come from the bridge's kept history); the latest parameters, matrices and eigen sweep are the
-bag's latest. A message kept and forwarded at the moment the client subscribes may arrive
-twice: the events and periods are compared as sets.
+bag's latest; the bag's MCAP schemas are those the bridge advertises. A message kept and
+forwarded at the moment the client subscribes may arrive twice: the events and periods are
+compared as sets.
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ import socket
 import time
 from pathlib import Path
 
+from mcap.reader import make_reader
 from rosbags.rosbag2 import Reader
 
 from bike_rig.bag.typestore import rig_typestore
@@ -79,6 +81,19 @@ def test_a_run_with_the_view_serves_what_the_bag_records(ros_env: dict[str, str]
     for topic in (PARAMETERS.name, MATRICES.name, EIGEN_SWEEP.name):
         assert got[topic] and set(got[topic]) <= set(bag[topic]), topic
         assert got[topic][-1] == bag[topic][-1], f"{topic}: the latest is not the bag's latest"
+    # one schema source: the bag's MCAP channels carry the schemas (name, encoding, text) advertised live
+    advertised = client.by_topic()
+    for mcap_file in sorted((tmp_path / "session" / "bag").glob("*.mcap")):
+        with mcap_file.open("rb") as f:
+            summary = make_reader(f).get_summary()
+        assert summary is not None
+        for channel in summary.channels.values():
+            schema = summary.schemas[channel.schema_id]
+            live = advertised[channel.topic]
+            recorded = (channel.message_encoding, schema.name, schema.encoding, schema.data.decode())
+            assert recorded == (live["encoding"], live["schemaName"], live["schemaEncoding"], live["schema"]), (
+                channel.topic
+            )
     params = store.deserialize_cdr(got[PARAMETERS.name][-1], PARAMETERS.type)
     assert params.complete and len(params.names) == len(params.values) >= 25
     print(f"bike-rig run with the view, 13 trials at 25x: {wall:.1f} s wall; {len(gyro)} of "
