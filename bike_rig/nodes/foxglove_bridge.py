@@ -42,6 +42,8 @@ if TYPE_CHECKING:
 __all__ = ["NODE_NAME", "PARAMETERS", "BridgeError", "FoxgloveBridge", "main"]
 
 NODE_NAME = "foxglove_bridge"
+#: Live messages the server may queue per client beyond a replay (the SDK's default backlog).
+LIVE_BACKLOG = 1024
 
 #: The bridge's parameters (``config/foxglove_bridge.yaml``).
 PARAMETERS: tuple[ParamSpec, ...] = (
@@ -61,6 +63,17 @@ def message_class(msgtype: str) -> Any | None:
         return getattr(importlib.import_module(f"{package}.msg"), name)
     except (ImportError, AttributeError):
         return None
+
+
+def backlog_size() -> int:
+    """Messages the server may queue per client: every kept message (a late client's replay) and a live margin.
+
+    The SDK's default, 1024, is less than a full replay (the trial events, periods, fit details
+    and readings keep up to 2000 each): a client that reads slower than the server sends (across
+    a network) would lose the oldest. (A client on this computer keeps up: the 2000 kept trial
+    events of ``test/nodes/test_foxglove_bridge.py`` arrive in full with the default too.)
+    """
+    return sum(v.replay_depth for v in VIEW_TOPICS) + LIVE_BACKLOG
 
 
 class _Forwarder:
@@ -146,8 +159,9 @@ class FoxgloveBridge:
         host, port = values["host"], values["port"]
         try:
             self.server = foxglove.start_server(
-                name="bike_rig", host=host, port=port, context=self.context, server_listener=listener
-            )
+                name="bike_rig", host=host, port=port, context=self.context, server_listener=listener,
+                message_backlog_size=backlog_size(),
+            )  # fmt: skip
         except Exception as exc:  # the SDK raises RuntimeError or its own error types
             raise BridgeError(f"cannot serve the live view on {host}:{port} ({exc})") from None
         self.url = f"ws://{host}:{self.server.port}"

@@ -221,3 +221,22 @@ def test_bad_view_arguments_end_in_one_line(argv: list[str], message: str, capsy
     assert main(["view", *argv]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("bike-rig view: error:") and message in err[0], err
+
+
+def test_a_late_client_gets_the_whole_kept_history(probe: Probe, bridge: tuple[RosProcess, str]) -> None:
+    """The whole kept history (2000 trial events, above the SDK's default backlog) reaches a later client, in order."""
+    proc, url = bridge
+    n = TRIAL_EVENTS.qos.depth  # the whole transient-local history
+    pub = probe.publisher(TRIAL_EVENTS, msgs.TrialEvent)
+    probe.spin_until(lambda: pub.get_subscription_count() > 0, STEP_TIMEOUT_S, "the bridge", proc.describe)
+    for i in range(n):
+        pub.publish(msgs.TrialEvent(trial_id=f"t{i}", measurement_key="TtB1", sample_rate_hz=RATE))
+    with foxglove_client(url) as client:
+        client.read_until(lambda: TRIAL_EVENTS.name in client.by_topic(), STEP_TIMEOUT_S, "advertise")
+        # (those the bridge has not taken from DDS yet come live, after the replay: the order holds)
+        client.subscribe([TRIAL_EVENTS.name])
+        client.read_until(lambda: len(client.received.get(TRIAL_EVENTS.name, [])) >= n, STEP_TIMEOUT_S,
+                          f"{n} kept trial events")  # fmt: skip
+    store = store_for(TRIAL_EVENTS.type)
+    ids = [store.deserialize_cdr(r.payload, TRIAL_EVENTS.type).trial_id for r in client.received[TRIAL_EVENTS.name]]
+    assert ids == [f"t{i}" for i in range(n)]
