@@ -10,7 +10,8 @@ bike_rig's own messages from that text. Log time: when the bridge takes the mess
 A topic whose message type is not importable here (``diagnostic_msgs`` when its wheel is not
 installed) is left out, with one log line. A Foxglove client that subscribes to a channel gets
 the messages the bridge keeps for it first (:attr:`bike_rig.liveview.ViewTopic.replay_depth`:
-the transient-local topics' history), so a late client sees the session so far.
+the transient-local topics' history), then the live ones, none twice: a late client sees the
+session so far.
 
 Parameters (``config/foxglove_bridge.yaml``):
 
@@ -77,12 +78,20 @@ def backlog_size() -> int:
 
 
 class _Forwarder:
-    """One topic: its Foxglove channel and the messages kept for clients that subscribe later."""
+    """One topic: its Foxglove channel, the clients subscribed to it, the messages kept for later ones.
+
+    Every message goes to each subscribed client by its id (the SDK logs to one client by its
+    id, its sink id), under one lock with the subscriptions: a client that subscribes gets the
+    kept messages, then each later one, none twice and, of the kept topics, none missed. A gyro
+    batch that arrives while a client's subscription is being set up (milliseconds) does not
+    reach that client.
+    """
 
     def __init__(self, view: ViewTopic, channel: Any, lock: threading.Lock) -> None:
         self.view = view
         self.channel = channel
         self.kept: collections.deque[tuple[bytes, int]] = collections.deque(maxlen=max(view.replay_depth, 1))
+        self.clients: set[int] = set()
         self._lock = lock
 
     def forward(self, data: bytes) -> None:
@@ -91,19 +100,26 @@ class _Forwarder:
         with self._lock:
             if self.view.replay_depth:
                 self.kept.append((data, now))
-            self.channel.log(data, log_time=now)
+            for client in self.clients:
+                self.channel.log(data, log_time=now, sink_id=client)
 
-    def replay(self, sink_id: int) -> int:
-        """Send the kept messages to one client; returns how many."""
+    def subscribe(self, client: int) -> int:
+        """A client subscribed: send it the kept messages, then the live ones; returns how many were kept."""
         with self._lock:
             kept = list(self.kept) if self.view.replay_depth else []
             for data, stamp in kept:
-                self.channel.log(data, log_time=stamp, sink_id=sink_id)
+                self.channel.log(data, log_time=stamp, sink_id=client)
+            self.clients.add(client)
         return len(kept)
+
+    def unsubscribe(self, client: int) -> None:
+        """A client unsubscribed or left."""
+        with self._lock:
+            self.clients.discard(client)
 
 
 def _listener(by_channel: dict[int, _Forwarder]) -> Any:
-    """The server's listener: a client that subscribes to a channel first gets its kept messages.
+    """The server's listener: tells each channel's forwarder which clients subscribe.
 
     Args:
         by_channel: The forwarder of each Foxglove channel id.
@@ -114,7 +130,12 @@ def _listener(by_channel: dict[int, _Forwarder]) -> Any:
         def on_subscribe(self, client: Any, channel: Any) -> None:
             forwarder = by_channel.get(channel.id)
             if forwarder is not None:
-                forwarder.replay(client.id)
+                forwarder.subscribe(client.id)
+
+        def on_unsubscribe(self, client: Any, channel: Any) -> None:
+            forwarder = by_channel.get(channel.id)
+            if forwarder is not None:
+                forwarder.unsubscribe(client.id)
 
     return Listener()
 
