@@ -29,6 +29,7 @@ setup(
         (f"share/{PACKAGE}", ["package.xml"]),
         (f"share/{PACKAGE}/config", _files("config/*.yaml")),
         (f"share/{PACKAGE}/config/bicycles", _files("config/bicycles/*")),
+        (f"share/{PACKAGE}/config/foxglove", _files("config/foxglove/*")),
     ],
     # Runtime libraries are installed from tools/requirements.txt (pinned, with the ROS
     # wheels), not declared here: the ROS packages come from the ROS prefix, as in ament.
@@ -42,6 +43,7 @@ setup(
             "bike-rig-parameter = bike_rig.nodes.parameter:main",
             "bike-rig-model = bike_rig.nodes.model:main",
             "bike-rig-recorder = bike_rig.nodes.recorder:main",
+            "bike-rig-foxglove-bridge = bike_rig.nodes.foxglove_bridge:main",
         ],
     },
 )

@@ -43,6 +43,7 @@ SUBCOMMANDS: tuple[tuple[str, str], ...] = (
     ("bag", "bag_cmd"),
     ("replay", "replay_cmd"),
     ("run", "run_cmd"),
+    ("view", "view_cmd"),
     ("session", "session_cmd"),
     ("simulate", "simulate_cmd"),
     ("plot", "plot_cmd"),
