@@ -79,7 +79,7 @@ from ..messages import (
 )
 from ..params import ParamSpec
 from ..pipeline.health import ModelHealth, model_statuses
-from ..pipeline.model import ModelMatrices, compute_model, state_space_at, state_space_with_sigma_at
+from ..pipeline.model import ModelMatrices, compute_model, state_space_at, state_space_with_sigma_at, with_rider
 from ..rosqos import profile
 from .diagnostics import DiagnosticsUpdater
 from .params import NodeParameterError, declare_parameters, parameter_error
@@ -156,6 +156,7 @@ class ModelNode(Node):
 
         self._parameter_set: ParameterSet | None = None
         self._models: dict[str, ModelMatrices] = {}
+        self._ride_full: ParameterSet | None = None
         self._matrices_pub = self.create_publisher(
             _msgs.CanonicalMatrices, topics.MATRICES.name, profile(topics.MATRICES)
         )
@@ -203,6 +204,7 @@ class ModelNode(Node):
             return
         self._parameter_set = ps
         self._models = {self._rider: matrices}
+        self._ride_full = None
         out_m = fill_canonical_matrices(_msgs.CanonicalMatrices(), matrices)
         out_s = fill_eigen_sweep(_msgs.EigenSweep(), stability)
         out_m.header.stamp = msg.header.stamp
@@ -288,7 +290,11 @@ class ModelNode(Node):
             return  # the timer publishes it when the interval is over
         started = time.perf_counter()
         try:
-            model = state_space_with_sigma_at(self._parameter_set, self._model(self._rider), v, self._feedback)
+            if self._ride_full is None:  # (the set with the node's rider, seated once per set)
+                self._ride_full = with_rider(self._parameter_set, self._rider, files=True)
+            model = state_space_with_sigma_at(
+                self._parameter_set, self._model(self._rider), v, self._feedback, full=self._ride_full
+            )
         except BikeRigError as exc:
             self.get_logger().error(f"ride state space at {v:g} m/s: {exc}")
             self._ride_published = v

@@ -34,6 +34,7 @@ __all__ = [
     "compute_model",
     "state_space_at",
     "state_space_with_sigma_at",
+    "with_rider",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -81,7 +82,8 @@ class StabilitySweep:
     feedback: str = ""
 
 
-def _with_rider(ps: ParameterSet, rider: str, files: bool) -> ParameterSet:
+def with_rider(ps: ParameterSet, rider: str, files: bool = False) -> ParameterSet:
+    """``ps`` with ``rider`` ("" none, "paper", or with ``files`` a rider file) lumped into its rear frame."""
     r = resolve_rider(rider, files=files)
     return ps if r is None else add_rider(ps, r)
 
@@ -119,7 +121,7 @@ def compute_model(
         fb_key = feedback.source or feedback.name
     else:
         fb, fb_key = resolve_feedback(feedback), feedback_key(feedback)
-    full = _with_rider(ps, name, files)
+    full = with_rider(ps, name, files)
     ms = canonical_with_sigma(full, convention)
     if fb is None:
         sweep = eigenvalues(ms.matrices, ms.g, speeds)
@@ -215,6 +217,9 @@ def state_space_with_sigma_at(
     model: ModelMatrices,
     speed: float,
     feedback: Feedback | None = None,
+    *,
+    files: bool = False,
+    full: ParameterSet | None = None,
 ) -> StateSpaceWithSigma:
     """A, B and the labelled eigenvalues at ``speed`` (m/s) with their σ from the parameter covariance.
 
@@ -223,12 +228,15 @@ def state_space_with_sigma_at(
         model: Its canonical matrices (from :func:`compute_model` with the rider and convention).
         speed: m/s, finite and ≥ 0.
         feedback: Steer-torque state feedback (the closed loop), None for the open loop.
+        files: Whether ``model.rider`` may name a rider file.
+        full: ``ps`` with the rider already added (:func:`with_rider`), when the caller keeps it
+            (seating a Yeadon rider takes about a second).
 
     Raises:
         ModelError: the speed is not a finite number ≥ 0 m/s.
     """
     state = state_space_at(model, speed, feedback)
-    full = _with_rider(ps, model.rider)
+    full = full if full is not None else with_rider(ps, model.rider, files)
     sig = state_space_sigma(full, state.speed, model.convention, feedback)
     label_speeds = np.linspace(state.speed, state.speed + LABEL_SWEEP_SPAN, LABEL_SWEEP_COUNT)
     eig = eigenvalues_with_sigma(full, label_speeds, model.convention, feedback)
