@@ -16,10 +16,11 @@ Layout of a bag ``NAME/``::
 
 Splitting, as rosbag2's ``--max-bag-size`` / ``--max-bag-duration`` and its ``split_bagfile``
 service: :meth:`BagWriter.split` closes the current file and opens the next; with
-``max_bytes`` a file is closed before a message would take its estimated size on disk
-(written bytes plus the chunk in progress at the file's compression ratio so far) past the
-limit, with ``max_duration_s`` before a message whose log time is that far from the file's
-first. A message is never split from its file or lost.
+``max_bytes`` a file is closed before a message would take its estimated size on disk past
+the limit (written bytes, the chunk in progress at the file's compression ratio so far, and
+the closing records: rosbag2 metadata, summary, footer; the estimate of the last chunk may
+be off by a little), with ``max_duration_s`` before a message whose log time is that far from
+the file's first. A message is never split from its file or lost.
 
 The data are made durable as they arrive: the chunk in progress is closed and handed to the
 operating system at least every ``flush_period_s`` (and whenever it reaches ``chunk_size``),
@@ -167,6 +168,8 @@ class _FileStats:
     """Message bytes (records, uncompressed) in the chunk not yet written."""
     ratio: float = 1.0
     """Bytes on disk per message byte, as measured on the chunks written (or the previous file's)."""
+    writes: int = 0
+    """How many times the file grew by chunks (each chunk gets an index entry in the summary)."""
 
     def entry(self) -> dict[str, Any]:
         """The file's entry in metadata.yaml's ``files``."""
@@ -187,11 +190,22 @@ class _FileStats:
         if size == self.size:
             return
         self.size = size
+        self.writes += 1
         self.raw_flushed += self.raw_pending
         self.raw_pending = 0
-        if self.raw_flushed:
+        if self.raw_flushed >= RATIO_MIN_BYTES:  # a few small chunks are mostly chunk overhead
             self.ratio = (self.size - self.header) / self.raw_flushed
 
+
+RATIO_MIN_BYTES = 16 << 10
+"""Message bytes a file's chunks must hold before their size on disk sets the compression ratio."""
+
+CLOSING_MARGIN = 1024
+"""Bytes of a file's closing records besides the repeated schemas and channels, the rosbag2
+metadata and the chunk indexes: statistics, summary offsets, footer, growth of the metadata."""
+
+CHUNK_INDEX_BYTES = 100
+"""Bytes of a chunk index record (plus 10 per channel)."""
 
 MESSAGE_RECORD_OVERHEAD = 31 + 16
 """Bytes of an MCAP Message record besides its data (opcode, length, channel, sequence, times),
@@ -261,6 +275,9 @@ class BagWriter:
         self._msgdefs: dict[str, str] = {}
         self._stats = _Stats()
         self._files: list[_FileStats] = []
+        self._metadata_bytes = 0
+        self._summary_bytes = 0
+        """Bytes of the schema and channel records of the current file (its summary repeats them)."""
         self._closed = False
 
     # ------------------------------------------------------------------ life cycle
@@ -299,21 +316,31 @@ class BagWriter:
         )
         self._mcap.start(profile=PROFILE, library=f"bike_rig {__version__}; mcap-python {package_version('mcap')}")
         self._schemas = {}
+        self._summary_bytes = 0
         for ch in self._channels.values():
             ch.id = self._register(ch.name, ch.msgtype, self._msgdefs[ch.msgtype], ch.type_hash, ch.offered_qos)
         self._mcap.flush()
         ratio = self._files[-1].ratio if self._files else 1.0
         self._files.append(_FileStats(self.data_path.name, ratio=ratio))
         self._files[-1].size = self._files[-1].header = self._stream.tell()
+        self._metadata_bytes = self._metadata_record_size()
+
+    def _metadata_record_size(self) -> int:
+        """Bytes the rosbag2 metadata record would take now (a file's closing records hold it)."""
+        return len(yaml.safe_dump(self.metadata()["rosbag2_bagfile_information"], sort_keys=False)) + 64
 
     def _register(self, name: str, msgtype: str, msgdef: str, rihs01: str, offered_qos: Sequence[Qos]) -> int:
         """Register a channel (and its type's schema the first time) in the current file; its id."""
         mcap = self._require_open()
         schema_id = self._schemas.get(msgtype)
         if schema_id is None:
-            schema_id = mcap.register_schema(msgtype, SCHEMA_ENCODING, msgdef.encode("utf-8"))
+            data = msgdef.encode("utf-8")
+            schema_id = mcap.register_schema(msgtype, SCHEMA_ENCODING, data)
             self._schemas[msgtype] = schema_id
+            self._summary_bytes += 27 + len(msgtype) + len(SCHEMA_ENCODING) + len(data)
         metadata = {"offered_qos_profiles": _qos_yaml(offered_qos), "topic_type_hash": rihs01}
+        self._summary_bytes += 25 + len(name) + len(MESSAGE_ENCODING)
+        self._summary_bytes += sum(8 + len(k) + len(v) for k, v in metadata.items())
         return mcap.register_channel(name, MESSAGE_ENCODING, schema_id, metadata)
 
     def add_topic(
@@ -352,6 +379,7 @@ class BagWriter:
         f.header += size - f.size  # schemas and channels are not message bytes
         f.size = size
         self._channels[name] = _Channel(cid, name, msgtype, rihs01, list(offered_qos))
+        self._metadata_bytes = self._metadata_record_size()
         return cid
 
     def _tell(self) -> int:
@@ -419,7 +447,12 @@ class BagWriter:
             return False
         if self.max_duration_ns and log_time - f.start >= self.max_duration_ns:
             return True
-        return bool(self.max_bytes) and f.estimated_size(size + MESSAGE_RECORD_OVERHEAD) > self.max_bytes
+        if not self.max_bytes:
+            return False
+        # the summary repeats the schemas and channels and indexes every chunk (one more for the last)
+        closing = self._summary_bytes + self._metadata_bytes + CLOSING_MARGIN
+        closing += (f.writes + 1) * (CHUNK_INDEX_BYTES + 10 * len(self._channels))
+        return f.estimated_size(size + MESSAGE_RECORD_OVERHEAD) + closing > self.max_bytes
 
     def split(self) -> tuple[str, str]:
         """Close the current storage file (summary, footer) and go on in the next one.
