@@ -17,10 +17,11 @@ Layout of a bag ``NAME/``::
 Splitting, as rosbag2's ``--max-bag-size`` / ``--max-bag-duration`` and its ``split_bagfile``
 service: :meth:`BagWriter.split` closes the current file and opens the next; with
 ``max_bytes`` a file is closed before a message would take its estimated size on disk past
-the limit (written bytes, the chunk in progress at the file's compression ratio so far, and
-the closing records: rosbag2 metadata, summary, footer; the estimate of the last chunk may
-be off by a little), with ``max_duration_s`` before a message whose log time is that far from
-the file's first. A message is never split from its file or lost.
+the limit (written bytes, the chunk in progress at the file's compression ratio so far with
+a margin, and the closing records: rosbag2 metadata, summary, footer); near the limit the
+chunk in progress is flushed to measure it instead (so a file is not closed early on a
+guess). With ``max_duration_s`` a file is closed before a message whose log time is that
+far from the file's first. A message is never split from its file or lost.
 
 The data are made durable as they arrive: the chunk in progress is closed and handed to the
 operating system at least every ``flush_period_s`` (and whenever it reaches ``chunk_size``),
@@ -182,8 +183,8 @@ class _FileStats:
         }
 
     def estimated_size(self, extra: int = 0) -> int:
-        """Bytes the file will take with its pending chunk and ``extra`` more message bytes."""
-        return self.size + int((self.raw_pending + extra) * self.ratio)
+        """Bytes the file will take with its pending chunk and ``extra`` more message bytes (on the safe side)."""
+        return self.size + int((self.raw_pending + extra) * self.ratio * PENDING_SAFETY)
 
     def written(self, size: int) -> None:
         """The file has grown to ``size`` bytes: the pending chunk is on its way to the disk."""
@@ -196,6 +197,9 @@ class _FileStats:
         if self.raw_flushed >= RATIO_MIN_BYTES:  # a few small chunks are mostly chunk overhead
             self.ratio = (self.size - self.header) / self.raw_flushed
 
+
+PENDING_SAFETY = 1.25
+"""Factor on the estimated size of the chunk in progress (chunks compress unevenly)."""
 
 RATIO_MIN_BYTES = 16 << 10
 """Message bytes a file's chunks must hold before their size on disk sets the compression ratio."""
@@ -447,12 +451,20 @@ class BagWriter:
             return False
         if self.max_duration_ns and log_time - f.start >= self.max_duration_ns:
             return True
-        if not self.max_bytes:
+        if not self.max_bytes or self._estimated_total(size) <= self.max_bytes:
             return False
+        if f.raw_pending >= RATIO_MIN_BYTES:  # near the limit: measure the chunk in progress rather than guess
+            self.flush()
+            return self._estimated_total(size) > self.max_bytes
+        return True
+
+    def _estimated_total(self, size: int) -> int:
+        """Bytes the current file would take on disk, closed, with one more message of ``size`` bytes."""
+        f = self._files[-1]
         # the summary repeats the schemas and channels and indexes every chunk (one more for the last)
         closing = self._summary_bytes + self._metadata_bytes + CLOSING_MARGIN
         closing += (f.writes + 1) * (CHUNK_INDEX_BYTES + 10 * len(self._channels))
-        return f.estimated_size(size + MESSAGE_RECORD_OVERHEAD) + closing > self.max_bytes
+        return f.estimated_size(size + MESSAGE_RECORD_OVERHEAD) + closing
 
     def split(self) -> tuple[str, str]:
         """Close the current storage file (summary, footer) and go on in the next one.

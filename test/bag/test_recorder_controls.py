@@ -120,7 +120,9 @@ def _check_pause_and_split(bag: Path, log: str, n: int) -> dict[int, bytes]:
     meta = yaml.safe_load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
     assert meta["relative_file_paths"] == ["session_0.mcap", "session_1.mcap"]
     dropped = int(meta["custom_data"]["messages_dropped_while_paused"])
-    assert meta["custom_data"]["pauses"] == "1" and dropped >= 100
+    # (how many were published while paused the test cannot know exactly: its own subscription
+    # sees them with its own delay; the gap below must have the size the recorder says)
+    assert meta["custom_data"]["pauses"] == "1" and dropped > 0
     assert f"{dropped} message(s) arrived while paused (not recorded)" in log
 
     # what was published, less exactly the batches published while paused: one gap, of the count said
