@@ -116,6 +116,21 @@ def test_split_on_request_and_more_than_ten_files_keep_their_order(tmp_path: Pat
         assert [m.log_time for m in b.messages()] == [t for _, t, _, _ in TRAFFIC]
 
 
+def test_a_split_bag_whose_last_file_stayed_empty_reads_by_the_fast_path(tmp_path: Path) -> None:
+    bag = tmp_path / "tail"
+    with BagWriter(bag) as w:
+        for t in TOPICS:
+            w.add_topic(t.name, t.type, offered_qos=[contract_qos(t.qos)])
+        for name, log_time, data, _ in TRAFFIC[:100]:
+            w.write(name, log_time, data)
+        w.split()  # a split_bag call just before the recording ended
+    assert w.files == ["tail_0.mcap", "tail_1.mcap"]
+    with open_bag(bag) as b:
+        table = b.table(list(b.topics))
+        assert table is not None and [table.data(i) for i in range(len(table))] == [d for _, _, d, _ in TRAFFIC[:100]]
+        assert [m.data for m in b.messages()] == [d for _, _, d, _ in TRAFFIC[:100]]
+
+
 def test_recover_a_split_bag_whose_last_file_was_cut_off(tmp_path: Path) -> None:
     bag = tmp_path / "cut"
     w = _write(bag, max_bytes=_write(tmp_path / "whole").bytes_written // 4)
