@@ -24,7 +24,11 @@ from rosbags.interfaces import Qos
 from .errors import BagError
 from .writer import BagWriter, Compression
 
-__all__ = ["BufferedMessage", "SnapshotBuffer", "SnapshotTopic", "write_snapshot"]
+__all__ = ["MESSAGE_OVERHEAD", "BufferedMessage", "SnapshotBuffer", "SnapshotTopic", "write_snapshot"]
+
+MESSAGE_OVERHEAD = 240
+"""Bytes of memory a buffered message takes besides its data (the tuple, the bytes object and
+the integers: 241 measured with tracemalloc for a 92-byte gyro batch), counted against ``max_bytes``."""
 
 
 class BufferedMessage(NamedTuple):
@@ -47,11 +51,12 @@ class SnapshotTopic:
 
 
 class SnapshotBuffer:
-    """A ring buffer of the last ``duration_s`` seconds, at most ``max_bytes`` of message data.
+    """A ring buffer of the last ``duration_s`` seconds, in at most ``max_bytes`` of memory.
 
     Args:
         duration_s: Log time kept back from the newest message, s (> 0).
-        max_bytes: Message bytes kept at most (> 0); the oldest leave first.
+        max_bytes: Memory kept at most, bytes (> 0): message data plus ``MESSAGE_OVERHEAD``
+            per message; the oldest leave first.
         latched: Topics whose newest message is always kept (see the module docstring).
 
     Raises:
@@ -68,7 +73,7 @@ class SnapshotBuffer:
         self._messages: deque[BufferedMessage] = deque()
         self._latched: dict[str, BufferedMessage] = {}
         self.bytes = 0
-        """Message bytes in the ring now."""
+        """Memory the ring holds now, bytes (data plus ``MESSAGE_OVERHEAD`` per message)."""
         self.evicted = 0
         """Messages that left the ring (older than the window, or beyond the byte limit)."""
 
@@ -79,13 +84,13 @@ class SnapshotBuffer:
     def push(self, message: BufferedMessage) -> None:
         """Keep a message; drop the oldest ones beyond the window or the byte limit."""
         self._messages.append(message)
-        self.bytes += len(message.data)
+        self.bytes += len(message.data) + MESSAGE_OVERHEAD
         if message.topic in self.latched_topics:
             self._latched[message.topic] = message
         oldest_kept = message.log_time - self.duration_ns
         ring = self._messages
         while ring and (self.bytes > self.max_bytes or ring[0].log_time < oldest_kept):
-            self.bytes -= len(ring.popleft().data)
+            self.bytes -= len(ring.popleft().data) + MESSAGE_OVERHEAD
             self.evicted += 1
 
     def window(self, seconds: float = 0.0) -> list[BufferedMessage]:

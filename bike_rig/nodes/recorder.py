@@ -30,7 +30,8 @@ Parameters (``config/recorder.yaml``):
 * ``max_bag_duration`` (double, s): split before a file spans more than this; 0 (default): never.
 * ``snapshot_duration`` (double, s): seconds kept in memory for ``save_snapshot``; 0: no
   snapshots; default 30.
-* ``snapshot_max_bytes`` (integer, bytes): the snapshot buffer's bound; default 64 MiB.
+* ``snapshot_max_bytes`` (integer, bytes): the snapshot buffer's memory bound (message data
+  plus 240 bytes per message); default 64 MiB.
 
 Services (``bike_rig_msgs/srv``), as rosbag2's recorder offers them:
 
@@ -111,7 +112,8 @@ PARAMETERS: tuple[ParamSpec, ...] = (
               (0.0, 1e9), loose_type=True),  # fmt: skip
     ParamSpec("snapshot_duration", 30.0, "seconds kept in memory for save_snapshot, s; 0: no snapshots",
               (0.0, 86400.0), loose_type=True),  # fmt: skip
-    ParamSpec("snapshot_max_bytes", 64 << 20, "most message bytes kept for save_snapshot, bytes", (1, 2**62)),
+    ParamSpec("snapshot_max_bytes", 64 << 20, "most memory kept for save_snapshot (data + 240 per message), bytes",
+              (1, 2**62)),  # fmt: skip
 )
 
 

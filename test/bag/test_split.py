@@ -19,7 +19,7 @@ from rosbags.rosbag2 import Reader
 
 from bike_rig.bag.reader import open_bag
 from bike_rig.bag.recover import recover_bag, storage_files
-from bike_rig.bag.snapshot import BufferedMessage, SnapshotBuffer, SnapshotTopic, write_snapshot
+from bike_rig.bag.snapshot import MESSAGE_OVERHEAD, BufferedMessage, SnapshotBuffer, SnapshotTopic, write_snapshot
 from bike_rig.bag.writer import BagWriter, contract_qos
 from bike_rig.topics import GYRO, STATIC_READINGS, TOPICS
 from test.bag.samples import sample_traffic
@@ -163,19 +163,19 @@ def _msg(topic: str, t_s: float, size: int = 100) -> BufferedMessage:
 
 
 def test_snapshot_buffer_keeps_the_last_seconds_within_its_bytes_and_the_latched_topics() -> None:
-    buf = SnapshotBuffer(2.0, 10_000, latched=[STATIC_READINGS.name])
+    buf = SnapshotBuffer(2.0, 100_000, latched=[STATIC_READINGS.name])
     buf.push(_msg(STATIC_READINGS.name, 0.0, 50))
     for k in range(100):  # 0.1 s apart, 10 s
         buf.push(_msg(GYRO.name, 0.1 * (k + 1)))
     times = [m.log_time for m in buf.window() if m.topic == GYRO.name]
     assert times[-1] == int(10.0 * 1e9) and times[0] >= int(8.0 * 1e9) and len(times) == 21
-    assert buf.bytes == 21 * 100 and buf.evicted == 100 + 1 - 21
+    assert buf.bytes == 21 * (100 + MESSAGE_OVERHEAD) and buf.evicted == 100 + 1 - 21
     assert buf.window()[0].topic == STATIC_READINGS.name  # latched: kept though 10 s old
     assert [m.log_time for m in buf.window(0.5)][1:] == [int(round(t * 1e9)) for t in (9.5, 9.6, 9.7, 9.8, 9.9, 10.0)]
-    small = SnapshotBuffer(100.0, 1_000)
+    small = SnapshotBuffer(100.0, 3 * (300 + MESSAGE_OVERHEAD) + 10)
     for k in range(50):
         small.push(_msg(GYRO.name, k, 300))
-    assert len(small) == 3 and small.bytes == 900  # bounded in bytes before time
+    assert len(small) == 3 and small.bytes == 3 * (300 + MESSAGE_OVERHEAD)  # bounded in bytes before time
     with pytest.raises(ValueError, match="positive"):
         SnapshotBuffer(0.0, 10)
     with pytest.raises(ValueError, match="seconds"):
