@@ -9,6 +9,8 @@ against what was published, by number: a pause drops exactly the batches publish
 from __future__ import annotations
 
 import json
+import os
+import signal
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -20,7 +22,7 @@ from mcap_ros2.decoder import DecoderFactory
 
 from bike_rig.bag.info import summarize
 from bike_rig.bag.reader import open_bag
-from bike_rig.bag.recover import scan_mcap
+from bike_rig.bag.recover import recover_bag, scan_mcap
 from bike_rig.topics import GYRO, RECORDER_PAUSE, RECORDER_RESUME, RECORDER_SNAPSHOT, RECORDER_SPLIT, STATIC_READINGS
 from test.bag.test_recorder import STEP_TIMEOUT_S, _env, _publisher, _recorder
 from test.nodes.test_driver import Probe, open_probe
@@ -100,6 +102,9 @@ def test_pause_resume_split_and_snapshot_of_a_live_recording(
             all_snap = probe.call(clients[RECORDER_SNAPSHOT],
                                   srvs.SaveSnapshot.Request(output=str(tmp_path / "whole_buffer")))  # fmt: skip
             assert all_snap.ok, all_snap.message
+            again = probe.call(clients[RECORDER_SNAPSHOT],
+                               srvs.SaveSnapshot.Request(output=str(tmp_path / "whole_buffer")))  # fmt: skip
+            assert not again.ok and again.path == "" and "exists already" in again.message
             pub.send("STOP")
             published = json.loads(pub.expect("PUBLISHED", STEP_TIMEOUT_S))
             n = published["counts"][GYRO.name]
@@ -207,3 +212,30 @@ class _FileWatcher:
                 return
             time.sleep(0.1)
         raise AssertionError(f"gyro batch {self.last_index} not recorded\n{self.rec.describe()}")
+
+
+def test_a_split_recording_killed_mid_file_is_recovered_as_one_gap_free_prefix(
+    ros_env: dict[str, str], tmp_path: Path
+) -> None:
+    env = _env(ros_env)
+    bag = tmp_path / "killed"
+    spec = {"early": {STATIC_READINGS.name: 1}, "live": {GYRO.name: 0}, "rate_hz": 300.0, "until_stop": True}
+    with _publisher(tmp_path, env, spec) as pub:
+        pub.expect("EARLY", STEP_TIMEOUT_S)
+        with _recorder(tmp_path, env, bag, "topics:=[gyro, static_readings]", "max_bag_size:=20000") as rec:
+            pub.expect("MATCHED", STEP_TIMEOUT_S)
+            pub.send("GO")
+            _FileWatcher(bag, 700, rec).wait()  # several files closed, one being written
+            os.killpg(rec.pid, signal.SIGKILL)
+            assert rec.stop() == -signal.SIGKILL
+        pub.send("STOP")
+        pub.expect("PUBLISHED", STEP_TIMEOUT_S)
+    assert not (bag / "metadata.yaml").exists() and len(list(bag.glob("*.mcap"))) >= 3
+    on_disk = [i for f in _recorded_indexes(bag) for i in f]
+    recovery = recover_bag(bag)
+    assert [s.complete for s in recovery.files][:-1] == [True] * (len(recovery.files) - 1)
+    with open_bag(recovery.output) as b:
+        assert len(b.storage_files) == 1
+        gyro = [m.first_index for _, _, m in b.decoded([GYRO.name])]
+        assert b.topics[STATIC_READINGS.name].count == 1
+    assert gyro == list(range(len(gyro))) == on_disk and len(gyro) > 700  # every flushed batch, no gap
