@@ -28,8 +28,8 @@ Parameters (``config/recorder.yaml``):
 * ``max_bag_size`` (integer, bytes): split the bag into a new storage file (``NAME_1.mcap``,
   ...) before a file exceeds this size; 0 (default): never.
 * ``max_bag_duration`` (double, s): split before a file spans more than this; 0 (default): never.
-* ``snapshot_duration`` (double, s): seconds kept in memory for ``save_snapshot``; 0: no
-  snapshots; default 30.
+* ``snapshot_duration`` (double, s): seconds kept in memory for ``save_snapshot``; 0
+  (default, as rosbag2's snapshot mode is opt-in): no snapshots, no memory spent.
 * ``snapshot_max_bytes`` (integer, bytes): the snapshot buffer's memory bound (message data
   plus 240 bytes per message); default 64 MiB.
 
@@ -110,7 +110,7 @@ PARAMETERS: tuple[ParamSpec, ...] = (
               (0, 2**62)),  # fmt: skip
     ParamSpec("max_bag_duration", 0.0, "split into a new storage file before one spans more than this, s; 0: never",
               (0.0, 1e9), loose_type=True),  # fmt: skip
-    ParamSpec("snapshot_duration", 30.0, "seconds kept in memory for save_snapshot, s; 0: no snapshots",
+    ParamSpec("snapshot_duration", 0.0, "seconds kept in memory for save_snapshot, s; 0: no snapshots",
               (0.0, 86400.0), loose_type=True),  # fmt: skip
     ParamSpec("snapshot_max_bytes", 64 << 20, "most memory kept for save_snapshot (data + 240 per message), bytes",
               (1, 2**62)),  # fmt: skip

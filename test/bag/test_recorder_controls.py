@@ -162,7 +162,7 @@ def _check_snapshots(snap: Any, all_snap: Any, main: dict[int, bytes]) -> None:
 
 
 def test_split_by_size_with_lz4_chunks_loses_nothing_and_opens_everywhere(
-    ros_env: dict[str, str], tmp_path: Path
+    ros_env: dict[str, str], tmp_path: Path, probe: Probe
 ) -> None:
     env = _env(ros_env)
     bag = tmp_path / "sized"
@@ -173,6 +173,10 @@ def test_split_by_size_with_lz4_chunks_loses_nothing_and_opens_everywhere(
                        "max_bag_size:=25000") as rec:  # fmt: skip
             pub.expect("MATCHED", STEP_TIMEOUT_S)
             pub.send("GO")
+            snapshots = probe.node.create_client(srvs.SaveSnapshot, RECORDER_SNAPSHOT)
+            off = probe.call(snapshots, srvs.SaveSnapshot.Request(seconds=1.0))  # opt-in: off by default
+            assert (off.ok, off.path) == (False, "")
+            assert off.message == "snapshots are off (parameter snapshot_duration is 0)"
             published = json.loads(pub.expect("PUBLISHED", STEP_TIMEOUT_S))
             n = published["counts"][GYRO.name]
             deadline_probe = _FileWatcher(bag, n - 1, rec)
