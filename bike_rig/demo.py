@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import os
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -133,6 +133,7 @@ def run_demo(
     progress: Callable[[str], None] = print,
     rig: Path | None = None,
     on_progress: Callable[[RunningGraph, int], None] | None = None,
+    recorder: Mapping[str, object] | None = None,
 ) -> DemoResult:
     """Run the whole simulated session through the live graph.
 
@@ -147,6 +148,7 @@ def run_demo(
         rig: The rig description (default: ``config/rig.yaml``).
         on_progress: Called with the running graph and the number of trials fitted so far,
             after every poll (fault-injection tests kill and restart nodes from it).
+        recorder: More recorder parameters (e.g. ``max_bag_size``); ``output`` is the demo's.
 
     Raises:
         DomainIdError: ``ROS_DOMAIN_ID`` is set to something that is not a domain id (checked
@@ -166,7 +168,7 @@ def run_demo(
     bag = out_dir / "bag"
     graph = load_graph(config_file("graph.yaml")).with_parameters(
         {
-            "recorder": {"output": str(bag)},
+            "recorder": {**(recorder or {}), "output": str(bag)},
             "parameter": {"measurements": str(session_yaml)},
             "driver": {
                 "source": "sim",

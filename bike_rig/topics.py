@@ -24,6 +24,10 @@ __all__ = [
     "PERIODS",
     "QosSpec",
     "READINGS",
+    "RECORDER_PAUSE",
+    "RECORDER_RESUME",
+    "RECORDER_SNAPSHOT",
+    "RECORDER_SPLIT",
     "RIDE_SPEED",
     "RIDE_STATE_SPACE",
     "START_TRIAL",
@@ -103,3 +107,7 @@ TOPICS: tuple[Topic, ...] = (
 START_TRIAL = f"{NAMESPACE}/driver/start_trial"
 STOP_TRIAL = f"{NAMESPACE}/driver/stop_trial"
 STATE_SPACE = f"{NAMESPACE}/model/state_space"
+RECORDER_PAUSE = f"{NAMESPACE}/recorder/pause"
+RECORDER_RESUME = f"{NAMESPACE}/recorder/resume"
+RECORDER_SPLIT = f"{NAMESPACE}/recorder/split_bag"
+RECORDER_SNAPSHOT = f"{NAMESPACE}/recorder/save_snapshot"

@@ -145,3 +145,12 @@ def test_diagnostic_array_round_trip_rclpy_and_plain() -> None:
     bad = DiagnosticArray([DiagnosticStatus(level=7, name="driver: samples")])
     with pytest.raises(MessageError, match="'driver: samples': level 7 is not 0..3"):
         statuses_from_msg(bad)
+
+
+def test_a_paused_recorder_warns_with_what_it_did_not_record() -> None:
+    from bike_rig.pipeline.health import RecorderHealth, recorder_statuses
+
+    h = RecorderHealth("bag", 10, 5, 0, 1.0, 10**10, 10**6, "", paused=True, dropped_paused=7)
+    bag, _ = recorder_statuses(h)
+    assert bag.level is Level.WARN and "7 message(s)" in bag.message
+    assert recorder_statuses(RecorderHealth("bag", 10, 5, 0, 1.0, 10**10, 10**6))[0].level is Level.OK

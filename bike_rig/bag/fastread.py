@@ -311,7 +311,8 @@ def read_storage(path: Path) -> Storage:
         stats = _summary(summary, channels, chunks)
     except (struct.error, UnicodeDecodeError, ValueError) as exc:
         raise Unusual(f"MCAP summary ({exc})") from None
-    need(stats is not None and bool(chunks), "MCAP summary without statistics or chunk indexes")
+    # a file with no message (the last of a split bag, split just before the end) has no chunk
+    need(stats is not None and (bool(chunks) or stats[0] == 0), "MCAP summary without statistics or chunk indexes")
     assert stats is not None
     count, start, end, per_channel = stats
     return Storage(path, tuple(channels), tuple(chunks), count, start, end, per_channel)

@@ -173,7 +173,7 @@ def _scan_chunk(chunk: Chunk, scan: McapScan) -> None:
 
 
 def storage_files(bag: str | Path) -> list[Path]:
-    """The MCAP files of a bag directory (or the file itself).
+    """The MCAP files of a bag directory (or the file itself), a split bag's in recording order.
 
     Raises:
         BagError: The path does not exist, or holds no MCAP file.
@@ -183,10 +183,16 @@ def storage_files(bag: str | Path) -> list[Path]:
         raise BagError(str(bag), "no such file or directory")
     if p.is_file():
         return [p]
-    files = sorted(p.glob("*.mcap"))
+    files = sorted(p.glob("*.mcap"), key=_split_order)
     if not files:
         raise NotABagError(str(bag), "not a bag with MCAP storage (no .mcap file)")
     return files
+
+
+def _split_order(path: Path) -> tuple[str, int, str]:
+    """Sort key of a storage file: a split bag's ``NAME_2.mcap`` before ``NAME_10.mcap``."""
+    stem, _, index = path.stem.rpartition("_")
+    return (stem, int(index), "") if index.isdigit() else (path.stem, -1, path.name)
 
 
 @dataclass(frozen=True)

@@ -8,8 +8,20 @@ Layout of a bag ``NAME/``::
                          ``topic_type_hash`` (RIHS01)); messages in chunks (zstd by default),
                          each with log time = receive time and publish time = send time; at
                          the end a ``rosbag2`` metadata record and the full summary and footer
+    NAME/NAME_1.mcap ... the next storage files of a split bag, each complete on its own
+                         (schemas, channels, summary, footer), in log-time order
     NAME/metadata.yaml   rosbag2 metadata, version 9, storage_identifier ``mcap``, written
-                         when the bag is closed
+                         when the bag is closed (``relative_file_paths`` and ``files``
+                         list every storage file)
+
+Splitting, as rosbag2's ``--max-bag-size`` / ``--max-bag-duration`` and its ``split_bagfile``
+service: :meth:`BagWriter.split` closes the current file and opens the next; with
+``max_bytes`` a file is closed before a message would take its estimated size on disk past
+the limit (written bytes, the chunk in progress at the file's compression ratio so far with
+a margin, and the closing records: rosbag2 metadata, summary, footer); near the limit the
+chunk in progress is flushed to measure it instead (so a file is not closed early on a
+guess). With ``max_duration_s`` a file is closed before a message whose log time is that
+far from the file's first. A message is never split from its file or lost.
 
 The data are made durable as they arrive: the chunk in progress is closed and handed to the
 operating system at least every ``flush_period_s`` (and whenever it reaches ``chunk_size``),
@@ -139,6 +151,71 @@ class _Stats:
     last_flush: float = field(default_factory=time.monotonic)
 
 
+@dataclass
+class _FileStats:
+    """One storage file: its name, log-time range [ns] and message count; bytes for the size estimate."""
+
+    name: str
+    start: int = 2**63 - 1
+    end: int = 0
+    count: int = 0
+    size: int = 0
+    """Bytes on disk at the last flush (the final size once closed)."""
+    header: int = 0
+    """Bytes of the MCAP header, schemas and channels (no message data)."""
+    raw_flushed: int = 0
+    """Message bytes (records, uncompressed) flushed into chunks."""
+    raw_pending: int = 0
+    """Message bytes (records, uncompressed) in the chunk not yet written."""
+    ratio: float = 1.0
+    """Bytes on disk per message byte, as measured on the chunks written (or the previous file's)."""
+    writes: int = 0
+    """How many times the file grew by chunks (each chunk gets an index entry in the summary)."""
+
+    def entry(self) -> dict[str, Any]:
+        """The file's entry in metadata.yaml's ``files``."""
+        start = self.start if self.count else 0
+        return {
+            "path": self.name,
+            "starting_time": {"nanoseconds_since_epoch": start},
+            "duration": {"nanoseconds": self.end - self.start if self.count else 0},
+            "message_count": self.count,
+        }
+
+    def estimated_size(self, extra: int = 0) -> int:
+        """Bytes the file will take with its pending chunk and ``extra`` more message bytes (on the safe side)."""
+        return self.size + int((self.raw_pending + extra) * self.ratio * PENDING_SAFETY)
+
+    def written(self, size: int) -> None:
+        """The file has grown to ``size`` bytes: the pending chunk is on its way to the disk."""
+        if size == self.size:
+            return
+        self.size = size
+        self.writes += 1
+        self.raw_flushed += self.raw_pending
+        self.raw_pending = 0
+        if self.raw_flushed >= RATIO_MIN_BYTES:  # a few small chunks are mostly chunk overhead
+            self.ratio = (self.size - self.header) / self.raw_flushed
+
+
+PENDING_SAFETY = 1.25
+"""Factor on the estimated size of the chunk in progress (chunks compress unevenly)."""
+
+RATIO_MIN_BYTES = 16 << 10
+"""Message bytes a file's chunks must hold before their size on disk sets the compression ratio."""
+
+CLOSING_MARGIN = 1024
+"""Bytes of a file's closing records besides the repeated schemas and channels, the rosbag2
+metadata and the chunk indexes: statistics, summary offsets, footer, growth of the metadata."""
+
+CHUNK_INDEX_BYTES = 100
+"""Bytes of a chunk index record (plus 10 per channel)."""
+
+MESSAGE_RECORD_OVERHEAD = 31 + 16
+"""Bytes of an MCAP Message record besides its data (opcode, length, channel, sequence, times),
+and of its entry in the chunk's message index."""
+
+
 class BagWriter:
     """A rosbag2 bag with MCAP storage, written from serialized messages.
 
@@ -153,6 +230,10 @@ class BagWriter:
         custom_data: String pairs stored as ``custom_data`` in metadata.yaml.
         fsync: Also ask the OS to write every flushed chunk to the disk (survives a power
             cut, not only a crash of the process; slower).
+        max_bytes: Split the bag into a new storage file before a file exceeds this size,
+            bytes (0: never; see the module docstring).
+        max_duration_s: Split before a file would span more than this, s of log time
+            (0: never).
     """
 
     def __init__(
@@ -164,11 +245,14 @@ class BagWriter:
         chunk_size: int = 1 << 20,
         custom_data: Mapping[str, str] | None = None,
         fsync: bool = False,
+        max_bytes: int = 0,
+        max_duration_s: float = 0.0,
     ) -> None:
         """Check and keep the settings; nothing is created on disk before :meth:`open`.
 
         Raises:
-            BagError: The compression is unknown or the flush period is not positive.
+            BagError: The compression is unknown, the flush period is not positive or a split
+                limit is negative.
         """
         self.path = Path(path)
         try:
@@ -179,6 +263,11 @@ class BagWriter:
         if not flush_period_s > 0:
             raise BagError(str(path), f"flush period must be positive, got {flush_period_s!r} s")
         self.flush_period_s = float(flush_period_s)
+        if not (max_bytes >= 0 and max_duration_s >= 0):
+            limits = f"{max_bytes!r} B, {max_duration_s!r} s"
+            raise BagError(str(path), f"split limits must be 0 (off) or positive, got {limits}")
+        self.max_bytes = int(max_bytes)
+        self.max_duration_ns = int(round(float(max_duration_s) * 1e9))
         self.chunk_size = int(chunk_size)
         self.custom_data = dict(custom_data or {})
         self.fsync = fsync
@@ -187,7 +276,12 @@ class BagWriter:
         self._mcap: McapWriter | None = None
         self._channels: dict[str, _Channel] = {}
         self._schemas: dict[str, int] = {}
+        self._msgdefs: dict[str, str] = {}
         self._stats = _Stats()
+        self._files: list[_FileStats] = []
+        self._metadata_bytes = 0
+        self._summary_bytes = 0
+        """Bytes of the schema and channel records of the current file (its summary repeats them)."""
         self._closed = False
 
     # ------------------------------------------------------------------ life cycle
@@ -202,19 +296,56 @@ class BagWriter:
             raise BagExistsError(str(self.path), "exists already; a bag is never overwritten (choose another output)")
         try:
             self.path.mkdir(parents=True)
-            self._stream = self.data_path.open("xb")
         except FileExistsError:
             raise BagExistsError(str(self.path), "exists already; a bag is never overwritten") from None
         except OSError as exc:
             raise BagError(str(self.path), f"cannot create the bag ({exc.strerror or exc})") from None
+        self._stats = _Stats()
+        self._files = []
+        self._open_file()
+
+    def _open_file(self) -> None:
+        """Create the next storage file, write its MCAP header and every topic known so far."""
+        self.data_path = self.path / data_file_name(self.path, len(self._files))
+        try:
+            self._stream = self.data_path.open("xb")
+        except FileExistsError:
+            raise BagExistsError(str(self.data_path), "exists already; a bag is never overwritten") from None
+        except OSError as exc:
+            raise BagError(str(self.path), f"cannot create {self.data_path.name} ({exc.strerror or exc})") from None
         self._mcap = McapWriter(
             self._stream,
             chunk_size=self.chunk_size,
             compression=_MCAP_COMPRESSION[self.compression],
         )
         self._mcap.start(profile=PROFILE, library=f"bike_rig {__version__}; mcap-python {package_version('mcap')}")
-        self._stream.flush()
-        self._stats = _Stats()
+        self._schemas = {}
+        self._summary_bytes = 0
+        for ch in self._channels.values():
+            ch.id = self._register(ch.name, ch.msgtype, self._msgdefs[ch.msgtype], ch.type_hash, ch.offered_qos)
+        self._mcap.flush()
+        ratio = self._files[-1].ratio if self._files else 1.0
+        self._files.append(_FileStats(self.data_path.name, ratio=ratio))
+        self._files[-1].size = self._files[-1].header = self._stream.tell()
+        self._metadata_bytes = self._metadata_record_size()
+
+    def _metadata_record_size(self) -> int:
+        """Bytes the rosbag2 metadata record would take now (a file's closing records hold it)."""
+        return len(yaml.safe_dump(self.metadata()["rosbag2_bagfile_information"], sort_keys=False)) + 64
+
+    def _register(self, name: str, msgtype: str, msgdef: str, rihs01: str, offered_qos: Sequence[Qos]) -> int:
+        """Register a channel (and its type's schema the first time) in the current file; its id."""
+        mcap = self._require_open()
+        schema_id = self._schemas.get(msgtype)
+        if schema_id is None:
+            data = msgdef.encode("utf-8")
+            schema_id = mcap.register_schema(msgtype, SCHEMA_ENCODING, data)
+            self._schemas[msgtype] = schema_id
+            self._summary_bytes += 27 + len(msgtype) + len(SCHEMA_ENCODING) + len(data)
+        metadata = {"offered_qos_profiles": _qos_yaml(offered_qos), "topic_type_hash": rihs01}
+        self._summary_bytes += 25 + len(name) + len(MESSAGE_ENCODING)
+        self._summary_bytes += sum(8 + len(k) + len(v) for k, v in metadata.items())
+        return mcap.register_channel(name, MESSAGE_ENCODING, schema_id, metadata)
 
     def add_topic(
         self,
@@ -234,21 +365,34 @@ class BagWriter:
             msgdef: The ``ros2msg`` schema text; from the rig's typestore if None.
             rihs01: The type hash; from the rig's typestore if None.
         """
-        mcap = self._require_open()
+        self._require_open()
         if name in self._channels:
             raise BagError(str(self.path), f"topic {name} added twice")
         if msgdef is None:
-            msgdef = message_definition(msgtype)
+            msgdef = self._msgdefs.get(msgtype) or message_definition(msgtype)
         if rihs01 is None:
             rihs01 = type_hash(msgtype)
-        schema_id = self._schemas.get(msgtype)
-        if schema_id is None:
-            schema_id = mcap.register_schema(msgtype, SCHEMA_ENCODING, msgdef.encode("utf-8"))
-            self._schemas[msgtype] = schema_id
-        metadata = {"offered_qos_profiles": _qos_yaml(offered_qos), "topic_type_hash": rihs01}
-        cid = mcap.register_channel(name, MESSAGE_ENCODING, schema_id, metadata)
+        self._msgdefs.setdefault(msgtype, msgdef)
+        mcap, f = self._require_open(), self._files[-1]
+        if f.raw_pending:  # the chunk in progress first, so that the size estimate counts it as messages
+            mcap.flush()
+            f.written(self._tell())
+        cid = self._register(name, msgtype, self._msgdefs[msgtype], rihs01, offered_qos)
+        mcap.flush()
+        size = self._tell()
+        f.header += size - f.size  # schemas and channels are not message bytes
+        f.size = size
         self._channels[name] = _Channel(cid, name, msgtype, rihs01, list(offered_qos))
+        self._metadata_bytes = self._metadata_record_size()
         return cid
+
+    def _tell(self) -> int:
+        assert self._stream is not None
+        return self._stream.tell()
+
+    def topic_qos(self, name: str) -> list[Qos]:
+        """The offered QoS profiles a topic was added with."""
+        return list(self._channels[name].offered_qos)
 
     def has_topic(self, name: str) -> bool:
         """Whether the topic has been added."""
@@ -275,8 +419,11 @@ class BagWriter:
             publish_time: When it was sent, ns since the epoch (``log_time`` if unknown).
             sequence: The publisher's sequence number (0 if unknown).
         """
-        mcap = self._require_open()
+        self._require_open()
         ch = self._channels[topic]
+        if self._split_due(log_time, len(data)):
+            self.split()
+        mcap = self._require_open()
         mcap.add_message(
             ch.id,
             log_time=log_time,
@@ -285,13 +432,71 @@ class BagWriter:
             sequence=sequence & 0xFFFFFFFF,
         )
         ch.count += 1
-        st = self._stats
-        st.count += 1
-        if log_time < st.start:
-            st.start = log_time
-        if log_time > st.end:
-            st.end = log_time
+        for st in (self._stats, self._files[-1]):
+            st.count += 1
+            if log_time < st.start:
+                st.start = log_time
+            if log_time > st.end:
+                st.end = log_time
+        f = self._files[-1]
+        f.raw_pending += len(data) + MESSAGE_RECORD_OVERHEAD
+        if self._stream is not None:
+            f.written(self._stream.tell())  # a chunk full at chunk_size is written at once
         self.flush_if_due()
+
+    def _split_due(self, log_time: int, size: int) -> bool:
+        """Whether a message of ``size`` bytes logged at ``log_time`` [ns] must go into a new file."""
+        f = self._files[-1]
+        if not f.count:
+            return False
+        if self.max_duration_ns and log_time - f.start >= self.max_duration_ns:
+            return True
+        if not self.max_bytes or self._estimated_total(size) <= self.max_bytes:
+            return False
+        if f.raw_pending >= RATIO_MIN_BYTES:  # near the limit: measure the chunk in progress rather than guess
+            self.flush()
+            return self._estimated_total(size) > self.max_bytes
+        return True
+
+    def _estimated_total(self, size: int) -> int:
+        """Bytes the current file would take on disk, closed, with one more message of ``size`` bytes."""
+        f = self._files[-1]
+        # the summary repeats the schemas and channels and indexes every chunk (one more for the last)
+        closing = self._summary_bytes + self._metadata_bytes + CLOSING_MARGIN
+        closing += (f.writes + 1) * (CHUNK_INDEX_BYTES + 10 * len(self._channels))
+        return f.estimated_size(size + MESSAGE_RECORD_OVERHEAD) + closing
+
+    def split(self) -> tuple[str, str]:
+        """Close the current storage file (summary, footer) and go on in the next one.
+
+        Returns:
+            The names of the file closed and of the new one.
+
+        Raises:
+            BagError: The bag is not open, or the next file cannot be created.
+            OSError: The closed file could not be written to the end.
+        """
+        self._require_open()
+        closed = self._files[-1].name
+        self._finish_file()
+        self._open_file()
+        return closed, self._files[-1].name
+
+    def _finish_file(self) -> None:
+        """Finish the current MCAP file: rosbag2 metadata record (the bag so far), summary, footer."""
+        mcap, stream = self._require_open(), self._stream
+        assert stream is not None
+        mcap.flush()  # the last chunk before the closing records
+        serialized = yaml.safe_dump(self.metadata()["rosbag2_bagfile_information"], sort_keys=False)
+        mcap.add_metadata(METADATA_RECORD, {"serialized_metadata": serialized, "ROS_DISTRO": ROS_DISTRO})
+        mcap.finish()
+        stream.flush()
+        if self.fsync:
+            os.fsync(stream.fileno())
+        self._files[-1].size = stream.tell()
+        stream.close()
+        self._mcap = None
+        self._stream = None
 
     def flush(self) -> None:
         """Close the chunk in progress and hand everything written so far to the OS."""
@@ -299,6 +504,8 @@ class BagWriter:
         mcap.flush()
         if self.fsync and self._stream is not None:
             os.fsync(self._stream.fileno())
+        if self._stream is not None:
+            self._files[-1].written(self._stream.tell())
         self._stats.chunks_flushed += 1
         self._stats.last_flush = time.monotonic()
 
@@ -322,16 +529,8 @@ class BagWriter:
         """
         if self._closed or self._mcap is None or self._stream is None:
             return self.topic_counts
+        self._finish_file()
         info = self.metadata()
-        serialized = yaml.safe_dump(info["rosbag2_bagfile_information"], sort_keys=False)
-        self._mcap.add_metadata(METADATA_RECORD, {"serialized_metadata": serialized, "ROS_DISTRO": ROS_DISTRO})
-        self._mcap.finish()
-        self._stream.flush()
-        if self.fsync:
-            os.fsync(self._stream.fileno())
-        self._stream.close()
-        self._mcap = None
-        self._stream = None
         tmp = self.path / "metadata.yaml.tmp"
         tmp.write_text(yaml.safe_dump(info, sort_keys=False), encoding="utf-8")
         tmp.replace(self.path / "metadata.yaml")
@@ -374,6 +573,16 @@ class BagWriter:
         return [TopicCount(c.name, c.msgtype, c.count) for c in self._channels.values()]
 
     @property
+    def files(self) -> list[str]:
+        """The names of the storage files so far, in order (the last one is being written)."""
+        return [f.name for f in self._files]
+
+    @property
+    def bytes_written(self) -> int:
+        """Bytes handed to the OS so far, over every storage file (as of the last flush)."""
+        return sum(f.size for f in self._files)
+
+    @property
     def chunks_flushed(self) -> int:
         """How many times the writer has flushed."""
         return self._stats.chunks_flushed
@@ -383,7 +592,7 @@ class BagWriter:
         st = self._stats
         start = st.start if st.count else 0
         duration = st.end - st.start if st.count else 0
-        name = self.data_path.name
+        files = self._files or [_FileStats(self.data_path.name)]
         topics = [
             {
                 "topic_metadata": {
@@ -407,15 +616,8 @@ class BagWriter:
                 "topics_with_message_count": topics,
                 "compression_format": "",
                 "compression_mode": "",
-                "relative_file_paths": [name],
-                "files": [
-                    {
-                        "path": name,
-                        "starting_time": {"nanoseconds_since_epoch": start},
-                        "duration": {"nanoseconds": duration},
-                        "message_count": st.count,
-                    }
-                ],
+                "relative_file_paths": [f.name for f in files],
+                "files": [f.entry() for f in files],
                 "custom_data": dict(self.custom_data) or None,
                 "ros_distro": ROS_DISTRO,
             }

@@ -28,6 +28,28 @@ Parameters (``config/recorder.yaml``):
 * ``min_free_disk_mb`` (double, MB): ``recorder: disk`` on ``/diagnostics`` warns below this
   free space; default 500. (``recorder: bag``: bytes and messages written, dropped, the longest
   write of the last second.)
+* ``max_bag_size`` (integer, bytes): split the bag into a new storage file (``NAME_1.mcap``,
+  ...) before a file exceeds this size; 0 (default): never.
+* ``max_bag_duration`` (double, s): split before a file spans more than this; 0 (default): never.
+* ``snapshot_duration`` (double, s): seconds kept in memory for ``save_snapshot``; 0
+  (default, as rosbag2's snapshot mode is opt-in): no snapshots, no memory spent.
+* ``snapshot_max_bytes`` (integer, bytes): the snapshot buffer's memory bound (message data
+  plus 240 bytes per message); default 64 MiB.
+
+Services (``bike_rig_msgs/srv``), as rosbag2's recorder offers them:
+
+* ``/bike_rig/recorder/pause`` (``Pause``) and ``/bike_rig/recorder/resume`` (``Resume``):
+  while paused, arriving messages are not recorded (nor kept for snapshots); they are counted,
+  logged on resume and kept in metadata.yaml's ``custom_data``
+  (``messages_dropped_while_paused``, ``pauses``).
+* ``/bike_rig/recorder/split_bag`` (``SplitBag``): close the current storage file, go on in
+  the next; nothing is lost.
+* ``/bike_rig/recorder/save_snapshot`` (``SaveSnapshot``): write the last N seconds (the
+  buffer, :mod:`bike_rig.bag.snapshot`) into a new bag; the recording goes on.
+
+Counters a diagnostics task can read: :attr:`Recorder.received`, :attr:`Recorder.dropped`
+(not written after a failure), :attr:`Recorder.dropped_paused`, :attr:`Recorder.paused`,
+:attr:`Recorder.errors`, ``writer.bytes_written``, ``writer.files``.
 
 Run: ``python -m bike_rig.nodes.recorder --ros-args -p output:=session1`` (or
 ``--params-file config/recorder.yaml``).
@@ -56,12 +78,15 @@ from rclpy.signals import SignalHandlerOptions
 from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
 
 from .. import topics as contract
+from ..bag.errors import BagError
+from ..bag.snapshot import BufferedMessage, SnapshotBuffer, SnapshotTopic, write_snapshot
 from ..bag.writer import BagWriter, Compression, contract_qos
 from ..core.errors import BikeRigError
 from ..params import ParamSpec
 from ..pipeline.health import RecorderHealth, recorder_statuses
 from ..rosenv import ros_environment
 from ..rosqos import profile
+from ..topics import RECORDER_PAUSE, RECORDER_RESUME, RECORDER_SNAPSHOT, RECORDER_SPLIT
 from .diagnostics import DiagnosticsUpdater
 from .params import declare_parameters, parameter_error
 
@@ -73,6 +98,9 @@ DRAIN_TIMEOUT_S = 2.0
 """Longest time spent taking already-delivered messages after a stop request."""
 DRAIN_IDLE_S = 0.05
 """The drain ends when nothing arrives for this long."""
+
+# the generated service classes ship no type information: imported by name
+_srvs: Any = importlib.import_module("bike_rig_msgs.srv")
 
 #: The recorder's parameters (``config/recorder.yaml``). Typed by hand on ``bike-rig run
 #: --param`` lines, ``flush_period`` also takes an integer and ``topics`` one name.
@@ -86,6 +114,14 @@ PARAMETERS: tuple[ParamSpec, ...] = (
               open_low=True, loose_type=True),  # fmt: skip
     ParamSpec("min_free_disk_mb", 500.0, "free disk space below which /diagnostics warns, MB", (0.0, 1e12),
               loose_type=True),  # fmt: skip
+    ParamSpec("max_bag_size", 0, "split into a new storage file before one exceeds this size, bytes; 0: never",
+              (0, 2**62)),  # fmt: skip
+    ParamSpec("max_bag_duration", 0.0, "split into a new storage file before one spans more than this, s; 0: never",
+              (0.0, 1e9), loose_type=True),  # fmt: skip
+    ParamSpec("snapshot_duration", 0.0, "seconds kept in memory for save_snapshot, s; 0: no snapshots",
+              (0.0, 86400.0), loose_type=True),  # fmt: skip
+    ParamSpec("snapshot_max_bytes", 64 << 20, "most memory kept for save_snapshot (data + 240 per message), bytes",
+              (1, 2**62)),  # fmt: skip
 )
 
 
@@ -173,16 +209,31 @@ class Recorder(Node):
             compression=values["compression"],
             flush_period_s=values["flush_period"],
             custom_data={"recorder": f"bike_rig.nodes.recorder, node {self.get_fully_qualified_name()}"},
+            max_bytes=values["max_bag_size"],
+            max_duration_s=values["max_bag_duration"],
         )
+        self.snapshot: SnapshotBuffer | None = None
+        if values["snapshot_duration"] > 0:
+            latched = (t.name for t in self.topics if t.qos.transient_local and t.qos.depth == 1)
+            self.snapshot = SnapshotBuffer(values["snapshot_duration"], values["snapshot_max_bytes"], latched)
         self.writer.open()
         self.received = 0
         self.errors = 0
         self.failed: OSError | None = None
         self.dropped = 0
+        self.paused = False
+        self.pauses = 0
+        self.dropped_paused = 0
+        """Messages that arrived while paused (not recorded, knowingly)."""
+        self.snapshots: list[Path] = []
         self._closed = False
         self._min_free_bytes = int(1e6 * float(values["min_free_disk_mb"]))
         self._write_ms = 0.0  # the longest write since the last diagnostics, ms
         self.diagnostics = DiagnosticsUpdater(self, self._health)
+        self.create_service(_srvs.Pause, RECORDER_PAUSE, self._on_pause)
+        self.create_service(_srvs.Resume, RECORDER_RESUME, self._on_resume)
+        self.create_service(_srvs.SplitBag, RECORDER_SPLIT, self._on_split)
+        self.create_service(_srvs.SaveSnapshot, RECORDER_SNAPSHOT, self._on_snapshot)
         for topic in self.topics:
             self.create_subscription(
                 _message_class(topic.type), topic.name, self._callback(topic), profile(topic), raw=True
@@ -212,18 +263,116 @@ class Recorder(Node):
         sent = int(info.get("source_timestamp") or 0) or received
         sequence = int(info.get("publication_sequence_number") or 0)
         self.received += 1
+        if self.paused:
+            self.dropped_paused += 1
+            return
+        payload = bytes(data)
+        if self.snapshot is not None:
+            self.snapshot.push(BufferedMessage(topic.name, received, sent, sequence, payload))
         if self.failed is not None:
             self.dropped += 1
             return
+        files = len(self.writer.files)
         try:
             if not self.writer.has_topic(topic.name):
                 self._add_channel(topic, first=True)
             started = time.perf_counter()
-            self.writer.write(topic.name, received, bytes(data), sent, sequence)
+            self.writer.write(topic.name, received, payload, sent, sequence)
             self._write_ms = max(self._write_ms, 1e3 * (time.perf_counter() - started))
         except OSError as exc:
             self.dropped += 1
             self._fail(exc)
+            return
+        if len(self.writer.files) != files:
+            self.get_logger().info(f"split (limit reached): {self._split_line()}")
+
+    def _split_line(self) -> str:
+        names = self.writer.files
+        return f"closed {names[-2]}, recording into {names[-1]} ({self.writer.bytes_written} bytes so far)"
+
+    # ------------------------------------------------------------------ services
+    def _on_pause(self, _request: Any, response: Any) -> Any:
+        """Pause recording (``Pause``): what arrives from now on is counted, not recorded."""
+        if self.failed is not None:
+            response.ok, response.message = False, f"recording stopped earlier ({self.failed.strerror})"
+        elif self.paused:
+            response.ok, response.message = True, "already paused"
+        else:
+            self.paused = True
+            self.pauses += 1
+            self.writer.custom_data["pauses"] = str(self.pauses)
+            response.ok, response.message = True, "paused"
+            self.get_logger().info("paused: messages arriving now are counted, not recorded")
+        return response
+
+    def _on_resume(self, _request: Any, response: Any) -> Any:
+        """Resume recording (``Resume``)."""
+        if self.failed is not None:
+            response.ok, response.message = False, f"recording stopped earlier ({self.failed.strerror})"
+        elif not self.paused:
+            response.ok, response.message = True, "not paused"
+        else:
+            self.paused = False
+            self.writer.custom_data["messages_dropped_while_paused"] = str(self.dropped_paused)
+            response.ok = True
+            response.message = f"resumed ({self.dropped_paused} message(s) dropped while paused so far)"
+            self.get_logger().info(response.message)
+        return response
+
+    def _on_split(self, _request: Any, response: Any) -> Any:
+        """Close the current storage file and go on in the next (``SplitBag``)."""
+        response.ok, response.closed_file, response.new_file = False, "", ""
+        if self.failed is not None:
+            response.message = f"recording stopped earlier ({self.failed.strerror})"
+            return response
+        try:
+            response.closed_file, response.new_file = self.writer.split()
+        except OSError as exc:
+            self._fail(exc)
+            response.message = f"cannot write {self.writer.path}: {exc.strerror or exc}"
+            return response
+        except BagError as exc:
+            response.message = str(exc)
+            return response
+        response.ok = True
+        response.message = f"split: {self._split_line()}"
+        self.get_logger().info(response.message)
+        return response
+
+    def _on_snapshot(self, request: Any, response: Any) -> Any:
+        """Write the last ``request.seconds`` into a new bag (``SaveSnapshot``)."""
+        response.ok, response.path, response.message_count = False, "", 0
+        if self.snapshot is None:
+            response.message = "snapshots are off (parameter snapshot_duration is 0)"
+            return response
+        try:
+            messages = self.snapshot.window(float(request.seconds))
+            path = Path(request.output) if request.output else self._snapshot_path()
+            about = {"snapshot_of": str(self.writer.path), "seconds": f"{request.seconds:g}"}
+            writer = write_snapshot(path, messages, self._snapshot_topics(), self.writer.compression, about)
+        except (ValueError, BagError, OSError) as exc:
+            response.message = f"snapshot not written: {exc}"
+            self.get_logger().error(response.message)
+            return response
+        self.snapshots.append(path)
+        response.ok, response.path, response.message_count = True, str(path), writer.message_count
+        response.message = f"snapshot: {writer.message_count} messages into {path}"
+        self.get_logger().info(response.message)
+        return response
+
+    def _snapshot_path(self) -> Path:
+        base = self.writer.path
+        n = 1
+        while (candidate := base.parent / f"{base.name}_snapshot_{n}").exists():
+            n += 1
+        return candidate
+
+    def _snapshot_topics(self) -> list[SnapshotTopic]:
+        w = self.writer
+        return [
+            SnapshotTopic(t.name, t.type, tuple(w.topic_qos(t.name) if w.has_topic(t.name) else [contract_qos(t.qos)]))
+            for t in self.topics
+        ]
 
     def _health(self) -> list[Any]:
         """Bag and disk statuses (:func:`bike_rig.pipeline.health.recorder_statuses`)."""
@@ -237,7 +386,7 @@ class Recorder(Node):
         failed = "" if self.failed is None else str(self.failed.strerror or self.failed)
         return recorder_statuses(RecorderHealth(
             str(path), written, self.writer.message_count, self.dropped + self.errors, latency, free,
-            self._min_free_bytes, failed,
+            self._min_free_bytes, failed, self.paused, self.dropped_paused,
         ))  # fmt: skip
 
     def _fail(self, exc: OSError) -> None:
@@ -293,9 +442,15 @@ class Recorder(Node):
         for topic in self.topics:
             if not self.writer.has_topic(topic.name):
                 self._add_channel(topic, first=False)
+        if self.pauses:
+            self.writer.custom_data["pauses"] = str(self.pauses)
+            self.writer.custom_data["messages_dropped_while_paused"] = str(self.dropped_paused)
+            self.get_logger().info(f"{self.dropped_paused} message(s) arrived while paused (not recorded)")
         counts = self.writer.close()
         summary = ", ".join(f"{c.name} {c.count}" for c in counts)
-        self.get_logger().info(f"closed {self.writer.path}: {self.writer.message_count} messages ({summary})")
+        files = self.writer.files
+        in_files = f" in {len(files)} files" if len(files) > 1 else ""
+        self.get_logger().info(f"closed {self.writer.path}: {self.writer.message_count} messages{in_files} ({summary})")
         if self.errors:
             self.get_logger().error(f"{self.errors} message(s) could not be recorded")
         return True

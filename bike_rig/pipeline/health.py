@@ -253,6 +253,8 @@ class RecorderHealth:
         free_bytes: Free space of the bag's file system, bytes.
         min_free_bytes: Below this free space the status is WARN, bytes.
         failed: Why recording stopped ("" while it records).
+        paused: Recording is paused (the ``pause`` service).
+        dropped_paused: Messages not recorded while paused (knowingly), since the start.
     """
 
     path: str
@@ -263,16 +265,22 @@ class RecorderHealth:
     free_bytes: int
     min_free_bytes: int
     failed: str = ""
+    paused: bool = False
+    dropped_paused: int = 0
 
 
 def recorder_statuses(h: RecorderHealth, node: str = "recorder") -> list[Status]:
-    """``bag`` (written, dropped, latency; ERROR when recording stopped) and ``disk`` (free space)."""
+    """``bag`` (written, dropped, latency; WARN while paused, ERROR when recording stopped) and ``disk`` (free space)."""
     details = {"path": h.path, "bytes written": h.bytes_written, "messages": h.messages, "dropped": h.dropped,
-               "write latency (ms)": h.write_latency_ms}  # fmt: skip
+               "write latency (ms)": h.write_latency_ms, "paused": h.paused,
+               "dropped while paused": h.dropped_paused}  # fmt: skip
     if h.failed:
         bag = Status.of(node, "bag", Level.ERROR, f"recording stopped: {h.failed}", **details)
     elif h.dropped:
         bag = Status.of(node, "bag", Level.ERROR, f"{h.dropped} message(s) not recorded", **details)
+    elif h.paused:
+        bag = Status.of(node, "bag", Level.WARN, f"paused: {h.dropped_paused} message(s) not recorded so far",
+                        **details)  # fmt: skip
     else:
         bag = Status.of(node, "bag", Level.OK, f"{h.messages} messages, {h.bytes_written / 1e6:.1f} MB", **details)
     level = level_below(h.free_bytes, h.min_free_bytes, 0)
