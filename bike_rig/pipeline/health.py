@@ -270,7 +270,7 @@ class RecorderHealth:
 
 
 def recorder_statuses(h: RecorderHealth, node: str = "recorder") -> list[Status]:
-    """``bag`` (written, dropped, latency; WARN while paused, ERROR when recording stopped) and ``disk`` (free space)."""
+    """``bag`` (written, dropped, latency; WARN while paused, ERROR when it stopped) and ``disk`` (free space)."""
     details = {"path": h.path, "bytes written": h.bytes_written, "messages": h.messages, "dropped": h.dropped,
                "write latency (ms)": h.write_latency_ms, "paused": h.paused,
                "dropped while paused": h.dropped_paused}  # fmt: skip
