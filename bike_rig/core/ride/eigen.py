@@ -1,0 +1,232 @@
+"""A free-decay segment's measured eigenvalue with σ, and segments at one speed combined.
+
+Each segment is fitted with the trial fitter (:func:`bike_rig.core.period.fit.fit_period`,
+Eq 23: offset + e^{−ζωt}(B sin ω_d t + C cos ω_d t)) on the whole segment (no lead-in, no
+cut to whole cycles: a ride's segment is one to a few cycles): its validity, flags and
+(α, ω_d). By default (model ``eq23_trend``) the fit is then refined with a linear trend added
+(:mod:`.realmode`: the capsize mode in the roll rate biases a short Eq 23 fit by several σ);
+``eq23_real`` adds a real mode of free rate instead, ``eq23`` keeps the trial fitter's result.
+The measured eigenvalue is
+
+    λ = −ζω ± i ω_d,   ω_d = ω sqrt(1 − ζ²) = 2π / T   (Eq 25)
+
+with σ(Re λ) the fitter's σ of ζω and σ(Im λ) = 2π σ_T / T² (the drift-robust sandwich with
+two or more whole cycles, Eq 27 with a Student-t factor below). A segment with fewer than
+:data:`MIN_SEGMENT_CYCLES` cycles has no eigenvalue (flag ``too_few_cycles``); the fitter's
+flags (no oscillation, poor fit, ...) are kept.
+
+Segments at one speed combine as trials do (:mod:`bike_rig.core.period.combine`): the weighted
+mean of the unflagged ones, σ widened by the Birge ratio when they scatter more than their σ.
+Units: times s, eigenvalues 1/s, speeds m/s.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from ..period.fit import fit_period
+from ..period.oscillation import TWO_PI
+from ..period.result import FlagCode, PeriodFit
+from ..period.window import WindowPolicy
+from .realmode import RealModeFitFailed, fit_with_real_mode
+
+__all__ = [
+    "MIN_SEGMENT_CYCLES",
+    "MODELS",
+    "CombinedEigenvalue",
+    "MeasuredEigenvalue",
+    "combine_eigenvalues",
+    "eigenvalue_of_fit",
+    "fit_segment",
+    "weighted_mean",
+]
+
+#: A segment with fewer cycles has no eigenvalue (one cycle at 100 Hz fits well; less is biased).
+MIN_SEGMENT_CYCLES = 1.0
+#: The segment models: Eq 23 with a trend, with one real mode (:mod:`.realmode`), or alone (the trial fitter).
+MODELS = ("eq23_trend", "eq23_real", "eq23")
+#: A fit with a lower r² is flagged ``poor_fit``.
+MIN_R2 = 0.9
+#: Segments whose speeds differ by less than this are at one speed [m/s].
+SPEED_TOLERANCE = 0.05
+
+
+@dataclass(frozen=True)
+class MeasuredEigenvalue:
+    """One segment's measured eigenvalue.
+
+    Attributes:
+        source: The record's file or bag.
+        index: The segment's number in its record (from 1).
+        start: The segment's first time [s] on the record's axis.
+        stop: Its last time [s].
+        speed: The forward speed [m/s] (NaN if unknown).
+        real: Re λ = −ζω [1/s].
+        real_sigma: Its σ [1/s].
+        imag: Im λ = ω_d > 0 [rad/s].
+        imag_sigma: Its σ [rad/s].
+        valid: Whether an eigenvalue was determined.
+        flags: The fitter's flags (``code: reason``).
+        n_cycles: Cycles in the segment.
+        fit: The trial fitter's result.
+        model: The model fitted (:data:`MODELS`).
+    """
+
+    source: str
+    index: int
+    start: float
+    stop: float
+    speed: float
+    real: float
+    real_sigma: float
+    imag: float
+    imag_sigma: float
+    valid: bool
+    flags: tuple[str, ...]
+    n_cycles: float
+    fit: PeriodFit
+    model: str = "eq23"
+
+    @property
+    def clean(self) -> bool:
+        """Valid, with finite σ and no flags."""
+        return self.valid and not self.flags and self.real_sigma > 0 and self.imag_sigma > 0
+
+
+def eigenvalue_of_fit(fit: PeriodFit) -> tuple[float, float, float, float]:
+    """(Re λ, σ, Im λ, σ) of Eq 23's fit: −ζω ± i 2π/T (Eq 25) [1/s]; NaN without a period."""
+    if not fit.valid:
+        return math.nan, math.nan, math.nan, math.nan
+    imag = TWO_PI / fit.period
+    return -fit.zeta * fit.omega, fit.alpha_sigma, imag, TWO_PI * fit.period_sigma / fit.period**2
+
+
+def fit_segment(
+    times: ArrayLike,
+    signal: ArrayLike,
+    *,
+    speed: float = math.nan,
+    source: str = "",
+    index: int = 1,
+    model: str = "eq23_trend",
+) -> MeasuredEigenvalue:
+    """The measured eigenvalue of one free-decay segment (module docstring).
+
+    Args:
+        times: Sample times [s] (increasing; jitter and gaps are fine).
+        signal: The samples (roll rate, rad/s).
+        speed: The forward speed [m/s].
+        source: The record's name.
+        index: The segment's number.
+        model: ``eq23_trend`` (default), ``eq23_real`` or ``eq23`` (:data:`MODELS`).
+
+    Raises:
+        ValueError: An unknown model (a programming mistake; the CLI offers the choices).
+    """
+    if model not in MODELS:
+        raise ValueError(f"unknown segment model {model!r}, expected one of {MODELS}")
+    t = np.asarray(times, dtype=float)
+    fit = fit_period(
+        signal,
+        times=t,
+        window=WindowPolicy.lead_in(0.0, whole_cycles=False),
+        min_cycles=MIN_SEGMENT_CYCLES,
+        min_valid_cycles=MIN_SEGMENT_CYCLES,
+    )
+    real, real_sigma, imag, imag_sigma = eigenvalue_of_fit(fit)
+    flags = tuple(str(f) for f in fit.flags)
+    valid = fit.valid
+    if model != "eq23" and fit.valid:
+        explained = (FlagCode.POOR_FIT, FlagCode.DRIFT)  # what the real mode may account for
+        kept = [str(f) for f in fit.flags if f.code not in explained]
+        try:
+            rm = fit_with_real_mode(t, np.asarray(signal, dtype=float), -real, imag, free_mu=model == "eq23_real")
+            real, real_sigma, imag, imag_sigma = -rm.alpha, rm.alpha_sigma, rm.omega_d, rm.omega_d_sigma
+            if not rm.r2 >= MIN_R2:
+                kept.append(f"{FlagCode.POOR_FIT.value}: r² = {rm.r2:.3f} < {MIN_R2:g} ({model})")
+        except RealModeFitFailed as exc:
+            valid, real, real_sigma, imag, imag_sigma = False, math.nan, math.nan, math.nan, math.nan
+            kept.append(f"{FlagCode.FIT_FAILED.value}: {exc}")
+        flags = tuple(kept)
+    return MeasuredEigenvalue(
+        source=source,
+        index=index,
+        start=float(t[0]) if t.size else math.nan,
+        stop=float(t[-1]) if t.size else math.nan,
+        speed=float(speed),
+        real=real,
+        real_sigma=real_sigma,
+        imag=imag,
+        imag_sigma=imag_sigma,
+        valid=valid,
+        flags=flags,
+        n_cycles=fit.n_cycles,
+        fit=fit,
+        model=model,
+    )
+
+
+def weighted_mean(values: ArrayLike, sigmas: ArrayLike) -> tuple[float, float, float]:
+    """Weighted mean x̄ = Σ xᵢ/σᵢ² / Σ 1/σᵢ², its σ = 1/sqrt(Σ 1/σᵢ²) × max(1, Birge ratio), and χ².
+
+    The Birge ratio sqrt(χ²/(n − 1)) widens σ when the values scatter more than their σ
+    (as :func:`bike_rig.core.period.combine.combine_periods`). Units: those of ``values``.
+    """
+    x = np.asarray(values, dtype=float)
+    s = np.asarray(sigmas, dtype=float)
+    w = 1.0 / s**2
+    mean = float(np.sum(w * x) / np.sum(w))
+    internal = 1.0 / math.sqrt(float(np.sum(w)))
+    chi2 = float(np.sum(((x - mean) / s) ** 2))
+    birge = math.sqrt(chi2 / (x.size - 1)) if x.size > 1 else 1.0
+    return mean, internal * max(1.0, birge), chi2
+
+
+@dataclass(frozen=True)
+class CombinedEigenvalue:
+    """The segments at one speed combined.
+
+    Attributes:
+        speed: Their mean speed [m/s].
+        real: Weighted mean of Re λ [1/s].
+        real_sigma: Its σ [1/s].
+        imag: Weighted mean of Im λ [rad/s].
+        imag_sigma: Its σ [rad/s].
+        n_used: Clean segments in the mean.
+        n_left_out: Flagged or invalid segments left out.
+    """
+
+    speed: float
+    real: float
+    real_sigma: float
+    imag: float
+    imag_sigma: float
+    n_used: int
+    n_left_out: int
+
+
+def combine_eigenvalues(segments: Sequence[MeasuredEigenvalue]) -> list[CombinedEigenvalue]:
+    """The clean segments grouped by speed (within :data:`SPEED_TOLERANCE`) and combined, by speed."""
+    groups: list[list[MeasuredEigenvalue]] = []
+    for seg in sorted((s for s in segments if math.isfinite(s.speed)), key=lambda s: s.speed):
+        if groups and seg.speed - groups[-1][0].speed <= SPEED_TOLERANCE:
+            groups[-1].append(seg)
+        else:
+            groups.append([seg])
+    out = []
+    for group in groups:
+        used = [s for s in group if s.clean]
+        if not used:
+            nan = math.nan
+            out.append(CombinedEigenvalue(float(np.mean([s.speed for s in group])), nan, nan, nan, nan, 0, len(group)))
+            continue
+        re, re_s, _ = weighted_mean([s.real for s in used], [s.real_sigma for s in used])
+        im, im_s, _ = weighted_mean([s.imag for s in used], [s.imag_sigma for s in used])
+        speed = float(np.mean([s.speed for s in used]))
+        out.append(CombinedEigenvalue(speed, re, re_s, im, im_s, len(used), len(group) - len(used)))
+    return out
