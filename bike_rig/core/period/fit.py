@@ -500,7 +500,7 @@ class _Fitter:
         return factor, self.offset - units_offset * factor
 
     def _too_few(self, n_cycles: float, period: float) -> Flag:
-        why = f"{n_cycles:.2f} cycles of {period:.4g} s in the window, fewer than {self.options.min_valid_cycles:g}"
+        why = f"{n_cycles:.2f} cycles of {period:.4g} s in window, at least {self.options.min_valid_cycles:g} needed"
         return Flag(FlagCode.TOO_FEW_CYCLES, f"{why}: record longer (or shorten the lead-in)")
 
     # ------------------------------------------------------------------ statistics and flags
