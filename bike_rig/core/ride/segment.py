@@ -111,7 +111,7 @@ def noise_sigma(y: FloatArray) -> float:
 
 
 def _running_max(z: FloatArray, n: int, forward: bool) -> FloatArray:
-    """max of z over the next n samples from i (forward) or the n before i (backward)."""
+    """The largest z over the next n samples from i (forward) or the n before i (backward)."""
     from scipy.ndimage import maximum_filter1d
 
     if forward:  # window [i, i + n)
@@ -133,7 +133,8 @@ def _torque_kicks(t: FloatArray, torque: FloatArray, opt: SegmentOptions) -> lis
     breaks = np.flatnonzero(np.diff(t[idx]) > opt.merge_s)
     for first, last in zip(np.r_[0, breaks + 1], np.r_[breaks, idx.size - 1], strict=True):
         a, b = float(t[idx[first]]), float(t[idx[last]])
-        kicks.append(Kick(a, b, f"steer torque beyond {opt.torque_threshold:g}σ = {level:.3g} N m from {a:.2f} to {b:.2f} s"))
+        why = f"steer torque beyond {opt.torque_threshold:g}σ = {level:.3g} N m from {a:.2f} to {b:.2f} s"
+        kicks.append(Kick(a, b, why))
     return kicks
 
 
@@ -194,8 +195,8 @@ def segment_record(record: RideRecord, options: SegmentOptions | None = None) ->
         stops = []
         lost = np.flatnonzero(quiet[i0:])
         if lost.size:
-            stops.append((float(t[i0 + int(lost[0])]),
-                          f"lost in noise: below {opt.threshold:g}σ = {opt.threshold * sigma:.3g} for {opt.window_s:g} s"))  # fmt: skip
+            level = f"{opt.threshold:g}σ = {opt.threshold * sigma:.3g}"
+            stops.append((float(t[i0 + int(lost[0])]), f"lost in noise: below {level} for {opt.window_s:g} s"))
         if k + 1 < len(kicks):
             stops.append((kicks[k + 1].onset - opt.gap_s, f"next kick at {kicks[k + 1].onset:.2f} s"))
         stops.append((float(t[-1]), "end of record"))
