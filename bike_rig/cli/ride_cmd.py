@@ -1,0 +1,342 @@
+"""``bike-rig ride``: measured weave eigenvalues of ride records, and their validation against the model.
+
+::
+
+    bike-rig ride fit RECORD... [--signal COL] [--time COL] [--speed M/S] [--speed-column COL]
+                      [--torque-column COL] [--topic T] [--field F] [--speed-topic T] [--torque-topic T]
+                      [--segments auto|whole|find] [--model eq23_trend|eq23_real|eq23] [--json] [-o DIR]
+    bike-rig ride validate PARAMETERS RECORD... [the record options] [--rider R] [--feedback F]
+                      [--sigma correlated|paper] [--com-method M] [--speeds START STOP N] [--json] [-o DIR]
+    bike-rig ride simulate PARAMETERS --speed M/S -o OUT.csv|OUT_BAG [--rider R] [--feedback F]
+                      [--duration S] [--rate HZ] [--kick-every S] [--kick-torque NM] [--noise RAD/S] [--seed N]
+
+A RECORD is a CSV file (:mod:`bike_rig.core.ride.record`) or a bag (a directory or ``.mcap``:
+:mod:`bike_rig.bag.ride`). ``--segments whole`` fits the whole record as one free decay (as
+labs store them), ``find`` segments it (:mod:`bike_rig.core.ride.segment`), ``auto`` (default)
+does ``whole`` for records shorter than 5 s and ``find`` otherwise. ``--speed`` applies to
+every record; else each segment's mean of the speed column or topic. ``fit --json`` prints a
+list with one object per segment: ``file, segment, start, stop, speed, real, real_sigma, imag,
+imag_sigma, valid, flags, n_cycles, model, start_reason, stop_reason`` (s, m/s, 1/s; null for
+unknown). ``validate --json`` prints ``{"segments": [... plus predicted_real,
+predicted_real_sigma, predicted_imag, predicted_imag_sigma, normalised_deviation,
+normalised_deviation_real, normalised_deviation_imag], "predicted_real": [per segment], ...,
+"speeds": [per speed, combined], "normalised_deviation": overall, "notes": [...]}``. ``-o DIR``
+writes the figures (``ride_validation.png``, ``segments_<record>.png``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..core.ride.eigen import MODELS, MeasuredEigenvalue, combine_eigenvalues, fit_segment
+from ..core.ride.record import RideRecord, read_ride_csv
+from ..core.ride.segment import Segment, segment_record
+from .common import UsageError
+
+__all__ = ["add_parser", "load_record", "measure", "segment_json"]
+
+#: ``--segments auto``: records shorter than this are one segment [s].
+WHOLE_BELOW_S = 5.0
+
+
+def _record_options(q: argparse.ArgumentParser) -> None:
+    g = q.add_argument_group("records")
+    g.add_argument("--signal", help="CSV: the signal column (default roll_rate, gyro_x or angular_velocity_x)")
+    g.add_argument("--time", help="CSV: the time column, seconds or ISO 8601 (default time, t, time_s or timestamp)")
+    g.add_argument("--speed", type=float, metavar="M/S", help="the speed of every record, m/s")
+    g.add_argument("--speed-column", help="CSV: the speed column, m/s (default speed or speed_mps if present)")
+    g.add_argument("--torque-column", help="CSV: the steer torque column, N m (default steer_torque if present)")
+    g.add_argument("--topic", help="bag: the signal's topic (default: the first sensor_msgs/Imu topic)")
+    g.add_argument("--field", default="angular_velocity.x", help="bag: the signal's field (default angular_velocity.x)")
+    g.add_argument("--speed-topic", help="bag: a topic with the speed, m/s (field 'data')")
+    g.add_argument("--torque-topic", help="bag: a topic with the steer torque, N m (field 'data')")
+    g.add_argument("--segments", choices=["auto", "whole", "find"], default="auto",
+                   help=f"whole record, find the kicks, or auto (whole below {WHOLE_BELOW_S:g} s)")  # fmt: skip
+    g.add_argument("--model", choices=list(MODELS), default=MODELS[0],
+                   help="segment model: Eq 23 with a linear trend (default), with a real mode, or alone")  # fmt: skip
+    q.add_argument("--json", action="store_true", help="JSON on standard output")
+    q.add_argument("-o", "--out", metavar="DIR", help="write the figures to this directory")
+
+
+def add_parser(sub: Any) -> None:
+    """Register ``bike-rig ride`` and its sub-commands."""
+    from .options import add_feedback_option
+
+    q = sub.add_parser("ride", help="measured weave eigenvalues of ride records, validated against the model")
+    rs = q.add_subparsers(dest="ride_command", required=True)
+    f = rs.add_parser("fit", help="each segment's eigenvalue with σ and flags")
+    f.add_argument("records", nargs="+", metavar="RECORD", help="CSV files or bags")
+    _record_options(f)
+    f.set_defaults(func=run_fit)
+    v = rs.add_parser("validate", help="measured against the model's weave eigenvalue, with σ on both")
+    v.add_argument("parameters", metavar="PARAMETERS", help="measurement file or parameter file")
+    v.add_argument("records", nargs="+", metavar="RECORD", help="CSV files or bags")
+    _record_options(v)
+    _model_options(v, add_feedback_option)
+    v.add_argument("--sigma", choices=["correlated", "paper"], default="correlated", help="σ convention")
+    v.add_argument("--speeds", nargs=3, metavar=("START", "STOP", "N"), help="speeds of the curves, m/s")
+    v.set_defaults(func=run_validate)
+    s = rs.add_parser("simulate", help="a simulated ride of the linear model (CSV, or a bag for a directory name)")
+    s.add_argument("parameters", metavar="PARAMETERS", help="measurement file or parameter file")
+    _model_options(s, add_feedback_option)
+    s.add_argument("--speed", type=float, required=True, metavar="M/S", help="forward speed, m/s")
+    s.add_argument("-o", "--out", required=True, help="OUT.csv, or a new bag directory (no .csv suffix)")
+    s.add_argument("--duration", type=float, default=30.0, help="s (default 30)")
+    s.add_argument("--rate", type=float, default=100.0, help="sample rate, Hz (default 100)")
+    s.add_argument("--kick-every", type=float, default=6.0, help="s between kicks (default 6)")
+    s.add_argument("--kick-torque", type=float, default=5.0, help="steer torque of a 0.1 s kick, N m (default 5)")
+    s.add_argument("--noise", type=float, default=0.01, help="σ of the roll-rate sensor, rad/s (default 0.01)")
+    s.add_argument("--seed", type=int, default=0)
+    s.set_defaults(func=run_simulate)
+
+
+def _model_options(q: argparse.ArgumentParser, add_feedback_option: Any) -> None:
+    from ..core.benchmark import ComMethod
+
+    q.add_argument("--rider", help="'paper' for the paper's rigid rider (Table 1), or a rider YAML file")
+    add_feedback_option(q)
+    q.add_argument("--com-method", choices=[m.value for m in ComMethod], default=ComMethod.CENTROID.value)
+
+
+def load_record(path: str, args: argparse.Namespace) -> RideRecord:
+    """A CSV file or a bag, read with the record options.
+
+    Raises:
+        RideDataError: A bad CSV file. BagError: a bad bag.
+    """
+    p = Path(path)
+    if p.is_dir() or p.suffix.lower() == ".mcap":
+        from ..bag.ride import read_ride_bag
+
+        return read_ride_bag(path, args.topic, args.field, args.speed_topic, torque_topic=args.torque_topic)
+    return read_ride_csv(path, args.signal, args.time, args.speed_column, args.torque_column)
+
+
+def _segments(record: RideRecord, mode: str) -> list[Segment]:
+    from ..core.ride.segment import Kick
+
+    duration = float(record.times[-1] - record.times[0])
+    if mode == "whole" or (mode == "auto" and duration < WHOLE_BELOW_S):
+        whole = Kick(float(record.times[0]), float(record.times[0]), "a stored free decay")
+        return [Segment(float(record.times[0]), float(record.times[-1]), whole, "the record's start", "its end")]
+    return segment_record(record)
+
+
+def measure(args: argparse.Namespace) -> list[tuple[MeasuredEigenvalue, Segment, RideRecord]]:
+    """Every record's segments fitted, in order.
+
+    Raises:
+        UsageError: A non-positive or non-finite ``--speed``.
+    """
+    if args.speed is not None and not (math.isfinite(args.speed) and args.speed >= 0):
+        raise UsageError(f"--speed must be a finite speed >= 0 m/s, got {args.speed}")
+    out = []
+    for path in args.records:
+        record = load_record(path, args)
+        for k, seg in enumerate(_segments(record, args.segments), start=1):
+            inside = (record.times >= seg.start) & (record.times <= seg.stop)
+            speed = args.speed if args.speed is not None else record.mean_speed(seg.start, seg.stop)
+            m = fit_segment(record.times[inside], record.signal[inside], speed=speed, source=path, index=k,
+                            model=args.model)  # fmt: skip
+            out.append((m, seg, record))
+    return out
+
+
+def _num(x: float) -> float | None:
+    return float(x) if math.isfinite(x) else None
+
+
+def segment_json(m: MeasuredEigenvalue, seg: Segment) -> dict[str, Any]:
+    """One segment's object (module docstring)."""
+    return {
+        "file": m.source, "segment": m.index, "start": _num(seg.start), "stop": _num(seg.stop),
+        "speed": _num(m.speed), "real": _num(m.real), "real_sigma": _num(m.real_sigma), "imag": _num(m.imag),
+        "imag_sigma": _num(m.imag_sigma), "valid": m.valid, "flags": list(m.flags), "n_cycles": _num(m.n_cycles),
+        "model": m.model, "start_reason": seg.start_reason, "stop_reason": seg.stop_reason,
+    }  # fmt: skip
+
+
+def _pm(x: float, s: float) -> str:
+    return "—" if not math.isfinite(x) else f"{x:+.3f} ± {s:.3f}"
+
+
+def _line(m: MeasuredEigenvalue, seg: Segment) -> str:
+    head = f"{m.source} #{m.index} {seg.start:.2f}–{seg.stop:.2f} s, {m.speed:.2f} m/s:"
+    if not m.valid:
+        return f"{head} no eigenvalue ({'; '.join(m.flags)})"
+    flags = f"  flags: {'; '.join(m.flags)}" if m.flags else ""
+    eig = f"Re λ {_pm(m.real, m.real_sigma)} 1/s, Im λ {_pm(m.imag, m.imag_sigma)} rad/s"
+    return f"{head} {eig}, {m.n_cycles:.1f} cycles{flags}"
+
+
+def _figures_dir(out: str) -> Path:
+    from ..core.errors import InputFileError
+
+    d = Path(out)
+    try:
+        d.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputFileError(out, f"cannot create the directory ({exc.strerror})") from None
+    return d
+
+
+def _segment_figures(rows: list[tuple[MeasuredEigenvalue, Segment, RideRecord]], out: Path) -> None:
+    import matplotlib.pyplot as plt
+
+    from ..plots.output import slug
+    from ..plots.ride import ride_segments
+    from ..plots.style import save_figure
+
+    records: dict[str, tuple[RideRecord, list[Segment]]] = {}
+    for _, seg, rec in rows:
+        records.setdefault(rec.source, (rec, []))[1].append(seg)
+    for name, (rec, segs) in records.items():
+        fig = ride_segments(rec, segs)
+        save_figure(fig, out / f"segments_{slug(Path(name).stem)}", ("png",))
+        plt.close(fig)
+
+
+def run_fit(args: argparse.Namespace) -> int:
+    """``bike-rig ride fit``; returns 0."""
+    rows = measure(args)
+    if args.json:
+        print(json.dumps([segment_json(m, seg) for m, seg, _ in rows], indent=2))
+    else:
+        for m, seg, _ in rows:
+            print(_line(m, seg))
+        for c in combine_eigenvalues([m for m, _, _ in rows]):
+            if c.n_used:
+                print(f"{c.speed:.2f} m/s, {c.n_used} segments combined ({c.n_left_out} left out): "
+                      f"Re λ {_pm(c.real, c.real_sigma)} 1/s, Im λ {_pm(c.imag, c.imag_sigma)} rad/s")  # fmt: skip
+    if args.out:
+        _segment_figures(rows, _figures_dir(args.out))
+    return 0
+
+
+def run_validate(args: argparse.Namespace) -> int:
+    """``bike-rig ride validate``; returns 0.
+
+    Raises:
+        UsageError: A segment without a speed.
+    """
+    from ..core.rider import add_rider
+    from ..pipeline.ride import compare_ride, predicted_weave
+    from .common import feedback_from_spec, rider_from_spec
+    from .main import _parameters, _speeds
+
+    ps = _parameters(args.parameters, args.com_method)
+    rider = rider_from_spec(args.rider)
+    if rider is not None:
+        ps = add_rider(ps, rider)
+    fb = feedback_from_spec(args.feedback)
+    rows = measure(args)
+    for m, _, _ in rows:
+        if not math.isfinite(m.speed):
+            raise UsageError(f"{m.source}: segment {m.index} has no speed: give --speed or a speed column/topic")
+    comparison = compare_ride(ps, [m for m, _, _ in rows], fb, args.sigma)
+    if args.json:
+        print(json.dumps(_validate_json(comparison, rows), indent=2))
+    else:
+        print(_validate_text(comparison, rows))
+    if args.out:
+        import matplotlib.pyplot as plt
+
+        from ..plots.ride import ride_validation
+        from ..plots.style import save_figure
+
+        out = _figures_dir(args.out)
+        top = max(m.speed for m, _, _ in rows)
+        speeds = _speeds(args.speeds) if args.speeds else np.linspace(0.5, max(6.0, 1.2 * top), 111)
+        fig = ride_validation(comparison, predicted_weave(ps, speeds, fb, args.sigma), Path(args.parameters).stem)
+        save_figure(fig, out / "ride_validation", ("png",))
+        plt.close(fig)
+        _segment_figures(rows, out)
+    return 0
+
+
+def _validate_json(comparison: Any, rows: list[tuple[MeasuredEigenvalue, Segment, RideRecord]]) -> dict[str, Any]:
+    segments = []
+    for c, (m, seg, _) in zip(comparison.segments, rows, strict=True):
+        obj = segment_json(m, seg)
+        obj.update({
+            "predicted_real": _num(c.predicted_real), "predicted_real_sigma": _num(c.predicted_real_sigma),
+            "predicted_imag": _num(c.predicted_imag), "predicted_imag_sigma": _num(c.predicted_imag_sigma),
+            "normalised_deviation": _num(c.deviation), "normalised_deviation_real": _num(c.z_real),
+            "normalised_deviation_imag": _num(c.z_imag),
+        })  # fmt: skip
+        segments.append(obj)
+    keys = ("predicted_real", "predicted_real_sigma", "predicted_imag", "predicted_imag_sigma")
+    speeds = [
+        {"speed": s.combined.speed, "n_used": s.combined.n_used, "n_left_out": s.combined.n_left_out,
+         "real": _num(s.combined.real), "real_sigma": _num(s.combined.real_sigma), "imag": _num(s.combined.imag),
+         "imag_sigma": _num(s.combined.imag_sigma), **{k: _num(getattr(s, k)) for k in keys},
+         "normalised_deviation": _num(s.deviation), "normalised_deviation_real": _num(s.z_real),
+         "normalised_deviation_imag": _num(s.z_imag)}
+        for s in comparison.speeds
+    ]  # fmt: skip
+    out: dict[str, Any] = {"segments": segments}
+    out.update({k: [o[k] for o in segments] for k in keys})
+    out.update({"speeds": speeds, "normalised_deviation": _num(comparison.overall), "notes": list(comparison.notes)})
+    return out
+
+
+def _validate_text(comparison: Any, rows: list[tuple[MeasuredEigenvalue, Segment, RideRecord]]) -> str:
+    lines = []
+    for c, (m, seg, _) in zip(comparison.segments, rows, strict=True):
+        lines.append(_line(m, seg))
+        if m.valid:
+            lines.append(f"    model: Re λ {_pm(c.predicted_real, c.predicted_real_sigma)}, "
+                         f"Im λ {_pm(c.predicted_imag, c.predicted_imag_sigma)}; normalised deviation "
+                         f"re {c.z_real:+.2f}, im {c.z_imag:+.2f}")  # fmt: skip
+    for s in comparison.speeds:
+        c = s.combined
+        measured = f"Re λ {_pm(c.real, c.real_sigma)}, Im λ {_pm(c.imag, c.imag_sigma)}"
+        model = f"Re λ {_pm(s.predicted_real, s.predicted_real_sigma)}, "
+        model += f"Im λ {_pm(s.predicted_imag, s.predicted_imag_sigma)}"
+        lines.append(f"{c.speed:.2f} m/s ({c.n_used} segments): measured {measured}; model {model}; "
+                     f"normalised deviation {s.deviation:.2f}")  # fmt: skip
+    lines.append(f"overall normalised deviation (RMS over clean segments): {comparison.overall:.2f}")
+    lines += [f"note: {n}" for n in comparison.notes]
+    return "\n".join(lines)
+
+
+def run_simulate(args: argparse.Namespace) -> int:
+    """``bike-rig ride simulate``; returns 0.
+
+    Raises:
+        UsageError: Bad numbers. SimulationError: an impossible ride.
+    """
+    from ..core.rider import add_rider
+    from ..core.sim.ride import RideSimulation, regular_kicks, simulate_ride, write_ride_csv
+    from ..core.uncertainty.matrix_sigma import canonical_with_sigma
+    from .common import feedback_from_spec, rider_from_spec
+    from .main import _parameters
+
+    for name in ("speed", "duration", "rate", "kick_every", "noise"):
+        x = getattr(args, name)
+        if not (math.isfinite(x) and x >= 0) or (name in ("duration", "rate", "kick_every") and x <= 0):
+            raise UsageError(f"--{name.replace('_', '-')} must be a finite positive number, got {x}")
+    ps = _parameters(args.parameters, args.com_method)
+    rider = rider_from_spec(args.rider)
+    if rider is not None:
+        ps = add_rider(ps, rider)
+    fb = feedback_from_spec(args.feedback)
+    ms = canonical_with_sigma(ps)
+    first = min(1.0, 0.2 * args.duration)
+    kicks = regular_kicks(args.duration, args.kick_every, first=first, steer_torque=args.kick_torque)
+    sim = RideSimulation(args.speed, args.duration, args.rate, kicks, noise_roll_rate=args.noise, seed=args.seed)
+    ride = simulate_ride(ms.matrices, ms.g, sim, None if fb is None else fb.gains(args.speed))
+    if args.out.lower().endswith(".csv"):
+        write_ride_csv(ride, args.out)
+    else:
+        from ..bag.ride import write_ride_bag
+
+        write_ride_bag(ride, args.out)
+    print(f"wrote {args.out}: {len(kicks)} kicks at {args.speed:g} m/s, {args.duration:g} s at {args.rate:g} Hz")
+    return 0
