@@ -144,7 +144,7 @@ def simulate_ride(
     t = np.arange(n, dtype=np.float64) * dt
     u = _inputs(t, sim.kicks, dt)
     ad, bd, _, _, _ = cont2discrete((a, b, np.eye(4), np.zeros((4, 2))), dt, method="zoh")
-    _, _, x = dlsim((ad, bd, np.eye(4), np.zeros((4, 2)), dt), u, t=t)
+    _, _, x = dlsim((ad, bd, np.eye(4), np.zeros((4, 2)), dt), u)  # (one output per input row)
     x = np.asarray(x, dtype=float)
     rng = np.random.default_rng(sim.seed)
 
