@@ -39,7 +39,7 @@ def _field(msg: Any, dotted: str, shown: str, topic: str) -> float:
 
 
 def _series(bag: Any, topic: str, dotted: str, shown: str) -> tuple[np.ndarray, np.ndarray]:
-    """(times [s since the epoch], values) of one topic's field."""
+    """(times [ns since the epoch, int64], values) of one topic's field."""
     if topic not in bag.topics:
         raise BagError(shown, f"no topic {topic} (topics: {', '.join(sorted(bag.topics))})")
     msgtype = bag.topics[topic].msgtype
@@ -53,10 +53,10 @@ def _series(bag: Any, topic: str, dotted: str, shown: str) -> tuple[np.ndarray, 
         except Exception as exc:  # rosbags raises several kinds for bad CDR
             raise BagError(shown, f"a {msgtype} message on {topic} does not deserialize ({exc})") from None
         stamp = getattr(getattr(msg, "header", None), "stamp", None)
-        t = stamp.sec + 1e-9 * stamp.nanosec if stamp is not None else 1e-9 * raw.log_time
+        t = stamp.sec * 1_000_000_000 + stamp.nanosec if stamp is not None else raw.log_time
         times.append(t)
         values.append(_field(msg, dotted, shown, topic))
-    return np.asarray(times, dtype=float), np.asarray(values, dtype=float)
+    return np.asarray(times, dtype=np.int64), np.asarray(values, dtype=float)
 
 
 def read_ride_bag(
@@ -81,12 +81,14 @@ def read_ride_bag(
             if not imus:
                 raise BagError(shown, f"no {IMU_TYPE} topic: name the signal's topic and field")
             topic = imus[0]
-        t, y = _series(bag, topic, field, shown)
+        t_ns, y = _series(bag, topic, field, shown)
+        t0 = int(t_ns.min()) if t_ns.size else 0
+        t = (t_ns - t0).astype(float) * 1e-9  # (from the first sample: exact to the ns)
         extra = {}
         for key, name, dotted in (("speed", speed_topic, speed_field), ("torque", torque_topic, torque_field)):
             if name is not None:
                 ts, vs = _series(bag, name, dotted, shown)
-                extra[key] = np.interp(t, ts, vs) if ts.size else np.full(t.size, np.nan)
+                extra[key] = np.interp(t, (ts - t0).astype(float) * 1e-9, vs) if ts.size else np.full(t.size, np.nan)
     if t.size < 2:
         raise BagError(shown, f"topic {topic}: {t.size} messages, a record needs at least two")
     order = np.argsort(t, kind="stable")

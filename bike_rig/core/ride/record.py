@@ -92,12 +92,22 @@ def _pick(header: Sequence[str], named: str | None, defaults: Sequence[str], pat
     return None
 
 
-def _time_value(text: str) -> float:
-    """A time cell as seconds: a number, or an ISO 8601 timestamp (seconds since the epoch)."""
+def _time_value(text: str, origin: list[datetime]) -> float:
+    """A time cell as seconds: a number, or an ISO 8601 timestamp (seconds from the first, ``origin``).
+
+    Raises:
+        ValueError: Neither (or a timestamp with a time zone where the first had none, or back).
+    """
     try:
         return float(text)
     except ValueError:
-        return datetime.fromisoformat(text.strip()).timestamp()
+        stamp = datetime.fromisoformat(text.strip())
+        if not origin:
+            origin.append(stamp)
+        try:
+            return (stamp - origin[0]).total_seconds()  # exact to the microsecond
+        except TypeError:
+            raise ValueError("a timestamp with a time zone mixed with ones without") from None
 
 
 def _columns(rows: list[list[str]], cols: dict[str, int], path: str) -> tuple[dict[str, list[float]], list[int]]:
@@ -105,6 +115,7 @@ def _columns(rows: list[list[str]], cols: dict[str, int], path: str) -> tuple[di
     header = rows[0]
     values: dict[str, list[float]] = {k: [] for k in cols}
     lines: list[int] = []
+    origin: list[datetime] = []
     for line, row in enumerate(rows[1:], start=2):
         if not row or all(not cell.strip() for cell in row):
             continue
@@ -113,7 +124,7 @@ def _columns(rows: list[list[str]], cols: dict[str, int], path: str) -> tuple[di
             if c >= len(row):
                 raise RideDataError(path, f"{len(row)} cells, no column '{name}'", line=line)
             try:
-                x = _time_value(row[c]) if key == "time" else float(row[c])
+                x = _time_value(row[c], origin) if key == "time" else float(row[c])
             except ValueError:
                 raise RideDataError(path, f"column '{name}': {row[c]!r} is not a number", line=line) from None
             values[key].append(x)

@@ -17,8 +17,8 @@ import pytest
 
 from bike_rig.cli.main import _parameters
 from bike_rig.core.feedback import resolve_feedback
-from bike_rig.core.rider import PAPER_RIDER, add_rider
 from bike_rig.core.ride.eigen import fit_segment
+from bike_rig.core.rider import PAPER_RIDER, add_rider
 from bike_rig.core.sim.ride import Kick, RideSimulation, simulate_ride
 from bike_rig.core.uncertainty.matrix_sigma import canonical_with_sigma
 from bike_rig.paths import config_file
