@@ -4,7 +4,7 @@
 
     bike-rig ride fit RECORD... [--signal COL] [--time COL] [--speed M/S] [--speed-column COL]
                       [--torque-column COL] [--topic T] [--field F] [--speed-topic T] [--torque-topic T]
-                      [--segments auto|whole|find] [--model eq23_trend|eq23_real|eq23] [--json] [-o DIR]
+                      [--segments auto|whole|find] [--model auto|eq23_trend|eq23_real|eq23] [--json] [-o DIR]
     bike-rig ride validate PARAMETERS RECORD... [the record options] [--rider R] [--feedback F]
                       [--sigma correlated|paper] [--com-method M] [--speeds START STOP N] [--json] [-o DIR]
     bike-rig ride simulate PARAMETERS --speed M/S -o OUT.csv|OUT_BAG [--rider R] [--feedback F]
@@ -34,15 +34,13 @@ from typing import Any
 
 import numpy as np
 
-from ..core.ride.eigen import MODELS, MeasuredEigenvalue, combine_eigenvalues, fit_segment
-from ..core.ride.record import RideRecord, read_ride_csv
-from ..core.ride.segment import Segment, segment_record
+from ..core.ride.eigen import MODELS, MeasuredEigenvalue, combine_eigenvalues
+from ..core.ride.record import RideRecord
+from ..core.ride.segment import Segment
+from ..rides import WHOLE_BELOW_S, RecordOptions, measure_records
 from .common import UsageError
 
-__all__ = ["add_parser", "load_record", "measure", "segment_json"]
-
-#: ``--segments auto``: records shorter than this are one segment [s].
-WHOLE_BELOW_S = 5.0
+__all__ = ["add_parser", "measure", "segment_json"]
 
 
 def _record_options(q: argparse.ArgumentParser) -> None:
@@ -59,7 +57,7 @@ def _record_options(q: argparse.ArgumentParser) -> None:
     g.add_argument("--segments", choices=["auto", "whole", "find"], default="auto",
                    help=f"whole record, find the kicks, or auto (whole below {WHOLE_BELOW_S:g} s)")  # fmt: skip
     g.add_argument("--model", choices=list(MODELS), default=MODELS[0],
-                   help="segment model: Eq 23 with a linear trend (default), with a real mode, or alone")  # fmt: skip
+                   help="segment model: auto (Eq 23 + trend or real mode, F test) or one forced")  # fmt: skip
     q.add_argument("--json", action="store_true", help="JSON on standard output")
     q.add_argument("-o", "--out", metavar="DIR", help="write the figures to this directory")
 
@@ -104,48 +102,17 @@ def _model_options(q: argparse.ArgumentParser, add_feedback_option: Any) -> None
     q.add_argument("--com-method", choices=[m.value for m in ComMethod], default=ComMethod.CENTROID.value)
 
 
-def load_record(path: str, args: argparse.Namespace) -> RideRecord:
-    """A CSV file or a bag, read with the record options.
-
-    Raises:
-        RideDataError: A bad CSV file. BagError: a bad bag.
-    """
-    p = Path(path)
-    if p.is_dir() or p.suffix.lower() == ".mcap":
-        from ..bag.ride import read_ride_bag
-
-        return read_ride_bag(path, args.topic, args.field, args.speed_topic, torque_topic=args.torque_topic)
-    return read_ride_csv(path, args.signal, args.time, args.speed_column, args.torque_column)
-
-
-def _segments(record: RideRecord, mode: str) -> list[Segment]:
-    from ..core.ride.segment import Kick
-
-    duration = float(record.times[-1] - record.times[0])
-    if mode == "whole" or (mode == "auto" and duration < WHOLE_BELOW_S):
-        whole = Kick(float(record.times[0]), float(record.times[0]), "a stored free decay")
-        return [Segment(float(record.times[0]), float(record.times[-1]), whole, "the record's start", "its end")]
-    return segment_record(record)
-
-
 def measure(args: argparse.Namespace) -> list[tuple[MeasuredEigenvalue, Segment, RideRecord]]:
-    """Every record's segments fitted, in order.
+    """Every record's segments fitted, in order (:func:`bike_rig.rides.measure_records`).
 
     Raises:
-        UsageError: A non-positive or non-finite ``--speed``.
+        RideOptionError: A negative or non-finite ``--speed``. RideDataError, BagError: a bad record.
     """
-    if args.speed is not None and not (math.isfinite(args.speed) and args.speed >= 0):
-        raise UsageError(f"--speed must be a finite speed >= 0 m/s, got {args.speed}")
-    out = []
-    for path in args.records:
-        record = load_record(path, args)
-        for k, seg in enumerate(_segments(record, args.segments), start=1):
-            inside = (record.times >= seg.start) & (record.times <= seg.stop)
-            speed = args.speed if args.speed is not None else record.mean_speed(seg.start, seg.stop)
-            m = fit_segment(record.times[inside], record.signal[inside], speed=speed, source=path, index=k,
-                            model=args.model)  # fmt: skip
-            out.append((m, seg, record))
-    return out
+    options = RecordOptions(
+        args.signal, args.time, args.speed, args.speed_column, args.torque_column, args.topic, args.field,
+        args.speed_topic, args.torque_topic, args.segments, args.model,
+    )  # fmt: skip
+    return [(m.eigenvalue, m.segment, m.record) for m in measure_records(args.records, options)]
 
 
 def _num(x: float) -> float | None:
