@@ -9,18 +9,22 @@ from __future__ import annotations
 
 import datetime as dt
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 from ..core.benchmark import ComMethod
 from ..core.feedback import Feedback, resolve_feedback
+from ..core.ride.eigen import MeasuredEigenvalue
 from ..plots.output import check_out_dir
+from ..rides import RecordOptions, measure_records
 from ..subjects import Subject, load_subject
 from . import sections
 from .errors import ReportOutputError
 from .figures import REPORT_DPI, ReportFigure, draw_figures, figure_specs
 from .html import page
 from .results import ReportResults, compute_results
+from .ride import compute_ride, ride_section
 
 __all__ = ["REPORT_FILE", "Report", "WrittenReport", "build_report", "report_input", "write_report"]
 
@@ -73,6 +77,7 @@ def build_report(
     dpi: float = REPORT_DPI,
     workers: int | None = None,
     feedback: Feedback | None = None,
+    rides: Sequence[MeasuredEigenvalue] = (),
 ) -> Report:
     """The report of one bicycle.
 
@@ -84,6 +89,8 @@ def build_report(
             :data:`~.figures.MAX_WORKERS`; see :func:`~.figures.draw_figures`).
         feedback: A steer-torque feedback: the page adds its closed loop (a section and the
             closed-loop eigenvalue and Bode figures); None: the open loop only.
+        rides: Measured ride segments (:func:`bike_rig.rides.measure_records`): the page adds
+            a ride section (:mod:`.ride`), against the bicycle with the rider (and feedback).
 
     Returns:
         The report, its page in memory.
@@ -99,6 +106,7 @@ def build_report(
         sections.matrices_section(results),
         sections.speeds_section(results),
         *([sections.closed_loop_section(results)] if results.closed_loop is not None else []),
+        *([ride_section(compute_ride(results.rider, rides, feedback), dpi)] if rides else []),
         sections.budget_section(results),
         sections.trials_section(subject),
         sections.timeline_section(subject),
@@ -115,6 +123,7 @@ def write_report(
     generated: str | None = None,
     workers: int | None = None,
     feedback: Feedback | None = None,
+    rides: Sequence[MeasuredEigenvalue] = (),
 ) -> WrittenReport:
     """Build the report of ``subject`` and write it as ``out_dir/index.html``.
 
@@ -126,6 +135,7 @@ def write_report(
         generated: The creation time printed on the page (default: now).
         workers: Processes to draw the figures in (default: one per CPU, at most 4).
         feedback: A steer-torque feedback whose closed loop the page adds, or None.
+        rides: Measured ride segments: the page adds a ride section.
 
     Returns:
         Where it went, with the report.
@@ -134,7 +144,7 @@ def write_report(
         ReportOutputError: The directory cannot be created or the file cannot be written.
     """
     t0 = time.perf_counter()
-    report = build_report(subject, generated, workers=workers, feedback=feedback)
+    report = build_report(subject, generated, workers=workers, feedback=feedback, rides=rides)
     path = _write(Path(out_dir), report.html)
     return WrittenReport(path, report, time.perf_counter() - t0)
 
@@ -145,6 +155,8 @@ def report_input(
     com_method: ComMethod | str | None = None,
     workers: int | None = None,
     feedback: str | None = None,
+    rides: Sequence[str] = (),
+    ride_options: RecordOptions | None = None,
 ) -> WrittenReport:
     """Open an input (measurement file, parameter file or session bag) and write its report.
 
@@ -158,6 +170,8 @@ def report_input(
         workers: Processes to draw the figures in (default: one per CPU, at most 4).
         feedback: A feedback file (:func:`bike_rig.core.feedback.resolve_feedback`; None, ""
             or "none": the open loop only); read before the input.
+        rides: Ride records (CSV files or bags) for the ride section, read before the input.
+        ride_options: How they are read (default: the defaults of ``bike-rig ride``).
 
     Returns:
         Where it went, with the report; its time counts from opening the input.
@@ -169,8 +183,9 @@ def report_input(
     t0 = time.perf_counter()
     out = check_out_dir(out_dir, ReportOutputError, create=False)  # before the input: nothing written for a bad one
     fb = resolve_feedback(feedback)
+    measured = [m.eigenvalue for m in measure_records(rides, ride_options or RecordOptions())] if rides else []
     subject = load_subject(path, com_method)
-    written = write_report(subject, out, workers=workers, feedback=fb)
+    written = write_report(subject, out, workers=workers, feedback=fb, rides=measured)
     return WrittenReport(written.path, written.report, time.perf_counter() - t0)
 
 
