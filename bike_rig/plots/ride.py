@@ -4,6 +4,8 @@
 imaginary parts [rad/s] of the model's weave eigenvalue (a line, with its ±σ band from the
 parameter covariance) and each segment's measured eigenvalue with ±σ error bars (clean
 segments filled, flagged ones hollow), and the segments at one speed combined (diamonds).
+:func:`ride_figure` is the registry's ``ride`` kind (``bike-rig plot ride INPUT --ride RECORD``):
+the records measured with ``bike-rig ride``'s defaults against one bicycle.
 :func:`ride_segments` draws a record's signal with each segment shaded, each kick marked,
 and the reason each segment starts and ends written by it.
 
@@ -19,13 +21,16 @@ from collections.abc import Sequence
 import numpy as np
 from matplotlib.figure import Figure
 
+from ..core.feedback import Feedback
 from ..core.ride.eigen import MeasuredEigenvalue
 from ..core.ride.record import RideRecord
 from ..core.ride.segment import Segment
-from ..pipeline.ride import PredictedWeave, RideComparison
+from ..pipeline.ride import PredictedWeave, RideComparison, compare_ride, predicted_weave
+from ..subjects import Subject
+from .model_data import FigureInputError
 from .style import new_figure
 
-__all__ = ["ride_segments", "ride_validation"]
+__all__ = ["ride_figure", "ride_segments", "ride_validation"]
 
 
 def ride_validation(comparison: RideComparison, curve: PredictedWeave, title: str = "") -> Figure:
@@ -82,3 +87,32 @@ def ride_segments(record: RideRecord, segments: Sequence[Segment], title: str = 
     ax.set_ylabel(f"{record.signal_name}")
     ax.set_title(title or f"{record.source}: {len(segments)} segments (shaded), kicks (red lines)")
     return fig
+
+
+def ride_figure(
+    subjects: Sequence[Subject],
+    rider: str = "",
+    speeds: Sequence[float] | None = None,
+    feedback: Feedback | None = None,
+    ride: Sequence[str] = (),
+) -> Figure:
+    """The ``ride`` kind: the records ``ride`` against the one bicycle of ``subjects`` (with ``rider``).
+
+    Raises:
+        FigureInputError: Not exactly one bicycle, no records, or a segment without a speed.
+    """
+    from ..core.rider import add_rider, resolve_rider
+    from ..rides import RecordOptions, measure_records
+
+    if len(subjects) != 1 or not ride:
+        raise FigureInputError("the ride figure compares ride records (--ride) with exactly one bicycle")
+    r = resolve_rider(rider)
+    ps = subjects[0].parameters if r is None else add_rider(subjects[0].parameters, r)
+    measured = [m.eigenvalue for m in measure_records(ride, RecordOptions())]
+    for m in measured:
+        if not np.isfinite(m.speed):
+            raise FigureInputError(f"{m.source}: segment {m.index} has no speed (a speed column or topic is needed)")
+    comparison = compare_ride(ps, measured, feedback)
+    top = max(m.speed for m in measured)
+    v = np.asarray(speeds, dtype=float) if speeds is not None else np.linspace(0.5, max(6.0, 1.2 * top), 111)
+    return ride_validation(comparison, predicted_weave(ps, v, feedback), subjects[0].name)

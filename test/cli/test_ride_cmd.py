@@ -90,3 +90,13 @@ def test_user_mistakes_end_in_one_line(
     args = [a.format(csv=long_csv, nospeed=nospeed) for a in argv]
     code, _, err = run(capsys, *args)
     assert code == 2 and expect in err and len(err.strip().splitlines()) == 1 and "Traceback" not in err
+
+
+def test_plot_ride_is_a_registered_figure_drawn_only_for_records(
+    capsys: pytest.CaptureFixture[str], long_csv: Path, tmp_path: Path
+) -> None:
+    code, out, _ = run(capsys, "plot", "ride", BROWSER, "--rider", "paper", "--feedback", ASSIST, "--ride",
+                       str(long_csv), "-o", str(tmp_path))  # fmt: skip
+    assert code == 0 and out.split() == [str(tmp_path / "ride_rider.png")]
+    code, _, err = run(capsys, "plot", "ride", BROWSER, "-o", str(tmp_path))
+    assert code == 2 and "--ride RECORD" in err
