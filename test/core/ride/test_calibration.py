@@ -106,6 +106,9 @@ def test_noise_only_and_too_short_segments_are_flagged() -> None:
     short = fit_segment(t, y, speed=v)
     assert not short.valid and any(f.startswith("too_few_cycles") for f in short.flags)
     assert math.isnan(short.real) and math.isnan(short.imag_sigma)
+    flagged = [fit_segment(*_segment(ms, v, gains, 1.1, seed=s)[:2], speed=v) for s in range(5)]
+    assert all(not m.clean and any(f.startswith(("too_few_cycles", "no_oscillation")) for f in m.flags)
+               for m in flagged)  # fmt: skip
 
 
 @pytest.mark.parametrize("model", ["auto", "eq23_trend", "eq23_real", "eq23"])
