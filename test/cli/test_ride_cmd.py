@@ -70,6 +70,10 @@ def test_bag_records_are_read_with_the_imu_default(capsys: pytest.CaptureFixture
     segs = json.loads(out)
     assert code == 0 and len(segs) == 2 and all(s["valid"] for s in segs)
     assert np.all(np.array([s["imag"] for s in segs]) > 0)
+    code, _, err = run(capsys, "ride", "fit", str(bag), "--topic", "/nope")
+    assert code == 2 and "no topic /nope" in err and "/imu/data" in err
+    code, _, err = run(capsys, "ride", "fit", str(bag), "--field", "angular_velocity.w")
+    assert code == 2 and "no field 'angular_velocity.w'" in err
 
 
 @pytest.mark.parametrize(
@@ -79,6 +83,8 @@ def test_bag_records_are_read_with_the_imu_default(capsys: pytest.CaptureFixture
         (("ride", "fit", "{csv}", "--signal", "yaw"), "no signal column 'yaw'"),
         (("ride", "fit", "{csv}", "--speed", "-1"), "--speed must be"),
         (("ride", "validate", BROWSER, "{nospeed}"), "has no speed"),
+        (("ride", "simulate", BROWSER, "--speed", "4", "--duration", "0", "-o", "{tmp}/x.csv"), "--duration must be"),
+        (("ride", "fit", "{tmp}", "--topic", "/nope"), "not a rosbag2 bag"),
     ],
 )
 def test_user_mistakes_end_in_one_line(
@@ -87,7 +93,7 @@ def test_user_mistakes_end_in_one_line(
     nospeed = tmp_path / "nospeed.csv"
     nospeed.write_text("\n".join(line.split(",")[0] + "," + line.split(",")[1]
                                  for line in long_csv.read_text().splitlines()[:400]))  # fmt: skip
-    args = [a.format(csv=long_csv, nospeed=nospeed) for a in argv]
+    args = [a.format(csv=long_csv, nospeed=nospeed, tmp=tmp_path) for a in argv]
     code, _, err = run(capsys, *args)
     assert code == 2 and expect in err and len(err.strip().splitlines()) == 1 and "Traceback" not in err
 
