@@ -34,6 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..period.combine import weighted_mean
 from ..period.fit import fit_period
 from ..period.oscillation import TWO_PI
 from ..period.result import FlagCode, PeriodFit
@@ -49,7 +50,6 @@ __all__ = [
     "combine_eigenvalues",
     "eigenvalue_of_fit",
     "fit_segment",
-    "weighted_mean",
 ]
 
 #: A segment with fewer cycles has no eigenvalue (below one cycle the frequency is not determined).
@@ -205,22 +205,6 @@ def _refine(t: NDArray[np.float64], y: NDArray[np.float64], alpha: float, omega_
     return trend, "eq23_trend"
 
 
-def weighted_mean(values: ArrayLike, sigmas: ArrayLike) -> tuple[float, float, float]:
-    """Weighted mean x̄ = Σ xᵢ/σᵢ² / Σ 1/σᵢ², its σ = 1/sqrt(Σ 1/σᵢ²) × max(1, Birge ratio), and χ².
-
-    The Birge ratio sqrt(χ²/(n − 1)) widens σ when the values scatter more than their σ
-    (as :func:`bike_rig.core.period.combine.combine_periods`). Units: those of ``values``.
-    """
-    x = np.asarray(values, dtype=float)
-    s = np.asarray(sigmas, dtype=float)
-    w = 1.0 / s**2
-    mean = float(np.sum(w * x) / np.sum(w))
-    internal = 1.0 / math.sqrt(float(np.sum(w)))
-    chi2 = float(np.sum(((x - mean) / s) ** 2))
-    birge = math.sqrt(chi2 / (x.size - 1)) if x.size > 1 else 1.0
-    return mean, internal * max(1.0, birge), chi2
-
-
 @dataclass(frozen=True)
 class CombinedEigenvalue:
     """The segments at one speed combined.
@@ -259,8 +243,8 @@ def combine_eigenvalues(segments: Sequence[MeasuredEigenvalue]) -> list[Combined
             nan = math.nan
             out.append(CombinedEigenvalue(float(np.mean([s.speed for s in group])), nan, nan, nan, nan, 0, len(group)))
             continue
-        re, re_s, _ = weighted_mean([s.real for s in used], [s.real_sigma for s in used])
-        im, im_s, _ = weighted_mean([s.imag for s in used], [s.imag_sigma for s in used])
+        re, re_s, *_ = weighted_mean([s.real for s in used], [s.real_sigma for s in used])
+        im, im_s, *_ = weighted_mean([s.imag for s in used], [s.imag_sigma for s in used])
         speed = float(np.mean([s.speed for s in used]))
         out.append(CombinedEigenvalue(speed, re, re_s, im, im_s, len(used), len(group) - len(used)))
     return out
