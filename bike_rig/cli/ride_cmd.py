@@ -32,8 +32,6 @@ import math
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from ..core.ride.eigen import MODELS, MeasuredEigenvalue, combine_eigenvalues
 from ..core.ride.record import RideRecord
 from ..core.ride.segment import Segment
@@ -190,10 +188,10 @@ def run_validate(args: argparse.Namespace) -> int:
     """``bike-rig ride validate``; returns 0.
 
     Raises:
-        UsageError: A segment without a speed.
+        RideSpeedError: A segment without a speed.
     """
     from ..core.rider import add_rider
-    from ..pipeline.ride import compare_ride, predicted_weave
+    from ..pipeline.ride import validate_ride
     from .common import feedback_from_spec, rider_from_spec
     from .main import _parameters, _speeds
 
@@ -203,10 +201,8 @@ def run_validate(args: argparse.Namespace) -> int:
         ps = add_rider(ps, rider)
     fb = feedback_from_spec(args.feedback)
     rows = measure(args)
-    for m, _, _ in rows:
-        if not math.isfinite(m.speed):
-            raise UsageError(f"{m.source}: segment {m.index} has no speed: give --speed or a speed column/topic")
-    comparison = compare_ride(ps, [m for m, _, _ in rows], fb, args.sigma)
+    speeds = _speeds(args.speeds) if args.speeds else None
+    comparison, curve = validate_ride(ps, [m for m, _, _ in rows], fb, args.sigma, speeds)
     if args.json:
         print(json.dumps(_validate_json(comparison, rows), indent=2))
     else:
@@ -218,9 +214,7 @@ def run_validate(args: argparse.Namespace) -> int:
         from ..plots.style import save_figure
 
         out = _figures_dir(args.out)
-        top = max(m.speed for m, _, _ in rows)
-        speeds = _speeds(args.speeds) if args.speeds else np.linspace(0.5, max(6.0, 1.2 * top), 111)
-        fig = ride_validation(comparison, predicted_weave(ps, speeds, fb, args.sigma), Path(args.parameters).stem)
+        fig = ride_validation(comparison, curve, Path(args.parameters).stem)
         save_figure(fig, out / "ride_validation", ("png",))
         plt.close(fig)
         _segment_figures(rows, out)

@@ -23,17 +23,34 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..core.benchmark import ParameterSet
+from ..core.errors import ModelError
 from ..core.feedback import Feedback
 from ..core.ride.eigen import CombinedEigenvalue, MeasuredEigenvalue, combine_eigenvalues
 from ..core.uncertainty.eigen_sigma import eigenvalues_with_sigma
 from ..core.uncertainty.matrix_sigma import SigmaConvention
 
-__all__ = ["PredictedWeave", "RideComparison", "compare_ride", "normalised_deviation", "predicted_weave"]
+__all__ = [
+    "PredictedWeave",
+    "RideComparison",
+    "RideSpeedError",
+    "compare_ride",
+    "normalised_deviation",
+    "predicted_weave",
+    "validate_ride",
+]
 
 FloatArray = NDArray[np.float64]
 
 #: An eigenvalue with a smaller imaginary part [1/s] is real (no oscillation).
 MIN_IMAG = 1e-9
+#: Speeds of the predicted curve by default: from this [m/s] ...
+CURVE_FROM = 0.5
+#: ... to the larger of this [m/s] and 1.2 × the fastest segment, in this many steps.
+CURVE_TO, CURVE_POINTS = 6.0, 111
+
+
+class RideSpeedError(ModelError):
+    """A segment has no speed, so no prediction."""
 
 
 @dataclass(frozen=True)
@@ -211,3 +228,33 @@ def compare_ride(
             per_speed.append(SpeedComparison(c, *p, z_re, z_im, _pair(z_re, z_im)))
     overall = math.sqrt(float(np.mean(np.square(zs)))) if zs else math.nan
     return RideComparison(tuple(rows), tuple(per_speed), overall, pred.notes)
+
+
+def validate_ride(
+    ps: ParameterSet,
+    segments: Sequence[MeasuredEigenvalue],
+    feedback: Feedback | None = None,
+    convention: SigmaConvention | str = SigmaConvention.CORRELATED,
+    speeds: ArrayLike | None = None,
+) -> tuple[RideComparison, PredictedWeave]:
+    """The comparison (:func:`compare_ride`) and the predicted curve over ``speeds`` [m/s] for the figure.
+
+    Args:
+        ps: The parameter set, with the rider added.
+        segments: The measured eigenvalues.
+        feedback: The closed loop's feedback, or None.
+        convention: The σ convention of the prediction.
+        speeds: The curve's speeds (default: :data:`CURVE_FROM` to the larger of
+            :data:`CURVE_TO` and 1.2 × the fastest segment).
+
+    Raises:
+        RideSpeedError: A segment without a speed.
+        ModelError: Bad speeds or a singular mass matrix.
+    """
+    for m in segments:
+        if not math.isfinite(m.speed):
+            raise RideSpeedError(f"{m.source}: segment {m.index} has no speed: give --speed or a speed column or topic")
+    if speeds is None:
+        top = max((m.speed for m in segments), default=CURVE_TO)
+        speeds = np.linspace(CURVE_FROM, max(CURVE_TO, 1.2 * top), CURVE_POINTS)
+    return compare_ride(ps, segments, feedback, convention), predicted_weave(ps, speeds, feedback, convention)

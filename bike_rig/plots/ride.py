@@ -25,7 +25,7 @@ from ..core.feedback import Feedback
 from ..core.ride.eigen import MeasuredEigenvalue
 from ..core.ride.record import RideRecord
 from ..core.ride.segment import Segment
-from ..pipeline.ride import PredictedWeave, RideComparison, compare_ride, predicted_weave
+from ..pipeline.ride import PredictedWeave, RideComparison, validate_ride
 from ..subjects import Subject
 from .model_data import FigureInputError
 from .style import new_figure
@@ -99,7 +99,8 @@ def ride_figure(
     """The ``ride`` kind: the records ``ride`` against the one bicycle of ``subjects`` (with ``rider``).
 
     Raises:
-        FigureInputError: Not exactly one bicycle, no records, or a segment without a speed.
+        FigureInputError: Not exactly one bicycle, or no records. RideSpeedError: a segment
+            without a speed.
     """
     from ..core.rider import add_rider, resolve_rider
     from ..rides import RecordOptions, measure_records
@@ -109,10 +110,5 @@ def ride_figure(
     r = resolve_rider(rider)
     ps = subjects[0].parameters if r is None else add_rider(subjects[0].parameters, r)
     measured = [m.eigenvalue for m in measure_records(ride, RecordOptions())]
-    for m in measured:
-        if not np.isfinite(m.speed):
-            raise FigureInputError(f"{m.source}: segment {m.index} has no speed (a speed column or topic is needed)")
-    comparison = compare_ride(ps, measured, feedback)
-    top = max(m.speed for m in measured)
-    v = np.asarray(speeds, dtype=float) if speeds is not None else np.linspace(0.5, max(6.0, 1.2 * top), 111)
-    return ride_validation(comparison, predicted_weave(ps, v, feedback), subjects[0].name)
+    comparison, curve = validate_ride(ps, measured, feedback, speeds=speeds)
+    return ride_validation(comparison, curve, subjects[0].name)

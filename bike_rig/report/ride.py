@@ -13,11 +13,9 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-import numpy as np
-
 from ..core.feedback import Feedback
 from ..core.ride.eigen import MeasuredEigenvalue
-from ..pipeline.ride import PredictedWeave, RideComparison, compare_ride, predicted_weave
+from ..pipeline.ride import PredictedWeave, RideComparison, validate_ride
 from .html import Raw, esc, number_cell, section, table, value_sigma_cells
 from .results import Variant
 
@@ -45,16 +43,9 @@ def compute_ride(variant: Variant, segments: Sequence[MeasuredEigenvalue], feedb
     """Compare the segments with ``variant`` (its parameters with the rider), open or closed loop.
 
     Raises:
-        ModelError: A segment without a finite speed, or a singular model.
+        RideSpeedError: A segment without a speed. ModelError: a singular model.
     """
-    from ..core.errors import ModelError
-
-    for m in segments:
-        if not math.isfinite(m.speed):
-            raise ModelError(f"{m.source}: segment {m.index} has no speed (a speed column or topic is needed)")
-    comparison = compare_ride(variant.parameters, segments, feedback)
-    top = max((m.speed for m in segments), default=5.0)
-    curve = predicted_weave(variant.parameters, np.linspace(0.5, max(6.0, 1.2 * top), 111), feedback)
+    comparison, curve = validate_ride(variant.parameters, segments, feedback)
     return RideResults(variant.label, comparison, curve, "" if feedback is None else feedback.name)
 
 
