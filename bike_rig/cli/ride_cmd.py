@@ -30,13 +30,17 @@ import argparse
 import json
 import math
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..core.ride.eigen import MODELS, MeasuredEigenvalue, combine_eigenvalues
 from ..core.ride.record import RideRecord
 from ..core.ride.segment import Segment
 from ..rides import WHOLE_BELOW_S, RecordOptions, measure_records
 from .common import UsageError
+
+if TYPE_CHECKING:
+    from ..core.benchmark import ParameterSet
+    from ..core.feedback import Feedback
 
 __all__ = ["add_parser", "measure", "segment_json"]
 
@@ -141,14 +145,24 @@ def _line(m: MeasuredEigenvalue, seg: Segment) -> str:
 
 
 def _figures_dir(out: str) -> Path:
-    from ..core.errors import InputFileError
+    from ..plots.output import check_out_dir
 
-    d = Path(out)
-    try:
-        d.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise InputFileError(out, f"cannot create the directory ({exc.strerror})") from None
-    return d
+    return check_out_dir(out)
+
+
+def _bicycle(args: argparse.Namespace) -> tuple[ParameterSet, Feedback | None]:
+    """The parameter set of ``PARAMETERS`` with ``--rider`` added, and ``--feedback`` (or None).
+
+    Raises:
+        BikeRigError: An unreadable input, rider or feedback file (one line).
+    """
+    from ..core.rider import add_rider
+    from .common import feedback_from_spec, rider_from_spec
+    from .main import _parameters
+
+    ps = _parameters(args.parameters, args.com_method)
+    rider = rider_from_spec(args.rider)
+    return (ps if rider is None else add_rider(ps, rider)), feedback_from_spec(args.feedback)
 
 
 def _segment_figures(rows: list[tuple[MeasuredEigenvalue, Segment, RideRecord]], out: Path) -> None:
@@ -190,16 +204,10 @@ def run_validate(args: argparse.Namespace) -> int:
     Raises:
         RideSpeedError: A segment without a speed.
     """
-    from ..core.rider import add_rider
     from ..pipeline.ride import validate_ride
-    from .common import feedback_from_spec, rider_from_spec
-    from .main import _parameters, _speeds
+    from .main import _speeds
 
-    ps = _parameters(args.parameters, args.com_method)
-    rider = rider_from_spec(args.rider)
-    if rider is not None:
-        ps = add_rider(ps, rider)
-    fb = feedback_from_spec(args.feedback)
+    ps, fb = _bicycle(args)
     rows = measure(args)
     speeds = _speeds(args.speeds) if args.speeds else None
     comparison, curve = validate_ride(ps, [m for m, _, _ in rows], fb, args.sigma, speeds)
@@ -273,21 +281,14 @@ def run_simulate(args: argparse.Namespace) -> int:
     Raises:
         UsageError: Bad numbers. SimulationError: an impossible ride.
     """
-    from ..core.rider import add_rider
     from ..core.sim.ride import RideSimulation, regular_kicks, simulate_ride, write_ride_csv
     from ..core.uncertainty.matrix_sigma import canonical_with_sigma
-    from .common import feedback_from_spec, rider_from_spec
-    from .main import _parameters
 
     for name in ("speed", "duration", "rate", "kick_every", "noise"):
         x = getattr(args, name)
         if not (math.isfinite(x) and x >= 0) or (name in ("duration", "rate", "kick_every") and x <= 0):
             raise UsageError(f"--{name.replace('_', '-')} must be a finite positive number, got {x}")
-    ps = _parameters(args.parameters, args.com_method)
-    rider = rider_from_spec(args.rider)
-    if rider is not None:
-        ps = add_rider(ps, rider)
-    fb = feedback_from_spec(args.feedback)
+    ps, fb = _bicycle(args)
     ms = canonical_with_sigma(ps)
     first = min(1.0, 0.2 * args.duration)
     kicks = regular_kicks(args.duration, args.kick_every, first=first, steer_torque=args.kick_torque)
