@@ -188,6 +188,17 @@ class RideComparison:
     notes: tuple[str, ...]
 
 
+def _against(
+    m: MeasuredEigenvalue | CombinedEigenvalue, pred: PredictedWeave, i: int
+) -> tuple[float, float, float, float, float, float, float]:
+    """The prediction ``i`` (Re, σ, Im, σ) and the normalised deviations of ``m`` from it (re, im, pair)."""
+    p = (float(pred.real[i]), float(pred.real_sigma[i]), float(pred.imag[i]), float(pred.imag_sigma[i]))
+    valid = not isinstance(m, MeasuredEigenvalue) or m.valid
+    z_re = normalised_deviation(m.real, m.real_sigma, p[0], p[1]) if valid else math.nan
+    z_im = normalised_deviation(m.imag, m.imag_sigma, p[2], p[3]) if valid else math.nan
+    return (*p, z_re, z_im, _pair(z_re, z_im))
+
+
 def compare_ride(
     ps: ParameterSet,
     segments: Sequence[MeasuredEigenvalue],
@@ -207,25 +218,14 @@ def compare_ride(
     """
     near = [complex(s.real, s.imag) if s.valid else complex(math.nan, math.nan) for s in segments]
     pred = predicted_weave(ps, [s.speed for s in segments], feedback, convention, near)
-    rows = []
-    zs: list[float] = []
-    for i, s in enumerate(segments):
-        p = (float(pred.real[i]), float(pred.real_sigma[i]), float(pred.imag[i]), float(pred.imag_sigma[i]))
-        z_re = normalised_deviation(s.real, s.real_sigma, p[0], p[1]) if s.valid else math.nan
-        z_im = normalised_deviation(s.imag, s.imag_sigma, p[2], p[3]) if s.valid else math.nan
-        rows.append(SegmentComparison(s, *p, z_re, z_im, _pair(z_re, z_im)))
-        if s.clean:
-            zs += [z for z in (z_re, z_im) if math.isfinite(z)]
-    per_speed = []
+    rows = [SegmentComparison(s, *_against(s, pred, i)) for i, s in enumerate(segments)]
+    zs = [z for r in rows if r.segment.clean for z in (r.z_real, r.z_imag) if math.isfinite(z)]
     combined = [c for c in combine_eigenvalues(segments) if c.n_used]
+    per_speed = []
     if combined:
         cp = predicted_weave(ps, [c.speed for c in combined], feedback, convention,
                              [complex(c.real, c.imag) for c in combined])  # fmt: skip
-        for k, c in enumerate(combined):
-            p = (float(cp.real[k]), float(cp.real_sigma[k]), float(cp.imag[k]), float(cp.imag_sigma[k]))
-            z_re = normalised_deviation(c.real, c.real_sigma, p[0], p[1])
-            z_im = normalised_deviation(c.imag, c.imag_sigma, p[2], p[3])
-            per_speed.append(SpeedComparison(c, *p, z_re, z_im, _pair(z_re, z_im)))
+        per_speed = [SpeedComparison(c, *_against(c, cp, k)) for k, c in enumerate(combined)]
     overall = math.sqrt(float(np.mean(np.square(zs)))) if zs else math.nan
     return RideComparison(tuple(rows), tuple(per_speed), overall, pred.notes)
 
