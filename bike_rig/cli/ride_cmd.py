@@ -16,7 +16,7 @@ labs store them), ``find`` segments it (:mod:`bike_rig.core.ride.segment`), ``au
 does ``whole`` for records shorter than 5 s and ``find`` otherwise. ``--speed`` applies to
 every record; else each segment's mean of the speed column or topic. ``fit --json`` prints a
 list with one object per segment: ``file, segment, start, stop, speed, real, real_sigma, imag,
-imag_sigma, valid, flags, n_cycles, model, start_reason, stop_reason`` (s, m/s, 1/s; null for
+imag_sigma, valid, flags, n_cycles, model, start_reason, stop_reason, notes`` (s, m/s, 1/s; null for
 unknown). ``validate --json`` prints ``{"segments": [... plus predicted_real,
 predicted_real_sigma, predicted_imag, predicted_imag_sigma, normalised_deviation,
 normalised_deviation_real, normalised_deviation_imag], "predicted_real": [per segment], ...,
@@ -127,7 +127,7 @@ def segment_json(m: MeasuredEigenvalue, seg: Segment) -> dict[str, Any]:
         "file": m.source, "segment": m.index, "start": _num(seg.start), "stop": _num(seg.stop),
         "speed": _num(m.speed), "real": _num(m.real), "real_sigma": _num(m.real_sigma), "imag": _num(m.imag),
         "imag_sigma": _num(m.imag_sigma), "valid": m.valid, "flags": list(m.flags), "n_cycles": _num(m.n_cycles),
-        "model": m.model, "start_reason": seg.start_reason, "stop_reason": seg.stop_reason,
+        "model": m.model, "start_reason": seg.start_reason, "stop_reason": seg.stop_reason, "notes": list(m.notes),
     }  # fmt: skip
 
 

@@ -157,3 +157,75 @@ def fit_with_real_mode(
         r2=1.0 - sse / sst if sst > 0 else math.nan,
         residual_rms=math.sqrt(sse / n),
     )
+
+
+#: The frequency search's highest frequency [Hz] (a bicycle's weave is far below).
+SEARCH_MAX_HZ = 5.0
+#: Its lowest frequency, in cycles over the segment.
+SEARCH_MIN_CYCLES = 0.7
+#: Its grid step, in cycles over the segment.
+SEARCH_STEP_CYCLES = 0.02
+#: The false-alarm probability an oscillation found by the search must beat (as the trial fitter's).
+SEARCH_FALSE_ALARM = 1e-4
+
+
+@dataclass(frozen=True)
+class FrequencySearch:
+    """A short segment's best frequency and whether an oscillation stands out of the trend.
+
+    Attributes:
+        omega_d: The best angular frequency of the grid [rad/s].
+        false_alarm: Probability that noise alone gives as large an F anywhere on the grid [-].
+    """
+
+    omega_d: float
+    false_alarm: float
+
+    @property
+    def found(self) -> bool:
+        """An oscillation stands out (false alarm below :data:`SEARCH_FALSE_ALARM`)."""
+        return self.false_alarm < SEARCH_FALSE_ALARM
+
+
+def search_frequency(times: ArrayLike, samples: ArrayLike) -> FrequencySearch:
+    """The frequency of an undamped sinusoid plus a linear trend that fits best, on a grid, and its significance.
+
+    For a segment too short for the trial fitter's spectrum (about one cycle): at each ω of a
+    grid from :data:`SEARCH_MIN_CYCLES` cycles over the segment to :data:`SEARCH_MAX_HZ`, the
+    least-squares fit of A + Dτ + B sin ωτ + C cos ωτ; the best ω, and the F test of B, C
+    against the trend alone, F = ((SSE₀ − SSE)/2) / (SSE/(n − 5)), its p-value multiplied by the
+    number of independent frequencies searched (Bonferroni; the grid's width in cycles).
+
+    Args:
+        times: Sample times [s].
+        samples: The samples.
+
+    Raises:
+        RealModeFitFailed: Fewer than 8 samples.
+    """
+    from scipy.stats import f as f_distribution
+
+    t = np.asarray(times, dtype=float)
+    y = np.asarray(samples, dtype=float)
+    n = y.size
+    if n < 8:
+        raise RealModeFitFailed(f"{n} samples for up to seven parameters")
+    tau = t - 0.5 * (t[0] + t[-1])
+    duration = float(t[-1] - t[0])
+    trend = np.column_stack([np.ones_like(tau), tau])
+    r0 = trend @ _solve(trend, y) - y
+    sse0 = float(r0 @ r0)
+    cycles = np.arange(SEARCH_MIN_CYCLES, max(SEARCH_MIN_CYCLES, SEARCH_MAX_HZ * duration), SEARCH_STEP_CYCLES)
+    best_sse, best_omega = math.inf, math.nan
+    for c in cycles:
+        w = 2.0 * math.pi * c / duration
+        phi = np.column_stack([trend, np.sin(w * tau), np.cos(w * tau)])
+        r = phi @ _solve(phi, y) - y
+        sse = float(r @ r)
+        if sse < best_sse:
+            best_sse, best_omega = sse, w
+    if not (best_sse > 0 and sse0 > best_sse):
+        return FrequencySearch(best_omega, 1.0 if sse0 <= best_sse else 0.0)
+    f_value = ((sse0 - best_sse) / 2.0) / (best_sse / (n - 5))
+    independent = max(1.0, float(cycles[-1] - cycles[0]) if cycles.size > 1 else 1.0)
+    return FrequencySearch(best_omega, min(1.0, independent * float(f_distribution.sf(f_value, 2, n - 5))))

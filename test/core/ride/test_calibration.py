@@ -17,7 +17,7 @@ import pytest
 
 from bike_rig.cli.main import _parameters
 from bike_rig.core.feedback import resolve_feedback
-from bike_rig.core.ride.eigen import fit_segment
+from bike_rig.core.ride.eigen import FLAG_SEGMENT_CYCLES, fit_segment
 from bike_rig.core.rider import PAPER_RIDER, add_rider
 from bike_rig.core.sim.ride import Kick, RideSimulation, simulate_ride
 from bike_rig.core.uncertainty.matrix_sigma import canonical_with_sigma
@@ -76,6 +76,26 @@ def test_short_segments_cover_the_weave_eigenvalue_68_percent() -> None:
         within = float(np.mean(np.abs(z) < 1.0))
         assert 0.55 <= within <= 0.80, within
         assert abs(float(np.mean(z))) < 0.35  # no bias beyond the σ (the capsize mode's trend is fitted)
+
+
+def test_about_one_cycle_gives_a_flagged_eigenvalue_within_its_sigma() -> None:
+    """0.85–1.2 cycles: the trial fitter's spectrum cannot resolve them, the frequency search does."""
+    rng = np.random.default_rng(41)
+    z: list[float] = []
+    n_invalid = 0
+    for case, (ms, v, gains) in enumerate(_cases()):
+        for k in range(12):
+            t, y, weave = _segment(ms, v, gains, float(rng.uniform(0.85, 1.2)), seed=500 + 100 * case + k)
+            m = fit_segment(t, y, speed=v)
+            if not m.valid:
+                n_invalid += 1
+                continue
+            if m.n_cycles < FLAG_SEGMENT_CYCLES - 0.05:  # (the trial fitter's cycle tolerance)
+                assert not m.clean and any(f.startswith("too_few_cycles") for f in m.flags)  # out of the means
+            z += [(m.real - weave.real) / m.real_sigma, (m.imag - weave.imag) / m.imag_sigma]
+    assert n_invalid <= 3
+    within = float(np.mean(np.abs(np.array(z)) < 1.0))
+    assert 0.5 <= within <= 0.8, within
 
 
 def test_eq23_alone_is_biased_on_short_segments() -> None:
