@@ -71,6 +71,9 @@ AUTO_LEVEL = 0.9
 MIN_R2 = 0.9
 #: The trial fitter's flags of a segment too short for its spectrum (the frequency search then tries).
 SHORT_CODES = frozenset({FlagCode.TOO_FEW_CYCLES, FlagCode.NO_OSCILLATION})
+#: Longer segments are not searched (the trial fitter's spectrum resolves them; the search's cost
+#: grows with the square of the length).
+SEARCH_MAX_S = 5.0
 #: A frequency with a larger relative σ is not determined (as the trial fitter's period).
 MAX_RELATIVE_SIGMA = 0.05
 #: Segments whose speeds differ by less than this are at one speed [m/s].
@@ -208,11 +211,12 @@ def _short_segment(
 
     Returns:
         ((Re λ, σ, Im λ, σ, cycles), model, flags, notes), or None when no oscillation stands out
-        of the trend (:func:`~.realmode.search_frequency`), it spans fewer than
+        of the trend (:func:`~.realmode.search_frequency`), the segment is longer than
+        :data:`SEARCH_MAX_S`, it spans fewer than
         :data:`MIN_SEGMENT_CYCLES` cycles or its frequency is not determined (σ above
         :data:`MAX_RELATIVE_SIGMA` of it).
     """
-    if t.size < 8 or not (np.all(np.isfinite(t)) and np.all(np.isfinite(y))):
+    if t.size < 8 or not (np.all(np.isfinite(t)) and np.all(np.isfinite(y))) or t[-1] - t[0] > SEARCH_MAX_S:
         return None
     try:
         search = search_frequency(t, y)
