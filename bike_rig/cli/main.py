@@ -49,6 +49,7 @@ SUBCOMMANDS: tuple[tuple[str, str], ...] = (
     ("plot", "plot_cmd"),
     ("budget", "budget_cmd"),
     ("report", "report_cmd"),
+    ("ride", "ride_cmd"),
     ("demo", "_add_demo"),
 )
 

@@ -137,6 +137,7 @@ class PlotOptions:
         output: Output of ``bode`` (one of :data:`bike_rig.core.frequency.OUTPUTS`).
         feedback: Steer-torque feedback of ``eigen``, ``locus`` and ``bode`` (their closed
             loop), or None.
+        ride: Ride records of ``ride`` (CSV files or bags; none: no ``ride`` figure).
     """
 
     formats: tuple[str, ...]
@@ -147,6 +148,7 @@ class PlotOptions:
     input: str
     output: str
     feedback: Feedback | None = None
+    ride: tuple[str, ...] = ()
 
 
 def options_from_args(args: argparse.Namespace) -> PlotOptions:
@@ -172,6 +174,7 @@ def options_from_args(args: argparse.Namespace) -> PlotOptions:
         input=_pair_name(args.input, INPUTS, "--input") or INPUTS[1],
         output=_pair_name(args.output, OUTPUTS, "--output") or OUTPUTS[0],
         feedback=feedback_from_spec(getattr(args, "feedback", None)),
+        ride=tuple(getattr(args, "ride", None) or ()),
     )
 
 
@@ -234,6 +237,8 @@ def _no_trials_reason(subject: Subject) -> str:
 def _kind_jobs(kind: FigureKind, subjects: list[Subject], opts: PlotOptions, out: Path) -> Iterator[FigureJob]:
     """The figures of one kind: one of every input (per rider), or one per input or trial."""
     draw = kind.drawer()  # imported here, so a figure's time (--timings) is its drawing only
+    if "ride" in kind.options and not opts.ride:
+        return  # (drawn only for ride records)
     options = {name: getattr(opts, name) for name in kind.options if name != "rider"}
     if options.get("speed", 0.0) is None:
         del options["speed"]  # the figure's own default (see DEFAULT_SPEED_TEXT)
@@ -288,6 +293,8 @@ def run(args: argparse.Namespace) -> int:
     if args.kind not in (*KINDS, "all"):
         raise PlotUsageError(f"unknown figure kind '{args.kind}' (expected one of: {', '.join(KINDS)}, all)")
     opts = options_from_args(args)
+    if args.kind == "ride" and not opts.ride:
+        raise PlotUsageError("the ride figure needs ride records: --ride RECORD (CSV file or bag, repeatable)")
     out = check_out_dir(args.out)
     subjects = [load_subject(p, args.com_method) for p in args.inputs]
     kinds = KINDS if args.kind == "all" else (args.kind,)
@@ -347,5 +354,7 @@ def add_parser(sub: Any) -> None:
                    help="mass-centre method for raw readings: centroid (paper) or lstsq "
                         "(default: centroid; a bag: as recorded)")  # fmt: skip
     add_feedback_option(q)
+    q.add_argument("--ride", action="append", metavar="RECORD",
+                   help="a ride record of the ride figure (CSV or bag with the speed; repeatable)")  # fmt: skip
     q.add_argument("--timings", action="store_true", help="print how long each figure took on standard error")
     q.set_defaults(func=run)

@@ -4,7 +4,10 @@ INPUT is a measurement file, a parameter file or a session bag. The page ``DIR/i
 embeds every figure, so the one file is the whole report and needs no network to view.
 ``--feedback FILE`` adds the closed loop ``A − B K`` of a steer-torque feedback: a section (its
 gains, the closed loop's weave and capsize speeds with σ and stable speed ranges, without and with
-the rider) and the closed loop's eigenvalue and Bode figures.
+the rider) and the closed loop's eigenvalue and Bode figures. ``--ride RECORD`` (repeatable; a
+CSV file or bag with a speed column or topic, read as ``bike-rig ride`` does by default) adds a
+ride validation section: the measured weave eigenvalues against the bicycle with the rider
+(and the feedback), per speed, with the figure.
 """
 
 from __future__ import annotations
@@ -31,7 +34,13 @@ def run(args: argparse.Namespace) -> int:
     from ..report import report_input
 
     written = report_input(
-        args.input, args.output, args.com_method, workers=args.jobs, rider=args.rider, feedback=args.feedback
+        args.input,
+        args.output,
+        args.com_method,
+        workers=args.jobs,
+        rider=args.rider,
+        feedback=args.feedback,
+        rides=args.ride or (),
     )
     rep = written.report
     for f in rep.figures:
@@ -82,6 +91,12 @@ def add_parser(sub: Any) -> None:
         "--rider",
         default="paper",
         help="the rider variant: 'paper' (Table 1, default) or a rider YAML file (rigid or Yeadon)",
+    )
+    q.add_argument(
+        "--ride",
+        action="append",
+        metavar="RECORD",
+        help="a ride record (CSV or bag, with a speed column or topic; repeatable): adds a ride validation section",
     )
     q.add_argument(
         "-j",

@@ -42,8 +42,9 @@ __all__ = [
 
 #: The plot options a kind may take: keywords of its drawing function, and fields of
 #: :class:`bike_rig.cli.plot_cmd.PlotOptions` (``rider``: one figure per rider asked for;
-#: ``feedback``: the closed loop of a steer-torque feedback, :class:`bike_rig.core.feedback.Feedback`).
-PLOT_OPTIONS: tuple[str, ...] = ("rider", "speeds", "speed", "mode", "input", "output", "feedback")
+#: ``feedback``: the closed loop of a steer-torque feedback, :class:`bike_rig.core.feedback.Feedback`;
+#: ``ride``: ride records, a kind that takes them is drawn only when some are given).
+PLOT_OPTIONS: tuple[str, ...] = ("rider", "speeds", "speed", "mode", "input", "output", "feedback", "ride")
 #: A report option value: a speed inside the bicycle's stable range, m/s (the report computes it).
 STABLE_SPEED = "stable"
 #: A report option value: a speed inside the interval where the bicycle's capsize and caster
@@ -267,6 +268,13 @@ _KINDS = (
                 100, "fit-{n}", "Trial {trial_id} ({key})", _FIT_CAPTION, size_in=FIT_FIGURE_SIZE_IN, dpi=FIT_DPI
             ),
         ),
+    ),
+    FigureKind(
+        "ride",
+        "ride:ride_figure",
+        Scope.BICYCLES,
+        "measured weave eigenvalues of --ride records over the model's, one bicycle",
+        ("rider", "speeds", "feedback", "ride"),
     ),
 )
 #: Every kind of figure, by name, in the order ``bike-rig plot all`` draws them.

@@ -9,19 +9,23 @@ from __future__ import annotations
 
 import datetime as dt
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 from ..core.benchmark import ComMethod
 from ..core.feedback import Feedback, resolve_feedback
+from ..core.ride.eigen import MeasuredEigenvalue
 from ..core.rider import Rider, RiderError, resolve_rider, rider_key
 from ..plots.output import check_out_dir
+from ..rides import RecordOptions, measure_records
 from ..subjects import Subject, load_subject
 from . import sections
 from .errors import ReportOutputError
 from .figures import REPORT_DPI, ReportFigure, draw_figures, figure_specs
 from .html import page
 from .results import ReportResults, compute_results
+from .ride import compute_ride, ride_section
 
 __all__ = ["REPORT_FILE", "Report", "WrittenReport", "build_report", "report_input", "write_report"]
 
@@ -89,6 +93,7 @@ def build_report(
     workers: int | None = None,
     feedback: Feedback | None = None,
     rider: str = "paper",
+    rides: Sequence[MeasuredEigenvalue] = (),
 ) -> Report:
     """The report of one bicycle.
 
@@ -101,6 +106,8 @@ def build_report(
         feedback: A steer-torque feedback: the page adds its closed loop (a section and the
             closed-loop eigenvalue and Bode figures); None: the open loop only.
         rider: The rider variant: ``"paper"`` or a rider file (:func:`report_rider`).
+        rides: Measured ride segments (:func:`bike_rig.rides.measure_records`): the page adds
+            a ride section (:mod:`.ride`), against the bicycle with the rider (and feedback).
 
     Returns:
         The report, its page in memory.
@@ -119,6 +126,7 @@ def build_report(
         sections.matrices_section(results),
         sections.speeds_section(results),
         *([sections.closed_loop_section(results)] if results.closed_loop is not None else []),
+        *([ride_section(compute_ride(results.rider, rides, feedback), dpi)] if rides else []),
         sections.budget_section(results),
         sections.trials_section(subject),
         sections.timeline_section(subject),
@@ -136,6 +144,7 @@ def write_report(
     workers: int | None = None,
     feedback: Feedback | None = None,
     rider: str = "paper",
+    rides: Sequence[MeasuredEigenvalue] = (),
 ) -> WrittenReport:
     """Build the report of ``subject`` and write it as ``out_dir/index.html``.
 
@@ -148,6 +157,7 @@ def write_report(
         workers: Processes to draw the figures in (default: one per CPU, at most 4).
         feedback: A steer-torque feedback whose closed loop the page adds, or None.
         rider: The rider variant: ``"paper"`` or a rider file.
+        rides: Measured ride segments: the page adds a ride section.
 
     Returns:
         Where it went, with the report.
@@ -156,7 +166,7 @@ def write_report(
         ReportOutputError: The directory cannot be created or the file cannot be written.
     """
     t0 = time.perf_counter()
-    report = build_report(subject, generated, workers=workers, feedback=feedback, rider=rider)
+    report = build_report(subject, generated, workers=workers, feedback=feedback, rider=rider, rides=rides)
     path = _write(Path(out_dir), report.html)
     return WrittenReport(path, report, time.perf_counter() - t0)
 
@@ -168,6 +178,8 @@ def report_input(
     workers: int | None = None,
     feedback: str | None = None,
     rider: str = "paper",
+    rides: Sequence[str] = (),
+    ride_options: RecordOptions | None = None,
 ) -> WrittenReport:
     """Open an input (measurement file, parameter file or session bag) and write its report.
 
@@ -182,6 +194,8 @@ def report_input(
         feedback: A feedback file (:func:`bike_rig.core.feedback.resolve_feedback`; None, ""
             or "none": the open loop only); read before the input.
         rider: The rider variant: ``"paper"`` (Table 1) or a rider file (rigid or Yeadon).
+        rides: Ride records (CSV files or bags) for the ride section, read before the input.
+        ride_options: How they are read (default: the defaults of ``bike-rig ride``).
 
     Returns:
         Where it went, with the report; its time counts from opening the input.
@@ -193,8 +207,9 @@ def report_input(
     t0 = time.perf_counter()
     out = check_out_dir(out_dir, ReportOutputError, create=False)  # before the input: nothing written for a bad one
     fb = resolve_feedback(feedback)
+    measured = [m.eigenvalue for m in measure_records(rides, ride_options or RecordOptions())] if rides else []
     subject = load_subject(path, com_method)
-    written = write_report(subject, out, workers=workers, feedback=fb, rider=rider)
+    written = write_report(subject, out, workers=workers, feedback=fb, rider=rider, rides=measured)
     return WrittenReport(written.path, written.report, time.perf_counter() - t0)
 
 

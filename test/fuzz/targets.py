@@ -20,6 +20,7 @@ from bike_rig.bag.simulated import write_simulated_bag
 from bike_rig.bag.writer import Compression
 from bike_rig.core.io_bp import dump_bp_parameter_yaml
 from bike_rig.core.loader import load_input
+from bike_rig.core.ride.record import read_ride_csv
 from bike_rig.core.rider import PAPER_RIDER, load_rider
 from bike_rig.core.rider_yeadon import read_yeadon_configuration, read_yeadon_measurements
 from bike_rig.core.sim import load_true_parameters, simulate_session
@@ -78,6 +79,15 @@ def _csv_seeds() -> list[bytes]:
         "".join(f"{b:.6f}\n" for b in x).encode(),
         "".join(f"{a:.6f}\t{b:.6f}\n" for a, b in zip(t, x)).encode(),
     ]
+
+
+def _ride_seeds() -> list[bytes]:
+    """Ride records: seconds with speed and torque, and ISO 8601 timestamps."""
+    t, x = _trial_columns()
+    t, x = t[::10], x[::10]  # 100 Hz
+    rows = "".join(f"{a:.2f},{b:.6f},4.5,0\n" for a, b in zip(t, x))
+    stamps = "".join(f"2024-05-01T10:00:{a:09.6f},{b:.6f}\n" for a, b in zip(t, x))
+    return [("time,roll_rate,speed,steer_torque\n" + rows).encode(), ("timestamp,gyro_x\n" + stamps).encode()]
 
 
 def _npy_seeds() -> list[bytes]:
@@ -177,6 +187,7 @@ def targets(workdir: Path) -> list[Target]:
         Target("yeadon-configuration", read_yeadon_configuration, ".txt",
                [(jason / "JasonBrowserYeadonCFG.txt").read_bytes()], YAML_TOKENS),
         Target("trial-csv", lambda p: read_trial(p, 1000.0), ".csv", _csv_seeds(), _CSV_TOKENS),
+        Target("ride-csv", read_ride_csv, ".csv", _ride_seeds(), (*_CSV_TOKENS, b"T10:", b"roll_rate", b"1e999")),
         Target("trial-npy", lambda p: read_trial(p, 1000.0), ".npy", _npy_seeds(), _NPY_TOKENS),
         Target("trial-mat", lambda p: read_trial(p, 1000.0), ".mat", _mat_seeds(), _MAT_TOKENS),
         *_bag_targets(workdir),

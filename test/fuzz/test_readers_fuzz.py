@@ -44,7 +44,7 @@ def by_name(fuzz_dir: Path) -> dict[str, Target]:
 
 
 NAMES = ["measurements", "parameters", "bp-text", "rig", "graph", "rider", "yeadon-measurements",
-         "yeadon-configuration", "trial-csv", "trial-npy", "trial-mat", "bag", "bag-metadata"]
+         "yeadon-configuration", "trial-csv", "trial-npy", "trial-mat", "bag", "bag-metadata", "ride-csv"]
 
 
 @pytest.mark.parametrize("name", NAMES)
@@ -105,7 +105,7 @@ def test_yaml_readers_take_any_value_anywhere(name: str, by_name: dict[str, Targ
     check()
 
 
-@pytest.mark.parametrize("name", ["measurements", "bp-text", "rider", "trial-csv"])
+@pytest.mark.parametrize("name", ["measurements", "bp-text", "rider", "trial-csv", "ride-csv"])
 def test_text_readers_take_any_text(name: str, by_name: dict[str, Target], fuzz_dir: Path) -> None:
     target = by_name[name]
 

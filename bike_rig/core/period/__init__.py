@@ -15,7 +15,7 @@ API::
     combined = combine_periods([fit1, fit2, fit3])          # .value ± .sigma [s], .n_used, .notes
 
 ``fit_period(samples, sample_rate_hz=None, times=None, *, window=DEFAULT_WINDOW,
-min_cycles=4.0, min_r2=0.9, max_modulation=0.02, max_drift=0.5) -> PeriodFit``
+min_cycles=4.0, min_r2=0.9, max_modulation=0.02, max_drift=0.5, min_valid_cycles=2.0) -> PeriodFit``
 
 * exactly one of ``sample_rate_hz`` [Hz] and ``times`` [s] (uneven spacing and gaps are fine);
   otherwise ``ValueError``. Bad *data* never raise: empty, constant, pure noise, all-NaN, a
@@ -24,7 +24,7 @@ min_cycles=4.0, min_r2=0.9, max_modulation=0.02, max_drift=0.5) -> PeriodFit``
   ``A``, ``B``, ``C`` (t from ``t_ref``); ``r2``, ``residual_rms``, ``n_cycles``,
   ``n_samples``, ``window`` (start, stop sample indices used, stop exclusive),
   ``window_policy``, ``valid``, ``flags``; also ``period_sigma_white`` (Eq 27 as printed),
-  ``zeta_sigma``, ``omega_sigma``, ``sigma_dof``, ``modulation``, ``drift``, ``notes``;
+  ``zeta_sigma``, ``omega_sigma``, ``alpha_sigma`` (σ of ζω), ``sigma_dof``, ``modulation``, ``drift``, ``notes``;
   ``predict(t)``; ``clean`` (valid and unflagged).
 * Flags (:class:`FlagCode`): ``too_few_cycles``, ``poor_fit``, ``beating``, ``clipped``,
   ``gap_filled``, ``non_finite``, ``drift``; and, without a period, ``empty``, ``constant``,

@@ -17,7 +17,7 @@ import numpy as np
 
 from .result import CombinedPeriod, PeriodFit
 
-__all__ = ["combine_periods"]
+__all__ = ["combine_periods", "weighted_mean"]
 
 
 def combine_periods(fits: Sequence[PeriodFit], include_flagged: bool = False) -> CombinedPeriod:
@@ -50,20 +50,9 @@ def combine_periods(fits: Sequence[PeriodFit], include_flagged: bool = False) ->
         notes.append("no usable trial")
         nan = math.nan
         return CombinedPeriod(nan, nan, 0, n_flagged, n_invalid, nan, 0, nan, nan, tuple(notes))
-    periods = np.array([f.period for f in used])
-    sigmas = np.array([f.period_sigma for f in used])
-    weights = 1.0 / sigmas**2
-    if len(used) == 1:  # the trial itself, bit for bit (w T / w and 1/sqrt(1/σ²) round)
-        value, sigma_internal = float(periods[0]), float(sigmas[0])
-    else:
-        value = float(np.sum(weights * periods) / np.sum(weights))
-        sigma_internal = float(1.0 / math.sqrt(float(np.sum(weights))))
-    chi2 = float(np.sum(weights * (periods - value) ** 2))
+    value, sigma, sigma_internal, chi2, birge = weighted_mean([f.period for f in used], [f.period_sigma for f in used])
     dof = len(used) - 1
-    birge = math.sqrt(chi2 / dof) if dof > 0 else math.nan
-    sigma = sigma_internal
     if dof > 0 and birge > 1.0:
-        sigma = sigma_internal * birge
         notes.append(f"the trials scatter more than their σ (Birge ratio {birge:.2f}); σ inflated by it")
     if len(used) == 1:
         notes.append("a single usable trial: σ is its fit σ, the between-trial scatter is unknown")
@@ -79,3 +68,29 @@ def combine_periods(fits: Sequence[PeriodFit], include_flagged: bool = False) ->
         sigma_internal=sigma_internal,
         notes=tuple(notes),
     )
+
+
+def weighted_mean(values: Sequence[float], sigmas: Sequence[float]) -> tuple[float, float, float, float, float]:
+    """Weighted mean x̄ = Σ (xᵢ/σᵢ²) / Σ (1/σᵢ²) and its σ, widened by the Birge ratio when the values scatter.
+
+    Args:
+        values: The values (any unit).
+        sigmas: Their σ (> 0, same unit).
+
+    Returns:
+        (x̄, σ, σ_internal = 1/sqrt(Σ 1/σᵢ²), χ² = Σ ((xᵢ − x̄)/σᵢ)², Birge ratio sqrt(χ²/(n − 1)),
+        NaN for one value); σ = σ_internal × the Birge ratio when it exceeds 1. A single value
+        is returned as it is, bit for bit.
+    """
+    x = np.asarray(values, dtype=float)
+    s = np.asarray(sigmas, dtype=float)
+    weights = 1.0 / s**2
+    if x.size == 1:  # the value itself, bit for bit (w x / w and 1/sqrt(1/σ²) round)
+        value, sigma_internal = float(x[0]), float(s[0])
+    else:
+        value = float(np.sum(weights * x) / np.sum(weights))
+        sigma_internal = float(1.0 / math.sqrt(float(np.sum(weights))))
+    chi2 = float(np.sum(weights * (x - value) ** 2))
+    birge = math.sqrt(chi2 / (x.size - 1)) if x.size > 1 else math.nan
+    sigma = sigma_internal * birge if x.size > 1 and birge > 1.0 else sigma_internal
+    return value, sigma, sigma_internal, chi2, birge

@@ -131,6 +131,7 @@ def apply_damping(
         residual_rms=math.sqrt(sse / y.size) / scale_units * caller_scale,
         zeta_sigma=env.sigma_alpha / env.omega if math.isfinite(env.sigma_alpha) else 0.0,
         omega_sigma=env.sigma_omega,
+        alpha_sigma=env.sigma_alpha if math.isfinite(env.sigma_alpha) else 0.0,
         sigma_dof=env.dof,
         modulation=modulation.depth,
         flags=tuple(flags),

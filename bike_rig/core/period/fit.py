@@ -103,6 +103,7 @@ class FitOptions:
             peak to peak is flagged.
         small_swing_period: When the period follows the swing (:mod:`.damping`), report that of
             a vanishing swing as ``period`` (else the period at the window centre's swing).
+        min_valid_cycles: Fewer cycles than this have no period (default 2; a ride's short segment: 1).
     """
 
     window: WindowPolicy = DEFAULT_WINDOW
@@ -111,6 +112,7 @@ class FitOptions:
     max_modulation: float = 0.02
     max_drift: float = 0.5
     small_swing_period: bool = False
+    min_valid_cycles: float = MIN_VALID_CYCLES
 
 
 class _Invalid(Exception):
@@ -132,6 +134,7 @@ def fit_period(
     max_modulation: float = 0.02,
     max_drift: float = 0.5,
     small_swing_period: bool = False,
+    min_valid_cycles: float = MIN_VALID_CYCLES,
 ) -> PeriodFit:
     """Fit Eq 23 to one trial and return its period with an honest σ and quality flags.
 
@@ -145,6 +148,7 @@ def fit_period(
         max_modulation: Flag beating above this relative envelope/phase modulation.
         max_drift: Flag an offset drift above this fraction of the oscillation.
         small_swing_period: Report the period of a vanishing swing (:class:`FitOptions`).
+        min_valid_cycles: Fewer cycles than this have no period (:class:`FitOptions`).
 
     Returns:
         The fit. Bad data (empty, constant, noise, NaN, too short...) give ``valid=False`` and
@@ -161,7 +165,7 @@ def fit_period(
         rate = float(sample_rate_hz)
         if not (math.isfinite(rate) and rate > 0):
             raise ValueError(f"sample_rate_hz must be a positive number, got {sample_rate_hz!r}")
-    options = FitOptions(window, min_cycles, min_r2, max_modulation, max_drift, small_swing_period)
+    options = FitOptions(window, min_cycles, min_r2, max_modulation, max_drift, small_swing_period, min_valid_cycles)
     with np.errstate(all="ignore"):
         return _Fitter(options).run(samples, rate, times)
 
@@ -320,7 +324,7 @@ class _Fitter:
             what = "none" if peak is None else f"the highest has prominence {peak.prominence:.1f} < {MIN_PROMINENCE:g}"
             raise _Invalid(Flag(FlagCode.NO_OSCILLATION, f"no oscillation stands out of the noise ({what})"))
         guess_cycles = (win.n * win.step) * peak.omega / TWO_PI
-        if guess_cycles < MIN_VALID_CYCLES - CYCLE_TOLERANCE:
+        if guess_cycles < self.options.min_valid_cycles - CYCLE_TOLERANCE:
             raise _Invalid(self._too_few(guess_cycles, TWO_PI / peak.omega))
         return peak.omega
 
@@ -495,9 +499,8 @@ class _Fitter:
         factor = self.scale / units_scale
         return factor, self.offset - units_offset * factor
 
-    @staticmethod
-    def _too_few(n_cycles: float, period: float) -> Flag:
-        why = f"{n_cycles:.2f} cycles of {period:.4g} s in the window, at least {MIN_VALID_CYCLES:g} are needed"
+    def _too_few(self, n_cycles: float, period: float) -> Flag:
+        why = f"{n_cycles:.2f} cycles of {period:.4g} s in window, at least {self.options.min_valid_cycles:g} needed"
         return Flag(FlagCode.TOO_FEW_CYCLES, f"{why}: record longer (or shorten the lead-in)")
 
     # ------------------------------------------------------------------ statistics and flags
@@ -584,7 +587,7 @@ class _Fitter:
         alpha, omega_d, A, K = sol.alpha, sol.omega_d, sol.A, sol.K
         s = complex(-alpha, omega_d)
         n_cycles = (n * win.step) * omega_d / TWO_PI
-        if n_cycles < MIN_VALID_CYCLES - CYCLE_TOLERANCE:
+        if n_cycles < self.options.min_valid_cycles - CYCLE_TOLERANCE:
             raise _Invalid(self._too_few(n_cycles, TWO_PI / omega_d))
         r, sse, sst = self._residuals(win, blocks, sol)
         noise_quantum = self._detect(win, r, sol)
@@ -609,8 +612,7 @@ class _Fitter:
         drift = float(np.ptp(score[0] / per_cycle)) / (2.0 * abs(K)) if abs(K) > 0 else math.nan
         beating = two_mode_flag(modulation, steady, self.options.max_modulation)
         flags = self._flags(win, r, n_cycles, r2, beating, drift, noise_quantum)
-        sigma = stats.sigma
-        if not sigma < MAX_RELATIVE_SIGMA * period:
+        if not (sigma := stats.sigma) < MAX_RELATIVE_SIGMA * period:
             raise _Invalid(
                 *flags[len(self.flags) :],
                 Flag(FlagCode.NO_OSCILLATION, f"the period is not determined: {period:.4g} s ± {sigma:.2g} s"),
@@ -635,6 +637,7 @@ class _Fitter:
             t_ref=self.t0 + first,
             period_sigma_white=stats.sigma_white,
             zeta_sigma=stats.zeta_sigma,
+            alpha_sigma=stats.alpha_sigma,
             omega_sigma=stats.omega_sigma,
             sigma_dof=stats.dof,
             modulation=steady.depth,

@@ -119,6 +119,9 @@ class PeriodFit:
         period_sigma_white: σ_T from Eq 26–27 as printed (assumes white residuals) [s].
         zeta_sigma: Standard uncertainty of ζ [-].
         omega_sigma: Standard uncertainty of ω [rad/s].
+        alpha_sigma: Standard uncertainty of the decay rate ζω [1/s] (the same sandwich as
+            ``period_sigma``; the eigenvalue −ζω ± iω sqrt(1 − ζ²) has σ ``alpha_sigma`` and
+            2π ``period_sigma`` / ``period``² on its parts).
         sigma_dof: Effective degrees of freedom of the σ estimate [-].
         modulation: Largest smooth relative envelope/phase deviation from Eq 23 over the
             window (the beating statistic) [-].
@@ -165,6 +168,7 @@ class PeriodFit:
     period_sigma_white: float = math.nan
     zeta_sigma: float = math.nan
     omega_sigma: float = math.nan
+    alpha_sigma: float = math.nan
     sigma_dof: float = math.nan
     modulation: float = math.nan
     drift: float = math.nan

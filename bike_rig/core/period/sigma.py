@@ -82,6 +82,7 @@ class PeriodSigma:
         sigma_white: σ of T from Eq 27 (white residuals) [s].
         zeta_sigma: σ of ζ [-].
         omega_sigma: σ of ω [rad/s].
+        alpha_sigma: σ of the decay rate ζω [1/s] (the measured eigenvalue's real part is −ζω).
         dof: Effective degrees of freedom of ``sigma``.
         white_fallback: Too few cycles for the sandwich: ``sigma`` is Eq 27's.
         score: Σ J_i r_i per whole cycle, 5 × cycles (scaled units).
@@ -93,6 +94,7 @@ class PeriodSigma:
     sigma_white: float
     zeta_sigma: float
     omega_sigma: float
+    alpha_sigma: float
     dof: float
     white_fallback: bool
     score: FloatArray
@@ -187,6 +189,7 @@ def period_sigma(
         sigma_white=sigma_white,
         zeta_sigma=math.sqrt(max(0.0, float(zw_cov[0, 0]))),
         omega_sigma=math.sqrt(max(0.0, float(zw_cov[1, 1]))),
+        alpha_sigma=factor * math.sqrt(max(0.0, float(cov2[0, 0]))),
         dof=dof,
         white_fallback=fallback,
         score=score,

@@ -1,0 +1,304 @@
+"""``bike-rig ride``: measured weave eigenvalues of ride records, and their validation against the model.
+
+::
+
+    bike-rig ride fit RECORD... [--signal COL] [--time COL] [--speed M/S] [--speed-column COL]
+                      [--torque-column COL] [--topic T] [--field F] [--speed-topic T] [--torque-topic T]
+                      [--segments auto|whole|find] [--model auto|eq23_trend|eq23_real|eq23] [--json] [-o DIR]
+    bike-rig ride validate PARAMETERS RECORD... [the record options] [--rider R] [--feedback F]
+                      [--sigma correlated|paper] [--com-method M] [--speeds START STOP N] [--json] [-o DIR]
+    bike-rig ride simulate PARAMETERS --speed M/S -o OUT.csv|OUT_BAG [--rider R] [--feedback F]
+                      [--duration S] [--rate HZ] [--kick-every S] [--kick-torque NM] [--noise RAD/S] [--seed N]
+
+A RECORD is a CSV file (:mod:`bike_rig.core.ride.record`) or a bag (a directory or ``.mcap``:
+:mod:`bike_rig.bag.ride`). ``--segments whole`` fits the whole record as one free decay (as
+labs store them), ``find`` segments it (:mod:`bike_rig.core.ride.segment`), ``auto`` (default)
+does ``whole`` for records shorter than 5 s and ``find`` otherwise. ``--speed`` applies to
+every record; else each segment's mean of the speed column or topic. ``fit --json`` prints a
+list with one object per segment: ``file, segment, start, stop, speed, real, real_sigma, imag,
+imag_sigma, valid, flags, n_cycles, model, start_reason, stop_reason, notes`` (s, m/s, 1/s; null for
+unknown). ``validate --json`` prints ``{"segments": [... plus predicted_real,
+predicted_real_sigma, predicted_imag, predicted_imag_sigma, normalised_deviation,
+normalised_deviation_real, normalised_deviation_imag], "predicted_real": [per segment], ...,
+"speeds": [per speed, combined], "normalised_deviation": overall, "notes": [...]}``. ``-o DIR``
+writes the figures (``ride_validation.png``, ``segments_<record>.png``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from ..core.ride.eigen import MODELS, MeasuredEigenvalue, combine_eigenvalues
+from ..core.ride.record import RideRecord
+from ..core.ride.segment import Segment
+from ..rides import WHOLE_BELOW_S, RecordOptions, measure_records
+from .common import UsageError
+
+if TYPE_CHECKING:
+    from ..core.benchmark import ParameterSet
+    from ..core.feedback import Feedback
+
+__all__ = ["add_parser", "measure", "segment_json"]
+
+
+def _record_options(q: argparse.ArgumentParser) -> None:
+    g = q.add_argument_group("records")
+    g.add_argument("--signal", help="CSV: the signal column (default roll_rate, gyro_x or angular_velocity_x)")
+    g.add_argument("--time", help="CSV: the time column, seconds or ISO 8601 (default time, t, time_s or timestamp)")
+    g.add_argument("--speed", type=float, metavar="M/S", help="the speed of every record, m/s")
+    g.add_argument("--speed-column", help="CSV: the speed column, m/s (default speed or speed_mps if present)")
+    g.add_argument("--torque-column", help="CSV: the steer torque column, N m (default steer_torque if present)")
+    g.add_argument("--topic", help="bag: the signal's topic (default: the first sensor_msgs/Imu topic)")
+    g.add_argument("--field", default="angular_velocity.x", help="bag: the signal's field (default angular_velocity.x)")
+    g.add_argument("--speed-topic", help="bag: a topic with the speed, m/s (field 'data')")
+    g.add_argument("--torque-topic", help="bag: a topic with the steer torque, N m (field 'data')")
+    g.add_argument("--segments", choices=["auto", "whole", "find"], default="auto",
+                   help=f"whole record, find the kicks, or auto (whole below {WHOLE_BELOW_S:g} s)")  # fmt: skip
+    g.add_argument("--model", choices=list(MODELS), default=MODELS[0],
+                   help="segment model: auto (Eq 23 + trend or real mode, F test) or one forced")  # fmt: skip
+    q.add_argument("--json", action="store_true", help="JSON on standard output")
+    q.add_argument("-o", "--out", metavar="DIR", help="write the figures to this directory")
+
+
+def add_parser(sub: Any) -> None:
+    """Register ``bike-rig ride`` and its sub-commands."""
+    from .options import add_feedback_option
+
+    q = sub.add_parser("ride", help="measured weave eigenvalues of ride records, validated against the model")
+    rs = q.add_subparsers(dest="ride_command", required=True)
+    f = rs.add_parser("fit", help="each segment's eigenvalue with σ and flags")
+    f.add_argument("records", nargs="+", metavar="RECORD", help="CSV files or bags")
+    _record_options(f)
+    f.set_defaults(func=run_fit)
+    v = rs.add_parser("validate", help="measured against the model's weave eigenvalue, with σ on both")
+    v.add_argument("parameters", metavar="PARAMETERS", help="measurement file or parameter file")
+    v.add_argument("records", nargs="+", metavar="RECORD", help="CSV files or bags")
+    _record_options(v)
+    _model_options(v, add_feedback_option)
+    v.add_argument("--sigma", choices=["correlated", "paper"], default="correlated", help="σ convention")
+    v.add_argument("--speeds", nargs=3, metavar=("START", "STOP", "N"), help="speeds of the curves, m/s")
+    v.set_defaults(func=run_validate)
+    s = rs.add_parser("simulate", help="a simulated ride of the linear model (CSV, or a bag for a directory name)")
+    s.add_argument("parameters", metavar="PARAMETERS", help="measurement file or parameter file")
+    _model_options(s, add_feedback_option)
+    s.add_argument("--speed", type=float, required=True, metavar="M/S", help="forward speed, m/s")
+    s.add_argument("-o", "--out", required=True, help="OUT.csv, or a new bag directory (no .csv suffix)")
+    s.add_argument("--duration", type=float, default=30.0, help="s (default 30)")
+    s.add_argument("--rate", type=float, default=100.0, help="sample rate, Hz (default 100)")
+    s.add_argument("--kick-every", type=float, default=6.0, help="s between kicks (default 6)")
+    s.add_argument("--kick-torque", type=float, default=5.0, help="steer torque of a 0.1 s kick, N m (default 5)")
+    s.add_argument("--noise", type=float, default=0.01, help="σ of the roll-rate sensor, rad/s (default 0.01)")
+    s.add_argument("--seed", type=int, default=0)
+    s.set_defaults(func=run_simulate)
+
+
+def _model_options(q: argparse.ArgumentParser, add_feedback_option: Any) -> None:
+    from ..core.benchmark import ComMethod
+
+    q.add_argument("--rider", help="'paper' for the paper's rigid rider (Table 1), or a rider YAML file")
+    add_feedback_option(q)
+    q.add_argument("--com-method", choices=[m.value for m in ComMethod], default=ComMethod.CENTROID.value)
+
+
+def measure(args: argparse.Namespace) -> list[tuple[MeasuredEigenvalue, Segment, RideRecord]]:
+    """Every record's segments fitted, in order (:func:`bike_rig.rides.measure_records`).
+
+    Raises:
+        RideOptionError: A negative or non-finite ``--speed``. RideDataError, BagError: a bad record.
+    """
+    options = RecordOptions(
+        args.signal, args.time, args.speed, args.speed_column, args.torque_column, args.topic, args.field,
+        args.speed_topic, args.torque_topic, args.segments, args.model,
+    )  # fmt: skip
+    return [(m.eigenvalue, m.segment, m.record) for m in measure_records(args.records, options)]
+
+
+def _num(x: float) -> float | None:
+    return float(x) if math.isfinite(x) else None
+
+
+def segment_json(m: MeasuredEigenvalue, seg: Segment) -> dict[str, Any]:
+    """One segment's object (module docstring)."""
+    return {
+        "file": m.source, "segment": m.index, "start": _num(seg.start), "stop": _num(seg.stop),
+        "speed": _num(m.speed), "real": _num(m.real), "real_sigma": _num(m.real_sigma), "imag": _num(m.imag),
+        "imag_sigma": _num(m.imag_sigma), "valid": m.valid, "flags": list(m.flags), "n_cycles": _num(m.n_cycles),
+        "model": m.model, "start_reason": seg.start_reason, "stop_reason": seg.stop_reason, "notes": list(m.notes),
+    }  # fmt: skip
+
+
+def _pm(x: float, s: float) -> str:
+    return "—" if not math.isfinite(x) else f"{x:+.3f} ± {s:.3f}"
+
+
+def _line(m: MeasuredEigenvalue, seg: Segment) -> str:
+    head = f"{m.source} #{m.index} {seg.start:.2f}–{seg.stop:.2f} s, {m.speed:.2f} m/s:"
+    if not m.valid:
+        return f"{head} no eigenvalue ({'; '.join(m.flags)})"
+    flags = f"  flags: {'; '.join(m.flags)}" if m.flags else ""
+    eig = f"Re λ {_pm(m.real, m.real_sigma)} 1/s, Im λ {_pm(m.imag, m.imag_sigma)} rad/s"
+    return f"{head} {eig}, {m.n_cycles:.1f} cycles{flags}"
+
+
+def _figures_dir(out: str) -> Path:
+    from ..plots.output import check_out_dir
+
+    return check_out_dir(out)
+
+
+def _bicycle(args: argparse.Namespace) -> tuple[ParameterSet, Feedback | None]:
+    """The parameter set of ``PARAMETERS`` with ``--rider`` added, and ``--feedback`` (or None).
+
+    Raises:
+        BikeRigError: An unreadable input, rider or feedback file (one line).
+    """
+    from ..core.rider import add_rider
+    from .common import feedback_from_spec, rider_from_spec
+    from .main import _parameters
+
+    ps = _parameters(args.parameters, args.com_method)
+    rider = rider_from_spec(args.rider)
+    return (ps if rider is None else add_rider(ps, rider)), feedback_from_spec(args.feedback)
+
+
+def _segment_figures(rows: list[tuple[MeasuredEigenvalue, Segment, RideRecord]], out: Path) -> None:
+    import matplotlib.pyplot as plt
+
+    from ..plots.output import slug
+    from ..plots.ride import ride_segments
+    from ..plots.style import save_figure
+
+    records: dict[str, tuple[RideRecord, list[Segment]]] = {}
+    for _, seg, rec in rows:
+        records.setdefault(rec.source, (rec, []))[1].append(seg)
+    for name, (rec, segs) in records.items():
+        fig = ride_segments(rec, segs)
+        save_figure(fig, out / f"segments_{slug(Path(name).stem)}", ("png",))
+        plt.close(fig)
+
+
+def run_fit(args: argparse.Namespace) -> int:
+    """``bike-rig ride fit``; returns 0."""
+    rows = measure(args)
+    if args.json:
+        print(json.dumps([segment_json(m, seg) for m, seg, _ in rows], indent=2))
+    else:
+        for m, seg, _ in rows:
+            print(_line(m, seg))
+        for c in combine_eigenvalues([m for m, _, _ in rows]):
+            if c.n_used:
+                print(f"{c.speed:.2f} m/s, {c.n_used} segments combined ({c.n_left_out} left out): "
+                      f"Re λ {_pm(c.real, c.real_sigma)} 1/s, Im λ {_pm(c.imag, c.imag_sigma)} rad/s")  # fmt: skip
+    if args.out:
+        _segment_figures(rows, _figures_dir(args.out))
+    return 0
+
+
+def run_validate(args: argparse.Namespace) -> int:
+    """``bike-rig ride validate``; returns 0.
+
+    Raises:
+        RideSpeedError: A segment without a speed.
+    """
+    from ..pipeline.ride import validate_ride
+    from .main import _speeds
+
+    ps, fb = _bicycle(args)
+    rows = measure(args)
+    speeds = _speeds(args.speeds) if args.speeds else None
+    comparison, curve = validate_ride(ps, [m for m, _, _ in rows], fb, args.sigma, speeds)
+    if args.json:
+        print(json.dumps(_validate_json(comparison, rows), indent=2))
+    else:
+        print(_validate_text(comparison, rows))
+    if args.out:
+        import matplotlib.pyplot as plt
+
+        from ..plots.ride import ride_validation
+        from ..plots.style import save_figure
+
+        out = _figures_dir(args.out)
+        fig = ride_validation(comparison, curve, Path(args.parameters).stem)
+        save_figure(fig, out / "ride_validation", ("png",))
+        plt.close(fig)
+        _segment_figures(rows, out)
+    return 0
+
+
+def _validate_json(comparison: Any, rows: list[tuple[MeasuredEigenvalue, Segment, RideRecord]]) -> dict[str, Any]:
+    segments = []
+    for c, (m, seg, _) in zip(comparison.segments, rows, strict=True):
+        obj = segment_json(m, seg)
+        obj.update({
+            "predicted_real": _num(c.predicted_real), "predicted_real_sigma": _num(c.predicted_real_sigma),
+            "predicted_imag": _num(c.predicted_imag), "predicted_imag_sigma": _num(c.predicted_imag_sigma),
+            "normalised_deviation": _num(c.deviation), "normalised_deviation_real": _num(c.z_real),
+            "normalised_deviation_imag": _num(c.z_imag),
+        })  # fmt: skip
+        segments.append(obj)
+    keys = ("predicted_real", "predicted_real_sigma", "predicted_imag", "predicted_imag_sigma")
+    speeds = [
+        {"speed": s.combined.speed, "n_used": s.combined.n_used, "n_left_out": s.combined.n_left_out,
+         "real": _num(s.combined.real), "real_sigma": _num(s.combined.real_sigma), "imag": _num(s.combined.imag),
+         "imag_sigma": _num(s.combined.imag_sigma), **{k: _num(getattr(s, k)) for k in keys},
+         "normalised_deviation": _num(s.deviation), "normalised_deviation_real": _num(s.z_real),
+         "normalised_deviation_imag": _num(s.z_imag)}
+        for s in comparison.speeds
+    ]  # fmt: skip
+    out: dict[str, Any] = {"segments": segments}
+    out.update({k: [o[k] for o in segments] for k in keys})
+    out.update({"speeds": speeds, "normalised_deviation": _num(comparison.overall), "notes": list(comparison.notes)})
+    return out
+
+
+def _validate_text(comparison: Any, rows: list[tuple[MeasuredEigenvalue, Segment, RideRecord]]) -> str:
+    lines = []
+    for c, (m, seg, _) in zip(comparison.segments, rows, strict=True):
+        lines.append(_line(m, seg))
+        if m.valid:
+            lines.append(f"    model: Re λ {_pm(c.predicted_real, c.predicted_real_sigma)}, "
+                         f"Im λ {_pm(c.predicted_imag, c.predicted_imag_sigma)}; normalised deviation "
+                         f"re {c.z_real:+.2f}, im {c.z_imag:+.2f}")  # fmt: skip
+    for s in comparison.speeds:
+        c = s.combined
+        measured = f"Re λ {_pm(c.real, c.real_sigma)}, Im λ {_pm(c.imag, c.imag_sigma)}"
+        model = f"Re λ {_pm(s.predicted_real, s.predicted_real_sigma)}, "
+        model += f"Im λ {_pm(s.predicted_imag, s.predicted_imag_sigma)}"
+        lines.append(f"{c.speed:.2f} m/s ({c.n_used} segments): measured {measured}; model {model}; "
+                     f"normalised deviation {s.deviation:.2f}")  # fmt: skip
+    lines.append(f"overall normalised deviation (RMS over clean segments): {comparison.overall:.2f}")
+    lines += [f"note: {n}" for n in comparison.notes]
+    return "\n".join(lines)
+
+
+def run_simulate(args: argparse.Namespace) -> int:
+    """``bike-rig ride simulate``; returns 0.
+
+    Raises:
+        UsageError: Bad numbers. SimulationError: an impossible ride.
+    """
+    from ..core.sim.ride import RideSimulation, regular_kicks, simulate_ride, write_ride_csv
+    from ..core.uncertainty.matrix_sigma import canonical_with_sigma
+
+    for name in ("speed", "duration", "rate", "kick_every", "noise"):
+        x = getattr(args, name)
+        if not (math.isfinite(x) and x >= 0) or (name in ("duration", "rate", "kick_every") and x <= 0):
+            raise UsageError(f"--{name.replace('_', '-')} must be a finite positive number, got {x}")
+    ps, fb = _bicycle(args)
+    ms = canonical_with_sigma(ps)
+    first = min(1.0, 0.2 * args.duration)
+    kicks = regular_kicks(args.duration, args.kick_every, first=first, steer_torque=args.kick_torque)
+    sim = RideSimulation(args.speed, args.duration, args.rate, kicks, noise_roll_rate=args.noise, seed=args.seed)
+    ride = simulate_ride(ms.matrices, ms.g, sim, None if fb is None else fb.gains(args.speed))
+    if args.out.lower().endswith(".csv"):
+        write_ride_csv(ride, args.out)
+    else:
+        from ..bag.ride import write_ride_bag
+
+        write_ride_bag(ride, args.out)
+    print(f"wrote {args.out}: {len(kicks)} kicks at {args.speed:g} m/s, {args.duration:g} s at {args.rate:g} Hz")
+    return 0

@@ -1,0 +1,11 @@
+"""Ride validation: measured weave eigenvalues of an instrumented bicycle (issue 14, sections 2–4).
+
+- :mod:`.record`: a ride record (times s, roll rate rad/s, optional speed m/s and steer torque
+  N m) and its CSV reader (the bag reader is :mod:`bike_rig.bag.ride`)
+- :mod:`.segment`: automatic segmentation of a long record into free decays after kicks
+- :mod:`.eigen`: each segment's measured eigenvalue with σ (the trial fitter, Eq 23), and
+  segments at one speed combined
+
+The prediction and the comparison are in :mod:`bike_rig.pipeline.ride`; the simulated ride in
+:mod:`bike_rig.core.sim.ride`.
+"""

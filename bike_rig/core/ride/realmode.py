@@ -1,0 +1,231 @@
+"""Eq 23 plus a trend or one real mode: the free decay of a bicycle's roll rate over one to two cycles.
+
+After a kick the roll rate holds all four modes of the Whipple model: the weave pair, which
+Eq 23 describes, and two real ones (capsize and caster). The caster mode dies within a few
+tenths of a second; the capsize mode decays (or grows) slowly, at a rate comparable with the
+segment's length, and over one or two cycles Eq 23's constant offset cannot absorb it: the
+weave's fitted eigenvalue is then biased by several of its σ (measured on simulated rides,
+``test/core/ride``). So the ride's segments are fitted with
+
+    y(τ) = A + D (e^{μτ} − 1)/μ + e^{−ατ}(B sin ω_d τ + C cos ω_d τ),   τ = t − t_mid   [eq23_real]
+
+(the real mode written so that it becomes a linear trend D τ as μ → 0, with no degeneracy
+with A), or with μ = 0, a linear trend [eq23_trend, the default]. Over one to two cycles the
+free μ is poorly determined and the linearised σ of ω_d is too small (simulated rides of the
+Browser with rider, 4.5 m/s, 1.3 cycles: std of (ω̂_d − ω_d)/σ = 1.8, mean −1.3); with the
+trend the normalised errors have mean within ±0.5 and std 0.85–1.1 at 1.5–4.5 m/s. For fixed
+(α, ω_d, μ) the model is linear in A, B, C, D, which are solved by least squares (variable
+projection); :func:`scipy.optimize.least_squares` fits the nonlinear parameters from the
+trial fitter's (α, ω_d). σ: ``s² (JᵀJ)⁻¹`` with the Jacobian of all parameters (Eq 26–27 for
+this model; white residuals, as the trial fitter below two cycles) times the Student-t factor
+for n − p degrees of freedom (p = 6 or 7).
+Units: t s, α and μ 1/s, ω_d rad/s; A, B, C in the signal's units, D in its units per second.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ..period.sigma import student_factor
+
+__all__ = ["RealModeFit", "RealModeFitFailed", "fit_with_real_mode", "real_mode_basis"]
+
+FloatArray = NDArray[np.float64]
+
+#: Starting decay rates of the real mode tried [1/s] (the best fit is kept).
+MU_STARTS = (-2.0, -0.5, 0.5)
+
+
+class RealModeFitFailed(ArithmeticError):
+    """The model could not be fitted (singular design)."""
+
+
+@dataclass(frozen=True)
+class RealModeFit:
+    """The fit of the ``eq23_trend`` or ``eq23_real`` model.
+
+    Attributes:
+        alpha: Decay rate of the oscillation ζω [1/s] (Re λ = −alpha).
+        alpha_sigma: Its σ [1/s].
+        omega_d: Damped angular frequency [rad/s] (Im λ).
+        omega_d_sigma: Its σ [rad/s].
+        mu: The real mode's rate [1/s] (0: the trend).
+        r2: Coefficient of determination [-].
+        residual_rms: RMS of the residuals [signal units].
+    """
+
+    alpha: float
+    alpha_sigma: float
+    omega_d: float
+    omega_d_sigma: float
+    mu: float
+    r2: float
+    residual_rms: float
+
+
+def real_mode_basis(tau: FloatArray, alpha: float, omega_d: float, mu: float) -> tuple[FloatArray, FloatArray]:
+    """The model's linear basis [1, e^{−ατ} sin ω_dτ, e^{−ατ} cos ω_dτ, (e^{μτ} − 1)/μ] and ∂/∂μ of the last.
+
+    Args:
+        tau: Times from the segment's middle [s].
+        alpha: ζω [1/s].
+        omega_d: ω_d [rad/s].
+        mu: The real mode's rate [1/s].
+    """
+    e = np.exp(-alpha * tau)
+    if abs(mu) * float(np.max(np.abs(tau))) > 1e-6:
+        g = np.expm1(mu * tau) / mu
+        dg = (tau * np.exp(mu * tau) - g) / mu
+    else:  # the series: (e^{μτ} − 1)/μ = τ + μτ²/2 + μ²τ³/6
+        g = tau + 0.5 * mu * tau**2 + mu**2 * tau**3 / 6.0
+        dg = 0.5 * tau**2 + mu * tau**3 / 3.0
+    phi = np.column_stack([np.ones_like(tau), e * np.sin(omega_d * tau), e * np.cos(omega_d * tau), g])
+    return phi, dg
+
+
+def _solve(phi: FloatArray, y: FloatArray) -> FloatArray:
+    coef, *_ = np.linalg.lstsq(phi, y, rcond=None)
+    return np.asarray(coef, dtype=float)
+
+
+def fit_with_real_mode(
+    times: ArrayLike, samples: ArrayLike, alpha0: float, omega_d0: float, free_mu: bool = False
+) -> RealModeFit:
+    """Fit the ``eq23_trend`` (or, ``free_mu``, the ``eq23_real``) model from the trial fitter's (α, ω_d).
+
+    Args:
+        times: Sample times [s].
+        samples: The samples.
+        alpha0: Starting ζω [1/s].
+        omega_d0: Starting ω_d [rad/s].
+        free_mu: Fit the real mode's rate μ (else μ = 0: a linear trend).
+
+    Raises:
+        RealModeFitFailed: Fewer than 8 samples, or a singular design.
+    """
+    from scipy.optimize import least_squares
+
+    t = np.asarray(times, dtype=float)
+    y = np.asarray(samples, dtype=float)
+    n = y.size
+    if n < 8:
+        raise RealModeFitFailed(f"{n} samples for up to seven parameters")
+    tau = t - 0.5 * (t[0] + t[-1])
+
+    def residual(p: FloatArray) -> FloatArray:
+        phi, _ = real_mode_basis(tau, float(p[0]), float(p[1]), float(p[2]) if free_mu else 0.0)
+        return np.asarray(phi @ _solve(phi, y) - y, dtype=float)
+
+    best = None
+    for mu0 in MU_STARTS if free_mu else (0.0,):
+        start = np.array([alpha0, omega_d0, mu0] if free_mu else [alpha0, omega_d0])
+        sol = least_squares(residual, start, method="lm")
+        if sol.x[1] > 0 and (best is None or sol.cost < best.cost):
+            best = sol
+    if best is None:
+        raise RealModeFitFailed("no fit with a positive frequency")
+    alpha, omega_d = float(best.x[0]), float(best.x[1])
+    mu = float(best.x[2]) if free_mu else 0.0
+    phi, dg = real_mode_basis(tau, alpha, omega_d, mu)
+    a, b, c, d = _solve(phi, y)
+    r = phi @ np.array([a, b, c, d]) - y
+    e = np.exp(-alpha * tau)
+    osc = b * np.sin(omega_d * tau) + c * np.cos(omega_d * tau)
+    quad = b * np.cos(omega_d * tau) - c * np.sin(omega_d * tau)
+    columns = [phi, -tau * e * osc, tau * e * quad] + ([d * dg] if free_mu else [])
+    jac = np.column_stack(columns)
+    p = jac.shape[1]
+    try:
+        inverse = np.linalg.inv(jac.T @ jac)
+    except np.linalg.LinAlgError:
+        raise RealModeFitFailed("singular design: the segment does not determine the model") from None
+    sse = float(r @ r)
+    s2 = sse / (n - p)
+    factor = student_factor(n - p)
+    centred = y - float(np.mean(y))
+    sst = float(centred @ centred)
+    return RealModeFit(
+        alpha=alpha,
+        alpha_sigma=factor * math.sqrt(max(0.0, s2 * float(inverse[4, 4]))),
+        omega_d=omega_d,
+        omega_d_sigma=factor * math.sqrt(max(0.0, s2 * float(inverse[5, 5]))),
+        mu=mu,
+        r2=1.0 - sse / sst if sst > 0 else math.nan,
+        residual_rms=math.sqrt(sse / n),
+    )
+
+
+#: The frequency search's highest frequency [Hz] (a bicycle's weave is far below).
+SEARCH_MAX_HZ = 5.0
+#: Its lowest frequency, in cycles over the segment.
+SEARCH_MIN_CYCLES = 0.7
+#: Its grid step, in cycles over the segment.
+SEARCH_STEP_CYCLES = 0.02
+#: The false-alarm probability an oscillation found by the search must beat (as the trial fitter's).
+SEARCH_FALSE_ALARM = 1e-4
+
+
+@dataclass(frozen=True)
+class FrequencySearch:
+    """A short segment's best frequency and whether an oscillation stands out of the trend.
+
+    Attributes:
+        omega_d: The best angular frequency of the grid [rad/s].
+        false_alarm: Probability that noise alone gives as large an F anywhere on the grid [-].
+    """
+
+    omega_d: float
+    false_alarm: float
+
+    @property
+    def found(self) -> bool:
+        """An oscillation stands out (false alarm below :data:`SEARCH_FALSE_ALARM`)."""
+        return self.false_alarm < SEARCH_FALSE_ALARM
+
+
+def search_frequency(times: ArrayLike, samples: ArrayLike) -> FrequencySearch:
+    """The frequency of an undamped sinusoid plus a linear trend that fits best, on a grid, and its significance.
+
+    For a segment too short for the trial fitter's spectrum (about one cycle): at each ω of a
+    grid from :data:`SEARCH_MIN_CYCLES` cycles over the segment to :data:`SEARCH_MAX_HZ`, the
+    least-squares fit of A + Dτ + B sin ωτ + C cos ωτ; the best ω, and the F test of B, C
+    against the trend alone, F = ((SSE₀ − SSE)/2) / (SSE/(n − 5)), its p-value multiplied by the
+    number of independent frequencies searched (Bonferroni; the grid's width in cycles).
+
+    Args:
+        times: Sample times [s].
+        samples: The samples.
+
+    Raises:
+        RealModeFitFailed: Fewer than 8 samples.
+    """
+    from scipy.stats import f as f_distribution
+
+    t = np.asarray(times, dtype=float)
+    y = np.asarray(samples, dtype=float)
+    n = y.size
+    if n < 8:
+        raise RealModeFitFailed(f"{n} samples for up to seven parameters")
+    tau = t - 0.5 * (t[0] + t[-1])
+    duration = float(t[-1] - t[0])
+    trend = np.column_stack([np.ones_like(tau), tau])
+    r0 = trend @ _solve(trend, y) - y
+    sse0 = float(r0 @ r0)
+    cycles = np.arange(SEARCH_MIN_CYCLES, max(SEARCH_MIN_CYCLES, SEARCH_MAX_HZ * duration), SEARCH_STEP_CYCLES)
+    best_sse, best_omega = math.inf, math.nan
+    for c in cycles:
+        w = 2.0 * math.pi * c / duration
+        phi = np.column_stack([trend, np.sin(w * tau), np.cos(w * tau)])
+        r = phi @ _solve(phi, y) - y
+        sse = float(r @ r)
+        if sse < best_sse:
+            best_sse, best_omega = sse, w
+    if not (best_sse > 0 and sse0 > best_sse):
+        return FrequencySearch(best_omega, 1.0 if sse0 <= best_sse else 0.0)
+    f_value = ((sse0 - best_sse) / 2.0) / (best_sse / (n - 5))
+    independent = max(1.0, float(cycles[-1] - cycles[0]) if cycles.size > 1 else 1.0)
+    return FrequencySearch(best_omega, min(1.0, independent * float(f_distribution.sf(f_value, 2, n - 5))))

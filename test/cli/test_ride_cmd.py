@@ -1,0 +1,111 @@
+"""``bike-rig ride``: fit, validate and simulate, end to end on simulated rides (CSV and bag)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from bike_rig.cli.main import main
+from bike_rig.paths import config_dir
+
+BROWSER = str(config_dir() / "bicycles" / "browser.yaml")
+ASSIST = str(config_dir() / "feedback" / "balance_assist.yaml")
+SEGMENT_KEYS = {"file", "speed", "real", "real_sigma", "imag", "imag_sigma", "valid", "flags"}
+
+
+def run(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
+    code = main(list(argv))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+@pytest.fixture(scope="module")
+def long_csv(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("ride") / "long.csv"
+    assert main(["ride", "simulate", BROWSER, "--rider", "paper", "--feedback", ASSIST, "--speed", "4.5",
+                 "--duration", "25", "--seed", "3", "-o", str(out)]) == 0  # fmt: skip
+    return out
+
+
+def test_fit_json_has_one_object_per_segment(capsys: pytest.CaptureFixture[str], long_csv: Path) -> None:
+    code, out, _ = run(capsys, "ride", "fit", str(long_csv), "--json")
+    assert code == 0
+    segs = json.loads(out)
+    assert len(segs) == 4  # kicks at 1, 7, 13, 19 s
+    for s in segs:
+        assert SEGMENT_KEYS <= set(s) and s["valid"] and s["imag"] > 0 and s["file"] == str(long_csv)
+        assert s["speed"] == pytest.approx(4.5, abs=0.02)  # the speed column's mean
+    code, out, _ = run(capsys, "ride", "fit", str(long_csv), "--json", "--speed", "4.4", "--segments", "whole")
+    (whole,) = json.loads(out)
+    assert whole["speed"] == 4.4 and whole["start"] == 0.0
+
+
+def test_validate_agrees_with_the_closed_loop_and_not_the_open(
+    capsys: pytest.CaptureFixture[str], long_csv: Path, tmp_path: Path
+) -> None:
+    base = ("ride", "validate", BROWSER, str(long_csv), "--rider", "paper", "--json")
+    code, out, _ = run(capsys, *base, "--feedback", ASSIST, "-o", str(tmp_path / "figs"))
+    assert code == 0
+    got = json.loads(out)
+    assert {"segments", "predicted_real", "predicted_imag", "predicted_real_sigma", "predicted_imag_sigma",
+            "normalised_deviation", "speeds"} <= set(got)  # fmt: skip
+    assert len(got["predicted_real"]) == len(got["segments"]) == 4
+    assert got["normalised_deviation"] < 3.0
+    assert (tmp_path / "figs" / "ride_validation.png").stat().st_size > 0
+    assert (tmp_path / "figs" / "segments_long.png").stat().st_size > 0
+    code, out, _ = run(capsys, *base)  # the open loop: the rider's bicycle without the assist
+    assert code == 0 and json.loads(out)["normalised_deviation"] > 10.0
+
+
+def test_bag_records_are_read_with_the_imu_default(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    bag = tmp_path / "ride_bag"
+    code, _, _ = run(capsys, "ride", "simulate", BROWSER, "--rider", "paper", "--feedback", ASSIST, "--speed", "4.0",
+                     "--duration", "14", "-o", str(bag))  # fmt: skip
+    assert code == 0
+    code, out, _ = run(capsys, "ride", "fit", str(bag), "--json", "--speed", "4.0", "--torque-topic",
+                       "/ride/steer_torque")  # fmt: skip
+    segs = json.loads(out)
+    assert code == 0 and len(segs) == 2 and all(s["valid"] for s in segs)
+    assert np.all(np.array([s["imag"] for s in segs]) > 0)
+    # without --speed: the speed is read from the live graph's speed topic, which the bag has
+    code, out, _ = run(capsys, "ride", "fit", str(bag), "--json", "--torque-topic", "/ride/steer_torque")
+    assert code == 0 and [s["speed"] for s in json.loads(out)] == pytest.approx([4.0, 4.0], abs=0.02)  # (a noisy sensor)
+    code, _, err = run(capsys, "ride", "fit", str(bag), "--topic", "/nope")
+    assert code == 2 and "no topic /nope" in err and "/imu/data" in err
+    code, _, err = run(capsys, "ride", "fit", str(bag), "--field", "angular_velocity.w")
+    assert code == 2 and "no field 'angular_velocity.w'" in err
+
+
+@pytest.mark.parametrize(
+    ("argv", "expect"),
+    [
+        (("ride", "fit", "missing.csv"), "missing.csv: no such file"),
+        (("ride", "fit", "{csv}", "--signal", "yaw"), "no signal column 'yaw'"),
+        (("ride", "fit", "{csv}", "--speed", "-1"), "--speed must be"),
+        (("ride", "validate", BROWSER, "{nospeed}"), "has no speed"),
+        (("ride", "simulate", BROWSER, "--speed", "4", "--duration", "0", "-o", "{tmp}/x.csv"), "--duration must be"),
+        (("ride", "fit", "{tmp}", "--topic", "/nope"), "not a rosbag2 bag"),
+    ],
+)
+def test_user_mistakes_end_in_one_line(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path, long_csv: Path, argv: tuple[str, ...], expect: str
+) -> None:
+    nospeed = tmp_path / "nospeed.csv"
+    nospeed.write_text("\n".join(line.split(",")[0] + "," + line.split(",")[1]
+                                 for line in long_csv.read_text().splitlines()[:400]))  # fmt: skip
+    args = [a.format(csv=long_csv, nospeed=nospeed, tmp=tmp_path) for a in argv]
+    code, _, err = run(capsys, *args)
+    assert code == 2 and expect in err and len(err.strip().splitlines()) == 1 and "Traceback" not in err
+
+
+def test_plot_ride_is_a_registered_figure_drawn_only_for_records(
+    capsys: pytest.CaptureFixture[str], long_csv: Path, tmp_path: Path
+) -> None:
+    code, out, _ = run(capsys, "plot", "ride", BROWSER, "--rider", "paper", "--feedback", ASSIST, "--ride",
+                       str(long_csv), "-o", str(tmp_path))  # fmt: skip
+    assert code == 0 and out.split() == [str(tmp_path / "ride_rider.png")]
+    code, _, err = run(capsys, "plot", "ride", BROWSER, "-o", str(tmp_path))
+    assert code == 2 and "--ride RECORD" in err
