@@ -72,7 +72,7 @@ def test_bag_records_are_read_with_the_imu_default(capsys: pytest.CaptureFixture
     assert np.all(np.array([s["imag"] for s in segs]) > 0)
     # without --speed: the speed is read from the live graph's speed topic, which the bag has
     code, out, _ = run(capsys, "ride", "fit", str(bag), "--json", "--torque-topic", "/ride/steer_torque")
-    assert code == 0 and [s["speed"] for s in json.loads(out)] == pytest.approx([4.0, 4.0], abs=0.02)  # (a noisy sensor)
+    assert code == 0 and [s["speed"] for s in json.loads(out)] == pytest.approx([4.0, 4.0], abs=0.02)
     code, _, err = run(capsys, "ride", "fit", str(bag), "--topic", "/nope")
     assert code == 2 and "no topic /nope" in err and "/imu/data" in err
     code, _, err = run(capsys, "ride", "fit", str(bag), "--field", "angular_velocity.w")
