@@ -13,7 +13,8 @@ A graph file (``format: bike_rig-graph/1``, see ``config/graph.yaml``)::
         parameters: {output: bag}  # -p NAME:=VALUE overrides (optional)
 
 Every process gets ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`` and the run's own
-``ROS_DOMAIN_ID`` (:mod:`bike_rig.rosenv`).
+``ROS_DOMAIN_ID`` (:mod:`bike_rig.rosenv`), and ``ROS_STATIC_PEERS`` only when the graph is
+split over two hosts (:meth:`Graph.subset`, ``static_peers``).
 
 Before anything starts, :meth:`Graph.checked` (called by :meth:`RunningGraph.start`) checks
 every ``-p`` override of a bike_rig node against the parameters the node declares
@@ -162,6 +163,24 @@ class Graph:
         nodes = tuple(
             NodeSpec(n.name, n.module, n.params_file, _merged(n, overrides.get(n.name, {}))) for n in self.nodes
         )
+        return Graph(nodes, self.path)
+
+    def subset(self, only: Sequence[str] = (), without: Sequence[str] = ()) -> Graph:
+        """A copy with only the nodes named in ``only`` (all if empty), less those in ``without``.
+
+        For a graph split over two hosts (``bike-rig run --only driver`` beside the rig,
+        ``--without driver`` at the desk); the start order is kept.
+
+        Raises:
+            LaunchError: A name the graph does not have, or no node left.
+        """
+        known = [n.name for n in self.nodes]
+        for name in (*only, *without):
+            if name not in known:
+                raise LaunchError(f"{self.path}: no node named '{name}' (nodes: {', '.join(known)})")
+        nodes = tuple(n for n in self.nodes if (not only or n.name in only) and n.name not in without)
+        if not nodes:
+            raise LaunchError(f"{self.path}: no node left to start (--only {only}, --without {without})")
         return Graph(nodes, self.path)
 
     def checked(self, cwd: Path | None = None) -> Graph:
@@ -430,6 +449,8 @@ class RunningGraph:
         log_dir: Where each node's stdout/stderr go (``<name>.log``).
         domain_id: The run's ROS_DOMAIN_ID (default: allocated by :mod:`bike_rig.rosenv`).
         env: Extra environment for every node.
+        static_peers: The other host's addresses when the graph is split over two hosts
+            (``ROS_STATIC_PEERS``, see :func:`bike_rig.rosenv.ros_environment`).
     """
 
     def __init__(
@@ -438,13 +459,14 @@ class RunningGraph:
         log_dir: Path,
         domain_id: int | None = None,
         env: Mapping[str, str] | None = None,
+        static_peers: Sequence[str] = (),
     ) -> None:
         """Keep the graph and log directory and build the nodes' environment; nothing is started yet."""
         self.graph = graph
         self.log_dir = log_dir
         base = dict(os.environ)
         base.update(env or {})
-        self.env = ros_environment(base, domain_id=domain_id)
+        self.env = ros_environment(base, domain_id=domain_id, static_peers=static_peers)
         self.processes: list[_Process] = []
 
     @property

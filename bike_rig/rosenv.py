@@ -10,6 +10,10 @@ One place decides how a node, a test helper or a demo process talks DDS:
   port 32768 + id, no traffic) and falls back to a pid-based id.
 * ``RMW_IMPLEMENTATION=rmw_fastrtps_cpp``, the only rmw the PyPI wheels ship.
 
+Two hosts (the driver beside the rig, the analysis at the desk) keep the LOCALHOST range and
+name each other as static peers (:func:`static_peers_value`, ``ROS_STATIC_PEERS``): Fast DDS
+then sends discovery by unicast to those addresses only, nothing is multicast.
+
 It also removes stale Fast DDS shared-memory segments (:func:`remove_stale_fastdds_segments`):
 segments left by killed processes can delay the next discovery by about 2.7 s.
 """
@@ -18,10 +22,11 @@ from __future__ import annotations
 
 import atexit
 import contextlib
+import ipaddress
 import logging
 import os
 import time
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -33,10 +38,12 @@ __all__ = [
     "DomainIdError",
     "check_domain_id",
     "RMW_IMPLEMENTATION",
+    "StaticPeerError",
     "fallback_domain_id",
     "process_domain_id",
     "remove_stale_fastdds_segments",
     "ros_environment",
+    "static_peers_value",
     "unique_domain_id",
 ]
 
@@ -89,6 +96,32 @@ def check_domain_id(value: object, name: str = "ROS_DOMAIN_ID", where: str = "")
     if not 0 <= number <= MAX_DOMAIN_ID:
         raise DomainIdError(f"{name}={number}{where} is outside {allowed}")
     return number
+
+
+class StaticPeerError(BikeRigError, ValueError):
+    """A static peer that is not an IP address (one-line message)."""
+
+
+def static_peers_value(peers: Sequence[str]) -> str:
+    """The ``ROS_STATIC_PEERS`` value for the other hosts' addresses.
+
+    Args:
+        peers: IPv4 or IPv6 addresses of the other hosts (e.g. ``10.0.0.2``).
+
+    Returns:
+        The addresses, ``;``-separated, as ROS 2 reads the variable.
+
+    Raises:
+        StaticPeerError: An entry is not an IP address (a host name is refused: resolving it
+            could send a DNS query off the machine).
+    """
+    checked = []
+    for peer in peers:
+        try:
+            checked.append(str(ipaddress.ip_address(peer.strip())))
+        except ValueError:
+            raise StaticPeerError(f"static peer {peer!r} is not an IP address (e.g. 10.0.0.2)") from None
+    return ";".join(checked)
 
 
 _REMOVED_VARIABLES = (
@@ -157,7 +190,7 @@ def process_domain_id() -> int:
 
 
 def ros_environment(
-    base: Mapping[str, str] | None = None, domain_id: int | None = None
+    base: Mapping[str, str] | None = None, domain_id: int | None = None, static_peers: Sequence[str] = ()
 ) -> dict[str, str]:
     """The environment for a ROS 2 process that bike_rig starts.
 
@@ -166,17 +199,22 @@ def ros_environment(
         domain_id: The ``ROS_DOMAIN_ID`` to use. If None, the base's ``ROS_DOMAIN_ID`` is kept
             when it is set (a parent process, a test fixture or the user chose it); otherwise
             this process's reserved id (:func:`process_domain_id`) is used.
+        static_peers: The other hosts' addresses (:func:`static_peers_value`); empty: none,
+            and an inherited ``ROS_STATIC_PEERS`` is removed.
 
     Returns:
         A new dict: a copy of ``base`` with ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST``,
         ``ROS_DOMAIN_ID`` and ``RMW_IMPLEMENTATION=rmw_fastrtps_cpp`` set, and
-        ``ROS_LOCALHOST_ONLY`` and ``ROS_STATIC_PEERS`` removed.
+        ``ROS_LOCALHOST_ONLY`` removed and ``ROS_STATIC_PEERS`` set to ``static_peers`` (or
+        removed when there are none).
 
     Raises:
         DomainIdError: If the domain id (given or inherited) is not an integer in 0..101 (a
             :class:`ValueError` and a :class:`~bike_rig.core.errors.BikeRigError`: the command
             line prints it as one line).
+        StaticPeerError: A static peer is not an IP address.
     """
+    peers = static_peers_value(static_peers) if static_peers else ""
     env = dict(os.environ if base is None else base)
     if domain_id is None:
         inherited = env.get("ROS_DOMAIN_ID", "").strip()
@@ -191,6 +229,8 @@ def ros_environment(
     env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = DISCOVERY_RANGE
     env["ROS_DOMAIN_ID"] = str(domain_id)
     env["RMW_IMPLEMENTATION"] = RMW_IMPLEMENTATION
+    if peers:
+        env["ROS_STATIC_PEERS"] = peers
     return env
 
 

@@ -29,6 +29,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import shutil
 import signal
 import sys
@@ -91,6 +92,18 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     q.add_argument(
         "--domain-id", metavar="N", help="ROS_DOMAIN_ID, 0..101 (default: the environment's, else a free one)"
     )
+    q.add_argument(
+        "--only", action="append", default=[], metavar="NODE",
+        help="start only this node of the graph (repeatable), e.g. --only driver on the rig's host",
+    )  # fmt: skip
+    q.add_argument(
+        "--without", action="append", default=[], metavar="NODE",
+        help="start every node but this one (repeatable), e.g. --without driver at the desk",
+    )  # fmt: skip
+    q.add_argument(
+        "--peer", action="append", default=[], metavar="ADDRESS",
+        help="the other host's IP address when the graph is split over two hosts (ROS_STATIC_PEERS; repeatable)",
+    )  # fmt: skip
     q.add_argument("--out", metavar="DIR", help="new session folder (default: ./bike_rig_sessions/<time>)")
     q.add_argument("--log-dir", metavar="DIR", help="node logs go here (default: <session folder>/logs)")
     q.set_defaults(func=run)
@@ -335,17 +348,17 @@ def _domain_id(given: str | None) -> int:
 
     if given is not None:
         return check_domain_id(given, "--domain-id")  # (a ROS_DOMAIN_ID in the environment is then not used)
-    import os
-
     return int(ros_environment(os.environ)["ROS_DOMAIN_ID"])
 
 
 def run(args: argparse.Namespace) -> int:
     """Check everything, start the graph, follow it until Ctrl-C or a node ends, stop it, summarise."""
     from ..launch import load_graph, parse_overrides
+    from ..rosenv import static_peers_value
 
     domain_id = _domain_id(args.domain_id)
-    graph = load_graph(_config_path(args.config))
+    graph = load_graph(_config_path(args.config)).subset(args.only, args.without)
+    peers = static_peers_value(args.peer) if args.peer else ""
     overrides = parse_overrides(args.param)
     out = session_folder(args.out)
     notes = _defaults(graph, overrides, out)
@@ -353,7 +366,9 @@ def run(args: argparse.Namespace) -> int:
     log_dir = Path(args.log_dir).expanduser() if args.log_dir else out / "logs"
     for line in notes:
         _say(line)
-    return _Session(graph, out, log_dir, domain_id).run()
+    if peers:  # this process's listener finds the other host's nodes too
+        os.environ["ROS_STATIC_PEERS"] = peers
+    return _Session(graph, out, log_dir, domain_id, tuple(args.peer)).run()
 
 
 # ---------------------------------------------------------------------------------------------- the run
@@ -368,8 +383,8 @@ class _Stop:
 
 
 class _Session:
-    def __init__(self, graph: Graph, out: Path, log_dir: Path, domain_id: int) -> None:
-        self.graph, self.out, self.log_dir, self.domain_id = graph, out, log_dir, domain_id
+    def __init__(self, graph: Graph, out: Path, log_dir: Path, domain_id: int, peers: tuple[str, ...] = ()) -> None:
+        self.graph, self.out, self.log_dir, self.domain_id, self.peers = graph, out, log_dir, domain_id, peers
         self.tracker = RunTracker()
         self.stop = _Stop()
         recorder = _node_of(graph, _RECORDER)
@@ -387,10 +402,11 @@ class _Session:
         # the listener first: matched while the nodes start, it misses no heartbeat period of history
         monitor = GraphMonitor(self.domain_id)
         try:
-            running = RunningGraph(self.graph, self.log_dir, self.domain_id).start()
+            running = RunningGraph(self.graph, self.log_dir, self.domain_id, static_peers=self.peers).start()
             try:
                 _say(
-                    f"{len(self.graph.nodes)} nodes on ROS_DOMAIN_ID={running.domain_id} (localhost); session "
+                    f"{len(self.graph.nodes)} nodes on ROS_DOMAIN_ID={running.domain_id} "
+                    f"({'peers ' + ', '.join(self.peers) if self.peers else 'localhost'}); session "
                     f"folder {self.out}; Ctrl-C to stop"
                 )
                 ended = self._loop(running, monitor)

@@ -71,6 +71,9 @@ def test_unknown_param_names_the_nodes_parameters(here: Path, capsys: pytest.Cap
         (["--param", "driver.bicycle=nowhere.yaml"], "node 'driver': parameter 'bicycle' = 'nowhere.yaml': no such "
                                                      "file (looked in "),  # fmt: skip
         (["--config", "nowhere.yaml"], "nowhere.yaml: cannot read the file"),
+        (["--without", "drivr"], "no node named 'drivr' (nodes: recorder, fitter, parameter, model, driver)"),
+        (["--only", "driver", "--without", "driver"], "no node left to start"),
+        (["--only", "driver", "--peer", "rig.local"], "static peer 'rig.local' is not an IP address"),
     ],
 )
 def test_mistakes_are_one_line_and_start_nothing(

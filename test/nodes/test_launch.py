@@ -148,3 +148,14 @@ def test_the_nodes_end_with_their_launcher_however_it_dies(tmp_path: Path) -> No
                 except ProcessLookupError:
                     pass
     assert alive == []
+
+
+def test_a_subset_keeps_the_start_order_and_refuses_unknown_or_empty(tmp_path: Path) -> None:
+    graph = Graph(tuple(NodeSpec(n, "test.nodes.fake_node") for n in ("recorder", "fitter", "driver")), "g.yaml")
+    assert [n.name for n in graph.subset(only=["driver"]).nodes] == ["driver"]
+    assert [n.name for n in graph.subset(without=["driver"]).nodes] == ["recorder", "fitter"]
+    assert [n.name for n in graph.subset(only=["driver", "recorder"]).nodes] == ["recorder", "driver"]
+    with pytest.raises(LaunchError, match=r"^g\.yaml: no node named 'drivr' \(nodes: recorder, fitter, driver\)$"):
+        graph.subset(without=["drivr"])
+    with pytest.raises(LaunchError, match=r"^g\.yaml: no node left to start"):
+        graph.subset(only=["driver"], without=["driver"])

@@ -10,6 +10,7 @@ import pytest
 
 from bike_rig import rosenv
 from bike_rig.rosenv import (
+    StaticPeerError,
     fallback_domain_id,
     remove_stale_fastdds_segments,
     ros_environment,
@@ -137,3 +138,16 @@ def test_stale_segments_are_removed_and_used_ones_kept(tmp_path: Path) -> None:
 
 def test_no_segments_is_a_no_op(tmp_path: Path) -> None:
     assert remove_stale_fastdds_segments(tmp_path, proc=tmp_path / "missing") == []
+
+
+def test_static_peers_are_set_only_when_given_and_discovery_stays_localhost() -> None:
+    env = ros_environment({"ROS_STATIC_PEERS": "192.0.2.1"}, domain_id=3, static_peers=[" 10.213.0.2", "fd00::2"])
+    assert env["ROS_STATIC_PEERS"] == "10.213.0.2;fd00::2"  # ROS 2 separates peers with ';'
+    assert env["ROS_AUTOMATIC_DISCOVERY_RANGE"] == "LOCALHOST"  # unicast to the peers, no multicast
+    assert "ROS_STATIC_PEERS" not in ros_environment({"ROS_STATIC_PEERS": "192.0.2.1"}, domain_id=3)
+
+
+@pytest.mark.parametrize("peer", ["rig.local", "10.0.0.300", "", "10.0.0.1;10.0.0.2"])
+def test_a_static_peer_must_be_an_ip_address(peer: str) -> None:
+    with pytest.raises(StaticPeerError, match=r"^static peer .* is not an IP address \(e\.g\. 10\.0\.0\.2\)$"):
+        ros_environment({}, domain_id=3, static_peers=[peer])
