@@ -404,8 +404,9 @@ class _Session:
         try:
             running = RunningGraph(self.graph, self.log_dir, self.domain_id, static_peers=self.peers).start()
             try:
+                n = len(self.graph.nodes)
                 _say(
-                    f"{len(self.graph.nodes)} nodes on ROS_DOMAIN_ID={running.domain_id} "
+                    f"{n} node{'' if n == 1 else 's'} on ROS_DOMAIN_ID={running.domain_id} "
                     f"({'peers ' + ', '.join(self.peers) if self.peers else 'localhost'}); session "
                     f"folder {self.out}; Ctrl-C to stop"
                 )
