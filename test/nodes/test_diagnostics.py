@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import contextlib
 import uuid
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -22,7 +21,7 @@ from bike_rig.core.benchmark import ComMethod
 from bike_rig.diagnostics import HARDWARE_ID, Level, Status
 from bike_rig.messages.diagnostics import statuses_from_msg
 from test.nodes.test_model import STAMP_NS, publish_set
-from test.nodes.test_parameter import BROWSER, Probe, node_environment, start_node
+from test.nodes.test_parameter import BROWSER, Probe, start_node
 
 pytestmark = pytest.mark.ros
 
@@ -35,16 +34,6 @@ CONCERNS = {
     "recorder": {"bag", "disk"},
 }
 
-
-@pytest.fixture
-def probe(ros_env: dict[str, str]) -> Iterator[Probe]:
-    with Probe(ros_env) as p:
-        yield p
-
-
-@pytest.fixture
-def node_env(ros_env: dict[str, str]) -> dict[str, str]:
-    return node_environment(ros_env)
 
 
 def stamp_s(msg: Any) -> float:

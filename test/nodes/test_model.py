@@ -10,7 +10,6 @@ from __future__ import annotations
 import math
 import subprocess
 import sys
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -33,7 +32,6 @@ from test.nodes.test_parameter import (
     REPO,
     Probe,
     browser_trials,
-    node_environment,
     publish_trials,
     start_node,
 )
@@ -43,16 +41,6 @@ pytestmark = pytest.mark.ros
 
 STAMP_NS = 1_700_000_000_123_456_789
 
-
-@pytest.fixture
-def probe(ros_env: dict[str, str]) -> Iterator[Probe]:
-    with Probe(ros_env) as p:
-        yield p
-
-
-@pytest.fixture
-def node_env(ros_env: dict[str, str]) -> dict[str, str]:
-    return node_environment(ros_env)
 
 
 def offline_set(method: ComMethod = ComMethod.CENTROID) -> ParameterSet:

@@ -10,7 +10,6 @@ step gives nothing, changes that come faster than the rate limit are published s
 from __future__ import annotations
 
 import time
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -23,7 +22,7 @@ from bike_rig.core.feedback import load_feedback
 from bike_rig.messages import fill_ride_speed, state_space_model_from_msg
 from bike_rig.pipeline.model import compute_model, state_space_at, state_space_with_sigma_at
 from test.nodes.test_model import ASSIST, STAMP_NS, offline_set, publish_set
-from test.nodes.test_parameter import Probe, node_environment, start_node
+from test.nodes.test_parameter import Probe, start_node
 
 pytestmark = pytest.mark.ros
 
@@ -31,16 +30,6 @@ STEP = 0.5  # m/s
 RATE = 2.0  # 1/s
 INTERVAL_NS = int(1e9 / RATE)
 
-
-@pytest.fixture
-def probe(ros_env: dict[str, str]) -> Iterator[Probe]:
-    with Probe(ros_env) as p:
-        yield p
-
-
-@pytest.fixture
-def node_env(ros_env: dict[str, str]) -> dict[str, str]:
-    return node_environment(ros_env)
 
 
 def stamp_of(msg: Any) -> int:

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import subprocess
 import sys
-from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -25,11 +24,6 @@ pytestmark = pytest.mark.ros
 BP = shared_dir() / "data" / "bicycleparameters"
 JASON = BP / "riders" / "Jason" / "RawData"
 
-
-@pytest.fixture
-def probe(ros_env: dict[str, str]) -> Iterator[Probe]:
-    with Probe(ros_env) as p:
-        yield p
 
 
 def _rider_file(tmp_path: Path) -> str:

@@ -13,7 +13,7 @@ import os
 import subprocess
 import sys
 import time
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -154,16 +154,6 @@ def node_environment(ros_env: Mapping[str, str]) -> dict[str, str]:
     env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(REPO), env.get("PYTHONPATH")]))
     return env
 
-
-@pytest.fixture
-def probe(ros_env: dict[str, str]) -> Iterator[Probe]:
-    with Probe(ros_env) as p:
-        yield p
-
-
-@pytest.fixture
-def node_env(ros_env: dict[str, str]) -> dict[str, str]:
-    return node_environment(ros_env)
 
 
 def start_node(module: str, name: str, env: Mapping[str, str], log_dir: Path, *ros_args: str) -> RosProcess:

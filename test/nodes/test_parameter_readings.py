@@ -13,7 +13,6 @@ import subprocess
 import sys
 import time
 from collections import Counter
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -41,7 +40,7 @@ from bike_rig.pipeline.readings import ReadingEntry, apply_entries
 from test.bag.entered import MISTAKE_KEY, one_trial_session, operator_entries
 from test.bag.test_recorder import _wait_for_data as wait_for_data
 from test.bag.test_replay_readings import core_periods
-from test.nodes.test_parameter import BROWSER, BROWSER_KEYS, Probe, node_environment, start_node
+from test.nodes.test_parameter import BROWSER, BROWSER_KEYS, Probe, start_node
 from test.pipeline.test_readings import STATIC_KEYS
 
 pytestmark = pytest.mark.ros
@@ -50,16 +49,6 @@ START_NS = 1_800_000_000 * 1_000_000_000
 #: Entered last: the set stays incomplete, missing exactly these.
 LATE = ("mF", "aH3")
 
-
-@pytest.fixture
-def probe(ros_env: dict[str, str]) -> Iterator[Probe]:
-    with Probe(ros_env) as p:
-        yield p
-
-
-@pytest.fixture
-def node_env(ros_env: dict[str, str]) -> dict[str, str]:
-    return node_environment(ros_env)
 
 
 def publisher(probe: Probe, topic: topics.Topic, msg_type: Any, subscribers: int) -> Any:

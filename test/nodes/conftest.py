@@ -1,0 +1,26 @@
+"""Fixtures of the node tests: the nodes' environment and the parameter/model probe.
+
+A test module that needs another probe (the driver's, :class:`test.nodes.test_driver.Probe`)
+defines its own ``probe`` fixture, which takes precedence.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+import pytest
+
+from test.nodes.test_parameter import Probe, node_environment
+
+
+@pytest.fixture
+def probe(ros_env: dict[str, str]) -> Iterator[Probe]:
+    """A node that publishes and subscribes on the run's ROS domain (parameters, models)."""
+    with Probe(ros_env) as p:
+        yield p
+
+
+@pytest.fixture
+def node_env(ros_env: dict[str, str]) -> dict[str, str]:
+    """The nodes' environment: the run's ROS environment, this checkout first on the path."""
+    return node_environment(ros_env)
