@@ -92,6 +92,19 @@ def _solve(phi: FloatArray, y: FloatArray) -> FloatArray:
     return np.asarray(coef, dtype=float)
 
 
+def _centred(times: ArrayLike, samples: ArrayLike) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """The times [s], the samples and the times from the record's centre [s].
+
+    Raises:
+        RealModeFitFailed: Fewer than 8 samples (a fit has up to seven parameters).
+    """
+    t = np.asarray(times, dtype=float)
+    y = np.asarray(samples, dtype=float)
+    if y.size < 8:
+        raise RealModeFitFailed(f"{y.size} samples for up to seven parameters")
+    return t, y, t - 0.5 * (t[0] + t[-1])
+
+
 def fit_with_real_mode(
     times: ArrayLike, samples: ArrayLike, alpha0: float, omega_d0: float, free_mu: bool = False
 ) -> RealModeFit:
@@ -109,12 +122,8 @@ def fit_with_real_mode(
     """
     from scipy.optimize import least_squares
 
-    t = np.asarray(times, dtype=float)
-    y = np.asarray(samples, dtype=float)
+    t, y, tau = _centred(times, samples)
     n = y.size
-    if n < 8:
-        raise RealModeFitFailed(f"{n} samples for up to seven parameters")
-    tau = t - 0.5 * (t[0] + t[-1])
 
     def residual(p: FloatArray) -> FloatArray:
         phi, _ = real_mode_basis(tau, float(p[0]), float(p[1]), float(p[2]) if free_mu else 0.0)
@@ -205,12 +214,8 @@ def search_frequency(times: ArrayLike, samples: ArrayLike) -> FrequencySearch:
     """
     from scipy.stats import f as f_distribution
 
-    t = np.asarray(times, dtype=float)
-    y = np.asarray(samples, dtype=float)
+    t, y, tau = _centred(times, samples)
     n = y.size
-    if n < 8:
-        raise RealModeFitFailed(f"{n} samples for up to seven parameters")
-    tau = t - 0.5 * (t[0] + t[-1])
     duration = float(t[-1] - t[0])
     trend = np.column_stack([np.ones_like(tau), tau])
     r0 = trend @ _solve(trend, y) - y
