@@ -16,11 +16,12 @@ Layout of a bag ``NAME/``::
 
 Splitting, as rosbag2's ``--max-bag-size`` / ``--max-bag-duration`` and its ``split_bagfile``
 service: :meth:`BagWriter.split` closes the current file and opens the next; with
-``max_bytes`` a file is closed before a message would take its estimated size on disk past
-the limit (written bytes, the chunk in progress at the file's compression ratio so far with
-a margin, and the closing records: rosbag2 metadata, summary, footer); near the limit the
-chunk in progress is flushed to measure it instead (so a file is not closed early on a
-guess). With ``max_duration_s`` a file is closed before a message whose log time is that
+``max_bytes`` a file is never closed past the limit: a message goes into the file while it
+would fit even if nothing in the chunk in progress compressed (written bytes, the chunk in
+progress and the message uncompressed, and the closing records: rosbag2 metadata, summary,
+footer); beyond that bound the chunk in progress is flushed to measure it (its data may
+compress worse than the file's so far: model results after gyro batches), unless it is small
+and over the limit even at the file's compression ratio. With ``max_duration_s`` a file is closed before a message whose log time is that
 far from the file's first. A message is never split from its file or lost.
 
 The data are made durable as they arrive: the chunk in progress is closed and handed to the
@@ -182,9 +183,17 @@ class _FileStats:
             "message_count": self.count,
         }
 
-    def estimated_size(self, extra: int = 0) -> int:
-        """Bytes the file will take with its pending chunk and ``extra`` more message bytes (on the safe side)."""
-        return self.size + int((self.raw_pending + extra) * self.ratio * PENDING_SAFETY)
+    def estimated_size(self, extra: int = 0, worst: bool = False) -> int:
+        """Bytes the file will take with its pending chunk and ``extra`` more message bytes.
+
+        Args:
+            extra: Message bytes (records) to add to the chunk in progress.
+            worst: Bound them as if nothing compressed (else: at the file's ratio, on the safe side).
+        """
+        pending = self.raw_pending + extra
+        if worst:
+            return self.size + pending + pending // 255 + CHUNK_RECORD_BYTES
+        return self.size + int(pending * self.ratio * PENDING_SAFETY)
 
     def written(self, size: int) -> None:
         """The file has grown to ``size`` bytes: the pending chunk is on its way to the disk."""
@@ -203,6 +212,10 @@ PENDING_SAFETY = 1.25
 
 RATIO_MIN_BYTES = 16 << 10
 """Message bytes a file's chunks must hold before their size on disk sets the compression ratio."""
+
+CHUNK_RECORD_BYTES = 256
+"""Bytes of a chunk record and its message index records besides the messages, and the largest
+growth of incompressible data in a zstd or lz4 frame beyond its 1/255."""
 
 CLOSING_MARGIN = 1024
 """Bytes of a file's closing records besides the repeated schemas and channels, the rosbag2
@@ -451,20 +464,24 @@ class BagWriter:
             return False
         if self.max_duration_ns and log_time - f.start >= self.max_duration_ns:
             return True
-        if not self.max_bytes or self._estimated_total(size) <= self.max_bytes:
-            return False
-        if f.raw_pending >= RATIO_MIN_BYTES:  # near the limit: measure the chunk in progress rather than guess
-            self.flush()
-            return self._estimated_total(size) > self.max_bytes
-        return True
+        if not self.max_bytes or self._estimated_total(size, worst=True) <= self.max_bytes:
+            return False  # it fits even if nothing in the chunk in progress compresses
+        if f.raw_pending < RATIO_MIN_BYTES and self._estimated_total(size) > self.max_bytes:
+            return True  # over even at the file's ratio, with too little pending to be worth measuring
+        if f.raw_pending:  # near the limit: measure the chunk in progress rather than guess
+            self.flush()  # (its data may compress worse than the file's so far)
+        return self._estimated_total(size, worst=True) > self.max_bytes
 
-    def _estimated_total(self, size: int) -> int:
-        """Bytes the current file would take on disk, closed, with one more message of ``size`` bytes."""
+    def _estimated_total(self, size: int, worst: bool = False) -> int:
+        """Bytes the current file would take on disk, closed, with one more message of ``size`` bytes.
+
+        ``worst``: the chunk in progress as if nothing in it compressed (else at the file's ratio).
+        """
         f = self._files[-1]
         # the summary repeats the schemas and channels and indexes every chunk (one more for the last)
         closing = self._summary_bytes + self._metadata_bytes + CLOSING_MARGIN
         closing += (f.writes + 1) * (CHUNK_INDEX_BYTES + 10 * len(self._channels))
-        return f.estimated_size(size + MESSAGE_RECORD_OVERHEAD) + closing
+        return f.estimated_size(size + MESSAGE_RECORD_OVERHEAD, worst) + closing
 
     def split(self) -> tuple[str, str]:
         """Close the current storage file (summary, footer) and go on in the next one.

@@ -11,6 +11,7 @@ from __future__ import annotations
 import shutil
 from pathlib import Path
 
+import numpy as np
 import pytest
 import yaml
 from mcap.reader import make_reader
@@ -86,6 +87,28 @@ def test_split_by_size_keeps_every_message_in_order_and_every_file_opens_alone(
         ]
         assert [table.data(i) for i in range(len(table))] == [d for *_, d in expected]
         assert [(m.topic, m.log_time, m.data) for m in b.messages()] == expected
+
+
+@pytest.mark.parametrize("compression", ["zstd", "lz4"])
+def test_a_file_stays_within_the_limit_when_its_last_chunk_compresses_worse(tmp_path: Path, compression: str) -> None:
+    # well-compressing batches set the file's ratio; then data that does not compress at all
+    # arrive in the chunk in progress (as model results after a session of gyro batches)
+    rng = np.random.default_rng(5)
+    limit = 120_000
+    plain = bytes(4) + bytes(800)
+    noise = [bytes(4) + rng.bytes(800) for _ in range(400)]
+    bag = tmp_path / "mixed"
+    with BagWriter(bag, compression=compression, chunk_size=1 << 20, flush_period_s=1e9, max_bytes=limit) as w:
+        w.add_topic(GYRO.name, GYRO.type, offered_qos=[contract_qos(GYRO.qos)])
+        for k in range(3000):
+            w.write(GYRO.name, 10**9 + k * 10**6, noise[k % 400] if (k // 150) % 2 else plain)
+    files = [bag / name for name in w.files]
+    assert len(files) >= 3, w.files
+    sizes = [f.stat().st_size for f in files]
+    assert all(size <= limit for size in sizes), sizes
+    assert all(size > limit // 2 for size in sizes[:-1]), sizes
+    with Reader(bag) as reader:
+        assert sum(1 for _ in reader.messages()) == 3000
 
 
 def test_split_by_duration_bounds_each_files_span(tmp_path: Path) -> None:

@@ -60,7 +60,8 @@ def test_a_session_split_by_size_and_by_request_replays_as_the_unsplit_recording
     meta = yaml.safe_load((live.bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
     files = meta["relative_file_paths"]
     assert len(files) >= 3 and split.closed_file in files[:-1] and split.new_file in files
-    assert all((live.bag / name).stat().st_size <= MAX_BAG_SIZE for name in files)
+    sizes = {name: (live.bag / name).stat().st_size for name in files}
+    assert all(size <= MAX_BAG_SIZE for size in sizes.values()), (sizes, split)
     log = (tmp_path / "session" / "logs" / "recorder.log").read_text()
     assert "split (limit reached)" in log and f"split: closed {split.closed_file}" in log
 
