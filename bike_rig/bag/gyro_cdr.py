@@ -3,7 +3,8 @@
 rosbags builds one message object per message and one numpy array per field; a session holds
 tens of thousands of batches. Here every field of every batch is read with a handful of numpy
 operations over the whole set, and the samples are copied once into one array (runs of
-batches recorded back to back are one strided copy each). The result is what rosbags' CDR
+batches recorded back to back are one strided copy each); the raw volts likewise, but only when
+first asked for (a replay fits the rates alone: the chunks' buffer is kept until then). The result is what rosbags' CDR
 deserializer gives, field for field and bit for bit; anything this decoder does not read
 exactly as rosbags would (another layout of the type, big-endian CDR, a malformed message)
 raises :class:`~bike_rig.bag.fastread.Unusual`, and the caller decodes with rosbags instead.
@@ -19,7 +20,9 @@ Layout (little-endian CDR after the 4-byte encapsulation header; offsets from it
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
+from functools import cached_property, partial
 from typing import Any
 
 import numpy as np
@@ -81,8 +84,8 @@ class GyroColumns:
         sample_rate_hz: Each batch's sample rate, Hz.
         rate_start: Where each batch's samples start in ``rates`` (one more entry: the end).
         rates: Every batch's samples, rad/s, one after the other (read-only).
-        volt_start: Where each batch's raw volts start in ``raw_volts`` (one more entry: the end).
-        raw_volts: Every batch's raw volts, V, one after the other (read-only).
+        volts: Copies the raw volts out of the messages when first asked for (a replay
+            never does): :attr:`volt_start` and :attr:`raw_volts`.
     """
 
     trial_ids: tuple[str, ...]
@@ -94,8 +97,21 @@ class GyroColumns:
     sample_rate_hz: FloatArray
     rate_start: IntArray
     rates: FloatArray
-    volt_start: IntArray
-    raw_volts: FloatArray
+    volts: Callable[[], tuple[IntArray, FloatArray]]
+
+    @cached_property
+    def _volt_columns(self) -> tuple[IntArray, FloatArray]:
+        return self.volts()
+
+    @property
+    def volt_start(self) -> IntArray:
+        """Where each batch's raw volts start in :attr:`raw_volts` (one more entry: the end)."""
+        return self._volt_columns[0]
+
+    @property
+    def raw_volts(self) -> FloatArray:
+        """Every batch's raw volts, V, one after the other (read-only)."""
+        return self._volt_columns[1]
 
     def __len__(self) -> int:
         """Number of batches."""
@@ -123,26 +139,31 @@ class GyroColumns:
             if b - a + 1 == len(rows):  # one after the other: views
                 sel: slice | IntArray = slice(a, b + 1)
                 rates, bounds = self.rates, self.rate_start[a : b + 2]
-                volts, volt_bounds = self.raw_volts, self.volt_start[a : b + 2]
             else:
                 sel = rows
-                rates, bounds = _gather(self.rates, self.rate_start, rows)
-                volts, volt_bounds = _gather(self.raw_volts, self.volt_start, rows)
+                bounds, rates = _gather(self.rates, self.rate_start, rows)
             tid = self.trial_ids[int(self.trial[a])]
-            block = SampleBlock(tid, first[sel], self.sample_rate_hz[sel], bounds, rates, volt_bounds, volts,
+            block = SampleBlock(tid, first[sel], self.sample_rate_hz[sel], bounds, rates, partial(self._volts_of, rows),
                                 self.stamp_ns[sel], self.frame_ids, self.frame[sel])  # fmt: skip
             out.append((a, tid, block))
         return [(tid, block) for _, tid, block in sorted(out, key=lambda x: x[0])]
 
+    def _volts_of(self, rows: IntArray) -> tuple[IntArray, FloatArray]:
+        """The raw volts of the batches ``rows`` (increasing): where each starts (then the end), and them."""
+        a, b = int(rows[0]), int(rows[-1])
+        if b - a + 1 == len(rows):
+            return self.volt_start[a : b + 2], self.raw_volts
+        return _gather(self.raw_volts, self.volt_start, rows)
 
-def _gather(flat: FloatArray, start: IntArray, rows: IntArray) -> tuple[FloatArray, IntArray]:
-    """The samples of some batches, one after the other, and where each batch starts (then the end)."""
+
+def _gather(flat: FloatArray, start: IntArray, rows: IntArray) -> tuple[IntArray, FloatArray]:
+    """Where each of some batches starts (then the end), and their samples one after the other."""
     parts = [flat[int(start[r]) : int(start[r + 1])] for r in rows.tolist()]
     bounds = np.zeros(len(rows) + 1, dtype=np.int64)
     np.cumsum([len(x) for x in parts], out=bounds[1:])
     out = np.concatenate(parts) if parts else flat[:0]
     out.flags.writeable = False
-    return out, bounds
+    return bounds, out
 
 
 def _split(flat: FloatArray, start: IntArray) -> list[FloatArray]:
@@ -310,7 +331,6 @@ def decode_gyro(
         link[1:] &= f.rates_at[1:] - start[1:] == f.rates_at[:-1] - start[:-1]
         link[1:] &= f.volts_at[1:] - start[1:] == f.volts_at[:-1] - start[:-1]
     rate_start, rates = _copy_runs(buf, f.rates_at, f.n, link)
-    volt_start, volts = _copy_runs(buf, f.volts_at, f.m, link)
     return GyroColumns(
         trial_ids=tuple(trials.found),
         frame_ids=tuple(frames.found),
@@ -321,6 +341,5 @@ def decode_gyro(
         sample_rate_hz=f.rate,
         rate_start=rate_start,
         rates=rates,
-        volt_start=volt_start,
-        raw_volts=volts,
+        volts=partial(_copy_runs, buf, f.volts_at, f.m, link),
     )

@@ -10,9 +10,10 @@ nanoseconds since the epoch; rates in Hz; gyro samples in rad/s (``raw_volts`` i
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from enum import IntEnum
+from functools import cached_property
 from typing import overload
 
 import numpy as np
@@ -107,8 +108,9 @@ class SampleBlock(Sequence[SampleBatch]):
         sample_rate_hz: Each batch's sample rate, Hz.
         bounds: Where each batch's samples start in ``rates``, then where the last one ends.
         rates: The samples, rad/s (a batch's are ``rates[bounds[i]:bounds[i + 1]]``).
-        volt_bounds: Where each batch's raw volts start in ``raw_volts``, then the end.
-        raw_volts: The raw volts, V.
+        volts: Reads the raw volts when first asked for (a replay never asks): where each
+            batch's start in them (then the end) and the volts, V (:attr:`volt_bounds`,
+            :attr:`raw_volts`).
         stamp_ns: Each batch's rig time of its first sample, ns.
         frame_ids: The distinct header frame ids.
         frame: Each batch's frame id (index into ``frame_ids``).
@@ -119,11 +121,24 @@ class SampleBlock(Sequence[SampleBatch]):
     sample_rate_hz: FloatArray
     bounds: IntArray
     rates: FloatArray = field(repr=False)
-    volt_bounds: IntArray = field(repr=False)
-    raw_volts: FloatArray = field(repr=False)
+    volts: Callable[[], tuple[IntArray, FloatArray]] = field(repr=False)
     stamp_ns: IntArray = field(repr=False)
     frame_ids: tuple[str, ...] = field(repr=False)
     frame: IntArray = field(repr=False)
+
+    @cached_property
+    def _volt_columns(self) -> tuple[IntArray, FloatArray]:
+        return self.volts()
+
+    @property
+    def volt_bounds(self) -> IntArray:
+        """Where each batch's raw volts start in :attr:`raw_volts`, then the end."""
+        return self._volt_columns[0]
+
+    @property
+    def raw_volts(self) -> FloatArray:
+        """The raw volts of every batch, one after the other, V."""
+        return self._volt_columns[1]
 
     def __len__(self) -> int:
         """Number of batches."""
