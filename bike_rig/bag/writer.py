@@ -21,8 +21,9 @@ would fit even if nothing in the chunk in progress compressed (written bytes, th
 progress and the message uncompressed, and the closing records: rosbag2 metadata, summary,
 footer); beyond that bound the chunk in progress is flushed to measure it (its data may
 compress worse than the file's so far: model results after gyro batches), unless it is small
-and over the limit even at the file's compression ratio. With ``max_duration_s`` a file is closed before a message whose log time is that
-far from the file's first. A message is never split from its file or lost.
+and over the limit even at the file's compression ratio. With ``max_duration_s`` a file is
+closed before a message whose log time is that far from the file's first. A message is never
+split from its file or lost.
 
 The data are made durable as they arrive: the chunk in progress is closed and handed to the
 operating system at least every ``flush_period_s`` (and whenever it reaches ``chunk_size``),
