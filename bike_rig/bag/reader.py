@@ -30,9 +30,15 @@ if TYPE_CHECKING:
     from rosbags.interfaces import Qos
     from rosbags.rosbag2 import Reader
 
-__all__ = ["MCAP_MAGIC", "BagReader", "RawMessage", "TopicInfo", "open_bag"]
+__all__ = ["MCAP_MAGIC", "BagReader", "RawMessage", "TopicInfo", "open_bag", "split_order"]
 
 MCAP_MAGIC = MAGIC
+
+
+def split_order(path: Path) -> tuple[str, int, str]:
+    """Sort key of a storage file: a split bag's ``NAME_2.mcap`` before ``NAME_10.mcap``."""
+    stem, _, index = path.stem.rpartition("_")
+    return (stem, int(index), "") if index.isdigit() else (path.stem, -1, path.name)
 
 
 class RawMessage(NamedTuple):
@@ -252,7 +258,7 @@ class BagReader:
             else:
                 entries = getattr(self.reader.storage, "files", None) or []
                 files = [base / f["path"] for f in entries if isinstance(f, dict) and isinstance(f.get("path"), str)]
-            return files or sorted(base.glob("*.mcap"))
+            return files or sorted(base.glob("*.mcap"), key=split_order)  # (recording order: _2 before _10)
         return [self.path]
 
     def messages(self, topics: Iterable[str] | None = None) -> Iterator[RawMessage]:

@@ -33,7 +33,7 @@ from rosbags.rosbag2.metadata import parse_qos
 
 from .check import within_limits
 from .errors import BagError, BagExistsError, BagReadError, NotABagError
-from .reader import MCAP_MAGIC
+from .reader import MCAP_MAGIC, split_order
 from .typestore import standard_typestore, type_hash
 from .writer import BagWriter, Compression
 
@@ -183,16 +183,10 @@ def storage_files(bag: str | Path) -> list[Path]:
         raise BagError(str(bag), "no such file or directory")
     if p.is_file():
         return [p]
-    files = sorted(p.glob("*.mcap"), key=_split_order)
+    files = sorted(p.glob("*.mcap"), key=split_order)
     if not files:
         raise NotABagError(str(bag), "not a bag with MCAP storage (no .mcap file)")
     return files
-
-
-def _split_order(path: Path) -> tuple[str, int, str]:
-    """Sort key of a storage file: a split bag's ``NAME_2.mcap`` before ``NAME_10.mcap``."""
-    stem, _, index = path.stem.rpartition("_")
-    return (stem, int(index), "") if index.isdigit() else (path.stem, -1, path.name)
 
 
 @dataclass(frozen=True)

@@ -137,6 +137,7 @@ def test_split_on_request_and_more_than_ten_files_keep_their_order(tmp_path: Pat
     assert [p.name for p in storage_files(bag)] == w.files  # many_2 before many_10
     with open_bag(bag) as b:
         assert [m.log_time for m in b.messages()] == [t for _, t, _, _ in TRAFFIC]
+        assert [p.name for p in b.storage_files] == w.files
 
 
 def test_a_split_bag_whose_last_file_stayed_empty_reads_by_the_fast_path(tmp_path: Path) -> None:
