@@ -15,7 +15,7 @@ from __future__ import annotations
 import os
 import struct
 import threading
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
@@ -243,19 +243,27 @@ def _unpack(records: memoryview, read: _Read, path: Path) -> None:
     need(not read.crc or crc32(records) == read.crc, "chunk checksum mismatch")
 
 
-def _unpack_all(jobs: list[tuple[memoryview, _Read, Path]]) -> None:
-    """:func:`_unpack` every chunk, on every core (zstd and crc32 release the GIL).
+def _unpacked(jobs: list[tuple[memoryview, _Read, Path]]) -> Iterator[int]:
+    """:func:`_unpack` every chunk, on every core (zstd releases the GIL): each job's index once it is done.
+
+    In order, while the later chunks are still being decompressed (the caller reads each one's
+    records meanwhile).
 
     Raises:
         CorruptChunk, Unusual: as :func:`_unpack`, for the first failing chunk in file order.
     """
     if len(jobs) < 2 or _WORKERS < 2:
-        for job in jobs:
+        for i, job in enumerate(jobs):
             _unpack(*job)
+            yield i
         return
+
+    def unpack(i: int) -> int:
+        _unpack(*jobs[i])
+        return i
+
     with ThreadPoolExecutor(max_workers=_WORKERS) as pool:
-        for _ in pool.map(lambda job: _unpack(*job), jobs):  # (results in order: the first failure raises)
-            pass
+        yield from pool.map(unpack, range(len(jobs)))  # (in order: the first failure raises)
 
 
 def read_table(bag: FastBag, topics: Iterable[str]) -> MessageTable:
@@ -278,20 +286,22 @@ def read_table(bag: FastBag, topics: Iterable[str]) -> MessageTable:
             reads = [_read_chunk(f, ch) for ch in storage.chunks if any(ch.channel_count.get(c, 0) for c in wanted)]
         files.append((lut, reads, storage.path))
     buffer = np.empty(sum(r.chunk.uncompressed_size for _, reads, _ in files for r in reads), dtype=np.uint8)
-    jobs, base = [], 0
-    for _, reads, path in files:
+    jobs, bases, luts, base = [], [], [], 0
+    for lut, reads, path in files:
         for read in reads:
             jobs.append((buffer.data[base : base + read.chunk.uncompressed_size], read, path))
+            bases.append(base)
+            luts.append(lut)
             base += read.chunk.uncompressed_size
-    _unpack_all(jobs)
+    keys_of: list[tuple[IntArray, ...]] = []
+    for i in _unpacked(jobs):
+        read, at = jobs[i][1], bases[i]
+        keys_of.append(_chunk_keys(buffer[at : at + read.chunk.uncompressed_size], read, luts[i], at))
     parts = []
-    base = 0
-    for lut, reads, _ in files:
-        keys = []
-        for read in reads:
-            n = read.chunk.uncompressed_size
-            keys.append(_chunk_keys(buffer[base : base + n], read, lut, base))
-            base += n
+    done = 0
+    for _, reads, _ in files:
+        keys = keys_of[done : done + len(reads)]
+        done += len(reads)
         if keys:
             cols = [np.concatenate(k) for k in zip(*keys, strict=True)]
             order = np.lexsort((cols[2], cols[1], cols[0]))  # log time, then chunk offset, then position

@@ -404,7 +404,8 @@ class TrialAccumulator:
         self._parts[start] = samples
         self._rates[start] = rate
         self.kept = total
-        self.non_finite = int(np.count_nonzero(~np.isfinite(samples)))
+        # (a finite sum means finite samples; only otherwise are they counted)
+        self.non_finite = 0 if math.isfinite(float(np.sum(samples))) else int(np.count_nonzero(~np.isfinite(samples)))
         return True
 
     def covers(self, n_expected: int) -> bool:
@@ -522,7 +523,8 @@ class TrialAccumulator:
         n_expected = int(stop.sample_count) if stop is not None else 0
         flags = self._event_flags(start, stop)
         chunks, starts, end = self._in_order(flags)
-        samples = np.concatenate(chunks) if chunks else np.empty(0)
+        # (one part, as a whole trial read from a bag is: its samples as they are, not a copy)
+        samples = chunks[0] if len(chunks) == 1 else (np.concatenate(chunks) if chunks else np.empty(0))
         n = int(samples.size)
         contiguous = all(starts[i] + chunks[i].size == starts[i + 1] for i in range(len(chunks) - 1))
         gap = self._gap_flag(chunks, starts, end, n_expected)
