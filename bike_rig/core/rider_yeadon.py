@@ -486,14 +486,17 @@ def seat_rider(rider: YeadonRider, ps: ParameterSet) -> Rider:
 
 
 #: Riders seated in this process, by everything the result depends on (a figure run or a report
-#: seats the same rider on the same bicycle many times; the rider's σ cost ~1 s each).
+#: seats the same rider on the same bicycle many times, and a live session's parameter sets
+#: differ in their inertia only, not in the w, rR, rF the pose depends on; the rider's σ cost
+#: ~1 s each).
 _SEATED: dict[tuple[Any, ...], Rider] = {}
 _SEATED_MAX = 16
 
 
 def _seat_key(rider: YeadonRider, ps: ParameterSet) -> tuple[Any, ...]:
-    """Everything :func:`seat_rider`'s result depends on, hashable."""
+    """Everything :func:`seat_rider`'s result depends on, hashable (of the bicycle's parameters: w, rR, rF)."""
     m = rider.measurements
+    values = ps.values()
     return (
         rider.name,
         rider.path,
@@ -505,7 +508,7 @@ def _seat_key(rider: YeadonRider, ps: ParameterSet) -> tuple[Any, ...]:
         rider.mass_sigma,
         rider.pose_sigma,
         tuple(sorted(rider.geometry.items())),
-        tuple(sorted(ps.values().items())),
+        tuple((k, values[k]) for k in POSE_PARAMETERS),
         tuple(str(ps.extras.get(k)) for k in RIDER_GEOMETRY_KEYS),
         ps.source,
         ps.bicycle,

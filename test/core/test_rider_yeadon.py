@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from bike_rig.core import rider_yeadon
 from bike_rig.core.benchmark import PARAMETER_NAMES, ParameterSet, compute_parameters
 from bike_rig.core.io_bp import read_bp_measured, read_bp_parameters
 from bike_rig.core.rider import Rider, RiderError, add_rider, resolve_rider
@@ -253,6 +254,31 @@ def test_pose_follows_the_bicycle(tmp_path: Path) -> None:
     for name in PARAMETER_NAMES:
         a, b = wide.parameters.sigma(name), narrow.parameters.sigma(name)
         assert (a > b * 1.01) if name in ("xB", "zB", "IBxx", "IByy", "IBzz", "IBxz") else a == pytest.approx(b), name
+
+
+def test_a_rider_is_seated_once_for_parameter_sets_that_differ_beyond_w_rr_rf(jason_default: tuple) -> None:
+    """A live session's parameter sets change the inertia, not the pose: the seated rider is reused, and is exact."""
+    r, seated = jason_default
+    ps = _bike("Browser")
+    values = ps.parameters.values.copy()
+    values[PARAMETER_NAMES.index("IBxx")] *= 1.01
+    values[PARAMETER_NAMES.index("mF")] += 0.1
+    heavier = dataclasses.replace(ps, parameters=UncertainVector(PARAMETER_NAMES, values, ps.parameters.covariance))
+    assert seat_rider(r, heavier) is seated
+    saved = dict(rider_yeadon._SEATED)
+    rider_yeadon._SEATED.clear()
+    try:
+        fresh = seat_rider(r, heavier)
+    finally:
+        rider_yeadon._SEATED.update(saved)
+    numbers = ("mass", "x", "z", "Ixx", "Iyy", "Izz", "Ixz")
+    assert fresh is not seated and [getattr(fresh, k) for k in numbers] == [getattr(seated, k) for k in numbers]
+    assert fresh.sensitivity is not None and seated.sensitivity is not None
+    assert np.array_equal(fresh.sensitivity.jacobian, seated.sensitivity.jacobian)
+    assert np.array_equal(fresh.sensitivity.bicycle_jacobian, seated.sensitivity.bicycle_jacobian)
+    values[PARAMETER_NAMES.index("w")] -= 0.005
+    longer = dataclasses.replace(ps, parameters=UncertainVector(PARAMETER_NAMES, values, ps.parameters.covariance))
+    assert seat_rider(r, longer).x != seated.x
 
 
 @pytest.mark.parametrize("key", ["La4L", "Ls4L", "Lj5L"])
