@@ -55,6 +55,7 @@ from rosbags.rosbag2.metadata import dump_qos_v9
 from .. import __version__
 from ..topics import QosSpec
 from .errors import BagError, BagExistsError
+from .filesize import MESSAGE_RECORD_OVERHEAD, RATIO_MIN_BYTES, FileStats
 from .typestore import message_definition, type_hash
 
 __all__ = [
@@ -153,83 +154,6 @@ class _Stats:
     last_flush: float = field(default_factory=time.monotonic)
 
 
-@dataclass
-class _FileStats:
-    """One storage file: its name, log-time range [ns] and message count; bytes for the size estimate."""
-
-    name: str
-    start: int = 2**63 - 1
-    end: int = 0
-    count: int = 0
-    size: int = 0
-    """Bytes on disk at the last flush (the final size once closed)."""
-    header: int = 0
-    """Bytes of the MCAP header, schemas and channels (no message data)."""
-    raw_flushed: int = 0
-    """Message bytes (records, uncompressed) flushed into chunks."""
-    raw_pending: int = 0
-    """Message bytes (records, uncompressed) in the chunk not yet written."""
-    ratio: float = 1.0
-    """Bytes on disk per message byte, as measured on the chunks written (or the previous file's)."""
-    writes: int = 0
-    """How many times the file grew by chunks (each chunk gets an index entry in the summary)."""
-
-    def entry(self) -> dict[str, Any]:
-        """The file's entry in metadata.yaml's ``files``."""
-        start = self.start if self.count else 0
-        return {
-            "path": self.name,
-            "starting_time": {"nanoseconds_since_epoch": start},
-            "duration": {"nanoseconds": self.end - self.start if self.count else 0},
-            "message_count": self.count,
-        }
-
-    def estimated_size(self, extra: int = 0, worst: bool = False) -> int:
-        """Bytes the file will take with its pending chunk and ``extra`` more message bytes.
-
-        Args:
-            extra: Message bytes (records) to add to the chunk in progress.
-            worst: Bound them as if nothing compressed (else: at the file's ratio, on the safe side).
-        """
-        pending = self.raw_pending + extra
-        if worst:
-            return self.size + pending + pending // 255 + CHUNK_RECORD_BYTES
-        return self.size + int(pending * self.ratio * PENDING_SAFETY)
-
-    def written(self, size: int) -> None:
-        """The file has grown to ``size`` bytes: the pending chunk is on its way to the disk."""
-        if size == self.size:
-            return
-        self.size = size
-        self.writes += 1
-        self.raw_flushed += self.raw_pending
-        self.raw_pending = 0
-        if self.raw_flushed >= RATIO_MIN_BYTES:  # a few small chunks are mostly chunk overhead
-            self.ratio = (self.size - self.header) / self.raw_flushed
-
-
-PENDING_SAFETY = 1.25
-"""Factor on the estimated size of the chunk in progress (chunks compress unevenly)."""
-
-RATIO_MIN_BYTES = 16 << 10
-"""Message bytes a file's chunks must hold before their size on disk sets the compression ratio."""
-
-CHUNK_RECORD_BYTES = 256
-"""Bytes of a chunk record and its message index records besides the messages, and the largest
-growth of incompressible data in a zstd or lz4 frame beyond its 1/255."""
-
-CLOSING_MARGIN = 1024
-"""Bytes of a file's closing records besides the repeated schemas and channels, the rosbag2
-metadata and the chunk indexes: statistics, summary offsets, footer, growth of the metadata."""
-
-CHUNK_INDEX_BYTES = 100
-"""Bytes of a chunk index record (plus 10 per channel)."""
-
-MESSAGE_RECORD_OVERHEAD = 31 + 16
-"""Bytes of an MCAP Message record besides its data (opcode, length, channel, sequence, times),
-and of its entry in the chunk's message index."""
-
-
 class BagWriter:
     """A rosbag2 bag with MCAP storage, written from serialized messages.
 
@@ -292,7 +216,7 @@ class BagWriter:
         self._schemas: dict[str, int] = {}
         self._msgdefs: dict[str, str] = {}
         self._stats = _Stats()
-        self._files: list[_FileStats] = []
+        self._files: list[FileStats] = []
         self._metadata_bytes = 0
         self._summary_bytes = 0
         """Bytes of the schema and channel records of the current file (its summary repeats them)."""
@@ -339,7 +263,7 @@ class BagWriter:
             ch.id = self._register(ch.name, ch.msgtype, self._msgdefs[ch.msgtype], ch.type_hash, ch.offered_qos)
         self._mcap.flush()
         ratio = self._files[-1].ratio if self._files else 1.0
-        self._files.append(_FileStats(self.data_path.name, ratio=ratio))
+        self._files.append(FileStats(self.data_path.name, ratio=ratio))
         self._files[-1].size = self._files[-1].header = self._stream.tell()
         self._metadata_bytes = self._metadata_record_size()
 
@@ -478,11 +402,8 @@ class BagWriter:
 
         ``worst``: the chunk in progress as if nothing in it compressed (else at the file's ratio).
         """
-        f = self._files[-1]
-        # the summary repeats the schemas and channels and indexes every chunk (one more for the last)
-        closing = self._summary_bytes + self._metadata_bytes + CLOSING_MARGIN
-        closing += (f.writes + 1) * (CHUNK_INDEX_BYTES + 10 * len(self._channels))
-        return f.estimated_size(size + MESSAGE_RECORD_OVERHEAD, worst) + closing
+        closing = self._summary_bytes + self._metadata_bytes  # (the summary repeats the schemas and channels)
+        return self._files[-1].estimated_closed(size, closing, len(self._channels), worst)
 
     def split(self) -> tuple[str, str]:
         """Close the current storage file (summary, footer) and go on in the next one.
@@ -610,7 +531,7 @@ class BagWriter:
         st = self._stats
         start = st.start if st.count else 0
         duration = st.end - st.start if st.count else 0
-        files = self._files or [_FileStats(self.data_path.name)]
+        files = self._files or [FileStats(self.data_path.name)]
         topics = [
             {
                 "topic_metadata": {
