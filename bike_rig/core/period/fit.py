@@ -2,9 +2,10 @@
 
 Stages
 ------
-1. **Clean-up.** Non-finite samples (and samples with non-finite timestamps) are left out and
-   flagged. Bad data never raise: they give a result with ``valid=False`` and a flag saying
-   why. The fit itself works on block means scaled to about ±1, so any finite input works.
+1. **Clean-up** (:mod:`~bike_rig.core.period.clean`). Non-finite samples (and samples with
+   non-finite timestamps) are left out and flagged. Bad data never raise: they give a result
+   with ``valid=False`` and a flag saying why. The fit itself works on block means scaled to
+   about ±1, so any finite input works.
 2. **Window** (:mod:`~bike_rig.core.period.window`): the policy's samples.
 3. **Initial guess** (:mod:`~bike_rig.core.period.spectrum`): the highest peak of the
    spectrum; a peak that does not stand out of its surroundings means there is no oscillation.
@@ -50,6 +51,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .clean import Invalid, clean_samples
 from .damping_fit import fit_damping
 from .detection import detect
 from .oscillation import TWO_PI, damped_cosine, damped_cosine_even, zeta_omega
@@ -115,14 +117,6 @@ class FitOptions:
     min_valid_cycles: float = MIN_VALID_CYCLES
 
 
-class _Invalid(Exception):
-    """Internal: the trial has no period; carries the flags that say why."""
-
-    def __init__(self, *flags: Flag):
-        super().__init__()
-        self.flags = flags
-
-
 def fit_period(
     samples: ArrayLike,
     sample_rate_hz: float | None = None,
@@ -168,22 +162,6 @@ def fit_period(
     options = FitOptions(window, min_cycles, min_r2, max_modulation, max_drift, small_swing_period, min_valid_cycles)
     with np.errstate(all="ignore"):
         return _Fitter(options).run(samples, rate, times)
-
-
-def _as_series(values: ArrayLike, what: str) -> FloatArray:
-    """``values`` as a contiguous 1-D float64 array, or an invalid result saying why not."""
-    try:
-        array = np.asarray(values)
-    except (TypeError, ValueError) as exc:  # ragged nested sequences
-        raise _Invalid(Flag(FlagCode.EMPTY, f"the {what} are not an array of numbers ({exc})")) from None
-    if array.dtype.kind not in "biuf":
-        raise _Invalid(Flag(FlagCode.EMPTY, f"the {what} are not real numbers (dtype {array.dtype})"))
-    array = np.squeeze(array)
-    if array.ndim == 0:
-        array = array.reshape(1)
-    if array.ndim != 1:
-        raise _Invalid(Flag(FlagCode.EMPTY, f"the {what} must be one series, got shape {np.shape(values)}"))
-    return np.ascontiguousarray(array, dtype=np.float64)
 
 
 @dataclass
@@ -236,12 +214,12 @@ class _Fitter:
             return self._run(samples, rate, times)
         except (ArithmeticError, ValueError, np.linalg.LinAlgError) as exc:
             # degenerate data (e.g. times spanning 1e300 s) that slipped past the checks
-            failure = _Invalid(Flag(FlagCode.FIT_FAILED, f"numerical failure on these data ({exc})"))
+            failure = Invalid(Flag(FlagCode.FIT_FAILED, f"numerical failure on these data ({exc})"))
             return self._invalid(failure)
-        except _Invalid as exc:
+        except Invalid as exc:
             return self._invalid(exc)
 
-    def _invalid(self, exc: _Invalid) -> PeriodFit:
+    def _invalid(self, exc: Invalid) -> PeriodFit:
         return PeriodFit.invalid(
             tuple(self.flags) + exc.flags,
             self.options.window,
@@ -267,13 +245,13 @@ class _Fitter:
             if win.tw is not None and win.even is None:
                 sol = gauss_newton(win.tw - center, win.ys, sol, duration, self.units)
         except FitFailed as exc:
-            raise _Invalid(Flag(FlagCode.FIT_FAILED, str(exc))) from None
+            raise Invalid(Flag(FlagCode.FIT_FAILED, str(exc))) from None
         blocks = BlockDesign(tb, yb, counts, k, win.first, center, win.step, win.even is not None)
         return self._result(win, blocks, sol)
 
     def _select(self, samples: ArrayLike, rate: float | None, times: ArrayLike | None) -> _Window:
         """The policy's window of the cleaned samples, scaled (:meth:`_scale`)."""
-        t, y, index, even = self._clean(samples, rate, times)
+        t, y, index, even, self.t0 = clean_samples(samples, rate, times, self.flags, self.notes)
         self.index = index
         if even is not None:  # samples k · even [s]: their times are never materialised
             start, stop = select_window_even(even, y, self.options.window)
@@ -282,7 +260,7 @@ class _Fitter:
             start, stop = select_window(t, y, self.options.window)
         self._set_window(start, stop)
         if stop - start < MIN_SAMPLES:
-            raise _Invalid(
+            raise Invalid(
                 Flag(FlagCode.EMPTY, f"{stop - start} samples in the window ({self.options.window.describe()})")
             )
         tw = None if t is None else t[start:stop]
@@ -301,11 +279,11 @@ class _Fitter:
         """
         lo, hi = float(np.min(yw)), float(np.max(yw))
         if hi == lo:
-            raise _Invalid(Flag(FlagCode.CONSTANT, f"all {yw.size} samples in the window equal {lo:.6g}"))
+            raise Invalid(Flag(FlagCode.CONSTANT, f"all {yw.size} samples in the window equal {lo:.6g}"))
         offset = 0.5 * lo + 0.5 * hi
         scale = 0.5 * hi - 0.5 * lo
         if not scale > np.finfo(float).tiny:
-            raise _Invalid(Flag(FlagCode.CONSTANT, f"the samples vary by only {2 * scale:.3g}"))
+            raise Invalid(Flag(FlagCode.CONSTANT, f"the samples vary by only {2 * scale:.3g}"))
         self.scale, self.offset = scale, offset
         if max(abs(lo), abs(hi)) < 1e150 and scale > 1e-150:
             ys, self.units = yw, (scale, offset)  # samples in their own units
@@ -322,10 +300,10 @@ class _Fitter:
         peak = peak_of_blocks(spec_times, sums / sizes, win.last - win.first, even=win.even is not None)
         if peak is None or not peak.prominence >= MIN_PROMINENCE:
             what = "none" if peak is None else f"the highest has prominence {peak.prominence:.1f} < {MIN_PROMINENCE:g}"
-            raise _Invalid(Flag(FlagCode.NO_OSCILLATION, f"no oscillation stands out of the noise ({what})"))
+            raise Invalid(Flag(FlagCode.NO_OSCILLATION, f"no oscillation stands out of the noise ({what})"))
         guess_cycles = (win.n * win.step) * peak.omega / TWO_PI
         if guess_cycles < self.options.min_valid_cycles - CYCLE_TOLERANCE:
-            raise _Invalid(self._too_few(guess_cycles, TWO_PI / peak.omega))
+            raise Invalid(self._too_few(guess_cycles, TWO_PI / peak.omega))
         return peak.omega
 
     def _cut_to_whole_cycles(self, win: _Window, omega0: float) -> None:
@@ -345,7 +323,7 @@ class _Fitter:
             stop = win.start + keep
             self._set_window(win.start, stop)
             if keep < MIN_SAMPLES:
-                raise _Invalid(Flag(FlagCode.EMPTY, f"{keep} samples in {whole} whole cycles"))
+                raise Invalid(Flag(FlagCode.EMPTY, f"{keep} samples in {whole} whole cycles"))
             win.ys = win.ys[:keep]
             if win.tw is not None:
                 win.tw = win.tw[:keep]
@@ -379,86 +357,6 @@ class _Fitter:
         units_scale, units_offset = self.units
         yb = (yb - units_offset) / units_scale  # about ±1
         return tb, yb, counts, k
-
-    # ------------------------------------------------------------------ clean-up
-    def _clean(
-        self, samples: ArrayLike, rate: float | None, times: ArrayLike | None
-    ) -> tuple[FloatArray | None, FloatArray, NDArray[np.intp] | None, float | None]:
-        """The finite samples, their times and positions.
-
-        Returns:
-            The times from the first finite sample [s], or None with their even spacing [s]
-            (given a rate and no sample left out); the finite samples; their positions in the
-            input (None: all).
-        """
-        y = _as_series(samples, "samples")
-        n = y.size
-        if n == 0:
-            raise _Invalid(Flag(FlagCode.EMPTY, "no samples"))
-        t: FloatArray | None = None
-        if rate is None:
-            assert times is not None
-            t = _as_series(times, "timestamps")
-            if t.size != n:
-                raise _Invalid(Flag(FlagCode.BAD_TIMES, f"{t.size} timestamps for {n} samples"))
-        # (a finite sum means finite samples; only otherwise are they checked one by one)
-        finite = None if math.isfinite(float(np.sum(y))) else np.isfinite(y)
-        if t is not None:
-            finite = np.isfinite(t) if finite is None else finite & np.isfinite(t)
-        index = None
-        if finite is not None and not np.all(finite):
-            index, y, t = self._leave_out(finite, y, t, rate)
-        if t is None:
-            assert rate is not None
-            even = 1.0 / rate
-            if not math.isfinite(n * even):
-                raise _Invalid(Flag(FlagCode.BAD_TIMES, "the times span more than the floating-point range"))
-            return None, y, None, even
-        return self._check_times(t, index, rate), y, index, None
-
-    def _leave_out(
-        self, finite: NDArray[np.bool_], y: FloatArray, t: FloatArray | None, rate: float | None
-    ) -> tuple[NDArray[np.intp], FloatArray, FloatArray]:
-        """Leave out (and flag) the non-finite samples: their positions, samples and times [s]."""
-        n = y.size
-        n_finite = int(np.count_nonzero(finite))
-        if n_finite == 0:
-            raise _Invalid(Flag(FlagCode.NON_FINITE, f"all {n} samples (or their times) are NaN or infinite"))
-        bad = np.flatnonzero(~finite)
-        self.flags.append(
-            Flag(
-                FlagCode.NON_FINITE,
-                f"{bad.size} of {n} samples are NaN/infinite (first at index {bad[0]}); they were left out",
-            )
-        )
-        index = np.flatnonzero(finite)
-        y = y[finite]
-        if t is None:
-            assert rate is not None
-            t = index.astype(float) * (1.0 / rate)
-        else:
-            t = t[finite]
-        return index, y, t
-
-    def _check_times(self, t: FloatArray, index: NDArray[np.intp] | None, rate: float | None) -> FloatArray:
-        """Given times must increase (gaps are noted); returns them from the first one [s]."""
-        if rate is None and t.size > 1:  # (given times: they must increase)
-            dt = np.diff(t)
-            if not np.all(dt > 0):
-                first = int(np.flatnonzero(~(dt > 0))[0]) + 1
-                where = first if index is None else int(index[first])
-                raise _Invalid(Flag(FlagCode.BAD_TIMES, f"the timestamps do not increase at sample {where}"))
-            typical = float(np.median(dt))
-            gaps = np.flatnonzero(dt > 3.0 * typical)
-            if gaps.size:
-                longest = float(np.max(dt[gaps]))
-                self.notes.append(f"{gaps.size} gaps in the timestamps (longest {longest:.3g} s), fitted as they are")
-        self.t0 = float(t[0])
-        if self.t0 != 0.0:
-            t = t - t[0]
-        if not math.isfinite(float(t[-1])):
-            raise _Invalid(Flag(FlagCode.BAD_TIMES, "the times span more than the floating-point range"))
-        return t
 
     def _set_window(self, start: int, stop: int) -> None:
         """Record the window as indices into the input samples."""
@@ -520,7 +418,7 @@ class _Fitter:
         # (long dot products stay out of BLAS: its thread pool stalls for ms on a busy machine)
         sse = float(np.einsum("i,i->", r, r)) / units_scale**2  # in the scaled units
         if not math.isfinite(sse):
-            raise _Invalid(Flag(FlagCode.FIT_FAILED, "the fitted curve overflows"))
+            raise Invalid(Flag(FlagCode.FIT_FAILED, "the fitted curve overflows"))
         sst = self._sst(y, float(np.dot(blocks.yb, blocks.counts)) / n)
         return r, sse, sst
 
@@ -539,12 +437,12 @@ class _Fitter:
         duration = win.last - win.first
         found = detect(tb, sums / sizes, residual_sums / sizes, duration, sol.omega_d, win.even is not None)
         if not found.found:
-            raise _Invalid(Flag(FlagCode.NO_OSCILLATION, f"no oscillation stands out of the noise: {found.describe()}"))
+            raise Invalid(Flag(FlagCode.NO_OSCILLATION, f"no oscillation stands out of the noise: {found.describe()}"))
         noise, quantum = noise_and_quantum(win.ys, r)  # (in the units of the samples)
         largest = abs(sol.K) * self.units[0] * math.exp(abs(sol.alpha) * 0.5 * duration)  # amplitude, window's ends
         if largest <= MIN_STEPS * quantum:
             factor, _ = self._sample_units()
-            raise _Invalid(
+            raise Invalid(
                 Flag(
                     FlagCode.NO_OSCILLATION,
                     f"the fitted {TWO_PI / sol.omega_d:.4g} s swings by at most {largest * factor:.3g}, "
@@ -588,7 +486,7 @@ class _Fitter:
         s = complex(-alpha, omega_d)
         n_cycles = (n * win.step) * omega_d / TWO_PI
         if n_cycles < self.options.min_valid_cycles - CYCLE_TOLERANCE:
-            raise _Invalid(self._too_few(n_cycles, TWO_PI / omega_d))
+            raise Invalid(self._too_few(n_cycles, TWO_PI / omega_d))
         r, sse, sst = self._residuals(win, blocks, sol)
         noise_quantum = self._detect(win, r, sol)
         r2 = 1.0 - sse / sst if sst > 0 else math.nan
@@ -596,7 +494,7 @@ class _Fitter:
         try:
             stats = period_sigma(sol, blocks, r, s2, n_cycles, self.units[0])
         except FitFailed as exc:
-            raise _Invalid(Flag(FlagCode.FIT_FAILED, str(exc))) from None
+            raise Invalid(Flag(FlagCode.FIT_FAILED, str(exc))) from None
         if stats.white_fallback:
             self.notes.append("too few cycles for the drift-robust σ: σ from Eq 27 (white residuals)")
         period = TWO_PI / omega_d  # Eq 25
@@ -613,7 +511,7 @@ class _Fitter:
         beating = two_mode_flag(modulation, steady, self.options.max_modulation)
         flags = self._flags(win, r, n_cycles, r2, beating, drift, noise_quantum)
         if not (sigma := stats.sigma) < MAX_RELATIVE_SIGMA * period:
-            raise _Invalid(
+            raise Invalid(
                 *flags[len(self.flags) :],
                 Flag(FlagCode.NO_OSCILLATION, f"the period is not determined: {period:.4g} s ± {sigma:.2g} s"),
             )
