@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -30,6 +30,7 @@ from ..core.uncertainty.eigen_sigma import eigenvalues_with_sigma
 from ..core.uncertainty.matrix_sigma import SigmaConvention
 
 __all__ = [
+    "Agreement",
     "PredictedWeave",
     "RideComparison",
     "RideSpeedError",
@@ -127,11 +128,10 @@ def _pair(z_re: float, z_im: float) -> float:
 
 
 @dataclass(frozen=True)
-class SegmentComparison:
-    """One segment against the model.
+class Agreement:
+    """A measured eigenvalue against the model's at its speed.
 
     Attributes:
-        segment: The measured eigenvalue.
         predicted_real: Re λ of the model [1/s].
         predicted_real_sigma: Its σ [1/s].
         predicted_imag: Im λ of the model [rad/s].
@@ -141,7 +141,6 @@ class SegmentComparison:
         deviation: sqrt((z_real² + z_imag²)/2) [-].
     """
 
-    segment: MeasuredEigenvalue
     predicted_real: float
     predicted_real_sigma: float
     predicted_imag: float
@@ -152,23 +151,25 @@ class SegmentComparison:
 
 
 @dataclass(frozen=True)
-class SpeedComparison:
-    """The segments at one speed combined, against the model.
+class SegmentComparison(Agreement):
+    """One segment against the model (:class:`Agreement`).
+
+    Attributes:
+        segment: The measured eigenvalue.
+    """
+
+    segment: MeasuredEigenvalue = field(kw_only=True)
+
+
+@dataclass(frozen=True)
+class SpeedComparison(Agreement):
+    """The segments at one speed combined, against the model (:class:`Agreement`).
 
     Attributes:
         combined: The measured eigenvalue, combined.
-        predicted_real: [1/s]; predicted_real_sigma: [1/s]; predicted_imag: [rad/s];
-        predicted_imag_sigma: [rad/s]; z_real, z_imag, deviation: as :class:`SegmentComparison`.
     """
 
-    combined: CombinedEigenvalue
-    predicted_real: float
-    predicted_real_sigma: float
-    predicted_imag: float
-    predicted_imag_sigma: float
-    z_real: float
-    z_imag: float
-    deviation: float
+    combined: CombinedEigenvalue = field(kw_only=True)
 
 
 @dataclass(frozen=True)
@@ -218,14 +219,14 @@ def compare_ride(
     """
     near = [complex(s.real, s.imag) if s.valid else complex(math.nan, math.nan) for s in segments]
     pred = predicted_weave(ps, [s.speed for s in segments], feedback, convention, near)
-    rows = [SegmentComparison(s, *_against(s, pred, i)) for i, s in enumerate(segments)]
+    rows = [SegmentComparison(*_against(s, pred, i), segment=s) for i, s in enumerate(segments)]
     zs = [z for r in rows if r.segment.clean for z in (r.z_real, r.z_imag) if math.isfinite(z)]
     combined = [c for c in combine_eigenvalues(segments) if c.n_used]
     per_speed = []
     if combined:
         cp = predicted_weave(ps, [c.speed for c in combined], feedback, convention,
                              [complex(c.real, c.imag) for c in combined])  # fmt: skip
-        per_speed = [SpeedComparison(c, *_against(c, cp, k)) for k, c in enumerate(combined)]
+        per_speed = [SpeedComparison(*_against(c, cp, k), combined=c) for k, c in enumerate(combined)]
     overall = math.sqrt(float(np.mean(np.square(zs)))) if zs else math.nan
     return RideComparison(tuple(rows), tuple(per_speed), overall, pred.notes)
 
