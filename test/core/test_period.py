@@ -20,6 +20,7 @@ from bike_rig.core.period import (
     damped_period,
     fit_period,
 )
+from bike_rig.core.period.damping import MAX_OFFSET_INTERVALS, offset_hats
 from bike_rig.core.period.oscillation import alpha_omega_d, fit_variance, zeta_omega
 from bike_rig.core.period.window import first_at_or_after
 from test.core.test_period_signals import gyro_trial, quantise
@@ -70,6 +71,34 @@ def test_period_recovered_at_any_rate(rate_hz: float, period: float) -> None:
     assert fit.omega == pytest.approx(trial.omega, rel=2e-4)
     assert fit.n_cycles == pytest.approx(round(fit.n_cycles), abs=0.05)  # whole cycles
     assert fit.r2 > 0.95
+
+
+@pytest.mark.parametrize(
+    ("rate_hz", "duration", "period"),
+    [(1000.0, 120.0, 0.2), (1000.0, 120.0, 0.3), (2000.0, 60.0, 0.152), (200.0, 600.0, 0.8), (50.0, 600.0, 1.0)],
+)
+def test_long_records_of_short_periods(rate_hz: float, duration: float, period: float) -> None:
+    """The spectrum of a long window still reaches 8 Hz (1,024 block means of 120 s stopped at 2.1 Hz)."""
+    trial = gyro_trial(11, period=period, zeta=0.0003, rate_hz=rate_hz, duration=duration)
+    fit = fit_period(trial.samples, sample_rate_hz=rate_hz)
+    assert fit.valid, fit.flags
+    assert abs(fit.period - period) < 4 * fit.period_sigma, (fit.period, fit.period_sigma)
+    # whole cycles of the spectrum's guess (within about 2e-4 of the fit over hundreds of cycles)
+    assert fit.n_cycles == pytest.approx(round(fit.n_cycles), abs=max(0.05, 3e-4 * fit.n_cycles))
+
+
+@pytest.mark.parametrize(("span", "period"), [(29.0, 0.152), (29.0, 1.5), (300.0, 0.152), (3600.0, 0.3)])
+def test_the_drift_models_knots_are_whole_cycles_apart_and_at_most_129(span: float, period: float) -> None:
+    tb = np.linspace(0.0, span, 20 * round(span / period))
+    hats = offset_hats(tb, 0.0, span, period)
+    knots = hats.shape[0]
+    assert knots <= MAX_OFFSET_INTERVALS + 1
+    assert np.allclose(hats.sum(axis=0), 1.0)
+    spacing = span / (knots - 1)  # (the last interval takes the remainder)
+    cycles = max(2, math.ceil(span / (MAX_OFFSET_INTERVALS * period)))
+    inner = np.flatnonzero(hats[1] > 0)  # the second hat rises from knot 0 to knot 1, falls to knot 2
+    assert tb[inner[0]] < cycles * period < tb[inner[-1]]
+    assert spacing == pytest.approx(cycles * period, rel=0.5 / max(1, knots - 1) + 1e-9) or knots <= 3
 
 
 def test_noise_free_fit_is_exact_and_predict_reproduces_the_samples() -> None:

@@ -92,8 +92,12 @@ TRY_FROM = 0.5
 #: A model whose swing stops inside the window is refused when the residual RMS after the stop
 #: exceeds this multiple of that before it (the record still oscillates: not dry friction).
 STOP_RATIO = 2.0
-#: Knot spacing of the drift model's piecewise linear offset, cycles.
+#: Knot spacing of the drift model's piecewise linear offset, cycles...
 OFFSET_KNOT_CYCLES = 2
+#: ...or as many more whole cycles as keep the intervals this many at most: each knot is a
+#: parameter of the fit, whose cost grows with their square (a 29 s window keeps 2 cycles for
+#: periods from 0.113 s; a 5-minute record of a 0.3 s pendulum would have needed 500 knots).
+MAX_OFFSET_INTERVALS = 128
 #: Gauss–Newton iterations at most.
 _MAX_ITER = 40
 #: Converged when the weighted sum of squares falls by less than this fraction, or when no
@@ -269,7 +273,7 @@ class EnvelopeFit:
 
 
 def offset_hats(tb: FloatArray, first: float, last: float, period: float) -> FloatArray:
-    """The drift model's basis: hat functions with knots every ``OFFSET_KNOT_CYCLES`` cycles.
+    """The drift model's basis: hat functions with knots every ``OFFSET_KNOT_CYCLES`` cycles (or more).
 
     A piecewise linear offset with knots a whole number of cycles apart is orthogonal to a
     steady oscillation of that period (each hat's integral against it vanishes), so it takes
@@ -279,7 +283,8 @@ def offset_hats(tb: FloatArray, first: float, last: float, period: float) -> Flo
     Returns:
         The hats (knots × blocks; the columns sum to 1).
     """
-    spacing = OFFSET_KNOT_CYCLES * period
+    cycles = max(OFFSET_KNOT_CYCLES, math.ceil((last - first) / (MAX_OFFSET_INTERVALS * period)))
+    spacing = cycles * period
     knots: FloatArray = first + spacing * np.arange(max(1, int((last - first) / spacing + 0.5)) + 1, dtype=np.float64)
     knots[-1] = last
     eye = np.eye(knots.size)

@@ -67,7 +67,7 @@ from .quality import (
 from .result import Flag, FlagCode, PeriodFit
 from .sigma import BlockDesign, period_sigma
 from .solver import FitFailed, Solution, gauss_newton, varpro
-from .spectrum import MAX_SPECTRUM_POINTS, block_sums, block_times, peak_of_blocks
+from .spectrum import block_sums, block_times, peak_of_blocks, spectrum_block
 from .stationarity import with_stationarity
 from .window import DEFAULT_WINDOW, WindowPolicy, first_at_or_after, select_window, select_window_even
 
@@ -232,7 +232,7 @@ class _Fitter:
     def _run(self, samples: ArrayLike, rate: float | None, times: ArrayLike | None) -> PeriodFit:
         win = self._select(samples, rate, times)
         # block sums, for the spectrum and (grouped) for the fit
-        k_spec = max(1, math.ceil(win.n / MAX_SPECTRUM_POINTS))
+        k_spec = spectrum_block(win.n, win.step)
         sums, sizes = block_sums(win.ys, k_spec)
         omega0 = self._guess(win, sums, sizes, k_spec)
         if self.options.window.whole_cycles:
@@ -430,7 +430,7 @@ class _Fitter:
         swing by more than half an ADC step: the quantisation of a slow drift is a sawtooth of
         at most 1/π step whose period is the time the drift takes to cross a step.
         """
-        k_spec = max(1, math.ceil(win.n / MAX_SPECTRUM_POINTS))
+        k_spec = spectrum_block(win.n, win.step)
         sums, sizes = block_sums(win.ys, k_spec)
         residual_sums, _ = block_sums(r, k_spec)
         tb = block_times(win.tw, k_spec, sizes, win.even, win.first)

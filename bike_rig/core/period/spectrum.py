@@ -1,9 +1,10 @@
 """Initial guess of the oscillation frequency from the spectrum, and the block sums it uses.
 
 The guess only has to land inside the least-squares fit's basin (about half a spectral bin,
-1 / (2 × window length)), so it works on block means of at most ``MAX_SPECTRUM_POINTS`` points:
-a Hann-windowed, zero-padded periodogram of the detrended series, whose highest peak is refined
-by a parabola through the logarithm of its three top bins.
+1 / (2 × window length)), so it works on block means (:func:`spectrum_block`): at most
+``MAX_SPECTRUM_POINTS`` of them, unless that would make them fewer than ``MIN_SPECTRUM_RATE``
+per second; a Hann-windowed, zero-padded periodogram of the detrended series, whose highest
+peak is refined by a parabola through the logarithm of its three top bins.
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ from numpy.typing import NDArray
 
 __all__ = [
     "MAX_SPECTRUM_POINTS",
+    "MIN_SPECTRUM_RATE",
     "Periodogram",
     "SpectralPeak",
     "block_sums",
@@ -24,13 +26,30 @@ __all__ = [
     "peak_of_blocks",
     "periodogram",
     "periodograms",
+    "spectrum_block",
 ]
 
 FloatArray = NDArray[np.float64]
 
-#: The periodogram uses block means of the window, at most this many: oscillations of up to
-#: a quarter of that rate are found (8.5 Hz in a 30 s window), far above any pendulum's.
+#: The periodogram uses block means of the window, at most this many (a 30 s window: 34 a
+#: second; the FFT stays short)...
 MAX_SPECTRUM_POINTS = 1024
+#: ...unless that makes fewer than this many a second [Hz]: oscillations of up to a quarter of
+#: the block rate are found, so a record of any length is searched up to 8 Hz (periods from
+#: 0.125 s); 1024 means of a 120 s window would have stopped at 2.1 Hz (periods from 0.47 s).
+MIN_SPECTRUM_RATE = 32.0
+
+
+def spectrum_block(n: int, step: float) -> int:
+    """Samples per block mean of the spectrum, for a window of ``n`` samples ``step`` s apart.
+
+    As few as make at most ``MAX_SPECTRUM_POINTS`` means, but never so many that there are
+    fewer than ``MIN_SPECTRUM_RATE`` means a second (and at least 1).
+    """
+    k = math.ceil(n / MAX_SPECTRUM_POINTS)
+    if step > 0 and math.isfinite(step):
+        k = min(k, math.floor(1.0 / (MIN_SPECTRUM_RATE * step)))
+    return max(1, k)
 
 
 @dataclass(frozen=True)
