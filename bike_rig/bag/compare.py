@@ -2,6 +2,9 @@
 
 With the same settings every number agrees to :data:`RELATIVE_TOLERANCE` relative (bit for bit in
 practice): the last period estimate of each trial, the last parameter set, matrices and sweep.
+A recording made by an earlier version of the fit (or with other settings) differs; how much
+that matters is said in units of the live σ: the largest move of a period (trial or combined),
+a parameter or a critical speed over its σ (:attr:`LiveComparison.largest_in_sigma`).
 """
 
 from __future__ import annotations
@@ -12,6 +15,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..messages import MessageError, model_matrices_from_msg, session_parameters_from_msg, stability_sweep_from_msg
 from ..pipeline.errors import AssemblyError
@@ -22,7 +26,7 @@ from .session import RecordedSession
 if TYPE_CHECKING:
     from .replay import ReplayResult
 
-__all__ = ["RELATIVE_TOLERANCE", "Difference", "LiveComparison", "compare_with_live", "relative_difference"]
+__all__ = ["RELATIVE_TOLERANCE", "Difference", "LiveComparison", "compare_with_live", "in_sigma", "relative_difference"]
 
 #: Replayed and live numbers that agree to this (relative) are called identical.
 RELATIVE_TOLERANCE = 1e-12
@@ -42,6 +46,8 @@ class Difference:
     what: str
     max_relative: float
     detail: str = ""
+    in_sigma: float = math.nan
+    """Largest |replay − live| / (live σ) of its values that have a σ (NaN: none)."""
 
     @property
     def identical(self) -> bool:
@@ -67,6 +73,21 @@ class LiveComparison:
     def identical(self) -> bool:
         """Every compared quantity within :data:`RELATIVE_TOLERANCE`."""
         return all(d.identical for d in self.differences)
+
+    def largest_move(self, trials: bool) -> Difference | None:
+        """The comparison whose values moved most in units of their live σ (None: none has a σ).
+
+        Of the trial fits' periods (``trials``), or of the results: combined periods, parameters,
+        critical speeds.
+        """
+        moved = [d for d in self.differences if not math.isnan(d.in_sigma) and d.what.startswith("trial ") == trials]
+        return max(moved, key=lambda d: d.in_sigma, default=None)
+
+    @property
+    def largest_in_sigma(self) -> float:
+        """The largest move of a value with a σ (periods, parameters, speeds), in live σ (NaN: none)."""
+        moves = [d.in_sigma for d in self.differences if not math.isnan(d.in_sigma)]
+        return max(moves, default=math.nan)
 
     @property
     def worst(self) -> Difference | None:
@@ -95,16 +116,23 @@ def relative_difference(a: Any, b: Any) -> tuple[float, int]:
     return float(rel[k]), k
 
 
-def _diff(what: str, a: Any, b: Any, names: Sequence[str] | None = None) -> Difference:
+def in_sigma(new: ArrayLike, live: ArrayLike, sigma: ArrayLike) -> float:
+    """The largest |new − live| / sigma over values with a finite, positive σ (NaN: none)."""
+    x, y, s = (np.asarray(v, dtype=np.float64).reshape(-1) for v in (new, live, sigma))
+    ok = np.isfinite(x) & np.isfinite(y) & np.isfinite(s) & (s > 0)
+    return float(np.max(np.abs(x[ok] - y[ok]) / s[ok])) if np.any(ok) else math.nan
+
+
+def _diff(what: str, a: Any, b: Any, names: Sequence[str] | None = None, moved: float = math.nan) -> Difference:
     rel, k = relative_difference(a, b)
     if rel == 0.0:
-        return Difference(what, 0.0)
+        return Difference(what, 0.0, in_sigma=moved)
     if k < 0:
         return Difference(what, rel, "different sizes")
     label = names[k] if names is not None and k < len(names) else f"entry {k}"
     x = float(np.asarray(a, dtype=np.float64).reshape(-1)[k])
     y = float(np.asarray(b, dtype=np.float64).reshape(-1)[k])
-    return Difference(what, rel, f"{label}: replay {x!r}, live {y!r}")
+    return Difference(what, rel, f"{label}: replay {x!r}, live {y!r}", moved)
 
 
 def _trial_difference(r: SessionTrial) -> Difference:
@@ -120,7 +148,7 @@ def _trial_difference(r: SessionTrial) -> Difference:
     nf, lf = new.fit, live.fit
     a = [nf.period, nf.period_sigma, nf.zeta, nf.omega, nf.r2, nf.residual_rms, new.n_samples, *new.window]
     b = [lf.period, lf.period_sigma, lf.zeta, lf.omega, lf.r2, lf.residual_rms, live.n_samples, *live.window]
-    return _diff(what, a, b, names)
+    return _diff(what, a, b, names, in_sigma([nf.period], [lf.period], [lf.period_sigma]))
 
 
 def compare_with_live(result: ReplayResult, session: RecordedSession) -> LiveComparison:
@@ -148,7 +176,7 @@ def compare_with_live(result: ReplayResult, session: RecordedSession) -> LiveCom
             diffs.append(Difference("parameters", math.inf, f"live parameter set unreadable: {exc}"))
         else:
             pv, lv = result.parameters.parameters, ps.parameters
-            diffs.append(_diff("parameters", pv.values, lv.values, pv.names))
+            diffs.append(_diff("parameters", pv.values, lv.values, pv.names, in_sigma(pv.values, lv.values, lv.sigmas)))
             diffs.append(_diff("parameter sigmas", pv.sigmas, lv.sigmas, pv.names))
             diffs.append(_diff("parameter covariance", pv.covariance, lv.covariance))
 
@@ -181,7 +209,7 @@ def _compare_periods(result: ReplayResult, msg: Any) -> Difference:
     values = [v for p in result.session.periods for v in (p.value, p.sigma)]
     live = [v for pair in zip(msg.period_values, msg.period_sigmas) for v in pair]
     names = [f"{k}{s}" for k in new_keys for s in ("", " sigma")]
-    return _diff(what, values, live, names)
+    return _diff(what, values, live, names, in_sigma(values[::2], live[::2], live[1::2]))
 
 
 def _compare_matrices(new: ModelMatrices, msg: Any, diffs: list[Difference]) -> None:
@@ -215,8 +243,9 @@ def _compare_sweep(new: StabilitySweep, msg: Any, diffs: list[Difference]) -> No
         diffs.append(Difference("critical speeds", math.inf, f"live rider '{live.rider}', replay '{new.rider}'"))
         return
     for name in ("weave", "capsize"):
-        diffs.append(_diff(f"{name} speed", _speed_values(getattr(new, name)), _speed_values(getattr(live, name)),
-                           (f"{name} speed", f"{name} speed sigma")))  # fmt: skip
+        a, b = _speed_values(getattr(new, name)), _speed_values(getattr(live, name))
+        diffs.append(_diff(f"{name} speed", a, b, (f"{name} speed", f"{name} speed sigma"),
+                           in_sigma(a[:1], b[:1], b[1:])))  # fmt: skip
     sweep_new, sweep_live = new.sweep, live.sweep
     if sweep_new.speeds.shape == sweep_live.speeds.shape:
         both = np.concatenate([sweep_new.eigenvalues.real.ravel(), sweep_new.eigenvalues.imag.ravel()])

@@ -466,6 +466,7 @@ def result_json(result: ReplayResult) -> dict[str, Any]:
             "max_relative_difference": {d.what: (None if math.isinf(d.max_relative) else d.max_relative)
                                         for d in live.differences},  # fmt: skip
             "differences": [f"{d.what}: {d.detail}" for d in live.differences if not d.identical],
+            "largest_in_sigma": _num(live.largest_in_sigma),
             "not_compared": list(live.missing),
         },
         "notes": list(result.notes),

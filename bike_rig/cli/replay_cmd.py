@@ -215,6 +215,13 @@ def _live_text(result: ReplayResult) -> str:
     else:
         bad = [d for d in live.differences if not d.identical]
         text = f"live results: DIFFER in {len(bad)} of {len(live.differences)} comparisons"
+        results, trial = live.largest_move(trials=False), live.largest_move(trials=True)
+        moves = ([f"the results (combined periods, parameters, speeds) by at most {results.in_sigma:.2g}"]
+                 if results is not None else [])  # fmt: skip
+        if trial is not None:
+            moves.append(f"the trial fits' periods by at most {trial.in_sigma:.2g} ({trial.what})")
+        if moves:
+            text += "; moved, in units of the live σ: " + ", ".join(moves)
         expected = [
             why for why, on in (("the fit settings are overridden", result.fit_overridden),
                                 ("the static readings are swapped", result.readings_swapped)) if on

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bike_rig.bag.compare import relative_difference
+from bike_rig.bag.compare import in_sigma, relative_difference
 from bike_rig.bag.errors import NoRigTopicsError, ReplayError
 from bike_rig.bag.replay import FitOverrides, ReplaySettings, replay_bag
 from bike_rig.bag.simulated import SimulatedMessage, live_results, simulated_messages, write_simulated_bag
@@ -120,12 +120,26 @@ def test_other_fit_settings_are_used_and_reported_as_different(live_bag: Path) -
     assert {t.options_from for t in result.trials} == {"override"}
     assert all(t.result.fit.window_policy.lead_in_s == 3.0 for t in result.trials)
     assert not result.live.identical
+    # how much it matters, in units of the live σ: each trial's period, and the results
+    # (with a 3 s lead-in some keys lose every trial: only the trials compare)
+    assert not result.complete and result.live.largest_move(trials=False) is None
+    result = replay_bag(live_bag, ReplaySettings(fit=FitOverrides(window=WindowPolicy.lead_in(2.0))))
+    assert result.complete and not result.live.identical
+    moved = [abs(t.result.fit.period - t.recorded.fit.period) / t.recorded.fit.period_sigma
+             for t in result.trials if t.recorded is not None]  # fmt: skip
+    trial = result.live.largest_move(trials=True)
+    assert trial is not None and trial.in_sigma == pytest.approx(max(moved), rel=1e-12) and trial.in_sigma > 0
+    results = result.live.largest_move(trials=False)
+    assert results is not None and results.what in {"combined periods", "parameters", "weave speed", "capsize speed"}
+    assert result.live.largest_in_sigma == max(trial.in_sigma, results.in_sigma)
     code, out, _ = run_cli("replay", str(live_bag), "--lead-in", "2", "--min-r2", "0.95")
     assert code == 0
     assert "live results: DIFFER" in out and "(expected: the fit settings are overridden)" in out
+    assert "; moved, in units of the live σ: the results (combined periods, parameters, speeds) by at most " in out
     data = json.loads(run_cli("replay", str(live_bag), "--default-fit", "--json")[1])
     assert {t["fit_options"]["window"]["lead_in_s"] for t in data["trials"]} == {1.0}
     assert data["settings"]["fit_overridden"] and not data["live"]["identical"]
+    assert data["live"]["largest_in_sigma"] > 0
 
 
 def test_json_output(session: SimulatedSession, live_bag: Path) -> None:
@@ -220,6 +234,12 @@ def test_replay_runs_without_rclpy(live_bag: Path) -> None:
                          env={"PYTHONPATH": f"{REPO}:{site}", "PATH": "/usr/bin:/bin"}, cwd=REPO)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "true"
+
+
+def test_in_sigma() -> None:
+    assert in_sigma([1.0, 2.0, 3.0], [1.5, 2.0, 0.0], [0.25, 1.0, 0.0]) == 2.0  # (no σ: not counted)
+    assert math.isnan(in_sigma([1.0], [2.0], [math.nan]))
+    assert in_sigma([math.inf, 1.0], [0.0, 1.0], [1.0, 1.0]) == 0.0
 
 
 def test_relative_difference() -> None:
