@@ -19,7 +19,8 @@ Published (reliable, transient-local, :mod:`bike_rig.topics`):
 Services: ``/bike_rig/driver/start_trial`` (StartTrial) and ``/bike_rig/driver/stop_trial``
 (StopTrial), honoured by the hardware backends and the sim backend in ``operator`` mode (the
 plan-walking sim and the bag decline). StartTrial answers ``accepted`` with the trial's id, or
-not with the source's one-line reason; the trial's START is published before the answer when
+not with the source's one-line reason (the same request again while its trial records gets the
+same answer: a resent request is no new trial); the trial's START is published before the answer when
 the source has it at once (the simulated rig). A trial that records (from its request, or its
 START) and gets no samples for ``silence_warning_s`` of wall time is logged as a warning once
 per silence, naming the source and what to check (the bus, the wiring, the CAN id...). When a
@@ -164,6 +165,7 @@ class DriverNode(Node):
         self.stop_srv = self.create_service(_srvs.StopTrial, STOP_TRIAL, self._on_stop_trial)
         self.finished = False
         self._trials: dict[str, _Trial] = {}
+        self._last_start: tuple[TrialRequest, str, str] | None = None  # (request, trial id, message) until its STOP
         self._streaming = self.wait_for == 0
         self._done_logged = False
         self._errors = 0
@@ -333,6 +335,8 @@ class DriverNode(Node):
 
     def _on_stopped(self, ev: TrialStopped) -> None:
         self.silence.stopped(ev.trial_id)
+        if self._last_start is not None and self._last_start[1] == ev.trial_id:
+            self._last_start = None
         t = self._trials.pop(ev.trial_id, None)
         if t is None:
             self.get_logger().warning(f"STOP of trial {ev.trial_id!r}, which has not started, dropped")
@@ -353,23 +357,33 @@ class DriverNode(Node):
 
     # ------------------------------------------------------------------ services
     def _on_start_trial(self, request: Any, response: Any) -> Any:
+        """Start the requested trial; the same request again while its trial records gets the same answer.
+
+        (A client resends a request whose answer DDS dropped, which it does while the response
+        path is still being matched: its trial is not refused as "already recording".)
+        """
         try:
-            info = self.source.start_trial(
-                TrialRequest(
-                    part=request.part,
-                    pendulum=request.pendulum,
-                    orientation=int(request.orientation),
-                    repeat=int(request.repeat),
-                    measurement_key=request.measurement_key,
-                    duration_s=float(request.duration_s),
-                    note=request.note,
-                )
+            wanted = TrialRequest(
+                part=request.part,
+                pendulum=request.pendulum,
+                orientation=int(request.orientation),
+                repeat=int(request.repeat),
+                measurement_key=request.measurement_key,
+                duration_s=float(request.duration_s),
+                note=request.note,
             )
+            if self._last_start is not None and self._last_start[0] == wanted:
+                _, response.trial_id, message = self._last_start
+                response.accepted, response.message = True, f"{message} (the same request again)"
+                self.get_logger().info(response.message)
+                return response
+            info = self.source.start_trial(wanted)
             response.accepted, response.trial_id = True, info.trial_id
+            response.message = f"recording trial {info.trial_id} ({info.measurement_key}), {self._duration(request)}"
+            self._last_start = (wanted, info.trial_id, response.message)  # (before its events: a STOP clears it)
             self.silence.started(info.trial_id)
             if self._streaming:
                 self._publish_events(self.source.poll())  # the START, when the source has it at once
-            response.message = f"recording trial {info.trial_id} ({info.measurement_key}), {self._duration(request)}"
             self.get_logger().info(response.message)
         except TrialRequestError as exc:
             response.accepted, response.message = False, str(exc)

@@ -103,6 +103,9 @@ def test_sim_operator_mode_trials_on_request(probe: Probe, ros_env: dict[str, st
         assert long.accepted and long.trial_id == "rear_wheel_compound_t1"
         busy = op.start("front_wheel", "compound")
         assert not busy.accepted and busy.message.startswith("trial rear_wheel_compound_t1 is recording; stop or abort")
+        again = op.start("rear_wheel", "compound", duration_s=1000.0)  # resent (its answer lost): the same answer
+        assert again.accepted and again.trial_id == long.trial_id, again.message
+        assert again.message.endswith("(the same request again)")
         probe.spin_until(lambda: op.samples(long.trial_id) > 0, STEP_TIMEOUT_S, "samples of the long trial")
         aborted = op.stop(long.trial_id, abort=True)
         assert aborted.accepted and "aborted" in aborted.message
@@ -110,10 +113,14 @@ def test_sim_operator_mode_trials_on_request(probe: Probe, ros_env: dict[str, st
         assert 0 < abort_ev.sample_count < 1000 * 1000
         probe.spin_until(lambda: op.samples(long.trial_id) == abort_ev.sample_count, STEP_TIMEOUT_S, "its samples")
         assert not any(e.kind == STOP and e.trial_id == long.trial_id for e in op.events)
+        assert sum(e.kind == START and e.trial_id == long.trial_id for e in op.events) == 1
 
         redo = op.start("fork", "torsional", 2, repeat=1)
         assert redo.accepted and redo.trial_id == "fork_torsional_o2_t1_r2"  # never the same id twice
         assert op.event(STOP, redo.trial_id).sample_count == round(TRIAL_S * 1000)
+        anew = op.start("fork", "torsional", 2, repeat=1)  # the same request after its trial's STOP: a new trial
+        assert anew.accepted and anew.trial_id == "fork_torsional_o2_t1_r3", anew.message
+        assert op.stop(anew.trial_id, abort=True).accepted
         assert driver.proc.poll() is None
     assert driver.proc.returncode == 0, driver.describe()
     assert "no samples" not in driver.stderr_path.read_text()  # no silence warning while the sim streams
