@@ -289,12 +289,17 @@ class _Strings:
         return np.asarray(codes, dtype=np.int64)[np.cumsum(head) - 1]
 
 
+#: Runs of linked batches at least this long are copied as strided blocks (one numpy call each).
+_MIN_RUN = 8
+
+
 def _copy_runs(
     buf: NDArray[np.uint8], at: IntArray, n: IntArray, link: NDArray[np.bool_]
 ) -> tuple[IntArray, FloatArray]:
     """Every message's ``n`` float64 at ``at``, one message after the other, in one array.
 
-    Linked rows (same layout, each record right after the previous one) are one strided copy.
+    Linked rows (same layout, each record right after the previous one) are one strided copy;
+    rows in short runs (batches of varying sizes: each its own run) are gathered at once.
     """
     bounds = np.zeros(len(n) + 1, dtype=np.int64)
     np.cumsum(n, out=bounds[1:])
@@ -302,6 +307,17 @@ def _copy_runs(
     heads = np.flatnonzero(~link)
     ends = np.append(heads[1:], len(n))
     busy = n[heads] > 0
+    long = ends - heads >= _MIN_RUN
+    rows = np.flatnonzero(~long[np.cumsum(~link) - 1] & (n > 0))  # the rows of the short runs
+    if rows.size:  # every sample's byte offset, gathered in one indexing
+        count = n[rows]
+        shift = np.repeat(at[rows] - 8 * bounds[rows], count)  # sample g of its message is at shift + 8 g
+        if int(count.sum()) == out.size:  # (no long run: every sample, in order)
+            out[:] = read_le(buf, "<f8", shift + 8 * np.arange(out.size))
+        else:
+            g = np.arange(shift.size) + np.repeat(bounds[rows] - (np.cumsum(count) - count), count)
+            out[g] = read_le(buf, "<f8", shift + 8 * g)
+    busy &= long
     for a, b in zip(heads[busy].tolist(), ends[busy].tolist(), strict=True):
         size, k = int(n[a]), b - a
         stride = int(at[a + 1] - at[a]) if k > 1 else 8 * size

@@ -151,6 +151,28 @@ def test_gyro_batches_decode_as_rosbags_does() -> None:
     assert not got[0].rates.flags.writeable
 
 
+@pytest.mark.parametrize("long_runs", [True, False])
+def test_runs_of_batches_and_batches_of_varying_size_decode_as_rosbags_does(long_runs: bool) -> None:
+    """Runs of equal batches back to back, and batches of varying sizes: the numbers rosbags reads.
+
+    (31 bytes of record head between records: runs are strided copies, the rest one gather.)
+    """
+    store = rig_typestore()
+    rng = np.random.default_rng(7)
+    varying = [int(x) for x in rng.integers(0, 9, 15)]
+    sizes = [50] * 20 + varying + [50] * 12 if long_runs else varying
+    msgs = [gyro_message("gyro", f"t{k // 9}", n, n if k % 2 else 0, k) for k, n in enumerate(sizes)]
+    datas = [serialize(m) for m in msgs]
+    buf, start = bytearray(b"\x05"), []
+    for d in datas:
+        buf += bytes(31)
+        start.append(len(buf))
+        buf += d
+    columns = decode_gyro(np.frombuffer(bytes(buf), dtype=np.uint8), np.array(start), np.array([len(d) for d in datas]))
+    expected = [sample_batch_from_msg(store.deserialize_cdr(d, GYRO_TYPE)) for d in datas]
+    assert [plain(b) for b in columns.batches()] == [plain(b) for b in expected]
+
+
 def test_unusual_gyro_batches_are_left_to_rosbags() -> None:
     good = serialize(gyro_message("gyro", "t1", 5, 0, 1))
     big_endian = b"\x00\x00" + good[2:]
