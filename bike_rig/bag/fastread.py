@@ -236,14 +236,26 @@ def _metadata_map(blob: bytes) -> dict[str, str]:
     return out
 
 
+_CHUNK_HEAD = struct.Struct("<QQQQI")  # message start and end time, offset, length, index offsets' bytes
+_U64_U32 = struct.Struct("<QI")  # message index length, compression's bytes
+_U64_U64 = struct.Struct("<QQ")  # compressed and uncompressed size
+
+
 def _chunk(rec: _Record) -> Chunk:
-    start, end, offset, length = rec.u64(), rec.u64(), rec.u64(), rec.u64()
-    pairs = rec.blob()
-    need(len(pairs) % 10 == 0, "bad message index offsets")
-    index_offsets = {int(c): int(o) for c, o in struct.iter_unpack("<HQ", pairs)}
-    index_length = rec.u64()
-    compression = rec.text()
-    compressed, uncompressed = rec.u64(), rec.u64()
+    """A chunk index record (read with whole-record structs: a recording holds thousands)."""
+    data, pos = rec.data, rec.pos
+    need(len(data) - pos >= _CHUNK_HEAD.size, "truncated MCAP record")
+    start, end, offset, length, n = _CHUNK_HEAD.unpack_from(data, pos)
+    pos += _CHUNK_HEAD.size
+    need(len(data) - pos >= n + _U64_U32.size, "truncated MCAP record")
+    need(n % 10 == 0, "bad message index offsets")
+    index_offsets = {int(c): int(o) for c, o in struct.iter_unpack("<HQ", data[pos : pos + n])}
+    index_length, k = _U64_U32.unpack_from(data, pos + n)
+    pos += n + _U64_U32.size
+    need(len(data) - pos >= k + _U64_U64.size, "truncated MCAP record")
+    compression = data[pos : pos + k].decode()
+    compressed, uncompressed = _U64_U64.unpack_from(data, pos + k)
+    rec.pos = pos + k + _U64_U64.size
     # rosbags' message counts per channel (which chunks it reads depends on them)
     ordered = sorted((v, k) for k, v in index_offsets.items())
     ends = [*(v for v, _ in ordered), offset + length + index_length]

@@ -15,7 +15,7 @@ from __future__ import annotations
 import os
 import struct
 import threading
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
@@ -141,12 +141,48 @@ class _Read:
     chunk: Chunk
     data: memoryview
     crc: int
-    index: bytes
+    index: bytes | memoryview
 
 
-def _read_chunk(f: Any, chunk: Chunk) -> _Read:
-    f.seek(chunk.offset)
-    raw = f.read(chunk.length + chunk.index_length)
+def _spans(f: Any, chunks: list[Chunk]) -> list[memoryview | None]:
+    """Each chunk's record and message index as read in one go with its neighbours (None: read it alone).
+
+    Chunks that follow one another in the file (a recording's) are read in one call per 64 MiB.
+    """
+    out: list[memoryview | None] = [None] * len(chunks)
+    i = 0
+    while i < len(chunks):
+        j, start = i, chunks[i].offset
+        while j + 1 < len(chunks) and _end(chunks[j]) <= chunks[j + 1].offset <= start + _SPAN_BYTES - (
+            _end(chunks[j + 1]) - chunks[j + 1].offset
+        ):
+            j += 1
+        if j > i:
+            f.seek(start)
+            end = _end(chunks[j])
+            data = memoryview(f.read(end - start))
+            for k in range(i, j + 1):
+                c = chunks[k]
+                out[k] = data[c.offset - start : c.offset - start + c.length + c.index_length]
+        i = j + 1
+    return out
+
+
+def _end(chunk: Chunk) -> int:
+    """Where a chunk's record and its message index end in the file, bytes."""
+    return chunk.offset + chunk.length + chunk.index_length
+
+
+#: Bytes read at once for the chunks of :func:`_spans`.
+_SPAN_BYTES = 64 << 20
+
+
+def _read_chunk(f: Any, chunk: Chunk, span: memoryview | None = None) -> _Read:
+    if span is None:
+        f.seek(chunk.offset)
+        raw: bytes | memoryview = f.read(chunk.length + chunk.index_length)
+    else:
+        raw = span
     head = 9 + 40 + len(chunk.compression.encode())
     need(len(raw) == chunk.length + chunk.index_length and raw[0] == 0x06, "truncated chunk")
     need(head + chunk.compressed_size <= chunk.length, "chunk data beyond its record")
@@ -154,7 +190,7 @@ def _read_chunk(f: Any, chunk: Chunk) -> _Read:
     return _Read(chunk, memoryview(raw)[head : head + chunk.compressed_size], crc, raw[chunk.length :])
 
 
-def _indexed_offsets(index: bytes) -> IntArray:
+def _indexed_offsets(index: bytes | memoryview) -> IntArray:
     """Every message record's offset in its chunk, from the chunk's message index records."""
     parts, pos = [], 0
     while pos < len(index):
@@ -182,7 +218,7 @@ def _walk(records: memoryview, start: int, stop: int) -> list[int]:
     return out
 
 
-def _message_offsets(records: memoryview, buf: NDArray[np.uint8], index: bytes) -> IntArray:
+def _message_offsets(records: memoryview, buf: NDArray[np.uint8], index: bytes | memoryview) -> IntArray:
     """Offsets of every message record of a chunk, in file order.
 
     The message index gives them; records between them (schemas, channels) are walked to make
@@ -227,6 +263,55 @@ def _chunk_keys(buf: NDArray[np.uint8], read: _Read, lut: IntArray, base: int) -
     return log_time[keep], where, keep, topic[keep], at[keep] + _MESSAGE_HEAD + base, size
 
 
+def _keys_of_chunks(
+    buffer: NDArray[np.uint8], reads: list[_Read], bases: list[int], lut: IntArray
+) -> tuple[IntArray, ...]:
+    """:func:`_chunk_keys` of every chunk of a file at once (at ``bases`` in ``buffer``), concatenated.
+
+    The numpy work is done once for all the chunks (a recording flushed every 0.5 s holds
+    thousands of small ones); a chunk with a message its index does not list falls back to
+    :func:`_chunk_keys` for the whole file.
+    """
+    local = [_indexed_offsets(r.index) for r in reads]
+    counts = np.array([o.size for o in local], dtype=np.int64)
+    lengths = np.array([r.chunk.uncompressed_size for r in reads], dtype=np.int64)
+    base = np.array(bases, dtype=np.int64)
+    at = np.concatenate(local) if local else np.empty(0, np.int64)
+    cid = np.repeat(np.arange(len(reads)), counts)
+    need(bool(np.all((at >= 0) & (at + _MESSAGE_HEAD <= lengths[cid]))), "index beyond the chunk")
+    glob = at + base[cid]
+    need(bool(np.all(buffer[glob] == 0x05)), "index points at a non-message record")
+    sizes = read_le(buffer, "<u8", glob + 1).astype(np.int64) if at.size else at
+    ends = at + 9 + sizes
+    same = cid[1:] == cid[:-1]
+    last = np.flatnonzero(np.append(~same, True)) if at.size else at  # each chunk's last message
+    first = np.flatnonzero(np.insert(~same, 0, True)) if at.size else at
+    need(bool(np.all(sizes >= _MESSAGE_HEAD - 9)) and bool(np.all(ends[:-1][same] <= at[1:][same])), "records overlap")
+    need(bool(np.all(ends[last] <= lengths[cid[last]])), "record beyond the chunk")
+    # the records between the indexed ones (schemas, channels), walked: no message may be missing
+    empty = np.flatnonzero(counts == 0)
+    gap_chunk = np.concatenate((empty, cid[first], cid[:-1][same], cid[last]))
+    zeros = np.zeros(empty.size + first.size, np.int64)
+    gap_from = np.concatenate((zeros, ends[:-1][same], ends[last]))
+    gap_to = np.concatenate((lengths[empty], at[first], at[1:][same], lengths[cid[last]]))
+    for c, a, b in zip(*(x[gap_from < gap_to].tolist() for x in (gap_chunk, gap_from, gap_to)), strict=True):
+        if _walk(buffer.data[bases[c] : bases[c] + int(lengths[c])], a, b):  # an unindexed message: chunk by chunk
+            pairs = zip(reads, bases, strict=True)
+            each = [_chunk_keys(buffer[q : q + r.chunk.uncompressed_size], r, lut, q) for r, q in pairs]
+            return tuple(np.concatenate(k) for k in zip(*each, strict=True))
+    log_time = read_le(buffer, "<u8", glob + 15) if at.size else at
+    need(bool(np.all(log_time < 2**63)), "log time beyond 2**63")
+    log_time = log_time.astype(np.int64)
+    topic = lut[read_le(buffer, "<u2", glob + 9)] if at.size else at
+    start_time = np.array([r.chunk.start_time for r in reads], dtype=np.int64)[cid]
+    end_time = np.array([r.chunk.end_time for r in reads], dtype=np.int64)[cid]
+    keep = np.flatnonzero((topic >= 0) & (log_time >= start_time) & (log_time <= end_time))
+    where = np.array([r.chunk.offset for r in reads], dtype=np.int64)[cid[keep]]
+    position = keep - np.repeat(np.cumsum(counts) - counts, counts)[keep]
+    size = sizes[keep] - (_MESSAGE_HEAD - 9)
+    return log_time[keep], where, position, topic[keep], glob[keep] + _MESSAGE_HEAD, size
+
+
 def _unpack(records: memoryview, read: _Read, path: Path) -> None:
     """Decompress one chunk into ``records`` and check its checksum.
 
@@ -243,27 +328,25 @@ def _unpack(records: memoryview, read: _Read, path: Path) -> None:
     need(not read.crc or crc32(records) == read.crc, "chunk checksum mismatch")
 
 
-def _unpacked(jobs: list[tuple[memoryview, _Read, Path]]) -> Iterator[int]:
-    """:func:`_unpack` every chunk, on every core (zstd releases the GIL): each job's index once it is done.
-
-    In order, while the later chunks are still being decompressed (the caller reads each one's
-    records meanwhile).
+def _unpack_all(jobs: list[tuple[memoryview, _Read, Path]]) -> None:
+    """:func:`_unpack` every chunk, on every core (zstd releases the GIL), in a few groups of chunks.
 
     Raises:
         CorruptChunk, Unusual: as :func:`_unpack`, for the first failing chunk in file order.
     """
     if len(jobs) < 2 or _WORKERS < 2:
-        for i, job in enumerate(jobs):
+        for job in jobs:
             _unpack(*job)
-            yield i
         return
+    step = max(1, len(jobs) // (4 * _WORKERS))  # (a task per chunk costs more than a small chunk takes)
 
-    def unpack(i: int) -> int:
-        _unpack(*jobs[i])
-        return i
+    def unpack(first: int) -> None:
+        for job in jobs[first : first + step]:
+            _unpack(*job)
 
     with ThreadPoolExecutor(max_workers=_WORKERS) as pool:
-        yield from pool.map(unpack, range(len(jobs)))  # (in order: the first failure raises)
+        for _ in pool.map(unpack, range(0, len(jobs), step)):  # (in order: the first failure raises)
+            pass
 
 
 def read_table(bag: FastBag, topics: Iterable[str]) -> MessageTable:
@@ -282,28 +365,25 @@ def read_table(bag: FastBag, topics: Iterable[str]) -> MessageTable:
         lut = np.full(65536, -1, dtype=np.int64)
         for cid, c in wanted.items():
             lut[cid] = c
+        chunks = [ch for ch in storage.chunks if any(ch.channel_count.get(c, 0) for c in wanted)]
         with storage.path.open("rb") as f:
-            reads = [_read_chunk(f, ch) for ch in storage.chunks if any(ch.channel_count.get(c, 0) for c in wanted)]
+            reads = [_read_chunk(f, ch, span) for ch, span in zip(chunks, _spans(f, chunks), strict=True)]
         files.append((lut, reads, storage.path))
     buffer = np.empty(sum(r.chunk.uncompressed_size for _, reads, _ in files for r in reads), dtype=np.uint8)
-    jobs, bases, luts, base = [], [], [], 0
-    for lut, reads, path in files:
+    jobs: list[tuple[memoryview, _Read, Path]] = []
+    bases: list[list[int]] = []
+    base = 0
+    for _, reads, path in files:
+        bases.append([])
         for read in reads:
             jobs.append((buffer.data[base : base + read.chunk.uncompressed_size], read, path))
-            bases.append(base)
-            luts.append(lut)
+            bases[-1].append(base)
             base += read.chunk.uncompressed_size
-    keys_of: list[tuple[IntArray, ...]] = []
-    for i in _unpacked(jobs):
-        read, at = jobs[i][1], bases[i]
-        keys_of.append(_chunk_keys(buffer[at : at + read.chunk.uncompressed_size], read, luts[i], at))
+    _unpack_all(jobs)
     parts = []
-    done = 0
-    for _, reads, _ in files:
-        keys = keys_of[done : done + len(reads)]
-        done += len(reads)
-        if keys:
-            cols = [np.concatenate(k) for k in zip(*keys, strict=True)]
+    for (lut, reads, _), at in zip(files, bases, strict=True):
+        if reads:
+            cols = list(_keys_of_chunks(buffer, reads, at, lut))
             order = np.lexsort((cols[2], cols[1], cols[0]))  # log time, then chunk offset, then position
             parts.append(tuple(cols[i][order] for i in (3, 0, 4, 5)))
     buffer.flags.writeable = False
