@@ -141,29 +141,26 @@ class _Read:
     chunk: Chunk
     data: memoryview
     crc: int
-    index: bytes | memoryview
+    index: memoryview
 
 
-def _spans(f: Any, chunks: list[Chunk]) -> list[memoryview | None]:
-    """Each chunk's record and message index as read in one go with its neighbours (None: read it alone).
+def _spans(f: Any, chunks: list[Chunk]) -> list[memoryview]:
+    """Each chunk's record and message index, read with its neighbours in one call per 64 MiB.
 
-    Chunks that follow one another in the file (a recording's) are read in one call per 64 MiB.
+    (A recording's chunks follow one another in the file: thousands of them, one read.)
     """
-    out: list[memoryview | None] = [None] * len(chunks)
+    out: list[memoryview] = []
     i = 0
     while i < len(chunks):
         j, start = i, chunks[i].offset
-        while j + 1 < len(chunks) and _end(chunks[j]) <= chunks[j + 1].offset <= start + _SPAN_BYTES - (
-            _end(chunks[j + 1]) - chunks[j + 1].offset
-        ):
+        while j + 1 < len(chunks):
+            nxt = chunks[j + 1]
+            if nxt.offset < _end(chunks[j]) or _end(nxt) > start + _SPAN_BYTES:
+                break
             j += 1
-        if j > i:
-            f.seek(start)
-            end = _end(chunks[j])
-            data = memoryview(f.read(end - start))
-            for k in range(i, j + 1):
-                c = chunks[k]
-                out[k] = data[c.offset - start : c.offset - start + c.length + c.index_length]
+        f.seek(start)
+        data = memoryview(f.read(_end(chunks[j]) - start))
+        out += [data[c.offset - start : _end(c) - start] for c in chunks[i : j + 1]]
         i = j + 1
     return out
 
@@ -177,20 +174,16 @@ def _end(chunk: Chunk) -> int:
 _SPAN_BYTES = 64 << 20
 
 
-def _read_chunk(f: Any, chunk: Chunk, span: memoryview | None = None) -> _Read:
-    if span is None:
-        f.seek(chunk.offset)
-        raw: bytes | memoryview = f.read(chunk.length + chunk.index_length)
-    else:
-        raw = span
+def _read_chunk(chunk: Chunk, raw: memoryview) -> _Read:
+    """A chunk from its bytes in the file (its record, then its message index)."""
     head = 9 + 40 + len(chunk.compression.encode())
     need(len(raw) == chunk.length + chunk.index_length and raw[0] == 0x06, "truncated chunk")
     need(head + chunk.compressed_size <= chunk.length, "chunk data beyond its record")
     crc = _U32.unpack_from(raw, 9 + 24)[0]
-    return _Read(chunk, memoryview(raw)[head : head + chunk.compressed_size], crc, raw[chunk.length :])
+    return _Read(chunk, raw[head : head + chunk.compressed_size], crc, raw[chunk.length :])
 
 
-def _indexed_offsets(index: bytes | memoryview) -> IntArray:
+def _indexed_offsets(index: memoryview) -> IntArray:
     """Every message record's offset in its chunk, from the chunk's message index records."""
     parts, pos = [], 0
     while pos < len(index):
@@ -218,97 +211,61 @@ def _walk(records: memoryview, start: int, stop: int) -> list[int]:
     return out
 
 
-def _message_offsets(records: memoryview, buf: NDArray[np.uint8], index: bytes | memoryview) -> IntArray:
-    """Offsets of every message record of a chunk, in file order.
+def _keys_of_chunks(
+    buffer: NDArray[np.uint8], reads: list[_Read], bases: list[int], lut: IntArray
+) -> tuple[IntArray, ...]:
+    """The wanted messages of a file's decompressed chunks (each at its ``bases`` in ``buffer``).
 
-    The message index gives them; records between them (schemas, channels) are walked to make
-    sure that no message record is missing from the index.
-    """
-    offsets = _indexed_offsets(index)
-    if offsets.size:
-        need(int(offsets[0]) >= 0 and int(offsets[-1]) + _MESSAGE_HEAD <= len(records), "index beyond the chunk")
-        need(np.all(buf[offsets] == 0x05), "index points at a non-message record")
-        sizes = read_le(buf, "<u8", offsets + 1).astype(np.int64)
-        ends = offsets + 9 + sizes
-        need(np.all(sizes >= _MESSAGE_HEAD - 9) and np.all(ends[:-1] <= offsets[1:]), "records overlap")
-        need(int(ends[-1]) <= len(records), "record beyond the chunk")
-        gaps_from = np.concatenate(([0], ends))
-        gaps_to = np.concatenate((offsets, [len(records)]))
-    else:
-        gaps_from, gaps_to = np.array([0]), np.array([len(records)])
-    gap = gaps_from < gaps_to
-    extra = []
-    for a, b in zip(gaps_from[gap].tolist(), gaps_to[gap].tolist(), strict=True):
-        extra += _walk(records, a, b)
-    if extra:  # messages the index does not list: the whole chunk in file order
-        offsets = np.sort(np.concatenate((offsets, np.array(extra, dtype=np.int64))))
-    return offsets
-
-
-def _chunk_keys(buf: NDArray[np.uint8], read: _Read, lut: IntArray, base: int) -> tuple[IntArray, ...]:
-    """The wanted messages of one decompressed chunk (``buf``, at ``base`` in the table's buffer).
+    Every message record of a chunk, in file order: its message index gives them, and the
+    records between them (schemas, channels) are walked so that none the index leaves out is
+    missed. The numpy work is done once for all the chunks (a recording flushed every 0.5 s
+    holds thousands of small ones).
 
     Returns:
         Columns: log time, chunk offset, position in the chunk, topic, data start, data size.
     """
-    chunk = read.chunk
-    at = _message_offsets(buf.data, buf, read.index)
-    log_time = read_le(buf, "<u8", at + 15)
-    need(np.all(log_time < 2**63), "log time beyond 2**63")
-    log_time = log_time.astype(np.int64)
-    topic = lut[read_le(buf, "<u2", at + 9)]
-    keep = np.flatnonzero((topic >= 0) & (log_time >= chunk.start_time) & (log_time <= chunk.end_time))
-    size = read_le(buf, "<u8", at[keep] + 1).astype(np.int64) - (_MESSAGE_HEAD - 9)
-    where = np.full(len(keep), chunk.offset, np.int64)
-    return log_time[keep], where, keep, topic[keep], at[keep] + _MESSAGE_HEAD + base, size
-
-
-def _keys_of_chunks(
-    buffer: NDArray[np.uint8], reads: list[_Read], bases: list[int], lut: IntArray
-) -> tuple[IntArray, ...]:
-    """:func:`_chunk_keys` of every chunk of a file at once (at ``bases`` in ``buffer``), concatenated.
-
-    The numpy work is done once for all the chunks (a recording flushed every 0.5 s holds
-    thousands of small ones); a chunk with a message its index does not list falls back to
-    :func:`_chunk_keys` for the whole file.
-    """
     local = [_indexed_offsets(r.index) for r in reads]
-    counts = np.array([o.size for o in local], dtype=np.int64)
     lengths = np.array([r.chunk.uncompressed_size for r in reads], dtype=np.int64)
-    base = np.array(bases, dtype=np.int64)
+    counts = np.array([o.size for o in local], dtype=np.int64)
     at = np.concatenate(local) if local else np.empty(0, np.int64)
     cid = np.repeat(np.arange(len(reads)), counts)
     need(bool(np.all((at >= 0) & (at + _MESSAGE_HEAD <= lengths[cid]))), "index beyond the chunk")
-    glob = at + base[cid]
+    glob = at + np.array(bases, dtype=np.int64)[cid]
     need(bool(np.all(buffer[glob] == 0x05)), "index points at a non-message record")
-    sizes = read_le(buffer, "<u8", glob + 1).astype(np.int64) if at.size else at
-    ends = at + 9 + sizes
+    ends = at + 9 + (read_le(buffer, "<u8", glob + 1).astype(np.int64) if at.size else at)
     same = cid[1:] == cid[:-1]
     last = np.flatnonzero(np.append(~same, True)) if at.size else at  # each chunk's last message
     first = np.flatnonzero(np.insert(~same, 0, True)) if at.size else at
-    need(bool(np.all(sizes >= _MESSAGE_HEAD - 9)) and bool(np.all(ends[:-1][same] <= at[1:][same])), "records overlap")
+    need(bool(np.all(ends - at >= _MESSAGE_HEAD)) and bool(np.all(ends[:-1][same] <= at[1:][same])), "records overlap")
     need(bool(np.all(ends[last] <= lengths[cid[last]])), "record beyond the chunk")
-    # the records between the indexed ones (schemas, channels), walked: no message may be missing
+    # the gaps: before each chunk's first message (or all of an empty chunk), between, after the last
     empty = np.flatnonzero(counts == 0)
     gap_chunk = np.concatenate((empty, cid[first], cid[:-1][same], cid[last]))
-    zeros = np.zeros(empty.size + first.size, np.int64)
-    gap_from = np.concatenate((zeros, ends[:-1][same], ends[last]))
+    gap_from = np.concatenate((np.zeros(empty.size + first.size, np.int64), ends[:-1][same], ends[last]))
     gap_to = np.concatenate((lengths[empty], at[first], at[1:][same], lengths[cid[last]]))
+    unlisted = False
     for c, a, b in zip(*(x[gap_from < gap_to].tolist() for x in (gap_chunk, gap_from, gap_to)), strict=True):
-        if _walk(buffer.data[bases[c] : bases[c] + int(lengths[c])], a, b):  # an unindexed message: chunk by chunk
-            pairs = zip(reads, bases, strict=True)
-            each = [_chunk_keys(buffer[q : q + r.chunk.uncompressed_size], r, lut, q) for r, q in pairs]
-            return tuple(np.concatenate(k) for k in zip(*each, strict=True))
-    log_time = read_le(buffer, "<u8", glob + 15) if at.size else at
+        extra = _walk(buffer.data[bases[c] : bases[c] + int(lengths[c])], a, b)
+        if extra:  # messages the index does not list: that chunk's messages in file order
+            local[c] = np.sort(np.concatenate((local[c], np.array(extra, dtype=np.int64))))
+            unlisted = True
+    if unlisted:
+        counts = np.array([o.size for o in local], dtype=np.int64)
+        at = np.concatenate(local)
+        cid = np.repeat(np.arange(len(reads)), counts)
+        glob = at + np.array(bases, dtype=np.int64)[cid]
+    if not at.size:
+        return tuple(np.empty(0, np.int64) for _ in range(6))
+    log_time = read_le(buffer, "<u8", glob + 15)
     need(bool(np.all(log_time < 2**63)), "log time beyond 2**63")
     log_time = log_time.astype(np.int64)
-    topic = lut[read_le(buffer, "<u2", glob + 9)] if at.size else at
+    topic = lut[read_le(buffer, "<u2", glob + 9)]
     start_time = np.array([r.chunk.start_time for r in reads], dtype=np.int64)[cid]
     end_time = np.array([r.chunk.end_time for r in reads], dtype=np.int64)[cid]
     keep = np.flatnonzero((topic >= 0) & (log_time >= start_time) & (log_time <= end_time))
     where = np.array([r.chunk.offset for r in reads], dtype=np.int64)[cid[keep]]
     position = keep - np.repeat(np.cumsum(counts) - counts, counts)[keep]
-    size = sizes[keep] - (_MESSAGE_HEAD - 9)
+    size = read_le(buffer, "<u8", glob[keep] + 1).astype(np.int64) - (_MESSAGE_HEAD - 9)
     return log_time[keep], where, position, topic[keep], glob[keep] + _MESSAGE_HEAD, size
 
 
@@ -367,7 +324,7 @@ def read_table(bag: FastBag, topics: Iterable[str]) -> MessageTable:
             lut[cid] = c
         chunks = [ch for ch in storage.chunks if any(ch.channel_count.get(c, 0) for c in wanted)]
         with storage.path.open("rb") as f:
-            reads = [_read_chunk(f, ch, span) for ch, span in zip(chunks, _spans(f, chunks), strict=True)]
+            reads = [_read_chunk(ch, raw) for ch, raw in zip(chunks, _spans(f, chunks), strict=True)]
         files.append((lut, reads, storage.path))
     buffer = np.empty(sum(r.chunk.uncompressed_size for _, reads, _ in files for r in reads), dtype=np.uint8)
     jobs: list[tuple[memoryview, _Read, Path]] = []

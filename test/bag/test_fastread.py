@@ -329,3 +329,36 @@ def test_qos_profiles_parse_as_rosbags_does() -> None:
              ("liveliness_lease_duration", zero), ("avoid_ros_namespace_conventions", "false")]  # fmt: skip
     text = "\n".join(("- " if i == 0 else "  ") + f"{k}: {v}" for i, (k, v) in enumerate(pairs))
     assert _qos(text) == tuple(parse_qos(text))
+
+
+def test_messages_a_chunk_index_leaves_out_are_found() -> None:
+    """The records between indexed messages are walked: a message the index does not list is kept, in file order."""
+    from bike_rig.bag.fastread import Chunk
+    from bike_rig.bag.msgtable import _keys_of_chunks, _Read
+
+    def message(channel: int, log_time: int, data: bytes) -> bytes:
+        return b"\x05" + struct.pack("<QHIQQ", 2 + 4 + 8 + 8 + len(data), channel, 0, log_time, log_time) + data
+
+    def index(channel: int, entries: list[tuple[int, int]]) -> bytes:
+        pairs = b"".join(struct.pack("<QQ", t, o) for t, o in entries)
+        return b"\x07" + struct.pack("<QHI", 6 + len(pairs), channel, len(pairs)) + pairs
+
+    other = b"\x03" + struct.pack("<Q", 4) + b"abcd"  # a schema record before the messages
+    m1, m2, m3 = message(1, 10, b"one"), message(1, 20, b"two!"), message(2, 30, b"three")
+    records_a = other + m1 + m2
+    records_b = m3
+    chunk_a = Chunk(10, 20, 1000, 0, {}, 0, "", 0, len(records_a), {})
+    chunk_b = Chunk(30, 30, 2000, 0, {}, 0, "", 0, len(records_b), {})
+    reads = [  # chunk a's index lists only its second message
+        _Read(chunk_a, memoryview(b""), 0, memoryview(index(1, [(20, len(other) + len(m1))]))),
+        _Read(chunk_b, memoryview(b""), 0, memoryview(index(2, [(30, 0)]))),
+    ]
+    buffer = np.frombuffer(records_a + records_b, dtype=np.uint8)
+    lut = np.full(65536, -1, dtype=np.int64)
+    lut[1], lut[2] = 0, 1
+    log_time, where, position, topic, start, size = _keys_of_chunks(buffer, reads, [0, len(records_a)], lut)
+    assert log_time.tolist() == [10, 20, 30] and where.tolist() == [1000, 1000, 2000]
+    assert position.tolist() == [0, 1, 0] and topic.tolist() == [0, 0, 1]
+    assert [bytes(buffer[a : a + n]) for a, n in zip(start.tolist(), size.tolist(), strict=True)] == [
+        b"one", b"two!", b"three"
+    ]
