@@ -12,7 +12,6 @@ no Python object per message. Anything rosbags would read differently raises
 
 from __future__ import annotations
 
-import os
 import struct
 import threading
 from collections.abc import Iterable
@@ -24,6 +23,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ..pipeline.forked import default_workers
 from .fastread import Chunk, FastBag, Unusual, need
 
 try:
@@ -52,7 +52,7 @@ IntArray = NDArray[np.int64]
 _MESSAGE_HEAD = 1 + 8 + 2 + 4 + 8 + 8
 
 #: Threads that decompress and check chunks at once.
-_WORKERS = min(4, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1)
+_WORKERS = default_workers()
 
 _U32 = struct.Struct("<I")
 _U64 = struct.Struct("<Q")

@@ -24,7 +24,6 @@ from __future__ import annotations
 import base64
 import io
 import multiprocessing as mp
-import os
 import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor
@@ -36,6 +35,7 @@ from matplotlib.figure import Figure
 
 from ..core.errors import BikeRigError
 from ..core.feedback import Feedback
+from ..pipeline.forked import MAX_WORKERS, default_workers
 from ..plots.registry import (
     FIGURES,
     FIT_DPI,
@@ -63,8 +63,6 @@ __all__ = [
 
 #: Resolution of the embedded PNGs, dots per inch.
 REPORT_DPI = 100
-#: Most processes the figures are drawn in.
-MAX_WORKERS = 4
 #: Added to the caption of a closed-loop figure.
 _CLOSED_NOTE = " Closed loop A − B K of the steer-torque feedback (σ from the parameters and the gains given with σ)."
 #: Fewer figures than this are drawn in this process (a pool costs more than it saves).
@@ -263,19 +261,6 @@ def _worker_init(specs: Sequence[FigureSpec]) -> None:
 
 def _worker_draw(index: int, dpi: float) -> ReportFigure:
     return _draw_one(_WORKER_SPECS[index], dpi)
-
-
-def default_workers() -> int:
-    """Processes to draw with: the CPUs this process may use, at most :data:`MAX_WORKERS`.
-
-    Returns:
-        The number of processes, at least 1.
-    """
-    try:
-        cpus = len(os.sched_getaffinity(0))
-    except AttributeError:  # not on Linux
-        cpus = os.cpu_count() or 1
-    return max(1, min(cpus, MAX_WORKERS))
 
 
 def draw_figures(

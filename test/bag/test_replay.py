@@ -11,16 +11,18 @@ import contextlib
 import io
 import json
 import math
+import os
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
 
 from bike_rig.bag.compare import in_sigma, relative_difference
 from bike_rig.bag.errors import NoRigTopicsError, ReplayError
-from bike_rig.bag.replay import FitOverrides, ReplaySettings, replay_bag
+from bike_rig.bag.replay import FitOverrides, ReplaySettings, replay_bag, result_json
 from bike_rig.bag.simulated import SimulatedMessage, live_results, simulated_messages, write_simulated_bag
 from bike_rig.cli import replay_cmd
 from bike_rig.core.benchmark import compute_parameters
@@ -29,6 +31,7 @@ from bike_rig.core.period import FitOptions, WindowPolicy, combine_periods, fit_
 from bike_rig.core.sim import SimulatedSession
 from bike_rig.core.uncertainty.matrix_sigma import canonical_with_sigma
 from bike_rig.core.whipple import critical_speeds
+from bike_rig.pipeline import forked, offline
 from bike_rig.pipeline.fit import TrialFitOptions
 from bike_rig.topics import GYRO, STATIC_READINGS, TRIAL_EVENTS
 
@@ -112,6 +115,40 @@ def test_replay_reproduces_the_recorded_live_results(live_bag: Path) -> None:
     code, out, err = run_cli("replay", str(live_bag))
     assert (code, err) == (0, "")
     assert "live results: identical" in out
+
+
+def test_trials_fitted_in_forked_processes_replay_bit_for_bit(live_bag: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """With two CPUs a forked child fits some of the trials: the replay is the one-process replay."""
+    monkeypatch.setattr(forked, "default_workers", lambda: 1)
+    one = replay_bag(live_bag)
+    children: list[int] = []
+    real_fork = os.fork
+
+    def fork() -> int:
+        pid = real_fork()
+        if pid:
+            children.append(pid)
+        return pid
+
+    landed: list[bool] = []  # whether each fit came back without its samples (the parent has them)
+    real_land = offline._land
+
+    def land(item: Any, sent: Any) -> Any:
+        landed.append(sent[1])
+        return real_land(item, sent)
+
+    monkeypatch.setattr(forked, "default_workers", lambda: 2)
+    monkeypatch.setattr(forked, "can_fork", lambda: True)  # (whatever threads earlier tests left)
+    monkeypatch.setattr(forked.os, "fork", fork)
+    monkeypatch.setattr(offline, "_land", land)
+    two = replay_bag(live_bag)
+    assert len(children) == 1 and len(two.trials) >= forked.MIN_ITEMS
+    assert landed and all(landed)  # (the child fitted some, and sent them back without their samples)
+    assert result_json(two) == result_json(one) and two.live.identical
+    for a, b in zip(one.trials, two.trials, strict=True):
+        assert repr(b.result) == repr(a.result)
+        assert a.samples is not None and b.samples is not None
+        assert np.array_equal(b.samples, a.samples)
 
 
 def test_other_fit_settings_are_used_and_reported_as_different(live_bag: Path) -> None:

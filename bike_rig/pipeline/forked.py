@@ -1,0 +1,164 @@
+"""Offline work shared with forked child processes: the fits of a session on every CPU.
+
+The fit of a trial is Python-bound (about 1,100 numpy and Python calls per trial), so threads
+do not run two at once; processes do. :func:`forked_map` maps a function over a list, this
+process and n − 1 forked children taking the items one at a time, each the next one when it is
+free; each child inherits the items and the function (nothing is pickled on the way in) and
+sends its results back through a pipe. The results are the same as a plain map's, bit for bit:
+the same code on the same data. (A forked child works slower than its parent at first: every
+page it writes that it shares with the parent is copied; taking items as they come keeps both
+busy to the end.)
+
+A child is forked only where that is safe and pays: ``fork`` exists, this process may use more
+than one CPU, it runs no other Python thread (forking a multi-threaded process can deadlock the
+child on a lock another thread held), and there are at least :data:`MIN_ITEMS` items. A child
+that fails in any way (an exception, a crash, a result that does not unpickle) has the items it
+took done here instead, so a failure surfaces as the plain map's would.
+"""
+
+from __future__ import annotations
+
+import gc
+import os
+import pickle
+import threading
+from collections.abc import Callable, Sequence
+from typing import NoReturn, TypeVar
+
+__all__ = ["MAX_WORKERS", "MIN_ITEMS", "can_fork", "default_workers", "forked_map"]
+
+T = TypeVar("T")
+R = TypeVar("R")
+
+#: Most processes to work in.
+MAX_WORKERS = 4
+#: Fewer items than this are mapped in this process (a fork costs about what 2 trial fits do).
+MIN_ITEMS = 8
+
+
+def default_workers() -> int:
+    """Processes to work in: the CPUs this process may use, at most :data:`MAX_WORKERS` (at least 1)."""
+    try:
+        cpus = len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        cpus = os.cpu_count() or 1
+    return max(1, min(cpus, MAX_WORKERS))
+
+
+def can_fork() -> bool:
+    """Whether this process may fork a worker: ``fork`` exists and no other Python thread runs."""
+    return hasattr(os, "fork") and threading.active_count() == 1
+
+
+class _Counter:
+    """The next item to take, shared by the processes forked after it was made.
+
+    The count travels through a pipe as one 8-byte record (written and read whole): a process
+    takes it out, and puts back one more; the others wait for it meanwhile.
+    """
+
+    def __init__(self) -> None:
+        self._read, self._write = os.pipe()
+        os.write(self._write, (0).to_bytes(8, "little"))
+
+    def take(self) -> int:
+        """The index of the next item (each given out once, in order, to whichever process asks first)."""
+        i = int.from_bytes(os.read(self._read, 8), "little")
+        os.write(self._write, (i + 1).to_bytes(8, "little"))
+        return i
+
+    def stop(self, end: int) -> None:
+        """Give out no index below ``end`` any more (the children stop at their next item)."""
+        i = int.from_bytes(os.read(self._read, 8), "little")
+        os.write(self._write, max(i, end).to_bytes(8, "little"))
+
+    def close(self) -> None:
+        """Close this process's ends of the pipe."""
+        os.close(self._read)
+        os.close(self._write)
+
+
+def _child(
+    fn: Callable[[T], R], items: Sequence[T], counter: _Counter, ship: Callable[[T, R], object], out: int
+) -> NoReturn:
+    """A forked child's whole life: map the items it takes, send (index, result) pairs, exit (never returns)."""
+    gc.disable()  # (a collection would touch, and so copy, every page of objects it shares with its parent)
+    try:
+        done = []
+        while (i := counter.take()) < len(items):
+            done.append((i, ship(items[i], fn(items[i]))))
+        data = pickle.dumps(done, protocol=pickle.HIGHEST_PROTOCOL)
+        with os.fdopen(out, "wb") as f:
+            f.write(data)
+    except BaseException:  # (the parent does the items it took itself)
+        pass
+    finally:
+        os._exit(0)
+
+
+def forked_map(
+    fn: Callable[[T], R],
+    items: Sequence[T],
+    workers: int | None = None,
+    ship: Callable[[T, R], object] | None = None,
+    land: Callable[[T, object], R] | None = None,
+) -> list[R]:
+    """``[fn(x) for x in items]``, with forked children taking a share of the items (module docstring).
+
+    The processes take the items one at a time, in order, each the next one when it is free (a
+    slow item or a slower process does not hold the others up).
+
+    Args:
+        fn: The function; its results must pickle.
+        items: The items.
+        workers: Processes to work in, this one included (default :func:`default_workers`).
+        ship: What a child sends back for an item and its result (default: the result), e.g.
+            the result without arrays the parent holds anyway.
+        land: The result from what :func:`ship` sent, in the parent (default: as sent).
+
+    Returns:
+        The results, in the order of ``items``.
+    """
+    n = min(default_workers() if workers is None else max(1, workers), len(items))
+    if n < 2 or len(items) < MIN_ITEMS or not can_fork():
+        return [fn(x) for x in items]
+    send = ship if ship is not None else (lambda _x, r: r)
+    counter = _Counter()
+    children: list[tuple[int, int]] = []  # (pid, read end of its pipe)
+    try:
+        for _ in range(1, n):
+            r, w = os.pipe()
+            pid = os.fork()
+            if pid == 0:  # the child
+                os.close(r)
+                _child(fn, items, counter, send, w)
+            os.close(w)
+            children.append((pid, r))
+        results: dict[int, R] = {}
+        while (i := counter.take()) < len(items):
+            results[i] = fn(items[i])
+        for _, r in children:
+            for i, sent in _received(r):
+                results[i] = land(items[i], sent) if land is not None else sent  # type: ignore[assignment]
+        # (the items a failed child took, done here)
+        return [results[i] if i in results else fn(x) for i, x in enumerate(items)]
+    finally:
+        counter.stop(len(items))  # (after a failure here: the children stop at their next item)
+        for pid, r in children:
+            try:
+                os.close(r)  # (a child still writing gets EPIPE and exits)
+            except OSError:
+                pass
+            os.waitpid(pid, 0)
+        counter.close()
+
+
+def _received(fd: int) -> list[tuple[int, object]]:
+    """The (index, what was sent) pairs a child wrote to its pipe; none when it failed."""
+    with os.fdopen(os.dup(fd), "rb") as f:
+        data = f.read()
+    try:
+        sent = pickle.loads(data) if data else []
+    except Exception:  # (a truncated message: the child died while writing)
+        return []
+    return sent if isinstance(sent, list) else []
