@@ -11,7 +11,8 @@ busy to the end.)
 
 A child is forked only where that is safe and pays: ``fork`` exists, this process may use more
 than one CPU, it runs no other Python thread (forking a multi-threaded process can deadlock the
-child on a lock another thread held), and there are at least :data:`MIN_ITEMS` items. A child
+child on a lock another thread held), and there are at least :data:`MIN_ITEMS` items (and at
+most :data:`MAX_ITEMS`). A child
 that fails in any way (an exception, a crash, a result that does not unpickle) has the items it
 took done here instead, so a failure surfaces as the plain map's would.
 """
@@ -25,7 +26,7 @@ import threading
 from collections.abc import Callable, Sequence
 from typing import NoReturn, TypeVar
 
-__all__ = ["MAX_WORKERS", "MIN_ITEMS", "can_fork", "default_workers", "forked_map"]
+__all__ = ["MAX_ITEMS", "MAX_WORKERS", "MIN_ITEMS", "can_fork", "default_workers", "forked_map"]
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -50,27 +51,52 @@ def can_fork() -> bool:
     return hasattr(os, "fork") and threading.active_count() == 1
 
 
-class _Counter:
-    """The next item to take, shared by the processes forked after it was made.
+#: Bytes of an index in the counter's pipe.
+_INDEX = 4
+#: Most items shared out: their indices must fit in a pipe's buffer (64 kB on Linux) at once.
+MAX_ITEMS = 16_384
 
-    The count travels through a pipe as one 8-byte record (written and read whole): a process
-    takes it out, and puts back one more; the others wait for it meanwhile.
+
+class _Counter:
+    """The items' indices, each given out once, shared by the processes forked after it was made.
+
+    They wait in a pipe, written at once in order; a process takes the next by reading one
+    index (a read of a few bytes from a pipe is whole and atomic). Nothing is held between
+    two takes, so a process interrupted anywhere leaves the others free to go on.
     """
 
-    def __init__(self) -> None:
-        self._read, self._write = os.pipe()
-        os.write(self._write, (0).to_bytes(8, "little"))
+    def __init__(self, read: int, write: int):
+        self._read, self._write = read, write
 
-    def take(self) -> int:
-        """The index of the next item (each given out once, in order, to whichever process asks first)."""
-        i = int.from_bytes(os.read(self._read, 8), "little")
-        os.write(self._write, (i + 1).to_bytes(8, "little"))
-        return i
+    @classmethod
+    def of(cls, n: int) -> _Counter | None:
+        """The counter of ``n`` items, or None when the pipe cannot hold their indices at once."""
+        read, write = os.pipe()
+        os.set_blocking(read, False)
+        os.set_blocking(write, False)
+        data = b"".join(i.to_bytes(_INDEX, "little") for i in range(n))
+        try:
+            written = os.write(write, data)
+        except BlockingIOError:
+            written = 0
+        counter = cls(read, write)
+        if written != len(data):  # (a smaller pipe: the system's pipe buffers are scarce)
+            counter.close()
+            return None
+        return counter
 
-    def stop(self, end: int) -> None:
-        """Give out no index below ``end`` any more (the children stop at their next item)."""
-        i = int.from_bytes(os.read(self._read, 8), "little")
-        os.write(self._write, max(i, end).to_bytes(8, "little"))
+    def take(self) -> int | None:
+        """The next index, or None when all were taken."""
+        try:
+            data = os.read(self._read, _INDEX)
+        except BlockingIOError:
+            return None
+        return int.from_bytes(data, "little") if len(data) == _INDEX else None
+
+    def stop(self) -> None:
+        """Give out no more indices (the children stop at their next item)."""
+        while self.take() is not None:
+            pass
 
     def close(self) -> None:
         """Close this process's ends of the pipe."""
@@ -85,7 +111,7 @@ def _child(
     gc.disable()  # (a collection would touch, and so copy, every page of objects it shares with its parent)
     try:
         done = []
-        while (i := counter.take()) < len(items):
+        while (i := counter.take()) is not None:
             done.append((i, ship(items[i], fn(items[i]))))
         data = pickle.dumps(done, protocol=pickle.HIGHEST_PROTOCOL)
         with os.fdopen(out, "wb") as f:
@@ -120,10 +146,12 @@ def forked_map(
         The results, in the order of ``items``.
     """
     n = min(default_workers() if workers is None else max(1, workers), len(items))
-    if n < 2 or len(items) < MIN_ITEMS or not can_fork():
+    if n < 2 or not MIN_ITEMS <= len(items) <= MAX_ITEMS or not can_fork():
+        return [fn(x) for x in items]
+    counter = _Counter.of(len(items))
+    if counter is None:
         return [fn(x) for x in items]
     send = ship if ship is not None else (lambda _x, r: r)
-    counter = _Counter()
     children: list[tuple[int, int]] = []  # (pid, read end of its pipe)
     try:
         for _ in range(1, n):
@@ -135,7 +163,7 @@ def forked_map(
             os.close(w)
             children.append((pid, r))
         results: dict[int, R] = {}
-        while (i := counter.take()) < len(items):
+        while (i := counter.take()) is not None:
             results[i] = fn(items[i])
         for _, r in children:
             for i, sent in _received(r):
@@ -143,7 +171,7 @@ def forked_map(
         # (the items a failed child took, done here)
         return [results[i] if i in results else fn(x) for i, x in enumerate(items)]
     finally:
-        counter.stop(len(items))  # (after a failure here: the children stop at their next item)
+        counter.stop()  # (after a failure here: the children stop at their next item)
         for pid, r in children:
             try:
                 os.close(r)  # (a child still writing gets EPIPE and exits)

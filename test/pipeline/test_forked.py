@@ -131,3 +131,16 @@ def test_ship_and_land_carry_what_a_child_sends() -> None:
     assert [v for v, _ in got] == [x * x for x in items]
     assert landed and sorted(landed) == [x for x, (_, pid) in zip(items, got, strict=True) if pid == -1]
     assert {pid for _, pid in got} == {os.getpid(), -1}
+
+
+def test_more_items_than_a_pipe_holds_are_mapped_here(forks: list[int]) -> None:
+    items = list(range(forked.MAX_ITEMS + 1))
+    got = forked_map(lambda x: (x, os.getpid()), items, workers=2)
+    assert got == [(x, os.getpid()) for x in items] and forks == []
+    # (the indices of MAX_ITEMS items fit the pipe at once; of twice as many they do not)
+    counter = forked._Counter.of(forked.MAX_ITEMS)
+    assert counter is not None
+    taken = [counter.take() for _ in range(forked.MAX_ITEMS)]
+    assert taken == list(range(forked.MAX_ITEMS)) and counter.take() is None
+    counter.close()
+    assert forked._Counter.of(2 * forked.MAX_ITEMS) is None
