@@ -31,6 +31,8 @@ if TYPE_CHECKING:
 __all__ = ["main"]
 
 EXIT_USER_ERROR = 2
+#: The status of a command stopped by Ctrl-C (128 + SIGINT, as a shell reports it).
+EXIT_INTERRUPTED = 130
 DEFAULT_BICYCLE = "bicycles/browser.yaml"
 
 #: The sub-commands in the order ``bike-rig --help`` lists them: each is registered by a
@@ -314,6 +316,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_USER_ERROR
     except BrokenPipeError:
         return 0
+    except KeyboardInterrupt:  # (Ctrl-C: commands that clean up on it catch it themselves)
+        print(f"bike-rig {args.command}: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
 
 
 if __name__ == "__main__":

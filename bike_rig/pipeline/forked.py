@@ -22,6 +22,7 @@ from __future__ import annotations
 import gc
 import os
 import pickle
+import signal
 import threading
 from collections.abc import Callable, Sequence
 from typing import NoReturn, TypeVar
@@ -104,12 +105,31 @@ class _Counter:
         os.close(self._write)
 
 
+def _hold_interrupts() -> set[int | signal.Signals]:
+    """Hold SIGINT back from this thread (from now until :func:`_release`); the signals held before."""
+    if not hasattr(signal, "pthread_sigmask"):
+        return set()
+    return signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+
+
+def _release(held: set[int | signal.Signals]) -> None:
+    """Deliver a SIGINT held back by :func:`_hold_interrupts` (KeyboardInterrupt is raised here)."""
+    if hasattr(signal, "pthread_sigmask"):
+        signal.pthread_sigmask(signal.SIG_SETMASK, held)
+
+
 def _child(
-    fn: Callable[[T], R], items: Sequence[T], counter: _Counter, ship: Callable[[T, R], object], out: int
+    fn: Callable[[T], R],
+    items: Sequence[T],
+    counter: _Counter,
+    ship: Callable[[T, R], object],
+    out: int,
+    held: set[int | signal.Signals],
 ) -> NoReturn:
     """A forked child's whole life: map the items it takes, send (index, result) pairs, exit (never returns)."""
     gc.disable()  # (a collection would touch, and so copy, every page of objects it shares with its parent)
     try:
+        _release(held)  # (a Ctrl-C during the fork ends the child here, quietly)
         done = []
         while (i := counter.take()) is not None:
             done.append((i, ship(items[i], fn(items[i]))))
@@ -156,12 +176,18 @@ def forked_map(
     try:
         for _ in range(1, n):
             r, w = os.pipe()
-            pid = os.fork()
+            held = _hold_interrupts()  # (a Ctrl-C during the fork would interrupt the child's after-fork hooks)
+            try:
+                pid = os.fork()
+            except BaseException:
+                _release(held)
+                raise
             if pid == 0:  # the child
                 os.close(r)
-                _child(fn, items, counter, send, w)
-            os.close(w)
+                _child(fn, items, counter, send, w, held)
             children.append((pid, r))
+            os.close(w)
+            _release(held)
         results: dict[int, R] = {}
         while (i := counter.take()) is not None:
             results[i] = fn(items[i])

@@ -12,8 +12,10 @@ import io
 import json
 import math
 import os
+import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 from typing import Any
 
@@ -271,6 +273,45 @@ def test_replay_runs_without_rclpy(live_bag: Path) -> None:
                          env={"PYTHONPATH": f"{REPO}:{site}", "PATH": "/usr/bin:/bin"}, cwd=REPO)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "true"
+
+
+def children_of(pid: int) -> list[int]:
+    """The processes whose parent is ``pid`` (from /proc)."""
+    found = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue  # (gone meanwhile)
+        if int(fields[1]) == pid:
+            found.append(int(stat.parent.name))
+    return found
+
+
+@pytest.mark.skipif(forked.default_workers() < 2 or not Path("/proc/self/stat").exists(), reason="two CPUs, /proc")
+def test_ctrl_c_stops_the_replay_and_its_forked_fitter(live_bag: Path) -> None:
+    """Ctrl-C (SIGINT to the process group, as from a terminal) while the trials are fitted in two processes."""
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "bike_rig.cli.main", "replay", str(live_bag)],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=dict(os.environ, PYTHONPATH=str(REPO)),
+        start_new_session=True,
+    )  # fmt: skip
+    try:
+        child: list[int] = []
+        deadline = time.monotonic() + 120
+        while not child and proc.poll() is None and time.monotonic() < deadline:
+            child = children_of(proc.pid)  # (the forked fitter, while the trials are fitted)
+        assert child, "the replay ended without forking a fitter"
+        os.killpg(proc.pid, signal.SIGINT)
+        _, err = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 130, err
+    assert err.strip() == "bike-rig replay: interrupted"
+    with pytest.raises(ProcessLookupError):
+        os.kill(child[0], 0)  # (reaped: not even a zombie left)
 
 
 def test_in_sigma() -> None:
