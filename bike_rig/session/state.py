@@ -42,7 +42,7 @@ class SessionTrialView:
         trial_id: The trial.
         item_id: The plan item it belongs to ("" when it matches none).
         key: Its measurement key.
-        sample_rate_hz: From its START, Hz.
+        sample_rate_hz: From its START (or its first gyro batch, when the START is late), Hz.
         state: RECORDING, then OK or REDO.
         fit: The period estimate, once published.
         aborted: Its end was an ABORT.
@@ -81,11 +81,9 @@ def result_line(view: SessionTrialView) -> str:
     if fit is None:
         return f"{head} aborted" if view.aborted else f"{head} waiting for its fit"
     cycles = _cycles(fit, view.sample_rate_hz)
-    numbers = (
-        f"T = {fit.period:.6g} ± {fit.period_sigma:.2g} s, {cycles:.0f} cycles, r² {fit.fit.r2:.5f}"
-        if fit.valid
-        else "no period"
-    )
+    counted = f", {cycles:.0f} cycles" if math.isfinite(cycles) else ""  # (none: neither event nor batch told the rate)
+    numbers = f"T = {fit.period:.6g} ± {fit.period_sigma:.2g} s{counted}, r² {fit.fit.r2:.5f}"
+    numbers = numbers if fit.valid else "no period"
     details = FitDetails.of(fit).summary(fit.period) if fit.valid else ""
     more = f"; {details}" if details else ""
     if fit.usable:
@@ -176,9 +174,12 @@ class OperatorSession:
             self.live = None
 
     def on_samples(self, batch: SampleBatch, now_wall_s: float) -> None:
-        """A gyro batch: feeds the live trace of the recording trial."""
+        """A gyro batch: feeds the live trace of the recording trial (and gives its rate, if its START did not)."""
         if self.live is not None and batch.trial_id == self.live.trial_id:
             self.live.add(batch.rates, batch.sample_rate_hz, now_wall_s, batch.first_index)
+            view = self.trials.get(batch.trial_id)
+            if view is not None and math.isnan(view.sample_rate_hz) and 0 < batch.sample_rate_hz < math.inf:
+                view.sample_rate_hz = batch.sample_rate_hz  # (its cycles need it: the result may come first)
 
     def on_period(self, fit: TrialFit) -> str:
         """A period estimate: the trial's state becomes OK or REDO. Returns its result line."""

@@ -80,6 +80,30 @@ def test_a_result_before_its_stop_event_ends_the_recording(ctl_link) -> None:  #
     assert ctl.execute("start")[0].kind == "ok"
 
 
+def test_a_result_whose_events_are_late_counts_its_cycles_from_the_batches_rate(ctl_link) -> None:  # type: ignore[no-untyped-def]
+    """The START (which gives the rate) late or lost: the live trace's batches give it, so the cycles are counted."""
+    ctl, link, t = ctl_link
+    first = ctl.session.plan.trials[0]
+    ctl.execute("start")
+    trial_id = link.started[0][0]
+    link.events_out = []  # the START is late
+    link.samples(trial_id, np.zeros(50))
+    ctl.pump()
+    link.period(trial_id, first.key, 1.2, 1e-4)
+    link.events_out = [e for e in link.events_out if not getattr(e, "kind", None)]  # and the STOP too
+    result = [r for r in ctl.pump() if r.kind == "result"]
+    assert result and "T = 1.2 ± 0.0001 s, 25 cycles, r²" in result[0].text  # (30,000 samples at 1 kHz)
+    # with no batch either, the line leaves the cycles out rather than print "nan cycles"
+    second = ctl.session.plan.trials[1]
+    ctl.execute(f"start {second.item_id}")
+    link.events_out = []
+    ctl.pump()
+    link.period(link.started[1][0], second.key, 0.8, 1e-4)
+    link.events_out = [e for e in link.events_out if not getattr(e, "kind", None)]
+    result = [r for r in ctl.pump() if r.kind == "result"]
+    assert result and "T = 0.8 ± 0.0001 s, r² 0.99990 — ok" in result[0].text
+
+
 def test_abort_records_redo_and_refusal_is_reported(ctl_link) -> None:  # type: ignore[no-untyped-def]
     ctl, link, t = ctl_link
     ctl.execute("start TtB2#1")
