@@ -9,10 +9,12 @@ the same code on the same data. (A forked child works slower than its parent at 
 page it writes that it shares with the parent is copied; taking items as they come keeps both
 busy to the end.)
 
-A child is forked only where that is safe and pays: ``fork`` exists, this process may use more
-than one CPU, it runs no other Python thread (forking a multi-threaded process can deadlock the
-child on a lock another thread held), and there are at least :data:`MIN_ITEMS` items (and at
-most :data:`MAX_ITEMS`). A child
+A child is forked only where that is safe and pays: ``fork`` exists, more than one process is
+asked for (by default, when this process may use more than one CPU), no other Python thread
+runs (forking a multi-threaded process can deadlock the child on a lock another thread held;
+threads that Python does not know of, such as OpenBLAS's pool, are not counted: they protect
+themselves across a fork), and there are at least :data:`MIN_ITEMS` items (and at most
+:data:`MAX_ITEMS`). A child
 that fails in any way (an exception, a crash, a result that does not unpickle) has the items it
 took done here instead, so a failure surfaces as the plain map's would.
 """
@@ -48,7 +50,7 @@ def default_workers() -> int:
 
 
 def can_fork() -> bool:
-    """Whether this process may fork a worker: ``fork`` exists and no other Python thread runs."""
+    """Whether this process may fork a worker: ``fork`` exists and no other Python thread runs (module docstring)."""
     return hasattr(os, "fork") and threading.active_count() == 1
 
 
@@ -96,26 +98,35 @@ class _Counter:
 
     def stop(self) -> None:
         """Give out no more indices (the children stop at their next item)."""
-        while self.take() is not None:
+        while self._read >= 0 and self.take() is not None:
             pass
 
     def close(self) -> None:
-        """Close this process's ends of the pipe."""
-        os.close(self._read)
-        os.close(self._write)
+        """Close this process's ends of the pipe (once)."""
+        ends, self._read, self._write = (self._read, self._write), -1, -1
+        for fd in ends:
+            if fd >= 0:
+                os.close(fd)
 
 
-def _hold_interrupts() -> set[int | signal.Signals]:
-    """Hold SIGINT back from this thread (from now until :func:`_release`); the signals held before."""
-    if not hasattr(signal, "pthread_sigmask"):
-        return set()
-    return signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+_Mask = set[int | signal.Signals]
 
 
-def _release(held: set[int | signal.Signals]) -> None:
-    """Deliver a SIGINT held back by :func:`_hold_interrupts` (KeyboardInterrupt is raised here)."""
+def _mask() -> _Mask:
+    """The signals this thread holds back now."""
+    return signal.pthread_sigmask(signal.SIG_BLOCK, ()) if hasattr(signal, "pthread_sigmask") else set()
+
+
+def _hold_interrupts() -> None:
+    """Hold SIGINT back from this thread until the mask is set again (:func:`_set_mask`)."""
     if hasattr(signal, "pthread_sigmask"):
-        signal.pthread_sigmask(signal.SIG_SETMASK, held)
+        signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+
+
+def _set_mask(mask: _Mask) -> None:
+    """Hold back ``mask`` only: a SIGINT held back meanwhile is delivered (KeyboardInterrupt is raised here)."""
+    if hasattr(signal, "pthread_sigmask"):
+        signal.pthread_sigmask(signal.SIG_SETMASK, mask)
 
 
 def _child(
@@ -124,12 +135,12 @@ def _child(
     counter: _Counter,
     ship: Callable[[T, R], object],
     out: int,
-    held: set[int | signal.Signals],
+    mask: _Mask,
 ) -> NoReturn:
     """A forked child's whole life: map the items it takes, send (index, result) pairs, exit (never returns)."""
     gc.disable()  # (a collection would touch, and so copy, every page of objects it shares with its parent)
     try:
-        _release(held)  # (a Ctrl-C during the fork ends the child here, quietly)
+        _set_mask(mask)  # (a Ctrl-C during the fork ends the child here, quietly)
         done = []
         while (i := counter.take()) is not None:
             done.append((i, ship(items[i], fn(items[i]))))
@@ -142,6 +153,67 @@ def _child(
         os._exit(0)
 
 
+def _start_child(
+    fn: Callable[[T], R],
+    items: Sequence[T],
+    counter: _Counter,
+    ship: Callable[[T, R], object],
+    children: list[tuple[int, int]],
+) -> bool:
+    """Fork one more child and add its (pid, read end of its pipe) to ``children``.
+
+    Returns:
+        False when the system gives no pipe or no process (nothing is left open).
+    """
+    mask = _mask()
+    try:
+        _hold_interrupts()  # (a Ctrl-C during the fork would interrupt the child's after-fork hooks)
+        try:
+            r, w = os.pipe()
+        except OSError:
+            return False
+        try:
+            pid = os.fork()
+        except OSError:
+            os.close(r)
+            os.close(w)
+            return False
+        if pid == 0:  # the child: only its own pipe's write end (the others' readers must see them end)
+            os.close(r)
+            for _, earlier in children:
+                os.close(earlier)
+            _child(fn, items, counter, ship, w, mask)
+        children.append((pid, r))
+        os.close(w)
+        return True
+    finally:
+        _set_mask(mask)  # (in this process: a Ctrl-C held back is raised now, the child already listed)
+
+
+def _reap(children: list[tuple[int, int]], counter: _Counter) -> None:
+    """Stop the children and wait for each; a Ctrl-C meanwhile is raised once they are gone."""
+    reads = [r for _, r in children]
+    pids = [pid for pid, _ in children]
+    interrupted: KeyboardInterrupt | None = None
+    while True:
+        try:
+            counter.stop()  # (the children stop at their next item)
+            while reads:
+                os.close(reads.pop())  # (a child still writing gets EPIPE and exits)
+            while pids:
+                try:
+                    os.waitpid(pids[-1], 0)
+                except ChildProcessError:
+                    pass  # (reaped already, before an interruption)
+                pids.pop()
+            counter.close()
+            break
+        except KeyboardInterrupt as exc:
+            interrupted = exc
+    if interrupted is not None:
+        raise interrupted
+
+
 def forked_map(
     fn: Callable[[T], R],
     items: Sequence[T],
@@ -152,7 +224,8 @@ def forked_map(
     """``[fn(x) for x in items]``, with forked children taking a share of the items (module docstring).
 
     The processes take the items one at a time, in order, each the next one when it is free (a
-    slow item or a slower process does not hold the others up).
+    slow item or a slower process does not hold the others up). When the system gives fewer
+    processes than asked for, the work is shared among those it gave.
 
     Args:
         fn: The function; its results must pickle.
@@ -168,26 +241,17 @@ def forked_map(
     n = min(default_workers() if workers is None else max(1, workers), len(items))
     if n < 2 or not MIN_ITEMS <= len(items) <= MAX_ITEMS or not can_fork():
         return [fn(x) for x in items]
-    counter = _Counter.of(len(items))
+    try:
+        counter = _Counter.of(len(items))
+    except OSError:  # (no pipe to be had)
+        counter = None
     if counter is None:
         return [fn(x) for x in items]
     send = ship if ship is not None else (lambda _x, r: r)
     children: list[tuple[int, int]] = []  # (pid, read end of its pipe)
     try:
-        for _ in range(1, n):
-            r, w = os.pipe()
-            held = _hold_interrupts()  # (a Ctrl-C during the fork would interrupt the child's after-fork hooks)
-            try:
-                pid = os.fork()
-            except BaseException:
-                _release(held)
-                raise
-            if pid == 0:  # the child
-                os.close(r)
-                _child(fn, items, counter, send, w, held)
-            children.append((pid, r))
-            os.close(w)
-            _release(held)
+        while len(children) < n - 1 and _start_child(fn, items, counter, send, children):
+            pass
         results: dict[int, R] = {}
         while (i := counter.take()) is not None:
             results[i] = fn(items[i])
@@ -197,14 +261,7 @@ def forked_map(
         # (the items a failed child took, done here)
         return [results[i] if i in results else fn(x) for i, x in enumerate(items)]
     finally:
-        counter.stop()  # (after a failure here: the children stop at their next item)
-        for pid, r in children:
-            try:
-                os.close(r)  # (a child still writing gets EPIPE and exits)
-            except OSError:
-                pass
-            os.waitpid(pid, 0)
-        counter.close()
+        _reap(children, counter)
 
 
 def _received(fd: int) -> list[tuple[int, object]]:

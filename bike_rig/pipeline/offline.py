@@ -206,6 +206,7 @@ def _ship(item: tuple[TrialInput, TrialFitOptions], result: TrialFit) -> tuple[T
     if (
         own is not None and kept is not None and result.sample_times is None
         and kept.ctypes.data == own.ctypes.data and kept.shape == own.shape and kept.strides == own.strides
+        and kept.dtype == own.dtype
     ):  # fmt: skip
         return dataclasses.replace(result, samples=None), True
     return result, False

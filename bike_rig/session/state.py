@@ -60,6 +60,9 @@ class SessionTrialView:
 
 
 def _cycles(fit: TrialFit, rate_hz: float) -> float:
+    """Cycles in the fit's window, at the fit's own sample rate when it has one, else at ``rate_hz``."""
+    if math.isfinite(fit.sample_rate_hz) and fit.sample_rate_hz > 0:
+        rate_hz = fit.sample_rate_hz
     n = fit.window[1] - fit.window[0]
     if not (math.isfinite(rate_hz) and rate_hz > 0 and math.isfinite(fit.period) and fit.period > 0 and n > 0):
         return math.nan

@@ -3,8 +3,12 @@
 from __future__ import annotations
 
 import os
+import subprocess
+import sys
+import textwrap
 import threading
 import time
+from pathlib import Path
 
 import pytest
 
@@ -144,3 +148,53 @@ def test_more_items_than_a_pipe_holds_are_mapped_here(forks: list[int]) -> None:
     assert taken == list(range(forked.MAX_ITEMS)) and counter.take() is None
     counter.close()
     assert forked._Counter.of(2 * forked.MAX_ITEMS) is None
+
+
+def open_fds() -> int:
+    """How many file descriptors this process has open."""
+    return len(os.listdir("/proc/self/fd"))
+
+
+def test_nothing_is_left_open_and_a_refused_fork_maps_here(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(forked, "can_fork", lambda: True)
+    items = list(range(2 * MIN_ITEMS))
+    before = open_fds()
+    assert [v for v, _ in forked_map(square, items, workers=3)] == [x * x for x in items]
+    assert open_fds() == before
+
+    def refuse() -> int:
+        raise BlockingIOError(11, "Resource temporarily unavailable")  # (EAGAIN: a process limit)
+
+    monkeypatch.setattr(forked.os, "fork", refuse)
+    got = forked_map(square, items, workers=3)
+    assert got == [(x * x, os.getpid()) for x in items] and open_fds() == before
+
+
+def test_a_failure_here_with_children_blocked_writing_does_not_hang(tmp_path: Path) -> None:
+    """Three processes, each child with more to send than a pipe holds, and this process fails meanwhile."""
+    code = textwrap.dedent(
+        """
+        import os, time
+        from bike_rig.pipeline import forked
+        forked.can_fork = lambda: True
+        parent = os.getpid()
+
+        def fn(x):
+            if os.getpid() == parent and x >= 6:
+                time.sleep(0.3)  # (the children meanwhile take the rest, and block writing it)
+                raise KeyError("here")
+            time.sleep(0.001)
+            return x
+
+        try:
+            forked.forked_map(fn, list(range(200)), workers=3, ship=lambda x, r: os.urandom(4096))
+        except KeyError:
+            try:
+                os.waitid(os.P_ALL, 0, os.WEXITED | os.WNOHANG)
+            except ChildProcessError:
+                print("raised, no child left")
+        """
+    )
+    env = dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parents[2]))
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60, env=env, check=False)
+    assert out.stdout.strip() == "raised, no child left", out.stderr
