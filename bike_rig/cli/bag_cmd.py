@@ -24,6 +24,7 @@ from typing import Any
 
 from ..bag.info import BagSummary, TrialSummary, summarize
 from ..bag.recover import Recovery, recover_bag
+from .commands import HELP
 from .format import format_value_sigma
 
 __all__ = ["add_parser", "info_text", "recover_text", "run_info", "run_recover"]
@@ -33,7 +34,7 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     """Register ``bag info`` and ``bag recover`` on ``subparsers`` (``bike-rig``'s sub-commands)."""
     q = subparsers.add_parser(
         "bag",
-        help="summarise a recorded session, or recover a bag whose recording was cut",
+        help=HELP["bag"],
         description="Tools for the rig's bags (rosbag2 directories with MCAP storage).",
     )
     sub = q.add_subparsers(dest="bag_command", required=True, metavar="{info,recover}")

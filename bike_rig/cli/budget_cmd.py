@@ -51,6 +51,7 @@ from ..core.uncertainty.budget import (
 )
 from ..pipeline.swing import swing_alternative
 from ..subjects import load_subject
+from .commands import HELP
 from .common import emit, feedback_from_spec, rider_from_spec
 from .format import format_value_sigma
 from .options import add_feedback_option
@@ -69,7 +70,7 @@ def add_parser(sub: Any) -> None:
     """Register ``bike-rig budget`` on the ``bike-rig`` sub-command parser."""
     q = sub.add_parser(
         "budget",
-        help="uncertainty budget: the raw readings ranked by their share of each σ",
+        help=HELP["budget"],
         description="For each of the 25 benchmark parameters and the weave and capsize speeds, rank the "
         "raw measurements (every reading, every period) by their share of the output's variance, so you "
         "know what to measure better. A parameter file has no raw readings: its parameters are the inputs.",

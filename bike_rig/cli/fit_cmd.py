@@ -48,6 +48,7 @@ from typing import Any
 from ..core.errors import BikeRigError, InputFileError
 from ..core.period import CombinedPeriod, PeriodFit, WindowPolicy, combine_periods, fit_period
 from ..core.trials import Trial, read_trial
+from .commands import HELP
 from .format import format_value_sigma
 from .options import (
     add_column_options,
@@ -81,7 +82,7 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     """
     q = subparsers.add_parser(
         "fit",
-        help="fit the pendulum period of trial files (Eq 23-27)",
+        help=HELP["fit"],
         description="Fit the paper's decaying oscillation (Eq 23) to each trial file and report its "
         "period with an honest σ and quality flags; several files are also combined.",
     )

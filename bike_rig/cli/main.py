@@ -4,8 +4,10 @@ Every user mistake ends in one line on stderr naming the file, key, line and rea
 exit status 2 and no traceback.
 
 Start-up is kept short: a sub-command's module (and what it imports: numpy, scipy, rosbags,
-matplotlib...) is imported only when that sub-command runs, or when the whole command line is
-shown (``bike-rig --help``, an unknown sub-command).
+matplotlib...) is imported only when that sub-command runs. ``bike-rig --help``, and the error of
+a missing or unknown sub-command, come from :func:`build_overview_parser`, which knows every
+sub-command by its name and one-line help alone (:data:`~bike_rig.cli.commands.COMMANDS`) and so
+imports none of their modules.
 
 A command in :data:`SINGLE_THREADED_BLAS`, run as a command (not called with ``argv``), asks
 OpenBLAS for no worker threads before numpy loads, unless ``OPENBLAS_NUM_THREADS`` is set
@@ -22,6 +24,7 @@ from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any
 
 from ..core.errors import BikeRigError
+from .commands import COMMANDS, HELP
 
 if TYPE_CHECKING:
     import numpy as np
@@ -34,27 +37,6 @@ EXIT_USER_ERROR = 2
 #: The status of a command stopped by Ctrl-C (128 + SIGINT, as a shell reports it).
 EXIT_INTERRUPTED = 130
 DEFAULT_BICYCLE = "bicycles/browser.yaml"
-
-#: The sub-commands in the order ``bike-rig --help`` lists them: each is registered by a
-#: function of this module or by ``add_parser`` of a module of this package.
-SUBCOMMANDS: tuple[tuple[str, str], ...] = (
-    ("params", "_add_params"),
-    ("model", "model_cmd"),
-    ("import-bp", "_add_import_bp"),
-    ("fit", "fit_cmd"),
-    ("bag", "bag_cmd"),
-    ("replay", "replay_cmd"),
-    ("run", "run_cmd"),
-    ("view", "view_cmd"),
-    ("session", "session_cmd"),
-    ("simulate", "simulate_cmd"),
-    ("plot", "plot_cmd"),
-    ("budget", "budget_cmd"),
-    ("report", "report_cmd"),
-    ("ride", "ride_cmd"),
-    ("demo", "_add_demo"),
-)
-
 
 #: Sub-commands run with one OpenBLAS thread: their linear algebra is small (fits of one trial,
 #: 4×4 matrices), and ``replay``'s output is the same, bit for bit (test/cli/test_startup.py).
@@ -246,7 +228,7 @@ def _common(q: argparse.ArgumentParser) -> None:
 
 
 def _add_params(sub: Any) -> None:
-    q = sub.add_parser("params", help="the 25 benchmark parameters with σ")
+    q = sub.add_parser("params", help=HELP["params"])
     _common(q)
     q.add_argument("--json", action="store_true", help="one JSON object on standard output")
     q.add_argument("--format", choices=["table", "json", "yaml", "bp-yaml"], default="table")
@@ -264,17 +246,14 @@ def _add_params(sub: Any) -> None:
 
 
 def _add_import_bp(sub: Any) -> None:
-    q = sub.add_parser("import-bp", help="convert a BicycleParameters text file to bike_rig YAML")
+    q = sub.add_parser("import-bp", help=HELP["import-bp"])
     q.add_argument("file", help="<Name>Measured.txt or <Name>Benchmark.txt")
     q.add_argument("-o", "--output", required=True, help="the YAML file to write")
     q.set_defaults(func=cmd_import_bp)
 
 
 def _add_demo(sub: Any) -> None:
-    q = sub.add_parser(
-        "demo",
-        help="a whole simulated rig session through the live ROS graph: parameters, stability, bag",
-    )
+    q = sub.add_parser("demo", help=HELP["demo"])
     q.add_argument("--bicycle", help="the true bicycle (default: config/bicycles/browser.yaml)")
     q.add_argument("--out", help="new directory for the session, bag and logs (default: ./bike_rig_demo/<time>)")
     q.add_argument("--seed", type=int, default=1, help="seed of the simulated session (default 1)")
@@ -291,13 +270,31 @@ def _registrar(where: str) -> Callable[[Any], None]:
     return module.add_parser
 
 
+def _top_parser() -> tuple[argparse.ArgumentParser, argparse._SubParsersAction[argparse.ArgumentParser]]:
+    """``bike-rig``'s own parser, and its (still empty) sub-command parsers."""
+    p = argparse.ArgumentParser(prog="bike-rig", description="Bicycle parameter rig (Moore et al.) tools.")
+    return p, p.add_subparsers(dest="command", required=True)
+
+
 def build_parser(only: str | None = None) -> argparse.ArgumentParser:
     """The argument parser of every subcommand (or of ``only``, when it names one)."""
-    p = argparse.ArgumentParser(prog="bike-rig", description="Bicycle parameter rig (Moore et al.) tools.")
-    sub = p.add_subparsers(dest="command", required=True)
-    for name, where in SUBCOMMANDS:
-        if only is None or only == name:
-            _registrar(where)(sub)
+    p, sub = _top_parser()
+    for command in COMMANDS:
+        if only is None or only == command.name:
+            _registrar(command.registrar)(sub)
+    return p
+
+
+def build_overview_parser() -> argparse.ArgumentParser:
+    """``bike-rig``'s parser with every sub-command known by its name and one-line help alone.
+
+    Its help and its errors (no sub-command, an unknown one) are those of :func:`build_parser`,
+    but it imports no sub-command's module. A sub-command's parser here is a placeholder that
+    takes any arguments, even ``--help``: :func:`main` parses them again with the real ones.
+    """
+    p, sub = _top_parser()
+    for command in COMMANDS:
+        sub.add_parser(command.name, help=command.help, add_help=False)
     return p
 
 
@@ -305,9 +302,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``bike-rig``; returns the exit status."""
     fresh = argv is None  # run as a command, not called from Python
     argv = list(sys.argv[1:] if argv is None else argv)
-    named = argv[0] if argv and argv[0] in dict(SUBCOMMANDS) else None
+    named = argv[0] if argv and argv[0] in HELP else None
     if fresh and named in SINGLE_THREADED_BLAS:
         single_threaded_blas()
+    if named is None:  # --help, or no or an unknown sub-command: the overview shows it and exits
+        build_overview_parser().parse_known_args(argv)
+        # still here: a sub-command after "--" or an unknown option, parsed (as ever) with every one
     args = build_parser(named).parse_args(argv)
     try:
         return int(args.func(args))

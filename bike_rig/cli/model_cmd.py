@@ -44,6 +44,7 @@ from ..core.whipple import EigenvalueSweep, critical_speeds, eigenvalues
 from ..core.whipple.closed_loop import closed_loop_stable_range
 from ..textfmt import format_speed
 from . import format as fmt
+from .commands import HELP
 from .common import emit, feedback_from_spec, rider_from_spec
 from .main import _common, _parameters, _speeds
 from .options import add_feedback_option
@@ -53,7 +54,7 @@ __all__ = ["add_parser", "feedback_json", "feedback_text", "model_json", "run", 
 
 def add_parser(sub: Any) -> None:
     """Register ``bike-rig model`` on the ``bike-rig`` sub-command parser."""
-    q = sub.add_parser("model", help="canonical matrices, critical speeds and eigenvalues")
+    q = sub.add_parser("model", help=HELP["model"])
     _common(q)
     q.add_argument("--rider", help="'paper' for the paper's rigid rider (Table 1), or a rider YAML file")
     add_feedback_option(q)

@@ -53,6 +53,7 @@ from ..core.whipple import MODE_LABELS
 from ..plots.model_data import MAX_SPEED
 from ..plots.output import check_out_dir, trial_name, unique_names
 from ..plots.registry import FIGURES, KINDS, FigureKind, Scope, figure_stem
+from .commands import HELP
 from .common import feedback_from_spec
 from .options import add_feedback_option
 
@@ -326,7 +327,7 @@ def add_parser(sub: Any) -> None:
     """
     q = sub.add_parser(
         "plot",
-        help="figures: eigenvalues, root locus, mode shapes, Bode, side view, trial fits and overview",
+        help=HELP["plot"],
         description="Draw figures of one or several bicycles (measurement files, parameter files or "
         "session bags) as PNG and/or SVG files in DIR, and print each file written.",
     )

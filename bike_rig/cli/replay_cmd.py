@@ -43,6 +43,7 @@ from ..core.benchmark import ComMethod
 from ..core.errors import BikeRigError
 from ..core.uncertainty.matrix_sigma import SigmaConvention
 from . import format as fmt
+from .commands import HELP
 from .options import add_threshold_options, add_window_options, thresholds_from_args, window_from_args
 
 __all__ = ["ReplayUsageError", "add_parser", "replay_text", "run"]
@@ -56,7 +57,7 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     """Register ``replay`` on ``subparsers`` (``bike-rig``'s sub-commands)."""
     q = subparsers.add_parser(
         "replay",
-        help="recompute a recorded session offline (or --republish it into a live graph)",
+        help=HELP["replay"],
         description="Recompute every trial's period, the parameters and the weave and capsize speeds "
         "from a bag, offline, with the live nodes' own functions and recorded settings, and compare "
         "with what the live graph published.",

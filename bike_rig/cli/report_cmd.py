@@ -17,6 +17,7 @@ import sys
 from typing import Any
 
 from ..core.benchmark import ComMethod
+from .commands import HELP
 from .options import add_feedback_option
 
 __all__ = ["add_parser", "run"]
@@ -72,7 +73,7 @@ def add_parser(sub: Any) -> None:
     """
     q = sub.add_parser(
         "report",
-        help="a self-contained HTML report of one bicycle: parameters, matrices, speeds, budget, trials, figures",
+        help=HELP["report"],
         description="Write DIR/index.html: the bicycle and its source, the 25 parameters with σ (Table 2), the "
         "canonical matrices with σ (Table 3) and the weave and capsize speeds with σ, without and with the "
         "paper's rider, the uncertainty budget, every trial with its fit and flags, a bag's timeline, and "

@@ -36,6 +36,7 @@ from ..core.ride.eigen import MODELS, MeasuredEigenvalue, combine_eigenvalues
 from ..core.ride.record import RideRecord
 from ..core.ride.segment import Segment
 from ..rides import WHOLE_BELOW_S, RecordOptions, measure_records
+from .commands import HELP
 from .common import UsageError
 
 if TYPE_CHECKING:
@@ -68,7 +69,7 @@ def add_parser(sub: Any) -> None:
     """Register ``bike-rig ride`` and its sub-commands."""
     from .options import add_feedback_option
 
-    q = sub.add_parser("ride", help="measured weave eigenvalues of ride records, validated against the model")
+    q = sub.add_parser("ride", help=HELP["ride"])
     rs = q.add_subparsers(dest="ride_command", required=True)
     f = rs.add_parser("fit", help="each segment's eigenvalue with σ and flags")
     f.add_argument("records", nargs="+", metavar="RECORD", help="CSV files or bags")

@@ -41,6 +41,7 @@ from typing import TYPE_CHECKING, Any
 
 from ..core.errors import BikeRigError
 from ..paths import config_dir, config_file
+from .commands import HELP
 from .common import UsageError
 
 if TYPE_CHECKING:
@@ -70,7 +71,7 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     """Register ``run``."""
     q = subparsers.add_parser(
         "run",
-        help="start the rig's ROS graph (driver, fitter, parameter, model, recorder) and print each trial's result",
+        help=HELP["run"],
         description="Start every node of a graph file as its own process on localhost with a ROS_DOMAIN_ID of "
         "its own, print each trial's result as it is fitted, and at the end a summary and where the session "
         "folder (bag/ and logs/) is. Ctrl-C aborts a trial in progress and stops the nodes cleanly; a node "

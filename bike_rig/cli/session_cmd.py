@@ -18,6 +18,7 @@ from ..graphwatch import NodeWatch
 from ..launch import LaunchError, RunningGraph, load_graph, parse_overrides
 from ..paths import config_file
 from ..rosenv import check_domain_id
+from .commands import HELP
 
 __all__ = ["SessionArgumentError", "add_parser", "run"]
 
@@ -30,7 +31,7 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     """Register ``session``."""
     q = subparsers.add_parser(
         "session",
-        help="run a measurement session from one console: the plan, trials, readings, results",
+        help=HELP["session"],
         description="Start the rig's graph (or join one with --join) and walk the operator through the session: "
         "the plan, trials started from the keyboard, static readings typed in, each result at once, the "
         "parameters and speeds as they form, and the next-best measurement. With no hardware source the "

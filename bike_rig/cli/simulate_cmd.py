@@ -18,6 +18,7 @@ from pathlib import Path
 from ..core.errors import BikeRigError, InputFileError
 from ..core.sim import load_rig, load_true_parameters, simulate_session, write_session
 from ..paths import config_file
+from .commands import HELP
 
 __all__ = ["DEFAULT_RIG", "add_parser", "run"]
 
@@ -32,7 +33,7 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     """Register the ``simulate`` subcommand (``set_defaults(func=run)``)."""
     q = subparsers.add_parser(
         "simulate",
-        help="simulate a measurement session on the pendulum rig (paper sections 6-9)",
+        help=HELP["simulate"],
         description="Simulate a whole measurement session of a bicycle on the rig: static readings with "
         "noise and every pendulum trial as a gyro signal, written as a session directory.",
     )

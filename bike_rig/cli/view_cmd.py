@@ -15,6 +15,7 @@ import os
 
 from ..core.errors import BikeRigError
 from ..liveview import DEFAULT_PORT, LAYOUT_FILE
+from .commands import HELP
 
 __all__ = ["add_parser", "run"]
 
@@ -27,7 +28,7 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     """Register ``view``."""
     q = subparsers.add_parser(
         "view",
-        help="serve the live ROS graph to the Foxglove app (its WebSocket protocol) until Ctrl-C",
+        help=HELP["view"],
         description="Start the Foxglove bridge: the gyro trace, trial events, periods, parameters, eigen sweep "
         "and diagnostics of the running graph, served over Foxglove's WebSocket protocol. Open the printed "
         "address in Foxglove (Open connection > Foxglove WebSocket) and import the printed layout file.",

@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from bike_rig.cli import model_cmd
-from bike_rig.cli.main import SUBCOMMANDS, main
+from bike_rig.cli.commands import COMMANDS
+from bike_rig.cli.main import main
 from bike_rig.core.benchmark import compute_parameters
 from bike_rig.core.feedback import load_feedback
 from bike_rig.core.loader import load_measurements
@@ -29,7 +30,8 @@ def run(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
 
 
 def test_model_is_its_own_module() -> None:
-    assert dict(SUBCOMMANDS)["model"] == "model_cmd" and callable(model_cmd.add_parser)
+    registrar = {c.name: c.registrar for c in COMMANDS}["model"]
+    assert registrar == "model_cmd" and callable(model_cmd.add_parser)
 
 
 def test_model_prints_the_critical_speeds_with_the_model_nodes_sigma(capsys: pytest.CaptureFixture[str]) -> None:

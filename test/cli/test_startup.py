@@ -1,17 +1,26 @@
-"""Start-up of ``bike-rig``: a command imports only what it needs, and parses as with every command."""
+"""Start-up of ``bike-rig``: a command imports only what it needs, and parses as with every command.
+
+``bike-rig --help`` and an unknown sub-command's error import no sub-command's module, yet show what
+the parser with every sub-command registered shows.
+"""
 
 from __future__ import annotations
 
 import argparse
+import contextlib
+import io
+import json
 import os
 import subprocess
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
 
 from bike_rig.bag.simulated import live_results, simulated_messages, write_simulated_bag
-from bike_rig.cli.main import SUBCOMMANDS, build_parser
+from bike_rig.cli.commands import COMMANDS, HELP
+from bike_rig.cli.main import build_overview_parser, build_parser, main
 from bike_rig.paths import config_file
 from test.bag.conftest import short_session
 
@@ -45,7 +54,7 @@ def subparser(parser: argparse.ArgumentParser, name: str) -> argparse.ArgumentPa
     return action.choices[name]  # type: ignore[no-any-return]
 
 
-@pytest.mark.parametrize("name", [name for name, _ in SUBCOMMANDS])
+@pytest.mark.parametrize("name", [command.name for command in COMMANDS])
 def test_a_command_parses_as_with_every_command_registered(name: str) -> None:
     alone, every = subparser(build_parser(name), name), subparser(build_parser(), name)
     assert alone.format_help() == every.format_help()
@@ -53,7 +62,91 @@ def test_a_command_parses_as_with_every_command_registered(name: str) -> None:
 
 def test_help_lists_every_command() -> None:
     text = build_parser().format_help()
-    assert "{" + ",".join(name for name, _ in SUBCOMMANDS) + "}" in text
+    assert "{" + ",".join(command.name for command in COMMANDS) + "}" in text
+
+
+def command_modules(loaded: set[str]) -> set[str]:
+    """The sub-command modules (``bike_rig.cli.*_cmd``) among the modules ``loaded``."""
+    return {m for m in loaded if m.startswith("bike_rig.cli.") and m.endswith("_cmd")}
+
+
+def after_main(argv: list[str]) -> tuple[int, str, set[str]]:
+    """Exit status, standard output and every imported module once ``main(argv)`` ran in a fresh interpreter."""
+    code = (
+        "import contextlib, io, json, sys\nfrom bike_rig.cli.main import main\nout = io.StringIO()\n"
+        "try:\n"
+        f"    with contextlib.redirect_stdout(out): status = main({argv!r})\n"
+        "except SystemExit as exc:\n    status = exc.code\n"
+        "print(json.dumps([status, out.getvalue(), sorted(sys.modules)]))"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=REPO)
+    status, out, modules = json.loads(done.stdout)
+    return status, out, set(modules)
+
+
+@pytest.mark.parametrize(("argv", "status"), [(["--help"], 0), (["nosuchcommand"], 2), ([], 2)])
+def test_help_and_an_unknown_command_import_no_command_module_nor_library(argv: list[str], status: int) -> None:
+    got, out, loaded = after_main(argv)
+    assert got == status
+    assert not {m.split(".")[0] for m in loaded} & {*HEAVY, "numpy", "yaml"}
+    assert not command_modules(loaded)
+    if argv == ["--help"]:
+        shown = "".join(out.split())  # (the help is wrapped to the terminal's width)
+        for command in COMMANDS:
+            assert "".join(command.help.split()) in shown
+
+
+def test_a_command_imports_its_own_module_alone() -> None:
+    _, _, loaded = after_main(["fit", "--help"])
+    assert command_modules(loaded) == {"bike_rig.cli.fit_cmd"}
+
+
+@pytest.mark.parametrize("columns", ["40", "80", "200"])
+def test_the_overview_shows_the_help_of_the_parser_with_every_command(
+    columns: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("COLUMNS", columns)
+    assert build_overview_parser().format_help() == build_parser().format_help()
+    assert build_overview_parser().format_usage() == build_parser().format_usage()
+
+
+def test_each_command_registers_the_one_line_help_of_the_table() -> None:
+    action = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
+    assert {choice.dest: choice.help for choice in action._choices_actions} == HELP
+
+
+def outcome(parse: Callable[[list[str]], object], argv: list[str]) -> tuple[object, str, str]:
+    """Exit status (or the command parsed), standard output and standard error of ``parse(argv)``."""
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        try:
+            result = parse(argv)
+        except SystemExit as exc:
+            result = exc.code
+    return result, out.getvalue(), err.getvalue()
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        [],
+        ["--help"],
+        ["-h", "params"],
+        ["--he"],
+        ["nosuchcommand"],
+        ["nosuchcommand", "--help"],
+        ["-x"],
+        ["-x", "params", "file.yaml"],
+        ["--", "params"],
+        ["--", "params", "--help"],
+        ["--", "nosuchcommand"],
+    ],
+)
+def test_a_command_line_not_starting_with_a_command_ends_as_with_every_command_registered(argv: list[str]) -> None:
+    """``main``'s overview then one command's parser: the same output and status as the whole parser."""
+    whole = outcome(lambda a: build_parser().parse_args(a), argv)
+    assert isinstance(whole[0], int)  # each of these ends in help or a usage error
+    assert outcome(main, argv) == whole
 
 
 def blas_threads_after(argv: list[str], as_command: bool, threads: str | None = None) -> str:
