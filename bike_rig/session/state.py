@@ -59,12 +59,17 @@ class SessionTrialView:
     stopped: bool = False
 
 
+def _known_rate(rate_hz: float) -> bool:
+    """Whether ``rate_hz`` is a sample rate (finite and positive), not a placeholder."""
+    return math.isfinite(rate_hz) and rate_hz > 0
+
+
 def _cycles(fit: TrialFit, rate_hz: float) -> float:
     """Cycles in the fit's window, at the fit's own sample rate when it has one, else at ``rate_hz``."""
-    if math.isfinite(fit.sample_rate_hz) and fit.sample_rate_hz > 0:
+    if _known_rate(fit.sample_rate_hz):
         rate_hz = fit.sample_rate_hz
     n = fit.window[1] - fit.window[0]
-    if not (math.isfinite(rate_hz) and rate_hz > 0 and math.isfinite(fit.period) and fit.period > 0 and n > 0):
+    if not (_known_rate(rate_hz) and math.isfinite(fit.period) and fit.period > 0 and n > 0):
         return math.nan
     return n / rate_hz / fit.period
 
@@ -181,7 +186,7 @@ class OperatorSession:
         if self.live is not None and batch.trial_id == self.live.trial_id:
             self.live.add(batch.rates, batch.sample_rate_hz, now_wall_s, batch.first_index)
             view = self.trials.get(batch.trial_id)
-            if view is not None and math.isnan(view.sample_rate_hz) and 0 < batch.sample_rate_hz < math.inf:
+            if view is not None and math.isnan(view.sample_rate_hz) and _known_rate(batch.sample_rate_hz):
                 view.sample_rate_hz = batch.sample_rate_hz  # (its cycles need it: the result may come first)
 
     def on_period(self, fit: TrialFit) -> str:
