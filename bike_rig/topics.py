@@ -24,6 +24,7 @@ __all__ = [
     "PERIODS",
     "QosSpec",
     "READINGS",
+    "RESEND_SAMPLES",
     "RECORDER_PAUSE",
     "RECORDER_RESUME",
     "RECORDER_SNAPSHOT",
@@ -106,6 +107,8 @@ TOPICS: tuple[Topic, ...] = (
 
 START_TRIAL = f"{NAMESPACE}/driver/start_trial"
 STOP_TRIAL = f"{NAMESPACE}/driver/stop_trial"
+#: The driver's samples again (``ResendSamples``): the fitter asks for the batches it lost.
+RESEND_SAMPLES = f"{NAMESPACE}/driver/resend_samples"
 STATE_SPACE = f"{NAMESPACE}/model/state_space"
 RECORDER_PAUSE = f"{NAMESPACE}/recorder/pause"
 RECORDER_RESUME = f"{NAMESPACE}/recorder/resume"

@@ -12,23 +12,28 @@ Published (reliable, transient-local, :mod:`bike_rig.topics`):
 
 * ``/bike_rig/trial_events`` (TrialEvent): START before a trial's first batch (stamped with its
   first sample's rig time), STOP (or ABORT) after its last with ``sample_count``;
-* ``/bike_rig/gyro`` (GyroBatch): ``samples_per_batch`` samples each (the last of a trial may
-  be shorter), ``first_index`` their index in the trial, stamped with the rig time of their
-  first sample, ``trial start + first_index / rate``.
+* ``/bike_rig/gyro`` (GyroBatch): ``samples_per_batch`` samples each at real time, times the
+  time scale rounded up for a faster source (:func:`~bike_rig.pipeline.resend.batch_samples`:
+  the messages per wall second stay those of real time); the last of a trial may be shorter;
+  ``first_index`` their index in the trial, stamped with the rig time of their first sample,
+  ``trial start + first_index / rate``.
 
-Services: ``/bike_rig/driver/start_trial`` (StartTrial) and ``/bike_rig/driver/stop_trial``
-(StopTrial), honoured by the hardware backends and the sim backend in ``operator`` mode (the
-plan-walking sim and the bag decline). StartTrial answers ``accepted`` with the trial's id, or
-not with the source's one-line reason (the same request again while its trial records gets the
-same answer: a resent request is no new trial); the trial's START is published before the answer when
-the source has it at once (the simulated rig). A trial that records (from its request, or its
-START) and gets no samples for ``silence_warning_s`` of wall time is logged as a warning once
-per silence, naming the source and what to check (the bus, the wiring, the CAN id...). When a
-plan is finished the driver logs it and keeps running, so that late joiners still get the
-topics' history — or exits (``exit_when_done``, after the subscribers have acknowledged
-everything, up to 10 s). With ``resume`` (an interrupted session's bag) the bag's recorded
-trials are published first, unpaced, and the session continues with the source
-(:mod:`bike_rig.sources.resume`).
+Services: ``/bike_rig/driver/resend_samples`` (ResendSamples) answers a subscriber that lost
+batches with the batches it sent (the last ``history_samples`` samples,
+:class:`~bike_rig.pipeline.resend.SentBatches`). ``/bike_rig/driver/start_trial`` (StartTrial)
+and ``/bike_rig/driver/stop_trial`` (StopTrial) are honoured by the hardware backends and the
+sim backend in ``operator`` mode (the plan-walking sim and the bag decline). StartTrial answers
+``accepted`` with the trial's id, or not with the source's one-line reason (the same request
+again while its trial records gets the same answer: a resent request is no new trial); the
+trial's START is published before the answer when the source has it at once (the simulated rig).
+A trial that records (from its request, or its START) and gets no samples for
+``silence_warning_s`` of wall time is logged as a warning once per silence, naming the source
+and what to check (the bus, the wiring, the CAN id...). When a plan is finished the driver logs
+it and keeps running, so that late joiners still get the topics' history — or exits
+(``exit_when_done``, after the subscribers have acknowledged everything, up to 120 s, and no
+resend was asked for in 3 s). With
+``resume`` (an interrupted session's bag) the bag's recorded trials are published first,
+unpaced, and the session continues with the source (:mod:`bike_rig.sources.resume`).
 
 Diagnostics (``/diagnostics``, 1 Hz): ``driver: source`` (read errors), ``driver: samples`` (the
 sample rate over the last 2 s of wall time against the recording trial's rate times
@@ -40,7 +45,6 @@ behind its rate since its START —, samples missing) and ``driver: gyro range``
 
 from __future__ import annotations
 
-import array
 import importlib
 import sys
 import time
@@ -52,9 +56,11 @@ from rclpy.duration import Duration
 from rclpy.node import Node
 
 from ..diagnostics import RateMeter
+from ..messages import fill_gyro_batch
 from ..params import ParamSpec, merge_specs
-from ..pipeline.acquire import sample_stamp_ns
+from ..pipeline.acquire import SampleBatch, sample_stamp_ns
 from ..pipeline.health import DriverHealth, driver_statuses
+from ..pipeline.resend import DEFAULT_HISTORY_SAMPLES, SentBatches, batch_samples
 from ..rosqos import profile
 from ..sources import (
     BACKENDS,
@@ -73,7 +79,7 @@ from ..sources.base import FloatArray
 from ..sources.errors import SourceError
 from ..sources.resume import DEFAULT_RESUME_TIME_SCALE, ResumedSource
 from ..sources.silence import DEFAULT_SILENCE_S, SilenceWatch
-from ..topics import GYRO, START_TRIAL, STOP_TRIAL, TRIAL_EVENTS
+from ..topics import GYRO, RESEND_SAMPLES, START_TRIAL, STOP_TRIAL, TRIAL_EVENTS
 from .diagnostics import DiagnosticsUpdater
 from .params import declare_parameters
 
@@ -84,14 +90,22 @@ _msgs: Any = importlib.import_module("bike_rig_msgs.msg")
 _srvs: Any = importlib.import_module("bike_rig_msgs.srv")
 
 NODE_NAME = "driver"
-#: Longest wait for the subscribers' acknowledgements before exiting (``exit_when_done``).
-ACK_TIMEOUT_S = 10.0
+#: Longest wait for the subscribers' acknowledgements before exiting (``exit_when_done``): a
+#: subscriber far behind on a loaded machine, or stalled, still gets everything, s.
+ACK_TIMEOUT_S = 120.0
+#: Before exiting, how long the driver still answers resend requests: until everything is
+#: acknowledged and this long after the plan's end and the last request (a subscriber that
+#: lost batches asks within its ``grace_s``), s.
+LINGER_S = 3.0
 
 #: The driver's own parameters; each backend's follow (:func:`driver_parameters`).
 COMMON_PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec("source", "sim", "gyro source backend", choices=tuple(BACKENDS)),
     ParamSpec("frame_id", "gyro", "frame_id of the gyro batches"),
-    ParamSpec("samples_per_batch", 50, "samples per GyroBatch (the last of a trial may hold fewer)", (1, 10_000)),
+    ParamSpec("samples_per_batch", 50, "samples per GyroBatch at real time, times the time scale rounded up for a "
+              "faster sim or bag (at most 10,000; the last of a trial may hold fewer)", (1, 10_000)),  # fmt: skip
+    ParamSpec("history_samples", DEFAULT_HISTORY_SAMPLES, "samples kept to resend to a subscriber that lost "
+              "batches (the oldest trials are forgotten first)", (0, 2**40)),  # fmt: skip
     ParamSpec("poll_period_s", 0.01, "how often the source is read, s (wall clock)", (0.001, 1.0)),
     ParamSpec("exit_when_done", False, "exit when the sim/bag plan is finished (else keep running)"),
     ParamSpec("wait_for_subscribers", 0, "start streaming once the gyro and trial-event topics each have this many "
@@ -118,10 +132,7 @@ def driver_parameters() -> tuple[ParamSpec, ...]:
     return merge_specs(COMMON_PARAMETERS, backend_parameters())
 
 
-def _as_array(values: FloatArray) -> array.array[float]:
-    out = array.array("d")
-    out.frombytes(np.ascontiguousarray(values, dtype=np.float64).tobytes())
-    return out
+_EMPTY = np.empty(0, dtype=np.float64)
 
 
 @dataclass
@@ -151,7 +162,9 @@ class DriverNode(Node):
         """
         super().__init__(NODE_NAME)
         self.values = declare_parameters(self, driver_parameters())
-        self.batch_size = int(self.values["samples_per_batch"])
+        self._time_scale = float(self.values["time_scale"]) if self.values["source"] in ("sim", "bag") else 1.0
+        self.batch_size = batch_samples(int(self.values["samples_per_batch"]), self._time_scale)
+        self.sent = SentBatches(int(self.values["history_samples"]))
         self.frame_id = str(self.values["frame_id"])
         self.exit_when_done = bool(self.values["exit_when_done"])
         self.wait_for = int(self.values["wait_for_subscribers"])
@@ -163,7 +176,10 @@ class DriverNode(Node):
         self.events_pub = self.create_publisher(_msgs.TrialEvent, TRIAL_EVENTS.name, profile(TRIAL_EVENTS))
         self.start_srv = self.create_service(_srvs.StartTrial, START_TRIAL, self._on_start_trial)
         self.stop_srv = self.create_service(_srvs.StopTrial, STOP_TRIAL, self._on_stop_trial)
+        self.resend_srv = self.create_service(_srvs.ResendSamples, RESEND_SAMPLES, self._on_resend)
         self.finished = False
+        self._exit_at: float | None = None  # (exit_when_done: when to exit, monotonic s)
+        self._done_at = 0.0
         self._trials: dict[str, _Trial] = {}
         self._last_start: tuple[TrialRequest, str, str] | None = None  # (request, trial id, message) until its STOP
         self._streaming = self.wait_for == 0
@@ -174,10 +190,10 @@ class DriverNode(Node):
         self.samples_published = 0
         self.timer = self.create_timer(float(self.values["poll_period_s"]), self._on_timer)
         self._rate = RateMeter()
-        self._time_scale = float(self.values["time_scale"]) if self.values["source"] in ("sim", "bag") else 1.0
         self._range = float(self.values["gyro_range_rad_s"])
         self.samples_missing = 0
         self.clipped = 0
+        self.resent_requests = 0
         self.diagnostics = DiagnosticsUpdater(self, self._health)
         waiting = f"; waiting for {self.wait_for} gyro subscriber(s)" if self.wait_for else ""
         self.get_logger().info(f"driver ready: {self.source.describe()}{waiting}")
@@ -201,8 +217,10 @@ class DriverNode(Node):
                     + ("; exiting" if self.exit_when_done else "; still serving the topics' history")
                 )
                 if self.exit_when_done:
-                    self._wait_for_acks()
-                    self.finished = True
+                    self._done_at = time.monotonic()
+                    self._exit_at = self._done_at + LINGER_S
+            if self._exit_at is not None:
+                self._exit_when_acknowledged()
         except SourceError as exc:
             self._errors += 1
             if self._errors in (1, 10, 100) or self._errors % 1000 == 0:
@@ -233,6 +251,24 @@ class DriverNode(Node):
             self._rate.rate(), since, self.silence.limit_s, self.samples_published,
             self.samples_missing, self.clipped, self._range, max(behind, 0.0),
         ))  # fmt: skip
+
+    def _exit_when_acknowledged(self) -> None:
+        """End the process once every subscriber has everything, serving resend requests meanwhile.
+
+        Checked on each timer tick without blocking, so the resend service keeps answering; at
+        most :data:`ACK_TIMEOUT_S` after the plan's end.
+        """
+        assert self._exit_at is not None
+        now = time.monotonic()
+        if now < self._exit_at:
+            return
+        waiting = [p.topic_name for p in (self.events_pub, self.gyro_pub)
+                   if p.get_subscription_count() and not p.wait_for_all_acked(Duration(nanoseconds=1))]  # fmt: skip
+        if waiting and now - self._done_at < ACK_TIMEOUT_S:
+            return
+        for topic in waiting:
+            self.get_logger().warning(f"{topic}: unacknowledged after {ACK_TIMEOUT_S:g} s")
+        self.finished = True
 
     def _wait_for_acks(self, timeout_s: float = ACK_TIMEOUT_S) -> None:
         timeout = Duration(seconds=timeout_s)
@@ -319,17 +355,13 @@ class DriverNode(Node):
         t.rates, t.volts, t.first, t.buffered = [], [], t.first + t.buffered, 0
 
     def _publish_batch(self, t: _Trial, first: int, rates: FloatArray, volts: FloatArray | None) -> None:
-        msg = _msgs.GyroBatch()
-        stamp = sample_stamp_ns(t.start_ns, first, t.info.sample_rate_hz)
-        msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(stamp, 1_000_000_000)
-        msg.header.frame_id = self.frame_id
-        msg.trial_id = t.info.trial_id
-        msg.first_index = first
-        msg.sample_rate_hz = float(t.info.sample_rate_hz)
-        msg.rates = _as_array(rates)
-        if volts is not None:
-            msg.raw_volts = _as_array(volts)
-        self.gyro_pub.publish(msg)
+        batch = SampleBatch(
+            t.info.trial_id, first, float(t.info.sample_rate_hz), np.ascontiguousarray(rates, dtype=np.float64),
+            _EMPTY if volts is None else np.ascontiguousarray(volts, dtype=np.float64),
+            sample_stamp_ns(t.start_ns, first, t.info.sample_rate_hz), self.frame_id,
+        )  # fmt: skip
+        self.gyro_pub.publish(fill_gyro_batch(_msgs.GyroBatch(), batch))
+        self.sent.add(batch)
         t.published += rates.size
         self.samples_published += rates.size
 
@@ -390,6 +422,24 @@ class DriverNode(Node):
             self.get_logger().info(f"start refused: {exc}")
         except Exception as exc:  # never raise out of a callback
             response.accepted, response.message = False, f"start failed: {exc!r}"
+            self.get_logger().error(response.message)
+        return response
+
+    def _on_resend(self, request: Any, response: Any) -> Any:
+        """Answer a subscriber that lost batches with the batches sent (:class:`SentBatches`)."""
+        try:
+            answer = self.sent.resend(str(request.trial_id), int(request.first_index), int(request.count))
+            response.held, response.complete, response.message = answer.held, answer.complete, answer.message
+            response.batches = [fill_gyro_batch(_msgs.GyroBatch(), b) for b in answer.batches]
+            self.resent_requests += 1
+            if self._exit_at is not None:
+                self._exit_at = max(self._exit_at, time.monotonic() + LINGER_S)
+            self.get_logger().info(
+                f"resent {answer.message} (asked for [{request.first_index}, "
+                f"{request.first_index + request.count if request.count else 'end'}))"
+            )
+        except Exception as exc:  # never raise out of a callback
+            response.held, response.complete, response.message = False, False, f"resend failed: {exc!r}"
             self.get_logger().error(response.message)
         return response
 

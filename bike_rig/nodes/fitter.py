@@ -2,7 +2,8 @@
 
 Buffers each trial's gyro batches between its START and STOP events
 (:class:`~bike_rig.pipeline.fit_state.FitterState`), fits the period (paper Eq 23–27) on STOP and
-publishes a ``PeriodEstimate`` — valid or not, with its flags and their reasons.
+publishes a ``PeriodEstimate`` — valid or not, with its flags and their reasons. Batches lost
+on the way are asked for again from the driver (``/bike_rig/driver/resend_samples``).
 
 Diagnostics (``/diagnostics``, 1 Hz): ``fitter: buffer`` (open trials, buffered samples against
 the budget ``max_trial_samples · max_open_trials``, the process's memory) and ``fitter: fits``
@@ -23,7 +24,7 @@ from ..core.period import FitOptions, WindowKind, WindowPolicy
 from ..params import ParamSpec
 from ..pipeline.fit import TrialFit, TrialFitOptions
 from ..pipeline.fit_details import FitDetails
-from ..pipeline.fit_state import FitterState
+from ..pipeline.fit_state import FitterState, ResendRequest
 from ..pipeline.health import FitterHealth, fitter_statuses
 from .publishers import publisher_source
 
@@ -90,7 +91,7 @@ class FitterNode:
         from rclpy.node import Node
 
         from ..rosqos import profile
-        from ..topics import FIT_DETAILS, GYRO, PERIODS, TRIAL_EVENTS
+        from ..topics import FIT_DETAILS, GYRO, PERIODS, RESEND_SAMPLES, TRIAL_EVENTS
 
         # (bike_rig_msgs ships no type information: imported by name)
         msgs: Any = importlib.import_module("bike_rig_msgs.msg")
@@ -107,6 +108,9 @@ class FitterNode:
         self.gyro_sub = self.node.create_subscription(GyroBatch, GYRO.name, self._on_batch, profile(GYRO))
         self.periods_pub = self.node.create_publisher(PeriodEstimate, PERIODS.name, profile(PERIODS))
         self.details_pub = self.node.create_publisher(msgs.FitDetails, FIT_DETAILS.name, profile(FIT_DETAILS))
+        srvs: Any = importlib.import_module("bike_rig_msgs.srv")
+        self._resend_type = srvs.ResendSamples
+        self.resend_client: Any = self.node.create_client(srvs.ResendSamples, RESEND_SAMPLES)
         self._live = False
         self.timer = self.node.create_timer(0.05, self._on_timer)
         self._budget = options.max_trial_samples * max_open
@@ -175,10 +179,33 @@ class FitterNode:
             if live and not self._live:
                 self.state.matched_at = self.state.clock()
             self._live = live
+            self.state.can_resend = self.resend_client.service_is_ready()
             started = time.perf_counter()
             self._publish(self.state.poll(live), started)
+            for want in self.state.take_resend_requests():
+                self._ask_again(want)
         except Exception as exc:
             self.node.get_logger().error(f"fitter timer failed: {exc!r}")
+
+    def _ask_again(self, want: ResendRequest) -> None:
+        """Send one resend request to the driver; its answer goes to :meth:`FitterState.on_resent`."""
+        request = self._resend_type.Request()
+        request.trial_id, request.first_index, request.count = want.trial_id, want.first_index, want.count
+        future = self.resend_client.call_async(request)
+
+        def answered(done: Any) -> None:
+            try:
+                reply = done.result()
+                if reply is None:
+                    return
+                batches = [messages.sample_batch_from_msg(m) for m in reply.batches]
+                started = time.perf_counter()
+                results = self.state.on_resent(want.source, want.trial_id, reply.held, reply.complete, batches)
+                self._publish(results, started)
+            except Exception as exc:  # a callback must never raise
+                self.node.get_logger().error(f"resend answer for trial {want.trial_id!r} failed: {exc!r}")
+
+        future.add_done_callback(answered)
 
     def _health(self) -> list[Any]:
         """The buffer's and the fits' statuses (:func:`bike_rig.pipeline.health.fitter_statuses`)."""

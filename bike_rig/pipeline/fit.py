@@ -342,6 +342,8 @@ class TrialAccumulator:
         self.oversized: list[tuple[int, int]] = []
         self.dropped = 0
         self.non_finite = 0
+        #: Why samples are missing, when the receiver knows (said in the ``gap`` flag).
+        self.gap_cause = ""
 
     def add(self, batch: SampleBatch) -> tuple[str, str] | None:
         """Take one batch.
@@ -407,6 +409,25 @@ class TrialAccumulator:
         # (a finite sum means finite samples; only otherwise are they counted)
         self.non_finite = 0 if math.isfinite(float(np.sum(samples))) else int(np.count_nonzero(~np.isfinite(samples)))
         return True
+
+    def missing(self, n_expected: int) -> list[tuple[int, int]]:
+        """The index ranges ``[a, b)`` within ``[0, n_expected)`` not accounted for (see :meth:`covers`)."""
+        spans = [(a, a + r.size) for a, r in self._parts.items()]
+        spans += [(a, a + n) for a, n in self.oversized]
+        spans.append((self.options.max_trial_samples, max(n_expected, self.options.max_trial_samples)))
+        out: list[tuple[int, int]] = []
+        end = 0
+        for a, b in sorted(spans):
+            if a > end and end < n_expected:
+                out.append((end, min(a, n_expected)))
+            end = max(end, b)
+        if end < n_expected:
+            out.append((end, n_expected))
+        return out
+
+    def covers_range(self, first: int, n: int) -> bool:
+        """Whether every index of ``[first, first + n)`` was already kept or rejected."""
+        return not any(a < first + n and b > first for a, b in self.missing(first + n))
 
     def covers(self, n_expected: int) -> bool:
         """Whether every index in ``[0, n_expected)`` is accounted for.
@@ -492,7 +513,8 @@ class TrialAccumulator:
         if not gaps:
             return None
         missing = sum(b - a for a, b in gaps)
-        return Flag(FlagCode.GAP, f"{missing} samples missing in {len(gaps)} gap(s): {_ranges(gaps)}")
+        cause = f" ({self.gap_cause})" if self.gap_cause else ""
+        return Flag(FlagCode.GAP, f"{missing} samples missing in {len(gaps)} gap(s): {_ranges(gaps)}{cause}")
 
     def _rate(self, start: TrialEventRecord | None, flags: list[Flag]) -> float:
         """The batches' sample rate (the START event's without batches), Hz; flags disagreement."""

@@ -1,11 +1,24 @@
 """The fitting stage's live bookkeeping: trial events and sample batches in, results out.
 
 Batches that arrive before their START are kept (a trial's batches and events travel on two
-topics); a STOP waits up to ``grace_s`` for missing batches; at most ``max_open_trials`` trials
-are buffered. After a restart the fitter receives the transient-local history of both topics:
-the trial in progress and every earlier trial whose batches are all still in the history are
-fitted again (same values, consumers dedupe by trial_id); a trial that began before the oldest
-batch in the history is not re-published.
+topics); at most ``max_open_trials`` trials are buffered.
+
+A STOP that finds samples missing waits for them as long as they can still be on their way.
+DDS delivers one writer's samples in order, so a trial's missing batches are known to be lost
+once a batch of a trial that STARTed after its STOP has arrived from the same source, or when
+the source's batches have been silent for ``grace_s``; until then the fitter may simply be
+behind (a loaded machine, a stall), and it waits, however long. A lost range is asked for
+again from the driver (:meth:`FitterState.take_resend_requests`, answered through
+:meth:`FitterState.on_resent`; the driver keeps what it sent, :mod:`bike_rig.pipeline.resend`):
+the trial is fitted once it is whole, and flagged ``gap`` only for samples the driver itself
+never had (or no longer holds). Where nobody answers such requests (an older driver, a
+recording republished), a STOP waits ``grace_s`` after the source's last batch, at most
+``history_grace_s`` after the STOP.
+
+After a restart the fitter receives the transient-local history of both topics: the trial in
+progress and every earlier trial whose batches are all still in the history are fitted again
+(same values, consumers dedupe by trial_id); a trial that began before the oldest batch in the
+history is not re-published.
 
 Every event and batch comes with its **source**: the DDS participant that published it (the
 first 12 bytes of the publisher's GUID, shared by all publishers of one driver process). A
@@ -30,10 +43,25 @@ from typing import Any, Protocol
 from .acquire import SampleBatch, TrialEventKind, TrialEventRecord
 from .fit import TrialAccumulator, TrialFit, TrialFitOptions
 
-__all__ = ["FitterState", "Log"]
+__all__ = ["FitterState", "Log", "ResendRequest"]
 
 #: Trial ids remembered as finished (late batches of them are ignored, not "unknown").
 _DONE_MEMORY = 100_000
+#: How long an unanswered resend request waits before it is sent again, s.
+RESEND_RETRY_S = 2.0
+#: How long a trial waits for the driver to answer its resend requests before it is fitted as
+#: it is (the driver stalled or gone), s.
+RESEND_GIVE_UP_S = 60.0
+
+
+@dataclass(frozen=True)
+class ResendRequest:
+    """Samples of a trial to ask its source for again: ``[first_index, first_index + count)``."""
+
+    source: str
+    trial_id: str
+    first_index: int
+    count: int
 
 
 class Log(Protocol):
@@ -64,6 +92,12 @@ class _Open:
     stop: TrialEventRecord | None = None
     stop_seen_s: float = 0.0
     warned: set[str] = field(default_factory=set)
+    #: Order of its START and STOP among the events received (None: not received).
+    start_order: int | None = None
+    stop_order: int | None = None
+    #: When its missing samples were first and last asked for again (None: never).
+    first_asked_s: float | None = None
+    asked_s: float | None = None
 
 
 class FitterState:
@@ -120,6 +154,16 @@ class FitterState:
         #: Batches dropped because another source had opened their trial id.
         self.foreign_batches = 0
         self._foreign_warned: set[_Key] = set()
+        #: Whether a resend service answers (set by the node): lost batches are asked for again.
+        self.can_resend = False
+        self._resend: list[ResendRequest] = []
+        #: Resend requests made and batches received in answers.
+        self.resend_requests = 0
+        self.resent_batches = 0
+        self._events = 0
+        #: Per source, the latest START order of a trial whose batches have arrived: the
+        #: source's batch stream has passed every trial stopped before it.
+        self._passed: dict[str, int] = {}
 
     # ------------------------------------------------------------------ input
     def on_event(self, event: TrialEventRecord, source: str = "") -> list[TrialFit]:
@@ -127,22 +171,10 @@ class FitterState:
         now = self.clock()
         kind, tid, key = event.kind, event.trial_id, (source, event.trial_id)
         out: list[TrialFit | None] = []
+        self._events += 1
+        order = self._events
         if kind is TrialEventKind.START:
-            t = self.open.get(key)
-            if t is not None and t.start is not None:
-                self.log.warning(f"trial {tid}: second START ignored")
-                return []
-            if t is None:
-                if key in self.done:
-                    self.log.warning(f"trial {tid} started again: it is fitted again")
-                    del self.done[key]
-                t = self.open[key] = _Open(tid, source, TrialAccumulator(self.options), now)
-            t.start, t.seen_s = event, now
-            if tid not in self.opener:
-                self.opener[tid] = source
-                while len(self.opener) > _DONE_MEMORY:
-                    self.opener.popitem(last=False)
-            return self._evict(out, source)
+            return self._on_start(event, source, now, order)
         # STOP or ABORT
         t = self.open.get(key)
         if t is None:
@@ -156,10 +188,30 @@ class FitterState:
             return []
         elif t.start is None:
             self.log.warning(f"trial {tid}: STOP without START")
-        t.stop, t.stop_seen_s, t.seen_s = event, now, now
+        t.stop, t.stop_seen_s, t.seen_s, t.stop_order = event, now, now, order
         if t.acc.covers(int(event.sample_count)):
             out.append(self._finish(t))
         return self._evict(out, source)
+
+    def _on_start(self, event: TrialEventRecord, source: str, now: float, order: int) -> list[TrialFit]:
+        tid, key = event.trial_id, (source, event.trial_id)
+        t = self.open.get(key)
+        if t is not None and t.start is not None:
+            self.log.warning(f"trial {tid}: second START ignored")
+            return []
+        if t is None:
+            if key in self.done:
+                self.log.warning(f"trial {tid} started again: it is fitted again")
+                del self.done[key]
+            t = self.open[key] = _Open(tid, source, TrialAccumulator(self.options), now)
+        t.start, t.seen_s, t.start_order = event, now, order
+        if t.acc.batches:
+            self._passed[source] = max(self._passed.get(source, 0), order)
+        if tid not in self.opener:
+            self.opener[tid] = source
+            while len(self.opener) > _DONE_MEMORY:
+                self.opener.popitem(last=False)
+        return self._evict([], source)
 
     def on_batch(self, batch: SampleBatch, stamp_ns: int | None = None, source: str = "") -> list[TrialFit]:
         """A gyro batch from ``source`` (``stamp_ns``: its header stamp); returns the results it completes."""
@@ -191,6 +243,8 @@ class FitterState:
             # or of an unknown trial: kept for grace_s, reported if no event claims it
             t = self.open[key] = _Open(tid, source, TrialAccumulator(self.options), now)
         t.seen_s = now
+        if t.start_order is not None:
+            self._passed[source] = max(self._passed.get(source, 0), t.start_order)
         problem = t.acc.add(batch)
         if problem is not None and problem[0] not in t.warned:
             t.warned.add(problem[0])
@@ -212,19 +266,87 @@ class FitterState:
         out: list[TrialFit | None] = []
         for t in list(self.open.values()):
             if t.stop is not None:
-                # while the source's batches still arrive (the fitter behind a burst: a resumed
-                # session's recorded trials, a loaded machine), the missing ones may be queued
-                # behind them: wait grace_s after the source's last batch, at most
-                # history_grace_s after the STOP
-                flowing = min(self.last_batch_s.get(t.source, 0.0), t.stop_seen_s + self.history_grace_s)
-                since = max(t.stop_seen_s, self.matched_at, flowing)
-            elif t.start is None:
-                since = max(t.seen_s, self.matched_at)
-            else:
-                continue
-            if now - since >= self.grace_s:
+                if self._stopped_done(t, now):
+                    out.append(self._finish(t))
+            elif now - max(t.seen_s, self.matched_at) >= self.grace_s and t.start is None:
                 out.append(self._finish(t))
         return [r for r in out if r is not None]
+
+    def _stopped_done(self, t: _Open, now: float) -> bool:
+        """Whether a stopped trial still missing samples is to be fitted now (see the module docstring).
+
+        Its missing batches are lost once the source's stream has passed it, or its batches have
+        been silent for ``grace_s``; lost ones are asked for again where a resend service answers.
+        """
+        assert t.stop is not None and t.stop_order is not None
+        silent = now - max(self.last_batch_s.get(t.source, 0.0), t.stop_seen_s, self.matched_at) >= self.grace_s
+        lost = silent or self._passed.get(t.source, 0) > t.stop_order
+        if not self.can_resend:
+            if lost and t.first_asked_s is not None:
+                return True  # (the service went away while it was asked)
+            # the old rule: a stream still flowing may hold them, up to history_grace_s after the STOP
+            flowing = min(self.last_batch_s.get(t.source, 0.0), t.stop_seen_s + self.history_grace_s)
+            return now - max(t.stop_seen_s, self.matched_at, flowing) >= self.grace_s
+        if not lost:
+            return False
+        if t.first_asked_s is not None and now - t.first_asked_s >= RESEND_GIVE_UP_S:
+            t.acc.gap_cause = f"asked for again, the driver did not answer in {RESEND_GIVE_UP_S:g} s"
+            return True
+        if t.asked_s is None or now - t.asked_s >= RESEND_RETRY_S:
+            self._ask(t, now)
+        return False
+
+    def _ask(self, t: _Open, now: float) -> None:
+        """Ask the source again for the span of everything ``t`` misses (one request: one answer)."""
+        assert t.stop is not None
+        gaps = t.acc.missing(int(t.stop.sample_count))
+        if not gaps:
+            return
+        first, end = gaps[0][0], gaps[-1][1]
+        self._resend.append(ResendRequest(t.source, t.trial_id, first, end - first))
+        self.resend_requests += 1
+        if t.first_asked_s is None:
+            missing = sum(b - a for a, b in gaps)
+            self.log.info(f"trial {t.trial_id}: {missing} samples lost on the way; asked the driver again")
+            t.first_asked_s = now
+        t.asked_s = now
+
+    def take_resend_requests(self) -> list[ResendRequest]:
+        """The resend requests made since the last call (the node sends them to the driver)."""
+        out, self._resend = self._resend, []
+        return out
+
+    def on_resent(
+        self, source: str, trial_id: str, held: bool, complete: bool, batches: list[SampleBatch]
+    ) -> list[TrialFit]:
+        """The driver's answer to a resend request; returns the results it completes.
+
+        Args:
+            source: The source that was asked (the trial's).
+            trial_id: The trial.
+            held: The driver holds the trial (False: it never had it, or forgot it).
+            complete: The answer holds every batch it has of the range (False: ask again).
+            batches: Its batches of the range.
+        """
+        t = self.open.get((source, trial_id))
+        if t is None or t.stop is None:
+            return []
+        for batch in batches:
+            if batch.trial_id == trial_id and not t.acc.covers_range(batch.first_index, len(batch.rates)):
+                t.acc.add(batch)
+                self.resent_batches += 1
+        n = int(t.stop.sample_count)
+        if t.acc.covers(n):
+            self.log.info(f"trial {trial_id}: the lost samples came again from the driver")
+            return self._evict([self._finish(t)], source)
+        if not held:
+            t.acc.gap_cause = "lost on the way; the driver no longer holds them"
+        elif complete:
+            t.acc.gap_cause = "the driver never had them"
+        else:
+            t.asked_s = None  # (a partial answer: ask again for the rest at the next poll)
+            return []
+        return self._evict([self._finish(t)], source)
 
     # ------------------------------------------------------------------ output
     def _evict(self, out: list[TrialFit | None], source: str) -> list[TrialFit]:

@@ -31,6 +31,7 @@ from rclpy.signals import SignalHandlerOptions
 from bike_rig.messages import sample_batch_from_msg, trial_event_from_msg
 from bike_rig.paths import config_file
 from bike_rig.pipeline.fit import fit_trial
+from bike_rig.pipeline.resend import batch_samples
 from bike_rig.rosqos import profile
 from bike_rig.topics import GYRO, START_TRIAL, STOP_TRIAL, TRIAL_EVENTS, Topic
 from test.ros.processes import RosProcess
@@ -177,9 +178,10 @@ def test_sim_session_is_published_trial_by_trial_in_rig_time(
         assert stamp_ns(start) == expected_start
         assert stamp_ns(stop) == expected_start + round(n * 1e6)
         got = grouped[truth.name]
-        assert [b.first_index for b in got] == list(range(0, n, 50))
-        assert all(len(b.rates) == 50 and b.sample_rate_hz == 1000.0 for b in got)
-        assert [stamp_ns(b) for b in got] == [expected_start + round(i * 1e6) for i in range(0, n, 50)]
+        size = batch_samples(50, 50.0)  # (samples_per_batch at real time, times the time scale)
+        assert size == 2500 and [b.first_index for b in got] == list(range(0, n, size))
+        assert all(len(b.rates) == min(size, n - b.first_index) and b.sample_rate_hz == 1000.0 for b in got)
+        assert [stamp_ns(b) for b in got] == [expected_start + round(i * 1e6) for i in range(0, n, size)]
         assert np.array_equal(np.concatenate([np.asarray(b.rates) for b in got]), truth.rate)  # bit for bit
         assert np.array_equal(np.concatenate([np.asarray(b.raw_volts) for b in got]), truth.volts)
         expected_start = stamp_ns(stop) + round(pause * 1e9)
@@ -247,7 +249,8 @@ def test_bag_replay_publishes_the_recorded_trials(probe: Probe, ros_env: dict[st
     assert [(e.kind, e.trial_id, e.sample_count) for e in events] == [(0, "t1", 0), (1, "t1", 123), (0, "t2", 0),
                                                                       (2, "t2", 60)]  # fmt: skip
     grouped = by_trial(batches)
-    assert [(x.first_index, len(x.rates)) for x in grouped["t1"]] == [(0, 50), (50, 50), (100, 20)]
+    # (at 100 times real time a batch holds 100 × 50 samples: the trial's 120 in one)
+    assert [(x.first_index, len(x.rates)) for x in grouped["t1"]] == [(0, 120)]
     assert np.array_equal(np.concatenate([np.asarray(x.rates) for x in grouped["t1"]]), a)
     assert np.array_equal(np.concatenate([np.asarray(x.rates) for x in grouped["t2"]]), b)
     assert np.array_equal(np.concatenate([np.asarray(x.raw_volts) for x in grouped["t2"]]), 2.5 + b / 3)
