@@ -27,7 +27,8 @@ from bike_rig.paths import config_file
 from bike_rig.pipeline.acquire import SampleBatch, TrialEventKind, TrialEventRecord
 from bike_rig.pipeline.fit import TrialFit, TrialFitOptions, fit_trial
 from bike_rig.pipeline.fit_state import FitterState
-from bike_rig.topics import GYRO, PERIODS, TRIAL_EVENTS
+from bike_rig.pipeline.resend import SentBatches
+from bike_rig.topics import GYRO, PERIODS, RESEND_SAMPLES, TRIAL_EVENTS
 from test.nodes.test_driver import STEP_TIMEOUT_S, Probe, msgs, node_command, open_probe
 from test.ros.processes import RosProcess
 from test.sources.support import small_session
@@ -552,3 +553,61 @@ def test_bad_parameters_end_in_one_line(parameters: list[str], message: str, ros
     done = subprocess.run(["timeout", "-k", "5", "60", *cmd], env=ros_env, capture_output=True, text=True, timeout=90)
     assert done.returncode == 2, done.stderr
     assert done.stderr.strip().splitlines() == [message]
+
+
+def test_lost_batches_are_fetched_again_from_the_drivers_resend_service(
+    talker: tuple[Probe, Any, Any, list[Any]], ros_env: dict[str, str], tmp_path: Path
+) -> None:
+    """The probe stands in for a driver that lost batches on the way but serves ResendSamples.
+
+    A trial whose batches never reached the fitter is fitted whole from the driver's answer,
+    identical to the fit of every batch; samples the driver itself never had are a ``gap``
+    that says so.
+    """
+    probe, events, gyro, periods = talker
+    srvs: Any = __import__("bike_rig_msgs.srv", fromlist=["ResendSamples"])
+    sent = SentBatches()
+    asked: list[tuple[str, int, int]] = []
+
+    def on_resend(request: Any, response: Any) -> Any:
+        asked.append((request.trial_id, request.first_index, request.count))
+        got = sent.resend(request.trial_id, request.first_index, request.count)
+        response.held, response.complete, response.message = got.held, got.complete, got.message
+        response.batches = [messages.fill_gyro_batch(msgs.GyroBatch(), b) for b in got.batches]
+        return response
+
+    probe.node.create_service(srvs.ResendSamples, RESEND_SAMPLES, on_resend)
+    cmd = node_command("bike_rig.nodes.fitter", "grace_s:=0.3", "history_grace_s:=0.3")
+
+    def by_id(trial_id: str) -> Any:
+        probe.spin_until(lambda: any(p.trial_id == trial_id for p in periods), STEP_TIMEOUT_S,
+                         f"the period of {trial_id}", fitter.describe)  # fmt: skip
+        return next(p for p in periods if p.trial_id == trial_id)
+
+    with RosProcess("fitter", cmd, ros_env, tmp_path) as fitter:
+        wait_matched(probe, fitter, events, gyro)
+        start, batches, stop = synthetic_trial("lossy", 6)
+        for b in batches:
+            sent.add(messages.sample_batch_from_msg(b))
+        lost = {3, 4, 50, len(batches) - 1}  # in the middle and the last one
+        for m in (start, *[b for i, b in enumerate(batches) if i not in lost], stop):
+            (events if isinstance(m, msgs.TrialEvent) else gyro).publish(m)
+        whole = by_id("lossy")
+        assert list(whole.flags) == [] and whole.n_samples == N
+        assert_identical(whole, fit_messages(batches, start, stop))
+        assert asked and asked[0][:2] == ("lossy", 150)
+
+        start, batches, stop = synthetic_trial("holey", 7)
+        for i, b in enumerate(batches):
+            if i != 10:  # the driver itself never had batch 10
+                sent.add(messages.sample_batch_from_msg(b))
+        for m in (start, *[b for i, b in enumerate(batches) if i not in (10, 11)], stop):
+            (events if isinstance(m, msgs.TrialEvent) else gyro).publish(m)
+        holey = by_id("holey")
+        assert list(holey.flags)[:1] == ["gap"] and holey.n_samples == N - 50
+        assert "50 samples missing in 1 gap(s): [500, 550) (the driver never had them)" in holey.flag_reasons[0]
+        expected = fit_messages([b for i, b in enumerate(batches) if i != 10], start, stop)
+        assert (holey.period, holey.period_sigma) == (expected.period, expected.period_sigma)
+    log = fitter.stderr_path.read_text()
+    assert "trial lossy: 200 samples lost on the way; asked the driver again" in log, log
+    assert "trial lossy: the lost samples came again from the driver" in log, log
