@@ -1,14 +1,14 @@
 """Three live graphs at once: the highest time scale at which none loses a sample, and what it costs.
 
-Three ``bike-rig run`` graphs of the shipped simulated Browser session (39 trials of 30 s at
-1 kHz), each on its own domain, start together on this machine at time scales 100, 200, 400,
-800 and the driver's limit 1000. A scale passes when every graph ends with no trial flagged for missing samples, none without a
-result, and the parameter set complete. Printed: each scale's verdict and wall time, the highest
-that passed, and at the highest the peak resident memory of every node process (the mean over
-the three graphs) and its excess over the parameter node's (a node that holds no gyro
-history), what the chosen history and QoS cost: the driver holds the session's gyro history twice (the DDS writer's
-transient-local history and its own resend memory, :mod:`bike_rig.pipeline.resend`), the fitter
-and the recorder a reader's history each.
+Three ``bike-rig run`` graphs of the shipped simulated Browser session (39 trials of 30 s at 1
+kHz), each on its own domain, start together on this machine at time scales 100, 200, 400, 800
+and the driver's limit 1000. A scale passes when every graph ends with no trial flagged for
+missing samples, none without a result, and the parameter set complete. Printed: each scale's
+verdict and wall time, the highest that passed, and at the highest the peak resident memory of
+every node process (the mean over the three graphs) and its excess over the parameter node's (a
+node that holds no gyro history), what the chosen history and QoS cost: the driver holds the
+session's gyro history twice (the DDS writer's transient-local history and its own resend
+memory, :mod:`bike_rig.pipeline.resend`), the fitter and the recorder a reader's history each.
 
 Run with ``make bench`` (or ``.venv/bin/python bench/bench_concurrent_graphs.py [--max-scale X]``).
 """
@@ -76,8 +76,8 @@ def run_three(scale: float, work: Path) -> tuple[bool, float, dict[str, float], 
         text = (work / f"s{scale:g}_g{i}.out").read_text()
         gaps = sum(1 for line in text.splitlines() if line.startswith("  REDO") and "gap:" in line)
         if p.returncode or gaps or ", 0 without a result" not in text or "parameters: complete" not in text:
-            problems.append(f"graph {i}: exit {p.returncode}, {gaps} trials with missing samples; "
-                            + next((line for line in text.splitlines() if "trial(s):" in line), "no summary"))  # fmt: skip
+            summary = next((line for line in text.splitlines() if "trial(s):" in line), "no summary")
+            problems.append(f"graph {i}: exit {p.returncode}, {gaps} trials with missing samples; {summary}")
     memory = {n: statistics.mean(kb for (_, name), kb in peak.items() if name == n) / 1024
               for n in NODES if any(name == n for _, name in peak)}  # fmt: skip
     return not problems, wall, memory, problems
