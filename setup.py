@@ -30,6 +30,7 @@ setup(
         (f"share/{PACKAGE}/config", _files("config/*.yaml")),
         (f"share/{PACKAGE}/config/bicycles", _files("config/bicycles/*")),
         (f"share/{PACKAGE}/config/foxglove", _files("config/foxglove/*")),
+        (f"share/{PACKAGE}/config/dds", _files("config/dds/*")),
     ],
     # Runtime libraries are installed from tools/requirements.txt (pinned, with the ROS
     # wheels), not declared here: the ROS packages come from the ROS prefix, as in ament.

@@ -53,6 +53,10 @@ DISCOVERY_RANGE = "LOCALHOST"
 """Value forced for ``ROS_AUTOMATIC_DISCOVERY_RANGE``."""
 
 RMW_IMPLEMENTATION = "rmw_fastrtps_cpp"
+#: Fast DDS's default profile file (its participant lease outlasts a stalled process), in the
+#: config folder; an inherited ``FASTDDS_DEFAULT_PROFILES_FILE`` is kept.
+FASTDDS_PROFILES = "dds/fastdds.xml"
+FASTDDS_PROFILES_VARIABLE = "FASTDDS_DEFAULT_PROFILES_FILE"
 """The ROS middleware every process uses."""
 
 MAX_DOMAIN_ID = 101
@@ -206,7 +210,8 @@ def ros_environment(
         A new dict: a copy of ``base`` with ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST``,
         ``ROS_DOMAIN_ID`` and ``RMW_IMPLEMENTATION=rmw_fastrtps_cpp`` set, and
         ``ROS_LOCALHOST_ONLY`` removed and ``ROS_STATIC_PEERS`` set to ``static_peers`` (or
-        removed when there are none).
+        removed when there are none); ``FASTDDS_DEFAULT_PROFILES_FILE`` names
+        ``config/dds/fastdds.xml`` unless ``base`` names a profile file already.
 
     Raises:
         DomainIdError: If the domain id (given or inherited) is not an integer in 0..101 (a
@@ -229,6 +234,10 @@ def ros_environment(
     env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = DISCOVERY_RANGE
     env["ROS_DOMAIN_ID"] = str(domain_id)
     env["RMW_IMPLEMENTATION"] = RMW_IMPLEMENTATION
+    if not env.get(FASTDDS_PROFILES_VARIABLE):
+        from .paths import config_file
+
+        env[FASTDDS_PROFILES_VARIABLE] = str(config_file(FASTDDS_PROFILES))
     if peers:
         env["ROS_STATIC_PEERS"] = peers
     return env

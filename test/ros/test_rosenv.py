@@ -4,11 +4,13 @@ from __future__ import annotations
 
 import os
 import time
+import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import pytest
 
 from bike_rig import rosenv
+from bike_rig.paths import config_file
 from bike_rig.rosenv import (
     StaticPeerError,
     fallback_domain_id,
@@ -33,8 +35,20 @@ def test_environment_forces_localhost_rmw_and_domain() -> None:
         "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST",
         "RMW_IMPLEMENTATION": "rmw_fastrtps_cpp",
         "ROS_DOMAIN_ID": "42",
+        "FASTDDS_DEFAULT_PROFILES_FILE": str(config_file("dds/fastdds.xml")),
     }
     assert base["ROS_DOMAIN_ID"] == "5"  # the base is not modified
+
+
+def test_the_fastdds_profile_outlasts_a_stall_and_a_users_own_is_kept() -> None:
+    """The shipped profile's participant lease outlasts a 20 s stall (Fast DDS's default is 20 s)."""
+    profile = ET.parse(config_file("dds/fastdds.xml")).getroot()
+    ns = {"d": "http://www.eprosima.com"}
+    (default,) = [p for p in profile.iterfind(".//d:participant", ns) if p.get("is_default_profile") == "true"]
+    lease = default.find("d:rtps/d:builtin/d:discovery_config/d:leaseDuration/d:sec", ns)
+    assert lease is not None and int(lease.text or 0) >= 60
+    own = ros_environment({"FASTDDS_DEFAULT_PROFILES_FILE": "/lab/dds.xml"}, domain_id=3)
+    assert own["FASTDDS_DEFAULT_PROFILES_FILE"] == "/lab/dds.xml"
 
 
 def test_environment_keeps_an_inherited_domain_id() -> None:
