@@ -11,7 +11,8 @@ behind (a loaded machine, a stall), and it waits, however long. A lost range is 
 again from the driver (:meth:`FitterState.take_resend_requests`, answered through
 :meth:`FitterState.on_resent`; the driver keeps what it sent, :mod:`bike_rig.pipeline.resend`):
 the trial is fitted once it is whole, and flagged ``gap`` only for samples the driver itself
-never had (or no longer holds). Where nobody answers such requests (an older driver, a
+never had (or no longer holds); should its batches still come after that, it is fitted again
+and the new estimate replaces the first. Where nobody answers such requests (an older driver, a
 recording republished), a STOP waits ``grace_s`` after the source's last batch, at most
 ``history_grace_s`` after the STOP.
 
@@ -161,6 +162,8 @@ class FitterState:
         self.resend_requests = 0
         self.resent_batches = 0
         self._events = 0
+        #: The last few trials published with samples missing (their batches may still come).
+        self._gapped: OrderedDict[_Key, _Open] = OrderedDict()
         #: Per source, the latest START order of a trial whose batches have arrived: the
         #: source's batch stream has passed every trial stopped before it.
         self._passed: dict[str, int] = {}
@@ -237,7 +240,7 @@ class FitterState:
             if key in self.done:
                 stopped_ns = self.done[key]
                 if stamp_ns is None or stopped_ns is None or stamp_ns < stopped_ns:
-                    return []  # a late batch of a trial already fitted
+                    return self._late(key, [batch])  # a late batch of a trial already fitted
                 del self.done[key]  # a batch after the trial's end: the same trial id run again
             # a batch before its START (the two topics are not ordered against each other),
             # or of an unknown trial: kept for grace_s, reported if no event claims it
@@ -329,7 +332,9 @@ class FitterState:
             batches: Its batches of the range.
         """
         t = self.open.get((source, trial_id))
-        if t is None or t.stop is None:
+        if t is None:
+            return self._late((source, trial_id), batches)
+        if t.stop is None:
             return []
         for batch in batches:
             if batch.trial_id == trial_id and not t.acc.covers_range(batch.first_index, len(batch.rates)):
@@ -400,7 +405,33 @@ class FitterState:
         result = t.acc.finish(t.start, t.stop, trial_id=t.trial_id)
         self.published += 1
         self._report(result)
+        if t.stop is not None and not t.acc.covers(int(t.stop.sample_count)):
+            self._gapped[(t.source, t.trial_id)] = t  # (its missing batches may still come late)
+            while len(self._gapped) > self.max_open_trials:
+                self._gapped.popitem(last=False)
         return result
+
+    def _late(self, key: _Key, batches: list[SampleBatch]) -> list[TrialFit]:
+        """Batches of a trial already published with samples missing: once it is whole, it is fitted again.
+
+        The new estimate replaces the first (consumers keep the one with more samples); a trial
+        published whole ignores late copies.
+        """
+        t = self._gapped.get(key)
+        if t is None or t.stop is None:
+            return []
+        for batch in batches:
+            if not t.acc.covers_range(batch.first_index, len(batch.rates)):
+                t.acc.add(batch)
+        if not t.acc.covers(int(t.stop.sample_count)):
+            return []
+        del self._gapped[key]
+        t.acc.gap_cause = ""
+        result = t.acc.finish(t.start, t.stop, trial_id=t.trial_id)
+        self.published += 1
+        self.log.info(f"trial {t.trial_id}: its missing samples came late; fitted again")
+        self._report(result)
+        return [result]
 
     def _report(self, r: TrialFit) -> None:
         what = f"T = {r.period:.6f} ± {r.period_sigma:.2g} s" if r.valid else "no period"

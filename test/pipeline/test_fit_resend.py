@@ -231,3 +231,22 @@ def test_an_answer_that_comes_after_the_original_batches_changes_nothing() -> No
     (fit,) = feed(s, a[-2:])
     assert fit.n_samples == N and fit.flag_codes == ()
     assert answer(s, sent, wants) == [] and s.poll() == []
+
+
+def test_batches_that_come_after_the_trial_was_published_with_a_gap_refit_it() -> None:
+    """No resend service (a republished recording): given up after grace, fitted again once whole."""
+    log, clock = Log(), Clock()
+    s = FitterState(TrialFitOptions(), log, grace_s=1.0, clock=clock, history_grace_s=0.0)
+    a = batches_of("a", signal())
+    s.on_event(event(0, "a"), DRV)
+    feed(s, a[:3] + a[5:])
+    s.on_event(event(1, "a", N), DRV)
+    clock.now += 1.0
+    (first,) = s.poll()
+    assert first.flag_codes[0] == "gap" and first.n_samples == N - 1000
+    assert feed(s, a[3:4]) == []  # still one batch short
+    (again,) = feed(s, a[4:5])
+    expected = fit_trial(a, event(0, "a"), event(1, "a", N))
+    assert again.n_samples == N and again.flag_codes == () and again.period == expected.period
+    assert feed(s, a[4:5]) == []  # (a whole trial ignores late copies)
+    assert any("its missing samples came late; fitted again" in line for line in log.lines)
