@@ -31,9 +31,9 @@ A trial that records (from its request, or its START) and gets no samples for
 and what to check (the bus, the wiring, the CAN id...). When a plan is finished the driver logs
 it and keeps running, so that late joiners still get the topics' history — or exits
 (``exit_when_done``, after the subscribers have acknowledged everything, up to 120 s, and no
-resend was asked for in 3 s). With
-``resume`` (an interrupted session's bag) the bag's recorded trials are published first,
-unpaced, and the session continues with the source (:mod:`bike_rig.sources.resume`).
+resend was asked for in 3 s). With ``resume`` (an interrupted session's bag) the bag's recorded
+trials are published first, unpaced, and the session continues with the source
+(:mod:`bike_rig.sources.resume`).
 
 Diagnostics (``/diagnostics``, 1 Hz): ``driver: source`` (read errors), ``driver: samples`` (the
 sample rate over the last 2 s of wall time against the recording trial's rate times
