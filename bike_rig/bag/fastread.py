@@ -27,7 +27,18 @@ from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, Qo
 from ..core.safe_yaml import YamlLimitError
 from .check import Metadata, within_limits
 
-__all__ = ["MAGIC", "Chunk", "FastBag", "FastTopic", "Storage", "UnsafeYaml", "Unusual", "need", "open_fast"]
+__all__ = [
+    "MAGIC",
+    "Chunk",
+    "FastBag",
+    "FastTopic",
+    "Storage",
+    "UnsafeYaml",
+    "Unusual",
+    "need",
+    "open_fast",
+    "split_order",
+]
 
 MAGIC = b"\x89MCAP0\r\n"
 _FOOTER_HEAD = b"\x02\x14\x00\x00\x00\x00\x00\x00\x00"
@@ -96,6 +107,15 @@ def _libyaml_loader() -> Any:
     return Load
 
 
+def split_order(path: PurePath) -> tuple[str, int, str]:
+    """Sort key of a storage file: a split bag's ``NAME_2.mcap`` before ``NAME_10.mcap``.
+
+    (The recorder and rosbag2 number a bag's files in the order they write them.)
+    """
+    stem, _, index = path.stem.rpartition("_")
+    return (stem, int(index), "") if index.isdigit() else (path.stem, -1, path.name)
+
+
 def need(ok: Any, why: str) -> None:
     """Raise :class:`Unusual` (saying ``why``) unless ``ok``."""
     if not bool(ok):
@@ -162,13 +182,18 @@ def _one_qos(item: object) -> Qos:
 
 @dataclass(frozen=True)
 class Channel:
-    """One MCAP channel as rosbags' connection: id, topic, type, encoding, offered QoS."""
+    """One MCAP channel as rosbags' connection: id, topic, type, encoding, offered QoS, and its schema.
+
+    ``schema_encoding`` and ``schema_text`` are its schema's (both "" for a channel without one).
+    """
 
     id: int
     topic: str
     msgtype: str
     encoding: str
     qos: tuple[Qos, ...]
+    schema_encoding: str = ""
+    schema_text: str = ""
 
 
 @dataclass(frozen=True)
@@ -265,7 +290,7 @@ def _chunk(rec: _Record) -> Chunk:
 
 def _summary(data: bytes, channels: list[Channel], chunks: list[Chunk]) -> tuple[int, int, int, dict[int, int]] | None:
     """Parse the summary section (rosbags' read_index); return the statistics."""
-    schemas: dict[int, str] = {}
+    schemas: dict[int, tuple[str, str, str]] = {}  # name, encoding, text
     seen: set[int] = set()
     stats = None
     pos = 0
@@ -280,14 +305,14 @@ def _summary(data: bytes, channels: list[Channel], chunks: list[Chunk]) -> tuple
         pos += 9 + size
         if op == 0x03:
             key = rec.u16()
-            schemas[key] = rec.text()
-            rec.text(), rec.text()
+            schemas[key] = (rec.text(), rec.text(), rec.text())
         elif op == 0x04:
             key, schema_id = rec.u16(), rec.u16()
             topic, encoding, meta = rec.text(), rec.text(), rec.blob()
             if key not in seen:
                 qos = _qos(_metadata_map(meta).get("offered_qos_profiles", ""))
-                channels.append(Channel(key, topic, schemas.get(schema_id, "__schemaless__"), encoding, qos))
+                name, schema_encoding, text = schemas.get(schema_id, ("__schemaless__", "", ""))
+                channels.append(Channel(key, topic, name, encoding, qos, schema_encoding, text))
                 seen.add(key)
         elif op == 0x08:
             chunks.append(_chunk(rec))

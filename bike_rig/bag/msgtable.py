@@ -7,7 +7,9 @@ the checksum is ISA-L's crc32, about 20 GB/s, where binascii's takes a third of 
 decompression time), and its message records are found from the chunk's message index (the records
 between them are walked, so that none is missed). The table holds positions into that buffer:
 no Python object per message. Anything rosbags would read differently raises
-:class:`~bike_rig.bag.fastread.Unusual`.
+:class:`~bike_rig.bag.fastread.Unusual`. Beside rosbags' order, each message's publication
+sequence number (as the recorder stored it) and its rank in the recorder's order of storage
+(the file by the split index in its name, then the record's place in the file) are kept.
 """
 
 from __future__ import annotations
@@ -24,7 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..pipeline.forked import default_workers
-from .fastread import Chunk, FastBag, Unusual, need
+from .fastread import Chunk, FastBag, Unusual, need, split_order
 
 try:
     from isal.isal_zlib import crc32
@@ -69,6 +71,10 @@ class MessageTable:
         log_time: Each message's log time, ns.
         start: Where its data (CDR bytes) start in ``buffer``.
         size: Its length, bytes.
+        sequence: Its publication sequence number as the recorder stored it (0: none).
+        stream: Its rank in the recorder's order of storage: the storage files by the split
+            index in their names (``NAME_2`` before ``NAME_10``, whatever order metadata.yaml
+            lists them in), then the chunks by offset and the records in each chunk.
     """
 
     buffer: NDArray[np.uint8]
@@ -77,6 +83,8 @@ class MessageTable:
     log_time: IntArray
     start: IntArray
     size: IntArray
+    sequence: IntArray
+    stream: IntArray
 
     def __len__(self) -> int:
         """Number of messages."""
@@ -222,7 +230,8 @@ def _keys_of_chunks(
     holds thousands of small ones).
 
     Returns:
-        Columns: log time, chunk offset, position in the chunk, topic, data start, data size.
+        Columns: log time, chunk offset, position in the chunk, topic, data start, data size,
+        publication sequence.
     """
     local = [_indexed_offsets(r.index) for r in reads]
     lengths = np.array([r.chunk.uncompressed_size for r in reads], dtype=np.int64)
@@ -255,7 +264,7 @@ def _keys_of_chunks(
         cid = np.repeat(np.arange(len(reads)), counts)
         glob = at + np.array(bases, dtype=np.int64)[cid]
     if not at.size:
-        return tuple(np.empty(0, np.int64) for _ in range(6))
+        return tuple(np.empty(0, np.int64) for _ in range(7))
     log_time = read_le(buffer, "<u8", glob + 15)
     need(bool(np.all(log_time < 2**63)), "log time beyond 2**63")
     log_time = log_time.astype(np.int64)
@@ -266,7 +275,8 @@ def _keys_of_chunks(
     where = np.array([r.chunk.offset for r in reads], dtype=np.int64)[cid[keep]]
     position = keep - np.repeat(np.cumsum(counts) - counts, counts)[keep]
     size = read_le(buffer, "<u8", glob[keep] + 1).astype(np.int64) - (_MESSAGE_HEAD - 9)
-    return log_time[keep], where, position, topic[keep], glob[keep] + _MESSAGE_HEAD, size
+    sequence = read_le(buffer, "<u4", glob[keep] + 11).astype(np.int64)
+    return log_time[keep], where, position, topic[keep], glob[keep] + _MESSAGE_HEAD, size, sequence
 
 
 def _unpack(records: memoryview, read: _Read, path: Path) -> None:
@@ -314,6 +324,7 @@ def read_table(bag: FastBag, topics: Iterable[str]) -> MessageTable:
     """
     names = tuple(dict.fromkeys(topics))
     code = {t: i for i, t in enumerate(names)}
+    ranks = {p: r for r, p in enumerate(sorted((s.path for s in bag.storages), key=split_order))}
     files: list[tuple[IntArray, list[_Read], Path]] = []
     for storage, route in zip(bag.storages, bag.routes, strict=True):
         wanted = {cid: code[t] for cid, t in route.items() if t in code}
@@ -338,14 +349,19 @@ def read_table(bag: FastBag, topics: Iterable[str]) -> MessageTable:
             base += read.chunk.uncompressed_size
     _unpack_all(jobs)
     parts = []
-    for (lut, reads, _), at in zip(files, bases, strict=True):
+    for (lut, reads, path), at in zip(files, bases, strict=True):
         if reads:
             cols = list(_keys_of_chunks(buffer, reads, at, lut))
             order = np.lexsort((cols[2], cols[1], cols[0]))  # log time, then chunk offset, then position
-            parts.append(tuple(cols[i][order] for i in (3, 0, 4, 5)))
+            rank = np.full(len(order), ranks[path], dtype=np.int64)
+            parts.append((*(cols[i][order] for i in (3, 0, 4, 5, 6, 1, 2)), rank))
     buffer.flags.writeable = False
     if not parts:
         empty = np.empty(0, np.int64)
-        return MessageTable(buffer, names, empty, empty, empty, empty)
-    topic, log_time, start, size = (np.concatenate(c) for c in zip(*parts, strict=True))
-    return MessageTable(buffer, names, topic, log_time, start, size)
+        return MessageTable(buffer, names, empty, empty, empty, empty, empty, empty)
+    topic, log_time, start, size, sequence, where, position, rank = (
+        np.concatenate(c) for c in zip(*parts, strict=True)
+    )
+    stream = np.empty(len(topic), dtype=np.int64)
+    stream[np.lexsort((position, where, rank))] = np.arange(len(topic))
+    return MessageTable(buffer, names, topic, log_time, start, size, sequence, stream)

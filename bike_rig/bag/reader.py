@@ -3,11 +3,15 @@
 The common bag (see :mod:`bike_rig.bag.fastread`) is opened without rosbags' reader, and
 :meth:`BagReader.table` reads its messages as one table; rosbags' reader is opened when
 needed (:meth:`BagReader.messages`, :meth:`BagReader.decoded`) and for every other bag.
+Each topic is decoded with the definition its schema in the bag gives
+(:meth:`BagReader.decoding`, :mod:`bike_rig.bag.schemas`).
 
 :func:`open_bag` accepts a rosbag2 bag directory (``metadata.yaml`` + storage files, MCAP or
 SQLite) or a single ``.mcap`` file, and turns every problem into one
-:class:`~bike_rig.bag.errors.BagError` that names the path and the reason: not a bag, a
-recording that did not end cleanly (use ``bike-rig bag recover``), unreadable or corrupt files.
+:class:`~bike_rig.bag.errors.BagError` that names the path and the reason: not a bag, not a
+ROS 2 CDR bag (another tool's MCAP: :mod:`bike_rig.bag.foreign`), a storage file metadata.yaml
+lists but that is missing (or an MCAP file it does not list), a recording that did not end
+cleanly (use ``bike-rig bag recover``), unreadable or corrupt files.
 """
 
 from __future__ import annotations
@@ -16,29 +20,34 @@ import gc
 import warnings
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
-from pathlib import Path
+from functools import partial
+from pathlib import Path, PurePath
 from types import TracebackType
 from typing import TYPE_CHECKING, Any, NamedTuple
 
 from .check import Metadata, check_mcap, check_metadata
 from .errors import BagError, BagReadError, IncompleteBagError, NotABagError, ReplayError
-from .fastread import MAGIC, FastBag, UnsafeYaml, Unusual, open_fast
+from .fastread import MAGIC, FastBag, UnsafeYaml, Unusual, open_fast, split_order
+from .foreign import ChannelShape, check_ros2_cdr, foreign_reason, not_ros2_error
 from .msgtable import CorruptChunk, MessageTable, read_table
-from .typestore import rig_typestore, type_hash
+from .schemas import Decoding, RecordedSchema, decoding_for
 
 if TYPE_CHECKING:
     from rosbags.interfaces import Qos
     from rosbags.rosbag2 import Reader
 
-__all__ = ["MCAP_MAGIC", "BagReader", "RawMessage", "TopicInfo", "open_bag", "split_order"]
+__all__ = [
+    "MCAP_MAGIC",
+    "BagReader",
+    "RawMessage",
+    "StampedMessage",
+    "TopicInfo",
+    "listed_files",
+    "open_bag",
+    "split_order",
+]
 
 MCAP_MAGIC = MAGIC
-
-
-def split_order(path: Path) -> tuple[str, int, str]:
-    """Sort key of a storage file: a split bag's ``NAME_2.mcap`` before ``NAME_10.mcap``."""
-    stem, _, index = path.stem.rpartition("_")
-    return (stem, int(index), "") if index.isdigit() else (path.stem, -1, path.name)
 
 
 class RawMessage(NamedTuple):
@@ -47,6 +56,50 @@ class RawMessage(NamedTuple):
     topic: str
     log_time: int
     data: bytes
+
+
+class StampedMessage(NamedTuple):
+    """One recorded message with where the recorder put it.
+
+    Attributes:
+        topic: Its topic.
+        sequence: The publication sequence number the recorder stored with it (0: none).
+        stream: Its rank in the recorder's order of storage (file by the split index in its
+            name, then place in the file).
+        data: The CDR bytes.
+    """
+
+    topic: str
+    sequence: int
+    stream: int
+    data: bytes
+
+
+def listed_files(metadata: Metadata) -> list[str]:
+    """The storage files a bag's metadata.yaml lists (``relative_file_paths``, then ``files``), by name."""
+    info = metadata.doc.get("rosbag2_bagfile_information") if isinstance(metadata.doc, dict) else None
+    if not isinstance(info, dict):
+        return []
+    names = [n for n in info.get("relative_file_paths") or [] if isinstance(n, str)]
+    names += [f["path"] for f in info.get("files") or [] if isinstance(f, dict) and isinstance(f.get("path"), str)]
+    return list(dict.fromkeys(PurePath(n).name for n in names if n))
+
+
+def _names(names: list[str]) -> str:
+    return ", ".join(names[:-1]) + f" and {names[-1]}" if len(names) > 1 else names[0]
+
+
+def _check_listed(path: Path, metadata: Metadata, shown: str) -> None:
+    """Refuse a bag whose metadata.yaml lists a file that is missing, or does not list one of its MCAP files."""
+    listed = listed_files(metadata)
+    missing = [n for n in listed if not (path / n).is_file()]
+    hint = f"run 'bike-rig bag recover {shown}' to copy what its files hold into a new bag"
+    if missing:
+        which = "which is" if len(missing) == 1 else "which are"
+        raise BagReadError(shown, f"metadata.yaml lists {_names(missing)}, {which} missing ({hint})")
+    unlisted = [p.name for p in sorted(path.glob("*.mcap"), key=split_order) if listed and p.name not in listed]
+    if unlisted:
+        raise BagReadError(shown, f"holds {_names(unlisted)}, which metadata.yaml does not list ({hint})")
 
 
 @dataclass(frozen=True)
@@ -59,6 +112,8 @@ class TopicInfo:
         count: Number of messages.
         offered_qos: The QoS profiles its publishers offered.
         type_hash: The RIHS01 hash recorded for its type ("" if the bag has none).
+        schemas: Its type's definitions as its channels carry them (one per distinct schema;
+            none for SQLite storage).
     """
 
     name: str
@@ -66,6 +121,7 @@ class TopicInfo:
     count: int
     offered_qos: tuple[Qos, ...]
     type_hash: str
+    schemas: tuple[RecordedSchema, ...] = ()
 
 
 def _check_mcap_file(path: Path, shown: str) -> None:
@@ -109,6 +165,7 @@ def _resolve(path: Path, shown: str) -> tuple[Path, Metadata | None]:
                 )
             raise NotABagError(shown, "not a rosbag2 bag (no metadata.yaml and no .mcap file)")
         metadata = check_metadata(path / "metadata.yaml", shown)
+        _check_listed(path, metadata, shown)
         for f in storage:
             _check_mcap_file(f, shown)
         return path, metadata
@@ -142,10 +199,16 @@ class BagReader:
         self._reader: Reader | None = None
         self._fast: FastBag | None = None
         self._resolved: Path | None = None
+        self._decodings: dict[str, Decoding] = {}
         self.topics: dict[str, TopicInfo] = {}
 
     def open(self) -> BagReader:
-        """Open the bag and read its index (by the fast path when the bag is the common kind)."""
+        """Open the bag and read its index (by the fast path when the bag is the common kind).
+
+        Raises:
+            NotABagError: Not a bag, or not a ROS 2 CDR bag (a channel of another encoding...).
+            BagError: see the module docstring.
+        """
         resolved, metadata = _resolve(self.path, self.shown)
         self._resolved = resolved
         try:
@@ -154,11 +217,21 @@ class BagReader:
             raise BagReadError(self.shown, f"an MCAP channel's offered QoS profiles: {exc}") from None
         except Unusual:
             self._fast = None
+        schemas: dict[str, list[RecordedSchema]] = {}
         if self._fast is not None:
+            self._refuse_foreign_fast(self._fast)
             conns: list[tuple[str, str, int, tuple[Qos, ...], str]] = [
                 (t.name, t.msgtype, t.count, t.qos, t.digest) for t in self._fast.connections
             ]
+            for storage, route in zip(self._fast.storages, self._fast.routes, strict=True):
+                for ch in storage.channels:
+                    if ch.id in route and ch.schema_encoding:
+                        schemas.setdefault(ch.topic, []).append(
+                            RecordedSchema(ch.msgtype, ch.schema_encoding, ch.schema_text)
+                        )
         else:
+            for f in self._mcap_files(resolved):
+                check_ros2_cdr(f, self.shown)
             reader = self._open_rosbags(resolved)
             if not all(isinstance(v, int) for v in (reader.message_count, reader.start_time, reader.end_time)):
                 self.close()
@@ -167,6 +240,7 @@ class BagReader:
                 (c.topic, c.msgtype, c.msgcount, tuple(getattr(c.ext, "offered_qos_profiles", ()) or ()), c.digest)
                 for c in reader.connections
             ]
+            self._refuse_foreign_connections(reader, schemas)
         topics: dict[str, TopicInfo] = {}
         for name, msgtype, msgcount, qos, digest in conns:
             if not isinstance(msgcount, int) or not isinstance(name, str):
@@ -174,9 +248,41 @@ class BagReader:
                 raise BagReadError(self.shown, f"topic {name!r}: message count {msgcount!r} is not an integer")
             prev = topics.get(name)
             count = msgcount + (prev.count if prev else 0)
-            topics[name] = TopicInfo(name, msgtype, count, qos, digest or "")
+            known = tuple(dict.fromkeys(x for x in schemas.get(name, ()) if x.msgtype == msgtype))
+            topics[name] = TopicInfo(name, msgtype, count, qos, digest or "", known)
         self.topics = topics
         return self
+
+    def _mcap_files(self, resolved: Path) -> list[Path]:
+        """The bag's MCAP files (every one in its directory, or the file itself)."""
+        return sorted(resolved.glob("*.mcap"), key=split_order) if resolved.is_dir() else [resolved]
+
+    def _refuse_foreign_fast(self, fast: FastBag) -> None:
+        """Refuse a bag opened by the fast path whose MCAP files hold a channel that is not ROS 2 CDR."""
+        for storage in fast.storages:
+            shapes = [
+                ChannelShape(ch.topic, ch.encoding, ch.msgtype,
+                             None if ch.msgtype == "__schemaless__" else ch.schema_encoding)
+                for ch in storage.channels
+            ]  # fmt: skip
+            reason = foreign_reason("ros2", shapes)  # (the fast path reads only the profile ros2)
+            if reason:
+                self.close()
+                raise not_ros2_error(storage.path, self.shown, reason)
+
+    def _refuse_foreign_connections(self, reader: Reader, schemas: dict[str, list[RecordedSchema]]) -> None:
+        """Refuse a connection rosbags reads whose serialization is not CDR; note each one's schema."""
+        from rosbags.interfaces import MessageDefinitionFormat
+
+        encodings: dict[object, str] = {MessageDefinitionFormat.MSG: "ros2msg", MessageDefinitionFormat.IDL: "ros2idl"}
+        for c in reader.connections:
+            form = getattr(c.ext, "serialization_format", "cdr")
+            if form != "cdr":
+                self.close()
+                raise NotABagError(self.shown, f"not a ROS 2 CDR bag: topic {c.topic} is serialized as {form!r}")
+            encoding = encodings.get(c.msgdef.format)
+            if encoding and isinstance(c.msgdef.data, str):
+                schemas.setdefault(c.topic, []).append(RecordedSchema(c.msgtype, encoding, c.msgdef.data))
 
     def _open_rosbags(self, resolved: Path) -> Reader:
         # rosbags leaves a storage file open when its open fails: it is closed (unreferenced)
@@ -312,46 +418,106 @@ class BagReader:
         except Unusual:
             return None
 
-    def check_type(self, topic: str) -> str:
-        """The type of a topic, after checking that the rig's typestore decodes it as recorded.
+    def decoding(self, topic: str) -> Decoding:
+        """How a topic's messages are decoded: with the bag's own definition of its type.
 
         Raises:
-            ReplayError: The type is unknown to bike_rig, or was recorded with another
-                definition (a different type hash).
+            ReplayError: The type is not one of bike_rig's, or its definition in the bag cannot
+                be read by field name (see :func:`bike_rig.bag.schemas.decoding_for`).
+        """
+        made = self._decodings.get(topic)
+        if made is None:
+            info = self.topics[topic]
+            made = decoding_for(self.shown, topic, info.msgtype, info.schemas, info.type_hash)
+            self._decodings[topic] = made
+        return made
+
+    def check_type(self, topic: str) -> str:
+        """The type of a topic, after checking that it was recorded with the installed definition.
+
+        (What a republication into a live graph needs: the bytes go out as they are.)
+
+        Raises:
+            ReplayError: The type is unknown to bike_rig, or was recorded with another definition.
         """
         info = self.topics[topic]
-        store = rig_typestore()
-        if info.msgtype not in store.fielddefs:
-            raise ReplayError(self.shown, f"topic {topic}: type {info.msgtype} is not one of bike_rig's")
-        ours = type_hash(info.msgtype)
-        if info.type_hash and info.type_hash != ours:
+        decoding = self.decoding(topic)
+        if not decoding.installed:
             raise ReplayError(
                 self.shown,
-                f"topic {topic}: {info.msgtype} was recorded with another definition "
-                f"(hash {info.type_hash[:19]}…, ours {ours[:19]}…)",
+                f"topic {topic}: {info.msgtype} was recorded with another definition than the installed one "
+                f"(hash {decoding.bag_hash[:23]}…): its bytes cannot be published as they are",
             )
         return info.msgtype
 
     def decoded(self, topics: Iterable[str] | None = None) -> Iterator[tuple[str, int, Any]]:
         """Every message of the given topics (all if None), deserialized, in log-time order.
 
+        Each topic with its own definition in the bag (:meth:`decoding`).
+
         Yields:
             ``(topic, log_time_ns, message)``.
 
         Raises:
-            ReplayError: A type cannot be decoded (see :meth:`check_type`).
+            ReplayError: A type cannot be decoded (see :meth:`decoding`).
             BagReadError: A message does not deserialize.
         """
         names = list(self.topics) if topics is None else [t for t in topics if t in self.topics]
-        types = {t: self.check_type(t) for t in names}
-        deserialize = rig_typestore().deserialize_cdr
+        decoders = {t: partial(self.decoding(t).store.deserialize_cdr, typename=self.topics[t].msgtype) for t in names}
         for msg in self.messages(names):
             try:
-                yield msg.topic, msg.log_time, deserialize(msg.data, types[msg.topic])
+                yield msg.topic, msg.log_time, decoders[msg.topic](msg.data)
             except Exception as exc:  # rosbags raises several kinds for bad CDR
+                msgtype = self.topics[msg.topic].msgtype
                 raise BagReadError(
-                    self.shown, f"a {types[msg.topic]} message on {msg.topic} does not deserialize ({exc})"
+                    self.shown, f"a {msgtype} message on {msg.topic} does not deserialize ({exc})"
                 ) from None
+
+    def stamped(self, topics: Iterable[str]) -> list[StampedMessage] | None:
+        """Every message of ``topics`` with its publication sequence and place in the recorder's order.
+
+        From the message table when the fast path reads the bag, else with the mcap library
+        (every storage file MCAP, messages not compressed one by one).
+
+        Returns:
+            The messages in the recorder's order of storage; None when that order cannot be read.
+
+        Raises:
+            BagReadError: A chunk is corrupt.
+        """
+        names = [t for t in topics if t in self.topics]
+        table = self.table(names)
+        if table is not None:
+            return [
+                StampedMessage(table.topics[int(k)], int(q), int(r), table.data(i))
+                for i, (k, q, r) in enumerate(zip(table.topic, table.sequence, table.stream, strict=True))
+            ]
+        return self._stamped_by_mcap(names)
+
+    def _stamped_by_mcap(self, names: list[str]) -> list[StampedMessage] | None:
+        from mcap.reader import make_reader
+
+        files = self.storage_files
+        meta = getattr(getattr(self.reader, "storage", None), "metadata", None)
+        if getattr(meta, "compression_mode", "") == "message" or any(f.suffix != ".mcap" for f in files):
+            return None
+        out: list[tuple[tuple[tuple[str, int, str], int], StampedMessage]] = []
+        try:
+            for f in files:
+                with f.open("rb") as stream:
+                    found = make_reader(stream).iter_messages(topics=names, log_time_order=False)
+                    for k, (_, channel, message) in enumerate(found):
+                        stamped = StampedMessage(channel.topic, message.sequence, 0, bytes(message.data))
+                        out.append(((split_order(f), k), stamped))
+        except (GeneratorExit, KeyboardInterrupt):
+            raise
+        except Exception:  # the mcap library's own errors: rosbags' reader says what is wrong
+            return None
+        out.sort(key=lambda x: x[0])
+        counts = {t: sum(1 for _, m in out if m.topic == t) for t in names}
+        if any(counts[t] != self.topics[t].count for t in names):
+            return None
+        return [m._replace(stream=i) for i, (_, m) in enumerate(out)]
 
 
 def _sentence(exc: BaseException) -> str:

@@ -10,6 +10,12 @@ summary and footer, metadata.yaml), keeping each message's log and publish time,
 number and bytes, each topic's QoS profiles, type hash and schema, and reports how many
 messages of each topic it recovered.
 
+It also says what it could not recover: a storage file metadata.yaml lists (or whose number,
+between its siblings', says it was written) that is missing, and every channel that is not ROS 2
+CDR with a ``ros2msg`` schema (:mod:`bike_rig.bag.foreign`; another tool's JSON or Protobuf
+channels), whose messages are not copied. A file of another tool with no such channel at all is
+refused in one line.
+
 The damaged bag is never modified.
 """
 
@@ -31,13 +37,26 @@ from mcap.stream_reader import breakup_chunk
 from rosbags.rosbag2.errors import ReaderError
 from rosbags.rosbag2.metadata import parse_qos
 
-from .check import within_limits
+from .check import check_metadata, within_limits
 from .errors import BagError, BagExistsError, BagReadError, NotABagError
-from .reader import MCAP_MAGIC, split_order
+from .foreign import ChannelShape, foreign_reason, not_ros2_error
+from .reader import MCAP_MAGIC, listed_files, split_order
 from .typestore import standard_typestore, type_hash
 from .writer import BagWriter, Compression
 
-__all__ = ["McapScan", "Recovery", "TopicRecovery", "recover_bag", "scan_mcap", "storage_files"]
+__all__ = [
+    "McapScan",
+    "MissingFile",
+    "Recovery",
+    "TopicRecovery",
+    "missing_files",
+    "recover_bag",
+    "scan_mcap",
+    "storage_files",
+]
+
+#: The schema encoding the recovered bag's writer writes (a channel with another is not copied).
+_WRITTEN_SCHEMA = "ros2msg"
 
 _OP_HEADER, _OP_FOOTER, _OP_SCHEMA, _OP_CHANNEL, _OP_MESSAGE, _OP_CHUNK = 0x01, 0x02, 0x03, 0x04, 0x05, 0x06
 _RECORD_LIMIT = 1 << 32
@@ -172,6 +191,49 @@ def _scan_chunk(chunk: Chunk, scan: McapScan) -> None:
             scan.channels.setdefault(r.id, r)
 
 
+@dataclass(frozen=True)
+class MissingFile:
+    """A storage file of the bag that is not there: its name and what says it belongs to the bag."""
+
+    name: str
+    why: str
+
+
+def missing_files(bag: str | Path) -> tuple[list[MissingFile], str]:
+    """The storage files a bag directory should hold but does not, and a note when metadata.yaml cannot tell.
+
+    A file is missing when metadata.yaml lists it, or when it is numbered between the bag's
+    other files (``NAME_1.mcap`` beside ``NAME_0.mcap`` and ``NAME_2.mcap``: the recorder
+    numbers them from 0 as it writes them; a missing last file only metadata.yaml can tell).
+
+    Returns:
+        The missing files, and why metadata.yaml was not read ("" when it was, or there is none).
+    """
+    p = Path(bag)
+    if not p.is_dir():
+        return [], ""
+    out: dict[str, MissingFile] = {}
+    note = ""
+    if (p / "metadata.yaml").is_file():
+        try:
+            listed = listed_files(check_metadata(p / "metadata.yaml", str(bag)))
+        except BagError as exc:
+            listed, note = [], f"metadata.yaml cannot be read ({exc.reason}): the files it lists are not known"
+        for name in listed:
+            if not (p / name).is_file():
+                out[name] = MissingFile(name, "metadata.yaml lists it")
+    numbered: dict[str, set[int]] = {}
+    for f in p.glob("*.mcap"):
+        stem, index, _ = split_order(f)
+        if index >= 0:
+            numbered.setdefault(stem, set()).add(index)
+    for stem, present in sorted(numbered.items()):
+        for k in sorted(set(range(max(present))) - present):
+            name = f"{stem}_{k}.mcap"
+            out.setdefault(name, MissingFile(name, "the files numbered after it are here"))
+    return sorted(out.values(), key=lambda m: split_order(Path(m.name))), note
+
+
 def storage_files(bag: str | Path) -> list[Path]:
     """The MCAP files of a bag directory (or the file itself), a split bag's in recording order.
 
@@ -217,7 +279,9 @@ class Recovery:
         output: The new bag.
         topics: Every recovered topic, in channel order.
         files: The scans of the source's MCAP files.
-        skipped: Channels left out, with the reason.
+        skipped: Channels left out, with the reason and the messages not copied.
+        missing: Storage files of the bag that are not there (:func:`missing_files`).
+        notes: What else limits what is known (metadata.yaml unreadable).
     """
 
     source: str
@@ -225,6 +289,8 @@ class Recovery:
     topics: tuple[TopicRecovery, ...]
     files: tuple[McapScan, ...]
     skipped: tuple[str, ...]
+    missing: tuple[MissingFile, ...] = ()
+    notes: tuple[str, ...] = ()
 
     @property
     def message_count(self) -> int:
@@ -233,8 +299,13 @@ class Recovery:
 
     @property
     def was_complete(self) -> bool:
-        """Whether every source file had its footer (nothing was damaged)."""
-        return all(s.complete for s in self.files)
+        """Whether every source file had its footer and none is missing (nothing was damaged)."""
+        return all(s.complete for s in self.files) and not self.missing
+
+    @property
+    def nothing_lost(self) -> bool:
+        """Whether nothing was lost: complete, no corrupt chunk, no channel left out."""
+        return self.was_complete and not self.skipped and not any(s.bad_chunks for s in self.files)
 
     @property
     def lost_bytes(self) -> int:
@@ -263,22 +334,39 @@ def default_output(bag: str | Path) -> Path:
     return p.parent / f"{stem}_recovered"
 
 
+def _refusal(s: McapScan, ch: Channel) -> str:
+    """Why a channel is not copied ("" when it is: CDR messages, a ros2msg schema)."""
+    schema = s.schemas.get(ch.schema_id) if ch.schema_id else None
+    shape = ChannelShape(ch.topic, ch.message_encoding, schema.name if schema else "",
+                         schema.encoding if schema else None)  # fmt: skip
+    reason = foreign_reason(None, [shape])
+    if not reason and schema is not None and schema.encoding != _WRITTEN_SCHEMA:
+        reason = (f"channel {ch.topic}: its schema {schema.name} has encoding {schema.encoding!r} "
+                  f"(a recovered bag holds {_WRITTEN_SCHEMA} schemas only)")  # fmt: skip
+    return reason
+
+
 def _check_scans(bag: str | Path, scans: tuple[McapScan, ...]) -> None:
     """Refuse files that are not rosbag2 MCAP, and a bag with no readable channel at all."""
     for s in scans:
         if s.profile and s.profile != "ros2":
-            raise NotABagError(str(s.path), f"MCAP profile {s.profile!r} is not ros2 (not a rosbag2 file)")
+            reason = next((r for ch in s.channels.values() if (r := _refusal(s, ch))), "")
+            raise not_ros2_error(s.path, str(bag), reason or f"MCAP profile {s.profile!r} is not 'ros2'")
     if not any(s.channels for s in scans):
         reasons = "; ".join(f"{s.path.name}: {s.stop_reason or 'no channel'}" for s in scans)
         raise BagReadError(str(bag), f"nothing to recover: no complete chunk holds a channel ({reasons})")
+    refused = [(s, r) for s in scans for ch in s.channels.values() if (r := _refusal(s, ch))]
+    if len(refused) == sum(len(s.channels) for s in scans):
+        s, reason = refused[0]
+        raise not_ros2_error(s.path, str(bag), reason)
 
 
 def _add_channels(
     writer: BagWriter, s: McapScan, skipped: list[str], stats: dict[str, list[int]], types: dict[str, str]
 ) -> dict[int, str]:
-    """Add the CDR channels of one scanned file to ``writer`` (each topic once).
+    """Add the ROS 2 CDR channels of one scanned file to ``writer`` (each topic once).
 
-    Channels without a schema or not CDR are named in ``skipped``; a new topic gets zeroed
+    Channels that are not (:func:`_refusal`) are named in ``skipped``; a new topic gets zeroed
     ``stats`` (count, first and last log time [ns]) and its type in ``types``.
 
     Returns:
@@ -287,8 +375,10 @@ def _add_channels(
     topic_of: dict[int, str] = {}
     for cid, ch in s.channels.items():
         schema = s.schemas.get(ch.schema_id)
-        if schema is None or ch.message_encoding != "cdr":
-            skipped.append(f"{ch.topic}: no schema or not CDR")
+        reason = _refusal(s, ch)
+        if reason or schema is None:
+            lost = sum(1 for m in s.messages if m.channel_id == cid)
+            skipped.append(f"{s.path.name}: {reason or 'no schema'} ({lost} messages not copied)")
             continue
         if not writer.has_topic(ch.topic):
             try:
@@ -337,6 +427,10 @@ def recover_bag(bag: str | Path, output: str | Path | None = None) -> Recovery:
         BagExistsError: The output exists.
         BagError: No MCAP file, not MCAP, unreadable, or nothing readable at all.
     """
+    missing, note = missing_files(bag)
+    if missing and Path(bag).is_dir() and not any(Path(bag).glob("*.mcap")):
+        names = ", ".join(m.name for m in missing)
+        raise BagReadError(str(bag), f"nothing to recover: every storage file metadata.yaml lists is missing ({names})")
     files = storage_files(bag)
     out = Path(output) if output is not None else default_output(bag)
     if out.exists():
@@ -364,4 +458,4 @@ def recover_bag(bag: str | Path, output: str | Path | None = None) -> Recovery:
         shutil.rmtree(out, ignore_errors=True)
         raise
     topics = tuple(TopicRecovery(name, types[name], *stats[name]) for name in stats)
-    return Recovery(str(bag), out, topics, scans, tuple(skipped))
+    return Recovery(str(bag), out, topics, scans, tuple(skipped), tuple(missing), (note,) if note else ())

@@ -5,13 +5,18 @@ every reading entered during the session), and the live results (period estimate
 set, model) the graph published.
 
 Messages are the dataclasses rosbags deserializes into (:mod:`bike_rig.bag.typestore`), with
-the same fields as the rclpy messages, so the nodes' ROS-free functions take them as they are.
-Gyro batches are kept per trial in the order they were received (log time).
+the same fields as the rclpy messages, so the nodes' ROS-free functions take them as they are;
+each topic is decoded with its type's definition in the bag (:mod:`bike_rig.bag.schemas`).
+Gyro batches are kept per trial in the order they were received (log time). The live graph's
+results and static readings (period estimates, parameter sets, model, ``StaticReadings``) are
+kept in the order their publishers published them (:mod:`bike_rig.bag.order`), so the last of
+each is the live graph's last, whatever the recorder's clock did.
 
 The common bag is read by a fast path that gives the same session: the reader's message table
 (:meth:`bike_rig.bag.reader.BagReader.table`), the gyro batches decoded all at once from their
-CDR bytes (:mod:`bike_rig.bag.gyro_cdr`) and the few other messages by rosbags. Any bag or
-message it does not handle is read message by message as before.
+CDR bytes (:mod:`bike_rig.bag.gyro_cdr`, only when the bag's GyroBatch is the installed one) and
+the few other messages by rosbags. Any bag or message it does not handle is read message by
+message as before.
 """
 
 from __future__ import annotations
@@ -19,7 +24,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -27,16 +32,37 @@ from numpy.typing import NDArray
 from .. import topics
 from ..messages import MessageError, sample_batch_from_msg, trial_event_from_msg
 from ..pipeline.acquire import SampleBatch, SampleBlock, TrialEventKind, TrialEventRecord
-from .errors import NoRigTopicsError
+from .errors import BagReadError, NoRigTopicsError
 from .fastread import Unusual
 from .gyro_cdr import GyroColumns, decode_gyro, is_our_layout
 from .msgtable import MessageTable
+from .order import publication_order
 from .reader import BagReader, TopicInfo
 from .typestore import rig_typestore
 
-__all__ = ["RecordedSession", "RecordedTrial", "read_session"]
+__all__ = ["LIVE_TOPICS", "RecordedSession", "RecordedTrial", "read_session"]
 
 IntArray = NDArray[np.int64]
+
+#: The topics whose messages are kept in publication order (one publisher at a time each).
+LIVE_TOPICS = (topics.STATIC_READINGS.name, topics.PERIODS.name, topics.PARAMETERS.name, topics.MATRICES.name,
+               topics.EIGEN_SWEEP.name)  # fmt: skip
+
+#: :attr:`RecordedSession.live_order` when the publication sequence numbers ordered the live results.
+BY_SEQUENCE = "publication sequence"
+#: ... when the bag records no sequence: the recorder's order of storage.
+BY_STORAGE = "order of storage"
+#: ... when neither could be read (rosbags' order: the log time).
+BY_LOG_TIME = "log time"
+
+
+class _Keyed(NamedTuple):
+    """A live-topic message with its publication sequence and its rank in the order of storage."""
+
+    topic: str
+    message: Any
+    sequence: int
+    stream: int
 
 
 @dataclass
@@ -48,7 +74,7 @@ class RecordedTrial:
         start: Its START event, or None.
         stop: Its first STOP or ABORT event, or None.
         batches: Its gyro batches, in receiving order (duplicates included).
-        estimates: The PeriodEstimate messages published for it, in receiving order.
+        estimates: The PeriodEstimate messages published for it, in publication order.
     """
 
     trial_id: str
@@ -125,14 +151,17 @@ class RecordedSession:
         message_count: Messages in the bag.
         storage_files: The bag's storage files.
         trials: The trials by id, in the order they were first heard of.
-        static_readings: The last StaticReadings message, or None (the parameter node's: the
-            measurement file's readings with every entered reading applied).
+        static_readings: The last StaticReadings message published, or None (the parameter
+            node's: the measurement file's readings with every entered reading applied).
         reading_entries: Every ReadingEntry message (readings entered during the session,
             corrections too), in the order received.
-        parameters: Every BenchmarkParameters message, in order.
-        matrices: Every CanonicalMatrices message, in order.
-        eigen_sweeps: Every EigenSweep message, in order.
+        parameters: Every BenchmarkParameters message, in publication order.
+        matrices: Every CanonicalMatrices message, in publication order.
+        eigen_sweeps: Every EigenSweep message, in publication order.
         stray_batches: Gyro batches outside any trial (empty trial id).
+        all_static_readings: Every StaticReadings message, in publication order.
+        live_order: What ordered the live topics' messages (:data:`BY_SEQUENCE`,
+            :data:`BY_STORAGE` or :data:`BY_LOG_TIME`; see :mod:`bike_rig.bag.order`).
     """
 
     path: str
@@ -148,6 +177,8 @@ class RecordedSession:
     matrices: list[Any] = field(default_factory=list)
     eigen_sweeps: list[Any] = field(default_factory=list)
     stray_batches: int = 0
+    all_static_readings: list[Any] = field(default_factory=list)
+    live_order: str = BY_STORAGE
 
     @property
     def duration(self) -> int:
@@ -217,6 +248,7 @@ def _add(session: RecordedSession, topic: str, msg: Any) -> None:
         session.trial(str(msg.trial_id)).estimates.append(msg)
     elif topic == topics.STATIC_READINGS.name:
         session.static_readings = msg
+        session.all_static_readings.append(msg)
     elif topic == topics.READINGS.name:
         session.reading_entries.append(msg)
     elif topic == topics.PARAMETERS.name:
@@ -237,7 +269,8 @@ def read_session(path: str | Path, which: Iterable[str] | None = None) -> Record
     Raises:
         BagError: The bag cannot be read (see :func:`bike_rig.bag.reader.open_bag`).
         NoRigTopicsError: It holds none of the rig's topics.
-        ReplayError: A rig topic was recorded with another message definition.
+        ReplayError: A rig topic's type is not bike_rig's, or its definition in the bag lacks
+            what bike_rig reads.
     """
     with BagReader(path) as bag:
         rig = [t.name for t in topics.TOPICS if t.name in bag.topics]
@@ -245,29 +278,75 @@ def read_session(path: str | Path, which: Iterable[str] | None = None) -> Record
             names = ", ".join(t.name for t in topics.TOPICS)
             found = ", ".join(sorted(bag.topics)) or "no topics at all"
             raise NoRigTopicsError(bag.shown, f"holds none of bike_rig's topics ({names}); it has {found}")
-        session = RecordedSession(
+        empty = RecordedSession(
             bag.shown, dict(bag.topics), bag.start_time, bag.end_time, bag.message_count, bag.storage_files
         )
         wanted = rig if which is None else [t for t in rig if t in set(which)]
         for t in wanted:
-            bag.check_type(t)
+            bag.decoding(t)
         table = bag.table(wanted)
-        fast = _from_table(session, table) if table is not None else None
+        fast = _from_table(empty, table, bag) if table is not None else None
+        keyed: list[_Keyed] | None
         if fast is not None:
-            return fast
-        for topic, _, msg in bag.decoded(wanted):
-            _add(session, topic, msg)
+            session, keyed = fast
+        else:
+            session = empty
+            for topic, _, msg in bag.decoded(wanted):
+                _add(session, topic, msg)
+            keyed = _stamped_live(bag, [t for t in wanted if t in LIVE_TOPICS])
+        if keyed is not None:
+            _order_live(session, keyed)
+        else:
+            session.live_order = BY_LOG_TIME
     return session
 
 
-def _decoded_others(table: MessageTable, skip: int, kinds: dict[str, str]) -> list[tuple[int, str, Any]] | None:
+def _stamped_live(bag: BagReader, live: list[str]) -> list[_Keyed] | None:
+    """The live topics' messages with their sequence and rank in storage, read again (None: not readable)."""
+    stamped = bag.stamped(live) if live else []
+    if stamped is None:
+        return None
+    out = []
+    for m in stamped:
+        try:
+            msg = bag.decoding(m.topic).store.deserialize_cdr(m.data, bag.topics[m.topic].msgtype)
+        except Exception as exc:  # rosbags raises several kinds for bad CDR
+            reason = f"a {bag.topics[m.topic].msgtype} message on {m.topic} does not deserialize ({exc})"
+            raise BagReadError(bag.shown, reason) from None
+        out.append(_Keyed(m.topic, msg, m.sequence, m.stream))
+    return out
+
+
+def _order_live(session: RecordedSession, keyed: list[_Keyed]) -> None:
+    """Put the live topics' messages in publication order (:func:`bike_rig.bag.order.publication_order`)."""
+    ordered: dict[str, list[Any]] = {}
+    by_sequence = False
+    for topic in LIVE_TOPICS:
+        items = [k for k in keyed if k.topic == topic]
+        order = publication_order([k.sequence for k in items], [k.stream for k in items])
+        ordered[topic] = [items[i].message for i in order]
+        by_sequence |= bool(items) and all(k.sequence > 0 for k in items)
+    session.live_order = BY_SEQUENCE if by_sequence else BY_STORAGE
+    session.parameters = ordered[topics.PARAMETERS.name]
+    session.matrices = ordered[topics.MATRICES.name]
+    session.eigen_sweeps = ordered[topics.EIGEN_SWEEP.name]
+    session.all_static_readings = ordered[topics.STATIC_READINGS.name]
+    session.static_readings = session.all_static_readings[-1] if session.all_static_readings else None
+    for t in session.trials.values():
+        t.estimates = []
+    for msg in ordered[topics.PERIODS.name]:
+        session.trial(str(msg.trial_id)).estimates.append(msg)
+
+
+def _decoded_others(
+    table: MessageTable, skip: int, decoders: dict[str, Any], kinds: dict[str, str]
+) -> list[tuple[int, str, Any]] | None:
     """Every message but those of topic ``skip``, deserialized: (row, topic, message); None if one fails."""
-    deserialize = rig_typestore().deserialize_cdr
     out = []
     for i in np.flatnonzero(table.topic != skip).tolist():
         topic = table.topics[int(table.topic[i])]
         try:
-            out.append((i, topic, deserialize(table.data(i), kinds[topic])))
+            out.append((i, topic, decoders[topic](table.data(i), kinds[topic])))
         except Exception:
             return None
     return out
@@ -286,35 +365,46 @@ def _first_heard(others: list[tuple[int, str, Any]], rows: IntArray, columns: Gy
     return list(dict.fromkeys(tid for _, tid in sorted(heard)))
 
 
-def _from_table(empty: RecordedSession, table: MessageTable) -> RecordedSession | None:
+def _from_table(
+    empty: RecordedSession, table: MessageTable, bag: BagReader
+) -> tuple[RecordedSession, list[_Keyed]] | None:
     """The session from the reader's message table, as :func:`_add` on each message builds it.
 
+    The gyro batches are decoded all at once (:func:`~bike_rig.bag.gyro_cdr.decode_gyro`) when
+    the bag's GyroBatch is the installed definition, else one by one with the bag's own.
+
     Returns:
-        The session, or None when a message is not one the fast path decodes (the caller then
-        reads message by message).
+        The session and its live topics' messages with their sequence and rank in storage, or
+        None when a message is not one the fast path decodes (the caller then reads message by
+        message).
     """
-    store = rig_typestore()
+    rig = rig_typestore()
+    decoders = {t: bag.decoding(t).store.deserialize_cdr for t in table.topics}
+    kinds = {name: empty.topics[name].msgtype for name in table.topics}
     gyro = table.topics.index(topics.GYRO.name) if topics.GYRO.name in table.topics else -1
     rows = np.flatnonzero(table.topic == gyro)
-    try:
-        if len(rows) and not is_our_layout(store.fielddefs):
+    columns = None
+    if not len(rows) or (bag.decoding(topics.GYRO.name).installed and is_our_layout(rig.fielddefs)):
+        try:
+            columns = decode_gyro(table.buffer, table.start[rows], table.size[rows], rig.max_sequence_length)
+        except Unusual:
             return None
-        columns = decode_gyro(table.buffer, table.start[rows], table.size[rows], store.max_sequence_length)
-    except Unusual:
-        return None
-    others = _decoded_others(table, gyro, {name: empty.topics[name].msgtype for name in table.topics})
+    others = _decoded_others(table, gyro if columns is not None else -1, decoders, kinds)
     if others is None:
         return None
     session = RecordedSession(
         empty.path, empty.topics, empty.start_time, empty.end_time, empty.message_count, empty.storage_files
     )
-    for tid in _first_heard(others, rows, columns):
-        session.trial(tid)
-    for tid, block in columns.blocks():
-        if tid:
-            session.trials[tid].batches = block
-        else:
-            session.stray_batches += len(block)
+    if columns is not None:
+        for tid in _first_heard(others, rows, columns):
+            session.trial(tid)
+        for tid, block in columns.blocks():
+            if tid:
+                session.trials[tid].batches = block
+            else:
+                session.stray_batches += len(block)
     for _, topic, msg in others:
         _add(session, topic, msg)
-    return session
+    sequence, stream = table.sequence, table.stream
+    keyed = [_Keyed(t, msg, int(sequence[i]), int(stream[i])) for i, t, msg in others if t in LIVE_TOPICS]
+    return session, keyed

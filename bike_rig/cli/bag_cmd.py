@@ -10,8 +10,10 @@ recorded and announced, the period estimate's validity), every topic with its me
 type, the duration, and what the live graph published last. ``recover`` rewrites what can be
 read of a bag whose recorder was killed (no metadata.yaml, an MCAP file without summary or
 footer) into a new, valid bag (default ``<BAG>_recovered``) and reports the messages recovered
-per topic. BAG is a bag directory or its ``.mcap`` file. Problems end with one line on stderr
-naming the bag and the reason, and exit status 2.
+per topic, and what it could not recover: a storage file that is missing (metadata.yaml lists
+it, or the files numbered after it are there) or a channel that is not ROS 2 CDR; its exit
+status is then 1. BAG is a bag directory or its ``.mcap`` file. Problems end with one line on
+stderr naming the bag and the reason, and exit status 2.
 """
 
 from __future__ import annotations
@@ -20,8 +22,10 @@ import argparse
 import json
 import math
 from datetime import UTC, datetime
+from pathlib import PurePath
 from typing import Any
 
+from ..bag.fastread import split_order
 from ..bag.info import BagSummary, TrialSummary, summarize
 from ..bag.recover import Recovery, recover_bag
 from .commands import HELP
@@ -190,13 +194,13 @@ def _live_text(summary: BagSummary) -> str:
 
 
 def run_recover(args: argparse.Namespace) -> int:
-    """``bike-rig bag recover``."""
+    """``bike-rig bag recover``: 0, or 1 when a storage file is missing or a channel was left out."""
     recovery = recover_bag(args.bag, args.output)
     if args.json:
         print(json.dumps(_recover_json(recovery), indent=2))
     else:
         print(recover_text(recovery))
-    return 0
+    return 1 if recovery.missing or recovery.skipped else 0
 
 
 def _recover_json(r: Recovery) -> dict[str, Any]:
@@ -214,24 +218,38 @@ def _recover_json(r: Recovery) -> dict[str, Any]:
             for s in r.files
         ],  # fmt: skip
         "skipped": list(r.skipped),
+        "missing": [{"file": m.name, "why": m.why} for m in r.missing],
+        "nothing_lost": r.nothing_lost,
+        "notes": list(r.notes),
     }
 
 
 def recover_text(r: Recovery) -> str:
     """The ``bag recover`` report."""
     out = [f"recovered {r.message_count} messages from {r.source} into {r.output}"]
+    nothing_lost = r.nothing_lost
+    files: list[tuple[str, str]] = []
     for s in r.files:
         if s.complete:
-            state = "complete (it had its footer: nothing was lost)"
+            state = "complete (it had its footer: nothing was lost)" if nothing_lost else "complete (it had its footer)"
         else:
             state = (f"cut after byte {s.read_bytes} of {s.size}: {s.stop_reason}; "
                      f"{s.size - s.read_bytes} bytes after the last complete record lost")  # fmt: skip
         bad = f", {s.bad_chunks} corrupt chunk(s) skipped" if s.bad_chunks else ""
-        out.append(f"  {s.path.name}: {s.chunks} chunks read{bad}; {state}")
+        files.append((s.path.name, f"  {s.path.name}: {s.chunks} chunks read{bad}; {state}"))
+    files += [(m.name, f"  {m.name}: MISSING ({m.why}): its messages are not recovered") for m in r.missing]
+    out += [line for _, line in sorted(files, key=lambda f: split_order(PurePath(f[0])))]
     if r.last_time:
         out.append(f"  last message recovered: {_time(r.last_time)} ({r.last_time} ns)")
-    width = max(len("topic"), *(len(t.name) for t in r.topics))
-    out.append(f"{'topic':<{width}}  {'recovered':>9}  type")
-    out += [f"{t.name:<{width}}  {t.count:>9}  {t.msgtype}" for t in r.topics]
+    if r.topics:
+        width = max(len("topic"), *(len(t.name) for t in r.topics))
+        out.append(f"{'topic':<{width}}  {'recovered':>9}  type")
+        out += [f"{t.name:<{width}}  {t.count:>9}  {t.msgtype}" for t in r.topics]
     out += [f"skipped {s}" for s in r.skipped]
+    out += [f"note: {n}" for n in r.notes]
+    if r.missing:
+        names = ", ".join(m.name for m in r.missing)
+        out.append(f"NOT recovered: {len(r.missing)} storage file(s) missing ({names})")
+    if r.skipped:
+        out.append(f"NOT recovered: {len(r.skipped)} channel(s) that are not ROS 2 CDR (skipped above)")
     return "\n".join(out)

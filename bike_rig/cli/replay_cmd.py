@@ -16,8 +16,9 @@ the bag's own (its last StaticReadings message: the measurement file's with ever
 entered during the session applied), so a session bag needs no other file; ``--readings FILE``
 replaces them with a measurement file's (e.g. corrected after the session; its periods are
 ignored), and the output says so. It prints the 25 parameters with σ, the weave and capsize
-speeds, the trials, and whether the results equal what the live graph published (relative
-1e-12). The fit options and the other settings can be overridden to see their effect.
+speeds, the trials, and whether the results equal what the live graph published last (relative
+1e-12; "last" in its publishers' own order, :mod:`bike_rig.bag.order`, not the log time). The
+fit options and the other settings can be overridden to see their effect.
 
 ``--json`` prints one object: ``bike-rig params --json``'s ``bicycle`` and ``parameters``, plus
 ``weave_speed``, ``capsize_speed`` (null when absent), their ``*_sigma``, ``complete``,

@@ -228,8 +228,8 @@ def read_both(bag: Path, monkeypatch: pytest.MonkeyPatch) -> tuple[RecordedSessi
     calls: list[bool] = []
     real = session_module._from_table
 
-    def spy(empty: RecordedSession, table: Any) -> RecordedSession | None:
-        got = real(empty, table)
+    def spy(empty: RecordedSession, table: Any, bag: BagReader) -> Any:
+        got = real(empty, table, bag)
         calls.append(got is not None)
         return got
 
@@ -337,7 +337,8 @@ def test_messages_a_chunk_index_leaves_out_are_found() -> None:
     from bike_rig.bag.msgtable import _keys_of_chunks, _Read
 
     def message(channel: int, log_time: int, data: bytes) -> bytes:
-        return b"\x05" + struct.pack("<QHIQQ", 2 + 4 + 8 + 8 + len(data), channel, 0, log_time, log_time) + data
+        sequence = log_time // 10
+        return b"\x05" + struct.pack("<QHIQQ", 2 + 4 + 8 + 8 + len(data), channel, sequence, log_time, log_time) + data
 
     def index(channel: int, entries: list[tuple[int, int]]) -> bytes:
         pairs = b"".join(struct.pack("<QQ", t, o) for t, o in entries)
@@ -356,8 +357,9 @@ def test_messages_a_chunk_index_leaves_out_are_found() -> None:
     buffer = np.frombuffer(records_a + records_b, dtype=np.uint8)
     lut = np.full(65536, -1, dtype=np.int64)
     lut[1], lut[2] = 0, 1
-    log_time, where, position, topic, start, size = _keys_of_chunks(buffer, reads, [0, len(records_a)], lut)
+    log_time, where, position, topic, start, size, sequence = _keys_of_chunks(buffer, reads, [0, len(records_a)], lut)
     assert log_time.tolist() == [10, 20, 30] and where.tolist() == [1000, 1000, 2000]
+    assert sequence.tolist() == [1, 2, 3]
     assert position.tolist() == [0, 1, 0] and topic.tolist() == [0, 0, 1]
     assert [bytes(buffer[a : a + n]) for a, n in zip(start.tolist(), size.tolist(), strict=True)] == [
         b"one", b"two!", b"three"
