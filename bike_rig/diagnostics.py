@@ -7,8 +7,9 @@ Every node publishes ``diagnostic_msgs/DiagnosticArray`` on ``/diagnostics`` onc
 message and key-value details (numbers in SI units or as the key says).
 
 This module computes those statuses from the nodes' own counters: the level rules
-(:func:`level_above`, :func:`level_below`, :func:`age_level`) and a rate meter
-(:class:`RateMeter`) that measures events per second of wall time. The operator console keeps
+(:func:`level_above`, :func:`level_below`, :func:`age_level`), a rate meter
+(:class:`RateMeter`) that measures events per second of wall time, and a lag meter
+(:class:`LagMeter`) that measures how far behind its input a node is. The operator console keeps
 the latest statuses in a :class:`HealthBoard` (its compact health line, and which node changed
 level).
 """
@@ -18,13 +19,16 @@ from __future__ import annotations
 import math
 import time
 from collections import deque
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from enum import IntEnum
 
 __all__ = [
     "HARDWARE_ID",
+    "INPUT_LAG",
+    "LAG_WINDOW_S",
     "HealthBoard",
+    "LagMeter",
     "Level",
     "RateMeter",
     "Status",
@@ -38,6 +42,11 @@ __all__ = [
 
 #: ``hardware_id`` of every bike_rig status.
 HARDWARE_ID = "bike_rig"
+#: The concern of a node's input-lag status (``"<node>: input lag"``).
+INPUT_LAG = "input lag"
+#: The lag meter reports the largest lag of the messages handled over this last window, s: longer
+#: than the 1 s between two ``/diagnostics`` arrays, so that every late message is in one.
+LAG_WINDOW_S = 1.5
 
 
 class Level(IntEnum):
@@ -161,6 +170,56 @@ class RateMeter:
         return math.inf if self.last_s is None else self._monotonic() - self.last_s
 
 
+class LagMeter:
+    """How far behind its input a node is: now − the source time of each message it handles.
+
+    Fed once per message handled (:meth:`note`, with the message's DDS source timestamp, ns, on
+    the host clock that ``clock_ns`` reads). :meth:`lag` is the largest lag of the messages
+    handled over the last ``window_s``: a node handling a backlog reads late until it handles
+    messages that are recent again, and reads 0 a window after its last late message (caught
+    up, or idle: a node that handles nothing is not behind anything it has seen).
+
+    Args:
+        window_s: The window, s (> 0).
+        clock_ns: The host clock, ns since the epoch (``time.time_ns``; tests pass a fake one).
+    """
+
+    def __init__(self, window_s: float = LAG_WINDOW_S, clock_ns: Callable[[], int] = time.time_ns) -> None:
+        """Nothing handled yet."""
+        if not window_s > 0:
+            raise ValueError(f"a lag window lasts > 0 s, got {window_s!r}")
+        self._window_ns = int(window_s * 1e9)
+        self._clock_ns = clock_ns
+        # (handled at, lag), ns: lags strictly decreasing, so the first is the window's largest
+        self._late: deque[tuple[int, int]] = deque()
+        #: Messages handled since the start (those without a source time not counted).
+        self.handled = 0
+        #: The largest lag since the start, s.
+        self.largest_s = 0.0
+
+    def note(self, source_ns: int | None) -> None:
+        """A message with source time ``source_ns`` (ns since the epoch) is handled now; None or ≤ 0: unknown, ignored.
+
+        A source time ahead of this host's clock (another host's clock) counts as no lag.
+        """
+        if source_ns is None or source_ns <= 0:
+            return
+        now = self._clock_ns()
+        lag = max(0, now - source_ns)
+        while self._late and self._late[-1][1] <= lag:
+            self._late.pop()
+        self._late.append((now, lag))
+        self.handled += 1
+        self.largest_s = max(self.largest_s, lag / 1e9)
+
+    def lag(self) -> float:
+        """The largest lag of the messages handled over the last window, s (0 when none was handled)."""
+        horizon = self._clock_ns() - self._window_ns
+        while self._late and self._late[0][0] < horizon:
+            self._late.popleft()
+        return self._late[0][1] / 1e9 if self._late else 0.0
+
+
 @dataclass(frozen=True)
 class StatusReport:
     """One ``DiagnosticArray`` as the console receives it: one node's statuses."""
@@ -178,6 +237,9 @@ class HealthBoard:
 
     :meth:`update` takes one report and says which nodes changed their worst level;
     :meth:`line` is the compact health line (each node's worst level, the reason when not OK).
+    A node's :data:`INPUT_LAG` status counts in its level but changes no level by itself in
+    :meth:`update`: a node falling behind and catching up is said by
+    :class:`bike_rig.pipeline.stalls.StallWatch`, once.
     """
 
     def __init__(self) -> None:
@@ -206,23 +268,28 @@ class HealthBoard:
                 nodes.append(node_of(s))
         out = []
         for node in nodes:
-            level = self.node_level(node)
+            mine = [s for s in self.statuses.values() if node_of(s) == node and s.name != f"{node}: {INPUT_LAG}"]
+            level = worst(mine)
             before = self._levels.get(node, Level.OK)
             self._levels[node] = level
             if level != before:
-                status = self.worst_status(node)
+                status = max(mine, key=lambda s: s.level, default=None)
                 reason = "" if status is None else f"{status.name.split(': ', 1)[-1]}: {status.message}"
                 out.append((node, level, reason))
         return out
 
-    def line(self, reasons: bool = True) -> str:
+    def line(self, reasons: bool = True, instead: Mapping[str, str] | None = None) -> str:
         """``driver OK · fitter OK · parameter WARN (completeness: incomplete: 3 of 13 periods) · …``; "" if empty.
 
         Args:
             reasons: Give the reason of each node that is not OK (else the levels only).
+            instead: Words that replace a node's level and reason (e.g. ``{"fitter": "SILENT"}``).
         """
         parts = []
         for node in dict.fromkeys(node_of(s) for s in self.statuses.values()):
+            if instead and node in instead:
+                parts.append(f"{node} {instead[node]}")
+                continue
             level = self.node_level(node)
             status = self.worst_status(node)
             reason = ""

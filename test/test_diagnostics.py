@@ -154,3 +154,118 @@ def test_a_paused_recorder_warns_with_what_it_did_not_record() -> None:
     bag, _ = recorder_statuses(h)
     assert bag.level is Level.WARN and "7 message(s)" in bag.message
     assert recorder_statuses(RecorderHealth("bag", 10, 5, 0, 1.0, 10**10, 10**6))[0].level is Level.OK
+
+
+# ------------------------------------------------------------------------------- input lag
+class NsClock:
+    """A host clock, ns since the epoch, moved by hand."""
+
+    def __init__(self) -> None:
+        self.ns = 1_700_000_000 * 10**9
+
+    def __call__(self) -> int:
+        return self.ns
+
+    def step(self, seconds: float) -> None:
+        self.ns += int(seconds * 1e9)
+
+
+def test_the_lag_meter_reads_the_largest_lag_of_the_last_second_then_clears() -> None:
+    from bike_rig.diagnostics import LagMeter
+
+    clock = NsClock()
+    meter = LagMeter(1.0, clock)
+    assert meter.lag() == 0.0 and meter.handled == 0
+    meter.note(None)
+    meter.note(0)  # no source time: nothing noted
+    assert meter.handled == 0
+    meter.note(clock.ns - 50_000_000)  # on time: 0.05 s
+    assert meter.lag() == pytest.approx(0.05)
+    # a stall: the backlog is handled 20 s late, then ever less late as it catches up
+    for late_s in (20.0, 19.8, 19.6):
+        clock.step(0.1)
+        meter.note(clock.ns - int(late_s * 1e9))
+    assert meter.lag() == pytest.approx(20.0) and meter.largest_s == pytest.approx(20.0)
+    clock.step(0.5)
+    meter.note(clock.ns - 10**7)  # caught up: a recent message
+    assert meter.lag() == pytest.approx(20.0)  # the late ones are still within the last second
+    clock.step(0.75)
+    assert meter.lag() == pytest.approx(0.01)  # a second after the last late one: only the recent one
+    clock.step(1.0)
+    assert meter.lag() == 0.0 and meter.handled == 5  # idle: not behind anything
+    meter.note(clock.ns + 3 * 10**9)  # a source clock ahead of ours counts as on time
+    assert meter.lag() == 0.0
+    with pytest.raises(ValueError, match="> 0 s"):
+        LagMeter(0.0)
+
+
+def test_input_lag_is_ok_below_the_threshold_and_warns_from_it() -> None:
+    from bike_rig.pipeline.health import LAG_WARN_S, InputLag, input_lag_statuses
+
+    (ok,) = input_lag_statuses(InputLag(0.012, 0.5, 40), "fitter")
+    assert (ok.name, ok.level, ok.message) == ("fitter: input lag", Level.OK, "keeping up: 0.012 s behind its input")
+    assert ok.value("lag (s)") == "0.012" and ok.value("messages") == "40"
+    (late,) = input_lag_statuses(InputLag(3.2, 3.2, 41), "fitter")
+    assert (late.level, late.message) == (Level.WARN, "3 s behind its input")
+    assert input_lag_statuses(InputLag(LAG_WARN_S, 3.2, 41), "fitter")[0].level is Level.WARN
+    assert input_lag_statuses(InputLag(0.99 * LAG_WARN_S, 3.2, 41), "fitter")[0].level is Level.OK
+
+
+class _FakeNode:
+    """What the diagnostics updater needs of an rclpy node (no ROS runtime)."""
+
+    def __init__(self) -> None:
+        self.arrays: list[Any] = []
+
+    def create_publisher(self, *_args: Any) -> Any:
+        return type("Pub", (), {"publish": lambda _self, msg: self.arrays.append(msg)})()
+
+    def create_timer(self, *_args: Any) -> None:
+        return None
+
+    def get_name(self) -> str:
+        return "parameter"
+
+    def get_clock(self) -> Any:
+        from builtin_interfaces.msg import Time
+
+        now = type("Now", (), {"to_msg": lambda _self: Time()})()
+        return type("Clock", (), {"now": lambda _self: now})()
+
+
+def test_the_updater_adds_the_input_lag_from_the_first_message_noted() -> None:
+    from bike_rig.diagnostics import LagMeter
+    from bike_rig.nodes.diagnostics import DiagnosticsUpdater
+
+    node = _FakeNode()
+    clock = NsClock()
+    updater = DiagnosticsUpdater(node, lambda: [Status.of("parameter", "completeness", Level.OK, "complete")])  # type: ignore[arg-type]
+    updater.input_lag = LagMeter(1.0, clock)
+    updater.publish()
+    assert [s.name for s in statuses_from_msg(node.arrays[-1])] == ["parameter: completeness"]  # no input yet
+    updater.note_input(None)
+    updater.note_input({"source_timestamp": 0})  # rclpy's info without a source time
+    updater.note_input("not an info")  # type: ignore[arg-type]
+    updater.publish()
+    assert len(statuses_from_msg(node.arrays[-1])) == 1
+    updater.note_input({"source_timestamp": clock.ns - 12 * 10**9, "received_timestamp": clock.ns})
+    updater.publish()
+    lag = statuses_from_msg(node.arrays[-1])[1]
+    assert (lag.name, lag.level, lag.message) == ("parameter: input lag", Level.WARN, "12 s behind its input")
+    clock.step(1.5)
+    updater.note_input({"source_timestamp": clock.ns - 10**6})
+    updater.publish()
+    assert statuses_from_msg(node.arrays[-1])[1].level is Level.OK
+
+
+def test_the_health_board_leaves_the_input_lag_to_the_stall_watch() -> None:
+    from bike_rig.diagnostics import HealthBoard
+
+    board = HealthBoard()
+    ok = Status.of("fitter", "fits", Level.OK, "fine")
+    assert board.update([ok, Status.of("fitter", "input lag", Level.OK, "keeping up")]) == []
+    assert board.update([ok, Status.of("fitter", "input lag", Level.WARN, "20 s behind its input")]) == []
+    assert board.node_level("fitter") is Level.WARN and board.line(reasons=False) == "fitter WARN"
+    assert board.line(instead={"fitter": "SILENT"}) == "fitter SILENT"
+    (change,) = board.update([Status.of("fitter", "fits", Level.WARN, "foreign batches")])
+    assert change == ("fitter", Level.WARN, "fits: foreign batches")

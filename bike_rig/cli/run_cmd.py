@@ -9,15 +9,22 @@ or ``REDO`` with every flag's reason and advice. At the end it prints a summary 
 session is:
 
 * ``<session>/bag``: the recorded bag (``--param recorder.output=DIR`` puts it elsewhere);
-* ``<session>/logs/<node>.log``: each node's output (``--log-dir DIR`` puts them elsewhere);
+* ``<session>/logs/<node>.log``: each node's output (``--log-dir DIR`` puts them elsewhere),
+  and ``<session>/logs/pids``: this command's and each node's process id;
 
 with ``<session>`` = ``--out DIR``, by default ``bike_rig_sessions/<YYYYmmdd-HHMMSS>`` in the
 current directory. A bag in which no trial was recorded (a run that failed at start) is
 removed.
 
+A node that falls silent on ``/diagnostics`` while its process lives (stopped, swapping, in a
+debugger), or that says it is behind its input, is one line on stderr when that starts and one
+when it has caught up (:class:`bike_rig.pipeline.stalls.StallWatch`).
+
 Ctrl-C stops the driver first: it publishes ABORT for a trial in progress (recorded, and
-fitted as ``aborted``); the command waits up to :data:`SETTLE_S` for the last results, then
-stops the other nodes, the recorder last. A second Ctrl-C skips the wait.
+fitted as ``aborted``); the command then waits for the last results (trial results, the
+parameter set holding them, its model): as long as they keep coming (:data:`SETTLE_S` at most
+between two), and while a node is stalled or behind, up to :data:`SETTLE_MAX_S` in all; then it
+stops the other nodes, the recorder last. Giving up is one line; another Ctrl-C ends the wait.
 
 Every mistake found before the start (an unknown ``--param`` name, a bad value, a missing
 file, a ``--domain-id`` or ``ROS_DOMAIN_ID`` outside 0..101) is one line with exit status 2,
@@ -41,6 +48,7 @@ from typing import TYPE_CHECKING, Any
 
 from ..core.errors import BikeRigError
 from ..paths import config_dir, config_file
+from ..pipeline.stalls import StallWatch
 from .commands import HELP
 from .common import UsageError
 
@@ -51,19 +59,24 @@ if TYPE_CHECKING:
     from ..pipeline.fit import TrialFit
     from ..pipeline.model import StabilitySweep
 
-__all__ = ["SETTLE_S", "RunTracker", "add_parser", "run", "session_folder"]
+__all__ = ["SETTLE_MAX_S", "SETTLE_S", "RunTracker", "add_parser", "run", "session_folder"]
 
-#: After the driver stopped, the longest wait for the periods of its last trials, s.
+#: After the driver stopped, the longest wait for a result still awaited while nothing arrives, s.
 SETTLE_S = 5.0
+#: After the driver stopped, the longest wait in all while a node is stalled or behind its input, s.
+SETTLE_MAX_S = 120.0
 #: After the driver stopped, the results are in once nothing is pending and nothing arrived for this long, s.
 QUIET_S = 0.5
 #: How long the driver may take to stop after SIGINT (it waits for its ABORT to be acknowledged), s.
 STOP_S = 15.0
 #: How often the loop looks at the nodes and the listener, s.
 POLL_S = 0.1
+#: Giving up on an awaited result needs every node heard within this (none about to be found stalled), s.
+HEARD_S = 2.0
 
 _DRIVER = "bike_rig.nodes.driver"
 _PARAMETER = "bike_rig.nodes.parameter"
+_MODEL = "bike_rig.nodes.model"
 _RECORDER = "bike_rig.nodes.recorder"
 
 
@@ -161,11 +174,14 @@ class RunTracker:
             return self._fit(record)
         if isinstance(record, SessionParameters):
             self.parameters = record
-            return []
-        if not isinstance(record, StabilitySweep):
+        elif isinstance(record, StabilitySweep):
+            self.stability = record
+        else:
             return []  # the run's monitor hands on no samples or readings
-        self.stability = record
-        if self.parameters is not None and self.parameters.complete and not self._announced_complete:
+        # (the set and its model, in either order: they come from two processes)
+        if self.parameters is not None and self.parameters.complete and self.stability is not None and (
+            not self._announced_complete
+        ):
             self._announced_complete = True
             return [f"parameter set complete: {self.speeds_text()}"]
         return []
@@ -181,6 +197,29 @@ class RunTracker:
     def pending(self) -> list[str]:
         """Trials that stopped (or were aborted) and whose result has not arrived yet."""
         return [t.trial_id for t in self.trials.values() if t.stopped and t.fit is None]
+
+    def awaiting(self, parameters: bool = True, model: bool = True) -> list[str]:
+        """What is still to come, in words: trial results, the parameter set holding them, its model.
+
+        Args:
+            parameters: The graph has a parameter node (a set holding every usable result is due).
+            model: The graph has a model node (a model is due once the set is complete).
+        """
+        out = []
+        pending = self.pending()
+        if pending:
+            out.append(f"{len(pending)} trial result(s)")
+        p = self.parameters
+        if parameters:
+            held = set() if p is None else {t for k in p.periods for t in k.trial_ids}
+            keys = None if p is None else {k.key for k in p.periods} | set(p.missing)
+            new = [t for t in self.trials.values() if t.fit is not None and t.fit.usable
+                   and (keys is None or t.key in keys) and t.trial_id not in held]  # fmt: skip
+            if new:
+                out.append(f"the parameter set ({len(new)} result(s) not in it yet)")
+        if model and p is not None and p.complete and self.stability is None:
+            out.append("the model of the complete parameter set")
+        return out
 
     def speeds_text(self) -> str:
         """The weave and capsize speeds with σ, as the model node published them last."""
@@ -388,6 +427,9 @@ class _Session:
         self.graph, self.out, self.log_dir, self.domain_id, self.peers = graph, out, log_dir, domain_id, peers
         self.tracker = RunTracker()
         self.stop = _Stop()
+        self.watch = StallWatch(nodes={n.name for n in graph.nodes})
+        self.stopping: set[str] = set()  # nodes asked to stop: silent, not stalled
+        self.running: RunningGraph | None = None
         recorder = _node_of(graph, _RECORDER)
         output = graph.node(recorder).parameters.get("output") if recorder else None
         self.bag = Path(str(output)) if output else None
@@ -401,10 +443,12 @@ class _Session:
             self.out.mkdir(parents=True, exist_ok=True)
         previous = {s: signal.signal(s, self.stop.handler) for s in (signal.SIGINT, signal.SIGTERM)}
         # the listener first: matched while the nodes start, it misses no heartbeat period of history
-        monitor = GraphMonitor(self.domain_id)
+        monitor = GraphMonitor(self.domain_id, diagnostics=True)
         try:
             running = RunningGraph(self.graph, self.log_dir, self.domain_id, static_peers=self.peers).start()
+            self.running = running
             try:
+                self._write_pids(running)
                 n = len(self.graph.nodes)
                 _say(
                     f"{n} node{'' if n == 1 else 's'} on ROS_DOMAIN_ID={running.domain_id} "
@@ -421,13 +465,27 @@ class _Session:
                 signal.signal(s, h)
         return self._finish(status, ended)
 
+    def _write_pids(self, running: RunningGraph) -> None:
+        """``<logs>/pids``: this process's id and each node's, one ``name pid`` a line."""
+        lines = [f"run {os.getpid()}", *(f"{n.name} {running.pid(n.name)}" for n in self.graph.nodes)]
+        (self.log_dir / "pids").write_text("\n".join(lines) + "\n", encoding="utf-8")
+
     def _feed(self, monitor: GraphMonitor, timeout_s: float) -> int:
-        """Print what arrived (waiting up to ``timeout_s``, s); return the number of records."""
-        records = monitor.poll(timeout_s)
-        for record in records:
+        """Print what arrived (waiting up to ``timeout_s``, s) and who stalled; return the number of results."""
+        from ..diagnostics import StatusReport
+
+        results = 0
+        for record in monitor.poll(timeout_s):
+            if isinstance(record, StatusReport):
+                self.watch.heard(record.statuses)
+                continue
+            results += 1
             for line in self.tracker.add(record):
                 _out(line)
-        return len(records)
+        ended = {name for name, _, _ in self.running.dead()} if self.running is not None else set()
+        for change in self.watch.check(ended | self.stopping):
+            _say(change.text)
+        return results
 
     def _loop(self, running: RunningGraph, monitor: GraphMonitor) -> list[tuple[str, int, str]]:
         """Follow the graph until a stop is asked for or a node ends; return the nodes that ended."""
@@ -445,6 +503,7 @@ class _Session:
         """Stop the source first, wait for the last results, then stop the rest (the recorder last)."""
         source = self.graph.nodes[-1].name
         if source not in {name for name, _, _ in ended}:
+            self.stopping.add(source)
             running.interrupt(source)  # the driver publishes ABORT for a trial in progress, then exits
             deadline = time.monotonic() + STOP_S
             while time.monotonic() < deadline and source not in {n for n, _, _ in running.dead()}:
@@ -456,19 +515,45 @@ class _Session:
         self._feed(monitor, 0.0)
         return status
 
-    def _settle(self, monitor: GraphMonitor) -> None:
-        """Take in the last results: until none is pending and nothing arrived for :data:`QUIET_S`.
+    def _awaited(self) -> list[str]:
+        """What is still to come (:meth:`RunTracker.awaiting` for this graph's nodes)."""
+        has = {n.module for n in self.graph.nodes}
+        return self.tracker.awaiting(_PARAMETER in has, _MODEL in has)
 
-        At most :data:`SETTLE_S`; a second Ctrl-C ends it.
+    def _settle(self, monitor: GraphMonitor) -> None:
+        """Take in the last results: until none is awaited and nothing arrived for :data:`QUIET_S`.
+
+        While something is awaited: as long as results keep coming (:data:`SETTLE_S` at most
+        between two); and while a node is stalled or behind its input (its results will
+        follow), up to :data:`SETTLE_MAX_S` in all. Giving up is one line; another Ctrl-C ends
+        the wait at once.
         """
-        now = time.monotonic()
-        deadline, last = now + SETTLE_S, now
-        while now < deadline and self.stop.requests < 2:
+        start = last = time.monotonic()
+        asked, said = self.stop.requests, False
+        while self.stop.requests == asked and asked < 2:  # (a second Ctrl-C during the stop skips it)
             if self._feed(monitor, POLL_S):
                 last = time.monotonic()
             now = time.monotonic()
-            if not self.tracker.pending() and now - last >= QUIET_S:
+            awaited, stalled = self._awaited(), bool(self.watch.troubled())
+            if not awaited and not stalled:
+                if now - last >= QUIET_S:
+                    return
+                continue
+            what = ", ".join(awaited) or "the nodes to catch up"
+            troubles = "; ".join(self.watch.troubles())
+            if now - start >= SETTLE_MAX_S:
+                _say(f"gave up after {SETTLE_MAX_S:g} s waiting for {what}" + (f" ({troubles})" if troubles else ""))
                 return
+            if now - last < SETTLE_S:
+                continue
+            if not stalled and self.watch.longest_silence() < HEARD_S:
+                _say(f"gave up waiting for {what}: nothing arrived for {SETTLE_S:g} s")
+                return
+            if not stalled:
+                continue  # (a node not heard for a while: stalled, or about to be heard)
+            if not said:
+                said = True
+                _say(f"waiting for {what}: {troubles} (at most {SETTLE_MAX_S:g} s; Ctrl-C to stop waiting)")
 
     def _finish(self, status: Mapping[str, int], ended: list[tuple[str, int, str]]) -> int:
         died = [(name, code, tail) for name, code, tail in ended if code != 0]

@@ -137,6 +137,11 @@ def _node_watch(graph: RunningGraph, folder: Path) -> NodeWatch:
     return NodeWatch(graph, hints=hints)
 
 
+def _ended_nodes(graph: RunningGraph) -> Callable[[], set[str]]:
+    """The graph's nodes whose process has ended, now (gone: not stalled)."""
+    return lambda: {name for name, _, _ in graph.dead()}
+
+
 def _end_on(started: list[RunningGraph]) -> Callable[[int, object], None]:
     """A SIGTERM/SIGHUP handler: stop the graph (recorder last, the bag closed), then leave.
 
@@ -195,6 +200,7 @@ def run(args: argparse.Namespace) -> int:
             ctl = build_controller(rig, name, link, args.source)
             if graph is not None:
                 ctl.watch = _node_watch(graph, folder)
+                ctl.ended = _ended_nodes(graph)
             if resume is not None:
                 ctl.resume(resume.trial_ids, resume.entries, resume.describe())
             if args.plain:

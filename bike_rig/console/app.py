@@ -2,9 +2,9 @@
 
 Works in an 80×24 terminal (over SSH, under tmux). Layout: the plan with each item's state
 (left), what to do next, the recording trial's live trace, amplitude and warnings, and the
-nodes' health from ``/diagnostics`` (right: each node's worst level, the reason when not OK), the
-log of results and replies (a line whenever a node's health level changes), and the command
-line. Keys:
+nodes' health from ``/diagnostics`` (right: each node's worst level, or SILENT / BEHIND while it
+is stalled or behind its input), the log of results and replies (a line whenever a node's health
+level changes, and when it stalls, falls behind or catches up), and the command line. Keys:
 
 * **F2** — do the next item: start the next trial to do or redo (or the redo just offered),
   or, when the next item is a reading, put ``reading KEY `` on the command line;
@@ -149,8 +149,12 @@ class SessionApp(App[int]):
 
     def _refresh_health(self) -> None:
         board = self.ctl.health
-        line = board.line(reasons=False)  # (the reasons are in the log, said when a level changes)
+        troubled = {node: standing.name for node, standing in self.ctl.stalls.troubled().items()}
+        # (the reasons are in the log, said when a level changes or a node stalls, lags or catches up)
+        line = board.line(reasons=False, instead=troubled)
         level = max((board.node_level(n) for n in {node_of(st) for st in board.statuses.values()}), default=Level.OK)
+        if troubled:
+            level = max(level, Level.WARN)
         style = {Level.OK: "green", Level.WARN: "bold yellow"}.get(level, "bold red")
         self.query_one("#health", Static).update(Text("Health: " + (line or "no /diagnostics yet"), style=style))
 

@@ -4,19 +4,25 @@ A node gives a function that returns its :class:`bike_rig.diagnostics.Status` li
 without ROS from its own counters); the updater calls it on a 1 Hz timer and publishes the
 ``diagnostic_msgs/DiagnosticArray`` (REP-107). A failing status function never stops the node:
 its error becomes one ERROR status.
+
+Each subscription callback also calls :meth:`DiagnosticsUpdater.note_input` with rclpy's message
+info: from the first message on, the array holds ``"<node>: input lag"``, WARN while the node
+handles messages more than :data:`~bike_rig.pipeline.health.LAG_WARN_S` after they were sent
+(:class:`~bike_rig.diagnostics.LagMeter`).
 """
 
 from __future__ import annotations
 
 import importlib
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 from rclpy.node import Node
 
 from .. import topics
-from ..diagnostics import Level, Status
+from ..diagnostics import LagMeter, Level, Status
 from ..messages.diagnostics import fill_diagnostic_array
+from ..pipeline.health import InputLag, input_lag_statuses
 from ..rosqos import profile
 
 __all__ = ["DIAGNOSTICS_PERIOD_S", "DiagnosticsUpdater"]
@@ -43,13 +49,31 @@ class DiagnosticsUpdater:
         self._node = node
         self._statuses = statuses
         self.published = 0
+        #: How far behind its input the node is (fed by :meth:`note_input`).
+        self.input_lag = LagMeter()
         self._pub = node.create_publisher(_diag.DiagnosticArray, topics.DIAGNOSTICS.name, profile(topics.DIAGNOSTICS))
         self._timer = node.create_timer(period_s, self.publish)
 
+    def note_input(self, info: Mapping[str, Any] | None) -> None:
+        """A subscription callback handles a message now: feed its DDS source time to the lag meter.
+
+        Args:
+            info: rclpy's message info (``source_timestamp``: ns since the epoch, the host clock);
+                None or without it: nothing is noted. Never raises.
+        """
+        try:
+            self.input_lag.note(int(info.get("source_timestamp") or 0) if info is not None else None)
+        except (AttributeError, TypeError, ValueError):  # not rclpy's info: nothing to note
+            return
+
     def publish(self) -> None:
-        """Publish the node's statuses now (never raises)."""
+        """Publish the node's statuses now, its input lag from the first message handled (never raises)."""
         try:
             statuses = list(self._statuses())
+            meter = self.input_lag
+            if meter.handled:
+                lag = InputLag(meter.lag(), meter.largest_s, meter.handled)
+                statuses += input_lag_statuses(lag, self._node.get_name())
         except Exception as exc:  # a status function must not take the node down
             statuses = [Status.of(self._node.get_name(), "diagnostics", Level.ERROR, f"status failed: {exc!r}")]
         msg = fill_diagnostic_array(_diag.DiagnosticArray(), statuses, _diag.DiagnosticStatus, _diag.KeyValue)

@@ -154,6 +154,7 @@ class FitterNode:
 
     # ------------------------------------------------------------------ callbacks (never raise)
     def _on_batch(self, msg: Any, info: Any) -> None:
+        self.diagnostics.note_input(info)
         try:
             batch = messages.sample_batch_from_msg(msg)
             started = time.perf_counter()
@@ -162,6 +163,7 @@ class FitterNode:
             self.node.get_logger().error(f"gyro batch of trial {getattr(msg, 'trial_id', '?')!r} failed: {exc!r}")
 
     def _on_event(self, msg: Any, info: Any) -> None:
+        self.diagnostics.note_input(info)
         try:
             event = messages.trial_event_from_msg(msg)
         except messages.MessageError as exc:

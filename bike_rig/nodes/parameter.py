@@ -30,6 +30,9 @@ On ``/bike_rig/parameters`` (reliable, transient-local, depth 1) it publishes:
   known so far from the readings and trials, at least three), whenever that changes and every
   ``status_period`` s, and logs it.
 
+Diagnostics (``/diagnostics``, 1 Hz): ``parameter: completeness`` and, from the first estimate or
+entry handled, ``parameter: input lag`` (WARN while it handles them seconds after they were sent).
+
 An estimate or entry that arrives after a quiet spell is evaluated at once; those that follow
 within ``EVALUATE_PERIOD_S`` of an evaluation are evaluated together at the end of that spell (a
 burst, such as a restarted node catching up on a session, gives few evaluations).
@@ -222,7 +225,8 @@ class ParameterNode(Node):
         )
         self._evaluate(force=True)
 
-    def _on_period(self, msg: Any) -> None:
+    def _on_period(self, msg: Any, info: Any) -> None:
+        self.diagnostics.note_input(info)
         try:
             trial = trial_fit_from_msg(msg)
             self._dirty |= self._session.add(trial)
@@ -230,8 +234,9 @@ class ParameterNode(Node):
             self.get_logger().warning(f"period estimate ignored: {exc}")
         self._soon()
 
-    def _on_entry(self, msg: Any) -> None:
+    def _on_entry(self, msg: Any, info: Any) -> None:
         """Apply one entered reading on top of the file's (a bad one: one warning line, ignored)."""
+        self.diagnostics.note_input(info)
         entry = reading_entry_from_msg(msg)
         if entry in self._entries:  # the same entry delivered again
             return

@@ -9,10 +9,14 @@ and :class:`~bike_rig.pipeline.model.StabilitySweep`. It spins only when asked
 (:meth:`GraphMonitor.poll`), in the caller's thread, with an rclpy context of its own.
 
 Options add what the operator console (:mod:`bike_rig.nodes.session_link`) also follows: the
-readings entered (``readings``) and the gyro batches as records (``samples``, with the QoS
-given). Without ``samples`` it subscribes to the gyro batches raw, best effort, volatile, and
-drops them: only so that it counts among the gyro topic's subscribers, so that a driver told to wait for it
-(``wait_for_subscribers``, which counts the subscribers of both the gyro and the trial-event
+readings entered (``readings``), the gyro batches as records (``samples``, with the QoS
+given), and every node's ``/diagnostics`` array as a :class:`~bike_rig.diagnostics.StatusReport`
+(``diagnostics``: handed on as it arrives, not held with the results below; the follower's
+heartbeat of each node, :class:`~bike_rig.pipeline.stalls.StallWatch`).
+
+Without ``samples`` it subscribes to the gyro batches raw, best effort, volatile, and drops
+them: only so that it counts among the gyro topic's subscribers, so that a driver told to wait
+for it (``wait_for_subscribers``, which counts the subscribers of both the gyro and the trial-event
 topics) publishes its first START only once the listener is matched. (A START published before a
 reader matched reaches that reader only at the writer's next heartbeat, up to 3 s later.)
 
@@ -40,6 +44,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from rclpy.signals import SignalHandlerOptions
 
 from .. import topics
+from ..diagnostics import StatusReport
 from ..messages import (
     MessageError,
     fit_details_from_msg,
@@ -50,6 +55,7 @@ from ..messages import (
     trial_event_from_msg,
     trial_fit_from_msg,
 )
+from ..messages.diagnostics import statuses_from_msg
 from ..pipeline.acquire import SampleBatch, TrialEventRecord
 from ..pipeline.assemble import SessionParameters
 from ..pipeline.fit import TrialFit
@@ -63,6 +69,7 @@ from .publishers import participant, publisher_source
 __all__ = ["OWNERS", "GraphMonitor", "MonitorRecord"]
 
 _msgs: Any = importlib.import_module("bike_rig_msgs.msg")
+_diag: Any = importlib.import_module("diagnostic_msgs.msg")
 
 #: The nodes that may publish each followed topic (ROS names; ``bike-rig replay --republish``'s
 #: node stands in for the driver).
@@ -105,6 +112,7 @@ _COUNTED_ONLY = QoSProfile(
 #: What the monitor hands on.
 MonitorRecord: TypeAlias = (
     TrialEventRecord | TrialFit | FitDetails | SessionParameters | StabilitySweep | SampleBatch | ReadingEntry
+    | StatusReport
 )
 
 
@@ -123,6 +131,7 @@ class GraphMonitor:
         samples: Also hand on the gyro batches as records, subscribed with this QoS (None: the
             batches are only counted, see the module docstring).
         readings: Also hand on the readings entered (``/bike_rig/readings``, transient-local).
+        diagnostics: Also hand on every ``/diagnostics`` array (reliable, volatile).
     """
 
     def __init__(
@@ -131,6 +140,7 @@ class GraphMonitor:
         node_name: str = "run_monitor",
         samples: QoSProfile | None = None,
         readings: bool = False,
+        diagnostics: bool = False,
     ) -> None:
         """Set the ROS environment, start an rclpy context and subscribe."""
         env = ros_environment(os.environ, domain_id=domain_id)
@@ -170,6 +180,17 @@ class GraphMonitor:
         else:
             gyro = self._collector(topics.GYRO.name, sample_batch_from_msg)
             self.node.create_subscription(_msgs.GyroBatch, topics.GYRO.name, gyro, samples)
+        if diagnostics:
+            self.node.create_subscription(_diag.DiagnosticArray, topics.DIAGNOSTICS.name, self._on_diagnostics,
+                                          profile(topics.DIAGNOSTICS))  # fmt: skip
+
+    def _on_diagnostics(self, msg: Any) -> None:
+        """Hand on one node's ``/diagnostics`` array at once (a malformed one is skipped)."""
+        self._taken += 1
+        try:
+            self._records.append(StatusReport(tuple(statuses_from_msg(msg))))
+        except MessageError:
+            return
 
     def _collector(self, topic: str, convert: Callable[[Any], MonitorRecord]) -> Callable[[Any, Any], None]:
         def collect(msg: Any, info: Any) -> None:

@@ -5,8 +5,8 @@ It follows the graph with :class:`~bike_rig.nodes.run_monitor.GraphMonitor` (the
 (reliable but volatile: the live trace needs them contiguous, never the session's whole
 history); trial events, period estimates and readings are transient-local, so a console that
 joins late gets the session so far. On top it calls the driver's StartTrial/StopTrial services
-and publishes the operator's readings on ``/bike_rig/readings``; it also listens to
-``/diagnostics`` and hands each array on as a :class:`~bike_rig.diagnostics.StatusReport`. Everything runs in the
+and publishes the operator's readings on ``/bike_rig/readings``; the monitor also hands on each
+``/diagnostics`` array as a :class:`~bike_rig.diagnostics.StatusReport`. Everything runs in the
 caller's thread: :meth:`SessionLink.events` takes in what is ready, and a service call spins
 until its answer (what arrives meanwhile is kept for the next :meth:`~SessionLink.events`).
 
@@ -22,9 +22,7 @@ from typing import Any
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from .. import topics
-from ..diagnostics import StatusReport
-from ..messages import MessageError, fill_reading_entry
-from ..messages.diagnostics import statuses_from_msg
+from ..messages import fill_reading_entry
 from ..pipeline.readings import ReadingEntry
 from ..rosqos import profile
 from ..session.controller import GraphEvent, StartReply
@@ -35,7 +33,6 @@ __all__ = ["SERVICE_TIMEOUT_S", "SessionLink"]
 
 _msgs: Any = importlib.import_module("bike_rig_msgs.msg")
 _srvs: Any = importlib.import_module("bike_rig_msgs.srv")
-_diag: Any = importlib.import_module("diagnostic_msgs.msg")
 
 #: Longest wait for the driver's answer to a start or stop, s.
 SERVICE_TIMEOUT_S = 5.0
@@ -57,29 +54,19 @@ class SessionLink:
 
     def __init__(self, node_name: str = "session_console") -> None:
         """Start the listener (LOCALHOST discovery, the environment's domain) and create the clients."""
-        self.monitor = GraphMonitor(node_name=node_name, samples=_LIVE, readings=True)
+        self.monitor = GraphMonitor(node_name=node_name, samples=_LIVE, readings=True, diagnostics=True)
         n = self.monitor.node
         self._start: Any = n.create_client(_srvs.StartTrial, topics.START_TRIAL)
         self._stop: Any = n.create_client(_srvs.StopTrial, topics.STOP_TRIAL)
         self._readings = n.create_publisher(_msgs.ReadingEntry, topics.READINGS.name, profile(topics.READINGS))
         self._pending: list[GraphEvent] = []
-        self._health: list[GraphEvent] = []
-        n.create_subscription(_diag.DiagnosticArray, topics.DIAGNOSTICS.name, self._on_diagnostics,
-                              profile(topics.DIAGNOSTICS))  # fmt: skip
-
-    def _on_diagnostics(self, msg: Any) -> None:
-        """Keep a node's ``/diagnostics`` array for :meth:`events` (a malformed one is skipped)."""
-        try:
-            self._health.append(StatusReport(tuple(statuses_from_msg(msg))))
-        except MessageError:
-            return
 
     # ------------------------------------------------------------------ GraphLink
     def events(self) -> list[GraphEvent]:
         """What arrived since the last call, in arrival order."""
-        polled = self.monitor.poll(timeout_s=0.0)  # (runs the diagnostics callback too)
-        out = self._pending + polled + self._health
-        self._pending, self._health = [], []
+        polled = self.monitor.poll(timeout_s=0.0)
+        out = self._pending + polled
+        self._pending = []
         return out
 
     def _call(self, client: Any, request: Any) -> Any:

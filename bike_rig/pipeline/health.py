@@ -12,16 +12,19 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from ..diagnostics import Level, Status, age_level, level_above, level_below
+from ..diagnostics import INPUT_LAG, Level, Status, age_level, level_above, level_below
 
 __all__ = [
+    "LAG_WARN_S",
     "DriverHealth",
     "FitterHealth",
+    "InputLag",
     "ModelHealth",
     "ParameterHealth",
     "RecorderHealth",
     "driver_statuses",
     "fitter_statuses",
+    "input_lag_statuses",
     "model_statuses",
     "parameter_statuses",
     "recorder_statuses",
@@ -33,6 +36,8 @@ RATE_WARN_FRACTION = 0.9
 SILENCE_ERROR_FACTOR = 3.0
 #: Buffered samples above this fraction of the fitter's budget are WARN.
 BUFFER_WARN_FRACTION = 0.8
+#: A node this far or farther behind its input (over the lag meter's last 1.5 s) is WARN, s.
+LAG_WARN_S = 2.0
 
 
 @dataclass(frozen=True)
@@ -289,3 +294,28 @@ def recorder_statuses(h: RecorderHealth, node: str = "recorder") -> list[Status]
         **{"free (MB)": h.free_bytes / 1e6, "warn below (MB)": h.min_free_bytes / 1e6},
     )  # fmt: skip
     return [bag, disk]
+
+
+@dataclass(frozen=True)
+class InputLag:
+    """How far behind its input a node is (:class:`bike_rig.diagnostics.LagMeter`).
+
+    Attributes:
+        lag_s: The largest lag (now − source time) of the messages handled over the last 1.5 s, s.
+        largest_s: The largest lag since the start, s.
+        messages: Messages handled since the start.
+    """
+
+    lag_s: float
+    largest_s: float
+    messages: int
+
+
+def input_lag_statuses(h: InputLag, node: str) -> list[Status]:
+    """``input lag``: OK below :data:`LAG_WARN_S`, WARN from it (``20 s behind its input``)."""
+    details = {"lag (s)": h.lag_s, "largest lag (s)": h.largest_s, "messages": h.messages,
+               "warn from (s)": LAG_WARN_S}  # fmt: skip
+    level = level_above(h.lag_s, LAG_WARN_S)
+    if level is Level.OK:
+        return [Status.of(node, INPUT_LAG, level, f"keeping up: {h.lag_s:.2g} s behind its input", **details)]
+    return [Status.of(node, INPUT_LAG, level, f"{h.lag_s:.0f} s behind its input", **details)]

@@ -20,7 +20,8 @@ One command per line; each gives one or more :class:`Reply` (a line of text and,
 ==========================  ==============================================================
 
 :meth:`SessionController.pump` moves what the graph published into the session and gives
-the replies it causes (a trial's result, a new warning, the set complete).
+the replies it causes (a trial's result, a new warning, the set complete, a node stalled, behind
+its input or caught up).
 """
 
 from __future__ import annotations
@@ -28,7 +29,7 @@ from __future__ import annotations
 import math
 import shlex
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Collection, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
@@ -41,6 +42,7 @@ from ..pipeline.fit import TrialFit
 from ..pipeline.fit_details import FitDetails
 from ..pipeline.model import StabilitySweep
 from ..pipeline.readings import ReadingEntry
+from ..pipeline.stalls import StallWatch
 from ..textfmt import format_speed
 from .plan import ItemState, ReadingItem, TrialItem
 from .state import OperatorSession
@@ -96,7 +98,9 @@ class Reply:
 
     Attributes:
         kind: ``ok``, ``error``, ``warning``, ``result``, ``info``, ``health`` (a node's
-            ``/diagnostics`` level changed; ``data`` has ``node`` and ``level``) or ``done``.
+            ``/diagnostics`` level changed, or it stalled, fell behind its input or caught up;
+            ``data`` has ``node`` and ``level``, the latter also ``standing`` and ``seconds``)
+            or ``done``.
         text: The line.
         data: The same for ``--json``.
     """
@@ -131,6 +135,9 @@ class SessionController:
         rank: ``(session) -> [(item_id, text)]``, best first: the next-best measurements.
         watch: ``() -> [(node, line)]``: the graph's nodes that died since the last call
             (:class:`~bike_rig.graphwatch.NodeWatch`), said as errors by :meth:`pump`.
+        ended: ``() -> nodes``: the graph's nodes whose process has ended now (not stalled:
+            gone); unknown when joining a graph (none).
+        stalls: The nodes stalled or behind their input (a line when that changes).
     """
 
     session: OperatorSession
@@ -139,6 +146,7 @@ class SessionController:
     rank: Callable[[OperatorSession], list[tuple[str, str]]] = lambda _s: []
     clock: Callable[[], float] = time.monotonic
     watch: Callable[[], list[tuple[str, str]]] = lambda: []
+    ended: Callable[[], Collection[str]] = lambda: ()
     quit_requested: bool = False
     _warned: set[str] = field(default_factory=set)
     _announced: tuple[float, ...] = ()
@@ -148,6 +156,11 @@ class SessionController:
     updated_at: float = 0.0
     #: The nodes' latest ``/diagnostics`` statuses (a line when a node's worst level changes).
     health: HealthBoard = field(default_factory=HealthBoard)
+    stalls: StallWatch = field(init=False)
+
+    def __post_init__(self) -> None:
+        """Follow the nodes' heartbeats on the controller's clock."""
+        self.stalls = StallWatch(clock=lambda: self.clock())
 
     # ------------------------------------------------------------------ resume
     def resume(self, trial_ids: Sequence[str], entries: Sequence[ReadingEntry], note: str) -> None:
@@ -276,6 +289,7 @@ class SessionController:
             out.append(Reply("info", f"recording {live.trial_id}: {live.samples} samples ({live.seconds:.1f} s){amp}",
                              {"recording": live.trial_id, "samples": live.samples}))  # fmt: skip
             out += [Reply("warning", w) for w in live.warnings]
+        out += [Reply("warning", t) for t in self.stalls.troubles()]
         out += self._result_replies()
         return out
 
@@ -376,6 +390,7 @@ class SessionController:
             s.on_stability(ev)
             self.updated_at = now
         elif isinstance(ev, StatusReport):
+            self.stalls.heard(ev.statuses)
             return [
                 Reply("health", f"health: {node} {level.name}: {message}", {"node": node, "level": level.name})
                 for node, level, message in self.health.update(ev.statuses)
@@ -406,7 +421,15 @@ class SessionController:
         for ev in self.link.events():
             out += self._apply(ev, now)
         out += self._new_warnings(now)
-        out += [Reply("error", line, {"node": node}) for node, line in self.watch()]
+        deaths = self.watch()
+        for node, _ in deaths:
+            self.stalls.forget(node)  # (restarted or gone: not stalled)
+        out += [Reply("error", line, {"node": node}) for node, line in deaths]
+        out += [
+            Reply("health", c.text, {"node": c.node, "level": c.level.name, "standing": c.standing.value,
+                                     "seconds": c.seconds})
+            for c in self.stalls.check(self.ended())
+        ]  # fmt: skip
         out += self._resume_replies()
         if s.complete and s.stability is not None:
             sw, sc = s.stability.weave, s.stability.capsize

@@ -210,11 +210,14 @@ def test_the_parameter_set_is_announced_once_complete_with_the_speeds() -> None:
     assert tr.add(incomplete) == []
     assert tr.summary()[-1] == "parameters: incomplete (Browser); missing: TcR1, TtR1"
     sweep = StabilitySweep("Browser", "", _sweep(), SpeedWithSigma(4.1954, 0.0451), SpeedWithSigma(4.35, math.nan))
-    assert tr.add(sweep) == []  # not complete yet
     complete = SessionParameters("Browser", ComMethod.CENTROID, (), (), parameters=_parameter_set())
-    tr.add(complete)
+    assert tr.add(complete) == []  # no model yet
     assert tr.add(sweep) == ["parameter set complete: weave speed 4.195 ± 0.045 m/s, capsize speed 4.350 ± nan m/s"]
-    assert tr.add(sweep) == []
+    assert tr.add(sweep) == [] and tr.add(complete) == []
+    # the model may arrive before its set (two processes): said once both are in
+    late = RunTracker()
+    assert late.add(incomplete) == [] and late.add(sweep) == []
+    assert late.add(complete) == [f"parameter set complete: {late.speeds_text()}"]
     assert tr.summary()[-1].startswith("parameters: complete (Browser); weave speed 4.195 ± 0.045 m/s")
 
 
@@ -238,3 +241,29 @@ def test_a_result_without_a_known_rate_leaves_out_the_cycles() -> None:
     line = result_lines("x", "", _fit("x", ""))[0]
     assert line == "trial x (?): T = 1.500000 ± 2.5e-05 s, r² 0.99876 - ok"
     assert os.linesep not in line
+
+
+def test_awaited_are_results_the_set_that_holds_them_and_its_model() -> None:
+    from bike_rig.pipeline.assemble import KeyPeriod
+
+    tr = RunTracker()
+    assert tr.awaiting() == []
+    for trial, key in (("a", "TcR1"), ("b", "TtR1"), ("c", "TtB2")):
+        tr.add(_event(TrialEventKind.START, trial, key))
+        tr.add(_event(TrialEventKind.STOP, trial, key, 15_000))
+    assert tr.awaiting() == ["3 trial result(s)"]
+    tr.add(_fit("a", "TcR1"))
+    tr.add(_fit("b", "TtR1"))
+    tr.add(_fit("c", "TtB2", ("beating",)))  # flagged: it enters no set
+    assert tr.awaiting() == ["the parameter set (2 result(s) not in it yet)"]  # (none published yet)
+    assert tr.awaiting(parameters=False) == []  # a graph without a parameter node
+    held_a = SessionParameters("Browser", ComMethod.CENTROID, (KeyPeriod("TcR1", 1.5, 2.5e-5, ("a",)),),
+                               ("TtR1", "TtB2"))  # fmt: skip
+    tr.add(held_a)
+    assert tr.awaiting() == ["the parameter set (1 result(s) not in it yet)"]
+    periods = (KeyPeriod("TcR1", 1.5, 2.5e-5, ("a",)), KeyPeriod("TtR1", 1.5, 2.5e-5, ("b",)))
+    tr.add(SessionParameters("Browser", ComMethod.CENTROID, periods, (), parameters=_parameter_set()))
+    assert tr.awaiting() == ["the model of the complete parameter set"]
+    assert tr.awaiting(model=False) == []
+    tr.add(StabilitySweep("Browser", "", _sweep(), SpeedWithSigma(4.1954, 0.0451), SpeedWithSigma(4.35, 0.06)))
+    assert tr.awaiting() == []

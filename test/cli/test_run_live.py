@@ -77,7 +77,7 @@ def test_the_default_graph_runs_end_to_end_and_prints_every_result(ros_env: dict
     assert "  bag:  session/bag  (bike-rig bag info | replay | report BAG)" in lines
     assert "  logs: session/logs" in lines
     assert sorted(p.name for p in (tmp_path / "session" / "logs").iterdir()) == [
-        "driver.log", "fitter.log", "model.log", "parameter.log", "recorder.log",
+        "driver.log", "fitter.log", "model.log", "parameter.log", "pids", "recorder.log",
     ]  # fmt: skip
     assert "bike-rig run: parameter.measurements = bicycles/browser.yaml (the static readings of driver.bicycle)" in (
         done.stderr

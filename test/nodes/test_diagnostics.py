@@ -93,8 +93,9 @@ def test_every_node_publishes_its_statuses_at_1_hz_and_levels_follow(
         wait(lambda: all(len(arrays_of(box, n)) >= 4 for n in CONCERNS), "4 arrays from every node")
         for node, concerns in CONCERNS.items():
             arrays = arrays_of(box, node)
-            for _, statuses in arrays:
-                assert {s.name for s in statuses} == {f"{node}: {c}" for c in concerns}, statuses
+            for _, statuses in arrays:  # ("input lag" from a node's first message handled)
+                names = {s.name for s in statuses} - {f"{node}: input lag"}
+                assert names == {f"{node}: {c}" for c in concerns}, statuses
                 assert all(s.hardware_id == HARDWARE_ID and s.message for s in statuses)
             gaps = [b[0] - a[0] for a, b in zip(arrays, arrays[1:], strict=False)]
             assert all(0.7 <= g <= 1.5 for g in gaps), (node, gaps)  # 1 Hz on a shared 2-core machine

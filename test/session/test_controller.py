@@ -326,3 +326,36 @@ def test_diagnostics_give_a_health_line_and_a_reply_when_a_node_changes_level(ct
     link.events_out.append(report("driver", source=Level.OK, samples=Level.OK))
     (back,) = ctl.pump()
     assert back.kind == "health" and back.text.startswith("health: driver OK")
+
+
+def test_a_stalled_or_lagging_node_is_one_health_line_each_way(ctl_link) -> None:  # type: ignore[no-untyped-def]
+    from bike_rig.diagnostics import Level, Status, StatusReport
+    from bike_rig.pipeline.health import InputLag, input_lag_statuses
+
+    ctl, link, t = ctl_link
+
+    def heartbeat(node: str, lag_s: float) -> None:
+        t[0] += 1.0
+        ok = Status.of(node, "fits", Level.OK, "fine")
+        link.events_out.append(StatusReport((ok, *input_lag_statuses(InputLag(lag_s, lag_s, 5), node))))
+
+    def health() -> list[tuple[str, dict[str, object]]]:
+        return [(r.text, r.data) for r in ctl.pump() if r.kind == "health"]
+
+    heartbeat("fitter", 0.01)
+    heartbeat("recorder", 0.01)
+    assert health() == []
+    heartbeat("fitter", 20.0)  # lagging: one line, no "health: fitter WARN" besides
+    assert health() == [("fitter 20 s behind: results will follow",
+                         {"node": "fitter", "level": "WARN", "standing": "behind", "seconds": 20.0})]  # fmt: skip
+    heartbeat("fitter", 0.01)
+    assert health() == []
+    heartbeat("fitter", 0.01)
+    ((text, data),) = health()
+    assert text == "fitter caught up" and data["level"] == "OK"
+    t[0] += 10.0  # nothing from either for 10 s: the recorder's process ended, the fitter's did not
+    ctl.ended = lambda: {"recorder"}
+    assert [text for text, _ in health()] == ["fitter silent for 10 s (stalled?): results will follow"]
+    assert health() == []  # said once
+    status = [r.text for r in ctl.execute("status") if r.kind == "warning"]
+    assert status == ["fitter silent for 10 s"]
