@@ -54,6 +54,7 @@ def test_stalled_fitter_parameter_and_model_nodes_lose_no_trial(ros_env: dict[st
     cmd = [sys.executable, "-m", "bike_rig.cli.main", "run", "--out", "session", "--param", "driver.time_scale=25",
            "--param", "driver.exit_when_done=true"]  # fmt: skip
     stopped: dict[str, int] = {}
+    shown_while_stopped: list[str] = []
     try:
         with out_path.open("w") as out:
             run = subprocess.Popen(cmd, cwd=tmp_path, env=ros_env, stdout=out, stderr=subprocess.STDOUT)
@@ -72,6 +73,9 @@ def test_stalled_fitter_parameter_and_model_nodes_lose_no_trial(ros_env: dict[st
                         del pending[name]
                 for name, pid in list(stopped.items()):
                     if now >= STOPS[name] + STALL_S:
+                        shown_while_stopped.extend(
+                            line for line in out_path.read_text().splitlines() if f" {name} " in line
+                        )
                         os.kill(pid, signal.SIGCONT)
                         del stopped[name]
                 time.sleep(0.05)
@@ -88,6 +92,10 @@ def test_stalled_fitter_parameter_and_model_nodes_lose_no_trial(ros_env: dict[st
             hog.wait()
     text = out_path.read_text()
     assert code == 0, text
+    for name in STOPS:  # the stall said while it lasted (stderr), and its end
+        said = [line for line in shown_while_stopped if line.startswith(f"bike-rig run: {name} ")]
+        assert said and ("silent for" in said[0] or "behind" in said[0]), (name, shown_while_stopped)
+        assert f"bike-rig run: {name} caught up" in text, text
     assert [line for line in text.splitlines() if line.startswith("  REDO") and "gap:" in line] == [], text
     assert re.search(r"^39 trial\(s\): \d+ ok, \d+ to redo, 0 without a result$", text, re.M), text
     assert re.search(r"^parameters: complete \(Browser\); weave speed \d", text, re.M), text
