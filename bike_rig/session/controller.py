@@ -1,23 +1,7 @@
 """The operator's commands, shared by the console and plain mode.
 
 One command per line; each gives one or more :class:`Reply` (a line of text and, for
-``--json``, a dict). Commands:
-
-==========================  ==============================================================
-``start [ITEM] [SECONDS]``  start a trial: the next trial to do or redo, or ``ITEM``
-                            (``TtB2#3``); ``SECONDS`` overrides the plan's duration
-``stop``                    stop the recording trial (its result follows)
-``abort``                   abort the recording trial (ABORT is recorded; the item stays REDO)
-``reading KEY VALUE SIGMA`` enter a static reading (degrees only where the key says so);
-                            again for a correction: the newer wins, both are recorded
-``status``                  progress, the recording trial, what is missing, the result
-``next``                    the next item with its instruction, and the next-best measurement
-``best``                    the ranking of open and repeatable items by σ reduction
-``plan``                    every item with its state
-``params``                  the 25 parameters with σ (once complete)
-``help``                    this list
-``quit``                    leave (a recording trial is aborted first)
-==========================  ==============================================================
+``--json``, a dict). The commands and their help are :data:`COMMAND_HELP` (``help`` lists them).
 
 :meth:`SessionController.pump` moves what the graph published into the session and gives
 the replies it causes (a trial's result, a new warning, the set complete, a node stalled, behind
@@ -43,18 +27,35 @@ from ..pipeline.fit_details import FitDetails
 from ..pipeline.model import StabilitySweep
 from ..pipeline.readings import ReadingEntry
 from ..pipeline.stalls import StallWatch
+from ..suggest import did_you_mean
 from ..textfmt import format_speed
 from .plan import ItemState, ReadingItem, TrialItem
 from .state import OperatorSession
 
-__all__ = ["COMMANDS", "GraphEvent", "GraphLink", "Reply", "SessionController", "StartReply"]
+__all__ = ["COMMANDS", "COMMAND_HELP", "GraphEvent", "GraphLink", "Reply", "SessionController", "StartReply"]
 
 GraphEvent = (
     TrialEventRecord | SampleBatch | TrialFit | FitDetails | SessionParameters | StabilitySweep | ReadingEntry
     | StatusReport
 )
 
-COMMANDS = ("start", "stop", "abort", "reading", "status", "next", "best", "plan", "params", "help", "quit")
+#: Every command: its usage and what it does (``help`` prints them).
+COMMAND_HELP: tuple[tuple[str, str], ...] = (
+    ("start [ITEM] [SECONDS]", "start a trial: the next trial to do or redo, or ITEM (TtB2#3); SECONDS overrides "
+     "the plan's duration"),
+    ("stop", "stop the recording trial (its result follows)"),
+    ("abort", "abort the recording trial (ABORT is recorded; the item stays REDO)"),
+    ("reading KEY VALUE SIGMA", "enter a static reading (degrees only where the key says so); again for a "
+     "correction: the newer wins, both are recorded"),
+    ("status", "progress, the recording trial, what is missing, the result"),
+    ("next", "the next item with its instruction, and the next-best measurement"),
+    ("best", "the ranking of open and repeatable items by σ reduction"),
+    ("plan", "every item with its state"),
+    ("params", "the 25 parameters with σ (once complete)"),
+    ("help", "this list"),
+    ("quit", "leave (a recording trial is aborted first)"),
+)  # fmt: skip
+COMMANDS = tuple(usage.split()[0] for usage, _ in COMMAND_HELP)
 
 
 @dataclass(frozen=True)
@@ -208,8 +209,9 @@ class SessionController:
             return []
         name, args = words[0].lower(), words[1:]
         handler = getattr(self, f"_cmd_{name}", None)
-        if handler is None:
-            return [Reply("error", f"unknown command '{name}' (commands: {', '.join(COMMANDS)})")]
+        if handler is None or name not in COMMANDS:
+            hint = did_you_mean(name, COMMANDS) or f" (commands: {', '.join(COMMANDS)})"
+            return [Reply("error", f"unknown command '{name}'{hint}")]
         try:
             replies: list[Reply] = handler(args)
             return replies
@@ -355,8 +357,9 @@ class SessionController:
         return out
 
     def _cmd_help(self, args: Sequence[str]) -> list[Reply]:
+        width = max(len(usage) for usage, _ in COMMAND_HELP)
         return [
-            Reply("info", line) for line in (__doc__ or "").split("==========================")[2].strip().splitlines()
+            Reply("info", f"{usage:<{width}}  {what}", {"command": usage.split()[0]}) for usage, what in COMMAND_HELP
         ]
 
     def _cmd_quit(self, args: Sequence[str]) -> list[Reply]:

@@ -35,6 +35,8 @@ from ..core.errors import BikeRigError
 from ..core.measurements import Reading, is_period_key
 from ..core.units import radians
 from ..pipeline.readings import (
+    REFINED_STATIC_KEYS,
+    STATIC_KEYS,
     ImpossibleReadingError,
     ReadingEntry,
     ReadingEntryError,
@@ -42,6 +44,7 @@ from ..pipeline.readings import (
     check_entry,
     is_static_key,
 )
+from ..suggest import did_you_mean
 
 __all__ = [
     "COUNT_KEYS",
@@ -264,9 +267,11 @@ def parse_reading(
         try:
             check_entry(entry)
         except UnknownReadingKeyError as exc:
-            raise UnknownKeyError(key, exc.reason, where) from None
+            hint = did_you_mean(key, allowed if allowed is not None else STATIC_KEYS + REFINED_STATIC_KEYS)
+            raise UnknownKeyError(key, f"unknown key '{key}'{hint}" if hint else exc.reason, where) from None
     if allowed is not None and key not in allowed:
-        raise NotInPlanError(key, f"not a reading of this session's plan ({', '.join(allowed)})", where)
+        hint = did_you_mean(key, allowed) or f" ({', '.join(allowed)})"
+        raise NotInPlanError(key, f"not a reading of this session's plan{hint}", where)
     value = _number(value_text, key, "value", where)
     sigma = _sigma(key, sigma_text, default_sigma, where)
     entry = ReadingEntry(key, value, sigma, stamp_ns, note)

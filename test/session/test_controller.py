@@ -359,3 +359,24 @@ def test_a_stalled_or_lagging_node_is_one_health_line_each_way(ctl_link) -> None
     assert health() == []  # said once
     status = [r.text for r in ctl.execute("status") if r.kind == "warning"]
     assert status == ["fitter silent for 10 s"]
+
+
+def test_help_lists_every_command_and_typos_get_a_suggestion(ctl_link) -> None:  # type: ignore[no-untyped-def]
+    """'help' lists each command once with its usage; 'strat' and 'reading gama …' suggest the word meant."""
+    from bike_rig.session.controller import COMMANDS
+    from bike_rig.session.readings import UnknownKeyError, parse_reading
+
+    ctl = ctl_link[0]
+    listed = ctl.execute("help")
+    assert [r.kind for r in listed] == ["info"] * len(COMMANDS)
+    assert [r.text.split()[0] for r in listed] == list(COMMANDS) and "reading KEY VALUE SIGMA" in listed[3].text
+    (typo,) = ctl.execute("strat")
+    assert typo.kind == "error" and typo.text == "unknown command 'strat' (did you mean 'start'?)"
+    (far,) = ctl.execute("xyzzy")
+    assert far.kind == "error" and "commands: start, stop" in far.text
+    try:
+        parse_reading("gama", "67", "0.1")
+    except UnknownKeyError as exc:
+        assert "did you mean 'gamma'?" in str(exc) and "alpha<part>" not in str(exc), str(exc)
+    else:
+        raise AssertionError("gama accepted")
