@@ -12,8 +12,8 @@ the growth between them.
 
 The warm-up is the first ``--warmup`` of the run, and at least until the driver's gyro history
 is full (counted from the trials recorded, at most 80 % of the run): the driver keeps the last
-``GYRO.qos.depth`` batches (transient-local, so a restarted fitter can re-fit), which is by
-design the one memory that grows for a while. The exit status
+``DEFAULT_HISTORY_SAMPLES`` samples (the topic's transient-local history, so a restarted fitter
+can re-fit, and its resend memory), which is by design the one memory that grows for a while. The exit status
 is 1 when a process died or grew by more than ``--max-growth`` percent after the warm-up.
 """
 
@@ -37,13 +37,13 @@ sys.path.insert(0, str(REPO))
 
 from bike_rig.core.sim import load_rig  # noqa: E402
 from bike_rig.paths import config_file  # noqa: E402
+from bike_rig.pipeline.resend import DEFAULT_HISTORY_SAMPLES  # noqa: E402
 from bike_rig.rosenv import ros_environment  # noqa: E402
 from bike_rig.session.plan import plan_from_rig  # noqa: E402
-from bike_rig.topics import GYRO  # noqa: E402
 
 BIKE_RIG = Path(sys.executable).parent / "bike-rig"
-#: Samples per gyro batch (the driver's default) and the simulated rig's rate, Hz.
-BATCH, RATE_HZ = 50, 1000.0
+#: The simulated rig's rate, Hz.
+RATE_HZ = 1000.0
 
 
 @dataclass
@@ -56,7 +56,7 @@ class Soak:
     flagged: int = 0
     errors: list[str] = field(default_factory=list)
     t0: float = 0.0
-    batches_per_trial: float = 0.0
+    samples_per_trial: float = 0.0
     history_full_s: float | None = None
 
 
@@ -85,7 +85,7 @@ def _reader(stream: IO[str], soak: Soak, done: queue.Queue[None]) -> None:
         if reply["kind"] == "result":
             soak.results += 1
             soak.flagged += reply.get("state") != "ok"
-            if soak.history_full_s is None and soak.results * soak.batches_per_trial >= GYRO.qos.depth:
+            if soak.history_full_s is None and soak.results * soak.samples_per_trial >= DEFAULT_HISTORY_SAMPLES:
                 soak.history_full_s = time.monotonic() - soak.t0
             done.put(None)
         elif reply["kind"] == "error":
@@ -114,7 +114,7 @@ def run(seconds: float, time_scale: float, every: float, folder: Path) -> Soak:
     trials = plan_from_rig(load_rig(config_file("rig.yaml"))).trials
     items = [i.item_id for i in trials]
     argv = [str(BIKE_RIG), "session", "--plain", "--json", "--time-scale", str(time_scale), "--output", str(folder)]
-    soak = Soak(batches_per_trial=sum(i.duration_s for i in trials) / len(trials) * RATE_HZ / BATCH)
+    soak = Soak(samples_per_trial=sum(i.duration_s for i in trials) / len(trials) * RATE_HZ)
     env = ros_environment(os.environ)
     with subprocess.Popen(argv, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, env=env) as proc:
         assert proc.stdin is not None and proc.stdout is not None
@@ -176,7 +176,7 @@ def report(soak: Soak, warm_s: float, seconds: float) -> list[Growth]:
     """Print the table over time and the growth per process; return the growth."""
     full = "not reached" if soak.history_full_s is None else f"{soak.history_full_s:.0f} s"
     print(f"soak: {seconds:g} s, {soak.results} trial results ({soak.flagged} flagged), warm-up {warm_s:.0f} s "
-          f"(the driver's gyro history of {GYRO.qos.depth} batches full: {full})")  # fmt: skip
+          f"(the driver's gyro history of {DEFAULT_HISTORY_SAMPLES} samples full: {full})")  # fmt: skip
     print("t [s]  " + "  ".join(f"{n:>9s}" for n in soak.names) + "   (RSS, MB)")
     step = max(1, len(soak.samples) // 20)
     for t, rss in soak.samples[::step] + soak.samples[-1:]:

@@ -48,7 +48,7 @@ from __future__ import annotations
 import importlib
 import sys
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -60,7 +60,7 @@ from ..messages import fill_gyro_batch
 from ..params import ParamSpec, merge_specs
 from ..pipeline.acquire import SampleBatch, sample_stamp_ns
 from ..pipeline.health import DriverHealth, driver_statuses
-from ..pipeline.resend import DEFAULT_HISTORY_SAMPLES, SentBatches, batch_samples
+from ..pipeline.resend import DEFAULT_HISTORY_SAMPLES, SentBatches, batch_samples, history_depth
 from ..rosqos import profile
 from ..sources import (
     BACKENDS,
@@ -104,8 +104,8 @@ COMMON_PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec("frame_id", "gyro", "frame_id of the gyro batches"),
     ParamSpec("samples_per_batch", 50, "samples per GyroBatch at real time, times the time scale rounded up for a "
               "faster sim or bag (at most 10,000; the last of a trial may hold fewer)", (1, 10_000)),  # fmt: skip
-    ParamSpec("history_samples", DEFAULT_HISTORY_SAMPLES, "samples kept to resend to a subscriber that lost "
-              "batches (the oldest trials are forgotten first)", (0, 2**40)),  # fmt: skip
+    ParamSpec("history_samples", DEFAULT_HISTORY_SAMPLES, "samples kept for late joiners (the gyro topic's "
+              "transient-local history) and to resend to a subscriber that lost batches", (1, 2**40)),  # fmt: skip
     ParamSpec("poll_period_s", 0.01, "how often the source is read, s (wall clock)", (0.001, 1.0)),
     ParamSpec("exit_when_done", False, "exit when the sim/bag plan is finished (else keep running)"),
     ParamSpec("wait_for_subscribers", 0, "start streaming once the gyro and trial-event topics each have this many "
@@ -172,7 +172,9 @@ class DriverNode(Node):
         if self.values["resume"]:
             scale = float(self.values["resume_time_scale"])
             self.source = ResumedSource(str(self.values["resume"]), self.source, scale)
-        self.gyro_pub = self.create_publisher(_msgs.GyroBatch, GYRO.name, profile(GYRO))
+        # (the transient-local history holds history_samples samples, whatever the batch size)
+        depth = history_depth(int(self.values["history_samples"]), self.batch_size)
+        self.gyro_pub = self.create_publisher(_msgs.GyroBatch, GYRO.name, profile(replace(GYRO.qos, depth=depth)))
         self.events_pub = self.create_publisher(_msgs.TrialEvent, TRIAL_EVENTS.name, profile(TRIAL_EVENTS))
         self.start_srv = self.create_service(_srvs.StartTrial, START_TRIAL, self._on_start_trial)
         self.stop_srv = self.create_service(_srvs.StopTrial, STOP_TRIAL, self._on_stop_trial)

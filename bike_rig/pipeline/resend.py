@@ -16,7 +16,9 @@ from dataclasses import dataclass
 
 from .acquire import SampleBatch
 
-__all__ = ["DEFAULT_HISTORY_SAMPLES", "MAX_RESEND_SAMPLES", "Resent", "SentBatches", "batch_samples"]
+__all__ = [
+    "DEFAULT_HISTORY_SAMPLES", "MAX_RESEND_SAMPLES", "Resent", "SentBatches", "batch_samples", "history_depth",
+]  # fmt: skip
 
 #: Samples the driver keeps for resending: 42 min of 1 kHz trials (~20 MB of rates).
 DEFAULT_HISTORY_SAMPLES = 2_500_000
@@ -44,6 +46,15 @@ def batch_samples(samples_per_batch: int, time_scale: float) -> int:
     """
     scale = math.ceil(time_scale) if time_scale > 1 else 1
     return max(samples_per_batch, min(samples_per_batch * scale, MAX_SCALED_BATCH))
+
+
+def history_depth(history_samples: int, batch: int) -> int:
+    """The gyro topic's history depth, batches, that holds ``history_samples`` samples of ``batch``-sample batches.
+
+    So larger batches (a faster source) hold no more samples than real-time ones: at 50 samples a
+    batch, the default 2.5 million samples are the topic's 50,000 batches.
+    """
+    return max(1, -(-history_samples // batch))
 
 
 @dataclass(frozen=True)

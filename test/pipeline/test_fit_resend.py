@@ -12,7 +12,14 @@ import numpy as np
 from bike_rig.pipeline.acquire import SampleBatch, TrialEventKind, TrialEventRecord
 from bike_rig.pipeline.fit import TrialFit, TrialFitOptions, fit_trial
 from bike_rig.pipeline.fit_state import RESEND_GIVE_UP_S, RESEND_RETRY_S, FitterState, ResendRequest
-from bike_rig.pipeline.resend import MAX_SCALED_BATCH, SentBatches, batch_samples
+from bike_rig.pipeline.resend import (
+    DEFAULT_HISTORY_SAMPLES,
+    MAX_SCALED_BATCH,
+    SentBatches,
+    batch_samples,
+    history_depth,
+)
+from bike_rig.topics import GYRO
 
 RATE = 1000.0
 N = 6000
@@ -84,6 +91,9 @@ def test_batches_grow_with_the_time_scale_so_the_message_rate_stays() -> None:
     assert batch_samples(50, 2.5) == 150
     assert batch_samples(50, 1000.0) == MAX_SCALED_BATCH
     assert batch_samples(20_000, 1.0) == 20_000  # (never below what was asked for)
+    # the topic's history holds the same samples whatever the batch size
+    assert history_depth(DEFAULT_HISTORY_SAMPLES, 50) == GYRO.qos.depth == 50_000
+    assert history_depth(DEFAULT_HISTORY_SAMPLES, 5000) == 500 and history_depth(10, 3) == 4
 
 
 def test_sent_batches_answer_the_overlapping_range_and_forget_the_oldest_trial() -> None:

@@ -10,7 +10,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from bike_rig.topics import GYRO
+from bike_rig.pipeline.resend import DEFAULT_HISTORY_SAMPLES
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -24,4 +24,4 @@ def test_a_short_soak_keeps_every_process_alive_and_its_memory_flat(ros_env: dic
     assert all(abs(float(r[4])) <= 5.0 for r in rows), rows
     results = int(re.search(r"(\d+) trial results", done.stdout).group(1))  # type: ignore[union-attr]
     assert results >= 40, done.stdout[:400]  # it did record: > one plan of trials
-    assert f"history of {GYRO.qos.depth} batches full: " in done.stdout and "not reached" not in done.stdout
+    assert f"history of {DEFAULT_HISTORY_SAMPLES} samples full: " in done.stdout and "not reached" not in done.stdout
