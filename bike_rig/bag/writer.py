@@ -36,6 +36,7 @@ header) are written as they are: nothing is deserialized.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import time
 from collections.abc import Mapping, Sequence
@@ -240,28 +241,43 @@ class BagWriter:
             raise BagError(str(self.path), f"cannot create the bag ({exc.strerror or exc})") from None
         self._stats = _Stats()
         self._files = []
-        self._open_file()
-
-    def _open_file(self) -> None:
-        """Create the next storage file, write its MCAP header and every topic known so far."""
-        self.data_path = self.path / data_file_name(self.path, len(self._files))
         try:
-            self._stream = self.data_path.open("xb")
+            self._open_file()
         except FileExistsError:
             raise BagExistsError(str(self.data_path), "exists already; a bag is never overwritten") from None
         except OSError as exc:
+            with contextlib.suppress(OSError):
+                self.path.rmdir()  # the directory just created, empty again
             raise BagError(str(self.path), f"cannot create {self.data_path.name} ({exc.strerror or exc})") from None
-        self._mcap = McapWriter(
-            self._stream,
-            chunk_size=self.chunk_size,
-            compression=_MCAP_COMPRESSION[self.compression],
-        )
-        self._mcap.start(profile=PROFILE, library=f"bike_rig {__version__}; mcap-python {package_version('mcap')}")
-        self._schemas = {}
-        self._summary_bytes = 0
-        for ch in self._channels.values():
-            ch.id = self._register(ch.name, ch.msgtype, self._msgdefs[ch.msgtype], ch.type_hash, ch.offered_qos)
-        self._mcap.flush()
+
+    def _open_file(self) -> None:
+        """Create the next storage file, write its MCAP header and every topic known so far.
+
+        Raises:
+            OSError: The file cannot be created or written (out of space or inodes, read-only).
+                A file created but not written to the end is removed: it holds no message,
+                and a bag with an empty storage file would not recover.
+        """
+        self.data_path = self.path / data_file_name(self.path, len(self._files))
+        self._stream = self.data_path.open("xb")
+        try:
+            self._mcap = McapWriter(
+                self._stream,
+                chunk_size=self.chunk_size,
+                compression=_MCAP_COMPRESSION[self.compression],
+            )
+            library = f"bike_rig {__version__}; mcap-python {package_version('mcap')}"
+            self._mcap.start(profile=PROFILE, library=library)
+            self._schemas = {}
+            self._summary_bytes = 0
+            for ch in self._channels.values():
+                ch.id = self._register(ch.name, ch.msgtype, self._msgdefs[ch.msgtype], ch.type_hash, ch.offered_qos)
+            self._mcap.flush()
+        except OSError:
+            self.abort()
+            with contextlib.suppress(OSError):
+                self.data_path.unlink()
+            raise
         ratio = self._files[-1].ratio if self._files else 1.0
         self._files.append(FileStats(self.data_path.name, ratio=ratio))
         self._files[-1].size = self._files[-1].header = self._stream.tell()
@@ -412,8 +428,9 @@ class BagWriter:
             The names of the file closed and of the new one.
 
         Raises:
-            BagError: The bag is not open, or the next file cannot be created.
-            OSError: The closed file could not be written to the end.
+            BagError: The bag is not open.
+            OSError: The closed file could not be written to the end, or the next one cannot be
+                created (:meth:`abort` then leaves the bag as a crash would).
         """
         self._require_open()
         closed = self._files[-1].name
@@ -465,26 +482,37 @@ class BagWriter:
 
         Returns:
             Every topic with its message count, in the order added.
+
+        Raises:
+            OSError: The storage file or metadata.yaml cannot be written (out of space or
+                inodes, read-only). Every chunk flushed before is on disk; call :meth:`abort`,
+                and the bag needs :mod:`bike_rig.bag.recover`. No partial metadata.yaml is left.
         """
         if self._closed or self._mcap is None or self._stream is None:
             return self.topic_counts
         self._finish_file()
-        info = self.metadata()
+        text = yaml.safe_dump(self.metadata(), sort_keys=False)
         tmp = self.path / "metadata.yaml.tmp"
-        tmp.write_text(yaml.safe_dump(info, sort_keys=False), encoding="utf-8")
-        tmp.replace(self.path / "metadata.yaml")
+        try:
+            tmp.write_text(text, encoding="utf-8")
+            tmp.replace(self.path / "metadata.yaml")
+        except OSError:
+            with contextlib.suppress(OSError):
+                tmp.unlink(missing_ok=True)
+            raise
         self._closed = True
         return self.topic_counts
 
     def abort(self) -> None:
         """Stop writing without a summary or metadata.yaml (what a crash leaves, minus the chunk in progress).
 
-        The bag then needs :mod:`bike_rig.bag.recover`.
+        The bag then needs :mod:`bike_rig.bag.recover`. Never raises: a write that fails here
+        (the disk is still full) loses only what a crash would.
         """
-        if self._stream is not None:
-            self._stream.close()
-        self._mcap = None
-        self._stream = None
+        stream, self._stream, self._mcap = self._stream, None, None
+        if stream is not None:
+            with contextlib.suppress(OSError):  # the buffered tail; the file is closed anyway
+                stream.close()
 
     def __enter__(self) -> BagWriter:
         """Open the bag (:meth:`open`) and return the writer."""

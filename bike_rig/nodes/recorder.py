@@ -57,7 +57,6 @@ Run: ``python -m bike_rig.nodes.recorder --ros-args -p output:=session1`` (or
 
 from __future__ import annotations
 
-import contextlib
 import importlib
 import os
 import shutil
@@ -245,6 +244,7 @@ class Recorder(Node):
 
     def _callback(self, topic: contract.Topic) -> Any:
         def on_message(data: bytes, info: Any) -> None:
+            self.diagnostics.note_input(info)
             # never let an exception escape into the executor (see shared/notes §4)
             try:
                 self._record(topic, data, info)
@@ -281,7 +281,7 @@ class Recorder(Node):
             self._write_ms = max(self._write_ms, 1e3 * (time.perf_counter() - started))
         except OSError as exc:
             self.dropped += 1
-            self._fail(exc)
+            self._fail(exc, received=self.received - 1)
             return
         if len(self.writer.files) != files:
             self.get_logger().info(f"split (limit reached): {self._split_line()}")
@@ -389,20 +389,27 @@ class Recorder(Node):
             self._min_free_bytes, failed, self.paused, self.dropped_paused,
         ))  # fmt: skip
 
-    def _fail(self, exc: OSError) -> None:
-        """The bag cannot be written any more (disk full, read-only, removed): say so once, stop.
+    def _fail(self, exc: OSError, received: int | None = None, closing: bool = False) -> None:
+        """The bag cannot be written any more (disk full, out of inodes, read-only, removed): say so once, stop.
 
-        The file is left as a crash leaves it (:meth:`BagWriter.abort`): every chunk flushed
-        before is recoverable. The node stays up (the graph goes on computing) and counts what
-        it receives from now on without recording it.
+        Any write of the bag ends here: a message, a flush, a split, the closing records and
+        metadata.yaml at close. The file is left as a crash leaves it (:meth:`BagWriter.abort`):
+        every chunk flushed before is recoverable. Before close the node stays up (the graph
+        goes on computing) and counts what it receives from now on without recording it.
+
+        Args:
+            exc: The write's error.
+            received: Messages received before the failure (default: all so far).
+            closing: The failure came while closing the bag.
         """
         self.failed = exc
-        with contextlib.suppress(OSError):
-            self.writer.abort()
+        self.writer.abort()
+        after = ("the bag was being closed" if closing
+                 else "the graph goes on, and what arrives from now on is counted, not recorded")  # fmt: skip
         self.get_logger().error(
             f"recording stopped: cannot write {self.writer.path}: {exc.strerror or exc} (errno {exc.errno}) after "
-            f"{self.received - 1} messages; the chunks flushed before are recoverable with 'bike-rig bag recover "
-            f"{self.writer.path}'; the graph goes on, and what arrives from now on is counted, not recorded"
+            f"{self.received if received is None else received} messages; the chunks flushed before are "
+            f"recoverable with 'bike-rig bag recover {self.writer.path}'; {after}"
         )
 
     def _add_channel(self, topic: contract.Topic, first: bool) -> None:
@@ -428,7 +435,7 @@ class Recorder(Node):
         """Add the silent topics and close the bag (summary, footer, metadata.yaml).
 
         Returns:
-            False when the bag could not be written to the end (:meth:`_fail`).
+            False when the bag could not be written to the end (:meth:`_fail`), now or before.
         """
         if self._closed:
             return self.failed is None
@@ -439,14 +446,18 @@ class Recorder(Node):
                 f"the bag needs 'bike-rig bag recover {self.writer.path}'"
             )
             return False
-        for topic in self.topics:
-            if not self.writer.has_topic(topic.name):
-                self._add_channel(topic, first=False)
         if self.pauses:
             self.writer.custom_data["pauses"] = str(self.pauses)
             self.writer.custom_data["messages_dropped_while_paused"] = str(self.dropped_paused)
             self.get_logger().info(f"{self.dropped_paused} message(s) arrived while paused (not recorded)")
-        counts = self.writer.close()
+        try:
+            for topic in self.topics:
+                if not self.writer.has_topic(topic.name):
+                    self._add_channel(topic, first=False)
+            counts = self.writer.close()
+        except OSError as exc:
+            self._fail(exc, closing=True)
+            return False
         summary = ", ".join(f"{c.name} {c.count}" for c in counts)
         files = self.writer.files
         in_files = f" in {len(files)} files" if len(files) > 1 else ""
