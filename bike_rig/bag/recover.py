@@ -123,6 +123,9 @@ def _records(f: BinaryIO, scan: McapScan) -> Iterator[tuple[int, bytes]]:
 def scan_mcap(path: str | Path) -> McapScan:
     """Read every complete record of an MCAP file, however it ends.
 
+    A file shorter than the magic that starts like it (an empty one included) was cut as it was
+    created: it holds nothing, and is not complete.
+
     Raises:
         NotABagError: The file does not start with the MCAP magic.
         BagReadError: It cannot be read.
@@ -133,7 +136,12 @@ def scan_mcap(path: str | Path) -> McapScan:
         with path.open("rb") as f:
             scan.size = f.seek(0, 2)
             f.seek(0)
-            if f.read(len(MCAP_MAGIC)) != MCAP_MAGIC:
+            head = f.read(len(MCAP_MAGIC))
+            if len(head) < len(MCAP_MAGIC) and MCAP_MAGIC.startswith(head):
+                # created, then cut before its magic was written (a recorder killed right after a split)
+                scan.stop_reason = f"cut before its first record ({scan.size} bytes)"
+                return scan
+            if head != MCAP_MAGIC:
                 raise NotABagError(str(path), "not an MCAP file (bad magic)")
             scan.read_bytes = len(MCAP_MAGIC)
             _scan_records(f, scan)

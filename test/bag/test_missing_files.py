@@ -14,8 +14,8 @@ import yaml
 
 from bike_rig.bag.errors import BagReadError
 from bike_rig.bag.info import summarize
-from bike_rig.bag.reader import open_bag
-from bike_rig.bag.recover import recover_bag
+from bike_rig.bag.reader import MCAP_MAGIC, open_bag
+from bike_rig.bag.recover import recover_bag, scan_mcap
 from bike_rig.bag.writer import BagWriter, contract_qos
 from bike_rig.topics import TOPICS
 from test.bag.samples import sample_traffic
@@ -111,3 +111,12 @@ def test_a_bag_whose_every_file_is_missing_is_named(tmp_path: Path) -> None:
     reason = r"every storage file metadata.yaml lists is missing \(gone_0.mcap, gone_1.mcap\)"
     with pytest.raises(BagReadError, match=reason):
         recover_bag(tmp_path / "gone")
+
+
+def test_a_split_file_cut_as_it_was_created_is_recovered_as_empty(tmp_path: Path) -> None:
+    """A recorder killed right after a split leaves the next file empty (or a few bytes of the magic)."""
+    for size in (0, 3):
+        cut = tmp_path / f"cut_{size}.mcap"
+        cut.write_bytes(MCAP_MAGIC[:size])
+        scan = scan_mcap(cut)
+        assert not scan.complete and scan.messages == [] and "cut before its first record" in scan.stop_reason
