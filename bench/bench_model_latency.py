@@ -71,7 +71,8 @@ class Graph:
         self.children: list[subprocess.Popen[bytes]] = []
         self.context = rclpy.Context()
         rclpy.init(context=self.context, domain_id=int(env["ROS_DOMAIN_ID"]))
-        self.node = rclpy.create_node(f"bench_model_latency_{os.getpid()}", context=self.context)
+        # (named "parameter": the model node takes parameter sets only from the parameter node's process)
+        self.node = rclpy.create_node("parameter", context=self.context)
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
 

@@ -13,6 +13,14 @@ depth 1):
 Both carry the parameter set's header stamp, so a consumer can tell which set they belong to.
 Incomplete sets are ignored (the last model stays published).
 
+A set is taken only from the parameter node's process (:mod:`bike_rig.nodes.owners`: the
+publisher's DDS participant, looked up in the graph); a set from another process on the domain
+is ignored, said in one warning line (the first from each process, then at most every
+:data:`FOREIGN_SAY_S` with a count). A set that is not physically possible
+(:func:`bike_rig.core.plausibility.check`: NaN, a negative inertia...) is refused in one error
+line naming the set and every broken rule, and publishes nothing: the previous model stays
+latched and serves the state space.
+
 With a ``feedback`` file the sweep, the critical speeds and the state space (``A − B K``) are
 those of the closed loop of that steer-torque state feedback (the matrices stay the bicycle's).
 
@@ -66,6 +74,7 @@ from .. import topics
 from ..core.benchmark import ParameterSet
 from ..core.errors import BikeRigError
 from ..core.feedback import resolve_feedback
+from ..core.plausibility import ImplausibleParametersError, check
 from ..core.rider import resolve_rider, rider_key
 from ..core.uncertainty.matrix_sigma import SigmaConvention
 from ..messages import (
@@ -76,18 +85,22 @@ from ..messages import (
     fill_state_space_response,
     ride_speed_from_msg,
     session_parameters_from_msg,
+    stamp_ns,
 )
 from ..params import ParamSpec
 from ..pipeline.health import ModelHealth, model_statuses
 from ..pipeline.model import ModelMatrices, compute_model, state_space_at, state_space_with_sigma_at, with_rider
 from ..rosqos import profile
 from .diagnostics import DiagnosticsUpdater
+from .owners import RELOOK_S, OwnerFilter, Released
 from .params import NodeParameterError, declare_parameters, parameter_error
 from .runner import run_node
 
-__all__ = ["MAX_SPEED_COUNT", "NODE_NAME", "PARAMETERS", "ModelNode", "main"]
+__all__ = ["FOREIGN_SAY_S", "MAX_SPEED_COUNT", "NODE_NAME", "PARAMETERS", "ModelNode", "main"]
 
 NODE_NAME = "model"
+#: Least time between two warnings about the sets of one foreign process, s.
+FOREIGN_SAY_S = 10.0
 #: Largest number of speeds in the sweep (the EigenSweep message grows with it).
 MAX_SPEED_COUNT = 100_000
 
@@ -161,9 +174,14 @@ class ModelNode(Node):
             _msgs.CanonicalMatrices, topics.MATRICES.name, profile(topics.MATRICES)
         )
         self._sweep_pub = self.create_publisher(_msgs.EigenSweep, topics.EIGEN_SWEEP.name, profile(topics.EIGEN_SWEEP))
+        self._owners: OwnerFilter[Any] = OwnerFilter(self)
+        self._foreign: dict[str, tuple[int, float]] = {}  # participant -> (sets ignored, when last said)
         self.create_subscription(
             _msgs.BenchmarkParameters, topics.PARAMETERS.name, self._on_parameters, profile(topics.PARAMETERS)
         )
+        # while a set waits for discovery to name its process, look again (stopped otherwise)
+        self._owner_timer = self.create_timer(RELOOK_S, self._release_sets)
+        self._owner_timer.cancel()
         self.create_service(_srvs.StateSpace, topics.STATE_SPACE, self._on_state_space)
 
         self._ride_step = float(values["ride_speed_step"])
@@ -189,16 +207,53 @@ class ModelNode(Node):
             f"sigma {self._convention.value}, {self._speeds.size} speeds {self._speeds[0]:g}..{self._speeds[-1]:g} m/s"
         )
 
-    def _on_parameters(self, msg: Any) -> None:
+    def _on_parameters(self, msg: Any, info: Any) -> None:
+        self.diagnostics.note_input(info)
+        self._owners.offer(topics.PARAMETERS.name, info, msg)
+        self._release_sets()
+
+    def _release_sets(self) -> None:
+        """Take the sets of the parameter node's process in order, ignore the others (see the module docstring)."""
+        for r in self._owners.release():
+            if r.owned:
+                self._take_set(r.item)
+            else:
+                self._ignore_foreign(r)
+        if self._owners.holding:
+            if self._owner_timer.is_canceled():
+                self._owner_timer.reset()
+        elif not self._owner_timer.is_canceled():
+            self._owner_timer.cancel()
+
+    def _ignore_foreign(self, r: Released[Any]) -> None:
+        """Say that a set from another process was ignored: the first of its process, then every FOREIGN_SAY_S."""
+        count, said = self._foreign.get(r.source, (0, -math.inf))
+        now = time.monotonic()
+        count += 1
+        if now - said >= FOREIGN_SAY_S:
+            more = f" ({count} sets from that process ignored so far)" if count > 1 else ""
+            self.get_logger().warning(
+                f"{_which(r.item)} ignored: published by {r.publisher} in another process than the parameter "
+                f"node's; parameter sets are taken only from the parameter node{more}"
+            )
+            said = now
+        self._foreign[r.source] = (count, said)
+
+    def _take_set(self, msg: Any) -> None:
         if not msg.complete:
             self.get_logger().info(f"{msg.bicycle}: parameter set incomplete (missing {', '.join(msg.missing)})")
             return
         started = time.perf_counter()
         try:
             ps = session_parameters_from_msg(msg, topics.PARAMETERS.name).complete_parameters()
+            check(ps, _which(msg))
             matrices, stability = compute_model(
                 ps, self._speeds, self._rider, self._convention, self._feedback, files=True
             )
+        except ImplausibleParametersError as exc:
+            kept = "" if self._parameter_set is None else f" (the model of '{self._parameter_set.bicycle}' stays)"
+            self.get_logger().error(f"{exc}; refused, nothing published{kept}")
+            return
         except BikeRigError as exc:
             self.get_logger().error(f"{msg.bicycle}: parameter set not usable: {exc}")
             return
@@ -254,7 +309,8 @@ class ModelNode(Node):
         return fill_state_space_response(response, state, f"{label} at {state.speed:g} m/s")
 
 
-    def _on_speed(self, msg: Any) -> None:
+    def _on_speed(self, msg: Any, info: Any) -> None:
+        self.diagnostics.note_input(info)
         try:
             self._ride_speed = ride_speed_from_msg(msg, topics.RIDE_SPEED.name)
         except BikeRigError as exc:
@@ -305,6 +361,12 @@ class ModelNode(Node):
         self._ride_published, self._ride_last_ns = v, now.nanoseconds
         self._ride_compute_ms = 1e3 * (time.perf_counter() - started)
         self._ride_count += 1
+
+
+def _which(msg: Any) -> str:
+    """A ``BenchmarkParameters`` in words: ``parameter set 'Rogue' (stamp 1700000000.000000001 s)``."""
+    ns = stamp_ns(msg.header)
+    return f"parameter set '{msg.bicycle}' (stamp {ns // 1_000_000_000}.{ns % 1_000_000_000:09d} s)"
 
 
 def main(args: Sequence[str] | None = None) -> int:

@@ -32,9 +32,7 @@ from __future__ import annotations
 
 import importlib
 import os
-import time
 from collections.abc import Callable
-from dataclasses import dataclass
 from typing import Any, TypeAlias
 
 import rclpy
@@ -64,41 +62,15 @@ from ..pipeline.model import StabilitySweep
 from ..pipeline.readings import ReadingEntry
 from ..rosenv import ros_environment
 from ..rosqos import profile
-from .publishers import participant, publisher_source
+from .owners import TOPIC_OWNERS, OwnerFilter, Released
 
 __all__ = ["OWNERS", "GraphMonitor", "MonitorRecord"]
 
 _msgs: Any = importlib.import_module("bike_rig_msgs.msg")
 _diag: Any = importlib.import_module("diagnostic_msgs.msg")
 
-#: The nodes that may publish each followed topic (ROS names; ``bike-rig replay --republish``'s
-#: node stands in for the driver).
-OWNERS: dict[str, tuple[str, ...]] = {
-    topics.TRIAL_EVENTS.name: ("driver", "bag_republisher"),
-    topics.GYRO.name: ("driver", "bag_republisher"),
-    topics.PERIODS.name: ("fitter",),
-    topics.FIT_DETAILS.name: ("fitter",),
-    topics.PARAMETERS.name: ("parameter",),
-    topics.EIGEN_SWEEP.name: ("model",),
-}
-
-#: How often the graph is asked again which node publishes a topic from an unknown process, s.
-_RELOOK_S = 0.05
-#: The node name the graph gives an endpoint whose node it has not discovered yet (rmw_dds_common).
-_UNKNOWN_NODE = "_NODE_NAME_UNKNOWN_"
-#: How long a message from a process the graph does not know yet is held before it is dropped, s.
-_HOLD_S = 5.0
-
-
-@dataclass(frozen=True)
-class _Held:
-    """A message waiting for the graph to say which node its process is."""
-
-    topic: str
-    source: str
-    record: Any
-    since: float
-
+#: The nodes that may publish each followed topic (:data:`bike_rig.nodes.owners.TOPIC_OWNERS`).
+OWNERS = TOPIC_OWNERS
 
 #: Most callbacks taken in one :meth:`GraphMonitor.poll` after the first.
 MAX_BURST = 1000
@@ -157,10 +129,8 @@ class GraphMonitor:
         self.ignored: list[str] = []
         #: Messages dropped per topic because another process than the topic's owner sent them.
         self.foreign: dict[str, int] = {}
-        self._owners: dict[str, str] = {}  # participant -> node name, as last looked up
-        self._looked: dict[str, float] = {}  # topic -> when its publishers were last looked up
+        self._gate: OwnerFilter[MonitorRecord] = OwnerFilter(self.node, OWNERS)
         self._foreign_said: set[tuple[str, str]] = set()
-        self._held: list[_Held] = []
         self._taken = 0  # callbacks run
         subscriptions: tuple[tuple[Any, topics.Topic, Callable[[Any], MonitorRecord]], ...] = (
             (_msgs.TrialEvent, topics.TRIAL_EVENTS, trial_event_from_msg),
@@ -201,52 +171,28 @@ class GraphMonitor:
                 self.ignored.append(f"{type(msg).__name__} ignored: {exc}")
                 return
             self._taken += 1
-            source = publisher_source(info)
-            self._held.append(_Held(topic, source, record, time.monotonic()))
+            self._gate.offer(topic, info, record)
 
         return collect
-
-    def _owner_of(self, topic: str, source: str, now: float) -> bool | None:
-        """Whether ``source`` is the process of ``topic``'s owner; None while the graph does not know it yet.
-
-        True for a topic without an owner, and for a middleware that does not say (nothing to check).
-        """
-        if topic not in OWNERS or not source:
-            return True
-        if source not in self._owners and now - self._looked.get(topic, -_RELOOK_S) >= _RELOOK_S:
-            self._looked[topic] = now
-            for p in self.node.get_publishers_info_by_topic(topic):
-                if p.node_name and p.node_name != _UNKNOWN_NODE:  # (its node not discovered yet)
-                    self._owners[participant(bytes(p.endpoint_gid))] = p.node_name
-        name = self._owners.get(source)
-        return None if name is None else name in OWNERS[topic]
 
     def _release(self) -> None:
         """Hand on the messages of owners in their order of arrival; drop the others (see the module docstring).
 
-        A message can arrive before discovery tells which node published it: it and every
-        message after it wait until the graph says (looked up again at most every
-        :data:`_RELOOK_S`), so that nothing overtakes it (a result its START); after
-        :data:`_HOLD_S` it is dropped as from an unknown process.
+        A message whose process discovery has not named yet waits, and every message after it
+        (:class:`~bike_rig.nodes.owners.OwnerFilter`).
         """
-        now = time.monotonic()
-        for k, h in enumerate(self._held):
-            verdict = self._owner_of(h.topic, h.source, now)
-            if verdict is None and now - h.since < _HOLD_S:
-                self._held = self._held[k:]
-                return
-            if verdict:
-                self._records.append(h.record)
+        for r in self._gate.release():
+            if r.owned:
+                self._records.append(r.item)
             else:
-                self._drop_foreign(h.topic, h.source)
-        self._held = []
+                self._drop_foreign(r)
 
-    def _drop_foreign(self, topic: str, source: str) -> None:
-        self.foreign[topic] = self.foreign.get(topic, 0) + 1
-        if (topic, source) not in self._foreign_said:
-            self._foreign_said.add((topic, source))
-            who = self._owners.get(source) or "an unknown node"
-            self.ignored.append(f"{topic}: messages from {who} in another process than the {OWNERS[topic][0]} ignored")
+    def _drop_foreign(self, r: Released[MonitorRecord]) -> None:
+        self.foreign[r.topic] = self.foreign.get(r.topic, 0) + 1
+        if (r.topic, r.source) not in self._foreign_said:
+            self._foreign_said.add((r.topic, r.source))
+            who, owner = ", ".join(r.nodes) or "an unknown node", OWNERS[r.topic][0]
+            self.ignored.append(f"{r.topic}: messages from {who} in another process than the {owner} ignored")
 
     def poll(self, timeout_s: float = 0.1) -> list[MonitorRecord]:
         """Wait up to ``timeout_s`` (s) for a message, take in what is ready, and return it in order."""

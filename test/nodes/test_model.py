@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 import subprocess
 import sys
+import weakref
 from pathlib import Path
 from typing import Any
 
@@ -27,6 +28,7 @@ from bike_rig.core.whipple import eigenvalues, state_space
 from bike_rig.messages import fill_benchmark_parameters, session_parameters_from_msg, set_stamp
 from bike_rig.pipeline.assemble import assemble
 from bike_rig.pipeline.model import compute_model
+from test.nodes.standin import ParameterStandIn
 from test.nodes.test_parameter import (
     BROWSER,
     REPO,
@@ -40,6 +42,8 @@ from test.ros.processes import RosProcess
 pytestmark = pytest.mark.ros
 
 STAMP_NS = 1_700_000_000_123_456_789
+#: The stand-in parameter node of each probe (its node goes with the probe's context).
+_STAND_INS: weakref.WeakKeyDictionary[Probe, ParameterStandIn] = weakref.WeakKeyDictionary()
 
 
 
@@ -50,13 +54,18 @@ def offline_set(method: ComMethod = ComMethod.CENTROID) -> ParameterSet:
 
 
 def publish_set(probe: Probe, method: ComMethod, stamp_ns: int) -> None:
+    """Publish the Browser set from a node named 'parameter' in the probe's process (the model takes only its sets)."""
     from bike_rig_msgs.msg import BenchmarkParameters
 
     msg = fill_benchmark_parameters(
         BenchmarkParameters(), assemble(load_static_readings(BROWSER), browser_trials(), method)
     )
     set_stamp(msg, stamp_ns)
-    probe.publisher(topics.PARAMETERS, BenchmarkParameters, matched=True).publish(msg)
+    standin = _STAND_INS.get(probe)
+    if standin is None:
+        standin = _STAND_INS[probe] = ParameterStandIn(probe.context)
+    probe.wait_for(standin.matched, f"a subscriber of {topics.PARAMETERS.name}")
+    standin.publish(msg)
 
 
 def assert_model_equals_core(
