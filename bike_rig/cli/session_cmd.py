@@ -18,6 +18,7 @@ from ..graphwatch import NodeWatch
 from ..launch import LaunchError, RunningGraph, load_graph, parse_overrides
 from ..paths import config_file
 from ..rosenv import check_domain_id
+from ..session.controller import SessionController
 from .commands import HELP
 
 __all__ = ["SessionArgumentError", "add_parser", "run"]
@@ -84,6 +85,21 @@ def _graph_overrides(
     for node, values in parse_overrides(args.param).items():
         over.setdefault(node, {}).update(values)
     return over
+
+
+def _carry_over(ctl: SessionController, resume: ResumePoint | None, readings: str | None) -> None:
+    """Give the console what it knows before the first command.
+
+    A resumed session's trials and readings, and the readings of a ``--readings`` file (the
+    parameter node reads that file itself: nothing is sent).
+    """
+    from ..core.loader import load_static_readings
+    from ..session.setup import take_readings_file
+
+    if resume is not None:
+        ctl.resume(resume.trial_ids, resume.entries, resume.describe())
+    if readings:
+        take_readings_file(ctl, load_static_readings(readings))
 
 
 def _resumed_readings(resume: ResumePoint | None, folder: Path) -> str:
@@ -201,8 +217,7 @@ def run(args: argparse.Namespace) -> int:
             if graph is not None:
                 ctl.watch = _node_watch(graph, folder)
                 ctl.ended = _ended_nodes(graph)
-            if resume is not None:
-                ctl.resume(resume.trial_ids, resume.entries, resume.describe())
+            _carry_over(ctl, resume, args.readings)
             if args.plain:
                 status = run_plain(ctl, sys.stdin, sys.stdout, as_json=args.json)
             else:

@@ -23,7 +23,7 @@ from .plan import ItemState, plan_from_rig
 from .readings import ReadingInputError, parse_reading, plausibility
 from .state import OperatorSession
 
-__all__ = ["build_controller", "check_typed_reading", "rank_items", "session_measurements"]
+__all__ = ["build_controller", "check_typed_reading", "rank_items", "session_measurements", "take_readings_file"]
 
 
 def check_typed_reading(
@@ -89,3 +89,18 @@ def build_controller(rig: RigConfig, bicycle: str, link: GraphLink, source: str 
     return SessionController(
         session, link, check_reading=check_typed_reading, rank=partial(rank_items, nominal=nominal)
     )
+
+
+def take_readings_file(ctl: SessionController, readings: Measurements) -> int:
+    """Mark the plan's static readings that a measurement file gives (``session --readings``) as entered.
+
+    The parameter node reads the same file itself, so nothing is sent to the graph: the plan,
+    the progress and the next item just stop asking for them. Returns how many were taken.
+    """
+    wanted = {i.key for i in ctl.session.plan.readings}
+    taken = 0
+    for key, r in readings.readings.items():
+        if key in wanted and key not in ctl.session.readings:
+            ctl.session.on_reading(ReadingEntry(key, r.value, r.sigma, note=f"from {readings.path}"))
+            taken += 1
+    return taken

@@ -377,3 +377,18 @@ def test_help_lists_every_command_and_typos_get_a_suggestion(ctl_link) -> None: 
     with pytest.raises(UnknownKeyError, match=r"did you mean 'gamma'\?") as caught:
         parse_reading("gama", "67", "0.1")
     assert "alpha<part>" not in str(caught.value)
+
+
+def test_a_readings_file_marks_the_plans_readings_done(ctl_link) -> None:  # type: ignore[no-untyped-def]
+    """A --readings file: the parameter node reads the file; the plan stops asking for its readings."""
+    from bike_rig.core.loader import load_static_readings
+    from bike_rig.session.plan import ItemState
+    from bike_rig.session.setup import take_readings_file
+
+    ctl = ctl_link[0]
+    readings = list(ctl.session.plan.readings)
+    assert all(ctl.session.state(i) is ItemState.TODO for i in readings)
+    taken = take_readings_file(ctl, load_static_readings(config_file("bicycles/browser.yaml")))
+    assert taken == len(readings) > 10
+    assert all(ctl.session.state(i) is ItemState.DONE for i in readings)
+    assert ctl.session.next_trial() is not None and not any(r.kind == "error" for r in ctl.execute("next"))
