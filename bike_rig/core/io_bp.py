@@ -4,12 +4,13 @@
 
 Text files hold one ``name = value+/-sigma`` per line (``#`` starts a comment; several
 comma-separated values on one line are averaged, as BicycleParameters does, with the σ of the
-mean of independent readings). Data in this format from the BicycleParameters project are
-BSD-2-Clause, (c) 2011-2025 BicycleParameters Authors.
+mean of independent readings); a UTF-8 byte-order mark is read as such. Data in this format from
+the BicycleParameters project are BSD-2-Clause, (c) 2011-2025 BicycleParameters Authors.
 """
 
 from __future__ import annotations
 
+import logging
 import math
 import re
 from collections.abc import Mapping
@@ -35,6 +36,8 @@ __all__ = [
 
 _NUMBER_KEYS = re.compile(r"^(alpha|a|Tt|Tc)[A-Z]\d+$")
 _PM = re.compile(r"\s*(?:\+/-|±)\s*")
+_DISTANCE_KEY = re.compile(r"^a[BHSG]\d+$")
+_LOG = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -99,7 +102,7 @@ def read_bp_text(path: str | Path) -> dict[str, TextEntry]:
     """
     p = str(path)
     try:
-        content = Path(path).read_text(encoding="utf-8")
+        content = Path(path).read_text(encoding="utf-8-sig")
     except (OSError, UnicodeDecodeError) as exc:
         raise InputFileError(p, f"cannot read the file ({exc.__class__.__name__}: {exc})") from None
     entries: dict[str, TextEntry] = {}
@@ -139,12 +142,31 @@ def read_bp_measured(path: str | Path) -> Measurements:
     readings: dict[str, Reading] = {}
     extras: dict[str, object] = {}
     for key, e in entries.items():
-        if key in KNOWN_KEYS or _NUMBER_KEYS.match(key):
+        stray = _is_stray_distance(key, entries)
+        if (key in KNOWN_KEYS or _NUMBER_KEYS.match(key)) and not stray:
             v, s = _value_sigma(p, key, e)
             readings[key] = Reading(v, s, Origin(p, key, e.line))
         else:
             extras[key] = e.text
+            if stray:
+                _LOG.warning(
+                    "%s:%d: key '%s': set aside: this hanging has no angle (alpha%s) and no torsional "
+                    "period (Tt%s), so it places no line and no inertia; kept with the file's other "
+                    "entries (BicycleParameters ignores it too)",
+                    p, e.line, key, key[1:], key[1:],
+                )  # fmt: skip
     return Measurements(_bicycle_name(path, "Measured"), readings, p, extras)
+
+
+def _is_stray_distance(key: str, entries: Mapping[str, object]) -> bool:
+    """True for ``a<part><i>`` written without ``alpha<part><i>`` or ``Tt<part><i>``.
+
+    A string-to-axle distance places a hanging line only with the angle the part hung at (Eq 10,
+    14, 21) and adds to the inertia only with that hanging's torsional period (Eq 30–35): alone it
+    is no orientation. BicycleParameters numbers orientations by their angles and so ignores it
+    (its ``GyroMeasured.txt`` has ``aB4`` beside three frame orientations).
+    """
+    return bool(_DISTANCE_KEY.match(key)) and f"alpha{key[1:]}" not in entries and f"Tt{key[1:]}" not in entries
 
 
 def read_bp_parameters(path: str | Path) -> ParameterSet:

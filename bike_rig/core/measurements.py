@@ -40,6 +40,11 @@ The geometry is either given directly (``w``, ``gamma``, ``f``) or measured on a
 (``h1``…``h5``, ``d1``…``d4``, ``d``); the front assembly is either hung as one part ``H`` or as
 the fork ``S`` and handlebar ``G`` separately (Moore's dissertation's refined method).
 
+Surface-plate readings may be 0, each with a meaning (:mod:`bike_rig.core.surface_plate`): a
+diameter of 0 is a height read to an axis, ``h2`` = 0 a gauge standing on the plate,
+``h4`` = ``h5`` = ``d3`` = ``d4`` = 0 a fork offset of 0. They are checked together, for the
+geometry they describe (:func:`check_surface_plate`), not one by one for a sign.
+
 Degrees occur only in ``gamma`` and ``alpha*``; the science converts them to radians first.
 """
 
@@ -51,6 +56,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
+from . import geometry, split_fork, surface_plate
 from .errors import MeasurementError
 
 __all__ = [
@@ -74,7 +80,10 @@ __all__ = [
     "Reading",
     "REQUIRED_KEYS",
     "MAX_MAGNITUDE",
+    "PLATE_TOLERANCE_SIGMAS",
+    "SurfacePlateError",
     "check_reading",
+    "check_surface_plate",
     "check_value_sigma",
     "orientation_indices",
     "validate",
@@ -103,7 +112,25 @@ COMMON_KEYS: tuple[str, ...] = tuple(k for k in REQUIRED_KEYS if k not in DIRECT
 #: Every non-orientation key the science reads (the readings a file reader keeps as numbers).
 KNOWN_KEYS: frozenset[str] = frozenset(REQUIRED_KEYS + SURFACE_PLATE_KEYS + SPLIT_FORK_KEYS + FLYWHEEL_KEYS)
 #: Keys that must be strictly positive.
-_POSITIVE = re.compile(r"^(g|w|n[RF]|d[RF]|m[RFBHPSGD]|l[RFP]|dP|T[ct][RFBHPSGD]\d+|h[1-7]|d[1-6]?|l)$")
+_POSITIVE = re.compile(r"^(g|w|n[RF]|d[RF]|m[RFBHPSGD]|l[RFP]|dP|T[ct][RFBHPSGD]\d+)$")
+#: Surface-plate heights, diameters and distances: never negative, and 0 has a meaning (see
+#: :mod:`bike_rig.core.surface_plate`); what they may be is decided by :func:`check_surface_plate`.
+_PLATE = re.compile(r"^(h[1-7]|d[1-6]?|l)$")
+#: How far, in combined σ of its readings, a tube may seem to sink into the surface plate before
+#: its readings are refused (a tube resting on the plate reads top = diameter, up to their errors).
+PLATE_TOLERANCE_SIGMAS = 3.0
+#: Each tube or axle lying on the surface plate: the keys summing to its top, its diameter, its name.
+_PLATE_TUBES: tuple[tuple[tuple[str, ...], str, str], ...] = (
+    (("h1", "h2"), "d2", "the dummy rear axle"),
+    (("h3",), "d1", "the head tube"),
+    (("h4",), "d3", "the dummy front axle"),
+    (("h5",), "d4", "the steer tube"),
+)
+#: The same for the handlebar reference fixture of a split fork.
+_HANDLEBAR_TUBES: tuple[tuple[tuple[str, ...], str, str], ...] = (
+    (("h6",), "d5", "the front axle (handlebar fixture)"),
+    (("h7",), "d6", "the handlebar reference circle"),
+)
 #: Names of the parts hung as pendulums at several orientations, for messages.
 PART_NAMES = {"B": "frame", "H": "fork", "S": "fork (S)", "G": "handlebar (G)"}
 #: Exact counts.
@@ -114,6 +141,10 @@ _COUNTS = ("nR", "nF")
 MAX_MAGNITUDE = 1e9
 #: Minimum number of hanging orientations of the frame and of the fork (Eq 35 needs 3).
 MIN_ORIENTATIONS = 3
+
+
+class SurfacePlateError(MeasurementError):
+    """Surface-plate readings no bicycle lying on the plate can give (a tube in the plate, an open triangle)."""
 
 
 @dataclass(frozen=True)
@@ -221,12 +252,88 @@ def check_reading(key: str, r: Reading) -> None:
         raise r.error(str(exc)) from None
     if _POSITIVE.match(key) and r.value <= 0:
         raise r.error(f"must be positive, got {r.value:g}")
+    if _PLATE.match(key) and r.value < 0:
+        raise r.error(f"a surface-plate height, diameter or distance cannot be negative, got {r.value:g}")
     if key in _COUNTS and (r.value != round(r.value) or r.sigma != 0):
         raise r.error(f"a number of rotations is an exact whole count, got {r.value:g} ± {r.sigma:g}")
     if key == "gamma" and not 0 < r.value <= 90:
         raise r.error(f"head-tube angle must be in (0, 90] degrees from the horizontal, got {r.value:g}")
     if key.startswith("alpha") and not -360 <= r.value <= 360:
         raise r.error(f"hanging angle must be in [-360, 360] degrees, got {r.value:g}")
+
+
+def _plate_error(r: Reading, reason: str) -> SurfacePlateError:
+    o = r.origin or Origin("<memory>", "?")
+    return SurfacePlateError(o.path, reason, key=o.key, line=o.line)
+
+
+def _check_tubes(readings: Mapping[str, Reading], tubes: tuple[tuple[tuple[str, ...], str, str], ...]) -> None:
+    """Each tube's top at least its diameter above the plate, within the readings' σ."""
+    for tops, diameter, name in tubes:
+        top = sum(readings[k].value for k in tops)
+        d = readings[diameter].value
+        tolerance = PLATE_TOLERANCE_SIGMAS * math.sqrt(sum(readings[k].sigma ** 2 for k in (*tops, diameter)))
+        if surface_plate.tube_clearance(top, d) < -tolerance:
+            raise _plate_error(
+                readings[tops[0]],
+                f"{name} would sink into the surface plate: its top is {top:g} m above the plate "
+                f"({' + '.join(tops)}) but its diameter ({diameter}) is {d:g} m; a height is read to the "
+                f"top of the tube, or to its axis when its diameter is given as 0",
+            )
+
+
+def check_surface_plate(m: Measurements) -> None:
+    """Check that surface-plate readings describe a bicycle that can lie on the plate.
+
+    Zeros are allowed where they mean something (:mod:`bike_rig.core.surface_plate`); what is
+    refused is geometry: a tube or axle below the plate (top less than its diameter, beyond
+    :data:`PLATE_TOLERANCE_SIGMAS` σ), axle centres closer than their offsets across the steer axis
+    (no c_s), a non-positive a + b, wheels whose radii differ by more than the axles' distance, and
+    for a split fork a handlebar reference closer to the axle than its offset l1 (no l2).
+    Needs every key of :func:`required_keys` (call after checking that none is missing).
+
+    Raises:
+        SurfacePlateError: naming the file, line and key of the reading most directly at fault.
+    """
+    r = m.readings
+    v = {k: x.value for k, x in r.items()}
+    if geometry_from_surface_plate(r):
+        _check_tubes(r, _PLATE_TUBES)
+        a = surface_plate.rear_frame_offset(v["h1"], v["h2"], v["h3"], v["d1"], v["d2"])
+        b = surface_plate.fork_offset(v["h4"], v["h5"], v["d3"], v["d4"])
+        hyp = surface_plate.axle_centre_distance(v["d"], v["d2"], v["d3"])
+        if not hyp > abs(a - b):
+            raise _plate_error(
+                r["d"],
+                f"the axle centres, the fork reversed, are {hyp:g} m apart (d + (d2 + d3)/2), not more "
+                f"than their offsets across the steer axis differ (|a - b| = {abs(a - b):g} m): no "
+                "steer-axis distance c_s closes that triangle",
+            )
+        if not a + b > 0:
+            raise _plate_error(
+                r["h1"],
+                f"the rear-frame offset a = {a:g} m and the fork offset b = {b:g} m must put the axles on "
+                f"either side of the steer axis (a + b > 0), got a + b = {a + b:g} m",
+            )
+        c_s = surface_plate.steer_axis_distance(a, b, v["d"], v["d2"], v["d3"])
+        reach = math.hypot(a + b, c_s)
+        dr = geometry.wheel_radius(v["dF"], v["nF"]) - geometry.wheel_radius(v["dR"], v["nR"])
+        if not abs(dr) < reach:
+            raise _plate_error(
+                r["d"],
+                f"the wheel radii differ by {abs(dr):g} m, more than the axles' spread "
+                f"sqrt((a + b)^2 + c_s^2) = {reach:g} m: no steer-axis tilt puts both wheels on the ground",
+            )
+    if fork_is_split(r):
+        _check_tubes(r, _HANDLEBAR_TUBES)
+        l1 = split_fork.handlebar_normal_offset(v["h6"], v["h7"], v["d5"], v["d6"])
+        l0 = split_fork.handlebar_centre_distance(v["l"], v["d5"], v["d6"])
+        if not l0 > abs(l1):
+            raise _plate_error(
+                r["l"],
+                f"the handlebar reference centre is {l0:g} m from the front axle centre (l - (d5 + d6)/2), "
+                f"not more than its offset across the steer axis (|l1| = {abs(l1):g} m, from h6, h7, d5, d6)",
+            )
 
 
 def geometry_from_surface_plate(readings: Mapping[str, object]) -> bool:
@@ -290,6 +397,7 @@ def validate(m: Measurements) -> None:
             raise MeasurementError(m.path, missing_reason(key), key=key)
     for key, r in m.readings.items():
         check_reading(key, r)
+    check_surface_plate(m)
     parts = hung_parts(m.readings)
     if parts == "BSG":
         for key in ("mH", "TcH1", *(f"{p}H{i}" for p in ("alpha", "a", "Tt") for i in m.orientations("H"))):

@@ -19,7 +19,9 @@ import numpy as np
 
 __all__ = [
     "combined_mass_centre",
+    "handlebar_centre_distance",
     "handlebar_com_line_intercept",
+    "handlebar_normal_offset",
     "handlebar_reference_offsets",
     "handlebar_reference_point",
     "parallel_axis_inertia",
@@ -46,9 +48,40 @@ def handlebar_reference_offsets(h6: Any, h7: Any, d5: Any, d6: Any, l: Any) -> t
         l2 = sqrt(l0² − l1²) along it (positive up), with l0 = l − d5/2 − d6/2 the distance
         between the centres, m.
     """
-    l1 = h7 - h6 + 0.5 * d5 - 0.5 * d6
-    l0 = l - 0.5 * d5 - 0.5 * d6
+    l1 = handlebar_normal_offset(h6, h7, d5, d6)
+    l0 = handlebar_centre_distance(l, d5, d6)
     return l1, np.sqrt(l0**2 - l1**2)
+
+
+def handlebar_normal_offset(h6: Any, h7: Any, d5: Any, d6: Any) -> Any:
+    """Offset l1 of the handlebar reference centre from the front axle's across the steer axis (``calculate_l1_l2``).
+
+    Args:
+        h6: Plate to the top of the front axle, m (to its axis when d5 is 0).
+        h7: Plate to the top of the handlebar reference circle, m (to its centre when d6 is 0).
+        d5: Front axle diameter, m.
+        d6: Handlebar reference circle diameter, m.
+
+    Returns:
+        l1 = h7 − h6 + d5/2 − d6/2, m.
+    """
+    return h7 - h6 + 0.5 * d5 - 0.5 * d6
+
+
+def handlebar_centre_distance(l: Any, d5: Any, d6: Any) -> Any:  # noqa: E741
+    """Distance from the front axle centre to the handlebar reference centre (BicycleParameters ``calculate_l1_l2``).
+
+    Args:
+        l: Outer distance from the front axle to the reference circle, m (to a centre whose
+            diameter is given as 0).
+        d5: Front axle diameter, m.
+        d6: Handlebar reference circle diameter, m.
+
+    Returns:
+        l0 = l − d5/2 − d6/2, m: the hypotenuse over l1 (normal to the steer axis) and l2 (along
+        it), so it must exceed |l1|.
+    """
+    return l - 0.5 * d5 - 0.5 * d6
 
 
 def handlebar_reference_point(lam: Any, l1: Any, l2: Any) -> tuple[Any, Any]:

@@ -20,6 +20,17 @@ With the rear and front axle centres at ``O − a n`` and ``O + c_s s + b n`` in
 forward, z down), both wheels touching the ground (axles at z = −r_R and −r_F) fixes λ and the
 wheelbase follows.
 
+What a zero reading means (BicycleParameters computes such files as they are, and so do we):
+
+* a diameter ``d1``…``d4`` of 0: that height was read to the tube's or axle's axis itself (a
+  centre mark), not to the top of a round tube; for ``d2``, ``d3`` also the distance ``d`` was
+  read to that axle's centre;
+* ``h2`` = 0: the height gauge stood on the plate itself;
+* ``h4`` = ``h5`` = 0 with ``d3`` = ``d4`` = 0: the front axle's centre and the steer axis are at the
+  same height, a fork offset b of exactly 0 (the front axle on the steer axis);
+* any tube or axle still lies on or above the plate (its top at least its diameter up), and the
+  offsets must close Pythagoras' triangle: :func:`tube_clearance`, :func:`axle_centre_distance`.
+
 Every function is plain analytic numpy arithmetic (complex-step safe, broadcasting).
 """
 
@@ -30,10 +41,12 @@ from typing import Any
 import numpy as np
 
 __all__ = [
+    "axle_centre_distance",
     "fork_offset",
     "rear_frame_offset",
     "steer_axis_distance",
     "steer_axis_tilt_from_offsets",
+    "tube_clearance",
     "wheelbase_from_offsets",
 ]
 
@@ -69,6 +82,38 @@ def fork_offset(h4: Any, h5: Any, d3: Any, d4: Any) -> Any:
         axis, m (the paper's f_o).
     """
     return h4 - 0.5 * d3 - h5 + 0.5 * d4
+
+
+def tube_clearance(top: Any, diameter: Any) -> Any:
+    """Gap between the plate and the underside of a tube or axle lying on or above it (Moore 2012).
+
+    A height on the surface plate is read to the top of a round tube or axle (to its axis when
+    its diameter is given as 0), so the tube's underside is one diameter lower.
+
+    Args:
+        top: Plate to the top of the tube (h3, h4, h5, h6, h7; h1 + h2 for the rear axle), m.
+        diameter: The tube's outer diameter (d1…d6), m; 0 when the height is read to its axis.
+
+    Returns:
+        top − diameter, m: ≥ 0 for any tube resting on or above the plate.
+    """
+    return top - diameter
+
+
+def axle_centre_distance(d: Any, d2: Any, d3: Any) -> Any:
+    """Distance between the rear and front axle centres, the fork reversed (Moore 2012, ``calculate_abc_geometry``).
+
+    Args:
+        d: Inside distance between the axles (key d), m; read to an axle's centre when that
+            axle's diameter is given as 0.
+        d2: Rear axle diameter, m.
+        d3: Front axle diameter, m.
+
+    Returns:
+        d + (d2 + d3)/2, m: the hypotenuse of the triangle whose legs are |a − b| across the steer
+        axis and c_s along it, so it must exceed |a − b|.
+    """
+    return d + 0.5 * (d2 + d3)
 
 
 def steer_axis_distance(a: Any, b: Any, d: Any, d2: Any, d3: Any) -> Any:
