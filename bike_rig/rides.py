@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from .core.errors import BikeRigError
-from .core.ride.eigen import MeasuredEigenvalue, fit_segment
+from .core.ride.eigen import MeasuredEigenvalue, fit_segment, pool_drive
 from .core.ride.record import RideRecord, read_ride_csv
 from .core.ride.segment import Kick, Segment, segment_record
 
@@ -89,7 +89,7 @@ def _segments(record: RideRecord, mode: str) -> list[Segment]:
 
 
 def measure_records(paths: Sequence[str], options: RecordOptions) -> list[MeasuredSegment]:
-    """Every record's segments fitted, in order.
+    """Every record's segments fitted, in order, their σ with the rider's drive shared at each speed.
 
     Raises:
         RideOptionError: A negative or non-finite speed.
@@ -106,4 +106,5 @@ def measure_records(paths: Sequence[str], options: RecordOptions) -> list[Measur
             m = fit_segment(record.times[inside], record.signal[inside], speed=speed, source=path, index=k,
                             model=options.model)  # fmt: skip
             out.append(MeasuredSegment(m, seg, record))
-    return out
+    pooled = pool_drive([m.eigenvalue for m in out])  # the rider's drive shared at each speed
+    return [MeasuredSegment(e, m.segment, m.record) for e, m in zip(pooled, out, strict=True)]

@@ -1,4 +1,4 @@
-"""How numbers with σ and parameter names are written for people.
+"""How numbers with σ and parameter names are written for people, and text made safe for a terminal.
 
 The same for terminal tables, figures and the HTML report alike.
 """
@@ -6,9 +6,42 @@ The same for terminal tables, figures and the HTML report alike.
 from __future__ import annotations
 
 import math
+from functools import lru_cache
 from typing import Protocol
 
-__all__ = ["LABELS", "TABLE2_ORDER", "SpeedLike", "format_speed", "format_value_sigma"]
+__all__ = [
+    "CONTROL_CHARACTERS",
+    "LABELS",
+    "TABLE2_ORDER",
+    "SpeedLike",
+    "format_speed",
+    "format_value_sigma",
+    "terminal_safe",
+]
+
+#: Code points a terminal acts on instead of showing: C0 (ESC among them), DEL and C1.
+CONTROL_CHARACTERS = (*range(0x00, 0x20), 0x7F, *range(0x80, 0xA0))
+
+
+@lru_cache(maxsize=4)
+def _escapes(keep: str) -> dict[int, str]:
+    return {c: f"\\x{c:02x}" for c in CONTROL_CHARACTERS if chr(c) not in keep}
+
+
+def terminal_safe(text: str, keep: str = "\n\t") -> str:
+    r"""``text`` with every control character written as ``\xNN``, so a terminal shows it and obeys none.
+
+    C0 (NUL, ESC and the rest), DEL and C1 (U+0080–U+009F, among them CSI U+009B) are escaped:
+    a name from a file holding ``ESC [ 2 J`` prints as ``\x1b[2J`` instead of clearing the
+    screen. Everything else, ``λ`` and ``σ`` included, is left as it is.
+
+    Args:
+        text: Text that may hold what a user or a file wrote.
+        keep: Control characters left as they are: newline and tab for a whole output, ``""``
+            for a value that must stay on one line (a name in a table).
+    """
+    return text.translate(_escapes(keep))
+
 
 #: Display label and unit of each benchmark parameter (paper Table 2 order).
 LABELS: dict[str, tuple[str, str]] = {

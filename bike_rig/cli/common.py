@@ -2,32 +2,46 @@
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
+from typing import TextIO
 
 from ..core.errors import BikeRigError, InputFileError
 from ..core.feedback import Feedback, resolve_feedback
 from ..core.rider import AnyRider, resolve_rider
+from ..textfmt import terminal_safe
 
-__all__ = ["UsageError", "emit", "feedback_from_spec", "rider_from_spec"]
+__all__ = ["UsageError", "emit", "feedback_from_spec", "rider_from_spec", "show"]
 
 
 class UsageError(BikeRigError):
     """A command-line argument is invalid."""
 
 
+def show(text: str, file: TextIO | None = None) -> None:
+    r"""Print ``text`` (to standard output, or ``file``) with its control characters escaped.
+
+    Newlines and tabs are kept; ESC, NUL, DEL, C1 and the other control characters that a
+    name or a file may hold are written as ``\xNN`` (:func:`~bike_rig.textfmt.terminal_safe`).
+    """
+    print(terminal_safe(text), file=sys.stdout if file is None else file)
+
+
 def emit(text: str, output: str | None) -> None:
-    """Print ``text``, or write it (with a final newline) to the file ``output``.
+    """Print ``text``, or write it (with a final newline) to the file ``output``; control characters escaped.
+
+    JSON and YAML text is unchanged: their writers escape control characters themselves.
 
     Raises:
         InputFileError: ``output`` cannot be written.
     """
     if output:
         try:
-            Path(output).write_text(text + "\n", encoding="utf-8")
+            Path(output).write_text(terminal_safe(text) + "\n", encoding="utf-8")
         except OSError as exc:
             raise InputFileError(output, f"cannot write ({exc.strerror})") from None
     else:
-        print(text)
+        show(text)
 
 
 def rider_from_spec(spec: str | None) -> AnyRider | None:

@@ -48,7 +48,9 @@ from typing import Any
 from ..core.errors import BikeRigError, InputFileError
 from ..core.period import CombinedPeriod, PeriodFit, WindowPolicy, combine_periods, fit_period
 from ..core.trials import Trial, read_trial
+from ..textfmt import terminal_safe
 from .commands import HELP
+from .common import show
 from .format import format_value_sigma
 from .options import (
     add_column_options,
@@ -136,15 +138,15 @@ def run(args: argparse.Namespace) -> int:
     fits = [fit_period(t.samples, **t.timing, window=policy, small_swing_period=swing, **options) for t in trials]
     for trial in trials:
         for remark in trial.remarks:
-            print(f"bike-rig fit: note: {trial.path}: {remark}", file=sys.stderr)
+            show(f"bike-rig fit: note: {terminal_safe(trial.path, keep='')}: {remark}", sys.stderr)
     if args.json:
         for trial, fit in zip(trials, fits):
-            print(json.dumps(fit_json(trial.path, fit), allow_nan=False))
+            show(json.dumps(fit_json(trial.path, fit), allow_nan=False))
     else:
-        print(fit_table(trials, fits))
+        show(fit_table(trials, fits))
         if len(fits) > 1:
-            print()
-            print(combined_summary(trials, fits, args.key))
+            show("")
+            show(combined_summary(trials, fits, args.key))
     if plot_dir is not None:
         for name, trial, fit in zip(_plot_names(trials), trials, fits):
             plot_fit(trial, fit, plot_dir / name)
@@ -230,12 +232,13 @@ def fit_table(trials: Sequence[Trial], fits: Sequence[PeriodFit]) -> str:
     Returns:
         The table, its last line the window policy.
     """
-    width = max(12, *(len(t.name) for t in trials))
+    names = [terminal_safe(t.name, keep="") for t in trials]
+    width = max(12, *(len(name) for name in names))
     head = (
         f"{'trial':<{width}}  {'T [s]':>12}  {'σ [s]':>9}  {'r²':>6}  {'cycles':>6}  {'ζ':>8}  {'damping':>8}  status"
     )
     rows = [head, "-" * len(head)]
-    for trial, fit in zip(trials, fits):
+    for name, fit in zip(names, fits):
         value, sigma = _value_sigma(fit.period, fit.period_sigma)
         status = "ok" if fit.clean else ("flagged: redo" if fit.valid else "no period: redo")
         r2 = f"{fit.r2:.4f}" if math.isfinite(fit.r2) else "-"
@@ -243,7 +246,7 @@ def fit_table(trials: Sequence[Trial], fits: Sequence[PeriodFit]) -> str:
         zeta = f"{fit.zeta:.2e}" if math.isfinite(fit.zeta) else "-"
         damping = fit.damping_model if fit.valid else "-"
         rows.append(
-            f"{trial.name:<{width}}  {value:>12}  {sigma:>9}  {r2:>6}  {cycles:>6}  {zeta:>8}  {damping:>8}  {status}"
+            f"{name:<{width}}  {value:>12}  {sigma:>9}  {r2:>6}  {cycles:>6}  {zeta:>8}  {damping:>8}  {status}"
         )
         rows += [f"{'':<{width}}  ! {flag}" for flag in fit.flags]
         rows += [f"{'':<{width}}  · {note}" for note in fit.notes]
@@ -277,7 +280,7 @@ def _groups(trials: Sequence[Trial], fits: Sequence[PeriodFit], key: str | None)
     keyless = [i for i, k in enumerate(keys) if k is None]
     if not keyless:
         return groups, ""
-    names = ", ".join(Path(trials[i].path).name for i in keyless)
+    names = ", ".join(terminal_safe(Path(trials[i].path).name, keep="") for i in keyless)
     if groups:
         verb = "names" if len(keyless) == 1 else "name"
         return groups, f"not combined: {names} {verb} no measurement key ({_NAME_A_KEY})"
@@ -309,7 +312,8 @@ def combined_summary(trials: Sequence[Trial], fits: Sequence[PeriodFit], key: st
     for label, members in groups.items():
         combined = combine_periods([fits[i] for i in members])
         lines.append(_combined_line(label, combined))
-        names = {f"trial {k} ": f"trial {trials[i].name} " for k, i in enumerate(members, start=1)}
+        shown = [terminal_safe(trials[i].name, keep="") for i in members]
+        names = {f"trial {k} ": f"trial {name} " for k, name in enumerate(shown, start=1)}
         for note in combined.notes:
             head = next((h for h in names if note.startswith(h)), None)
             lines.append("  " + (names[head] + note[len(head) :] if head else note))

@@ -1,4 +1,8 @@
-"""Plain-text tables for the terminal: values with σ rounded the way the paper prints them."""
+"""Plain-text tables for the terminal: values with σ rounded the way the paper prints them.
+
+Names that come from files (the bicycle, its source) are written with their control characters
+escaped (:func:`~bike_rig.textfmt.terminal_safe`), whoever prints the table.
+"""
 
 from __future__ import annotations
 
@@ -10,7 +14,7 @@ from ..core.benchmark import PARAMETER_NAMES, ComEstimate, ParameterSet
 from ..core.uncertainty.matrix_sigma import MatrixSet
 from ..core.uncertainty.uncertain import UncertainVector
 from ..core.whipple import CriticalSpeeds
-from ..textfmt import LABELS, TABLE2_ORDER, format_value_sigma
+from ..textfmt import LABELS, TABLE2_ORDER, format_value_sigma, terminal_safe
 
 __all__ = [
     "LABELS",
@@ -24,11 +28,11 @@ __all__ = [
 ]
 
 
-
 def parameter_table(ps: ParameterSet) -> str:
     """The parameters as the paper's Table 2: symbol, unit, value, σ."""
     assert set(TABLE2_ORDER) == set(PARAMETER_NAMES)
-    rows = [f"{ps.bicycle}: benchmark parameters (from {ps.source})", f"{'parameter':<16}{'value':>12}{'σ':>10}"]
+    title = f"{terminal_safe(ps.bicycle, keep='')}: benchmark parameters (from {terminal_safe(ps.source, keep='')})"
+    rows = [title, f"{'parameter':<16}{'value':>12}{'σ':>10}"]
     pv = ps.parameters
     for key in TABLE2_ORDER:
         label, unit = LABELS[key]

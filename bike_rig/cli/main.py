@@ -312,7 +312,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         return int(args.func(args))
     except BikeRigError as exc:
-        print(f"bike-rig {args.command}: error: {exc}", file=sys.stderr)
+        from ..textfmt import terminal_safe
+
+        print(f"bike-rig {args.command}: error: {terminal_safe(str(exc), keep='')}", file=sys.stderr)
         return EXIT_USER_ERROR
     except BrokenPipeError:
         return 0

@@ -19,8 +19,11 @@ list with one object per segment: ``file, segment, start, stop, speed, real, rea
 imag_sigma, valid, flags, n_cycles, model, start_reason, stop_reason, notes`` (s, m/s, 1/s; null for
 unknown). ``validate --json`` prints ``{"segments": [... plus predicted_real,
 predicted_real_sigma, predicted_imag, predicted_imag_sigma, normalised_deviation,
-normalised_deviation_real, normalised_deviation_imag], "predicted_real": [per segment], ...,
-"speeds": [per speed, combined], "normalised_deviation": overall, "notes": [...]}``. ``-o DIR``
+normalised_deviation_real, normalised_deviation_imag, verdict, verdict_text, verdict_sigma,
+model_sigma_method], "predicted_real": [per segment], ..., "speeds": [per speed, combined, the same
+keys; speeds without a clean segment too], "normalised_deviation": overall, "notes": [...],
+"verdict", "verdict_text", "verdict_sigma"}``; the text ends in the verdict in words, never a NaN
+(:mod:`bike_rig.core.ride.verdict`). Exit status 0 whenever it ran, whatever the verdict. ``-o DIR``
 writes the figures (``ride_validation.png``, ``segments_<record>.png``).
 """
 
@@ -60,7 +63,8 @@ def _record_options(q: argparse.ArgumentParser) -> None:
     g.add_argument("--segments", choices=["auto", "whole", "find"], default="auto",
                    help=f"whole record, find the kicks, or auto (whole below {WHOLE_BELOW_S:g} s)")  # fmt: skip
     g.add_argument("--model", choices=list(MODELS), default=MODELS[0],
-                   help="segment model: auto (Eq 23 + trend or real mode, F test) or one forced")  # fmt: skip
+                   help="segment model: auto (Eq 23, or with a real mode where it is significantly better) "
+                        "or one forced")  # fmt: skip
     q.add_argument("--json", action="store_true", help="JSON on standard output")
     q.add_argument("-o", "--out", metavar="DIR", help="write the figures to this directory")
 
@@ -133,7 +137,10 @@ def segment_json(m: MeasuredEigenvalue, seg: Segment) -> dict[str, Any]:
 
 
 def _pm(x: float, s: float) -> str:
-    return "—" if not math.isfinite(x) else f"{x:+.3f} ± {s:.3f}"
+    """``x ± σ``; "—" without a value, "(no σ)" without a σ (never NaN)."""
+    if not math.isfinite(x):
+        return "—"
+    return f"{x:+.3f} ± {s:.3f}" if math.isfinite(s) else f"{x:+.3f} (no σ)"
 
 
 def _line(m: MeasuredEigenvalue, seg: Segment) -> str:
@@ -230,6 +237,11 @@ def run_validate(args: argparse.Namespace) -> int:
     return 0
 
 
+def _verdict_json(v: Any, method: str | None = None) -> dict[str, Any]:
+    out = {"verdict": v.code, "verdict_text": v.text, "verdict_sigma": _num(v.sigma)}
+    return out if method is None else {**out, "model_sigma_method": method}
+
+
 def _validate_json(comparison: Any, rows: list[tuple[MeasuredEigenvalue, Segment, RideRecord]]) -> dict[str, Any]:
     segments = []
     for c, (m, seg, _) in zip(comparison.segments, rows, strict=True):
@@ -238,7 +250,7 @@ def _validate_json(comparison: Any, rows: list[tuple[MeasuredEigenvalue, Segment
             "predicted_real": _num(c.predicted_real), "predicted_real_sigma": _num(c.predicted_real_sigma),
             "predicted_imag": _num(c.predicted_imag), "predicted_imag_sigma": _num(c.predicted_imag_sigma),
             "normalised_deviation": _num(c.deviation), "normalised_deviation_real": _num(c.z_real),
-            "normalised_deviation_imag": _num(c.z_imag),
+            "normalised_deviation_imag": _num(c.z_imag), **_verdict_json(c.verdict, c.sigma_method),
         })  # fmt: skip
         segments.append(obj)
     keys = ("predicted_real", "predicted_real_sigma", "predicted_imag", "predicted_imag_sigma")
@@ -247,13 +259,37 @@ def _validate_json(comparison: Any, rows: list[tuple[MeasuredEigenvalue, Segment
          "real": _num(s.combined.real), "real_sigma": _num(s.combined.real_sigma), "imag": _num(s.combined.imag),
          "imag_sigma": _num(s.combined.imag_sigma), **{k: _num(getattr(s, k)) for k in keys},
          "normalised_deviation": _num(s.deviation), "normalised_deviation_real": _num(s.z_real),
-         "normalised_deviation_imag": _num(s.z_imag)}
+         "normalised_deviation_imag": _num(s.z_imag), **_verdict_json(s.verdict, s.sigma_method)}
         for s in comparison.speeds
     ]  # fmt: skip
+    for u in comparison.unmeasured:
+        speeds.append({"speed": u.speed, "n_used": 0, "n_left_out": u.n_left_out, "real": None, "real_sigma": None,
+                       "imag": None, "imag_sigma": None, **dict.fromkeys(keys), "normalised_deviation": None,
+                       "normalised_deviation_real": None, "normalised_deviation_imag": None,
+                       **_verdict_json(_unmeasured_verdict(u), "none")})  # fmt: skip
+    speeds.sort(key=lambda o: o["speed"])
     out: dict[str, Any] = {"segments": segments}
     out.update({k: [o[k] for o in segments] for k in keys})
     out.update({"speeds": speeds, "normalised_deviation": _num(comparison.overall), "notes": list(comparison.notes)})
+    out.update(_verdict_json(comparison.verdict))
     return out
+
+
+def _unmeasured_verdict(u: Any) -> Any:
+    from ..core.ride.verdict import Verdict
+
+    text = f"no verdict: no clean segment ({u.n_left_out} segments, each flagged or without an eigenvalue)"
+    return Verdict("no_clean_segment", text, math.nan)
+
+
+def _z(x: float) -> str:
+    return f"{x:+.2f}" if math.isfinite(x) else "none"
+
+
+def _model(c: Any) -> str:
+    mc = " (Monte Carlo σ)" if c.sigma_method == "monte_carlo" else ""
+    im = _pm(c.predicted_imag, c.predicted_imag_sigma)
+    return f"Re λ {_pm(c.predicted_real, c.predicted_real_sigma)}, Im λ {im}{mc}"
 
 
 def _validate_text(comparison: Any, rows: list[tuple[MeasuredEigenvalue, Segment, RideRecord]]) -> str:
@@ -261,17 +297,21 @@ def _validate_text(comparison: Any, rows: list[tuple[MeasuredEigenvalue, Segment
     for c, (m, seg, _) in zip(comparison.segments, rows, strict=True):
         lines.append(_line(m, seg))
         if m.valid:
-            lines.append(f"    model: Re λ {_pm(c.predicted_real, c.predicted_real_sigma)}, "
-                         f"Im λ {_pm(c.predicted_imag, c.predicted_imag_sigma)}; normalised deviation "
-                         f"re {c.z_real:+.2f}, im {c.z_imag:+.2f}")  # fmt: skip
+            lines.append(f"    model: {_model(c)}; normalised deviation re {_z(c.z_real)}, im {_z(c.z_imag)}: "
+                         f"{c.verdict.text}")  # fmt: skip
+    per_speed: list[tuple[float, str]] = []
     for s in comparison.speeds:
         c = s.combined
         measured = f"Re λ {_pm(c.real, c.real_sigma)}, Im λ {_pm(c.imag, c.imag_sigma)}"
-        model = f"Re λ {_pm(s.predicted_real, s.predicted_real_sigma)}, "
-        model += f"Im λ {_pm(s.predicted_imag, s.predicted_imag_sigma)}"
-        lines.append(f"{c.speed:.2f} m/s ({c.n_used} segments): measured {measured}; model {model}; "
-                     f"normalised deviation {s.deviation:.2f}")  # fmt: skip
-    lines.append(f"overall normalised deviation (RMS over clean segments): {comparison.overall:.2f}")
+        used = f"{c.n_used} segments" + (f", {c.n_left_out} left out" if c.n_left_out else "")
+        per_speed.append((c.speed, f"{c.speed:.2f} m/s ({used}): measured {measured}; model {_model(s)}; "
+                                   f"normalised deviation {s.deviation:.2f}: {s.verdict.text}"))  # fmt: skip
+    for u in comparison.unmeasured:
+        per_speed.append((u.speed, f"{u.speed:.2f} m/s: {_unmeasured_verdict(u).text}"))
+    lines += [text for _, text in sorted(per_speed)]
+    overall = f"{comparison.overall:.2f}" if math.isfinite(comparison.overall) else "none (no clean segment)"
+    lines.append(f"overall normalised deviation (RMS over clean segments): {overall}")
+    lines.append(f"verdict: {comparison.verdict.text}")
     lines += [f"note: {n}" for n in comparison.notes]
     return "\n".join(lines)
 

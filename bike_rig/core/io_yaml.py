@@ -43,6 +43,7 @@ each of the 26 BicycleParameters keys to ``[value, sigma]`` (SI, ``lam`` in rad)
 
 from __future__ import annotations
 
+import errno
 from collections.abc import Iterator, Mapping
 from dataclasses import replace
 from pathlib import Path
@@ -65,7 +66,16 @@ from .measurements import (
     missing_reason,
     required_keys,
 )
-from .safe_yaml import LIMITS, YamlLimitError, compose_bounded, construct, yaml_error_reason
+from .safe_yaml import (
+    LIMITS,
+    NotRegularFileError,
+    YamlDuplicateKeyError,
+    YamlLimitError,
+    compose_bounded,
+    construct,
+    read_regular_file,
+    yaml_error_reason,
+)
 from .trial_periods import PeriodEvidence, period_from_trials
 from .uncertainty.uncertain import UncertainVector
 
@@ -159,23 +169,29 @@ def load_yaml_document(path: str | Path) -> tuple[Any, Lines]:
     """Load a YAML file and the 1-based line number of every key and item in it.
 
     The file is read within :data:`~bike_rig.core.safe_yaml.LIMITS` (size, nesting, aliases
-    expanded), so a hostile file costs bounded time and memory.
+    expanded), so a hostile file costs bounded time and memory; it must be a regular file (a
+    FIFO or a device is refused, never read), and no mapping in it may repeat a key.
 
     Raises:
-        InputFileError: unreadable file, invalid YAML or beyond the limits (one line, with the
-            line of the error when known).
+        InputFileError: unreadable or not a regular file, invalid YAML, a key given twice
+            (naming both lines) or beyond the limits (one line, with the line of the error when
+            known).
     """
     p = str(path)
     try:
-        size = Path(path).stat().st_size
-        if size > LIMITS.max_bytes:
-            raise InputFileError(p, f"{size} bytes: larger than {LIMITS.max_bytes} bytes, not a bike_rig YAML file")
-        text = Path(path).read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputFileError(p, f"cannot read the file ({exc.__class__.__name__}: {one_line(str(exc))})") from None
+        raw = read_regular_file(p, path, LIMITS.max_bytes, "a bike_rig YAML file")
+        text = raw.decode("utf-8")
+    except NotRegularFileError as exc:
+        if exc.os_error is None or exc.os_error.errno == errno.ELOOP:  # a FIFO, a device, a directory, a loop
+            raise
+        raise InputFileError(p, _cannot_read(exc.os_error)) from None
+    except UnicodeDecodeError as exc:
+        raise InputFileError(p, _cannot_read(exc), line=raw.count(b"\n", 0, exc.start) + 1) from None
     try:
         node, loader = compose_bounded(text)
         data = construct(node, loader)
+    except YamlDuplicateKeyError as exc:
+        raise InputFileError(p, f"given twice (first on line {exc.first_line})", key=exc.key, line=exc.line) from None
     except YamlLimitError as exc:
         raise InputFileError(p, f"invalid YAML: {exc.reason}", line=exc.line) from None
     except yaml.YAMLError as exc:
@@ -185,6 +201,10 @@ def load_yaml_document(path: str | Path) -> tuple[Any, Lines]:
     if node is not None:
         _walk(node, (), lines)
     return data, lines
+
+
+def _cannot_read(exc: Exception) -> str:
+    return f"cannot read the file ({exc.__class__.__name__}: {one_line(str(exc))})"
 
 
 def _label(path: tuple[object, ...]) -> str:
@@ -461,6 +481,14 @@ def _parts(doc: _Doc, value: Any) -> UncertainVector:
     return UncertainVector(tuple(names), np.array([v for v, _ in got]), np.diag([s * s for _, s in got]))
 
 
+def _scalar(text: str) -> str:
+    """``text`` as a one-line YAML scalar (quoted when it must be; control characters and newlines escaped)."""
+    lines = yaml.safe_dump(text, width=1 << 16, allow_unicode=True).splitlines()
+    if len(lines) > 1 and lines[1] != "...":  # a single-quoted scalar folded over lines
+        lines = yaml.safe_dump(text, width=1 << 16, allow_unicode=True, default_style='"').splitlines()
+    return lines[0]
+
+
 def _pair(r: Reading) -> str:
     return f"[{r.value!r}, {r.sigma!r}]"
 
@@ -504,7 +532,7 @@ def dump_measurements_yaml(m: Measurements, attribution: str | None = None) -> s
     bit-identical readings.
     """
     r = m.readings
-    out = [f"format: {MEASUREMENTS_FORMAT}", f"bicycle: {yaml.safe_dump(m.bicycle).splitlines()[0]}"]
+    out = [f"format: {MEASUREMENTS_FORMAT}", f"bicycle: {_scalar(m.bicycle)}"]
     if attribution:
         out.append(f"attribution: {yaml.safe_dump(attribution, width=1 << 16).splitlines()[0]}")
     out.append("# SI units; angles in degrees only where the key ends in _deg. Every value: [value, sigma].")
@@ -528,7 +556,7 @@ def dump_measurements_yaml(m: Measurements, attribution: str | None = None) -> s
 
 def dump_parameters_yaml(params: ParameterSet, attribution: str | None = None) -> str:
     """A ``bike_rig-parameters/1`` document: the 26 parameters as ``[value, sigma]``."""
-    out = [f"format: {PARAMETERS_FORMAT}", f"bicycle: {params.bicycle}"]
+    out = [f"format: {PARAMETERS_FORMAT}", f"bicycle: {_scalar(params.bicycle)}"]
     if attribution:
         out.append(f"attribution: {yaml.safe_dump(attribution, width=1 << 16).splitlines()[0]}")
     out.append("# SI units (lam in rad). Every value: [value, sigma].")

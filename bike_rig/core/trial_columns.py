@@ -26,11 +26,17 @@ so; with none or several the file is refused. A unit named in the header whose r
 plausible is refused too, naming the unit the times look like (a column ``time_s`` holding
 milliseconds). ``--time-unit`` is taken as given.
 
+**Rates that disagree.** A sample rate given besides the times (``--rate``, a ``.mat``'s
+``sampleRate``) must agree with them within :data:`RATE_AGREEMENT`
+(:func:`check_rate_agrees`): two sources that disagree are refused, naming both, never one of
+them chosen silently.
+
 Units: times are returned in seconds; rates in Hz.
 """
 
 from __future__ import annotations
 
+import math
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -43,9 +49,11 @@ from .errors import InputFileError
 __all__ = [
     "PLAUSIBLE_DURATION_S",
     "PLAUSIBLE_RATE_HZ",
+    "RATE_AGREEMENT",
     "TIME_UNITS",
     "ColumnChoice",
     "Columns",
+    "check_rate_agrees",
     "choose_columns",
     "header_time_unit",
     "is_time_name",
@@ -63,6 +71,12 @@ PLAUSIBLE_RATE_HZ = (5.0, 100_000.0)
 
 #: Record lengths taken as plausible when the unit is inferred, s.
 PLAUSIBLE_DURATION_S = (1.0, 6 * 3600.0)
+
+#: Largest relative difference of two sample rates of one trial taken as the same rate (1 %):
+#: a DAQ's actual rate differs from the one asked for by up to some 0.1 % (its clock divides
+#: into the nearest rate it can), times written to 1 ms at 300 Hz give the mean rate of a 1 s
+#: record to 0.1 %; a wrong rate (500 for 1000 Hz, a unit off by 1000) is far beyond it.
+RATE_AGREEMENT = 1e-2
 
 _UNIT_WORDS: dict[str, str] = {
     **dict.fromkeys(("s", "sec", "secs", "second", "seconds"), "s"),
@@ -273,10 +287,12 @@ def choose_columns(
 
 
 def _median_step(times: FloatArray) -> float | None:
-    finite = times[np.isfinite(times)]
+    """The median of the positive steps between the finite times (None without any), copying as little as it can."""
+    finite = times if np.isfinite(times).all() else times[np.isfinite(times)]
     steps = np.diff(finite)
-    steps = steps[steps > 0]
-    return float(np.median(steps)) if steps.size else None
+    if not (steps > 0).all():
+        steps = steps[steps > 0]
+    return float(np.median(steps, overwrite_input=True)) if steps.size else None
 
 
 def _plausible_rate(step_s: float) -> bool:
@@ -346,4 +362,48 @@ def times_in_seconds(path: str, times: FloatArray, columns: Columns) -> tuple[Fl
         f"{columns.time_label}: times step by {step:g}, {_rate_text(step)} if in seconds, not a plausible gyro "
         f"sample rate, and their unit cannot be told{could}: name the column with its unit (time_s, time_ms) "
         "or pass --time-unit",
+    )
+
+
+def _step_text(step_s: float) -> str:
+    """A time step for people: ``2 ms``, ``0.5 s``, ``20 us``."""
+    for unit in ("s", "ms", "us", "ns"):
+        if step_s >= TIME_UNITS[unit] or unit == "ns":
+            return f"{step_s / TIME_UNITS[unit]:.4g} {unit}"
+    raise AssertionError("unreachable")
+
+
+def _agrees(rate: float, other: float) -> bool:
+    return abs(other - rate) <= RATE_AGREEMENT * rate
+
+
+def check_rate_agrees(path: str, times_s: FloatArray, rate: float, rate_label: str, times_label: str) -> None:
+    """Refuse a sample rate that the times (in seconds) contradict.
+
+    The rate agrees when it is within :data:`RATE_AGREEMENT` of the times' mean rate (samples
+    over the record's span: robust to rounded stamps) or of their median step's (robust to a
+    gap).
+
+    Args:
+        path: The file, for messages.
+        times_s: The times, s.
+        rate: The other source's rate, Hz.
+        rate_label: The other source, as named in the message (``--rate``, ``sampleRate``).
+        times_label: The times, likewise (``time column 'time'``, ``the 'time' array``).
+
+    Raises:
+        InputFileError: The two disagree; the message names both and what each says.
+    """
+    finite = times_s if np.isfinite(times_s).all() else times_s[np.isfinite(times_s)]
+    step = _median_step(finite)
+    if step is None or finite.size < 3:
+        return
+    span = float(finite[-1] - finite[0])
+    mean_rate = (finite.size - 1) / span if span > 0 else math.inf
+    if _agrees(rate, 1.0 / step) or _agrees(rate, mean_rate):
+        return
+    raise InputFileError(
+        path,
+        f"{rate_label} says {rate:.6g} Hz, but {times_label} steps by {_step_text(step)} ({1.0 / step:.6g} Hz): "
+        f"the sample rates disagree (by more than {100 * RATE_AGREEMENT:g} %); give one, or correct the wrong one",
     )

@@ -19,7 +19,16 @@ Samples stay in the file's unit (rad/s, °/s or volts: the period does not care)
 returned in seconds: a unit in the time column's name (``time_ms``), ``--time-unit``, or else
 their spacing tells the file's unit (:mod:`bike_rig.core.trial_columns`; a time column whose
 unit cannot be told is refused, never read as seconds at an absurd rate). A file's own times
-or rate win over ``sample_rate_hz``, which is needed only when the file has neither.
+or rate are used; ``sample_rate_hz`` is needed only when the file has neither, and when given
+besides them it must agree with them, as a .mat's ``ActualRate``, ``sampleRate`` and ``time``
+must agree with each other (within :data:`~bike_rig.core.trial_columns.RATE_AGREEMENT`, 1 %):
+rates that disagree are refused, naming both.
+
+The path must be a regular file: a FIFO, a device or a symlink loop is named as what it is and
+never read. A text trial is read a line at a time, keeping only its time and signal columns
+(8 bytes a number, at most :data:`MAX_TEXT_ROWS` rows); a line longer than
+:data:`MAX_LINE_CHARS` is refused with its length, so memory stays within a small multiple of
+the file's size.
 
 A trial's measurement key (``TtB2``) comes from a .mat file's fields, else from its file name:
 the simulated rig's ``frame_torsional_o2_t3``, BicycleParameters' ``BrowserFrameTorsionalSecond3``,
@@ -31,20 +40,23 @@ fitter, which reports them.
 
 from __future__ import annotations
 
+import io
 import math
 import os
 import re
 import warnings
-from dataclasses import dataclass
+from array import array
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, TextIO
 
 import numpy as np
 from numpy.typing import NDArray
 
 from .errors import InputFileError, one_line, short_repr
+from .safe_yaml import open_regular_file
 from .trial_binary import MAX_TRIAL_BYTES, check_mat_sizes, check_npy_header, load_mat_isolated
-from .trial_columns import ColumnChoice, Columns, choose_columns, times_in_seconds
+from .trial_columns import RATE_AGREEMENT, ColumnChoice, Columns, check_rate_agrees, choose_columns, times_in_seconds
 
 __all__ = ["TEXT_SUFFIXES", "ColumnChoice", "Trial", "key_from_name", "read_trial", "uniform_sample_rate"]
 
@@ -54,8 +66,16 @@ FloatArray = NDArray[np.float64]
 TEXT_SUFFIXES = (".csv", ".txt", ".tsv", ".dat")
 
 #: The largest text trial file read [bytes]: some 2.5 M rows, 40 minutes at 1 kHz (a pendulum
-#: trial is some tens of seconds; the rows are held as Python numbers, about 5 times the text).
+#: trial is some tens of seconds).
 MAX_TEXT_TRIAL_BYTES = 64 << 20
+#: The most rows a text trial may hold: 2.3 hours at 1 kHz. Only the time and signal columns
+#: are kept, 8 bytes a number, so a text trial takes at most 128 MiB however short its rows.
+MAX_TEXT_ROWS = 8 << 20
+#: The longest line of a text trial [characters]: a row of samples is some tens, a header of
+#: some thousand columns fits.
+MAX_LINE_CHARS = 64 << 10
+#: Characters read at a time while measuring a line that is too long.
+_MEASURE_CHUNK = 1 << 20
 
 #: BicycleParameters' part names and the letter of their period keys (fork and handlebar as one).
 _PART_LETTERS = {"Rwheel": "R", "Fwheel": "F", "Frame": "B", "Fork": "H", "Handlebar": "G", "Rod": "P"}
@@ -193,32 +213,25 @@ def read_trial(
     if sample_rate_hz is not None and not (math.isfinite(sample_rate_hz) and sample_rate_hz > 0):
         raise InputFileError(name, f"the sample rate must be a positive number of Hz, got {sample_rate_hz}")
     p = Path(path)
-    if not p.is_file():
-        reason = "is a directory, not a trial file" if p.is_dir() else "no such file"
-        raise InputFileError(name, reason)
     suffix = p.suffix.lower()
     choice = columns or ColumnChoice()
-    _check_size(name, p, MAX_TEXT_TRIAL_BYTES if suffix in TEXT_SUFFIXES else MAX_TRIAL_BYTES)
-    with np.errstate(all="ignore"):  # overflowing or NaN values are refused or left to the fitter, silently
-        if suffix in TEXT_SUFFIXES:
-            return _read_text(name, p, sample_rate_hz, choice)
-        if suffix == ".npy":
-            return _read_npy(name, p, sample_rate_hz, choice)
-        if suffix == ".mat":
-            if choice.chooses_columns:
-                raise InputFileError(name, "--time and --signal choose columns of CSV and .npy files; a .mat has none")
-            return _read_mat(name, p, sample_rate_hz, choice)
+    with open_regular_file(name, p) as handle:  # a FIFO, a device or a symlink loop is refused here, unopened
+        size = os.fstat(handle.fileno()).st_size
+        limit = MAX_TEXT_TRIAL_BYTES if suffix in TEXT_SUFFIXES else MAX_TRIAL_BYTES
+        if size > limit:
+            raise InputFileError(name, f"{size} bytes: larger than any trial file ({limit} bytes)")
+        with np.errstate(all="ignore"):  # overflowing or NaN values are refused or left to the fitter, silently
+            if suffix in TEXT_SUFFIXES:
+                text = io.TextIOWrapper(handle, encoding="utf-8-sig", newline=None)
+                try:
+                    return _read_text(name, p, text, sample_rate_hz, choice)
+                finally:
+                    text.detach()
+            if suffix == ".npy":
+                return _read_npy(name, p, sample_rate_hz, choice)
+            if suffix == ".mat":
+                return _read_mat(name, p, sample_rate_hz, choice)
     raise InputFileError(name, f"unknown trial format {p.suffix!r} (expected {', '.join(TEXT_SUFFIXES)}, .npy or .mat)")
-
-
-def _check_size(name: str, p: Path, limit: int) -> None:
-    """Refuse a file larger than ``limit`` bytes before reading it."""
-    try:
-        size = p.stat().st_size
-    except OSError as exc:
-        raise InputFileError(name, f"cannot read ({exc.strerror})") from None
-    if size > limit:
-        raise InputFileError(name, f"{size} bytes: larger than any trial file ({limit} bytes)")
 
 
 def _needs_rate(name: str, sample_rate_hz: float | None, what: str) -> float:
@@ -255,22 +268,39 @@ def _make(
     )
 
 
-def _from_table(
-    name: str, p: Path, data: FloatArray, columns: Columns, sample_rate_hz: float | None, what: str
+def _from_columns(
+    name: str,
+    p: Path,
+    samples: FloatArray,
+    raw_times: FloatArray | None,
+    columns: Columns,
+    width: int,
+    sample_rate_hz: float | None,
+    what: str,
 ) -> Trial:
-    """A trial from the columns of a table (rows of samples), its times in seconds.
+    """A trial from a table's signal and time columns (``width`` columns in all), its times in seconds.
 
-    ``what`` names the table in the missing-rate message (``a one-column file``).
+    ``what`` names the table in the missing-rate message (``a one-column file``). A rate given
+    besides the times must agree with them (:func:`~bike_rig.core.trial_columns.check_rate_agrees`).
     """
-    samples = np.ascontiguousarray(data[:, columns.signal])
-    if columns.time is None:
-        if sample_rate_hz is None and data.shape[1] > 1:
+    if raw_times is None:
+        if sample_rate_hz is None and width > 1:
             reason = f"missing sample rate: {what} has no time column, give the rate (--rate HZ) or choose one (--time)"
             raise InputFileError(name, reason)
         return _make(name, p, samples, None, _needs_rate(name, sample_rate_hz, what), columns.remarks)
-    raw = np.ascontiguousarray(data[:, columns.time])
-    times, unit, remarks = times_in_seconds(name, raw, columns)
+    times, unit, remarks = times_in_seconds(name, raw_times, columns)
+    if sample_rate_hz is not None:
+        check_rate_agrees(name, times, sample_rate_hz, "--rate", columns.time_label)
     return _make(name, p, samples, times, None, columns.remarks + remarks, unit)
+
+
+def _from_table(
+    name: str, p: Path, data: FloatArray, columns: Columns, sample_rate_hz: float | None, what: str
+) -> Trial:
+    """A trial from the columns of a table (rows of samples), its times in seconds (see :func:`_from_columns`)."""
+    samples = np.ascontiguousarray(data[:, columns.signal])
+    raw = None if columns.time is None else np.ascontiguousarray(data[:, columns.time])
+    return _from_columns(name, p, samples, raw, columns, data.shape[1], sample_rate_hz, what)
 
 
 # ---------------------------------------------------------------- CSV
@@ -280,64 +310,135 @@ def _split(line: str, delimiter: str | None) -> list[str]:
     return [cell.strip() for cell in (line.split(delimiter) if delimiter else line.split())]
 
 
-def _read_text(name: str, p: Path, sample_rate_hz: float | None, choice: ColumnChoice) -> Trial:
-    table = _text_rows(name, _file_text(name, p))
-    if not table.rows:
-        raise InputFileError(name, "no samples")
-    columns = choose_columns(name, table.width, table.names, choice, table.first_line)
-    what = "a one-column file" if table.width == 1 else f"the file {table.describe()}"
-    return _from_table(name, p, np.array(table.rows, dtype=float), columns, sample_rate_hz, what)
+def _size_text(n: int) -> str:
+    """A length in bytes for people: ``60 MB``, ``70 kB``, ``900 bytes``."""
+    if n >= 1_000_000:
+        return f"{n / 1e6:.3g} MB"
+    return f"{n / 1e3:.3g} kB" if n >= 1000 else f"{n} bytes"
+
+
+def _long_line(name: str, number: int, head: str, stream: TextIO) -> InputFileError:
+    """The error of line ``number``, too long: its length measured a chunk at a time (``head`` read already)."""
+    size = len(head.encode())
+    line = head
+    while not line.endswith("\n") and (line := stream.readline(_MEASURE_CHUNK)):
+        size += len(line.encode())
+    reason = (
+        f"line {number} is {_size_text(size)} long: not a CSV of samples "
+        f"(a row of samples is at most {MAX_LINE_CHARS} characters)"
+    )
+    return InputFileError(name, reason)
 
 
 @dataclass
 class _TextTable:
-    """The numeric rows of a text trial, their width, the header's names and where it starts."""
+    """The columns kept of a text trial, its width, delimiter, the header's names and where it starts."""
 
-    rows: list[list[float]]
+    signal: array[float] = field(default_factory=lambda: array("d"))
+    time: array[float] = field(default_factory=lambda: array("d"))
+    rows: int = 0
     width: int = 0
+    delimiter: str | None = None
     names: list[str] | None = None
     first_line: int | None = None
+    columns: Columns | None = None
 
     def describe(self) -> str:
         """The columns for messages: ``(rate, volts)``, or ``(3 columns)`` without a header."""
         return f"({', '.join(self.names)})" if self.names else f"({self.width} columns)"
 
-
-def _file_text(name: str, p: Path) -> str:
-    """The text of a trial file (UTF-8, a byte-order mark dropped)."""
-    try:
-        return p.read_text(encoding="utf-8-sig")
-    except UnicodeDecodeError:
-        raise InputFileError(name, "not a text file (not UTF-8)") from None
-    except OSError as exc:
-        raise InputFileError(name, f"cannot read ({exc.strerror})") from None
+    def add(self, values: list[float]) -> None:
+        """Keep the time and signal of one row."""
+        assert self.columns is not None
+        self.rows += 1
+        self.signal.append(values[self.columns.signal])
+        if self.columns.time is not None:
+            self.time.append(values[self.columns.time])
 
 
-def _text_rows(name: str, text: str) -> _TextTable:
-    """The numeric rows of a text trial, their width and header.
+def _read_text(name: str, p: Path, stream: TextIO, sample_rate_hz: float | None, choice: ColumnChoice) -> Trial:
+    table = _text_rows(name, stream, choice)
+    if table.columns is None:
+        raise InputFileError(name, "no samples")
+    what = "a one-column file" if table.width == 1 else f"the file {table.describe()}"
+    samples = np.frombuffer(table.signal, dtype=np.float64)
+    times = np.frombuffer(table.time, dtype=np.float64) if table.columns.time is not None else None
+    return _from_columns(name, p, samples, times, table.columns, table.width, sample_rate_hz, what)
+
+
+def _text_rows(name: str, stream: TextIO, choice: ColumnChoice) -> _TextTable:
+    """The time and signal columns of a text trial, its width and header, read a line at a time.
 
     Blank lines and ``#`` comments are skipped; the delimiter (``,``, ``;``, tab, else
     whitespace) is that of the first line; one header line (column names) is allowed before
-    the first row. ``first_line`` is the header's line, or the first row's without one.
+    the first row. ``first_line`` is the header's line, or the first row's without one. The
+    columns are chosen at the first row and only theirs are kept, 8 bytes a number; every cell
+    must be a number. A line longer than :data:`MAX_LINE_CHARS` is refused (a one-line file of
+    60 MB costs a few MB, not gigabytes of cells).
     """
-    table = _TextTable([])
-    delimiter: str | None = None
-    for number, raw in enumerate(text.splitlines(), start=1):
-        line = raw.strip()
-        if not line or line.startswith("#"):
-            continue
-        if table.first_line is None:
-            delimiter = next((d for d in (",", ";", "\t") if d in line), None)
-            table.first_line = number
-        cells = _split(line, delimiter)
-        values = _numbers(name, cells, number, header_allowed=not table.rows and table.names is None)
-        if values is None:
-            table.names = [cell.strip("\"'") for cell in cells]
-            table.width = len(cells)
-            continue
-        table.width = _row_width(name, len(values), table.width, number)
-        table.rows.append(values)
+    table = _TextTable()
+    number = 0
+    readline = stream.readline
+    try:
+        while table.columns is None and (raw := readline(MAX_LINE_CHARS + 1)):
+            number += 1
+            if len(raw) > MAX_LINE_CHARS and not raw.endswith("\n"):
+                raise _long_line(name, number, raw, stream)
+            _head_line(name, table, raw, number, choice)
+        if table.columns is None:
+            return table
+        delimiter, width, signal, time = table.delimiter, table.width, table.columns.signal, table.columns.time
+        keep_signal, keep_time = table.signal.append, table.time.append
+        while raw := readline(MAX_LINE_CHARS + 1):
+            number += 1
+            if len(raw) > MAX_LINE_CHARS and not raw.endswith("\n"):
+                raise _long_line(name, number, raw, stream)
+            try:
+                values = list(map(float, raw.split(delimiter) if delimiter else raw.split()))
+            except ValueError:  # a blank line, a comment, or a bad cell
+                values = []
+            if len(values) != width:
+                _skip_or_refuse(name, raw, delimiter, width, number)
+                continue
+            if table.rows >= MAX_TEXT_ROWS:
+                raise InputFileError(name, f"more than {MAX_TEXT_ROWS} rows: larger than any trial", line=number)
+            table.rows += 1
+            keep_signal(values[signal])
+            if time is not None:
+                keep_time(values[time])
+    except UnicodeDecodeError:
+        raise InputFileError(name, "not a text file (not UTF-8)") from None
     return table
+
+
+def _skip_or_refuse(name: str, raw: str, delimiter: str | None, width: int, number: int) -> None:
+    """Skip line ``number`` if it is blank or a comment; else raise the error of its bad cell or width."""
+    line = raw.strip()
+    if not line or line.startswith("#"):
+        return
+    values = _numbers(name, _split(line, delimiter), number, header_allowed=False)
+    assert values is not None
+    _row_width(name, len(values), width, number)
+    raise AssertionError(f"line {number} was refused, yet its cells and width are right")
+
+
+def _head_line(name: str, table: _TextTable, raw: str, number: int, choice: ColumnChoice) -> None:
+    """Read a line before the first row: a comment, the header, or the first row (which chooses the columns)."""
+    line = raw.strip()
+    if not line or line.startswith("#"):
+        return
+    if table.first_line is None:
+        table.delimiter = next((d for d in (",", ";", "\t") if d in line), None)
+        table.first_line = number
+    cells = _split(line, table.delimiter)
+    values = _numbers(name, cells, number, header_allowed=table.names is None)
+    if values is None:
+        table.names = [cell.strip("\"'") for cell in cells]
+        table.width = len(cells)
+        return
+    table.width = _row_width(name, len(values), table.width, number)
+    table.columns = choose_columns(name, table.width, table.names, choice, table.first_line)
+    table.add(values)
 
 
 def _numbers(name: str, cells: list[str], number: int, header_allowed: bool) -> list[float] | None:
@@ -424,13 +525,34 @@ def _vector(name: str, mat: dict[str, Any], key: str) -> FloatArray:
     return value.astype(float)
 
 
+def _mat_rates(name: str, mat: dict[str, Any]) -> dict[str, float]:
+    """The rates a .mat file states, Hz: ``ActualRate`` (measured), then ``sampleRate`` (asked for).
+
+    Raises:
+        InputFileError: one is not a positive number (naming its key).
+    """
+    rates: dict[str, float] = {}
+    for key in ("ActualRate", "sampleRate"):
+        if key in mat:
+            value = np.asarray(mat[key])
+            rate = float(value.reshape(-1)[0]) if value.dtype.kind in "biuf" and value.size == 1 else math.nan
+            if not (math.isfinite(rate) and rate > 0):
+                got = one_line(short_repr(mat[key], 80))
+                raise InputFileError(name, f"the sample rate must be a positive number, got {got}", key=key)
+            rates[key] = rate
+    return rates
+
+
 def _read_mat(name: str, p: Path, sample_rate_hz: float | None, choice: ColumnChoice) -> Trial:
+    if choice.chooses_columns:
+        raise InputFileError(name, "--time and --signal choose columns of CSV and .npy files; a .mat has none")
     check_mat_sizes(name, p)
     mat, warned = load_mat_isolated(name, p)
     read_remarks = tuple(f"reading the .mat: {w}" for w in warned)
     if "data" not in mat:
         raise InputFileError(name, "no 'data' array (the gyro samples)", key="data")
     samples = _vector(name, mat, "data")
+    rates = _mat_rates(name, mat)
     times = None
     rate = None
     unit: str | None = None
@@ -441,17 +563,24 @@ def _read_mat(name: str, p: Path, sample_rate_hz: float | None, choice: ColumnCh
             raise InputFileError(name, f"{times.size} times for {samples.size} samples", key="time")
         given = Columns(0, 1, "the 'time' array", choice.time_unit, choice.time_unit is not None)
         times, unit, remarks = times_in_seconds(name, times, given)
+        for key, value in rates.items():
+            try:
+                check_rate_agrees(name, times, value, key, "the 'time' array")
+            except InputFileError as exc:
+                raise InputFileError(name, exc.reason, key=key) from None
+        if sample_rate_hz is not None:
+            check_rate_agrees(name, times, sample_rate_hz, "--rate", "the 'time' array")
+    elif rates:
+        (key, rate), *others = rates.items()  # ActualRate (measured) before sampleRate (asked for)
+        for other, value in [*others, *([("--rate", sample_rate_hz)] if sample_rate_hz is not None else [])]:
+            if abs(value - rate) > RATE_AGREEMENT * rate:
+                reason = (
+                    f"{key} says {rate:.6g} Hz, but {other} says {value:.6g} Hz: the sample rates disagree "
+                    f"(by more than {100 * RATE_AGREEMENT:g} %); give one, or correct the wrong one"
+                )
+                raise InputFileError(name, reason, key=key if other == "--rate" else other)
     else:
-        for key in ("ActualRate", "sampleRate"):
-            if key in mat:
-                value = np.asarray(mat[key])
-                rate = float(value.reshape(-1)[0]) if value.dtype.kind in "biuf" and value.size == 1 else math.nan
-                if not (math.isfinite(rate) and rate > 0):
-                    got = one_line(short_repr(mat[key], 80))
-                    raise InputFileError(name, f"the sample rate must be a positive number, got {got}", key=key)
-                break
-        else:
-            rate = _needs_rate(name, sample_rate_hz, "no 'ActualRate' or 'sampleRate' and no 'time': the file")
+        rate = _needs_rate(name, sample_rate_hz, "no 'ActualRate' or 'sampleRate' and no 'time': the file")
     meta = {
         "bicycle": _text(mat.get("bicycle")),
         "part": _text(mat.get("part")),

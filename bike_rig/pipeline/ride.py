@@ -4,12 +4,17 @@
 or with a feedback the closed loop ``A − B K``) with the σ of its real and imaginary parts
 from the parameter covariance — :func:`bike_rig.core.uncertainty.eigen_sigma.eigenvalues_with_sigma`,
 the eigen-solver and σ of ``bike-rig model`` and the eigenvalue figures. Where several
-complex pairs exist the one nearest the measured eigenvalue is taken, and a note says so.
+complex pairs exist the one nearest the measured eigenvalue is taken, and a note says so; where
+the model has none at a measured speed, its eigenvalue nearest the measured one (a real root, Im λ
+= 0). Where the first-order σ is not defined (near a branch point, NaN) it is a Monte Carlo σ
+(:mod:`bike_rig.core.ride.weave_mc`), and the prediction says so (``sigma_method``).
 
 :func:`compare_ride` sets each measured segment (:mod:`bike_rig.core.ride.eigen`) against it:
 the normalised deviation of each part ``z = (measured − predicted) / sqrt(σ_m² + σ_p²)``, a
 segment's ``sqrt((z_re² + z_im²) / 2)``; per speed the same for the segments combined; overall
-the root mean square of every clean segment's z (≈ 1 when the model and the σ are right).
+the root mean square of every clean segment's z (≈ 1 when the model and the σ are right). Each
+comparison, each speed and the whole ride get a verdict in words (:mod:`bike_rig.core.ride.verdict`);
+a speed without a clean segment gets one too.
 Units: speeds m/s, eigenvalues 1/s.
 """
 
@@ -18,6 +23,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -26,10 +32,13 @@ from ..core.benchmark import ParameterSet
 from ..core.errors import ModelError
 from ..core.feedback import Feedback
 from ..core.ride.eigen import CombinedEigenvalue, MeasuredEigenvalue, combine_eigenvalues
+from ..core.ride.verdict import Verdict, overall_verdict, pair_verdict
+from ..core.ride.weave_mc import eigenvalue_monte_carlo
 from ..core.uncertainty.eigen_sigma import eigenvalues_with_sigma
 from ..core.uncertainty.matrix_sigma import SigmaConvention
 
 __all__ = [
+    "MONTE_CARLO",
     "Agreement",
     "PredictedWeave",
     "RideComparison",
@@ -48,6 +57,10 @@ MIN_IMAG = 1e-9
 CURVE_FROM = 0.5
 #: ... to the larger of this [m/s] and 1.2 × the fastest segment, in this many steps.
 CURVE_TO, CURVE_POINTS = 6.0, 111
+#: ``sigma_method`` of a prediction whose σ is first order, or by Monte Carlo, or absent.
+LINEAR, MONTE_CARLO, NO_SIGMA = "linear", "monte_carlo", "none"
+#: What the verdicts say after a comparison with a Monte Carlo σ.
+MONTE_CARLO_NOTE = "model σ by Monte Carlo: the linear σ is not defined near a branch point"
 
 
 class RideSpeedError(ModelError):
@@ -61,10 +74,11 @@ class PredictedWeave:
     Attributes:
         speeds: m/s.
         real: Re λ [1/s] (NaN: no oscillatory mode).
-        real_sigma: Its σ [1/s] (NaN near branch points).
-        imag: Im λ > 0 [rad/s].
+        real_sigma: Its σ [1/s]: first order, or by Monte Carlo near branch points.
+        imag: Im λ > 0 [rad/s] (0: the model's nearest mode is real, at a measured speed).
         imag_sigma: Its σ [rad/s].
         notes: What was chosen where it was not obvious.
+        sigma_method: How each speed's σ was found: ``linear``, ``monte_carlo`` or ``none``.
     """
 
     speeds: FloatArray
@@ -73,6 +87,7 @@ class PredictedWeave:
     imag: FloatArray
     imag_sigma: FloatArray
     notes: tuple[str, ...]
+    sigma_method: tuple[str, ...] = ()
 
 
 def predicted_weave(
@@ -90,7 +105,8 @@ def predicted_weave(
         feedback: The closed loop's feedback, or None for the open loop.
         convention: The σ convention.
         near: The measured eigenvalues at those speeds (complex, 1/s): where several complex
-            pairs exist, the nearest is taken. None: the pair labelled weave, else the fastest.
+            pairs exist, the nearest is taken; where none, the nearest eigenvalue. None: the pair
+            labelled weave, else the fastest (NaN where none).
 
     Raises:
         ModelError: Bad speeds or a singular mass matrix.
@@ -103,18 +119,35 @@ def predicted_weave(
     notes: list[str] = []
     for i in range(v.size):
         cand = [j for j in range(lam.shape[1]) if lam[i, j].imag > MIN_IMAG]
+        target = targets[i] if targets is not None else complex(math.nan, math.nan)
+        if not cand and np.isfinite(target):
+            j = int(np.argmin(np.abs(lam[i] - target)))
+            notes.append(f"{v[i]:.3g} m/s: the model has no oscillatory mode; its eigenvalue nearest the measured one "
+                         f"({lam[i, j].real:+.3g} 1/s) is taken")  # fmt: skip
+            out[:, i] = lam[i, j].real, math.nan, abs(lam[i, j].imag), math.nan  # σ by Monte Carlo below
+            continue
         if not cand:
             notes.append(f"{v[i]:.3g} m/s: the model has no oscillatory mode")
             continue
-        if targets is not None and np.isfinite(targets[i]):
-            j = min(cand, key=lambda c: abs(lam[i, c] - targets[i]))
+        if np.isfinite(target):
+            j = min(cand, key=lambda c: abs(lam[i, c] - target))
             if len(cand) > 1:
                 notes.append(f"{v[i]:.3g} m/s: {len(cand)} complex pairs, the nearest to the measured one is taken")
         else:
             weave = [c for c in cand if es.sweep.labels[c] == "weave"]
             j = weave[0] if weave else max(cand, key=lambda c: lam[i, c].imag)
         out[:, i] = lam[i, j].real, es.sigma_real[i, j], lam[i, j].imag, es.sigma_imag[i, j]
-    return PredictedWeave(v, out[0], out[1], out[2], out[3], tuple(notes))
+    method = [LINEAR if np.isfinite(out[1, i]) else NO_SIGMA for i in range(v.size)]
+    missing = np.flatnonzero(np.isfinite(out[0]) & ~(np.isfinite(out[1]) & np.isfinite(out[3])))
+    if missing.size:
+        mc = eigenvalue_monte_carlo(ps, v[missing], out[0, missing] + 1j * out[2, missing], feedback, convention)
+        out[1, missing], out[3, missing] = mc.real_sigma, mc.imag_sigma
+        for k, m in enumerate(missing.tolist()):
+            method[m] = MONTE_CARLO
+            if mc.real_fraction[k] > 0 and out[2, m] > 0:
+                notes.append(f"{v[m]:.3g} m/s: near a branch point: the weave pair is real in "
+                             f"{100 * mc.real_fraction[k]:.0f} % of the Monte Carlo draws")  # fmt: skip
+    return PredictedWeave(v, out[0], out[1], out[2], out[3], tuple(notes), tuple(method))
 
 
 def normalised_deviation(measured: float, sigma_m: float, predicted: float, sigma_p: float) -> float:
@@ -139,6 +172,8 @@ class Agreement:
         z_real: Normalised deviation of the real parts [-].
         z_imag: Of the imaginary parts [-].
         deviation: sqrt((z_real² + z_imag²)/2) [-].
+        sigma_method: How the model's σ was found (``linear``, ``monte_carlo``, ``none``).
+        verdict: The comparison in words (:mod:`bike_rig.core.ride.verdict`).
     """
 
     predicted_real: float
@@ -148,6 +183,8 @@ class Agreement:
     z_real: float
     z_imag: float
     deviation: float
+    sigma_method: str
+    verdict: Verdict
 
 
 @dataclass(frozen=True)
@@ -181,23 +218,33 @@ class RideComparison:
         speeds: One per speed, the segments combined.
         overall: RMS of every clean segment's z_real and z_imag [-] (NaN: none).
         notes: The prediction's notes.
+        unmeasured: The speeds without a clean segment (their segments grouped, ``n_used`` 0).
+        verdict: The whole ride's verdict (:func:`bike_rig.core.ride.verdict.overall_verdict`).
     """
 
     segments: tuple[SegmentComparison, ...]
     speeds: tuple[SpeedComparison, ...]
     overall: float
     notes: tuple[str, ...]
+    unmeasured: tuple[CombinedEigenvalue, ...] = ()
+    verdict: Verdict = Verdict("no_clean_segment", "no verdict: no segment", math.nan)
 
 
-def _against(
-    m: MeasuredEigenvalue | CombinedEigenvalue, pred: PredictedWeave, i: int
-) -> tuple[float, float, float, float, float, float, float]:
-    """The prediction ``i`` (Re, σ, Im, σ) and the normalised deviations of ``m`` from it (re, im, pair)."""
+def _against(m: MeasuredEigenvalue | CombinedEigenvalue, pred: PredictedWeave, i: int) -> tuple[Any, ...]:
+    """The prediction ``i`` (Re, σ, Im, σ), the normalised deviations of ``m`` (re, im, pair), σ method, verdict."""
     p = (float(pred.real[i]), float(pred.real_sigma[i]), float(pred.imag[i]), float(pred.imag_sigma[i]))
-    valid = not isinstance(m, MeasuredEigenvalue) or m.valid
-    z_re = normalised_deviation(m.real, m.real_sigma, p[0], p[1]) if valid else math.nan
-    z_im = normalised_deviation(m.imag, m.imag_sigma, p[2], p[3]) if valid else math.nan
-    return (*p, z_re, z_im, _pair(z_re, z_im))
+    method = pred.sigma_method[i] if pred.sigma_method else LINEAR
+    if isinstance(m, MeasuredEigenvalue) and not m.valid:
+        why = "; ".join(m.flags) or "the fit found none"
+        nan = math.nan
+        return (*p, nan, nan, nan, method, Verdict("no_eigenvalue", f"no verdict: no measured eigenvalue ({why})", nan))
+    z_re = normalised_deviation(m.real, m.real_sigma, p[0], p[1])
+    z_im = normalised_deviation(m.imag, m.imag_sigma, p[2], p[3])
+    note = MONTE_CARLO_NOTE if method == MONTE_CARLO else ""
+    verdict = pair_verdict(complex(m.real, m.imag), complex(p[0], p[2]), z_re, z_im, note)
+    if isinstance(m, MeasuredEigenvalue) and not m.clean:
+        verdict = Verdict(verdict.code, f"{verdict.text}; flagged, left out of the means", verdict.sigma)
+    return (*p, z_re, z_im, _pair(z_re, z_im), method, verdict)
 
 
 def compare_ride(
@@ -221,14 +268,19 @@ def compare_ride(
     pred = predicted_weave(ps, [s.speed for s in segments], feedback, convention, near)
     rows = [SegmentComparison(*_against(s, pred, i), segment=s) for i, s in enumerate(segments)]
     zs = [z for r in rows if r.segment.clean for z in (r.z_real, r.z_imag) if math.isfinite(z)]
-    combined = [c for c in combine_eigenvalues(segments) if c.n_used]
+    groups = combine_eigenvalues(segments)
+    combined = [c for c in groups if c.n_used]
     per_speed = []
     if combined:
         cp = predicted_weave(ps, [c.speed for c in combined], feedback, convention,
                              [complex(c.real, c.imag) for c in combined])  # fmt: skip
         per_speed = [SpeedComparison(*_against(c, cp, k), combined=c) for k, c in enumerate(combined)]
     overall = math.sqrt(float(np.mean(np.square(zs)))) if zs else math.nan
-    return RideComparison(tuple(rows), tuple(per_speed), overall, pred.notes)
+    unmeasured = tuple(c for c in groups if not c.n_used)
+    verdict = overall_verdict([(s.combined.speed, s.verdict) for s in per_speed], [c.speed for c in unmeasured],
+                              len(segments))  # fmt: skip
+    notes = tuple(dict.fromkeys(pred.notes))  # one per segment's speed: each said once
+    return RideComparison(tuple(rows), tuple(per_speed), overall, notes, unmeasured, verdict)
 
 
 def validate_ride(

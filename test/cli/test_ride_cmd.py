@@ -109,3 +109,54 @@ def test_plot_ride_is_a_registered_figure_drawn_only_for_records(
     assert code == 0 and out.split() == [str(tmp_path / "ride_rider.png")]
     code, _, err = run(capsys, "plot", "ride", BROWSER, "-o", str(tmp_path))
     assert code == 2 and "--ride RECORD" in err
+
+
+def test_validate_gives_a_verdict_in_words_per_speed_and_overall(
+    capsys: pytest.CaptureFixture[str], long_csv: Path
+) -> None:
+    base = ("ride", "validate", BROWSER, str(long_csv), "--rider", "paper", "--feedback", ASSIST)
+    code, out, _ = run(capsys, *base)
+    assert code == 0 and "nan" not in out.lower()
+    assert "4.50 m/s (4 segments)" in out and ": agrees within " in out
+    assert out.splitlines()[-1].startswith("verdict: the model agrees with the ride at the one speed")
+    code, out, _ = run(capsys, *base, "--json")
+    got = json.loads(out)
+    assert got["verdict"] == "agrees" and got["verdict_text"].startswith("the model agrees")
+    assert {"verdict", "verdict_text", "verdict_sigma", "model_sigma_method"} <= set(got["speeds"][0])
+    assert all(s["verdict"] == "agrees" and s["model_sigma_method"] == "linear" for s in got["segments"])
+    code, out, _ = run(capsys, "ride", "validate", BROWSER, str(long_csv), "--rider", "paper")  # the open loop
+    assert code == 0 and "verdict: the model disagrees with the ride at 1 of 1 speeds (4.50 m/s)" in out
+    assert "the measured weave" in out and "nan" not in out.lower()
+
+
+def test_validate_near_a_branch_point_uses_a_monte_carlo_sigma_and_says_so(
+    capsys: pytest.CaptureFixture[str], long_csv: Path
+) -> None:
+    """At 0.783 m/s the open loop's weave pair is being born: its first-order σ is not defined."""
+    base = ("ride", "validate", BROWSER, str(long_csv), "--rider", "paper", "--speed", "0.783")
+    code, out, _ = run(capsys, *base)
+    assert code == 0 and "nan" not in out.lower()
+    assert "(Monte Carlo σ)" in out and "model σ by Monte Carlo: the linear σ is not defined near a branch point" in out
+    code, out, _ = run(capsys, *base, "--json")
+    got = json.loads(out)
+    assert got["speeds"][0]["model_sigma_method"] == "monte_carlo" and got["speeds"][0]["predicted_real_sigma"] > 0
+    assert got["verdict"] in ("agrees", "tension", "disagrees") and got["normalised_deviation"] is not None
+
+
+def test_validate_without_a_clean_segment_says_so_and_exits_0(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    rng = np.random.default_rng(1)
+    noise = tmp_path / "noise.csv"
+    t = np.arange(300) / 100.0
+    rows = "".join(f"{a:.2f},{b:.5f},3.0\n" for a, b in zip(t, rng.normal(0, 0.01, t.size), strict=True))
+    noise.write_text("time,roll_rate,speed\n" + rows)
+    code, out, _ = run(capsys, "ride", "validate", BROWSER, str(noise), "--rider", "paper")
+    assert code == 0 and "nan" not in out.lower()
+    assert "3.00 m/s: no verdict: no clean segment" in out
+    assert "overall normalised deviation (RMS over clean segments): none (no clean segment)" in out
+    assert out.splitlines()[-1].startswith("verdict: no verdict: no clean segment")
+    code, out, _ = run(capsys, "ride", "validate", BROWSER, str(noise), "--rider", "paper", "--json")
+    got = json.loads(out)
+    assert got["verdict"] == "no_clean_segment" and got["normalised_deviation"] is None
+    assert got["speeds"][0]["verdict"] == "no_clean_segment" and got["speeds"][0]["n_used"] == 0

@@ -184,9 +184,11 @@ def test_mat_rate_falls_back_to_the_argument(tmp_path: Path) -> None:
         read_trial(f)
     assert "ActualRate" in exc.value.reason
     assert read_trial(f, sample_rate_hz=250.0).sample_rate_hz == 250.0
-    # ActualRate (measured) wins over sampleRate (asked for), and over the argument
+    # ActualRate (measured) wins over sampleRate (asked for) and the argument when they agree (within 1 %)
     g = _bp_mat(tmp_path / "actual.mat", ActualRate=998.5)
-    assert read_trial(g, sample_rate_hz=1.0).sample_rate_hz == 998.5
+    assert read_trial(g, sample_rate_hz=1000.0).sample_rate_hz == 998.5
+    with pytest.raises(InputFileError, match="ActualRate says 998.5 Hz, but --rate says 1 Hz"):
+        read_trial(g, sample_rate_hz=1.0)
 
 
 @pytest.mark.parametrize(

@@ -1,24 +1,21 @@
 """A free-decay segment's measured eigenvalue with σ, and segments at one speed combined.
 
-Each segment is fitted with the trial fitter (:func:`bike_rig.core.period.fit.fit_period`,
-Eq 23: offset + e^{−ζωt}(B sin ω_d t + C cos ω_d t)) on the whole segment (no lead-in, no
-cut to whole cycles: a ride's segment is one to a few cycles): its validity, flags and
-(α, ω_d). The fit is then refined with a linear trend added (model ``eq23_trend``,
-:mod:`.realmode`: the capsize mode in the roll rate biases a short Eq 23 fit by several σ) or
-with a real mode of free rate (``eq23_real``); ``eq23`` keeps the trial fitter's result. The
-default ``auto`` fits both and keeps the real mode only where it lowers the residual sum of
-squares significantly: an F test for one more parameter at :data:`AUTO_LEVEL` (a fast capsize
-mode over a long segment), else the trend (a free μ over one or two cycles inflates the
-spread of ω_d beyond its linearised σ).
-The measured eigenvalue is
+Each segment goes through the trial fitter (:func:`bike_rig.core.period.fit.fit_period`,
+Eq 23: offset + e^{−ζωt}(B sin ω_d t + C cos ω_d t), on the whole segment: no lead-in, no cut
+to whole cycles): its validity, flags, cycle count and starting (α, ω_d); a segment of about
+one cycle that its spectrum cannot resolve gets its start from a frequency search instead.
+The eigenvalue is then fitted with :mod:`.choice` (Eq 23, or with a real mode, ``auto``; or the
+model forced), with σ from the noise model of :mod:`.noise` (white sensor noise plus the weave
+driven by the rider's steering), widened by the models' disagreement. The measured eigenvalue
+is ``λ = −ζω ± i ω_d`` (Eq 25).
 
-    λ = −ζω ± i ω_d,   ω_d = ω sqrt(1 − ζ²) = 2π / T   (Eq 25)
-
-with σ(Re λ) the fitter's σ of ζω and σ(Im λ) = 2π σ_T / T² (the drift-robust sandwich with
-two or more whole cycles, Eq 27 with a Student-t factor below). A segment with fewer than
+The cycle count that flags a segment comes from a frequency that does not depend on the model
+judged: the trial fitter's ω_d, or the frequency search's. A segment with fewer than
 :data:`MIN_SEGMENT_CYCLES` cycles has no eigenvalue, one with fewer than
-:data:`FLAG_SEGMENT_CYCLES` is flagged (both ``too_few_cycles``); the fitter's flags (no
-oscillation, poor fit, ...) are kept.
+:data:`FLAG_SEGMENT_CYCLES` is flagged (both ``too_few_cycles``); one whose half-cycle peaks do
+not follow one exponential envelope is flagged ``not_free_decay`` (:mod:`.envelope`); the
+fitter's flags (no oscillation, ...) are kept. :func:`pool_drive` lets the segments at one speed
+share the rider's drive, and recomputes their σ with it.
 
 Segments at one speed combine as trials do (:mod:`bike_rig.core.period.combine`): the weighted
 mean of the unflagged ones, σ widened by the Birge ratio when they scatter more than their σ.
@@ -29,7 +26,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -39,7 +36,11 @@ from ..period.fit import fit_period
 from ..period.oscillation import TWO_PI
 from ..period.result import FlagCode, PeriodFit
 from ..period.window import WindowPolicy
-from .realmode import RealModeFit, RealModeFitFailed, fit_with_real_mode, search_frequency
+from .choice import ModelChoice, choose_model
+from .envelope import envelope_problem
+from .noise import pooled_drive
+from .realmode import RealModeFitFailed, search_frequency
+from .segment import noise_sigma
 
 __all__ = [
     "FLAG_SEGMENT_CYCLES",
@@ -50,6 +51,8 @@ __all__ = [
     "combine_eigenvalues",
     "eigenvalue_of_fit",
     "fit_segment",
+    "pool_drive",
+    "speed_groups",
 ]
 
 #: The trial fitter's fewest cycles for a period (below, its spectrum's first guess is unreliable).
@@ -61,12 +64,8 @@ MIN_SEGMENT_CYCLES = 0.8
 #: simulated segments of 1.0–1.2 cycles, the spread of Im λ is 1.8 times its σ; from 1.2 cycles
 #: on ±σ covers 60–75 % (test_calibration).
 FLAG_SEGMENT_CYCLES = 1.2
-#: The segment models: Eq 23 with a trend, with one real mode (:mod:`.realmode`), or alone (the trial fitter).
+#: The segment models: chosen (:mod:`.choice`), Eq 23 with a trend, with one real mode, or alone (:mod:`.realmode`).
 MODELS = ("auto", "eq23_trend", "eq23_real", "eq23")
-#: ``auto`` keeps the real mode when the F test's p-value is below 1 − this (a conventional 10 % test:
-#: over simulated 1.2–2 cycle segments of two bicycles it gave 66 % within ±1σ for both parts;
-#: 0.99 left a fast capsize mode to the trend, 0.5 chose the real mode where it was not needed).
-AUTO_LEVEL = 0.9
 #: A fit with a lower r² is flagged ``poor_fit``.
 MIN_R2 = 0.9
 #: The trial fitter's flags of a segment too short for its spectrum (the frequency search then tries).
@@ -100,6 +99,11 @@ class MeasuredEigenvalue:
         fit: The trial fitter's result.
         model: The model fitted (:data:`MODELS`; ``auto`` gives the one it chose).
         notes: How the eigenvalue was found when not by the trial fitter (a short segment).
+        variance: ``(Re fixed, Re per unit drive, Im fixed, Im per unit drive)`` [1/s², per
+            signal units² s⁻¹]: the σ² at any drive q (:mod:`.noise`; empty: not recomputable).
+        drive: This segment's estimate q̂ of the rider's drive (:mod:`.noise`; NaN: none).
+        drive_sigma: Its σ.
+        drive_used: The drive the σ are computed with (its own, or shared at its speed).
     """
 
     source: str
@@ -117,11 +121,23 @@ class MeasuredEigenvalue:
     fit: PeriodFit
     model: str = "eq23"
     notes: tuple[str, ...] = ()
+    variance: tuple[float, ...] = ()
+    drive: float = math.nan
+    drive_sigma: float = math.nan
+    drive_used: float = math.nan
 
     @property
     def clean(self) -> bool:
         """Valid, with finite σ and no flags."""
         return self.valid and not self.flags and self.real_sigma > 0 and self.imag_sigma > 0
+
+    def with_drive(self, q: float) -> MeasuredEigenvalue:
+        """The same eigenvalue with its σ at the drive ``q`` (itself where they cannot be recomputed)."""
+        if len(self.variance) != 4 or not self.valid or not math.isfinite(q):
+            return self
+        v = self.variance
+        return replace(self, real_sigma=math.sqrt(max(0.0, v[0] + q * v[1])),
+                       imag_sigma=math.sqrt(max(0.0, v[2] + q * v[3])), drive_used=q)  # fmt: skip
 
 
 def eigenvalue_of_fit(fit: PeriodFit) -> tuple[float, float, float, float]:
@@ -157,34 +173,43 @@ def fit_segment(
     if model not in MODELS:
         raise ValueError(f"unknown segment model {model!r}, expected one of {MODELS}")
     t = np.asarray(times, dtype=float)
+    y = np.asarray(signal, dtype=float)
     fit = fit_period(
-        signal,
+        y,
         times=t,
         window=WindowPolicy.lead_in(0.0, whole_cycles=False),
         min_cycles=FLAG_SEGMENT_CYCLES,
         min_valid_cycles=TRIAL_MIN_CYCLES,
     )
     real, real_sigma, imag, imag_sigma = eigenvalue_of_fit(fit)
-    flags = tuple(str(f) for f in fit.flags)
-    valid = fit.valid
-    if model != "eq23" and fit.valid:
-        explained = (FlagCode.POOR_FIT, FlagCode.DRIFT)  # what the real mode may account for
-        kept = [str(f) for f in fit.flags if f.code not in explained]
+    flags = [str(f) for f in fit.flags]
+    valid, chosen, n_cycles, notes = fit.valid, None, fit.n_cycles, list[str]()
+    white = noise_sigma(y) if np.all(np.isfinite(y)) else math.nan
+    if fit.valid:
+        explained = (FlagCode.POOR_FIT, FlagCode.DRIFT)  # what the trend or real mode may account for
+        flags = [str(f) for f in fit.flags if f.code not in explained]
         try:
-            rm, model = _refine(t, np.asarray(signal, dtype=float), -real, imag, model)
-            real, real_sigma, imag, imag_sigma = -rm.alpha, rm.alpha_sigma, rm.omega_d, rm.omega_d_sigma
-            if not rm.r2 >= MIN_R2:
-                kept.append(f"{FlagCode.POOR_FIT.value}: r² = {rm.r2:.3f} < {MIN_R2:g} ({model})")
+            chosen = choose_model(t, y, -real, imag, model, white)
         except RealModeFitFailed as exc:
             valid, real, real_sigma, imag, imag_sigma = False, math.nan, math.nan, math.nan, math.nan
-            kept.append(f"{FlagCode.FIT_FAILED.value}: {exc}")
-        flags = tuple(kept)
-    n_cycles, notes = fit.n_cycles, tuple[str, ...]()
-    if model != "eq23" and not fit.valid and {f.code for f in fit.flags} <= SHORT_CODES:
-        short = _short_segment(t, np.asarray(signal, dtype=float), model, fit)
+            flags.append(f"{FlagCode.FIT_FAILED.value}: {exc}")
+    elif {f.code for f in fit.flags} <= SHORT_CODES:
+        short = _short_segment(t, y, model, fit, white)
         if short is not None:
-            (real, real_sigma, imag, imag_sigma, n_cycles), model, flags, notes = short
+            chosen, n_cycles, flags, notes = short
             valid = True
+    variance: tuple[float, ...] = ()
+    drive = drive_sigma = drive_used = math.nan
+    if chosen is not None:
+        real, real_sigma, imag, imag_sigma = chosen.real, chosen.real_sigma, chosen.imag, chosen.imag_sigma
+        variance, drive, drive_sigma = chosen.variance, chosen.drive, chosen.drive_sigma
+        drive_used = pooled_drive([(drive, drive_sigma)])
+        model, notes = chosen.fit.model, notes + list(chosen.notes)
+        if not chosen.fit.r2 >= MIN_R2:
+            flags.append(f"{FlagCode.POOR_FIT.value}: r² = {chosen.fit.r2:.3f} < {MIN_R2:g} ({model})")
+        problem = envelope_problem(t, y - chosen.fit.baseline(t), imag, real, real_sigma, white)
+        if problem is not None:
+            flags.append(problem)
     return MeasuredEigenvalue(
         source=source,
         index=index,
@@ -196,25 +221,31 @@ def fit_segment(
         imag=imag,
         imag_sigma=imag_sigma,
         valid=valid,
-        flags=flags,
+        flags=tuple(flags),
         n_cycles=n_cycles,
         fit=fit,
         model=model,
-        notes=notes,
+        notes=tuple(notes),
+        variance=variance,
+        drive=drive,
+        drive_sigma=drive_sigma,
+        drive_used=drive_used,
     )
 
 
 def _short_segment(
-    t: NDArray[np.float64], y: NDArray[np.float64], model: str, fit: PeriodFit
-) -> tuple[tuple[float, float, float, float, float], str, tuple[str, ...], tuple[str, ...]] | None:
+    t: NDArray[np.float64], y: NDArray[np.float64], model: str, fit: PeriodFit, white: float
+) -> tuple[ModelChoice, float, list[str], list[str]] | None:
     """A segment of about one cycle that the trial fitter's spectrum cannot resolve: the frequency search.
 
+    The cycles are counted with the search's frequency, not the fitted model's (a refinement
+    that inflates ω_d must not lift a segment over :data:`FLAG_SEGMENT_CYCLES`).
+
     Returns:
-        ((Re λ, σ, Im λ, σ, cycles), model, flags, notes), or None when no oscillation stands out
-        of the trend (:func:`~.realmode.search_frequency`), the segment is longer than
-        :data:`SEARCH_MAX_S`, it spans fewer than
-        :data:`MIN_SEGMENT_CYCLES` cycles or its frequency is not determined (σ above
-        :data:`MAX_RELATIVE_SIGMA` of it).
+        (the fit, cycles, flags, notes), or None when no oscillation stands out of the trend
+        (:func:`~.realmode.search_frequency`), the segment is longer than
+        :data:`SEARCH_MAX_S`, it spans fewer than :data:`MIN_SEGMENT_CYCLES` cycles or its
+        frequency is not determined (σ above :data:`MAX_RELATIVE_SIGMA` of it).
     """
     if t.size < 8 or not (np.all(np.isfinite(t)) and np.all(np.isfinite(y))) or t[-1] - t[0] > SEARCH_MAX_S:
         return None
@@ -222,42 +253,19 @@ def _short_segment(
         search = search_frequency(t, y)
         if not search.found:
             return None
-        rm, model = _refine(t, y, 0.0, search.omega_d, model)
+        chosen = choose_model(t, y, 0.0, search.omega_d, model, white)
     except RealModeFitFailed:
         return None
     duration = float(t[-1] - t[0]) * t.size / max(1, t.size - 1)
-    cycles = rm.omega_d * duration / TWO_PI
-    if cycles < MIN_SEGMENT_CYCLES or not rm.omega_d_sigma < MAX_RELATIVE_SIGMA * rm.omega_d:
+    cycles = search.omega_d * duration / TWO_PI
+    if cycles < MIN_SEGMENT_CYCLES or not chosen.imag_sigma < MAX_RELATIVE_SIGMA * chosen.imag:
         return None
     flags = []
     if cycles < FLAG_SEGMENT_CYCLES:
         flags.append(f"{FlagCode.TOO_FEW_CYCLES.value}: {cycles:.2f} cycles, at least {FLAG_SEGMENT_CYCLES:g} wanted")
-    if not rm.r2 >= MIN_R2:
-        flags.append(f"{FlagCode.POOR_FIT.value}: r² = {rm.r2:.3f} < {MIN_R2:g} ({model})")
     why = "; ".join(str(f) for f in fit.flags)
     note = f"the trial fitter found no period ({why}); frequency search: false alarm {search.false_alarm:.1e}"
-    eig = (-rm.alpha, rm.alpha_sigma, rm.omega_d, rm.omega_d_sigma, cycles)
-    return eig, model, tuple(flags), (note,)
-
-
-def _refine(t: NDArray[np.float64], y: NDArray[np.float64], alpha: float, omega_d: float, model: str) -> tuple[
-    RealModeFit, str
-]:
-    """The refined fit and the model chosen (module docstring)."""
-    if model != "auto":
-        return fit_with_real_mode(t, y, alpha, omega_d, free_mu=model == "eq23_real"), model
-    from scipy.stats import f as f_distribution
-
-    trend = fit_with_real_mode(t, y, alpha, omega_d)
-    try:
-        real = fit_with_real_mode(t, y, trend.alpha, trend.omega_d, free_mu=True)
-    except RealModeFitFailed:
-        return trend, "eq23_trend"
-    sse_trend, sse_real = t.size * trend.residual_rms**2, t.size * real.residual_rms**2
-    dof = t.size - 7
-    if sse_real > 0 and (sse_trend - sse_real) / (sse_real / dof) > f_distribution.ppf(AUTO_LEVEL, 1, dof):
-        return real, "eq23_real"
-    return trend, "eq23_trend"
+    return chosen, cycles, flags, [note]
 
 
 @dataclass(frozen=True)
@@ -283,14 +291,39 @@ class CombinedEigenvalue:
     n_left_out: int
 
 
+def speed_groups(segments: Sequence[MeasuredEigenvalue]) -> list[list[int]]:
+    """The segments' indices grouped by speed (within :data:`SPEED_TOLERANCE` of a group's slowest), by speed."""
+    groups: list[list[int]] = []
+    order = sorted((i for i, s in enumerate(segments) if math.isfinite(s.speed)), key=lambda i: segments[i].speed)
+    for i in order:
+        if groups and segments[i].speed - segments[groups[-1][0]].speed <= SPEED_TOLERANCE:
+            groups[-1].append(i)
+        else:
+            groups.append([i])
+    return groups
+
+
+def pool_drive(segments: Sequence[MeasuredEigenvalue]) -> list[MeasuredEigenvalue]:
+    """The segments with the rider's drive shared at each speed (:func:`~.noise.pooled_drive`), in input order.
+
+    One segment's estimate of the drive is noisy; the valid segments at one speed share theirs
+    (:mod:`.noise`), and every segment there gets its σ at that drive. Segments without a
+    speed keep their own.
+    """
+    out = list(segments)
+    for group in speed_groups(segments):
+        valid = [i for i in group if segments[i].valid and len(segments[i].variance) == 4]
+        if len(valid) < 2:
+            continue
+        q = pooled_drive([(segments[i].drive, segments[i].drive_sigma) for i in valid])
+        for i in valid:
+            out[i] = segments[i].with_drive(q)
+    return out
+
+
 def combine_eigenvalues(segments: Sequence[MeasuredEigenvalue]) -> list[CombinedEigenvalue]:
     """The clean segments grouped by speed (within :data:`SPEED_TOLERANCE`) and combined, by speed."""
-    groups: list[list[MeasuredEigenvalue]] = []
-    for seg in sorted((s for s in segments if math.isfinite(s.speed)), key=lambda s: s.speed):
-        if groups and seg.speed - groups[-1][0].speed <= SPEED_TOLERANCE:
-            groups[-1].append(seg)
-        else:
-            groups.append([seg])
+    groups = [[segments[i] for i in g] for g in speed_groups(segments)]
     out = []
     for group in groups:
         used = [s for s in group if s.clean]

@@ -10,15 +10,12 @@ weave's fitted eigenvalue is then biased by several of its σ (measured on simul
     y(τ) = A + D (e^{μτ} − 1)/μ + e^{−ατ}(B sin ω_d τ + C cos ω_d τ),   τ = t − t_mid   [eq23_real]
 
 (the real mode written so that it becomes a linear trend D τ as μ → 0, with no degeneracy
-with A), or with μ = 0, a linear trend [eq23_trend, the default]. Over one to two cycles the
-free μ is poorly determined and the linearised σ of ω_d is too small (simulated rides of the
-Browser with rider, 4.5 m/s, 1.3 cycles: std of (ω̂_d − ω_d)/σ = 1.8, mean −1.3); with the
-trend the normalised errors have mean within ±0.5 and std 0.85–1.1 at 1.5–4.5 m/s. For fixed
-(α, ω_d, μ) the model is linear in A, B, C, D, which are solved by least squares (variable
-projection); :func:`scipy.optimize.least_squares` fits the nonlinear parameters from the
-trial fitter's (α, ω_d). σ: ``s² (JᵀJ)⁻¹`` with the Jacobian of all parameters (Eq 26–27 for
-this model; white residuals, as the trial fitter below two cycles) times the Student-t factor
-for n − p degrees of freedom (p = 6 or 7).
+with A), with μ = 0, a linear trend [eq23_trend], or with neither, Eq 23 alone [eq23]. For
+fixed (α, ω_d, μ) the model is linear in A, B, C, D, which are solved by least squares
+(variable projection); :func:`scipy.optimize.least_squares` fits the nonlinear parameters from
+a starting (α, ω_d). σ: the sandwich of :mod:`.noise` (white sensor noise plus the weave driven
+by the rider) with the Jacobian of all parameters, times the Student-t factor for n_eff − p
+degrees of freedom. Which model a segment gets is :mod:`.choice`'s.
 Units: t s, α and μ 1/s, ω_d rad/s; A, B, C in the signal's units, D in its units per second.
 """
 
@@ -31,6 +28,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..period.sigma import student_factor
+from .noise import ResidualNoise, driven_covariance, pooled_drive, residual_noise
 
 __all__ = ["RealModeFit", "RealModeFitFailed", "fit_with_real_mode", "real_mode_basis"]
 
@@ -46,16 +44,27 @@ class RealModeFitFailed(ArithmeticError):
 
 @dataclass(frozen=True)
 class RealModeFit:
-    """The fit of the ``eq23_trend`` or ``eq23_real`` model.
+    """The fit of the ``eq23``, ``eq23_trend`` or ``eq23_real`` model.
 
     Attributes:
         alpha: Decay rate of the oscillation ζω [1/s] (Re λ = −alpha).
         alpha_sigma: Its σ [1/s].
         omega_d: Damped angular frequency [rad/s] (Im λ).
         omega_d_sigma: Its σ [rad/s].
-        mu: The real mode's rate [1/s] (0: the trend).
+        mu: The real mode's rate [1/s] (0: the trend, or none).
         r2: Coefficient of determination [-].
         residual_rms: RMS of the residuals [signal units].
+        model: ``eq23`` (no trend), ``eq23_trend`` or ``eq23_real``.
+        n_params: Parameters fitted (5, 6 or 7).
+        sse: Sum of squared residuals [signal units²].
+        noise: The residuals' white-plus-AR(1) model (:mod:`.noise`): their worth in samples.
+        variance: Var(α) and Var(ω_d) as ``(α white, α per unit drive, ω white, ω per unit drive)``
+            (:class:`~.noise.DrivenCovariance`, times the Student factor²); the σ above use the
+            segment's own drive.
+        drive: This segment's estimate of the drive q̂ (may be negative; NaN: none) [units² / s].
+        drive_sigma: Its σ [units² / s].
+        coefficients: A, B, C, D of the linear basis (:func:`real_mode_basis`; D = 0 for ``eq23``).
+        t_mid: The time τ is counted from [s].
     """
 
     alpha: float
@@ -65,6 +74,21 @@ class RealModeFit:
     mu: float
     r2: float
     residual_rms: float
+    model: str = "eq23_trend"
+    n_params: int = 6
+    sse: float = math.nan
+    noise: ResidualNoise = ResidualNoise(math.nan, 0.0, 0.0)
+    variance: tuple[float, float, float, float] = (math.nan, math.nan, math.nan, math.nan)
+    drive: float = math.nan
+    drive_sigma: float = math.nan
+    coefficients: tuple[float, float, float, float] = (math.nan, math.nan, math.nan, math.nan)
+    t_mid: float = 0.0
+
+    def baseline(self, times: ArrayLike) -> FloatArray:
+        """The model without its oscillation, A + D (e^{μτ} − 1)/μ, at ``times`` [s] [signal units]."""
+        tau = np.asarray(times, dtype=float) - self.t_mid
+        phi, _ = real_mode_basis(tau, 0.0, 1.0, self.mu)
+        return np.asarray(self.coefficients[0] + self.coefficients[3] * phi[:, 3], dtype=float)
 
 
 def real_mode_basis(tau: FloatArray, alpha: float, omega_d: float, mu: float) -> tuple[FloatArray, FloatArray]:
@@ -106,9 +130,15 @@ def _centred(times: ArrayLike, samples: ArrayLike) -> tuple[FloatArray, FloatArr
 
 
 def fit_with_real_mode(
-    times: ArrayLike, samples: ArrayLike, alpha0: float, omega_d0: float, free_mu: bool = False
+    times: ArrayLike,
+    samples: ArrayLike,
+    alpha0: float,
+    omega_d0: float,
+    free_mu: bool = False,
+    trend: bool = True,
+    white: float = math.nan,
 ) -> RealModeFit:
-    """Fit the ``eq23_trend`` (or, ``free_mu``, the ``eq23_real``) model from the trial fitter's (α, ω_d).
+    """Fit ``eq23_trend`` (``free_mu``: ``eq23_real``; ``trend=False``: ``eq23``) from a starting (α, ω_d).
 
     Args:
         times: Sample times [s].
@@ -116,6 +146,9 @@ def fit_with_real_mode(
         alpha0: Starting ζω [1/s].
         omega_d0: Starting ω_d [rad/s].
         free_mu: Fit the real mode's rate μ (else μ = 0: a linear trend).
+        trend: Fit the trend or real mode at all (False: Eq 23, an offset and the oscillation).
+        white: The sensor's white-noise σ [signal units] for the noise model (:mod:`.noise`;
+            NaN: the residuals are taken as white).
 
     Raises:
         RealModeFitFailed: Fewer than 8 samples, or a singular design.
@@ -124,10 +157,12 @@ def fit_with_real_mode(
 
     t, y, tau = _centred(times, samples)
     n = y.size
+    free_mu = free_mu and trend
+    cols = 4 if trend else 3
 
     def residual(p: FloatArray) -> FloatArray:
         phi, _ = real_mode_basis(tau, float(p[0]), float(p[1]), float(p[2]) if free_mu else 0.0)
-        return np.asarray(phi @ _solve(phi, y) - y, dtype=float)
+        return np.asarray(phi[:, :cols] @ _solve(phi[:, :cols], y) - y, dtype=float)
 
     best = None
     for mu0 in MU_STARTS if free_mu else (0.0,):
@@ -140,31 +175,47 @@ def fit_with_real_mode(
     alpha, omega_d = float(best.x[0]), float(best.x[1])
     mu = float(best.x[2]) if free_mu else 0.0
     phi, dg = real_mode_basis(tau, alpha, omega_d, mu)
-    a, b, c, d = _solve(phi, y)
-    r = phi @ np.array([a, b, c, d]) - y
+    phi = phi[:, :cols]
+    coef = _solve(phi, y)
+    b, c = float(coef[1]), float(coef[2])
+    r = phi @ coef - y
     e = np.exp(-alpha * tau)
     osc = b * np.sin(omega_d * tau) + c * np.cos(omega_d * tau)
     quad = b * np.cos(omega_d * tau) - c * np.sin(omega_d * tau)
-    columns = [phi, -tau * e * osc, tau * e * quad] + ([d * dg] if free_mu else [])
+    columns = [phi, -tau * e * osc, tau * e * quad] + ([float(coef[3]) * dg] if free_mu else [])
     jac = np.column_stack(columns)
     p = jac.shape[1]
+    noise = residual_noise(r, white, p)
     try:
-        inverse = np.linalg.inv(jac.T @ jac)
+        driven = driven_covariance(t, jac, r, alpha, omega_d, white)
     except np.linalg.LinAlgError:
         raise RealModeFitFailed("singular design: the segment does not determine the model") from None
     sse = float(r @ r)
-    s2 = sse / (n - p)
-    factor = student_factor(n - p)
+    f2 = student_factor(max(1.0, noise.n_eff(n) - p)) ** 2
+    ia, iw = cols, cols + 1
+    variance = (f2 * float(driven.white[ia, ia]), f2 * float(driven.per_drive[ia, ia]),
+                f2 * float(driven.white[iw, iw]), f2 * float(driven.per_drive[iw, iw]))  # fmt: skip
+    q = pooled_drive([(driven.drive, driven.drive_sigma)])
     centred = y - float(np.mean(y))
     sst = float(centred @ centred)
+    d = float(coef[3]) if trend else 0.0
     return RealModeFit(
         alpha=alpha,
-        alpha_sigma=factor * math.sqrt(max(0.0, s2 * float(inverse[4, 4]))),
+        alpha_sigma=math.sqrt(max(0.0, variance[0] + q * variance[1])),
         omega_d=omega_d,
-        omega_d_sigma=factor * math.sqrt(max(0.0, s2 * float(inverse[5, 5]))),
+        omega_d_sigma=math.sqrt(max(0.0, variance[2] + q * variance[3])),
         mu=mu,
         r2=1.0 - sse / sst if sst > 0 else math.nan,
         residual_rms=math.sqrt(sse / n),
+        model="eq23_real" if free_mu else "eq23_trend" if trend else "eq23",
+        n_params=p,
+        sse=sse,
+        noise=noise,
+        variance=variance,
+        drive=driven.drive,
+        drive_sigma=driven.drive_sigma,
+        coefficients=(float(coef[0]), b, c, d),
+        t_mid=float(0.5 * (t[0] + t[-1])),
     )
 
 

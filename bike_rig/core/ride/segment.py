@@ -14,8 +14,11 @@ roll rate:
   above half-way between the two; it ends at the first peak of ``z`` after it.
 
 Each segment starts ``settle_s`` after its kick ends (the fast caster mode dies out) and ends
-at the first of: the oscillation lost in noise (``z`` stays below ``threshold`` σ for a
-whole window), the next kick (``gap_s`` before it), the end of the record, ``max_length_s``.
+at the first of: the free decay's end (its half-cycle peaks, :func:`.envelope.half_cycle_peaks`,
+leave the exponential envelope fitted to the ones before by more than ``envelope_tolerance``
+and the noise: the rider or the motor took over), the oscillation lost in noise (``z`` stays
+below ``threshold`` σ for a whole window), the next kick (``gap_s`` before it), the end of the
+record, ``max_length_s`` (a safety bound, not the rule).
 In the roll rate alone a kick is found only where the oscillation before it has decayed
 below 1/``rise`` of the kick's response: record the steer torque where kicks come often. The reasons for
 each start and end are recorded. The noise σ is robust: the median absolute deviation of the
@@ -32,6 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from .envelope import half_cycle_peaks
 from .record import RideRecord
 
 __all__ = ["Kick", "Segment", "SegmentOptions", "find_kicks", "noise_sigma", "segment_record"]
@@ -54,8 +58,9 @@ class SegmentOptions:
         merge_s: Torque runs closer than this are one kick [s].
         settle_s: The segment starts this long after its kick ends [s].
         gap_s: The segment ends this long before the next kick [s].
-        max_length_s: The longest segment [s]: over longer stretches the slow capsize mode in
-            the roll rate is no longer a linear trend (:mod:`.realmode`) and biases the fit.
+        max_length_s: The longest segment [s] (a safety bound: the envelope ends a segment).
+        envelope_tolerance: A half-cycle peak this far from the envelope (relative) ends the free decay.
+        envelope_peaks: Peaks that define the envelope before it may end the segment.
     """
 
     window_s: float = 1.0
@@ -65,7 +70,9 @@ class SegmentOptions:
     merge_s: float = 0.2
     settle_s: float = 0.2
     gap_s: float = 0.05
-    max_length_s: float = 3.0
+    max_length_s: float = 10.0
+    envelope_tolerance: float = 0.25
+    envelope_peaks: int = 4
 
 
 @dataclass(frozen=True)
@@ -177,6 +184,35 @@ def _baseline(t: FloatArray, y: FloatArray, opt: SegmentOptions) -> FloatArray:
     return np.asarray(median_filter(y, size=min(n, y.size), mode="nearest"), dtype=float)
 
 
+def _free_decay_end(t: FloatArray, z: FloatArray, sigma: float, opt: SegmentOptions) -> tuple[float, str] | None:
+    """Where the half-cycle peaks of ``z`` (from a segment's start) leave their exponential envelope, or None.
+
+    The half-period is the median spacing of the zero crossings of ``z`` smoothed over 50 ms (no
+    chatter of the noise); peaks below ``threshold`` σ are noise (the oscillation is lost).
+    """
+    if t.size < 8:
+        return None
+    dt = float(np.median(np.diff(t)))
+    width = max(1, int(round(0.05 / dt)))
+    smooth = np.convolve(z, np.ones(width) / width, mode="same")
+    crossings = np.flatnonzero(np.signbit(smooth[1:]) != np.signbit(smooth[:-1]))
+    if crossings.size < opt.envelope_peaks + 2:
+        return None
+    half = float(np.median(np.diff(t[crossings])))
+    times, peaks = half_cycle_peaks(t, smooth, math.pi / half)
+    above = np.flatnonzero(peaks < opt.threshold * sigma)
+    times, peaks = (times[: above[0]], peaks[: above[0]]) if above.size else (times, peaks)
+    for k in range(opt.envelope_peaks, peaks.size):
+        slope, icpt = np.polyfit(times[:k], np.log(peaks[:k]), 1)
+        expected = math.exp(icpt + slope * times[k])
+        tol = opt.envelope_tolerance * expected + 3.0 * math.sqrt(2.0) * sigma
+        if abs(peaks[k] - expected) > tol:
+            end = float(times[k - 1] + 0.5 * half)  # the last peak on the envelope's half-cycle
+            return end, (f"free decay ends: the half-cycle peak at {times[k]:.2f} s is {peaks[k]:.3g}, "
+                         f"the envelope of the {k} before says {expected:.3g}")  # fmt: skip
+    return None
+
+
 def segment_record(record: RideRecord, options: SegmentOptions | None = None) -> list[Segment]:
     """The free decays of a long record (module docstring), in time order."""
     opt = options or SegmentOptions()
@@ -200,6 +236,9 @@ def segment_record(record: RideRecord, options: SegmentOptions | None = None) ->
         if k + 1 < len(kicks):
             stops.append((kicks[k + 1].onset - opt.gap_s, f"next kick at {kicks[k + 1].onset:.2f} s"))
         stops.append((float(t[-1]), "end of record"))
+        decay_end = _free_decay_end(t[i0:], (y - _baseline(t, y, opt))[i0:], sigma, opt)
+        if decay_end is not None:
+            stops.append(decay_end)
         stops.append((start + opt.max_length_s, f"the longest segment, {opt.max_length_s:g} s"))
         stop, why = min(stops, key=lambda s: s[0])
         if stop <= start:

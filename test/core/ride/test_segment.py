@@ -72,3 +72,52 @@ def test_noise_sigma_is_robust_to_the_oscillation() -> None:
     t = np.arange(3000) / 100.0
     y = 0.3 * np.sin(5.0 * t) + rng.normal(0.0, 0.01, t.size)
     assert noise_sigma(y) == pytest.approx(0.01, rel=0.1)
+
+
+def _raw_log(rider: float, pushes: tuple[float, ...], seed: int) -> RideRecord:
+    """A raw log without a torque channel: the rider steering, the assist motor saturating, lateral pushes."""
+    from bike_rig.core.ride.ridesim import RideConditions, simulate_log
+
+    ps = add_rider(_parameters(str(config_file("bicycles/browser.yaml")), "centroid"), PAPER_RIDER)
+    ms = canonical_with_sigma(ps)
+    assist = resolve_feedback(str(config_file("feedback/balance_assist.yaml")))
+    assert assist is not None
+    gains = assist.gains(4.2) * np.array([1.0, 1.0, 2.0, 1.0])
+    rng = np.random.default_rng(seed)
+    t, y, _ = simulate_log(ms.matrices, ms.g, 4.2, gains, 40.0, pushes, RideConditions(rider_torque=rider), rng)
+    return RideRecord("log", t, y)
+
+
+def test_a_raw_log_gives_each_push_a_segment_that_ends_with_its_free_decay() -> None:
+    pushes = (3.0, 15.0, 27.0)
+    record = _raw_log(0.1, pushes, seed=11)
+    segments = segment_record(record)
+    starts = [s.kick.onset for s in segments]
+    for p in pushes:
+        assert any(0.0 <= s - p < 0.3 for s in starts), (p, starts)
+    for seg in (s for s in segments if any(0.0 <= s.kick.onset - p < 0.3 for p in pushes)):
+        assert seg.stop - seg.start < 10.0 and "longest segment" not in seg.stop_reason
+        assert seg.stop_reason.startswith(("free decay ends", "lost in noise")), seg.stop_reason
+        inside = (record.times >= seg.start) & (record.times <= seg.stop)
+        m = fit_segment(record.times[inside], record.signal[inside], speed=4.2)
+        assert m.valid and m.real < 0
+
+
+def test_ordinary_riding_gives_no_clean_eigenvalue() -> None:
+    record = _raw_log(0.1, (), seed=12)
+    for seg in segment_record(record):
+        inside = (record.times >= seg.start) & (record.times <= seg.stop)
+        assert not fit_segment(record.times[inside], record.signal[inside], speed=4.2).clean, seg
+
+
+def test_a_segment_ends_where_its_envelope_stops_explaining_the_record() -> None:
+    """A push at 2 s, its free decay, then the rider pumps the weave from 5 s: the segment ends near 5 s."""
+    rng = np.random.default_rng(9)
+    t = np.arange(0.0, 14.0, 0.01)
+    after = np.clip(t - 2.0, 0.0, None)
+    pumped = np.clip(t - 5.0, 0.0, 1.5) / 1.5 * 0.25  # the envelope grows again from 5 s
+    y = np.where(t >= 2.0, (0.4 * np.exp(-0.3 * after) + pumped) * np.sin(8.6 * after), 0.0)
+    record = RideRecord("pumped", t, y + rng.normal(0.0, 0.005, t.size))
+    (seg,) = segment_record(record)
+    assert seg.kick.onset == pytest.approx(2.0, abs=0.3)
+    assert seg.stop_reason.startswith("free decay ends") and 4.7 < seg.stop < 5.6, (seg.stop, seg.stop_reason)
