@@ -78,6 +78,8 @@ _DRIVER = "bike_rig.nodes.driver"
 _PARAMETER = "bike_rig.nodes.parameter"
 _MODEL = "bike_rig.nodes.model"
 _RECORDER = "bike_rig.nodes.recorder"
+#: The nodes that publish a ``/diagnostics`` heartbeat (followed even if never heard).
+_HEARTBEAT_MODULES = frozenset({_DRIVER, "bike_rig.nodes.fitter", _PARAMETER, _MODEL, _RECORDER})
 
 
 def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -427,7 +429,10 @@ class _Session:
         self.graph, self.out, self.log_dir, self.domain_id, self.peers = graph, out, log_dir, domain_id, peers
         self.tracker = RunTracker()
         self.stop = _Stop()
-        self.watch = StallWatch(nodes={n.name for n in graph.nodes})
+        self.watch = StallWatch(
+            nodes={n.name for n in graph.nodes},
+            expected={n.name for n in graph.nodes if n.module in _HEARTBEAT_MODULES},
+        )
         self.stopping: set[str] = set()  # nodes asked to stop: silent, not stalled
         self.running: RunningGraph | None = None
         recorder = _node_of(graph, _RECORDER)

@@ -29,13 +29,15 @@ from ..session.controller import GraphEvent, StartReply
 from ..session.plan import TrialItem
 from .run_monitor import GraphMonitor
 
-__all__ = ["SERVICE_TIMEOUT_S", "SessionLink"]
+__all__ = ["DISCOVERY_TIMEOUT_S", "SERVICE_TIMEOUT_S", "SessionLink"]
 
 _msgs: Any = importlib.import_module("bike_rig_msgs.msg")
 _srvs: Any = importlib.import_module("bike_rig_msgs.srv")
 
-#: Longest wait for the driver's answer to a start or stop, s.
-SERVICE_TIMEOUT_S = 5.0
+#: Longest wait for the driver's answer to a start or stop, s (a loaded machine answers in seconds).
+SERVICE_TIMEOUT_S = 15.0
+#: Longest wait for the driver's services to be discovered, s (first call after the graph starts).
+DISCOVERY_TIMEOUT_S = 30.0
 #: How long one spin waits while a service call is pending, s.
 _CALL_SPIN_S = 0.005
 
@@ -70,7 +72,7 @@ class SessionLink:
         return out
 
     def _call(self, client: Any, request: Any) -> Any:
-        if not client.wait_for_service(timeout_sec=SERVICE_TIMEOUT_S):
+        if not client.wait_for_service(timeout_sec=DISCOVERY_TIMEOUT_S):
             return None
         future = client.call_async(request)
         deadline = time.monotonic() + SERVICE_TIMEOUT_S
@@ -88,9 +90,8 @@ class SessionLink:
         req.note = f"plan item {item.item_id}"
         res = self._call(self._start, req)
         if res is None:
-            return StartReply(
-                False, "", f"no answer from the driver ({topics.START_TRIAL}) within {SERVICE_TIMEOUT_S:g} s"
-            )
+            what = f"no answer from the driver ({topics.START_TRIAL}) within {SERVICE_TIMEOUT_S:g} s"
+            return StartReply(False, "", f"{what} (is it running?)")
         return StartReply(bool(res.accepted), str(res.trial_id), str(res.message))
 
     def stop_trial(self, trial_id: str, abort: bool) -> tuple[bool, str]:

@@ -20,10 +20,13 @@ from enum import Enum
 
 from ..diagnostics import INPUT_LAG, Level, Status, node_of
 
-__all__ = ["CAUGHT_UP_S", "RESUMED_S", "SILENT_S", "StallWatch", "Standing", "StandingChange"]
+__all__ = ["CAUGHT_UP_S", "NEVER_HEARD_S", "RESUMED_S", "SILENT_S", "StallWatch", "Standing", "StandingChange"]
 
 #: A node whose ``/diagnostics`` heartbeat (1 Hz) has been silent this long is stalled, s.
 SILENT_S = 4.0
+#: An expected node never heard while its peers have been heard this long is stalled, s (longer
+#: than :data:`SILENT_S`: discovery of one publisher may lag another's on a loaded machine).
+NEVER_HEARD_S = 10.0
 #: A node behind its input has caught up once its arrays have said so for this long (two arrays,
 #: not a burst), s.
 CAUGHT_UP_S = 0.5
@@ -90,13 +93,16 @@ class StallWatch:
     """Follows the nodes' heartbeats and input lags (see the module docstring); ROS-free.
 
     Feed it every array as it arrives (:meth:`heard`), then ask :meth:`check` for the changes.
-    A node is followed from its first array on; one whose process ended (``ended``) or that
-    was restarted (:meth:`forget`) is not silent, it is gone.
+    A node is followed from its first array on; an ``expected`` node never heard is followed
+    from :data:`NEVER_HEARD_S` after the first array of any node (it may have stalled before
+    its first heartbeat reached us). One whose process ended (``ended``) or that was restarted
+    (:meth:`forget`) is not silent, it is gone.
 
     Args:
         nodes: The nodes to follow (None: every node heard).
         silent_s: Silence after which a node counts as stalled, s.
         clock: The clock, s (monotonic; tests pass a fake one).
+        expected: Nodes that publish a heartbeat and must be heard (a subset of ``nodes``).
     """
 
     def __init__(
@@ -104,12 +110,16 @@ class StallWatch:
         nodes: Collection[str] | None = None,
         silent_s: float = SILENT_S,
         clock: Callable[[], float] = time.monotonic,
+        expected: Collection[str] = (),
     ) -> None:
         """Follow no node yet."""
         self._only = None if nodes is None else frozenset(nodes)
         self.silent_s = silent_s
         self._clock = clock
         self._nodes: dict[str, _Node] = {}
+        self._expected = frozenset(expected)
+        self._gone: set[str] = set()
+        self._first_heard: float | None = None
 
     def heard(self, statuses: Sequence[Status]) -> None:
         """One ``/diagnostics`` array arrived now (its statuses, all of one node)."""
@@ -119,6 +129,9 @@ class StallWatch:
         if self._only is not None and node not in self._only:
             return
         now = self._clock()
+        if self._first_heard is None:
+            self._first_heard = now
+        self._gone.discard(node)
         n = self._nodes.setdefault(node, _Node(now))
         n.heard_at = now
         lag = next((s for s in statuses if s.name == f"{node}: {INPUT_LAG}"), None)
@@ -132,6 +145,14 @@ class StallWatch:
     def forget(self, node: str) -> None:
         """Stop following ``node`` (it ended or was restarted: its next array starts afresh)."""
         self._nodes.pop(node, None)
+        self._gone.add(node)
+
+    def _follow_never_heard(self, now: float) -> None:
+        """Follow the expected nodes not heard :data:`NEVER_HEARD_S` after the first array."""
+        if self._first_heard is None or now - self._first_heard < NEVER_HEARD_S:
+            return
+        for node in self._expected - self._nodes.keys() - self._gone:
+            self._nodes[node] = _Node(self._first_heard)
 
     def check(self, ended: Collection[str] = ()) -> list[StandingChange]:
         """The nodes whose standing changed since the last call, one change each.
@@ -141,8 +162,9 @@ class StallWatch:
         """
         now = self._clock()
         out = []
-        for node in [k for k in self._nodes if k in ended]:
+        for node in [k for k in self._nodes.keys() | self._expected if k in ended]:
             self.forget(node)
+        self._follow_never_heard(now)
         for node, n in self._nodes.items():
             silence = now - n.heard_at
             if silence >= self.silent_s:
@@ -174,7 +196,11 @@ class StallWatch:
     def longest_silence(self) -> float:
         """The longest time since a followed node's last array, s (0 when none is followed)."""
         now = self._clock()
-        return max((now - n.heard_at for n in self._nodes.values()), default=0.0)
+        self._follow_never_heard(now)
+        silences = [now - n.heard_at for n in self._nodes.values()]
+        if self._first_heard is not None and self._expected - self._nodes.keys() - self._gone:
+            silences.append(now - self._first_heard)  # (an expected node not heard yet)
+        return max(silences, default=0.0)
 
     @staticmethod
     def _on_time_long_enough(n: _Node) -> bool:

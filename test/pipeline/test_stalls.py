@@ -2,9 +2,10 @@
 
 from __future__ import annotations
 
+from bike_rig.cli.run_cmd import HEARD_S
 from bike_rig.diagnostics import Level, Status
 from bike_rig.pipeline.health import InputLag, input_lag_statuses
-from bike_rig.pipeline.stalls import RESUMED_S, SILENT_S, StallWatch, Standing
+from bike_rig.pipeline.stalls import NEVER_HEARD_S, RESUMED_S, SILENT_S, StallWatch, Standing
 
 
 class Clock:
@@ -120,3 +121,25 @@ def test_an_ended_or_forgotten_node_is_gone_not_stalled_and_other_nodes_are_not_
     assert watch.troubled() == {}
     assert wait(watch, clock, 10.0) == []
     assert beat(watch, clock, "fitter", 1, lag_s=0.0) == []  # a restarted node first seen on time: nothing
+
+
+def test_an_expected_node_stalled_before_its_first_heartbeat_is_said_and_waited_for() -> None:
+    clock = Clock()
+    watch = StallWatch(nodes={"fitter", "parameter", "bridge"}, clock=clock, expected={"fitter", "parameter"})
+    assert beat(watch, clock, "fitter", round(NEVER_HEARD_S) - 2) == []  # (still being discovered: quiet)
+    assert watch.longest_silence() >= HEARD_S  # (a give-up must wait for it)
+    lines = beat(watch, clock, "fitter", 4)
+    assert lines == [f"parameter silent for {NEVER_HEARD_S:.0f} s (stalled?): results will follow"]
+    assert watch.troubled() == {"parameter": Standing.SILENT}  # ("bridge" has no heartbeat: never said)
+    watch.heard(array("parameter"))
+    assert watch.check() == []  # (back: caught up once on time for long enough)
+    assert "parameter caught up" in beat(watch, clock, "parameter", round(RESUMED_S) + 1)
+
+
+def test_an_expected_node_whose_process_ended_before_it_was_heard_is_gone_not_silent() -> None:
+    clock = Clock()
+    watch = StallWatch(clock=clock, expected={"fitter", "parameter"})
+    beat(watch, clock, "fitter", 2)
+    lines = wait(watch, clock, NEVER_HEARD_S + 1, ended=("parameter",))
+    assert lines == ["fitter silent for 4 s (stalled?): results will follow"]
+    assert "parameter" not in watch.troubled()

@@ -5,7 +5,6 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 from bike_rig.core.sim import load_rig, load_true_parameters, simulate_session
@@ -59,7 +58,6 @@ def test_a_silent_can_gyro_warns_within_a_second_and_the_trial_aborts(tmp_path: 
     """The CAN source on python-can's virtual bus with nothing sending: the console says so, ABORT works."""
     script = ["start TcR1#1", "wait 1.5", "abort", "wait 5", "quit"]
     argv = [str(BIKE_RIG), "session", "--plain", "--json", "--source", "can", "--output", str(tmp_path / "s")]
-    t0 = time.monotonic()
     try:
         done = subprocess.run(argv, input="\n".join(script) + "\n", capture_output=True, text=True, timeout=120,
                               env=ros_env)  # fmt: skip
@@ -73,4 +71,3 @@ def test_a_silent_can_gyro_warns_within_a_second_and_the_trial_aborts(tmp_path: 
     aborted = [x for x in lines if x.get("command") == "abort"]
     assert aborted and aborted[0]["kind"] == "ok" and "0 samples" in aborted[0]["text"]
     assert any("aborted — REDO" in x["text"] for x in lines if x["kind"] == "result")
-    assert time.monotonic() - t0 < 60
