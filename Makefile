@@ -1,4 +1,4 @@
-# bike_rig: make demo | make test | make lint | make bench | make soak | make fuzz | make clean
+# bike_rig: make demo | make test | make lint | make docs | make bench | make soak | make fuzz | make clean
 #
 # The tests also need Debian's chromium (/usr/bin/chromium, the report's render test) and tmux
 # (/usr/bin/tmux, the operator console's tests): tools/setup_debian.sh installs them with
@@ -34,7 +34,7 @@ unexport ROS_LOCALHOST_ONLY ROS_STATIC_PEERS
 PYTEST_TIMEOUT_S := 1800
 BENCH_TIMEOUT_S := 1800
 
-.PHONY: venv bench-deps debian-tools demo test lint typecheck pytest bench soak fuzz clean
+.PHONY: venv bench-deps debian-tools demo test lint typecheck docs pytest bench soak fuzz clean
 
 venv:
 	@tools/setup_venv.sh
@@ -54,14 +54,19 @@ lint: venv
 typecheck: venv
 	$(BIN)/mypy bike_rig
 
+# the manual (docs/, Sphinx + MyST) into build/docs/; any warning fails the build
+docs: venv
+	$(BIN)/sphinx-build -W --keep-going -q -b html docs build/docs
+
 pytest: venv
 	@tools/setup_debian.sh
 	timeout -k 30 $(PYTEST_TIMEOUT_S) $(BIN)/python -m pytest
 
-# in this order: ruff, mypy, pytest (each stops the run on failure)
+# in this order: ruff, mypy, the manual, pytest (each stops the run on failure)
 test: venv
 	$(BIN)/ruff check $(LINT_PATHS)
 	$(BIN)/mypy bike_rig
+	$(BIN)/sphinx-build -W --keep-going -q -b html docs build/docs
 	@tools/setup_debian.sh
 	timeout -k 30 $(PYTEST_TIMEOUT_S) $(BIN)/python -m pytest
 
