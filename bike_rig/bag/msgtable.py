@@ -14,6 +14,7 @@ sequence number (as the recorder stored it) and its rank in the recorder's order
 
 from __future__ import annotations
 
+import os
 import struct
 import threading
 from collections.abc import Iterable
@@ -25,7 +26,6 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..pipeline.forked import default_workers
 from .fastread import Chunk, FastBag, Unusual, need, split_order
 
 try:
@@ -54,7 +54,7 @@ IntArray = NDArray[np.int64]
 _MESSAGE_HEAD = 1 + 8 + 2 + 4 + 8 + 8
 
 #: Threads that decompress and check chunks at once.
-_WORKERS = default_workers()
+_WORKERS = max(1, min(len(os.sched_getaffinity(0)), 4))
 
 _U32 = struct.Struct("<I")
 _U64 = struct.Struct("<Q")

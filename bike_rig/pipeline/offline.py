@@ -5,9 +5,7 @@ no ROS runtime, so a replayed bag, a simulated session and the report get the nu
 live graph would publish (bit-identical in practice):
 
 * :meth:`OfflineGraph.run` fits every trial, assembles the parameters once and computes the
-  model once: the replay of a recording (:mod:`bike_rig.bag.replay`) and the report. The trials
-  are fitted on every CPU (:func:`~bike_rig.pipeline.forked.forked_map`: forked processes take
-  them as they come), with the results of one process to the last bit;
+  model once: the replay of a recording (:mod:`bike_rig.bag.replay`) and the report;
 * :meth:`OfflineGraph.step` takes one trial at a time and returns what the graph publishes
   after it (the estimate, the session's state and, once complete, the model): the simulated
   live results of :mod:`bike_rig.bag.simulated`.
@@ -15,11 +13,9 @@ live graph would publish (bit-identical in practice):
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
-from typing import cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -28,11 +24,10 @@ from ..core.benchmark import ComMethod
 from ..core.measurements import Measurements
 from ..core.period import PeriodFit
 from ..core.uncertainty.matrix_sigma import SigmaConvention
-from .acquire import SampleBatch, SampleBlock, TrialEventRecord
+from .acquire import SampleBatch, TrialEventRecord
 from .assemble import SessionAssembly, SessionParameters
 from .errors import AssemblyError
 from .fit import TrialFit, TrialFitOptions, fit_trial
-from .forked import forked_map
 from .model import ModelMatrices, StabilitySweep, compute_model
 
 __all__ = [
@@ -177,45 +172,18 @@ class OfflineGraph:
         trials: Iterable[TrialInput],
         options_for: Callable[[TrialInput], TrialFitOptions] | None = None,
     ) -> OfflineRun:
-        """Fit every trial (on every CPU), then assemble and compute the model once.
+        """Fit every trial, then assemble and compute the model once.
 
         Args:
             trials: The session's trials.
             options_for: The fit options of each trial (the settings' when None).
         """
         inputs = [(t, options_for(t) if options_for is not None else self.settings.fit_options) for t in trials]
-        fitted = forked_map(self._fit_one, inputs, ship=_ship, land=_land)
+        fitted = [self._fit_one(item) for item in inputs]
         rejected = {r.trial_id: why for r in fitted if (why := self._add(r))}
         session = self.assembly.result()
         matrices, stability = self.model(session)
         return OfflineRun(tuple(fitted), rejected, session, matrices, stability)
-
-
-def _block_samples(trial: TrialInput) -> FloatArray | None:
-    """The samples a fit of ``trial`` keeps when it takes its batches as one block (a view), or None."""
-    block = trial.batches
-    if not isinstance(block, SampleBlock) or not len(block.bounds):
-        return None
-    return block.rates[int(block.bounds[0]) : int(block.bounds[-1])]
-
-
-def _ship(item: tuple[TrialInput, TrialFitOptions], result: TrialFit) -> tuple[TrialFit, bool]:
-    """What a forked worker sends back: the fit, without its samples when they are the block's own view."""
-    own = _block_samples(item[0])
-    kept = result.samples
-    if (
-        own is not None and kept is not None and result.sample_times is None
-        and kept.ctypes.data == own.ctypes.data and kept.shape == own.shape and kept.strides == own.strides
-        and kept.dtype == own.dtype
-    ):  # fmt: skip
-        return dataclasses.replace(result, samples=None), True
-    return result, False
-
-
-def _land(item: tuple[TrialInput, TrialFitOptions], sent: object) -> TrialFit:
-    """The fit a worker sent (:func:`_ship`), its samples the block's view again."""
-    result, stripped = cast(tuple[TrialFit, bool], sent)
-    return dataclasses.replace(result, samples=_block_samples(item[0])) if stripped else result
 
 
 @dataclass(frozen=True)

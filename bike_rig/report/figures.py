@@ -24,6 +24,7 @@ from __future__ import annotations
 import base64
 import io
 import multiprocessing as mp
+import os
 import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor
@@ -35,7 +36,6 @@ from matplotlib.figure import Figure
 
 from ..core.errors import BikeRigError
 from ..core.feedback import Feedback
-from ..pipeline.forked import MAX_WORKERS, default_workers
 from ..plots.registry import (
     FIGURES,
     FIT_DPI,
@@ -67,6 +67,17 @@ REPORT_DPI = 100
 _CLOSED_NOTE = " Closed loop A − B K of the steer-torque feedback (σ from the parameters and the gains given with σ)."
 #: Fewer figures than this are drawn in this process (a pool costs more than it saves).
 MIN_PARALLEL = 4
+#: Most processes to draw figures in.
+MAX_WORKERS = 4
+
+
+def default_workers() -> int:
+    """Processes to draw in: the CPUs this process may use, at most :data:`MAX_WORKERS` (at least 1)."""
+    try:
+        cpus = len(os.sched_getaffinity(0))
+    except AttributeError:  # (not on Linux)
+        cpus = os.cpu_count() or 1
+    return max(1, min(cpus, MAX_WORKERS))
 
 
 @dataclass(frozen=True)

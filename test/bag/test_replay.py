@@ -11,20 +11,16 @@ import contextlib
 import io
 import json
 import math
-import os
-import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import pytest
 
 from bike_rig.bag.compare import in_sigma, relative_difference
 from bike_rig.bag.errors import NoRigTopicsError, ReplayError
-from bike_rig.bag.replay import FitOverrides, ReplaySettings, replay_bag, result_json
+from bike_rig.bag.replay import FitOverrides, ReplaySettings, replay_bag
 from bike_rig.bag.simulated import SimulatedMessage, live_results, simulated_messages, write_simulated_bag
 from bike_rig.cli import replay_cmd
 from bike_rig.core.benchmark import compute_parameters
@@ -33,7 +29,6 @@ from bike_rig.core.period import FitOptions, WindowPolicy, combine_periods, fit_
 from bike_rig.core.sim import SimulatedSession
 from bike_rig.core.uncertainty.matrix_sigma import canonical_with_sigma
 from bike_rig.core.whipple import critical_speeds
-from bike_rig.pipeline import forked, offline
 from bike_rig.pipeline.fit import TrialFitOptions
 from bike_rig.topics import GYRO, STATIC_READINGS, TRIAL_EVENTS
 
@@ -117,40 +112,6 @@ def test_replay_reproduces_the_recorded_live_results(live_bag: Path) -> None:
     code, out, err = run_cli("replay", str(live_bag))
     assert (code, err) == (0, "")
     assert "live results: identical" in out
-
-
-def test_trials_fitted_in_forked_processes_replay_bit_for_bit(live_bag: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    """With two CPUs a forked child fits some of the trials: the replay is the one-process replay."""
-    monkeypatch.setattr(forked, "default_workers", lambda: 1)
-    one = replay_bag(live_bag)
-    children: list[int] = []
-    real_fork = os.fork
-
-    def fork() -> int:
-        pid = real_fork()
-        if pid:
-            children.append(pid)
-        return pid
-
-    landed: list[bool] = []  # whether each fit came back without its samples (the parent has them)
-    real_land = offline._land
-
-    def land(item: Any, sent: Any) -> Any:
-        landed.append(sent[1])
-        return real_land(item, sent)
-
-    monkeypatch.setattr(forked, "default_workers", lambda: 2)
-    monkeypatch.setattr(forked, "can_fork", lambda: True)  # (whatever threads earlier tests left)
-    monkeypatch.setattr(forked.os, "fork", fork)
-    monkeypatch.setattr(offline, "_land", land)
-    two = replay_bag(live_bag)
-    assert len(children) == 1 and len(two.trials) >= forked.MIN_ITEMS
-    assert landed and all(landed)  # (the child fitted some, and sent them back without their samples)
-    assert result_json(two) == result_json(one) and two.live.identical
-    for a, b in zip(one.trials, two.trials, strict=True):
-        assert repr(b.result) == repr(a.result)
-        assert a.samples is not None and b.samples is not None
-        assert np.array_equal(b.samples, a.samples)
 
 
 def test_other_fit_settings_are_used_and_reported_as_different(live_bag: Path) -> None:
@@ -286,32 +247,6 @@ def children_of(pid: int) -> list[int]:
         if int(fields[1]) == pid:
             found.append(int(stat.parent.name))
     return found
-
-
-@pytest.mark.skipif(forked.default_workers() < 2 or not Path("/proc/self/stat").exists(), reason="two CPUs, /proc")
-def test_ctrl_c_stops_the_replay_and_its_forked_fitter(live_bag: Path) -> None:
-    """Ctrl-C (SIGINT to the process group, as from a terminal) while the trials are fitted in two processes."""
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "bike_rig.cli.main", "replay", str(live_bag)],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=dict(os.environ, PYTHONPATH=str(REPO)),
-        start_new_session=True,
-    )  # fmt: skip
-    try:
-        child: list[int] = []
-        deadline = time.monotonic() + 120
-        while not child and proc.poll() is None and time.monotonic() < deadline:
-            child = children_of(proc.pid)  # (the forked fitter, while the trials are fitted)
-        assert child, "the replay ended without forking a fitter"
-        os.killpg(proc.pid, signal.SIGINT)
-        _, err = proc.communicate(timeout=120)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
-    assert proc.returncode == 130, err
-    assert err.strip() == "bike-rig replay: interrupted"
-    with pytest.raises(ProcessLookupError):
-        os.kill(child[0], 0)  # (reaped: not even a zombie left)
 
 
 def test_in_sigma() -> None:
