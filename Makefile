@@ -44,6 +44,7 @@ bench-deps:
 
 debian-tools:
 	@tools/setup_debian.sh
+	@tools/setup_node.sh
 
 demo: venv
 	$(BIN)/bike-rig demo
@@ -56,6 +57,7 @@ typecheck: venv
 
 pytest: venv
 	@tools/setup_debian.sh
+	@tools/setup_node.sh
 	timeout -k 30 $(PYTEST_TIMEOUT_S) $(BIN)/python -m pytest
 
 # in this order: ruff, mypy, pytest (each stops the run on failure)
@@ -63,6 +65,7 @@ test: venv
 	$(BIN)/ruff check $(LINT_PATHS)
 	$(BIN)/mypy bike_rig
 	@tools/setup_debian.sh
+	@tools/setup_node.sh
 	timeout -k 30 $(PYTEST_TIMEOUT_S) $(BIN)/python -m pytest
 
 # bicycleparameters lives only in .bench-deps/ (put on PYTHONPATH here), never in the test env

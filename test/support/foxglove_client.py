@@ -1,7 +1,8 @@
 """A Foxglove WebSocket protocol client for tests (``websockets``' synchronous client).
 
 Speaks the protocol as the Foxglove app does: offers the subprotocols ``foxglove.sdk.v1`` and
-``foxglove.websocket.v1``, reads ``serverInfo`` and ``advertise`` (JSON text frames), sends
+``foxglove.websocket.v1`` (or only those asked for: ``@foxglove/ws-protocol`` clients and
+Lichtblick offer only ``foxglove.websocket.v1``), reads ``serverInfo`` and ``advertise`` (JSON text frames), sends
 ``subscribe`` and decodes the binary message-data frames: opcode ``0x01``, subscription id
 (u32, little-endian), log time (u64, ns), then the payload (here: CDR).
 """
@@ -111,17 +112,18 @@ class FoxgloveClient:
         self.ws.send(json.dumps({"op": "subscribe", "subscriptions": subs}))
 
 
-
 @contextlib.contextmanager
-def foxglove_client(url: str, timeout: float = 30.0) -> Iterator[FoxgloveClient]:
-    """A connected client, closed (with the closing handshake) on exit.
+def foxglove_client(
+    url: str, timeout: float = 30.0, subprotocols: Iterable[str] = SUBPROTOCOLS
+) -> Iterator[FoxgloveClient]:
+    """A connected client offering ``subprotocols``, closed (with the closing handshake) on exit.
 
     Retries until the server listens, at most ``timeout`` s.
     """
     deadline = time.monotonic() + timeout
     while True:
         try:
-            ws = connect(url, subprotocols=list(SUBPROTOCOLS), max_size=None, open_timeout=5)
+            ws = connect(url, subprotocols=[Subprotocol(p) for p in subprotocols], max_size=None, open_timeout=5)
             break
         except OSError:
             if time.monotonic() > deadline:
