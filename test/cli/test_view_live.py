@@ -22,6 +22,7 @@ from rosbags.rosbag2 import Reader
 
 from bike_rig.bag.typestore import rig_typestore
 from bike_rig.liveview import DIAGNOSTICS, VIEW_TOPICS
+from bike_rig.nodes.foxglove_relay import LEGACY_SUBPROTOCOL, SUBPROTOCOLS
 from bike_rig.topics import EIGEN_SWEEP, GYRO, MATRICES, PARAMETERS, PERIODS, TRIAL_EVENTS
 from test.cli.test_run_live import _all_lines, _bike_rig, _rig
 from test.ros.processes import RosProcess
@@ -107,10 +108,15 @@ def test_bike_rig_view_prints_where_to_connect_and_serves(ros_env: dict[str, str
     with RosProcess("view", cmd, env, tmp_path) as view:
         line = view.expect("serving", 60)
         assert line == f"ROS_DOMAIN_ID={ros_env['ROS_DOMAIN_ID']} to Foxglove on ws://127.0.0.1:{port}", line
-        with foxglove_client(f"ws://127.0.0.1:{port}") as client:
-            client.read_until(lambda: GYRO.name in client.by_topic(), 30, "advertise")
-            assert client.server_info is not None and client.server_info["name"] == "bike_rig"
+        for offered in (SUBPROTOCOLS, [LEGACY_SUBPROTOCOL]):  # both names: the Foxglove app's, and Lichtblick's
+            with foxglove_client(f"ws://127.0.0.1:{port}", subprotocols=offered) as client:
+                client.read_until(lambda: GYRO.name in client.by_topic(), 30, "advertise")
+                assert client.server_info is not None and client.server_info["name"] == "bike_rig"
+        # nothing runs on this domain: the view says so, and how to point it at a session
+        hint = view.expect("no", 60)
+        assert hint.startswith(f"bike_rig graph found on ROS_DOMAIN_ID={ros_env['ROS_DOMAIN_ID']}: "), hint
         assert view.stop() == 0, view.describe()
     text = "\n".join(_all_lines(view))
-    assert "  layout: Layouts > Import from file > " in text and text.rstrip().endswith("Ctrl-C stops"), text
+    assert "  layout: Layouts > Import from file > " in text and "\nCtrl-C stops\n" in text, text
     assert "config/foxglove/bike_rig_layout.json" in text, text
+    assert "\n  bike-rig run and bike-rig session print their graph's ROS_DOMAIN_ID; point the view at it: " in text
