@@ -389,6 +389,10 @@ class GyroSource(ABC):
         """One line for the log: what the source reads."""
         return self.name
 
+    def notices(self) -> list[str]:
+        """Warnings for the operator that arose since the last call (the driver logs each); none here."""
+        return []
+
     def silence_hint(self) -> str:
         """What to check when a recording trial gets no samples (ends the driver's warning)."""
         return f"check that the {self.name} source is delivering"
