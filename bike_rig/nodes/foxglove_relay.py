@@ -68,7 +68,6 @@ class FoxgloveRelay:
     def __init__(self, host: str, port: int, upstream_port: int) -> None:
         """Start the relay's thread and listen."""
         self.upstream = f"ws://127.0.0.1:{upstream_port}"
-        self.clients = 0
         self._loop = asyncio.new_event_loop()
         self._thread = threading.Thread(target=self._loop.run_forever, name="foxglove-relay", daemon=True)
         self._thread.start()
@@ -87,7 +86,6 @@ class FoxgloveRelay:
 
     async def _relay(self, client: ServerConnection) -> None:
         """One client: connect to the SDK's server and forward both ways until one side closes."""
-        self.clients += 1
         try:
             upstream = await connect(
                 self.upstream, subprotocols=[SDK_SUBPROTOCOL], compression=None, max_size=None,
