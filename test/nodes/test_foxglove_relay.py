@@ -13,12 +13,10 @@ same with the name it offers by default.
 from __future__ import annotations
 
 import json
-import shutil
 import subprocess
 import threading
 import time
 from collections.abc import Iterator
-from pathlib import Path
 from typing import Any
 
 import pytest
@@ -26,12 +24,11 @@ from websockets.exceptions import InvalidStatus
 from websockets.sync.client import connect
 
 from bike_rig.nodes.foxglove_relay import LEGACY_SUBPROTOCOL, SDK_SUBPROTOCOL, FoxgloveRelay, RelayError
-from test.support.foxglove_client import foxglove_client
+from test.support.foxglove_client import foxglove_client, official_client
 
 foxglove = pytest.importorskip("foxglove")
 
 TOPIC = "/bike_rig/test"
-PROBE = Path(__file__).resolve().parents[1] / "support" / "js"
 
 
 class _Server:
@@ -120,10 +117,10 @@ def test_a_taken_port_is_one_relay_error(served: tuple[_Server, FoxgloveRelay]) 
 
 
 def _official_client() -> list[str]:
-    node = shutil.which("node")
-    if node is None or not (PROBE / "node_modules" / "@foxglove" / "ws-protocol").is_dir():
+    command = official_client()
+    if command is None:
         pytest.skip("the official client is not installed: run tools/setup_node.sh (needs node and npm)")
-    return [node, str(PROBE / "foxglove_probe.mjs")]
+    return command
 
 
 @pytest.mark.parametrize("subprotocol", [None, SDK_SUBPROTOCOL])

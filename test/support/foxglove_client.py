@@ -11,10 +11,12 @@ from __future__ import annotations
 
 import contextlib
 import json
+import shutil
 import struct
 import time
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 from websockets.exceptions import ConnectionClosed
@@ -23,6 +25,8 @@ from websockets.typing import Subprotocol
 
 SUBPROTOCOLS = (Subprotocol("foxglove.sdk.v1"), Subprotocol("foxglove.websocket.v1"))
 MESSAGE_DATA = 0x01
+#: The official client's probe (``@foxglove/ws-protocol`` under Node), installed by tools/setup_node.sh.
+PROBE = Path(__file__).resolve().parent / "js"
 _HEADER = struct.Struct("<BIQ")
 
 
@@ -131,3 +135,11 @@ def foxglove_client(
             time.sleep(0.2)
     with ws:
         yield FoxgloveClient(url, ws)
+
+
+def official_client() -> list[str] | None:
+    """The command of the official client's probe (``js/foxglove_probe.mjs``), or None when it is not installed."""
+    node = shutil.which("node")
+    if node is None or not (PROBE / "node_modules" / "@foxglove" / "ws-protocol").is_dir():
+        return None
+    return [node, str(PROBE / "foxglove_probe.mjs")]

@@ -7,7 +7,7 @@
 // to every channel advertised, and prints one JSON line per event: {"event": "open",
 // "protocol"}, {"event": "serverInfo", "name"}, {"event": "advertise", "topics"},
 // {"event": "message", "topic", "hex"}; after MESSAGES messages it prints {"event": "done"}
-// and closes. A refused handshake or an error prints {"event": "error", "message"}, exit 1.
+// and closes (MESSAGES 0: after the first advertise). A refused handshake or an error prints {"event": "error", "message"}, exit 1.
 import protocol_package from "@foxglove/ws-protocol"; // (a CommonJS package: no named ESM exports)
 import WebSocket from "ws";
 
@@ -27,6 +27,10 @@ client.on("advertise", (channels) => {
   say({ event: "advertise", topics: channels.map((c) => c.topic) });
   for (const channel of channels) {
     topics.set(client.subscribe(channel.id), channel.topic);
+  }
+  if (Number(wanted) === 0) {
+    say({ event: "done" });
+    client.close();
   }
 });
 client.on("message", ({ subscriptionId, data }) => {
