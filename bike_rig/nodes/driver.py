@@ -235,8 +235,8 @@ class DriverNode(Node):
                 self.get_logger().error(f"reading the {self.source.name} source failed: {exc!r}")
 
     def _log_notices(self) -> None:
-        for notice in self.source.notices():
-            self.get_logger().warning(notice)
+        for warning, text in self.source.notices():
+            (self.get_logger().warning if warning else self.get_logger().info)(text)
 
     def _warn_silent(self) -> None:
         for silence in self.silence.due():

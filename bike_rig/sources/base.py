@@ -389,8 +389,11 @@ class GyroSource(ABC):
         """One line for the log: what the source reads."""
         return self.name
 
-    def notices(self) -> list[str]:
-        """Warnings for the operator that arose since the last call (the driver logs each); none here."""
+    def notices(self) -> list[tuple[bool, str]]:
+        """What the source has to tell the operator since the last call, as (is a warning, text); none here.
+
+        The driver logs each (a warning, or information).
+        """
         return []
 
     def silence_hint(self) -> str:

@@ -301,7 +301,7 @@ class CanSource(StreamingSource):
         self.warning = warning
         self.malformed_frames = 0
         self.reads = 0  # bus receives, of any id
-        self._notices = [warning] if warning else []
+        self._notices: list[tuple[bool, str]] = [(True, warning)] if warning else []
         self._closed = False
 
     @classmethod
@@ -360,10 +360,10 @@ class CanSource(StreamingSource):
         """The bus, id, layout, sample rate and stamps' clock, one line (the virtual bus warned of)."""
         stamps = self.clock.notice or "stamps: not yet checked (no frame of the gyro yet)"
         head = "can: VIRTUAL bus, no hardware: " if self.warning else "can: "
-        return f"{head}{self.label} at {self.sample_rate_hz:g} Hz; {stamps}"
+        return f"{head}{self.label}; {self.sample_rate_hz:g} Hz; {stamps}"
 
-    def notices(self) -> list[str]:
-        """Warnings for the operator since the last call: the virtual bus, the stamps' clock when checked."""
+    def notices(self) -> list[tuple[bool, str]]:
+        """Since the last call, as (is a warning, text): the virtual bus, the stamps' clock, a log's end."""
         out, self._notices = self._notices, []
         return out
 
@@ -429,13 +429,17 @@ class CanSource(StreamingSource):
         if not chunks:
             return np.empty(0), None, 0
         read_ns = time.time_ns()
-        if self.clock.source is None:
-            self.clock.check(newest_stamp, read_ns / NS_PER_S)
-            _log.info("can source: %s", self.clock.notice)
-            self._notices.append(f"can source ({self.label}): {self.clock.notice}")
+        self._check_clock(newest_stamp, read_ns)
         rates = np.concatenate(chunks)
         earlier = self.layout.samples_per_frame - 1
         return rates, None, self.clock.first_ns(first_stamp, earlier, self.sample_rate_hz, read_ns, rates.size)
+
+    def _check_clock(self, newest_stamp_s: float, read_ns: int) -> None:
+        """On the first frames: decide whether their stamps are epoch time (a warning when not)."""
+        if self.clock.source is not None:
+            return
+        self.clock.check(newest_stamp_s, read_ns / NS_PER_S)
+        self._notices.append((self.clock.source == "receive", f"can source ({self.label}): {self.clock.notice}"))
 
     def _malformed(self, length: int) -> None:
         self.malformed_frames += 1
@@ -459,10 +463,8 @@ class CanSource(StreamingSource):
         if rec is None or not getattr(self.bus, "exhausted", False) or (rec.target and rec.count >= rec.target):
             return
         if rec.target:
-            self._notices.append(
-                f"can source: the log file ended during trial {rec.info.trial_id} after {rec.count} of "
-                f"{rec.target} samples: aborted"
-            )
+            ended = f"the log file ended during trial {rec.info.trial_id} after {rec.count} of {rec.target} samples"
+            self._notices.append((True, f"can source: {ended}: aborted"))
         self._finish(aborted=bool(rec.target))
 
     def close(self) -> None:

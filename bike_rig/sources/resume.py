@@ -164,7 +164,7 @@ class ResumedSource(GyroSource):
         """The live source, after the recorded trials."""
         return f"{self.live.describe()}, after the {self.recorded_trials} recorded trials of {self.bag} (resumed)"
 
-    def notices(self) -> list[str]:
+    def notices(self) -> list[tuple[bool, str]]:
         """The live source's."""
         return self.live.notices()
 

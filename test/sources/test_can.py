@@ -244,8 +244,8 @@ def test_with_nothing_named_it_listens_on_the_virtual_bus_and_says_so() -> None:
     assert isinstance(source, CanSource)
     try:
         assert source.describe().startswith("can: VIRTUAL bus, no hardware: virtual:bike_rig (default) id 0x100 ")
-        (notice,) = source.notices()
-        assert notice.startswith("listening on python-can's VIRTUAL bus 'bike_rig' (nothing names a bus): ")
+        ((warning, notice),) = source.notices()
+        assert warning and notice.startswith("listening on python-can's VIRTUAL bus 'bike_rig' (nothing names a bus): ")
         assert "CAN_INTERFACE" in notice and source.notices() == []
         assert "this is python-can's VIRTUAL bus, which no hardware reaches" in source.silence_hint()
     finally:
@@ -313,7 +313,8 @@ def test_stamps_follow_the_clock_checked_on_the_first_frames() -> None:
         assert seen is not None and source.clock.source == "interface"
         assert started.stamp_ns == round((seen.timestamp - 3 / 1000.0) * 1e9)
         assert "stamps: the interface's timestamps (epoch time, checked" in source.describe()
-        assert any("epoch time, checked" in n for n in source.notices())
+        # said in the log, and a warning when the clock falls back
+        assert (False, f"can source ({source.label}): {source.clock.notice}") in source.notices()
     finally:
         sender.shutdown()
         listener.shutdown()
@@ -334,6 +335,7 @@ def test_stamps_follow_the_clock_checked_on_the_first_frames() -> None:
         assert source.clock.source == "receive"
         assert before - round(19 / 1000 * 1e9) <= started.stamp_ns <= after  # 20 samples, the last just read
         assert "stamps: the receive clock (the interface's timestamps are not epoch time" in source.describe()
+        assert (True, f"can source ({source.label}): {source.clock.notice}") in source.notices()
     finally:
         sender.shutdown()
         source.close()
@@ -390,7 +392,10 @@ def test_a_log_file_replays_bit_exact_trial_after_trial(tmp_path: Path, suffix: 
     assert np.array_equal(np.rint(got[two.trial_id] / 1e-4), codes[500:])  # the next: the log's rest
     stops = [e for e in events if isinstance(e, TrialStopped)]
     assert [(s.sample_count, s.aborted) for s in stops] == [(500, False), (700, True)]
-    assert any(f"log file ended during trial {two.trial_id} after 700 of 10000 samples" in n for n in notices)
+    assert (
+        True,
+        f"can source: the log file ended during trial {two.trial_id} after 700 of 10000 samples: aborted",
+    ) in notices
     assert finished
     started = next(e for e in events if isinstance(e, TrialStarted))
     if first_stamp > 1e9:  # the format keeps epoch stamps: the log's own
