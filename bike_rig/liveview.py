@@ -132,7 +132,7 @@ class GraphPresence:
         Args:
             elapsed_s: Seconds since the view started.
             publishers: The rig's topics that have a publisher now.
-            nodes: The names of the other nodes on the domain.
+            nodes: The names of the nodes that publish them.
         """
         if publishers:
             if self.found:

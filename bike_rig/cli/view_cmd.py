@@ -38,7 +38,9 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
         help=HELP["view"],
         description="Start the Foxglove bridge: the gyro trace, trial events, periods, parameters, eigen sweep "
         "and diagnostics of the running graph, served over Foxglove's WebSocket protocol. Open the printed "
-        "address in Foxglove (Open connection > Foxglove WebSocket) and import the printed layout file.",
+        "address in Foxglove (Open connection > Foxglove WebSocket) and import the printed layout file. Clients "
+        "of either protocol name are served: foxglove.sdk.v1 (Foxglove) and foxglove.websocket.v1 (Lichtblick, "
+        "@foxglove/ws-protocol). With no bike_rig graph on the domain it says so after a few seconds.",
     )
     q.add_argument(
         "--port", type=int, default=DEFAULT_PORT,

@@ -215,9 +215,16 @@ class FoxgloveBridge:
         return on_message
 
     def rig_publishers(self) -> tuple[set[str], set[str]]:
-        """The rig's served topics that have a publisher now, and the names of the other nodes on the domain."""
-        topics = {name for name in self.forwarders if name != DIAGNOSTICS.name and self.node.count_publishers(name) > 0}
-        nodes = {name for name in self.node.get_node_names() if name != NODE_NAME}
+        """The rig's served topics that have a publisher now (``/diagnostics`` aside), and those publishers' nodes."""
+        topics: set[str] = set()
+        nodes: set[str] = set()
+        for name in self.forwarders:
+            if name == DIAGNOSTICS.name:
+                continue
+            found = self.node.get_publishers_info_by_topic(name)
+            if found:
+                topics.add(name)
+                nodes.update(info.node_name for info in found)
         return topics, nodes
 
     def close(self) -> None:
