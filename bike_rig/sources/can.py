@@ -377,7 +377,7 @@ class CanSource(StreamingSource):
     @property
     def finished(self) -> bool:
         """True once a log file has played its last frame and no trial records."""
-        return bool(getattr(self.bus, "exhausted", False)) and self.recording is None
+        return self.recording is None and self._log_at_end()
 
     def _frames_wanted(self) -> int:
         """Gyro frames to take now: a log played as fast as read gives a trial only the frames it asks for."""
@@ -413,9 +413,7 @@ class CanSource(StreamingSource):
             if msg is None:
                 break
             self.reads += 1
-            if msg.arbitration_id != self.layout.can_id or msg.is_extended_id != self.layout.extended_id:
-                continue
-            if msg.is_error_frame or msg.is_remote_frame:
+            if not self._is_gyro(msg):
                 continue
             if len(msg.data) != expected:
                 self._malformed(len(msg.data))
@@ -457,10 +455,31 @@ class CanSource(StreamingSource):
         self._events = []
         return events
 
+    def _log_at_end(self) -> bool:
+        """True when the bus is a log file with no frame of the gyro's id left (others are skipped to see)."""
+        from .can_bus import LogBus
+
+        bus = self.bus
+        if not isinstance(bus, LogBus):
+            return False
+        while not bus.at_end():
+            msg = bus.peek()
+            if msg is not None and self._is_gyro(msg):
+                return False
+            if bus.recv(timeout=0.0) is None:  # not due yet (a paced log)
+                return False
+            self.reads += 1
+        return True
+
+    def _is_gyro(self, msg: can_module.Message) -> bool:
+        """A data frame of the gyro's id (of any length)."""
+        ours = msg.arbitration_id == self.layout.can_id and msg.is_extended_id == self.layout.extended_id
+        return ours and not (msg.is_error_frame or msg.is_remote_frame)
+
     def _end_of_log(self) -> None:
         """A log file that has ended ends the trial recording: complete if until stopped, else aborted."""
         rec = self._recording
-        if rec is None or not getattr(self.bus, "exhausted", False) or (rec.target and rec.count >= rec.target):
+        if rec is None or (rec.target and rec.count >= rec.target) or not self._log_at_end():
             return
         if rec.target:
             ended = f"the log file ended during trial {rec.info.trial_id} after {rec.count} of {rec.target} samples"

@@ -206,7 +206,7 @@ class LogBus(can.BusABC):
 
     Attributes:
         frames: Frames read so far.
-        exhausted: True after the last frame.
+        exhausted: True once the reader has no frame left (see :meth:`at_end`).
 
     Raises:
         SourceConfigError: No such file, or not a log python-can reads.
@@ -227,8 +227,12 @@ class LogBus(can.BusABC):
         self._clock = clock
         self._t0: tuple[float, float] | None = None
 
-    def _recv_internal(self, timeout: float | None) -> tuple[can.Message | None, bool]:
-        """The next frame if it is due (never waits: the source polls)."""
+    def at_end(self) -> bool:
+        """True when every frame has been read (looks one frame ahead).
+
+        Raises:
+            SourceIOError: The next record is damaged.
+        """
         if self._next is None and not self.exhausted:
             try:
                 self._next = next(self._messages)
@@ -236,6 +240,16 @@ class LogBus(can.BusABC):
                 self.exhausted = True
             except Exception as exc:  # a damaged record: each reader has its own error types
                 raise SourceIOError(f"can source: {self.path}: frame {self.frames + 1}: {exc}") from None
+        return self.exhausted
+
+    def peek(self) -> can.Message | None:
+        """The next frame, not taken (None at the end)."""
+        self.at_end()
+        return self._next
+
+    def _recv_internal(self, timeout: float | None) -> tuple[can.Message | None, bool]:
+        """The next frame if it is due (never waits: the source polls)."""
+        self.at_end()
         msg = self._next
         if msg is None:
             return None, True

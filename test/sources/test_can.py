@@ -8,6 +8,7 @@ configurations give one clear error.
 from __future__ import annotations
 
 import math
+import re
 import time
 import uuid
 from pathlib import Path
@@ -21,6 +22,7 @@ from bike_rig.sources import (
     SampleBlock,
     SourceConfigError,
     SourceEvent,
+    SourceIOError,
     SourceUnavailableError,
     TrialRequest,
     TrialRequestError,
@@ -440,3 +442,51 @@ def test_a_bad_log_file_is_one_clear_error(tmp_path: Path, name: str, pattern: s
     with pytest.raises(SourceConfigError, match=pattern) as info:
         open_source("can", can_log_file=str(tmp_path / name))
     assert "\n" not in str(info.value)
+
+
+def test_a_trial_that_takes_the_logs_last_frame_leaves_the_source_finished(tmp_path: Path) -> None:
+    layout = CanFrameLayout(0x100, samples_per_frame=4, scale=1e-4)
+    path = tmp_path / "gyro.blf"
+    _write_log(path, layout, 100, t0=1_790_000_000.0)
+    source = open_source("can", can_log_file=str(path), can_log_speed=0.0)
+    assert isinstance(source, CanSource)
+    try:
+        source.start_trial(TrialRequest("frame", "compound", duration_s=0.4))  # 400 samples: the whole log
+        events = collect(source)
+        assert source.finished
+    finally:
+        source.close()
+    stop = events[-1]
+    assert isinstance(stop, TrialStopped) and (stop.sample_count, stop.aborted) == (400, False)
+
+
+def test_a_log_that_ends_an_until_stopped_trial_stops_it(tmp_path: Path) -> None:
+    layout = CanFrameLayout(0x100, samples_per_frame=4, scale=1e-4)
+    path = tmp_path / "gyro.log"
+    _write_log(path, layout, 100, t0=1_790_000_000.0)
+    source = open_source("can", can_log_file=str(path), can_log_speed=0.0)
+    assert isinstance(source, CanSource)
+    try:
+        source.start_trial(TrialRequest("frame", "compound"))
+        events = collect(source)
+        assert source.finished and source.notices() == [(False, f"can source ({source.label}): {source.clock.notice}")]
+    finally:
+        source.close()
+    stop = events[-1]
+    assert isinstance(stop, TrialStopped) and (stop.sample_count, stop.aborted) == (400, False)
+
+
+def test_a_damaged_log_record_is_one_read_error(tmp_path: Path) -> None:
+    layout = CanFrameLayout(0x100, samples_per_frame=4, scale=1e-4)
+    path = tmp_path / "gyro.log"
+    _write_log(path, layout, 10, t0=1_790_000_000.0)
+    lines = path.read_text(encoding="utf-8").splitlines()
+    path.write_text("\n".join([*lines[:6], "(1790000000.030000) can0 100#ZZZZ R", *lines[6:]]) + "\n", encoding="utf-8")
+    source = open_source("can", can_log_file=str(path), can_log_speed=0.0)
+    assert isinstance(source, CanSource)
+    try:
+        source.start_trial(TrialRequest("frame", "compound"))
+        with pytest.raises(SourceIOError, match=rf"^can source: {re.escape(str(path))}: frame 7: invalid literal"):
+            source.poll()
+    finally:
+        source.close()
