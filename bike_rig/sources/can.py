@@ -25,9 +25,10 @@ The bus is read unfiltered: on interfaces that filter in software (``virtual``, 
 each poll drains every frame waiting and keeps the gyro's by id. A trial starts with the first
 sample received after ``start_trial`` and is stamped from a checked clock
 (:class:`~bike_rig.sources.can_bus.FrameClock`): the first frame's own timestamp, minus its
-earlier samples at the nominal rate, when the interface stamps in epoch time, else the receive
-clock; later samples at ``index / sample_rate_hz`` from it. :meth:`CanSource.describe` says
-which interface, channel, id and clock it uses, and warns of the default virtual bus.
+earlier samples at the nominal rate, when the interface stamps in epoch time (a log file: when
+its stamps are epoch dates), else the receive clock; later samples at ``index / sample_rate_hz``
+from it. :meth:`CanSource.describe` says which interface, channel, id and clock it uses, and
+warns of the default virtual bus.
 
 :class:`SimulatedCanGyro` is a stand-in gyro that sends frames of the same layout on a
 ``virtual`` bus from a thread. python-can's virtual bus connects buses *of one process* only,
