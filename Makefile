@@ -44,6 +44,7 @@ bench-deps:
 
 debian-tools:
 	@tools/setup_debian.sh
+	@tools/setup_node.sh
 
 demo: venv
 	$(BIN)/bike-rig demo
@@ -60,6 +61,7 @@ docs: venv
 
 pytest: venv
 	@tools/setup_debian.sh
+	@tools/setup_node.sh
 	timeout -k 30 $(PYTEST_TIMEOUT_S) $(BIN)/python -m pytest
 
 # in this order: ruff, mypy, the manual, pytest (each stops the run on failure)
@@ -68,6 +70,7 @@ test: venv
 	$(BIN)/mypy bike_rig
 	$(BIN)/sphinx-build -W --keep-going -q -b html docs build/docs
 	@tools/setup_debian.sh
+	@tools/setup_node.sh
 	timeout -k 30 $(PYTEST_TIMEOUT_S) $(BIN)/python -m pytest
 
 # bicycleparameters lives only in .bench-deps/ (put on PYTHONPATH here), never in the test env

@@ -20,13 +20,16 @@ that connects late still sees the trials, periods, parameters and eigenvalues of
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Collection
+from dataclasses import dataclass, field
 
 from . import topics
 
 __all__ = [
     "DEFAULT_PORT",
     "DIAGNOSTICS",
+    "GRAPH_GRACE_S",
+    "GraphPresence",
     "LAYOUT_FILE",
     "VIEW_TOPICS",
     "ViewTopic",
@@ -101,3 +104,54 @@ def schema_text(msgtype: str) -> str:
     from .bag.typestore import message_definition
 
     return message_definition(msgtype)
+
+
+#: Seconds the view waits for discovery before it says that no graph is on its domain.
+GRAPH_GRACE_S = 5.0
+
+
+@dataclass
+class GraphPresence:
+    """Whether a bike_rig graph is on the view's ROS domain: one line to print when that changes.
+
+    A graph is there when some node publishes one of the rig's topics (any of
+    :data:`VIEW_TOPICS` but ``/diagnostics``, which every ROS node may publish).
+
+    Attributes:
+        domain_id: The ROS_DOMAIN_ID the view serves.
+        grace_s: Seconds of discovery before "no graph" is said.
+    """
+
+    domain_id: int
+    grace_s: float = GRAPH_GRACE_S
+    found: bool | None = field(default=None, init=False)
+
+    def update(self, elapsed_s: float, publishers: Collection[str], nodes: Collection[str]) -> str | None:
+        """The text to print, if any, after ``elapsed_s`` s of serving.
+
+        Args:
+            elapsed_s: Seconds since the view started.
+            publishers: The rig's topics that have a publisher now.
+            nodes: The names of the nodes that publish them.
+        """
+        if publishers:
+            if self.found:
+                return None
+            self.found = True
+            named = ", ".join(sorted(nodes)) or "(names not yet discovered)"
+            return f"found a bike_rig graph on ROS_DOMAIN_ID={self.domain_id}: nodes {named}"
+        if self.found:
+            self.found = False
+            return (
+                f"the bike_rig graph on ROS_DOMAIN_ID={self.domain_id} is gone (no node publishes the rig's "
+                "topics); still serving, waiting for the next one"
+            )
+        if self.found is None and elapsed_s >= self.grace_s:
+            self.found = False
+            return (
+                f"no bike_rig graph found on ROS_DOMAIN_ID={self.domain_id}: no node publishes the rig's topics, "
+                "so Foxglove shows empty channels (this view keeps serving and says when a graph appears)\n"
+                "  bike-rig run and bike-rig session print their graph's ROS_DOMAIN_ID; "
+                "point the view at it: bike-rig view --domain-id N"
+            )
+        return None

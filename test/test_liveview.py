@@ -18,7 +18,7 @@ from typing import Any
 import pytest
 
 from bike_rig.bag.typestore import store_for
-from bike_rig.liveview import DIAGNOSTICS, LAYOUT_FILE, VIEW_TOPICS, schema_text
+from bike_rig.liveview import DIAGNOSTICS, LAYOUT_FILE, VIEW_TOPICS, GraphPresence, schema_text
 from bike_rig.paths import config_dir
 from bike_rig.topics import TOPICS
 
@@ -155,3 +155,25 @@ def test_schemas_are_the_message_definitions() -> None:
         text = schema_text(view.type)
         for name in fields_of(view.type):
             assert re.search(rf"^\S+ {name}\b", text, re.M), f"{view.type}: {name} not in its schema text"
+
+
+def test_graph_presence_says_none_after_the_grace_then_each_change() -> None:
+    presence = GraphPresence(domain_id=17, grace_s=5.0)
+    assert presence.update(1.0, set(), set()) is None  # discovery still running: nothing said yet
+    none = presence.update(5.0, set(), {"someone_else"})
+    assert none is not None and none.startswith("no bike_rig graph found on ROS_DOMAIN_ID=17: ")
+    assert "bike-rig view --domain-id N" in none
+    assert presence.update(6.0, set(), set()) is None  # said once
+    found = presence.update(9.0, {"/bike_rig/gyro"}, {"fitter", "driver"})
+    assert found == "found a bike_rig graph on ROS_DOMAIN_ID=17: nodes driver, fitter"
+    assert presence.update(10.0, {"/bike_rig/gyro"}, {"driver"}) is None
+    gone = presence.update(11.0, set(), set())
+    assert gone is not None and gone.startswith("the bike_rig graph on ROS_DOMAIN_ID=17 is gone")
+    assert presence.update(30.0, set(), set()) is None
+
+
+def test_a_graph_there_from_the_start_is_found_at_once() -> None:
+    presence = GraphPresence(domain_id=0)
+    assert presence.update(0.0, {"/bike_rig/periods"}, set()) == (
+        "found a bike_rig graph on ROS_DOMAIN_ID=0: nodes (names not yet discovered)"
+    )

@@ -4,7 +4,9 @@
 
 Starts the Foxglove bridge node (:mod:`bike_rig.nodes.foxglove_bridge`) in this process on the
 graph's ROS domain, prints the address to open in Foxglove and the layout file to import, and
-serves until Ctrl-C. The Foxglove SDK is imported only here and in the node, so the other
+serves until Ctrl-C. Once discovery has had :data:`~bike_rig.liveview.GRAPH_GRACE_S` s, it says
+whether a bike_rig graph is on the domain (and how to point the view at one when none is), and
+again whenever one appears or goes. The Foxglove SDK is imported only here and in the node, so the other
 commands start no slower.
 """
 
@@ -12,10 +14,15 @@ from __future__ import annotations
 
 import argparse
 import os
+import time
+from typing import TYPE_CHECKING
 
 from ..core.errors import BikeRigError
-from ..liveview import DEFAULT_PORT, LAYOUT_FILE
+from ..liveview import DEFAULT_PORT, LAYOUT_FILE, GraphPresence
 from .commands import HELP
+
+if TYPE_CHECKING:
+    from ..nodes.foxglove_bridge import FoxgloveBridge
 
 __all__ = ["add_parser", "run"]
 
@@ -31,7 +38,9 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
         help=HELP["view"],
         description="Start the Foxglove bridge: the gyro trace, trial events, periods, parameters, eigen sweep "
         "and diagnostics of the running graph, served over Foxglove's WebSocket protocol. Open the printed "
-        "address in Foxglove (Open connection > Foxglove WebSocket) and import the printed layout file.",
+        "address in Foxglove (Open connection > Foxglove WebSocket) and import the printed layout file. Clients "
+        "of either protocol name are served: foxglove.sdk.v1 (Foxglove) and foxglove.websocket.v1 (Lichtblick, "
+        "@foxglove/ws-protocol). With no bike_rig graph on the domain it says so after a few seconds.",
     )
     q.add_argument(
         "--port", type=int, default=DEFAULT_PORT,
@@ -58,12 +67,25 @@ def _domain_id(given: str | None) -> int:
     return check_domain_id(inherited, "ROS_DOMAIN_ID", " in the environment") if inherited else 0
 
 
+def _watch_graph(bridge: FoxgloveBridge, domain_id: int) -> None:
+    """Print, each time it changes, whether a bike_rig graph is on the domain (a 1 s timer of the bridge node)."""
+    presence = GraphPresence(domain_id)
+    t0 = time.monotonic()
+
+    def check() -> None:
+        line = presence.update(time.monotonic() - t0, *bridge.rig_publishers())
+        if line is not None:
+            print(line, flush=True)
+
+    bridge.node.create_timer(1.0, check)
+
+
 def run(args: argparse.Namespace) -> int:
     """Check the arguments, start the bridge node and serve until Ctrl-C; returns the exit status."""
     if not 0 <= args.port <= 65535:
         raise ViewUsageError(f"--port must be within 0..65535, got {args.port}")
     os.environ["ROS_DOMAIN_ID"] = str(_domain_id(args.domain_id))
-    from ..nodes.foxglove_bridge import FoxgloveBridge, main
+    from ..nodes.foxglove_bridge import main
     from ..paths import config_dir
 
     layout = config_dir() / LAYOUT_FILE
@@ -75,6 +97,7 @@ def run(args: argparse.Namespace) -> int:
         for name, why in bridge.skipped.items():
             print(f"  not served: {name} ({why})", flush=True)
         print("Ctrl-C stops", flush=True)
+        _watch_graph(bridge, int(os.environ["ROS_DOMAIN_ID"]))
 
     ros_args = ["bike-rig view", "--ros-args", "-p", f"port:={args.port}", "-p", f"host:={args.host}"]
     # (a mistake, e.g. the port taken, is printed by the node runner as one line: status 2)

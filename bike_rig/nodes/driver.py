@@ -199,6 +199,7 @@ class DriverNode(Node):
         self.diagnostics = DiagnosticsUpdater(self, self._health)
         waiting = f"; waiting for {self.wait_for} gyro subscriber(s)" if self.wait_for else ""
         self.get_logger().info(f"driver ready: {self.source.describe()}{waiting}")
+        self._log_notices()
 
     # ------------------------------------------------------------------ timer
     def _on_timer(self) -> None:
@@ -211,6 +212,7 @@ class DriverNode(Node):
                 self._streaming = True
                 self.get_logger().info(f"{self.gyro_pub.get_subscription_count()} gyro subscriber(s): streaming")
             self._publish_events(self.source.poll())
+            self._log_notices()
             self._warn_silent()
             if self.source.finished and not self._done_logged:
                 self._done_logged = True
@@ -231,6 +233,10 @@ class DriverNode(Node):
             self._errors += 1
             if self._errors in (1, 10, 100) or self._errors % 1000 == 0:
                 self.get_logger().error(f"reading the {self.source.name} source failed: {exc!r}")
+
+    def _log_notices(self) -> None:
+        for warning, text in self.source.notices():
+            (self.get_logger().warning if warning else self.get_logger().info)(text)
 
     def _warn_silent(self) -> None:
         for silence in self.silence.due():

@@ -1,7 +1,12 @@
 """The Foxglove bridge node: the live graph served to the Foxglove app over its WebSocket protocol.
 
 The server is the ``foxglove-sdk`` wheel's (:func:`foxglove.start_server`; imported only by this
-node and ``bike-rig view``). Each topic of :data:`bike_rig.liveview.VIEW_TOPICS` is subscribed
+node and ``bike-rig view``), on a free loopback port; clients connect to the relay of
+:mod:`bike_rig.nodes.foxglove_relay` on ``host:port``, which accepts both names of the protocol
+(``foxglove.sdk.v1``, and ``foxglove.websocket.v1`` of the ``@foxglove/ws-protocol`` client and
+Lichtblick) and forwards each client's messages to and from the SDK's server unchanged.
+
+Each topic of :data:`bike_rig.liveview.VIEW_TOPICS` is subscribed
 raw (``raw=True``: the serialized CDR, with its encapsulation header, as DDS delivers it) and
 forwarded unchanged to a Foxglove channel of the same name, message encoding ``cdr``, schema
 ``ros2msg`` (the type's definition text, as the recorder writes it into MCAP): Foxglove decodes
@@ -34,8 +39,9 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 from ..core.errors import BikeRigError
-from ..liveview import DEFAULT_PORT, VIEW_TOPICS, ViewTopic, schema_text
+from ..liveview import DEFAULT_PORT, DIAGNOSTICS, VIEW_TOPICS, ViewTopic, schema_text
 from ..params import ParamSpec
+from .foxglove_relay import FoxgloveRelay, RelayError
 
 if TYPE_CHECKING:
     from rclpy.node import Node
@@ -180,12 +186,17 @@ class FoxgloveBridge:
         host, port = values["host"], values["port"]
         try:
             self.server = foxglove.start_server(
-                name="bike_rig", host=host, port=port, context=self.context, server_listener=listener,
+                name="bike_rig", host="127.0.0.1", port=0, context=self.context, server_listener=listener,
                 message_backlog_size=backlog_size(),
             )  # fmt: skip
         except Exception as exc:  # the SDK raises RuntimeError or its own error types
-            raise BridgeError(f"cannot serve the live view on {host}:{port} ({exc})") from None
-        self.url = f"ws://{host}:{self.server.port}"
+            raise BridgeError(f"cannot start the live view's server on 127.0.0.1 ({exc})") from None
+        try:
+            self.relay = FoxgloveRelay(host, port, self.server.port)
+        except RelayError as exc:
+            self.server.stop()
+            raise BridgeError(f"cannot serve the live view on {host}:{port} ({exc.why})") from None
+        self.url = f"ws://{host}:{self.relay.port}"
         for name, forwarder in self.forwarders.items():
             self.node.create_subscription(
                 classes[name], name, self._callback(forwarder), profile(forwarder.view.qos), raw=True
@@ -203,8 +214,22 @@ class FoxgloveBridge:
 
         return on_message
 
+    def rig_publishers(self) -> tuple[set[str], set[str]]:
+        """The rig's served topics that have a publisher now (``/diagnostics`` aside), and those publishers' nodes."""
+        topics: set[str] = set()
+        nodes: set[str] = set()
+        for name in self.forwarders:
+            if name == DIAGNOSTICS.name:
+                continue
+            found = self.node.get_publishers_info_by_topic(name)
+            if found:
+                topics.add(name)
+                nodes.update(info.node_name for info in found)
+        return topics, nodes
+
     def close(self) -> None:
-        """Stop the server (clients see the connection close)."""
+        """Stop the relay and the server (clients see the connection close)."""
+        self.relay.stop()
         self.server.stop()
 
 

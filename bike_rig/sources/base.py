@@ -389,6 +389,13 @@ class GyroSource(ABC):
         """One line for the log: what the source reads."""
         return self.name
 
+    def notices(self) -> list[tuple[bool, str]]:
+        """What the source has to tell the operator since the last call, as (is a warning, text); none here.
+
+        The driver logs each (a warning, or information).
+        """
+        return []
+
     def silence_hint(self) -> str:
         """What to check when a recording trial gets no samples (ends the driver's warning)."""
         return f"check that the {self.name} source is delivering"

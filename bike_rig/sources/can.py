@@ -8,13 +8,27 @@ shows up as fewer samples than the trial's duration asks for). Classic frames ca
 bytes; with ``can_fd`` up to 64 (``samples_per_frame × sample size`` must be a CAN FD data
 length: 0–8, 12, 16, 20, 24, 32, 48 or 64).
 
-The bus is ``can.Bus(interface=can_interface, channel=can_channel, fd=can_fd)`` with a
-receive filter on the gyro's id (and ``bitrate`` when ``can_bitrate`` > 0). SocketCAN needs a
-kernel with CAN support (this project's build machines have none: use ``virtual`` there);
-``udp_multicast`` is refused because it sends traffic off the machine. A trial starts with the
-first sample received after ``start_trial`` and is stamped with the receive time of its first
-frame (minus the frame's earlier samples at the nominal rate); later samples at
-``index / sample_rate_hz`` from it.
+The bus is ``can.Bus(interface=can_interface, channel=can_channel, fd=can_fd)`` (and ``bitrate``
+when ``can_bitrate`` > 0). With ``can_interface`` empty (the default) python-can's own
+configuration names it, as for ``can.Bus()``: ``CAN_INTERFACE`` / ``CAN_CHANNEL`` /
+``CAN_BITRATE`` / ``CAN_CONFIG`` in the environment, or its configuration file
+(:func:`bike_rig.sources.can_bus.choose_bus`); with none, the ``virtual`` bus ``bike_rig``,
+which no hardware reaches: said as a warning. SocketCAN needs a kernel with CAN support (this
+project's build machines have none: use ``virtual`` there); ``udp_multicast`` is refused because
+it sends traffic off the machine. ``can_log_file`` plays a python-can log file instead (candump
+``.log``, ``.asc``, ``.blf``, ``.trc``...) at ``can_log_speed`` times real time, paced by its
+timestamps; ``can_log_speed`` 0 plays it as fast as it is read, only while a trial records (each
+trial takes the log's next frames, no more than it asks for).
+
+The bus is read unfiltered: on interfaces that filter in software (``virtual``, ``slcan``,
+``serial``...) python-can's non-blocking receive returns nothing at a frame of another id, so
+each poll drains every frame waiting and keeps the gyro's by id. A trial starts with the first
+sample received after ``start_trial`` and is stamped from a checked clock
+(:class:`~bike_rig.sources.can_bus.FrameClock`): the first frame's own timestamp, minus its
+earlier samples at the nominal rate, when the interface stamps in epoch time (a log file: when
+its stamps are epoch dates), else the receive clock; later samples at ``index / sample_rate_hz``
+from it. :meth:`CanSource.describe` says which interface, channel, id and clock it uses, and
+warns of the default virtual bus.
 
 :class:`SimulatedCanGyro` is a stand-in gyro that sends frames of the same layout on a
 ``virtual`` bus from a thread. python-can's virtual bus connects buses *of one process* only,
@@ -38,11 +52,13 @@ import numpy as np
 from ..core.sim.gyro import Mode, angular_rate
 from ..params import ParamSpec
 from ..pipeline.acquire import NS_PER_S
-from .base import SAMPLE_RATE, TIME_SCALE, FloatArray, Parameters, StreamingSource
-from .errors import SourceConfigError, SourceIOError, SourceUnavailableError
+from .base import SAMPLE_RATE, TIME_SCALE, FloatArray, Parameters, SourceEvent, StreamingSource
+from .errors import SourceIOError, SourceUnavailableError
 
 if TYPE_CHECKING:
     import can as can_module
+
+    from .can_bus import FrameClock
 
 __all__ = [
     "FD_LENGTHS",
@@ -58,9 +74,7 @@ _log = logging.getLogger(__name__)
 #: The data lengths a CAN FD frame can have, bytes.
 FD_LENGTHS = (0, 1, 2, 3, 4, 5, 6, 7, 8, 12, 16, 20, 24, 32, 48, 64)
 _FORMATS = {"int16": "i2", "int32": "i4", "float32": "f4"}
-#: Interfaces refused whatever the kernel: they send traffic off the machine.
-_REFUSED = {"udp_multicast": "it multicasts on the network; no traffic may leave the machine"}
-#: Most frames read per poll (keeps the driver responsive if a bus floods it).
+#: Most frames read per poll, of any id (keeps the driver responsive if a bus floods it).
 _MAX_FRAMES_PER_READ = 50_000
 
 
@@ -165,6 +179,11 @@ def layout_from_parameters(p: Parameters) -> CanFrameLayout:
 
 
 def _import_can() -> Any:
+    """The python-can package.
+
+    Raises:
+        SourceUnavailableError: python-can is not installed.
+    """
     try:
         import can
     except ImportError as exc:
@@ -174,8 +193,17 @@ def _import_can() -> Any:
     return can
 
 
-def open_bus(interface: str, channel: str, layout: CanFrameLayout, bitrate: int = 0) -> can_module.BusABC:
-    """A python-can bus filtered on the gyro's id.
+def open_bus(
+    interface: str, channel: str, layout: CanFrameLayout, bitrate: int = 0, options: Mapping[str, Any] | None = None
+) -> can_module.BusABC:
+    """A python-can bus, unfiltered (the source keeps the gyro's frames by id).
+
+    Args:
+        interface: python-can interface.
+        channel: Its channel.
+        layout: The frame layout (CAN FD or not).
+        bitrate: Bit rate, bit/s (0: the interface's or the configuration's).
+        options: Further ``can.Bus`` arguments (python-can's configuration).
 
     Raises:
         SourceConfigError: An unknown or refused interface.
@@ -183,24 +211,16 @@ def open_bus(interface: str, channel: str, layout: CanFrameLayout, bitrate: int 
             device, missing vendor library).
     """
     can = _import_can()
-    if interface in _REFUSED:
-        raise SourceConfigError("can", "can_interface", f"refused: {_REFUSED[interface]}", interface)
-    if interface not in can.interfaces.VALID_INTERFACES:
-        known = ", ".join(sorted(can.interfaces.VALID_INTERFACES))
-        reason = f"unknown python-can interface; expected one of {known}"
-        raise SourceConfigError("can", "can_interface", reason, interface)
-    mask = 0x1FFFFFFF if layout.extended_id else 0x7FF
-    kwargs: dict[str, Any] = {
-        "interface": interface,
-        "channel": channel,
-        "fd": layout.fd,
-        "can_filters": [{"can_id": layout.can_id, "can_mask": mask, "extended": layout.extended_id}],
-    }
+    from .can_bus import check_interface
+
+    check_interface(interface, "can_interface")
+    kwargs: dict[str, Any] = {**(options or {}), "interface": interface, "channel": channel}
+    kwargs["fd"] = layout.fd or bool(kwargs.get("fd", False))
     if bitrate > 0:
         kwargs["bitrate"] = bitrate
     try:
         return can.Bus(**kwargs)
-    except (can.CanError, OSError, ValueError, ImportError) as exc:
+    except (can.CanError, OSError, ValueError, ImportError, TypeError) as exc:
         hint = " (this kernel has no CAN support: use can_interface 'virtual')" if interface == "socketcan" else ""
         raise SourceUnavailableError(
             "can", "can_interface", f"cannot open channel {channel!r}: {exc}{hint}", interface
@@ -211,17 +231,25 @@ class CanSource(StreamingSource):
     """A CAN gyro; trials on request (see the module docstring).
 
     Args:
-        bus: An open python-can bus (filtered on the gyro's id, or not).
+        bus: An open python-can bus (unfiltered, or filtered on the gyro's id), or a log
+            file's (:class:`~bike_rig.sources.can_bus.LogBus`).
         layout: The frame layout.
         sample_rate_hz: The gyro's sample rate, Hz.
         label: What it reads, for the log.
         simulated_gyro: A stand-in gyro to stop on :meth:`close` (test and demo option).
+        clock: The stamps' clock (default: the interface's, checked on the first frames).
+        warning: A warning for the operator about the bus (e.g. the default virtual bus).
     """
 
     name = "can"
     PARAMETERS = (
-        ParamSpec("can_interface", "virtual", "can: python-can interface (socketcan only where the kernel has CAN)"),
-        ParamSpec("can_channel", "bike_rig", "can: channel (e.g. can0, or a virtual bus name)"),
+        ParamSpec(
+            "can_interface",
+            "",
+            "can: python-can interface; '' = python-can's configuration (CAN_INTERFACE, its config file), "
+            "else the virtual bus",
+        ),  # fmt: skip
+        ParamSpec("can_channel", "", "can: channel (e.g. can0); '' = python-can's configuration's, or bike_rig"),
         ParamSpec("can_bitrate", 0, "can: bit rate, bit/s (0 = the interface's setting)", (0, 8_000_000)),
         ParamSpec("can_id", 0x100, "can: arbitration id of the gyro's frames", (0, 0x1FFFFFFF)),
         ParamSpec("can_extended_id", False, "can: 29-bit id"),
@@ -232,9 +260,23 @@ class CanSource(StreamingSource):
         ParamSpec("scale", 1e-4, "can: rad/s per count"),
         ParamSpec("offset", 0.0, "can: rad/s added after scaling"),
         SAMPLE_RATE,
-        ParamSpec("can_simulated_gyro_period_s", 0.0,
-                  "can, test/demo only: > 0 runs a simulated gyro of this period on the virtual bus in this process",
-                  (0.0, 1e3)),  # fmt: skip
+        ParamSpec(
+            "can_log_file",
+            "",
+            "can: a python-can log file to play instead of a bus (candump .log, .asc, .blf, .trc...)",
+        ),
+        ParamSpec(
+            "can_log_speed",
+            1.0,
+            "can: how fast can_log_file plays, times real time; 0 = as fast as read, while a trial records",
+            (0.0, 1e6),
+        ),  # fmt: skip
+        ParamSpec(
+            "can_simulated_gyro_period_s",
+            0.0,
+            "can, test/demo only: > 0 runs a simulated gyro of this period on the virtual bus in this process",
+            (0.0, 1e3),
+        ),  # fmt: skip
         TIME_SCALE,
     )
 
@@ -245,100 +287,205 @@ class CanSource(StreamingSource):
         sample_rate_hz: float,
         label: str = "CAN gyro",
         simulated_gyro: SimulatedCanGyro | None = None,
+        clock: FrameClock | None = None,
+        warning: str = "",
     ):
         """Read ``bus``; no trial is recorded until :meth:`start_trial`."""
+        from .can_bus import FrameClock
+
         super().__init__(sample_rate_hz)
         self.bus = bus
         self.layout = layout
         self.label = label
         self.simulated_gyro = simulated_gyro
+        self.clock = clock if clock is not None else FrameClock()
+        self.warning = warning
         self.malformed_frames = 0
+        self.reads = 0  # bus receives, of any id
+        self._notices: list[tuple[bool, str]] = [(True, warning)] if warning else []
         self._closed = False
 
     @classmethod
     def from_parameters(cls, parameters: Mapping[str, Any]) -> CanSource:
-        """Open the bus the parameters describe (:attr:`PARAMETERS`).
+        """Open the bus (or the log file) the parameters describe (:attr:`PARAMETERS`).
 
         ``can_interface``, ``can_channel``, ``can_bitrate``, ``can_id``, ``can_extended_id``,
         ``can_fd``, ``sample_format``, ``byte_order``, ``samples_per_frame``, ``scale``,
-        ``offset``, ``sample_rate_hz``, and for tests and demos ``can_simulated_gyro_period_s``
-        (> 0: run a :class:`SimulatedCanGyro` of that period on the virtual bus, paced by
-        ``time_scale``).
+        ``offset``, ``sample_rate_hz``, ``can_log_file`` and ``can_log_speed``, and for tests and
+        demos ``can_simulated_gyro_period_s`` (> 0: run a :class:`SimulatedCanGyro` of that
+        period on the virtual bus, paced by ``time_scale``).
 
         Raises:
-            SourceConfigError: A bad parameter or layout, or a refused interface.
+            SourceConfigError: A bad parameter or layout, a refused interface, a log file that
+                cannot be read.
             SourceUnavailableError: python-can or the interface is not available here.
         """
         p = Parameters(cls.name, parameters, cls.PARAMETERS)
-        interface = p.text("can_interface")
-        channel = p.text("can_channel")
-        bitrate = p.integer("can_bitrate")
         rate = p.number("sample_rate_hz")
         layout = layout_from_parameters(p)
+        ident = f"id 0x{layout.can_id:X} {layout.samples_per_frame}×{layout.sample_format}"
+        _import_can()
+        from .can_bus import FrameClock, LogBus, choose_bus
+
+        log_file = p.text("can_log_file")
+        if log_file:
+            speed = p.number("can_log_speed")
+            pace = "as fast as read, while a trial records" if speed == 0 else f"at {speed:g}× real time"
+            return cls(LogBus(log_file, speed), layout, rate, f"log file {log_file} {ident}, played {pace}",
+                       clock=FrameClock("the log's", epoch_window_s=math.inf))  # fmt: skip
+        choice = choose_bus(p.text("can_interface"), p.text("can_channel"), p.integer("can_bitrate"))
         period = p.number("can_simulated_gyro_period_s")
         gyro = None
         if period > 0:
-            if interface != "virtual":
-                raise p.error(
-                    "can_simulated_gyro_period_s",
-                    f"a simulated gyro runs on the 'virtual' interface only, not {interface!r}",
-                    period,
-                )
+            if choice.interface != "virtual":
+                reason = f"a simulated gyro runs on the 'virtual' interface only, not {choice.interface!r}"
+                raise p.error("can_simulated_gyro_period_s", reason, period)
             time_scale = p.number("time_scale")
-            gyro = SimulatedCanGyro(layout, channel, damped_samples(period, rate), rate, time_scale=time_scale)
-        bus = open_bus(interface, channel, layout, bitrate)
-        label = f"{interface}:{channel} id 0x{layout.can_id:X} {layout.samples_per_frame}×{layout.sample_format}"
+            gyro = SimulatedCanGyro(layout, choice.channel, damped_samples(period, rate), rate, time_scale=time_scale)
+        bus = open_bus(choice.interface, choice.channel, layout, options=choice.options)
+        label = f"{choice.describe()} {ident}"
+        warning = ""
         if gyro is not None:
             gyro.start()
             label += f" (simulated gyro, period {period:g} s)"
-        return cls(bus, layout, rate, label, gyro)
+        elif choice.interface == "virtual":
+            how = "nothing names a bus" if choice.defaulted else f"named by {choice.origin}"
+            warning = (
+                f"listening on python-can's VIRTUAL bus {choice.channel!r} ({how}): no hardware reaches it. Name "
+                "the gyro's bus with the driver parameters can_interface and can_channel, or python-can's "
+                "CAN_INTERFACE and CAN_CHANNEL (or its configuration file)"
+            )
+        return cls(bus, layout, rate, label, gyro, warning=warning)
 
     def describe(self) -> str:
-        """The bus, id and layout, and the sample rate, for the log."""
-        return f"can: {self.label} at {self.sample_rate_hz:g} Hz"
+        """The bus, id, layout, sample rate and stamps' clock, one line (the virtual bus warned of)."""
+        stamps = self.clock.notice or "stamps: not yet checked (no frame of the gyro yet)"
+        head = "can: VIRTUAL bus, no hardware: " if self.warning else "can: "
+        return f"{head}{self.label}; {self.sample_rate_hz:g} Hz; {stamps}"
+
+    def notices(self) -> list[tuple[bool, str]]:
+        """Since the last call, as (is a warning, text): the virtual bus, the stamps' clock, a log's end."""
+        out, self._notices = self._notices, []
+        return out
 
     def silence_hint(self) -> str:
         """What to check when no frame of the gyro's id arrives."""
-        return f"check the bus/wiring and the CAN id (listening to {self.label})"
+        hint = f"check the bus/wiring and the CAN id (listening to {self.label})"
+        if self.warning:
+            hint += "; this is python-can's VIRTUAL bus, which no hardware reaches: name the gyro's (can_interface)"
+        return hint
+
+    @property
+    def finished(self) -> bool:
+        """True once a log file has played its last frame and no trial records."""
+        return self.recording is None and self._log_at_end()
+
+    def _frames_wanted(self) -> int:
+        """Gyro frames to take now: a log played as fast as read gives a trial only the frames it asks for."""
+        if getattr(self.bus, "speed", None) != 0:
+            return _MAX_FRAMES_PER_READ
+        rec = self._recording
+        if rec is None:
+            return 0
+        if rec.target == 0:
+            return _MAX_FRAMES_PER_READ
+        return -(-(rec.target - rec.count) // self.layout.samples_per_frame)
 
     def read_available(self) -> tuple[FloatArray, FloatArray | None, int]:
-        """The samples of the gyro's frames received since the last call (at most 50,000 frames).
+        """The samples of the gyro's frames waiting on the bus, every one (at most 50,000 frames read).
 
         Returns:
-            (rates rad/s, None, receive time of the first sample in ns).
+            (rates rad/s, None, epoch time of the first sample in ns).
 
         Raises:
-            SourceIOError: The bus failed.
+            SourceIOError: The bus (or the log file) failed.
         """
         chunks: list[FloatArray] = []
-        first_ns = 0
+        first_stamp = newest_stamp = 0.0
+        wanted = self._frames_wanted()
         expected = self.layout.frame_bytes
-        for _ in range(_MAX_FRAMES_PER_READ):
+        for _ in range(_MAX_FRAMES_PER_READ if wanted else 0):
             try:
                 msg = self.bus.recv(timeout=0.0)
+            except SourceIOError:
+                raise
             except Exception as exc:  # any backend failure is an I/O error here
                 raise SourceIOError(f"can source: reading {self.label} failed: {exc}") from None
             if msg is None:
                 break
-            if msg.arbitration_id != self.layout.can_id or msg.is_extended_id != self.layout.extended_id:
-                continue
-            if msg.is_error_frame or msg.is_remote_frame:
+            self.reads += 1
+            if not self._is_gyro(msg):
                 continue
             if len(msg.data) != expected:
-                self.malformed_frames += 1
-                if self.malformed_frames in (1, 10, 100, 1000) or self.malformed_frames % 10000 == 0:
-                    _log.warning(
-                        "can source: %d malformed frame(s) of id 0x%X dropped (last: %d bytes, expected %d)",
-                        self.malformed_frames, self.layout.can_id, len(msg.data), expected,
-                    )  # fmt: skip
+                self._malformed(len(msg.data))
                 continue
             if not chunks:
-                earlier = (self.layout.samples_per_frame - 1) / self.sample_rate_hz
-                first_ns = round((float(msg.timestamp) - earlier) * NS_PER_S)
+                first_stamp = float(msg.timestamp)
+            newest_stamp = float(msg.timestamp)
             chunks.append(self.layout.decode(msg.data))
+            if len(chunks) >= wanted:
+                break
         if not chunks:
             return np.empty(0), None, 0
-        return np.concatenate(chunks), None, first_ns
+        read_ns = time.time_ns()
+        self._check_clock(newest_stamp, read_ns)
+        rates = np.concatenate(chunks)
+        earlier = self.layout.samples_per_frame - 1
+        return rates, None, self.clock.first_ns(first_stamp, earlier, self.sample_rate_hz, read_ns, rates.size)
+
+    def _check_clock(self, newest_stamp_s: float, read_ns: int) -> None:
+        """On the first frames: decide whether their stamps are epoch time (a warning when not)."""
+        if self.clock.source is not None:
+            return
+        self.clock.check(newest_stamp_s, read_ns / NS_PER_S)
+        self._notices.append((self.clock.source == "receive", f"can source ({self.label}): {self.clock.notice}"))
+
+    def _malformed(self, length: int) -> None:
+        self.malformed_frames += 1
+        if self.malformed_frames in (1, 10, 100, 1000) or self.malformed_frames % 10000 == 0:
+            _log.warning(
+                "can source: %d malformed frame(s) of id 0x%X dropped (last: %d bytes, expected %d)",
+                self.malformed_frames, self.layout.can_id, length, self.layout.frame_bytes,
+            )  # fmt: skip
+
+    def poll(self) -> list[SourceEvent]:
+        """The events of the frames waiting (and of requests since); a log's end ends the trial recording."""
+        events = super().poll()
+        self._end_of_log()
+        events += self._events
+        self._events = []
+        return events
+
+    def _log_at_end(self) -> bool:
+        """True when the bus is a log file with no frame of the gyro's id left (others are skipped to see)."""
+        from .can_bus import LogBus
+
+        bus = self.bus
+        if not isinstance(bus, LogBus):
+            return False
+        while not bus.at_end():
+            msg = bus.peek()
+            if msg is not None and self._is_gyro(msg):
+                return False
+            if bus.recv(timeout=0.0) is None:  # not due yet (a paced log)
+                return False
+            self.reads += 1
+        return True
+
+    def _is_gyro(self, msg: can_module.Message) -> bool:
+        """A data frame of the gyro's id (of any length)."""
+        ours = msg.arbitration_id == self.layout.can_id and msg.is_extended_id == self.layout.extended_id
+        return ours and not (msg.is_error_frame or msg.is_remote_frame)
+
+    def _end_of_log(self) -> None:
+        """A log file that has ended ends the trial recording: complete if until stopped, else aborted."""
+        rec = self._recording
+        if rec is None or (rec.target and rec.count >= rec.target) or not self._log_at_end():
+            return
+        if rec.target:
+            ended = f"the log file ended during trial {rec.info.trial_id} after {rec.count} of {rec.target} samples"
+            self._notices.append((True, f"can source: {ended}: aborted"))
+        self._finish(aborted=bool(rec.target))
 
     def close(self) -> None:
         """Stop the simulated gyro, if any, and shut the bus down (idempotent)."""

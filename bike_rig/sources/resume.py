@@ -164,6 +164,10 @@ class ResumedSource(GyroSource):
         """The live source, after the recorded trials."""
         return f"{self.live.describe()}, after the {self.recorded_trials} recorded trials of {self.bag} (resumed)"
 
+    def notices(self) -> list[tuple[bool, str]]:
+        """The live source's."""
+        return self.live.notices()
+
     def silence_hint(self) -> str:
         """The live source's."""
         return self.live.silence_hint()

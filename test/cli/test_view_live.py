@@ -8,12 +8,17 @@ delivers): every gyro batch it got is one of the bag's, in the bag's order, and 
 trial arrived; the trial events and periods are the bag's, in its order (those before the
 client subscribed come from the bridge's kept history); the latest parameters, matrices and
 eigen sweep are the bag's latest (latched, depth 1: either reader may skip a set replaced
-before it was delivered); the bag's MCAP schemas are those the bridge advertises.
+before it was delivered); the bag's MCAP schemas are those the bridge advertises. ``bike-rig view`` on an empty domain
+serves clients of both protocol names (the Python client offering ``foxglove.sdk.v1`` and
+``foxglove.websocket.v1``, then only the latter, and the official ``@foxglove/ws-protocol``
+client when tools/setup_node.sh has installed it) and says that no graph is there.
 """
 
 from __future__ import annotations
 
+import json
 import socket
+import subprocess
 import time
 from pathlib import Path
 
@@ -22,10 +27,11 @@ from rosbags.rosbag2 import Reader
 
 from bike_rig.bag.typestore import rig_typestore
 from bike_rig.liveview import DIAGNOSTICS, VIEW_TOPICS
+from bike_rig.nodes.foxglove_relay import LEGACY_SUBPROTOCOL, SUBPROTOCOLS
 from bike_rig.topics import EIGEN_SWEEP, GYRO, MATRICES, PARAMETERS, PERIODS, TRIAL_EVENTS
 from test.cli.test_run_live import _all_lines, _bike_rig, _rig
 from test.ros.processes import RosProcess
-from test.support.foxglove_client import foxglove_client
+from test.support.foxglove_client import foxglove_client, official_client
 
 
 def free_port() -> int:
@@ -107,10 +113,25 @@ def test_bike_rig_view_prints_where_to_connect_and_serves(ros_env: dict[str, str
     with RosProcess("view", cmd, env, tmp_path) as view:
         line = view.expect("serving", 60)
         assert line == f"ROS_DOMAIN_ID={ros_env['ROS_DOMAIN_ID']} to Foxglove on ws://127.0.0.1:{port}", line
-        with foxglove_client(f"ws://127.0.0.1:{port}") as client:
-            client.read_until(lambda: GYRO.name in client.by_topic(), 30, "advertise")
-            assert client.server_info is not None and client.server_info["name"] == "bike_rig"
+        for offered in (SUBPROTOCOLS, [LEGACY_SUBPROTOCOL]):  # both names: the Foxglove app's, and Lichtblick's
+            with foxglove_client(f"ws://127.0.0.1:{port}", subprotocols=offered) as client:
+                client.read_until(lambda: GYRO.name in client.by_topic(), 30, "advertise")
+                assert client.server_info is not None and client.server_info["name"] == "bike_rig"
+        official = official_client()
+        if official is not None:  # the official client (@foxglove/ws-protocol), offering foxglove.websocket.v1
+            out = subprocess.run([*official, f"ws://127.0.0.1:{port}", "0"], capture_output=True, text=True,
+                                 timeout=60, check=False)  # fmt: skip
+            events = [json.loads(line) for line in out.stdout.splitlines()]
+            assert out.returncode == 0, (out.stdout, out.stderr)
+            assert events[0] == {"event": "open", "protocol": LEGACY_SUBPROTOCOL}, events
+            assert {"event": "serverInfo", "name": "bike_rig"} in events
+            advertised = {t for e in events if e["event"] == "advertise" for t in e["topics"]}
+            assert {v.name for v in VIEW_TOPICS} - {DIAGNOSTICS.name} <= advertised, advertised
+        # nothing runs on this domain: the view says so, and how to point it at a session
+        hint = view.expect("no", 60)
+        assert hint.startswith(f"bike_rig graph found on ROS_DOMAIN_ID={ros_env['ROS_DOMAIN_ID']}: "), hint
         assert view.stop() == 0, view.describe()
     text = "\n".join(_all_lines(view))
-    assert "  layout: Layouts > Import from file > " in text and text.rstrip().endswith("Ctrl-C stops"), text
+    assert "  layout: Layouts > Import from file > " in text and "\nCtrl-C stops\n" in text, text
     assert "config/foxglove/bike_rig_layout.json" in text, text
+    assert "\n  bike-rig run and bike-rig session print their graph's ROS_DOMAIN_ID; point the view at it: " in text

@@ -1,7 +1,8 @@
 """A Foxglove WebSocket protocol client for tests (``websockets``' synchronous client).
 
 Speaks the protocol as the Foxglove app does: offers the subprotocols ``foxglove.sdk.v1`` and
-``foxglove.websocket.v1``, reads ``serverInfo`` and ``advertise`` (JSON text frames), sends
+``foxglove.websocket.v1`` (or only those asked for: ``@foxglove/ws-protocol`` clients and
+Lichtblick offer only ``foxglove.websocket.v1``), reads ``serverInfo`` and ``advertise`` (JSON text frames), sends
 ``subscribe`` and decodes the binary message-data frames: opcode ``0x01``, subscription id
 (u32, little-endian), log time (u64, ns), then the payload (here: CDR).
 """
@@ -10,10 +11,12 @@ from __future__ import annotations
 
 import contextlib
 import json
+import shutil
 import struct
 import time
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 from websockets.exceptions import ConnectionClosed
@@ -22,6 +25,8 @@ from websockets.typing import Subprotocol
 
 SUBPROTOCOLS = (Subprotocol("foxglove.sdk.v1"), Subprotocol("foxglove.websocket.v1"))
 MESSAGE_DATA = 0x01
+#: The official client's probe (``@foxglove/ws-protocol`` under Node), installed by tools/setup_node.sh.
+PROBE = Path(__file__).resolve().parent / "js"
 _HEADER = struct.Struct("<BIQ")
 
 
@@ -111,17 +116,18 @@ class FoxgloveClient:
         self.ws.send(json.dumps({"op": "subscribe", "subscriptions": subs}))
 
 
-
 @contextlib.contextmanager
-def foxglove_client(url: str, timeout: float = 30.0) -> Iterator[FoxgloveClient]:
-    """A connected client, closed (with the closing handshake) on exit.
+def foxglove_client(
+    url: str, timeout: float = 30.0, subprotocols: Iterable[str] = SUBPROTOCOLS
+) -> Iterator[FoxgloveClient]:
+    """A connected client offering ``subprotocols``, closed (with the closing handshake) on exit.
 
     Retries until the server listens, at most ``timeout`` s.
     """
     deadline = time.monotonic() + timeout
     while True:
         try:
-            ws = connect(url, subprotocols=list(SUBPROTOCOLS), max_size=None, open_timeout=5)
+            ws = connect(url, subprotocols=[Subprotocol(p) for p in subprotocols], max_size=None, open_timeout=5)
             break
         except OSError:
             if time.monotonic() > deadline:
@@ -129,3 +135,11 @@ def foxglove_client(url: str, timeout: float = 30.0) -> Iterator[FoxgloveClient]
             time.sleep(0.2)
     with ws:
         yield FoxgloveClient(url, ws)
+
+
+def official_client() -> list[str] | None:
+    """The command of the official client's probe (``js/foxglove_probe.mjs``), or None when it is not installed."""
+    node = shutil.which("node")
+    if node is None or not (PROBE / "node_modules" / "@foxglove" / "ws-protocol").is_dir():
+        return None
+    return [node, str(PROBE / "foxglove_probe.mjs")]
