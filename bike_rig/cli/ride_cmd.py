@@ -8,7 +8,8 @@
     bike-rig ride validate PARAMETERS RECORD... [the record options] [--rider R] [--feedback F]
                       [--sigma correlated|paper] [--com-method M] [--speeds START STOP N] [--json] [-o DIR]
     bike-rig ride calibrate PARAMETERS RECORD... [the record options] [--rider R] [--feedback F]
-                      [--free NAME,...] [--com-method M] [--speeds START STOP N] [--json] [-o DIR]
+                      [--free NAME,...] [--assist-rate HZ] [--com-method M] [--speeds START STOP N]
+                      [--json] [-o DIR]
     bike-rig ride simulate PARAMETERS --speed M/S -o OUT.csv|OUT_BAG [--rider R] [--feedback F]
                       [--duration S] [--rate HZ] [--kick-every S] [--kick-torque NM] [--noise RAD/S] [--seed N]
 
@@ -31,7 +32,8 @@ writes the figures (``ride_validation.png``, ``segments_<record>.png``).
 ``calibrate`` takes the measured parameter set and its covariance as the prior and the speeds'
 combined eigenvalues as the data, and compares model variants (the rider aboard or not where
 ``--rider`` is given; the nominal gains or a free gain scale where ``--feedback`` is given;
-with the parameters named by ``--free`` freed from their prior): each variant's posterior,
+with the parameters named by ``--free`` freed from their prior; ``--assist-rate`` models a
+digital assist that holds its torque over each sample): each variant's posterior,
 χ² with its degrees of freedom, AIC, BIC and Laplace evidence, then the verdict in words
 (:mod:`bike_rig.pipeline.ride_calibrate`, :mod:`bike_rig.core.ride.variants`). ``-o DIR`` writes
 ``ride_calibration.png``; ``--json`` prints everything (every variant's parameters with prior and
@@ -107,6 +109,8 @@ def add_parser(sub: Any) -> None:
     c.add_argument("--free", default="", metavar="NAME,...",
                    help="parameters freed from their prior in further variants, e.g. IBzz,IFyy")  # fmt: skip
     c.add_argument("--speeds", nargs=3, metavar=("START", "STOP", "N"), help="speeds of the bands, m/s")
+    rate_help = "a digital assist's sample rate, Hz: torque held over each sample (default: continuous)"
+    c.add_argument("--assist-rate", type=float, metavar="HZ", help=rate_help)
     c.set_defaults(func=run_calibrate)
     s = rs.add_parser("simulate", help="a simulated ride of the linear model (CSV, or a bag for a directory name)")
     s.add_argument("parameters", metavar="PARAMETERS", help="measurement file or parameter file")
@@ -283,11 +287,14 @@ def run_calibrate(args: argparse.Namespace) -> int:
     from .main import _parameters, _speeds
 
     free = _free_names(args.free)
+    rate = args.assist_rate
+    if rate is not None and not (math.isfinite(rate) and rate > 0):
+        raise UsageError(f"--assist-rate must be a finite rate > 0 Hz, got {rate}")
     speeds = _speeds(args.speeds) if args.speeds else None
     bicycle = _parameters(args.parameters, args.com_method)
     rider, fb = rider_from_spec(args.rider), feedback_from_spec(args.feedback)
     rows = measure(args)
-    result = calibrate_rides(bicycle, [m for m, _, _ in rows], rider, fb, free, speeds)
+    result = calibrate_rides(bicycle, [m for m, _, _ in rows], rider, fb, free, speeds, rate)
     if args.json:
         print(json.dumps(calibration_json(result), indent=2))
     else:

@@ -61,6 +61,7 @@ def calibrate_rides(
     feedback: Feedback | None = None,
     free: Sequence[str] = (),
     speeds: ArrayLike | None = None,
+    rate_hz: float | None = None,
 ) -> CalibratedRide:
     """Calibrate the bicycle's parameters and the variants against the rides (module docstring).
 
@@ -71,6 +72,7 @@ def calibrate_rides(
         feedback: The assist's feedback (None: the open loop).
         free: Parameters freed from their prior in further variants.
         speeds: The bands' speeds [m/s] (default as ``ride validate``'s curve).
+        rate_hz: The assist's sample rate [Hz] (None: a continuous assist).
 
     Raises:
         RideSpeedError: A segment without a speed. CalibrationDataError: no clean segment, or
@@ -80,7 +82,7 @@ def calibrate_rides(
         if not math.isfinite(m.speed):
             raise RideSpeedError(f"{m.source}: segment {m.index} has no speed: give --speed or a speed column or topic")
     data = RideData.from_combined(combine_eigenvalues(segments))
-    cal = calibrate(bicycle, data, rider, feedback, free)
+    cal = calibrate(bicycle, data, rider, feedback, free, rate_hz=rate_hz)
     if speeds is None:
         speeds = np.linspace(CURVE_FROM, max(CURVE_TO, 1.2 * float(data.speeds.max())), CURVE_POINTS)
     v = np.asarray(speeds, dtype=float)
@@ -135,6 +137,7 @@ def calibration_json(result: CalibratedRide) -> dict[str, Any]:
                  "imag": d.imag.tolist(), "imag_sigma": d.imag_sigma.tolist()},
         "variants": [_variant_json(r) for r in cal.variants],
         "best": cal.best.name,
+        "assist_rate_hz": cal.best.posterior.rate_hz,
         "explained": cal.explained,
         "verdict": cal.verdict,
         "notes": list(cal.notes),

@@ -31,7 +31,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from ..benchmark import ParameterSet
 from ..errors import ModelError
@@ -39,7 +39,7 @@ from ..feedback import Feedback
 from ..symbols import PARAMETER_NAMES
 from ..uncertainty.eigen_sigma import eigenvalue_gradient
 from ..uncertainty.uncertain import COMPLEX_STEP
-from ..whipple import canonical_matrices, state_space
+from ..whipple import WhippleMatrices, canonical_matrices, state_space
 from ..whipple.closed_loop import closed_loop_rows, closed_loop_state_space
 from .eigen import CombinedEigenvalue
 
@@ -74,6 +74,8 @@ NONLINEAR_LIMIT = 0.3
 RANK_TOLERANCE = 1e-10
 #: A speed whose combined σ [1/s] is below this is not credible (a degenerate fit) and is left out.
 MIN_DATA_SIGMA = 1e-6
+#: Step in the whitened unknowns of the central differences for a sampled assist [-].
+FD_STEP = 1e-5
 #: A prior direction of Σ0 with a smaller variance (relative to the largest) is exact.
 PRIOR_TOLERANCE = 1e-14
 
@@ -187,8 +189,13 @@ def model_weave(
     feedback: Feedback | None,
     scale: float | FloatArray,
     near: ComplexArray,
+    rate_hz: float | None = None,
 ) -> tuple[ComplexArray, NDArray[np.bool_], FloatArray]:
     """The model's weave eigenvalue nearest ``near`` at ``speeds`` [m/s] (module docstring).
+
+    With ``rate_hz`` the assist is digital: its torque computed from each sample's state and held
+    to the next (zero-order hold of the open loop, ``A_d = e^{A Δt}``); the eigenvalue is then
+    ``log(eig(A_d − b_d K)) / Δt`` [1/s], as :mod:`.ridesim` simulates it.
 
     Args:
         values: The 26 parameters (floats, or arrays of shape (D,) for D bicycles at once).
@@ -196,6 +203,7 @@ def model_weave(
         feedback: The feedback, or None (open loop).
         scale: The gain scale (a float or shape (D,)).
         near: Target eigenvalues, shape (N,).
+        rate_hz: The assist's sample rate [Hz] (None: continuous).
 
     Returns:
         Eigenvalues (…, N) [1/s], whether each oscillates, and its separation from the nearest
@@ -213,12 +221,51 @@ def model_weave(
         g = g[:, None, None, None]
     if feedback is None:
         a, _ = state_space(mats, v, g)
-    else:
-        s = np.asarray(scale, dtype=float)
-        gains = feedback.gains(speeds) * (s[:, None, None] if batch and s.ndim else s)
+        lam = np.linalg.eigvals(np.asarray(a, dtype=float)).astype(complex)
+        return _pick(lam, np.broadcast_to(near, lam.shape[:-1]))
+    s = np.asarray(scale, dtype=float)
+    gains = feedback.gains(speeds) * (s[:, None, None] if batch and s.ndim else s)
+    if rate_hz is None:
         a, _ = closed_loop_state_space(mats, v, g, gains)
-    lam = np.linalg.eigvals(np.asarray(a, dtype=float)).astype(complex)
+        lam = np.linalg.eigvals(np.asarray(a, dtype=float)).astype(complex)
+    else:
+        lam = _sampled_eigenvalues(mats, v, g, gains, 1.0 / rate_hz)
     return _pick(lam, np.broadcast_to(near, lam.shape[:-1]))
+
+
+def _expm(x: FloatArray) -> FloatArray:
+    """``e^x`` of a batch of small matrices (…, n, n): Taylor series of order 12 with scaling and squaring.
+
+    ``scipy.linalg.expm`` loops over a batch; this is the same accuracy (the scaled norm is below
+    1/2, the truncation error below 1e-16 of it) in a few batched matrix products.
+    """
+    norm = float(np.max(np.sum(np.abs(x), axis=-1))) if x.size else 0.0
+    squarings = max(0, math.ceil(math.log2(norm / 0.5))) if norm > 0.5 else 0
+    y = x / 2.0**squarings
+    term = np.broadcast_to(np.eye(x.shape[-1]), x.shape).copy()
+    out = term.copy()
+    for k in range(1, 13):
+        term = term @ y / k
+        out += term
+    for _ in range(squarings):
+        out = out @ out
+    return out
+
+
+def _sampled_eigenvalues(
+    mats: WhippleMatrices, v: ArrayLike, g: ArrayLike, gains: FloatArray, dt: float
+) -> ComplexArray:
+    """Eigenvalues [1/s] of the closed loop with the steer torque ``−K x`` held over each sample of ``dt`` [s]."""
+    a, b = state_space(mats, v, g)
+    a = np.asarray(a, dtype=float)
+    aug = np.zeros(a.shape[:-2] + (5, 5))
+    aug[..., :4, :4] = a
+    aug[..., :4, 4] = np.broadcast_to(np.asarray(b, dtype=float)[..., 1], a.shape[:-1])
+    e = _expm(aug * dt)
+    closed = e[..., :4, :4] - e[..., :4, 4, None] * np.asarray(gains, dtype=float)[..., None, :]
+    mu = np.linalg.eigvals(closed).astype(complex)
+    with np.errstate(divide="ignore"):
+        return np.asarray(np.log(mu) / dt)
 
 
 def _scale_gradient(values: Mapping[str, float], speeds: FloatArray, lam: ComplexArray, feedback: Feedback,
@@ -278,6 +325,7 @@ class Posterior:
         jacobian_unknowns: ``∂θ/∂z`` (26 × n) and the gain scale's row, for propagating ``z``'s covariance.
         z_mean: The whitened unknowns ``z`` at the posterior mean (n).
         z_covariance: Their covariance (n × n).
+        rate_hz: The assist's sample rate [Hz] the model used (None: continuous).
     """
 
     prior: ParameterSet
@@ -298,6 +346,7 @@ class Posterior:
     jacobian_unknowns: FloatArray
     z_mean: FloatArray
     z_covariance: FloatArray
+    rate_hz: float | None = None
 
     @property
     def sigmas(self) -> FloatArray:
@@ -324,8 +373,16 @@ class Posterior:
 class _Problem:
     """The whitened least-squares problem of one variant."""
 
-    def __init__(self, prior: ParameterSet, data: RideData, feedback: Feedback | None, unknowns: Unknowns):
+    def __init__(
+        self,
+        prior: ParameterSet,
+        data: RideData,
+        feedback: Feedback | None,
+        unknowns: Unknowns,
+        rate_hz: float | None = None,
+    ):
         pv = prior.parameters
+        self.rate_hz = rate_hz if feedback is not None else None
         w, vecs = np.linalg.eigh(0.5 * (pv.covariance + pv.covariance.T))
         keep = w > PRIOR_TOLERANCE * max(float(w.max()), 0.0) if w.size and w.max() > 0 else np.zeros(w.size, bool)
         self.t_prior = vecs[:, keep] * np.sqrt(w[keep])  # (26, n_u)
@@ -360,12 +417,34 @@ class _Problem:
         out[:, self.n_u : self.n_u + self.n_f] = self.t_free
         return out
 
-    def model(
-        self, z: FloatArray, near: ComplexArray | None = None
-    ) -> tuple[ComplexArray, NDArray[np.bool_], FloatArray]:
+    def model(self, z: FloatArray) -> tuple[ComplexArray, NDArray[np.bool_], FloatArray]:
         th, s = self.theta(z)
         values = dict(zip(PARAMETER_NAMES, th.tolist(), strict=True))
-        return model_weave(values, self.data.speeds, self.feedback, s, self.data.near if near is None else near)
+        return model_weave(values, self.data.speeds, self.feedback, s, self.data.near, self.rate_hz)
+
+    def draws(self, zs: FloatArray, near: ComplexArray) -> tuple[ComplexArray, NDArray[np.bool_], FloatArray]:
+        """The model at many ``z`` at once (rows of ``zs``), eigenvalues nearest ``near``."""
+        th = self.theta0[None, :] + zs @ self.dtheta().T
+        scales = 1.0 + (zs[:, -1] if self.scaled else np.zeros(zs.shape[0]))
+        values = {n: th[:, i] for i, n in enumerate(PARAMETER_NAMES)}
+        return model_weave(values, self.data.speeds, self.feedback, scales, near, self.rate_hz)
+
+    def dlam(self, z: FloatArray, lam: ComplexArray) -> ComplexArray:
+        """``∂λ/∂z`` (N, n): analytic for a continuous assist; central differences for a sampled one."""
+        if self.rate_hz is not None:
+            h = FD_STEP * np.eye(self.n)
+            both, _, _ = self.draws(np.vstack([z + h, z - h]), lam)
+            return np.asarray((both[: self.n] - both[self.n :]).T / (2 * FD_STEP))
+        th, s = self.theta(z)
+        values = dict(zip(PARAMETER_NAMES, th.tolist(), strict=True))
+        v = self.data.speeds
+        gains = None if self.feedback is None else s * self.feedback.gains(v)
+        grad = eigenvalue_gradient(values, v, lam[:, None], gains)[:, 0, :]  # (N, 26)
+        out = np.asarray(grad @ self.dtheta(), dtype=complex)  # (N, n)
+        if self.scaled:
+            assert self.feedback is not None
+            out[:, -1] = _scale_gradient(values, v, lam, self.feedback, s)
+        return out
 
     def residual(self, z: FloatArray) -> tuple[FloatArray, ComplexArray, NDArray[np.bool_]]:
         lam, osc, _ = self.model(z)
@@ -374,15 +453,7 @@ class _Problem:
 
     def jacobian(self, z: FloatArray, lam: ComplexArray) -> FloatArray:
         """∂(residual)/∂z, shape (2N + n_u, n)."""
-        th, s = self.theta(z)
-        values = dict(zip(PARAMETER_NAMES, th.tolist(), strict=True))
-        v = self.data.speeds
-        gains = None if self.feedback is None else s * self.feedback.gains(v)
-        grad = eigenvalue_gradient(values, v, lam[:, None], gains)[:, 0, :]  # (N, 26)
-        dlam = grad @ self.dtheta()  # (N, n)
-        if self.scaled:
-            assert self.feedback is not None
-            dlam[:, -1] = _scale_gradient(values, v, lam, self.feedback, s)
+        dlam = self.dlam(z, lam)
         sign = np.where(lam.imag >= 0, 1.0, -1.0)[:, None]
         dm = np.concatenate([dlam.real, sign * dlam.imag])
         dm = np.where(np.isfinite(dm), dm, 0.0)
@@ -392,7 +463,11 @@ class _Problem:
 
 
 def posterior(
-    prior: ParameterSet, data: RideData, feedback: Feedback | None = None, unknowns: Unknowns = Unknowns()
+    prior: ParameterSet,
+    data: RideData,
+    feedback: Feedback | None = None,
+    unknowns: Unknowns = Unknowns(),
+    rate_hz: float | None = None,
 ) -> Posterior:
     """The Laplace posterior of ``prior``'s parameters (and the variant's unknowns) given ``data``.
 
@@ -401,12 +476,13 @@ def posterior(
         data: The measured weave eigenvalues per speed.
         feedback: The closed loop's feedback, or None (open loop; no gain scale).
         unknowns: Parameters freed from their prior, and whether the gain scale is free.
+        rate_hz: The assist's sample rate [Hz] (None: continuous; :func:`model_weave`).
 
     Raises:
         CalibrationDataError: An unknown parameter name.
         ModelError: A singular mass matrix.
     """
-    p = _Problem(prior, data, feedback, unknowns)
+    p = _Problem(prior, data, feedback, unknowns, rate_hz)
     z = np.zeros(p.n)
     r, lam, _ = p.residual(z)
     chi2 = float(r @ r)
@@ -485,6 +561,7 @@ def _laplace(
         jacobian_unknowns=dth,
         z_mean=z,
         z_covariance=cov_z,
+        rate_hz=p.rate_hz,
     )
 
 
@@ -504,13 +581,8 @@ def _check(
     n_speeds = n_data // 2
     rng = np.random.default_rng(seed)
     dz = rng.multivariate_normal(np.zeros(p.n), cov_z, size=CHECK_DRAWS, method="eigh", check_valid="ignore")
-    dth = p.dtheta()
-    th, s = p.theta(z)
-    draws = th[None, :] + dz @ dth.T
-    scales = s + (dz[:, -1] if p.scaled else 0.0) * np.ones(CHECK_DRAWS)
-    values = {n: draws[:, i] for i, n in enumerate(PARAMETER_NAMES)}
     try:
-        exact, osc, _ = model_weave(values, p.data.speeds, p.feedback, scales, lam)
+        exact, osc, _ = p.draws(z[None, :] + dz, lam)
     except ModelError:
         why = "some posterior draws have a singular mass matrix: the posterior is far too wide"
         return Linearity(predicted, recomputed, math.inf, np.ones(n_speeds), False, (why,))
@@ -573,7 +645,7 @@ def weave_band(post: Posterior, feedback: Feedback | None, speeds: FloatArray, n
     v = np.asarray(speeds, dtype=float)
     nan = np.full(v.size, math.nan)
     data = RideData(v, near.real, nan, np.abs(near.imag), nan)
-    p = _Problem(post.prior, data, feedback, post.unknowns)
+    p = _Problem(post.prior, data, feedback, post.unknowns, post.rate_hz)
     if prior:
         z = np.zeros(p.n)
         cov = np.zeros((p.n, p.n))
@@ -582,13 +654,7 @@ def weave_band(post: Posterior, feedback: Feedback | None, speeds: FloatArray, n
         z = post.z_mean
         cov = np.where(np.isfinite(post.z_covariance), post.z_covariance, 0.0)
     lam, _, _ = p.model(z)
-    th, s = p.theta(z)
-    values = dict(zip(PARAMETER_NAMES, th.tolist(), strict=True))
-    gains = None if feedback is None else s * feedback.gains(v)
-    grad = eigenvalue_gradient(values, v, lam[:, None], gains)[:, 0, :] @ p.dtheta()
-    if p.scaled:
-        assert feedback is not None
-        grad[:, -1] = _scale_gradient(values, v, lam, feedback, s)
+    grad = p.dlam(z, lam)
     with np.errstate(invalid="ignore", over="ignore"):
         s_re = np.sqrt(np.einsum("ni,ij,nj->n", grad.real, cov, grad.real))
         s_im = np.sqrt(np.einsum("ni,ij,nj->n", grad.imag, cov, grad.imag))

@@ -164,6 +164,7 @@ def calibrate(
     feedback: Feedback | None = None,
     free: Sequence[str] = (),
     rider_aboard: bool | None = None,
+    rate_hz: float | None = None,
 ) -> RideCalibration:
     """Every variant's posterior, ranked, and the verdict (module docstring).
 
@@ -174,6 +175,8 @@ def calibrate(
         feedback: The assist's feedback (None: the open loop, no gain scale).
         free: Parameters freed from their prior in further variants.
         rider_aboard: Try only this (True / False); None: both where a rider is given.
+        rate_hz: The assist's sample rate [Hz]: a digital assist holding its torque over each
+            sample (None: continuous; :func:`~.posterior.model_weave`).
 
     Raises:
         CalibrationDataError: An unknown parameter in ``free``.
@@ -193,6 +196,8 @@ def calibrate(
     if feedback is None:
         notes.append("no feedback given: the open loop, no gain scale")
     else:
+        how = f"sampled at {rate_hz:g} Hz (its torque held over each sample)" if rate_hz else "continuous"
+        notes.append(f"the assist is modelled {how}")
         notes.append("a saturating assist is not a variant of its own: an eigenvalue is a small-signal quantity, and "
                      "saturation acts on it as a lower gain scale, which the gain-scale variants measure")  # fmt: skip
     frees = [()] + ([tuple(free)] if free else [])
@@ -201,7 +206,7 @@ def calibrate(
         for scale in scales:
             for names in frees:
                 u = Unknowns(names, scale)
-                post = posterior(prior, data, feedback, u)
+                post = posterior(prior, data, feedback, u, rate_hz)
                 label = _name(aboard if rider is not None else None, u, feedback is not None)
                 results.append(_result(label, aboard, post, data.size))
     ranked = tuple(sorted(results, key=lambda r: (r.evidence, r.posterior.chi2)))

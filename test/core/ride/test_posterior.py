@@ -134,3 +134,28 @@ def test_data_without_a_credible_sigma_are_refused() -> None:
     good = CombinedEigenvalue(3.0, -1.0, 0.1, 7.0, 0.1, 3, 0)
     data = RideData.from_combined([degenerate, good])
     assert data.speeds.tolist() == [3.0] and "not credible" in data.notes[0]
+
+
+def test_a_sampled_assist_is_modelled_as_the_ride_simulation_runs_it(bicycle: tuple[object, Feedback]) -> None:
+    from bike_rig.core.ride.ridesim import RideConditions, simulate_segment
+    from bike_rig.core.whipple import canonical_matrices
+
+    ps, fb = bicycle
+    vals = ps.parameters.as_dict()  # type: ignore[attr-defined]
+    rng = np.random.default_rng(0)
+    for v in (2.0, 4.0):
+        sim = simulate_segment(canonical_matrices(vals), vals["g"], v, 0.7 * fb.gains(v), 1.2, RideConditions(), rng)
+        lam, _, _ = model_weave(vals, np.array([v]), fb, 0.7, np.array([sim.weave]), rate_hz=100.0)
+        assert abs(lam[0] - sim.weave) < 1e-9
+        continuous, _, _ = model_weave(vals, np.array([v]), fb, 0.7, np.array([sim.weave]))
+        assert abs(continuous[0].real - sim.weave.real) > 0.05  # the hold delays the assist: it matters
+    data = _rides(ps, fb, None)
+    sampled = RideData(data.speeds, *(x for x in _sampled_parts(ps, fb)), data.imag_sigma)
+    post = posterior(ps, sampled, fb, Unknowns(gain_scale=True), rate_hz=100.0)  # type: ignore[arg-type]
+    assert post.gain_scale == pytest.approx(0.7, abs=1e-4) and post.chi2 < 1e-4
+
+
+def _sampled_parts(ps: object, fb: Feedback) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    vals = ps.parameters.as_dict()  # type: ignore[attr-defined]
+    lam, _, _ = model_weave(vals, SPEEDS, fb, 0.7, np.full(SPEEDS.size, -3 + 10j), rate_hz=100.0)
+    return lam.real, np.full(SPEEDS.size, 0.1), lam.imag
