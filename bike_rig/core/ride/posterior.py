@@ -74,8 +74,8 @@ NONLINEAR_LIMIT = 0.3
 RANK_TOLERANCE = 1e-10
 #: A speed whose combined σ [1/s] is below this is not credible (a degenerate fit) and is left out.
 MIN_DATA_SIGMA = 1e-6
-#: Step in the whitened unknowns of the central differences for a sampled assist [-].
-FD_STEP = 1e-5
+#: Step in the whitened unknowns of the forward differences for a sampled assist [-].
+FD_STEP = 1e-6
 #: A prior direction of Σ0 with a smaller variance (relative to the largest) is exact.
 PRIOR_TOLERANCE = 1e-14
 
@@ -430,11 +430,10 @@ class _Problem:
         return model_weave(values, self.data.speeds, self.feedback, scales, near, self.rate_hz)
 
     def dlam(self, z: FloatArray, lam: ComplexArray) -> ComplexArray:
-        """``∂λ/∂z`` (N, n): analytic for a continuous assist; central differences for a sampled one."""
+        """``∂λ/∂z`` (N, n): analytic for a continuous assist; forward differences for a sampled one."""
         if self.rate_hz is not None:
-            h = FD_STEP * np.eye(self.n)
-            both, _, _ = self.draws(np.vstack([z + h, z - h]), lam)
-            return np.asarray((both[: self.n] - both[self.n :]).T / (2 * FD_STEP))
+            stepped, _, _ = self.draws(z[None, :] + FD_STEP * np.eye(self.n), lam)
+            return np.asarray((stepped - lam[None, :]).T / FD_STEP)
         th, s = self.theta(z)
         values = dict(zip(PARAMETER_NAMES, th.tolist(), strict=True))
         v = self.data.speeds
