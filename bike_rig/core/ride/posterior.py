@@ -578,6 +578,10 @@ def _check(
     """Exact against linear model eigenvalues over posterior draws (module docstring)."""
     n_data = p.data.size
     n_speeds = n_data // 2
+    real = [f"{p.data.speeds[i]:.2f} m/s: the model has no oscillatory mode at the posterior; its nearest real "
+            "eigenvalue is compared" for i in np.flatnonzero(np.abs(lam.imag) <= MIN_IMAG).tolist()]  # fmt: skip
+    if p.n == 0:  # nothing uncertain: the model is exact, the posterior the prior
+        return Linearity(predicted, recomputed, 0.0, np.zeros(n_speeds), not real, tuple(real))
     rng = np.random.default_rng(seed)
     dz = rng.multivariate_normal(np.zeros(p.n), cov_z, size=CHECK_DRAWS, method="eigh", check_valid="ignore")
     try:
@@ -601,13 +605,10 @@ def _check(
         notes.append(f"{p.data.speeds[i]:.2f} m/s: the weave is not oscillatory in {100 * not_osc[i]:.0f} % of "
                      "the posterior draws (a branch point within the posterior): linearisation not valid "
                      "there")  # fmt: skip
-    base, _, _ = p.model(z)
-    for i in np.flatnonzero(np.abs(base.imag) <= MIN_IMAG).tolist():
-        notes.append(f"{p.data.speeds[i]:.2f} m/s: the model has no oscillatory mode at the posterior; "
-                     "its nearest real eigenvalue is compared")  # fmt: skip
+    notes += real
     if abs(recomputed - predicted) > max(1.0, 0.1 * predicted) and predicted < recomputed:
         notes.append(f"the last Gauss–Newton step predicted χ² = {predicted:.1f}, recomputed {recomputed:.1f}")
-    valid = rms <= NONLINEAR_LIMIT and not bad.size
+    valid = rms <= NONLINEAR_LIMIT and not bad.size and not real
     return Linearity(predicted, recomputed, rms, not_osc, valid, tuple(notes))
 
 

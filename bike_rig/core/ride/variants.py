@@ -183,6 +183,9 @@ def calibrate(
         ModelError: A singular mass matrix.
     """
     notes = list(data.notes)
+    if not np.any(bicycle.parameters.sigmas > 0):
+        notes.append("the parameters have no σ (an exact prior, e.g. a parameter file without σ): they cannot "
+                     "move; only each variant's gain scale and freed parameters are fitted")  # fmt: skip
     priors: list[tuple[bool, ParameterSet]] = []
     if rider is None:
         priors.append((False, bicycle))
@@ -206,8 +209,12 @@ def calibrate(
         for scale in scales:
             for names in frees:
                 u = Unknowns(names, scale)
-                post = posterior(prior, data, feedback, u, rate_hz)
                 label = _name(aboard if rider is not None else None, u, feedback is not None)
+                if u.count >= data.size:
+                    notes.append(f"'{label}' not tried: {u.count} unknowns without a prior for {data.size} data "
+                                 "values (rank deficient: the rides cannot determine them)")  # fmt: skip
+                    continue
+                post = posterior(prior, data, feedback, u, rate_hz)
                 results.append(_result(label, aboard, post, data.size))
     ranked = tuple(sorted(results, key=lambda r: (r.evidence, r.posterior.chi2)))
     text, explained = describe(ranked, feedback is not None, rider is not None)
@@ -260,8 +267,11 @@ def describe(ranked: Sequence[VariantResult], has_feedback: bool, has_rider: boo
     if post.dof > 0 and best.p_value < MIN_P:
         tried = f"{len(ranked)} variants tried" if len(ranked) > 1 else "the one variant tried"
         loop = "with this controller " if has_feedback else ""
-        return (f"no variant explains the rides (χ²/dof = {best.reduced_chi2:.1f} for the best, '{best.name}'; "
-                f"{tried}): the Whipple model {loop}does not describe this bicycle at these speeds", False)  # fmt: skip
+        text = (f"no variant explains the rides (χ²/dof = {best.reduced_chi2:.1f} for the best, '{best.name}'; "
+                f"{tried}): the Whipple model {loop}does not describe this bicycle at these speeds")  # fmt: skip
+        if not post.linearity.valid:
+            text += ". " + "; ".join(post.linearity.notes)
+        return text, False
     parts = []
     if has_feedback and post.unknowns.gain_scale:
         parts.append(f"the gains acting at {_pm(post.gain_scale, post.gain_scale_sigma)} of their nominal scale")
@@ -302,6 +312,8 @@ def _constraints(post: Posterior) -> str:
         listed = ", ".join(f"{n} ({r:.2f})" for n, r in tight[:6])
         text = (f". The rides constrain {post.constrained_directions} combination(s) of the {n_prior} uncertain "
                 f"parameters (posterior/prior σ: {listed}); the others stay at their prior")  # fmt: skip
+    elif n_prior == 0:
+        text = ""
     else:
         text = (
             f". The rides constrain none of the {n_prior} uncertain parameters beyond the rig: all stay at their prior"
