@@ -326,8 +326,9 @@ def _calibrate_text(result: Any) -> str:
         red = f"{r.reduced_chi2:7.2f}" if math.isfinite(r.reduced_chi2) else f"{'—':>7}"
         lines.append(f"{r.name:<44} {p.chi2:8.1f} {p.dof:4d} {red} {r.aic:8.1f} {r.bic:8.1f} {ev}  {scale}")
     best = cal.best.posterior
+    caveat = "" if cal.explained else " — it does not explain the rides: shifts forced onto the model, not measured"
     lines.append(f"best variant '{cal.best.name}': parameters that move or that the rides constrain "
-                 "(prior → posterior, shift in prior σ, posterior/prior σ):")  # fmt: skip
+                 f"(prior → posterior, shift in prior σ, posterior/prior σ){caveat}:")  # fmt: skip
     tight = {n for n, _ in constrained(best)}
     prior = best.prior.parameters
     for i, n in enumerate(PARAMETER_NAMES):
