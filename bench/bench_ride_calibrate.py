@@ -46,9 +46,10 @@ from bike_rig.cli.main import _parameters
 from bike_rig.core.benchmark import ParameterSet
 from bike_rig.core.feedback import Feedback, resolve_feedback
 from bike_rig.core.ride.eigen import combine_eigenvalues, fit_segment, pool_drive
-from bike_rig.core.ride.posterior import RideData, model_weave
+from bike_rig.core.ride.posterior import RideData
 from bike_rig.core.ride.ridesim import RideConditions, simulate_segment
 from bike_rig.core.ride.variants import CONSTRAINED_RATIO, calibrate
+from bike_rig.core.ride.weave_model import model_weave
 from bike_rig.core.rider import PAPER_RIDER
 from bike_rig.core.symbols import PARAMETER_NAMES
 from bike_rig.core.uncertainty.uncertain import UncertainVector

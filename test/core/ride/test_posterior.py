@@ -22,11 +22,11 @@ from bike_rig.core.ride.posterior import (
     CalibrationDataError,
     RideData,
     Unknowns,
-    model_weave,
     posterior,
     weave_band,
 )
 from bike_rig.core.ride.variants import calibrate
+from bike_rig.core.ride.weave_model import model_weave
 from bike_rig.core.rider import PAPER_RIDER
 from bike_rig.core.symbols import PARAMETER_NAMES
 from bike_rig.paths import config_file
