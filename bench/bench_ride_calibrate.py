@@ -148,13 +148,16 @@ def _covered(bias: float) -> float:
 
 
 def _expected_coverage(ratio: float) -> float:
-    """P(|posterior − truth| ≤ σ_post) for a fixed +2 σ0 truth, linear Gaussian: the prior pulls by r² · 2 σ0."""
+    """P(|posterior − truth| ≤ σ_post) for a fixed +2 σ0 truth, one linear Gaussian parameter.
+
+    With r = σ_post/σ0 the posterior mean is pulled toward the prior by r² · 2 σ0 (2r posterior σ)
+    and scatters over the rides' noise by sqrt(1 − r²) posterior σ.
+    """
     from scipy.stats import norm
 
-    if ratio >= 1.0:
-        return float(norm.cdf(-1.0))  # stays at the prior: 2σ off, σ unchanged
-    bias = ratio**2 * 2.0 / ratio  # in posterior σ
-    return float(norm.cdf(1.0 - bias) - norm.cdf(-1.0 - bias))
+    r = min(ratio, 1.0)
+    bias, spread = 2.0 * r, math.sqrt(max(1.0 - r * r, 1e-12))
+    return float(norm.cdf((1.0 - bias) / spread) - norm.cdf((-1.0 - bias) / spread))
 
 
 def end_to_end(ps: ParameterSet, fb: Feedback, seeds: int, saturation: float, rate: float | None) -> None:
