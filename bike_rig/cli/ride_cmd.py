@@ -7,6 +7,9 @@
                       [--segments auto|whole|find] [--model auto|eq23_trend|eq23_real|eq23] [--json] [-o DIR]
     bike-rig ride validate PARAMETERS RECORD... [the record options] [--rider R] [--feedback F]
                       [--sigma correlated|paper] [--com-method M] [--speeds START STOP N] [--json] [-o DIR]
+    bike-rig ride calibrate PARAMETERS RECORD... [the record options] [--rider R] [--feedback F]
+                      [--free NAME,...] [--assist-rate HZ] [--com-method M] [--speeds START STOP N]
+                      [--json] [-o DIR]
     bike-rig ride simulate PARAMETERS --speed M/S -o OUT.csv|OUT_BAG [--rider R] [--feedback F]
                       [--duration S] [--rate HZ] [--kick-every S] [--kick-torque NM] [--noise RAD/S] [--seed N]
 
@@ -25,6 +28,16 @@ keys; speeds without a clean segment too], "normalised_deviation": overall, "not
 "verdict", "verdict_text", "verdict_sigma"}``; the text ends in the verdict in words, never a NaN
 (:mod:`bike_rig.core.ride.verdict`). Exit status 0 whenever it ran, whatever the verdict. ``-o DIR``
 writes the figures (``ride_validation.png``, ``segments_<record>.png``).
+
+``calibrate`` takes the measured parameter set and its covariance as the prior and the speeds'
+combined eigenvalues as the data, and compares model variants (the rider aboard or not where
+``--rider`` is given; the nominal gains or a free gain scale where ``--feedback`` is given;
+with the parameters named by ``--free`` freed from their prior; ``--assist-rate`` models a
+digital assist that holds its torque over each sample): each variant's posterior,
+χ² with its degrees of freedom, AIC, BIC and Laplace evidence, then the verdict in words
+(:mod:`bike_rig.pipeline.ride_calibrate`, :mod:`bike_rig.core.ride.variants`). ``-o DIR`` writes
+``ride_calibration.png``; ``--json`` prints everything (every variant's parameters with prior and
+posterior σ, covariance, criteria, linearity check; the bands).
 """
 
 from __future__ import annotations
@@ -38,6 +51,7 @@ from typing import TYPE_CHECKING, Any
 from ..core.ride.eigen import MODELS, MeasuredEigenvalue, combine_eigenvalues
 from ..core.ride.record import RideRecord
 from ..core.ride.segment import Segment
+from ..core.symbols import PARAMETER_NAMES
 from ..rides import WHOLE_BELOW_S, RecordOptions, measure_records
 from .commands import HELP
 from .common import UsageError
@@ -87,6 +101,17 @@ def add_parser(sub: Any) -> None:
     v.add_argument("--sigma", choices=["correlated", "paper"], default="correlated", help="σ convention")
     v.add_argument("--speeds", nargs=3, metavar=("START", "STOP", "N"), help="speeds of the curves, m/s")
     v.set_defaults(func=run_validate)
+    c = rs.add_parser("calibrate", help="the parameters' posterior and model variants, fitted to the rides")
+    c.add_argument("parameters", metavar="PARAMETERS", help="measurement file or parameter file (the prior)")
+    c.add_argument("records", nargs="+", metavar="RECORD", help="CSV files or bags")
+    _record_options(c)
+    _model_options(c, add_feedback_option)
+    c.add_argument("--free", default="", metavar="NAME,...",
+                   help="parameters freed from their prior in further variants, e.g. IBzz,IFyy")  # fmt: skip
+    c.add_argument("--speeds", nargs=3, metavar=("START", "STOP", "N"), help="speeds of the bands, m/s")
+    rate_help = "a digital assist's sample rate, Hz: torque held over each sample (default: continuous)"
+    c.add_argument("--assist-rate", type=float, metavar="HZ", help=rate_help)
+    c.set_defaults(func=run_calibrate)
     s = rs.add_parser("simulate", help="a simulated ride of the linear model (CSV, or a bag for a directory name)")
     s.add_argument("parameters", metavar="PARAMETERS", help="measurement file or parameter file")
     _model_options(s, add_feedback_option)
@@ -235,6 +260,87 @@ def run_validate(args: argparse.Namespace) -> int:
         plt.close(fig)
         _segment_figures(rows, out)
     return 0
+
+
+def _free_names(spec: str) -> tuple[str, ...]:
+    """``--free``'s names, checked.
+
+    Raises:
+        UsageError: A name that is not a benchmark parameter.
+    """
+    names = tuple(n.strip() for n in spec.split(",") if n.strip())
+    for n in names:
+        if n not in PARAMETER_NAMES:
+            raise UsageError(f"--free {n}: not a benchmark parameter; one of {', '.join(PARAMETER_NAMES)}")
+    return tuple(dict.fromkeys(names))
+
+
+def run_calibrate(args: argparse.Namespace) -> int:
+    """``bike-rig ride calibrate``; returns 0 whenever it ran, whatever the verdict.
+
+    Raises:
+        UsageError: A bad ``--free`` or ``--speeds``. RideSpeedError: a segment without a speed.
+        CalibrationDataError: No clean segment.
+    """
+    from ..pipeline.ride_calibrate import calibrate_rides, calibration_json
+    from .common import feedback_from_spec, rider_from_spec
+    from .main import _parameters, _speeds
+
+    free = _free_names(args.free)
+    rate = args.assist_rate
+    if rate is not None and not (math.isfinite(rate) and rate > 0):
+        raise UsageError(f"--assist-rate must be a finite rate > 0 Hz, got {rate}")
+    speeds = _speeds(args.speeds) if args.speeds else None
+    bicycle = _parameters(args.parameters, args.com_method)
+    rider, fb = rider_from_spec(args.rider), feedback_from_spec(args.feedback)
+    rows = measure(args)
+    result = calibrate_rides(bicycle, [m for m, _, _ in rows], rider, fb, free, speeds, rate)
+    if args.json:
+        print(json.dumps(calibration_json(result), indent=2))
+    else:
+        print(_calibrate_text(result))
+    if args.out:
+        import matplotlib.pyplot as plt
+
+        from ..plots.ride import ride_calibration
+        from ..plots.style import save_figure
+
+        fig = ride_calibration(result, Path(args.parameters).stem)
+        save_figure(fig, _figures_dir(args.out) / "ride_calibration", ("png",))
+        plt.close(fig)
+    return 0
+
+
+def _calibrate_text(result: Any) -> str:
+    from ..core.ride.variants import constrained
+
+    cal = result.calibration
+    d = cal.data
+    lines = [f"{len(d.speeds)} speeds with clean segments ({d.size} data values: Re λ and Im λ per speed)"]
+    head = f"{'variant':<44} {'χ²':>8} {'dof':>4} {'χ²/dof':>7} {'AIC':>8} {'BIC':>8} {'−2 ln Z':>8}  gain scale"
+    lines.append(head)
+    for r in cal.variants:
+        p = r.posterior
+        scale = _pm(p.gain_scale, p.gain_scale_sigma).lstrip("+") if p.unknowns.gain_scale else "1 (nominal)"
+        ev = f"{r.evidence:8.1f}" if math.isfinite(r.evidence) else f"{'n/d':>8}"
+        red = f"{r.reduced_chi2:7.2f}" if math.isfinite(r.reduced_chi2) else f"{'—':>7}"
+        lines.append(f"{r.name:<44} {p.chi2:8.1f} {p.dof:4d} {red} {r.aic:8.1f} {r.bic:8.1f} {ev}  {scale}")
+    best = cal.best.posterior
+    caveat = "" if cal.explained else " — it does not explain the rides: shifts forced onto the model, not measured"
+    lines.append(f"best variant '{cal.best.name}': parameters that move or that the rides constrain "
+                 f"(prior → posterior, shift in prior σ, posterior/prior σ){caveat}:")  # fmt: skip
+    tight = {n for n, _ in constrained(best)}
+    prior = best.prior.parameters
+    for i, n in enumerate(PARAMETER_NAMES):
+        if n in tight or abs(best.shifts[i]) >= 0.5 or n in best.unknowns.free:
+            change = f"{best.shifts[i]:+.1f} σ, ratio {best.sigma_ratio[i]:.2f}"
+            lines.append(f"    {n:<5} {prior.values[i]:.5g} ± {prior.sigmas[i]:.2g} → {best.values[i]:.5g} ± "
+                         f"{best.sigmas[i]:.2g}  ({change})")  # fmt: skip
+    if lines[-1].startswith("best variant"):
+        lines.append("    none: every parameter stays within 0.5 prior σ and keeps its prior σ")
+    lines.append(f"verdict: {cal.verdict}")
+    lines += [f"note: {n}" for n in (*cal.notes, *best.linearity.notes)]
+    return "\n".join(lines)
 
 
 def _verdict_json(v: Any, method: str | None = None) -> dict[str, Any]:

@@ -11,12 +11,16 @@ and the reason each segment starts and ends written by it.
 
 Artists that carry data have a ``gid`` so tests can find them: ``pred-re``, ``pred-im``,
 ``band-re``, ``band-im``, ``meas-re``, ``meas-im``, ``comb-re``, ``comb-im``; ``segment:<k>``,
-``kick:<k>``, ``signal``.
+``kick:<k>``, ``signal``. :func:`ride_calibration` draws the same two panels for ``bike-rig ride
+calibrate``: the measured eigenvalues per speed (±σ), the best variant's weave eigenvalue at the
+prior and at the posterior, each with its ±σ band (``data-re``, ``prior-re``, ``prior-band-re``,
+``post-re``, ``post-band-re`` and the same for ``im``).
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 from matplotlib.figure import Figure
@@ -30,7 +34,10 @@ from ..subjects import Subject
 from .model_data import FigureInputError
 from .style import new_figure
 
-__all__ = ["ride_figure", "ride_segments", "ride_validation"]
+__all__ = ["ride_calibration", "ride_figure", "ride_segments", "ride_validation"]
+
+if TYPE_CHECKING:
+    from ..pipeline.ride_calibrate import CalibratedRide
 
 
 def ride_validation(comparison: RideComparison, curve: PredictedWeave, title: str = "") -> Figure:
@@ -112,3 +119,31 @@ def ride_figure(
     measured = [m.eigenvalue for m in measure_records(ride, RecordOptions())]
     comparison, curve = validate_ride(ps, measured, feedback, speeds=speeds)
     return ride_validation(comparison, curve, subjects[0].name)
+
+
+def ride_calibration(result: CalibratedRide, title: str = "") -> Figure:
+    """Measured eigenvalues (±σ) per speed over the best variant's prior and posterior bands (module docstring)."""
+    fig = new_figure(8.0, 7.0)
+    ax_re, ax_im = fig.subplots(2, 1, sharex=True)
+    data = result.calibration.data
+    best = result.calibration.best
+    for ax, part, attr in ((ax_re, "re", "real"), (ax_im, "im", "imag")):
+        for band, tag, color, label in ((result.prior_band, "prior", "0.5", "prior model"),
+                                        (result.posterior_band, "post", "C0", f"posterior: {best.name}")):  # fmt: skip
+            vals, sig = getattr(band, attr), getattr(band, attr + "_sigma")
+            ax.plot(band.speeds, vals, color=color, lw=1.5, ls="--" if tag == "prior" else "-", label=label,
+                    gid=f"{tag}-{part}")  # fmt: skip
+            fill = ax.fill_between(band.speeds, vals - sig, vals + sig, color=color, alpha=0.25, lw=0,
+                                   label=f"{label} ±σ")  # fmt: skip
+            fill.set_gid(f"{tag}-band-{part}")
+        ax.errorbar(data.speeds, getattr(data, attr), yerr=getattr(data, attr + "_sigma"), fmt="D", ms=5, color="k",
+                    mfc="none", capsize=3, label="measured per speed", gid=f"data-{part}")  # fmt: skip
+    ax_re.axhline(0.0, color="0.5", lw=0.8)
+    ax_re.set_ylabel("Re λ [1/s]")
+    ax_im.set_ylabel("Im λ [rad/s]")
+    ax_im.set_xlabel("speed [m/s]")
+    ax_re.legend(loc="best", fontsize=7)
+    fit = best.posterior
+    head = f"best: {best.name}, χ² = {fit.chi2:.1f} / {fit.dof} dof"
+    ax_re.set_title(" — ".join(x for x in (title, head) if x), fontsize=9)
+    return fig

@@ -5,6 +5,7 @@ Given ride records (:mod:`bike_rig.rides`), the bicycle with the report's rider 
 loop is compared with every segment (:func:`bike_rig.pipeline.ride.compare_ride`): a table per
 speed (measured and predicted eigenvalue with σ, normalised deviation), the overall normalised
 deviation, and the validation figure (:func:`bike_rig.plots.ride.ride_validation`) embedded.
+:func:`calibration_section` is the ride calibration's section (the variants, the verdict, the figure).
 """
 
 from __future__ import annotations
@@ -12,6 +13,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from ..core.feedback import Feedback
 from ..core.ride.eigen import MeasuredEigenvalue
@@ -19,7 +21,10 @@ from ..pipeline.ride import PredictedWeave, RideComparison, validate_ride
 from .html import Raw, esc, number_cell, section, table, value_sigma_cells
 from .results import Variant
 
-__all__ = ["RideResults", "compute_ride", "ride_section"]
+__all__ = ["RideResults", "calibration_section", "compute_ride", "ride_section"]
+
+if TYPE_CHECKING:
+    from ..pipeline.ride_calibrate import CalibratedRide
 
 
 @dataclass(frozen=True)
@@ -86,3 +91,39 @@ def ride_section(rides: RideResults, dpi: float) -> Raw:
         "±σ band from the parameter covariance.</figcaption></figure>",
     ]
     return section("ride", "Ride validation", body)
+
+
+def calibration_section(result: CalibratedRide, dpi: float) -> Raw:
+    """The ride calibration (:mod:`bike_rig.pipeline.ride_calibrate`): the variants' table, the verdict, the figure."""
+    import matplotlib.pyplot as plt
+
+    from ..plots.ride import ride_calibration
+    from .figures import png_data_uri
+
+    cal = result.calibration
+    rows = []
+    for r in cal.variants:
+        p = r.posterior
+        scale = (value_sigma_cells(p.gain_scale, p.gain_scale_sigma if math.isfinite(p.gain_scale_sigma) else None)
+                 if p.unknowns.gain_scale
+                 else Raw('<td class="num">1 (nominal)</td><td></td>'))  # fmt: skip
+        rows.append([
+            Raw(f"<td>{esc(r.name)}</td>"), number_cell(p.chi2, ".1f"), Raw(f'<td class="num">{p.dof}</td>'),
+            number_cell(r.aic, ".1f"), number_cell(r.bic, ".1f"), number_cell(r.evidence, ".1f"), scale,
+        ])  # fmt: skip
+    head = ["variant", "χ²", "dof", "AIC", "BIC", "−2 ln Z (Laplace)", "gain scale", "σ"]
+    fig = ride_calibration(result)
+    uri = png_data_uri(fig, dpi)
+    plt.close(fig)
+    body = [
+        f"<p>The measured parameters and their covariance are the prior, the weave eigenvalues of "
+        f"{len(cal.data.speeds)} speeds the data; each variant's posterior by Gauss–Newton and Laplace, ranked by "
+        f"evidence (best first).</p>",
+        table(head, rows, "ride-calibration", "table-ride-calibration", "Model variants against the rides"),
+        f"<p><b>{esc(cal.verdict)}</b></p>",
+        *[f'<p class="note">{esc(n)}</p>' for n in cal.notes],
+        f'<figure id="fig-ride-calibration" class="report-figure"><img src="{esc(uri)}" alt="ride calibration">'
+        "<figcaption><b>Ride calibration.</b> Measured eigenvalues per speed (±σ) over the best variant's weave "
+        "eigenvalue at the prior and at the posterior, each with its ±σ band.</figcaption></figure>",
+    ]
+    return section("ride-calibration", "Ride calibration", body)

@@ -10,6 +10,9 @@
   Carlo σ where the first-order one is not defined
 - :mod:`.ridesim` and :mod:`.calibration`: realistic simulated segments (rider, saturation) and
   the σ's calibration on them
+- :mod:`.posterior` and :mod:`.variants`: the parameters' posterior given the rides (the rig's
+  covariance the prior) and the model variants compared (rider, gain scale, freed parameters);
+  :mod:`.weave_model` the model's weave eigenvalue they fit (continuous or sampled assist)
 
 The prediction and the comparison are in :mod:`bike_rig.pipeline.ride`; the simulated ride in
 :mod:`bike_rig.core.sim.ride`.
