@@ -25,10 +25,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .bag.timeline import TimelineEntry
-from .core.benchmark import ComMethod, ParameterSet, compute_parameters
+from .core.benchmark import ComMethod, ParameterSet
 from .core.errors import BikeRigError, InputFileError
 from .core.loader import load_input
 from .core.measurements import Measurements
+from .core.parameter_checks import compute_checked
 from .core.period import PeriodFit
 from .core.trials import Trial
 from .pipeline.fit import TrialFit
@@ -174,6 +175,6 @@ def load_subject(path: str | Path, com_method: ComMethod | str | None = None) ->
         return _bag_subject(p, method)
     got = load_input(path)
     if isinstance(got, Measurements):
-        ps = compute_parameters(got, method or ComMethod.CENTROID)
+        ps = compute_checked(got, method or ComMethod.CENTROID)
         return Subject(got.bicycle, p, "measurements", ps, got, _file_trials(got))
     return Subject(got.bicycle, p, "parameters", got, None)

@@ -45,7 +45,13 @@ from ..core.errors import BikeRigError
 from ..core.uncertainty.matrix_sigma import SigmaConvention
 from . import format as fmt
 from .commands import HELP
-from .options import add_threshold_options, add_window_options, thresholds_from_args, window_from_args
+from .options import (
+    add_strict_option,
+    add_threshold_options,
+    add_window_options,
+    thresholds_from_args,
+    window_from_args,
+)
 
 __all__ = ["ReplayUsageError", "add_parser", "replay_text", "run"]
 
@@ -75,6 +81,7 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     s.add_argument("--sigma", choices=[c.value for c in SigmaConvention], help="σ convention")
     s.add_argument("--readings", metavar="FILE",
                    help="static readings from this measurement file, not the bag's (periods ignored)")  # fmt: skip
+    add_strict_option(s)
     r = q.add_argument_group("republish into a live graph (rclpy)")
     r.add_argument("--republish", action="store_true", help="play gyro, trial events and static readings back")
     r.add_argument("--rate-scale", type=float, default=1.0, metavar="X", help="X times the original speed (default 1)")

@@ -18,7 +18,7 @@ from typing import Any
 
 from ..core.benchmark import ComMethod
 from .commands import HELP
-from .options import add_feedback_option
+from .options import add_feedback_option, add_strict_option
 
 __all__ = ["add_parser", "run"]
 
@@ -88,6 +88,7 @@ def add_parser(sub: Any) -> None:
         help="mass-centre method for raw readings: centroid (paper) or lstsq (default: centroid; a bag: as recorded)",
     )
     add_feedback_option(q)
+    add_strict_option(q)
     q.add_argument(
         "--rider",
         default="paper",
