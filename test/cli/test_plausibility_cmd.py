@@ -86,6 +86,8 @@ def test_a_wheelbase_in_mm_warns_with_the_corrected_value_and_strict_refuses_it(
         code, out, err = run(capsys, *command(cmd, path, tmp_path))
         assert code == 0, (cmd, err)
         assert f"bike-rig {cmd[0]}: warning: {warning}\n" in err
+        if cmd[0] == "report":  # and in the report's notes
+            assert "it looks like millimetres (w = 1.121 m)" in (tmp_path / "report" / "index.html").read_text()
         code, out, err = run(capsys, *command(cmd, path, tmp_path, "--strict"))
         assert (code, out, err) == (2, "", f"bike-rig {cmd[0]}: error: {warning}\n")
 
