@@ -155,7 +155,9 @@ def cmd_import_bp(args: argparse.Namespace) -> int:
         text = dump_parameters_yaml(got, ATTRIBUTION)
         what = f"parameters, {len(got.parameters.names)} values"
     Path(args.output).write_text(text, encoding="utf-8")
-    print(f"wrote {args.output}: {got.bicycle} {what}", file=sys.stderr)
+    from ..textfmt import terminal_safe
+
+    print(terminal_safe(f"wrote {args.output}: {got.bicycle} {what}"), file=sys.stderr)
     return 0
 
 

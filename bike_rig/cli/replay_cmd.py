@@ -43,6 +43,7 @@ from ..bag.replay import FitOverrides, ReplayResult, ReplaySettings, replay_bag,
 from ..core.benchmark import ComMethod
 from ..core.errors import BikeRigError
 from ..core.uncertainty.matrix_sigma import SigmaConvention
+from ..textfmt import terminal_safe
 from . import format as fmt
 from .commands import HELP
 from .options import (
@@ -129,7 +130,7 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(result_json(result), indent=2, allow_nan=False))
     else:
-        print(replay_text(result))
+        print(terminal_safe(replay_text(result)))
     return 0 if result.complete else 1
 
 
@@ -144,7 +145,7 @@ def _republish(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(stats.to_dict(), indent=2))
     else:
-        print(stats.describe())
+        print(terminal_safe(stats.describe()))
     return 0 if not stats.interrupted else 130
 
 

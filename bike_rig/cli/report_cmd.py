@@ -17,6 +17,7 @@ import sys
 from typing import Any
 
 from ..core.benchmark import ComMethod
+from ..textfmt import terminal_safe
 from .commands import HELP
 from .options import add_feedback_option, add_strict_option
 
@@ -46,10 +47,12 @@ def run(args: argparse.Namespace) -> int:
     rep = written.report
     for f in rep.figures:
         if f.uri is None:
-            print(f"bike-rig report: figure '{f.title}' {f.unavailable}", file=sys.stderr)
+            print(terminal_safe(f"bike-rig report: figure '{f.title}' {f.unavailable}"), file=sys.stderr)
     print(
-        f"wrote {written.path}: {rep.subject.name} ({rep.subject.kind}), {rep.drawn} figures, "
-        f"{len(rep.subject.trials)} trials, in {written.seconds:.1f} s",
+        terminal_safe(
+            f"wrote {written.path}: {rep.subject.name} ({rep.subject.kind}), {rep.drawn} figures, "
+            f"{len(rep.subject.trials)} trials, in {written.seconds:.1f} s"
+        ),
         file=sys.stderr,
     )
     return 0

@@ -22,6 +22,7 @@ from .io_yaml import (
 from .measurements import Measurements, is_period_key
 from .parameter_checks import check_parameter_set
 from .reading_ranges import UnitMistake, UnitMistakeWarning, parameter_unit_mistakes, unit_mistakes
+from .safe_yaml import open_regular_file
 
 __all__ = ["is_period_key", "load_input", "load_measurements", "load_static_readings", "warn_unit_mistakes"]
 
@@ -76,8 +77,7 @@ def load_input(path: str | Path) -> Measurements | ParameterSet:
 
 def _read_input(path: str | Path) -> Measurements | ParameterSet:
     p = str(path)
-    if not Path(path).is_file():
-        raise InputFileError(p, "no such file" if not Path(path).exists() else "not a regular file")
+    open_regular_file(p, path).close()  # a FIFO, a device or a symlink loop is named as such, never read
     if Path(path).suffix.lower() in _YAML_SUFFIXES:
         data, lines = load_yaml_document(path)
         if not isinstance(data, dict):
@@ -122,8 +122,7 @@ def load_static_readings(path: str | Path) -> Measurements:
         InputFileError: the file is missing, unreadable, or holds parameters.
     """
     p = str(path)
-    if not Path(path).is_file():
-        raise InputFileError(p, "no such file" if not Path(path).exists() else "not a regular file")
+    open_regular_file(p, path).close()  # a FIFO, a device or a symlink loop is named as such, never read
     if Path(path).suffix.lower() in _YAML_SUFFIXES:
         data, lines = load_yaml_document(path)
         if not isinstance(data, dict) or data.get("format") != MEASUREMENTS_FORMAT:
