@@ -52,7 +52,8 @@ def main(argv: list[str] | None = None) -> int:
     with tempfile.TemporaryDirectory(prefix="bike_rig_fuzz_") as folder:
         work = Path(folder)
         chosen = [t for t in targets(work) if not args.reader or t.name in args.reader]
-        print(Tally.HEADER, "  wall s", flush=True)
+        if chosen:
+            print(Tally.HEADER, "  wall s", flush=True)
         for target in chosen:
             start = time.monotonic()
             tally = fuzz_target(target, work, args.seed, args.inputs, args.seconds, args.time_limit,
