@@ -71,9 +71,6 @@ __all__ = [
     "reading_unit",
 ]
 
-_LENGTH_UNITS = LENGTH_UNITS
-_FIXED_RANGES = READING_RANGES
-
 
 class ReadingInputError(BikeRigError):
     """A typed reading that cannot be used; the message is one line: where, the key, why.
@@ -230,9 +227,9 @@ def _unit_mistake(value: float, rng: PlausibleRange, unit: str) -> str:
 
 def _angle_mistake(key: str, value: float) -> str:
     if key == "gamma":
-        if 0 < value <= math.pi / 2 and _FIXED_RANGES["gamma"].holds(math.degrees(value)):
+        if 0 < value <= math.pi / 2 and READING_RANGES["gamma"].holds(math.degrees(value)):
             return f"looks like radians ({math.degrees(value):.4g}°); the head-tube angle is entered in degrees"
-        if _FIXED_RANGES["gamma"].holds(90.0 - value):
+        if READING_RANGES["gamma"].holds(90.0 - value):
             return (
                 f"looks like the steer-axis tilt from the vertical; the head-tube angle from the horizontal "
                 f"is 90 - {value:g} = {90.0 - value:g}°"
@@ -278,7 +275,7 @@ def _plausible_radius(known: Mapping[str, float], p: str) -> float | None:
 def _radius_mistake(key: str, p: str, d: float, n: float, r: float) -> str:
     if key == f"n{p}":
         return f"is the number of rotations n{p} = {n:g} right?"
-    for name, factor in _LENGTH_UNITS[:2]:
+    for name, factor in LENGTH_UNITS[:2]:
         if RADIUS_RANGE[0] <= r * factor <= RADIUS_RANGE[1]:
             return f"the distance d{p} = {d:g} looks like {name}"
     if RADIUS_RANGE[0] <= r * n <= RADIUS_RANGE[1]:
@@ -324,11 +321,11 @@ def _trail(key: str, value: float, known: Mapping[str, float]) -> Iterator[str]:
     if TRAIL_RANGE[0] <= c <= TRAIL_RANGE[1]:
         return
     f, gamma = known["f"], known["gamma"]
-    if not _FIXED_RANGES["f"].holds(f):
+    if not READING_RANGES["f"].holds(f):
         likely = f"the fork offset f = {f:g} is not in metres" + (
-            f": it {mistake}" if (mistake := _unit_mistake(f, _FIXED_RANGES["f"], "m")) else ""
+            f": it {mistake}" if (mistake := _unit_mistake(f, READING_RANGES["f"], "m")) else ""
         )
-    elif not _FIXED_RANGES["gamma"].holds(gamma):
+    elif not READING_RANGES["gamma"].holds(gamma):
         likely = f"is the head-tube angle gamma = {gamma:g} in degrees from the horizontal?"
     else:
         likely = "check the fork offset f and the head-tube angle gamma"
