@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -25,11 +26,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .bag.timeline import TimelineEntry
-from .core.benchmark import ComMethod, ParameterSet, compute_parameters
+from .core.benchmark import ComMethod, ParameterSet
 from .core.errors import BikeRigError, InputFileError
 from .core.loader import load_input
 from .core.measurements import Measurements
+from .core.parameter_checks import compute_checked
 from .core.period import PeriodFit
+from .core.reading_ranges import UnitMistakeWarning
 from .core.trials import Trial
 from .pipeline.fit import TrialFit
 from .pipeline.offline import SessionTrial
@@ -172,8 +175,12 @@ def load_subject(path: str | Path, com_method: ComMethod | str | None = None) ->
     method = None if com_method is None else ComMethod(com_method)
     if is_bag_path(path):
         return _bag_subject(p, method)
-    got = load_input(path)
+    with warnings.catch_warnings(record=True) as caught:  # values a wrong unit explains: shown, and kept as notes
+        got = load_input(path)
+    notes = tuple(str(w.message) for w in caught if issubclass(w.category, UnitMistakeWarning))
+    for w in caught:
+        warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
     if isinstance(got, Measurements):
-        ps = compute_parameters(got, method or ComMethod.CENTROID)
-        return Subject(got.bicycle, p, "measurements", ps, got, _file_trials(got))
-    return Subject(got.bicycle, p, "parameters", got, None)
+        ps = compute_checked(got, method or ComMethod.CENTROID)
+        return Subject(got.bicycle, p, "measurements", ps, got, _file_trials(got), notes=notes)
+    return Subject(got.bicycle, p, "parameters", got, None, notes=notes)

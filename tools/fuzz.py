@@ -6,7 +6,9 @@ Usage: ``.venv/bin/python tools/fuzz.py [--inputs N] [--seconds S] [--seed N] [-
 Readers: measurements, parameters, bp-text, rig, graph, rider, yeadon-measurements,
 yeadon-configuration, trial-csv, trial-npy, trial-mat,
 bag (a small simulated session's bag with its MCAP storage file mutated, read as ``bike-rig bag
-info`` reads it) and bag-metadata (the same bag with its metadata.yaml mutated).
+info`` reads it) and bag-metadata (the same bag with its metadata.yaml mutated); and physics:
+physically impossible but well-formed parameter and measurement files through ``bike-rig params``
+and ``model`` (:mod:`test.fuzz.physics`: any exit-0 result that breaks a plausibility rule fails).
 
 Prints, per reader, the inputs tried, clean one-line errors, inputs read (ok), read with a
 remark (flags), crashes, hangs, the slowest call, the largest peak memory of a call
@@ -30,6 +32,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from test.fuzz.campaign import fuzz_target
 from test.fuzz.harness import Tally
+from test.fuzz.physics import PhysicsTally, physics_campaign
 from test.fuzz.targets import targets
 
 
@@ -49,7 +52,8 @@ def main(argv: list[str] | None = None) -> int:
     with tempfile.TemporaryDirectory(prefix="bike_rig_fuzz_") as folder:
         work = Path(folder)
         chosen = [t for t in targets(work) if not args.reader or t.name in args.reader]
-        print(Tally.HEADER, "  wall s", flush=True)
+        if chosen:
+            print(Tally.HEADER, "  wall s", flush=True)
         for target in chosen:
             start = time.monotonic()
             tally = fuzz_target(target, work, args.seed, args.inputs, args.seconds, args.time_limit,
@@ -58,7 +62,15 @@ def main(argv: list[str] | None = None) -> int:
             for label, outcome in tally.failures:
                 print(f"  {outcome.kind}: seed {args.seed} {label}: {outcome.message}", flush=True)
             failed += len(tally.failures)
-    print(f"fuzz: {'FAILED, ' + str(failed) + ' crash(es) or hang(s)' if failed else 'no crash, no hang'} "
+        if not args.reader or "physics" in args.reader:
+            print(PhysicsTally.HEADER, flush=True)
+            physics = physics_campaign(work, args.seed, args.inputs)
+            print(physics.line(), flush=True)
+            for index, why in physics.failures:
+                print(f"  seed {args.seed} physics#{index}: {why}", flush=True)
+            failed += len(physics.failures)
+    verdict = f"FAILED, {failed} crash(es), hang(s) or violation(s)" if failed else "no crash, no hang, no violation"
+    print(f"fuzz: {verdict} "
           f"(seed {args.seed}, pid {os.getpid()})")
     return 1 if failed else 0
 

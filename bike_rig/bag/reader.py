@@ -25,6 +25,7 @@ from pathlib import Path, PurePath
 from types import TracebackType
 from typing import TYPE_CHECKING, Any, NamedTuple
 
+from ..core.safe_yaml import NotRegularFileError, open_regular_file
 from .check import Metadata, check_mcap, check_metadata
 from .errors import BagError, BagReadError, IncompleteBagError, NotABagError, ReplayError
 from .fastread import MAGIC, FastBag, UnsafeYaml, Unusual, open_fast, split_order
@@ -148,14 +149,32 @@ def _check_mcap_file(path: Path, shown: str) -> None:
     check_mcap(path, shown)
 
 
-def _resolve(path: Path, shown: str) -> tuple[Path, Metadata | None]:
-    """The path rosbags should open, after checking what it is, and its metadata.yaml as read."""
+def _regular(path: Path, shown: str) -> None:
+    """Refuse a FIFO, a device, a socket or a symlink loop where a bag's file belongs, naming what it is."""
+    try:
+        open_regular_file(path.name, path).close()
+    except NotRegularFileError as exc:
+        raise BagReadError(shown, exc.reason if path == Path(shown) else f"{path.name} {exc.reason}") from None
+
+
+def _check_exists(path: Path, shown: str) -> None:
+    """Refuse a path that is not there (a symlink loop or a broken symlink named as such)."""
+    if path.is_symlink() and not path.exists():
+        _regular(path, shown)
     if not path.exists():
         raise BagError(shown, "no such file or directory")
+
+
+def _resolve(path: Path, shown: str) -> tuple[Path, Metadata | None]:
+    """The path rosbags should open, after checking what it is, and its metadata.yaml as read."""
+    _check_exists(path, shown)
     if path.is_file() and path.name == "metadata.yaml":
         path = path.parent
     if path.is_dir():
         storage = sorted(path.glob("*.mcap"))
+        for f in [path / "metadata.yaml", *storage]:
+            if f.is_symlink() or f.exists():
+                _regular(f, shown)
         if not (path / "metadata.yaml").is_file():
             if storage or any(path.glob("*.mcap.*")):
                 raise IncompleteBagError(
@@ -169,6 +188,7 @@ def _resolve(path: Path, shown: str) -> tuple[Path, Metadata | None]:
         for f in storage:
             _check_mcap_file(f, shown)
         return path, metadata
+    _regular(path, shown)
     if path.suffix.lower() == ".mcap":
         _check_mcap_file(path, shown)
         return path, None

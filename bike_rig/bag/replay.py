@@ -40,7 +40,7 @@ import numpy as np
 from .. import topics
 from ..core.benchmark import ComMethod, ParameterSet
 from ..core.loader import load_static_readings
-from ..core.measurements import Measurements
+from ..core.measurements import Measurements, Origin
 from ..core.period import WindowPolicy
 from ..core.uncertainty.matrix_sigma import SigmaConvention
 from ..messages import MessageError, static_readings_from_msg, trial_fit_from_msg
@@ -298,6 +298,9 @@ def _bag_readings(session: RecordedSession) -> Measurements:
         static = static_readings_from_msg(session.static_readings)
     except MessageError as exc:
         raise ReplayError(bag, f"the StaticReadings message is malformed ({exc})") from None
+    where = f"{bag}: the recorded StaticReadings (from {static.path})"  # a bad value is the bag's, not the file's
+    readings = {k: dataclasses.replace(r, origin=Origin(where, k)) for k, r in static.readings.items()}
+    static = dataclasses.replace(static, readings=readings)
     missing = [k for k in required_readings(static) if k not in static.readings]
     if missing:
         raise ReplayError(

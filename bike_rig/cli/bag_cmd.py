@@ -28,6 +28,7 @@ from typing import Any
 from ..bag.fastread import split_order
 from ..bag.info import BagSummary, TrialSummary, summarize
 from ..bag.recover import Recovery, recover_bag
+from ..textfmt import terminal_safe
 from .commands import HELP
 from .format import format_value_sigma
 
@@ -73,7 +74,7 @@ def run_info(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(summary.to_dict(), indent=2, allow_nan=False))
     else:
-        print(info_text(summary))
+        print(terminal_safe(info_text(summary)))
     return 0
 
 
@@ -199,7 +200,7 @@ def run_recover(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(_recover_json(recovery), indent=2))
     else:
-        print(recover_text(recovery))
+        print(terminal_safe(recover_text(recovery)))
     return 1 if recovery.missing or recovery.skipped else 0
 
 

@@ -54,7 +54,7 @@ from ..subjects import load_subject
 from .commands import HELP
 from .common import emit, feedback_from_spec, rider_from_spec
 from .format import format_value_sigma
-from .options import add_feedback_option
+from .options import add_feedback_option, add_strict_option
 
 __all__ = ["BudgetUsageError", "add_parser", "budget_text", "run"]
 
@@ -81,6 +81,7 @@ def add_parser(sub: Any) -> None:
         "--rider", default="none", help="'paper' for the paper's rigid rider (Table 1), or a rider YAML file"
     )
     add_feedback_option(q)
+    add_strict_option(q)
     q.add_argument("--top", type=int, default=5, metavar="N", help="inputs shown per output in the table (default 5)")
     q.add_argument(
         "--com-method",

@@ -57,13 +57,14 @@ def single_threaded_blas() -> None:
 
 
 def _parameters(path: str, com_method: str, lump_flywheel: bool = False) -> ParameterSet:
-    from ..core.benchmark import ComMethod, compute_parameters
+    from ..core.benchmark import ComMethod
     from ..core.loader import load_input
     from ..core.measurements import Measurements
+    from ..core.parameter_checks import compute_checked
 
     got = load_input(path)
     if isinstance(got, Measurements):
-        return compute_parameters(got, ComMethod(com_method), lump_flywheel)
+        return compute_checked(got, ComMethod(com_method), lump_flywheel)
     return got
 
 
@@ -154,7 +155,9 @@ def cmd_import_bp(args: argparse.Namespace) -> int:
         text = dump_parameters_yaml(got, ATTRIBUTION)
         what = f"parameters, {len(got.parameters.names)} values"
     Path(args.output).write_text(text, encoding="utf-8")
-    print(f"wrote {args.output}: {got.bicycle} {what}", file=sys.stderr)
+    from ..textfmt import terminal_safe
+
+    print(terminal_safe(f"wrote {args.output}: {got.bicycle} {what}"), file=sys.stderr)
     return 0
 
 
@@ -225,6 +228,9 @@ def _common(q: argparse.ArgumentParser) -> None:
         help="mass-centre method: centroid of the line intersections (paper, default) or least squares",
     )
     q.add_argument("-o", "--output", help="write to this file instead of standard output")
+    from .options import add_strict_option
+
+    add_strict_option(q)
 
 
 def _add_params(sub: Any) -> None:
@@ -310,6 +316,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         # still here: a sub-command after "--" or an unknown option, parsed (as ever) with every one
     args = build_parser(named).parse_args(argv)
     try:
+        from .unit_policy import apply_unit_policy
+
+        apply_unit_policy(args.command, bool(getattr(args, "strict", False)))
         return int(args.func(args))
     except BikeRigError as exc:
         from ..textfmt import terminal_safe

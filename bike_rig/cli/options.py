@@ -14,7 +14,9 @@ messages are the same for both; each command raises its own usage error class.
     --time COLUMN  --signal COLUMN  --time-unit s|ms|us|ns           a trial file's columns (name or 0-based index)
 
 :func:`add_feedback_option` adds ``--feedback FILE`` (steer-torque state feedback, the closed loop
-``A − B K``), shared by ``model``, ``plot``, ``report`` and ``budget``.
+``A − B K``), shared by ``model``, ``plot``, ``report`` and ``budget``. :func:`add_strict_option` adds
+``--strict`` (a value that a wrong unit explains is an error, not a warning), for every command that
+reads parameters or readings.
 """
 
 from __future__ import annotations
@@ -33,6 +35,7 @@ __all__ = [
     "Threshold",
     "add_column_options",
     "add_feedback_option",
+    "add_strict_option",
     "add_threshold_options",
     "add_window_options",
     "columns_from_args",
@@ -228,4 +231,18 @@ def add_feedback_option(group: argparse._ActionsContainer) -> None:
         "--feedback",
         metavar="FILE",
         help="steer-torque state feedback (a bike_rig-feedback/1 YAML file): results of the closed loop A - B K",
+    )
+
+
+def add_strict_option(group: argparse._ActionsContainer) -> None:
+    """Add ``--strict``: a value outside its plausible range that a wrong unit explains is an error (exit 2).
+
+    Without it each such value is a warning on stderr naming the likely unit and the corrected
+    value (:func:`bike_rig.cli.common.apply_unit_policy`).
+    """
+    group.add_argument(
+        "--strict",
+        action="store_true",
+        help="refuse (exit 2) a value that looks like a wrong unit (a wheelbase in mm, a mass in grams, "
+        "an angle in radians) instead of warning",
     )

@@ -43,9 +43,16 @@ from ..bag.replay import FitOverrides, ReplayResult, ReplaySettings, replay_bag,
 from ..core.benchmark import ComMethod
 from ..core.errors import BikeRigError
 from ..core.uncertainty.matrix_sigma import SigmaConvention
+from ..textfmt import terminal_safe
 from . import format as fmt
 from .commands import HELP
-from .options import add_threshold_options, add_window_options, thresholds_from_args, window_from_args
+from .options import (
+    add_strict_option,
+    add_threshold_options,
+    add_window_options,
+    thresholds_from_args,
+    window_from_args,
+)
 
 __all__ = ["ReplayUsageError", "add_parser", "replay_text", "run"]
 
@@ -75,6 +82,7 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     s.add_argument("--sigma", choices=[c.value for c in SigmaConvention], help="σ convention")
     s.add_argument("--readings", metavar="FILE",
                    help="static readings from this measurement file, not the bag's (periods ignored)")  # fmt: skip
+    add_strict_option(s)
     r = q.add_argument_group("republish into a live graph (rclpy)")
     r.add_argument("--republish", action="store_true", help="play gyro, trial events and static readings back")
     r.add_argument("--rate-scale", type=float, default=1.0, metavar="X", help="X times the original speed (default 1)")
@@ -122,7 +130,7 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(result_json(result), indent=2, allow_nan=False))
     else:
-        print(replay_text(result))
+        print(terminal_safe(replay_text(result)))
     return 0 if result.complete else 1
 
 
@@ -137,7 +145,7 @@ def _republish(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(stats.to_dict(), indent=2))
     else:
-        print(stats.describe())
+        print(terminal_safe(stats.describe()))
     return 0 if not stats.interrupted else 130
 
 

@@ -17,8 +17,9 @@ import sys
 from typing import Any
 
 from ..core.benchmark import ComMethod
+from ..textfmt import terminal_safe
 from .commands import HELP
-from .options import add_feedback_option
+from .options import add_feedback_option, add_strict_option
 
 __all__ = ["add_parser", "run"]
 
@@ -46,10 +47,12 @@ def run(args: argparse.Namespace) -> int:
     rep = written.report
     for f in rep.figures:
         if f.uri is None:
-            print(f"bike-rig report: figure '{f.title}' {f.unavailable}", file=sys.stderr)
+            print(terminal_safe(f"bike-rig report: figure '{f.title}' {f.unavailable}"), file=sys.stderr)
     print(
-        f"wrote {written.path}: {rep.subject.name} ({rep.subject.kind}), {rep.drawn} figures, "
-        f"{len(rep.subject.trials)} trials, in {written.seconds:.1f} s",
+        terminal_safe(
+            f"wrote {written.path}: {rep.subject.name} ({rep.subject.kind}), {rep.drawn} figures, "
+            f"{len(rep.subject.trials)} trials, in {written.seconds:.1f} s"
+        ),
         file=sys.stderr,
     )
     return 0
@@ -88,6 +91,7 @@ def add_parser(sub: Any) -> None:
         help="mass-centre method for raw readings: centroid (paper) or lstsq (default: centroid; a bag: as recorded)",
     )
     add_feedback_option(q)
+    add_strict_option(q)
     q.add_argument(
         "--rider",
         default="paper",

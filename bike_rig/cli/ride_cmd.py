@@ -53,6 +53,7 @@ from ..core.ride.record import RideRecord
 from ..core.ride.segment import Segment
 from ..core.symbols import PARAMETER_NAMES
 from ..rides import WHOLE_BELOW_S, RecordOptions, measure_records
+from ..textfmt import terminal_safe
 from .commands import HELP
 from .common import UsageError
 
@@ -221,7 +222,7 @@ def run_fit(args: argparse.Namespace) -> int:
         print(json.dumps([segment_json(m, seg) for m, seg, _ in rows], indent=2))
     else:
         for m, seg, _ in rows:
-            print(_line(m, seg))
+            print(terminal_safe(_line(m, seg)))
         for c in combine_eigenvalues([m for m, _, _ in rows]):
             if c.n_used:
                 print(f"{c.speed:.2f} m/s, {c.n_used} segments combined ({c.n_left_out} left out): "
@@ -247,7 +248,7 @@ def run_validate(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(_validate_json(comparison, rows), indent=2))
     else:
-        print(_validate_text(comparison, rows))
+        print(terminal_safe(_validate_text(comparison, rows)))
     if args.out:
         import matplotlib.pyplot as plt
 
@@ -447,5 +448,6 @@ def run_simulate(args: argparse.Namespace) -> int:
         from ..bag.ride import write_ride_bag
 
         write_ride_bag(ride, args.out)
-    print(f"wrote {args.out}: {len(kicks)} kicks at {args.speed:g} m/s, {args.duration:g} s at {args.rate:g} Hz")
+    text = f"wrote {args.out}: {len(kicks)} kicks at {args.speed:g} m/s, {args.duration:g} s at {args.rate:g} Hz"
+    print(terminal_safe(text))
     return 0

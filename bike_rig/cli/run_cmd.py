@@ -49,6 +49,7 @@ from typing import TYPE_CHECKING, Any
 from ..core.errors import BikeRigError
 from ..paths import config_dir, config_file
 from ..pipeline.stalls import StallWatch
+from ..textfmt import terminal_safe
 from .commands import HELP
 from .common import UsageError
 
@@ -298,11 +299,11 @@ def result_lines(trial_id: str, key: str, fit: TrialFit, sample_rate_hz: float =
 
 # ---------------------------------------------------------------------------------------------- the set-up
 def _say(line: str) -> None:
-    print(f"bike-rig run: {line}", file=sys.stderr, flush=True)
+    print(f"bike-rig run: {terminal_safe(line)}", file=sys.stderr, flush=True)
 
 
 def _out(line: str) -> None:
-    print(line, flush=True)
+    print(terminal_safe(line), flush=True)
 
 
 def _config_path(given: str | None) -> Path:

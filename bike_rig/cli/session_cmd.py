@@ -19,6 +19,7 @@ from ..launch import LaunchError, RunningGraph, load_graph, parse_overrides
 from ..paths import config_file
 from ..rosenv import check_domain_id
 from ..session.controller import SessionController
+from ..textfmt import terminal_safe
 from .commands import HELP
 
 __all__ = ["SessionArgumentError", "add_parser", "run"]
@@ -191,7 +192,7 @@ def run(args: argparse.Namespace) -> int:
         rig, name, bicycle_file = _checked(args)
         resume, name = _resume_from(args, name, folder)
     except BikeRigError as exc:
-        print(f"bike-rig session: error: {exc}", file=sys.stderr)
+        print(f"bike-rig session: error: {terminal_safe(str(exc), keep='')}", file=sys.stderr)
         return 2
     started: list[RunningGraph] = []
     signal.signal(signal.SIGTERM, _end_on(started))
@@ -227,11 +228,12 @@ def run(args: argparse.Namespace) -> int:
         finally:
             link.close()
     except (LaunchError, BikeRigError) as exc:
-        print(f"bike-rig session: error: {exc}", file=sys.stderr)
+        print(f"bike-rig session: error: {terminal_safe(str(exc), keep='')}", file=sys.stderr)
         return 2
     finally:
         if graph is not None:
             graph.stop()
     if graph is not None:
-        print(f"session folder: {folder} (bag: {folder / 'bag'}, logs: {folder / 'logs'})", file=sys.stderr)
+        where = f"session folder: {folder} (bag: {folder / 'bag'}, logs: {folder / 'logs'})"
+        print(terminal_safe(where), file=sys.stderr)
     return status

@@ -28,7 +28,7 @@ from ..diagnostics import Level, node_of
 from ..pipeline.model import StabilitySweep
 from ..session.controller import Reply, SessionController
 from ..session.plan import ItemState, ReadingItem, TrialItem
-from ..textfmt import format_speed
+from ..textfmt import format_speed, terminal_safe
 
 __all__ = ["SessionApp", "run_console", "title_text"]
 
@@ -122,7 +122,7 @@ class SessionApp(App[int]):
         log = self.query_one("#log", RichLog)
         for r in replies:
             prefix = {"error": "error: ", "warning": "warning: "}.get(r.kind, "")
-            log.write(Text(prefix + r.text, style=_REPLY_STYLE.get(r.kind, "")))
+            log.write(Text(terminal_safe(prefix + r.text), style=_REPLY_STYLE.get(r.kind, "")))
             if r.kind == "result" and r.data.get("state") == ItemState.REDO.value:
                 item = self.ctl.session.trials.get(str(r.data.get("trial_id", "")))
                 if item is not None and item.item_id:
@@ -145,7 +145,8 @@ class SessionApp(App[int]):
         done, total = self.ctl.session.progress()
         s = self.ctl.session
         speeds = s.stability if s.complete else None
-        self.query_one("#title", Static).update(Text(title_text(s.bicycle, done, total, speeds), style="bold reverse"))
+        title = terminal_safe(title_text(s.bicycle, done, total, speeds))
+        self.query_one("#title", Static).update(Text(title, style="bold reverse"))
 
     def _refresh_health(self) -> None:
         board = self.ctl.health
@@ -170,7 +171,7 @@ class SessionApp(App[int]):
         tail = (
             f"\nMissing: {len(missing)} ({', '.join(missing[:6])}{'…' if len(missing) > 6 else ''})" if missing else ""
         )
-        self.query_one("#next", Static).update(Text(head + nxt + tail))
+        self.query_one("#next", Static).update(Text(terminal_safe(head + nxt + tail)))
         live = s.live_status(self.ctl.clock())
         trace = self.query_one("#trace", Sparkline)
         if live is None:
@@ -183,7 +184,7 @@ class SessionApp(App[int]):
         amp = f"{live.amplitude:.3g} rad/s" if math.isfinite(live.amplitude) else "—"
         text = Text(f"Recording {live.trial_id}: {live.seconds:.1f} s, {live.samples} samples, amplitude {amp}\n")
         for w in live.warnings:
-            text.append(f"⚠ {w}\n", style="bold red")
+            text.append(terminal_safe(f"⚠ {w}\n"), style="bold red")
         self.query_one("#live", Static).update(text)
 
     # ------------------------------------------------------------------ actions

@@ -6,6 +6,7 @@ content.
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 from .benchmark import PARAMETER_NAMES, ParameterSet
@@ -19,24 +20,64 @@ from .io_yaml import (
     parameters_from_document,
 )
 from .measurements import Measurements, is_period_key
+from .parameter_checks import check_parameter_set
+from .reading_ranges import UnitMistake, UnitMistakeWarning, parameter_unit_mistakes, unit_mistakes
+from .safe_yaml import open_regular_file
 
-__all__ = ["is_period_key", "load_input", "load_measurements", "load_static_readings"]
+__all__ = ["is_period_key", "load_input", "load_measurements", "load_static_readings", "warn_unit_mistakes"]
 
 _YAML_SUFFIXES = {".yaml", ".yml"}
 
 
+def _where(m: Measurements, key: str) -> str:
+    origin = m.readings[key].origin
+    if origin is None:
+        return m.path
+    return f"{origin.path}:{origin.line}" if origin.line is not None else f"{origin.path}: key '{origin.key}'"
+
+
+def warn_unit_mistakes(got: Measurements | ParameterSet) -> list[str]:
+    """Warn (:class:`~bike_rig.core.reading_ranges.UnitMistakeWarning`) of each value a wrong unit explains.
+
+    Returns:
+        The warnings' texts (for a report's notes), each ``<file>:<line>: w = 1121 m is outside ...``.
+
+    Raises:
+        UnitMistakeWarning: the first one, when warnings of its class are errors (``--strict``).
+    """
+    found: list[tuple[str, UnitMistake]]
+    if isinstance(got, Measurements):
+        found = [(_where(got, u.key), u) for u in unit_mistakes({k: r.value for k, r in got.readings.items()})]
+    else:
+        found = [(f"{got.source}: key '{u.key}'", u) for u in parameter_unit_mistakes(got.values())]
+    texts = [f"{where}: {u}" for where, u in found]
+    for text in texts:
+        warnings.warn(UnitMistakeWarning(text), stacklevel=2)
+    return texts
+
+
 def load_input(path: str | Path) -> Measurements | ParameterSet:
-    """Read a measurement file or a parameter file.
+    """Read a measurement file or a parameter file, and warn of values a wrong unit explains.
 
     Accepted: ``bike_rig-measurements/1`` and ``bike_rig-parameters/1`` YAML, BicycleParameters'
-    ``*Measured.txt`` and ``*Benchmark.txt`` text files and its parameter-set YAML.
+    ``*Measured.txt`` and ``*Benchmark.txt`` text files and its parameter-set YAML. A parameter
+    set must be physically possible (:func:`~bike_rig.core.parameter_checks.check_parameter_set`);
+    each value outside its plausible range that a wrong unit explains is a
+    :class:`~bike_rig.core.reading_ranges.UnitMistakeWarning` (:func:`warn_unit_mistakes`).
 
     Raises:
         InputFileError: the file is missing, unreadable or of no accepted kind.
+        ImplausibleParametersError: a parameter set that is not physically possible.
+        UnitMistakeWarning: when warnings of its class are errors (``--strict``).
     """
+    got = _read_input(path)
+    warn_unit_mistakes(got)
+    return check_parameter_set(got) if isinstance(got, ParameterSet) else got
+
+
+def _read_input(path: str | Path) -> Measurements | ParameterSet:
     p = str(path)
-    if not Path(path).is_file():
-        raise InputFileError(p, "no such file" if not Path(path).exists() else "not a regular file")
+    open_regular_file(p, path).close()  # a FIFO, a device or a symlink loop is named as such, never read
     if Path(path).suffix.lower() in _YAML_SUFFIXES:
         data, lines = load_yaml_document(path)
         if not isinstance(data, dict):
@@ -81,13 +122,14 @@ def load_static_readings(path: str | Path) -> Measurements:
         InputFileError: the file is missing, unreadable, or holds parameters.
     """
     p = str(path)
-    if not Path(path).is_file():
-        raise InputFileError(p, "no such file" if not Path(path).exists() else "not a regular file")
+    open_regular_file(p, path).close()  # a FIFO, a device or a symlink loop is named as such, never read
     if Path(path).suffix.lower() in _YAML_SUFFIXES:
         data, lines = load_yaml_document(path)
         if not isinstance(data, dict) or data.get("format") != MEASUREMENTS_FORMAT:
             raise InputFileError(p, f"expected a measurement file ('format: {MEASUREMENTS_FORMAT}')")
-        return measurements_from_document(p, data, lines, static_only=True)
-    m = load_measurements(path)
+        static = measurements_from_document(p, data, lines, static_only=True)
+        warn_unit_mistakes(static)
+        return static
+    m = load_measurements(path)  # (warns of unit mistakes)
     readings = {k: r for k, r in m.readings.items() if not is_period_key(k)}
     return Measurements(m.bicycle, readings, m.path, m.extras)

@@ -102,13 +102,16 @@ class ImplausibleParametersError(BikeRigError):
     Args:
         label: Which set or body (e.g. ``parameter set 'Rogue'``).
         violations: Every broken rule (at least one).
+        texts: Each rule in the words of the caller (e.g. traced back to the readings it came
+            from); default ``str(violation)``.
     """
 
-    def __init__(self, label: str, violations: Sequence[Violation]) -> None:
+    def __init__(self, label: str, violations: Sequence[Violation], texts: Sequence[str] | None = None) -> None:
         """Keep the label and violations; the message is ``<label> is not physically possible: <v1>; <v2>``."""
         self.label = label
         self.violations = tuple(violations)
-        super().__init__(f"{label} is not physically possible: " + "; ".join(str(v) for v in self.violations))
+        self.texts = tuple(texts) if texts is not None else tuple(str(v) for v in self.violations)
+        super().__init__(f"{label} is not physically possible: " + "; ".join(self.texts))
 
 
 class RiderLike(Protocol):

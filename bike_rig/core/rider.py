@@ -27,6 +27,7 @@ from .benchmark import PARAMETER_NAMES, ParameterSet
 from .errors import InputFileError, ModelError, short_repr
 from .io_yaml import load_yaml_document
 from .measurements import MAX_MAGNITUDE
+from .plausibility import body_violations, rider_body
 from .uncertainty.uncertain import UncertainVector, complex_step_jacobian
 
 if TYPE_CHECKING:
@@ -41,6 +42,7 @@ __all__ = [
     "RiderError",
     "RiderSensitivity",
     "add_rider",
+    "check_rider_body",
     "combine_rear_frame",
     "combine_rear_frame_values",
     "load_rider",
@@ -212,6 +214,7 @@ def add_rider(ps: ParameterSet, rider: AnyRider) -> ParameterSet:
 
     if isinstance(rider, YeadonRider):
         rider = rider.seated(ps)
+        check_rider_body(rider, rider.name)
     values: dict[str, float] = dict(ps.parameters.as_dict())
     rider_inputs = {f"rider.{k}": float(getattr(rider, k)) for k in RIDER_FILE_KEYS}
     sens = rider.sensitivity
@@ -326,4 +329,20 @@ def load_rider(path: str | Path) -> AnyRider:
         raise RiderError("rider mass must be positive", spec, key="mass", line=lines.get(("mass",)))
     name = str(data.get("name", Path(spec).stem))
     v = values
-    return Rider(v["mass"], v["x"], v["z"], v["Ixx"], v["Iyy"], v["Izz"], v["Ixz"], name)
+    rider = Rider(v["mass"], v["x"], v["z"], v["Ixx"], v["Iyy"], v["Izz"], v["Ixz"], name)
+    check_rider_body(rider, spec)
+    return rider
+
+
+def check_rider_body(rider: Rider, where: str | None = None) -> None:
+    """Refuse a rider no rigid body can be (:func:`~bike_rig.core.plausibility.body_violations`).
+
+    Its mass centre must be above the ground, its tensor positive definite with principal
+    moments obeying the triangle rule (e.g. Iyy ≤ Ixx + Izz for Ixz = 0).
+
+    Raises:
+        RiderError: naming ``where`` (the rider file) and every broken rule.
+    """
+    found = body_violations(rider_body(rider, "the rider"))
+    if found:
+        raise RiderError("not physically possible: " + "; ".join(str(f) for f in found), where)

@@ -30,6 +30,12 @@ On ``/bike_rig/parameters`` (reliable, transient-local, depth 1) it publishes:
   known so far from the readings and trials, at least three), whenever that changes and every
   ``status_period`` s, and logs it.
 
+Parameters that are not physically possible (:func:`bike_rig.core.parameter_checks.compute_checked`:
+a negative inertia, a tensor that is not positive definite...) are never published: the node
+logs one error line naming the result and the readings it came from. A static reading of the
+file that a wrong unit explains (a wheelbase in mm) is logged as a warning line
+(:mod:`bike_rig.core.reading_ranges`).
+
 Diagnostics (``/diagnostics``, 1 Hz): ``parameter: completeness`` and, from the first estimate or
 entry handled, ``parameter: input lag`` (WARN while it handles them seconds after they were sent).
 
@@ -58,6 +64,7 @@ from __future__ import annotations
 import importlib
 import sys
 import time
+import warnings
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -70,6 +77,7 @@ from ..core.errors import BikeRigError
 from ..core.io_yaml import dump_measurements_yaml
 from ..core.loader import load_static_readings
 from ..core.measurements import Measurements
+from ..core.reading_ranges import UnitMistakeWarning
 from ..messages import (
     MessageError,
     fill_benchmark_parameters,
@@ -194,7 +202,11 @@ class ParameterNode(Node):
         values = declare_parameters(self, PARAMETERS)
         method = ComMethod(values["com_method"])
         status_period = values["status_period"]
-        self._base, self._document = base_readings(values["measurements"], values["bicycle"])
+        with warnings.catch_warnings(record=True) as caught:  # a reading a wrong unit explains: logged
+            warnings.simplefilter("always", UnitMistakeWarning)
+            self._base, self._document = base_readings(values["measurements"], values["bicycle"])
+        for w in caught:
+            self.get_logger().warning(str(w.message))
         self._entries: list[ReadingEntry] = []
         self._session = SessionAssembly(self._base, method, origin=topics.PERIODS.name, partial=True)
 

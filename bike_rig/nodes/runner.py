@@ -30,6 +30,7 @@ from rclpy.signals import SignalHandlerOptions
 
 from ..core.errors import BikeRigError
 from ..rosenv import ros_environment
+from ..textfmt import terminal_safe
 
 __all__ = ["EXIT_USER_ERROR", "run_node"]
 
@@ -74,7 +75,7 @@ def run_node(factory: Callable[[], Node], args: Sequence[str] | None = None, nam
     try:
         _prepare_environment()
     except BikeRigError as exc:
-        print(f"{name}: error: {exc}", file=sys.stderr)
+        print(f"{name}: error: {terminal_safe(str(exc), keep='')}", file=sys.stderr)
         return EXIT_USER_ERROR
     argv = list(sys.argv if args is None else args)
     # our own handlers (rclpy's would shut the context down before close() could publish)
@@ -100,7 +101,7 @@ def run_node(factory: Callable[[], Node], args: Sequence[str] | None = None, nam
         return 0
     except BikeRigError as exc:
         label = node.get_name() if node is not None else name
-        print(f"{label}: error: {exc}", file=sys.stderr)
+        print(f"{label}: error: {terminal_safe(str(exc), keep='')}", file=sys.stderr)
         return EXIT_USER_ERROR
     except (KeyboardInterrupt, ExternalShutdownException):
         return 0

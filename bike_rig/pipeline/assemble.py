@@ -24,7 +24,7 @@ import re
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 
-from ..core.benchmark import ComMethod, ParameterSet, check_orientations, compute_parameters
+from ..core.benchmark import ComMethod, ParameterSet, check_orientations
 from ..core.measurements import (
     MIN_ORIENTATIONS,
     Measurements,
@@ -38,6 +38,7 @@ from ..core.measurements import (
     required_keys,
     validate,
 )
+from ..core.parameter_checks import compute_checked
 from ..core.period import CombinedPeriod, PeriodFit, combine_periods
 from .errors import AssemblyError
 from .fit import TrialFit
@@ -271,7 +272,7 @@ class SessionAssembly:
         static: The static readings (:func:`bike_rig.core.loader.load_static_readings`, or
             :func:`bike_rig.pipeline.readings.apply_entries`); period readings in it are
             ignored. They are checked here, with every period still to come.
-        com_method: Mass-centre method for :func:`compute_parameters`.
+        com_method: Mass-centre method for :func:`~bike_rig.core.benchmark.compute_parameters`.
         origin: Named as the source of the periods in error messages.
         partial: The static readings may be incomplete: more are still to be entered (the
             live parameter node). The readings still missing (:func:`required_readings`) are
@@ -429,6 +430,8 @@ class SessionAssembly:
         Raises:
             MeasurementError: a combined reading is impossible (cannot happen for usable
                 trials: their periods and σ are finite and positive).
+            ImplausibleParametersError: the parameters are not physically possible (named with
+                the readings they came from: :func:`~bike_rig.core.parameter_checks.compute_checked`).
         """
         periods = self.periods()
         have = {p.key for p in periods}
@@ -436,7 +439,7 @@ class SessionAssembly:
         parameters = None
         if not missing:
             merged = merged_readings(self.static, {p.key: (p.value, p.sigma) for p in periods}, self.origin)
-            parameters = compute_parameters(merged, self.com_method)
+            parameters = compute_checked(merged, self.com_method)  # refused when impossible
         return SessionParameters(self.static.bicycle, self.com_method, periods, missing, parameters)
 
 

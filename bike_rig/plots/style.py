@@ -14,8 +14,10 @@ from typing import Any
 
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
+from matplotlib.text import Text
 
 from ..core.errors import InputFileError
+from ..textfmt import terminal_safe
 
 __all__ = [
     "closed_loop_text",
@@ -26,6 +28,7 @@ __all__ = [
     "LineStyle",
     "bicycle_colour",
     "bicycle_line_style",
+    "escape_figure_text",
     "new_figure",
     "save_figure",
 ]
@@ -142,6 +145,16 @@ def bicycle_line_style(index: int, count: int, points: int) -> LineStyle:
     )
 
 
+def escape_figure_text(fig: Figure) -> None:
+    r"""Write every control character of the figure's texts (a bicycle's name from a file) as ``\xNN``.
+
+    No font has a glyph for them: matplotlib would draw boxes and warn, quoting the raw character.
+    """
+    for text in fig.findobj(Text):
+        if isinstance(text, Text):
+            text.set_text(terminal_safe(text.get_text()))
+
+
 def save_figure(fig: Figure, stem: Path, formats: Sequence[str] = FORMATS) -> list[Path]:
     """Write ``fig`` as ``stem.<format>`` for each format (PNG at :data:`PNG_DPI`).
 
@@ -157,6 +170,7 @@ def save_figure(fig: Figure, stem: Path, formats: Sequence[str] = FORMATS) -> li
         InputFileError: A file cannot be written (names the file and the reason).
     """
     written: list[Path] = []
+    escape_figure_text(fig)
     for fmt in formats:
         path = stem.with_name(f"{stem.name}.{fmt}")
         try:

@@ -46,6 +46,7 @@ from ..plots.registry import (
     Scope,
     report_entries,
 )
+from ..plots.style import escape_figure_text
 from ..subjects import Subject
 from .results import ReportResults
 
@@ -133,6 +134,7 @@ def png_data_uri(fig: Figure, dpi: float = REPORT_DPI) -> str:
         ``data:image/png;base64,...``.
     """
     buf = io.BytesIO()
+    escape_figure_text(fig)
     fig.savefig(buf, format="png", dpi=dpi)
     return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode("ascii")
 

@@ -18,8 +18,9 @@ Two steps, both without ROS:
   mass in grams or pounds or out of range for its part, σ larger than the value, a hanging
   angle outside 0-360°, a wheel radius (distance rolled / 2π rotations) that no wheel has, a
   pendulum arm longer than the wheel radius, a trail (paper Eq 8, computed with the core's
-  :func:`~bike_rig.core.geometry.trail`) that comes out in metres. The ranges are wide enough
-  for every bicycle of the paper and of ``../shared/data`` (none of their readings warns).
+  :func:`~bike_rig.core.geometry.trail`) that comes out in metres. The ranges are the one table
+  every input boundary uses (:mod:`bike_rig.core.reading_ranges`), wide enough for every bicycle
+  of the paper and of ``../shared/data`` (none of their readings warns).
 
 Units: SI; degrees only in ``gamma`` and ``alpha*``; σ in the key's unit.
 """
@@ -28,11 +29,20 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Collection, Iterator, Mapping
-from dataclasses import dataclass
 
 from ..core import geometry
 from ..core.errors import BikeRigError
 from ..core.measurements import Reading, is_period_key
+from ..core.reading_ranges import (
+    COUNT_KEYS,
+    LENGTH_UNITS,
+    RADIUS_RANGE,
+    READING_RANGES,
+    TRAIL_RANGE,
+    PlausibleRange,
+    plausible_range,
+    reading_unit,
+)
 from ..core.units import radians
 from ..pipeline.readings import (
     REFINED_STATIC_KEYS,
@@ -60,19 +70,6 @@ __all__ = [
     "plausible_range",
     "reading_unit",
 ]
-
-#: The exact counts: whole numbers with σ 0.
-COUNT_KEYS: tuple[str, ...] = ("nR", "nF")
-
-#: Plausible wheel radius, m (a 12-inch child's wheel to a 36-inch wheel, with room).
-RADIUS_RANGE: tuple[float, float] = (0.1, 0.8)
-#: Plausible trail c, m (Eq 8; the paper's bicycles: 0.047-0.18 m, Yellowrev's reversed fork the largest).
-TRAIL_RANGE: tuple[float, float] = (-0.15, 0.4)
-
-# Unit mistakes tried, in order: (what it looks like, factor to SI).
-_LENGTH_UNITS: tuple[tuple[str, float], ...] = (("millimetres", 1e-3), ("centimetres", 1e-2), ("inches", 0.0254))
-_MASS_UNITS: tuple[tuple[str, float], ...] = (("grams", 1e-3), ("pounds", 0.45359237))
-_GRAVITY_UNITS: tuple[tuple[str, float], ...] = (("ft/s²", 0.3048), ("cm/s²", 1e-2))
 
 
 class ReadingInputError(BikeRigError):
@@ -110,80 +107,6 @@ class SigmaError(ReadingInputError):
 
 class ImpossibleValueError(ReadingInputError):
     """The value is physically impossible for its key (a negative mass, a head-tube angle over 90°)."""
-
-
-@dataclass(frozen=True)
-class PlausibleRange:
-    """The values a key plausibly takes on any bicycle, and how it is mistyped.
-
-    Attributes:
-        low: Smallest plausible value, in the key's unit.
-        high: Largest plausible value.
-        what: What the reading is, for messages (e.g. ``"front wheel mass"``).
-        units: Wrong units to try on an implausible value: (name, factor to the key's unit).
-    """
-
-    low: float
-    high: float
-    what: str
-    units: tuple[tuple[str, float], ...] = ()
-
-    def holds(self, value: float) -> bool:
-        """Whether ``value`` lies in [low, high]."""
-        return self.low <= value <= self.high
-
-
-_FIXED_RANGES: dict[str, PlausibleRange] = {
-    "g": PlausibleRange(9.76, 9.84, "gravity", _GRAVITY_UNITS),
-    "w": PlausibleRange(0.5, 2.5, "wheelbase", _LENGTH_UNITS),
-    "gamma": PlausibleRange(45.0, 85.0, "head-tube angle"),
-    "f": PlausibleRange(-0.15, 0.15, "fork offset", _LENGTH_UNITS),
-    "mR": PlausibleRange(0.5, 10.0, "rear wheel mass", _MASS_UNITS),
-    "mF": PlausibleRange(0.5, 10.0, "front wheel mass", _MASS_UNITS),
-    "mB": PlausibleRange(2.0, 40.0, "frame mass", _MASS_UNITS),
-    "mH": PlausibleRange(0.5, 10.0, "fork and handlebar mass", _MASS_UNITS),
-    "mP": PlausibleRange(0.5, 20.0, "calibration rod mass", _MASS_UNITS),
-    "lR": PlausibleRange(0.05, 0.8, "rear wheel pendulum arm", _LENGTH_UNITS),
-    "lF": PlausibleRange(0.05, 0.8, "front wheel pendulum arm", _LENGTH_UNITS),
-    "lP": PlausibleRange(0.2, 3.0, "calibration rod length", _LENGTH_UNITS),
-    "dP": PlausibleRange(0.003, 0.1, "calibration rod diameter", _LENGTH_UNITS),
-    "nR": PlausibleRange(1.0, 100.0, "rear wheel rotations"),
-    "nF": PlausibleRange(1.0, 100.0, "front wheel rotations"),
-    "dR": PlausibleRange(0.5, 200.0, "rear wheel distance rolled", _LENGTH_UNITS),
-    "dF": PlausibleRange(0.5, 200.0, "front wheel distance rolled", _LENGTH_UNITS),
-    # the refined method: fork and handlebar hung separately, geometry from a surface plate
-    "mS": PlausibleRange(0.2, 10.0, "fork mass", _MASS_UNITS),
-    "mG": PlausibleRange(0.2, 10.0, "handlebar mass", _MASS_UNITS),
-    "mD": PlausibleRange(0.5, 40.0, "front wheel with its flywheel, mass", _MASS_UNITS),
-    **{f"h{i}": PlausibleRange(0.0, 2.0, "surface-plate height", _LENGTH_UNITS) for i in range(1, 8)},
-    **{f"d{i}": PlausibleRange(0.001, 0.1, "surface-plate diameter", _LENGTH_UNITS) for i in range(1, 7)},
-    "d": PlausibleRange(0.3, 2.5, "distance between the axles on the surface plate", _LENGTH_UNITS),
-    "l": PlausibleRange(0.05, 2.0, "front axle to handlebar reference distance", _LENGTH_UNITS),
-}
-#: Hanging angle of the head / steer tube, degree (as the digital level reads it).
-_ALPHA_RANGE = PlausibleRange(0.0, 360.0, "hanging angle")
-#: String-line distance to the axle, m (the paper's bicycles: |a| up to 0.52 m).
-_DISTANCE_RANGE = PlausibleRange(-1.0, 1.0, "string-line distance to the axle", _LENGTH_UNITS)
-
-
-def plausible_range(key: str) -> PlausibleRange | None:
-    """The plausible range of static reading ``key`` (None for a key that is not one)."""
-    if key in _FIXED_RANGES:
-        return _FIXED_RANGES[key]
-    if not is_static_key(key):
-        return None
-    return _ALPHA_RANGE if key.startswith("alpha") else _DISTANCE_RANGE
-
-
-def reading_unit(key: str) -> str:
-    """The unit a static reading is typed in: ``deg``, ``kg``, ``m/s^2``, ``1`` (counts) or ``m``."""
-    if key == "gamma" or key.startswith("alpha"):
-        return "deg"
-    if key in COUNT_KEYS:
-        return "1"
-    if key == "g":
-        return "m/s^2"
-    return "kg" if key.startswith("m") else "m"
 
 
 # ----------------------------------------------------------------------------------------------
@@ -304,9 +227,9 @@ def _unit_mistake(value: float, rng: PlausibleRange, unit: str) -> str:
 
 def _angle_mistake(key: str, value: float) -> str:
     if key == "gamma":
-        if 0 < value <= math.pi / 2 and _FIXED_RANGES["gamma"].holds(math.degrees(value)):
+        if 0 < value <= math.pi / 2 and READING_RANGES["gamma"].holds(math.degrees(value)):
             return f"looks like radians ({math.degrees(value):.4g}°); the head-tube angle is entered in degrees"
-        if _FIXED_RANGES["gamma"].holds(90.0 - value):
+        if READING_RANGES["gamma"].holds(90.0 - value):
             return (
                 f"looks like the steer-axis tilt from the vertical; the head-tube angle from the horizontal "
                 f"is 90 - {value:g} = {90.0 - value:g}°"
@@ -352,7 +275,7 @@ def _plausible_radius(known: Mapping[str, float], p: str) -> float | None:
 def _radius_mistake(key: str, p: str, d: float, n: float, r: float) -> str:
     if key == f"n{p}":
         return f"is the number of rotations n{p} = {n:g} right?"
-    for name, factor in _LENGTH_UNITS[:2]:
+    for name, factor in LENGTH_UNITS[:2]:
         if RADIUS_RANGE[0] <= r * factor <= RADIUS_RANGE[1]:
             return f"the distance d{p} = {d:g} looks like {name}"
     if RADIUS_RANGE[0] <= r * n <= RADIUS_RANGE[1]:
@@ -398,11 +321,11 @@ def _trail(key: str, value: float, known: Mapping[str, float]) -> Iterator[str]:
     if TRAIL_RANGE[0] <= c <= TRAIL_RANGE[1]:
         return
     f, gamma = known["f"], known["gamma"]
-    if not _FIXED_RANGES["f"].holds(f):
+    if not READING_RANGES["f"].holds(f):
         likely = f"the fork offset f = {f:g} is not in metres" + (
-            f": it {mistake}" if (mistake := _unit_mistake(f, _FIXED_RANGES["f"], "m")) else ""
+            f": it {mistake}" if (mistake := _unit_mistake(f, READING_RANGES["f"], "m")) else ""
         )
-    elif not _FIXED_RANGES["gamma"].holds(gamma):
+    elif not READING_RANGES["gamma"].holds(gamma):
         likely = f"is the head-tube angle gamma = {gamma:g} in degrees from the horizontal?"
     else:
         likely = "check the fork offset f and the head-tube angle gamma"

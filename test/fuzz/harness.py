@@ -6,7 +6,9 @@ An outcome is one of:
 * ``clean``: it raised a :class:`~bike_rig.core.errors.BikeRigError` whose message is one line
   (what the CLI prints as ``bike-rig CMD: error: ...``, exit status 2);
 * ``crash``: any other exception, a message of several lines, or a warning on the way (it
-  would print before the error line);
+  would print before the error line) other than a one-line
+  :class:`~bike_rig.core.reading_ranges.UnitMistakeWarning` (a value a wrong unit explains:
+  a remark, so an ``ok`` input with one is ``flagged``);
 * ``hang``: it ran past the time limit (stopped by ``SIGALRM``, so only in the main thread).
 
 Memory is tracemalloc's peak over the call [bytes] (numpy's buffers included) when traced;
@@ -27,6 +29,7 @@ from pathlib import Path
 from types import FrameType
 
 from bike_rig.core.errors import BikeRigError
+from bike_rig.core.reading_ranges import UnitMistakeWarning
 
 __all__ = ["Outcome", "Tally", "run_reader"]
 
@@ -78,10 +81,14 @@ def _classify(call: Callable[[], object]) -> tuple[str, str, bool]:
             return "crash", f"{type(exc).__name__}: {' '.join(str(exc).split())[:300]}", False
         else:
             kind, message, flagged = "ok", "", _remarks(result)
-    if caught:
-        w = caught[0]
+    units = [w for w in caught if issubclass(w.category, UnitMistakeWarning)]  # a remark for the user, one line
+    others = [w for w in caught if w not in units]
+    if others:
+        w = others[0]
         return "crash", f"{w.category.__name__} printed: {w.message}", False
-    return kind, message, flagged
+    if any("\n" in str(w.message) for w in units):
+        return "crash", f"a unit warning on several lines: {units[0].message!s:.300}", False
+    return kind, message, flagged or (kind == "ok" and bool(units))
 
 
 def run_reader(

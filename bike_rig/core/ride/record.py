@@ -14,6 +14,7 @@ or ``speed_mps``; steer torque ``steer_torque`` (all optional but time and signa
 from __future__ import annotations
 
 import csv
+import io
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -24,6 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import InputFileError
+from ..safe_yaml import NotRegularFileError, open_regular_file
 
 __all__ = [
     "SIGNAL_COLUMNS",
@@ -153,10 +155,12 @@ def read_ride_csv(
             column), times that do not increase, fewer than two rows.
     """
     p = str(path)
-    if not Path(path).is_file():
-        raise RideDataError(p, "no such file" if not Path(path).exists() else "not a regular file")
     try:
-        with open(path, newline="", encoding="utf-8") as f:
+        raw = open_regular_file(p, path)  # a FIFO, a device or a symlink loop is named, never read
+    except NotRegularFileError as exc:
+        raise RideDataError(p, exc.reason) from None
+    try:
+        with io.TextIOWrapper(raw, encoding="utf-8", newline="") as f:
             rows = list(csv.reader(f))
     except (OSError, UnicodeDecodeError, csv.Error) as exc:
         raise RideDataError(p, f"cannot be read as CSV ({exc})") from None
