@@ -15,7 +15,7 @@ from ..core.errors import BikeRigError
 from ..core.sim import load_rig, load_true_parameters
 from ..core.sim.rig import RigConfig
 from ..graphwatch import NodeWatch
-from ..launch import LaunchError, RunningGraph, load_graph, parse_overrides
+from ..launch import Graph, LaunchError, NodeSpec, RunningGraph, _params_file_values, load_graph, parse_overrides
 from ..paths import config_file
 from ..rosenv import check_domain_id
 from ..session.controller import SessionController
@@ -175,6 +175,35 @@ def _end_on(started: list[RunningGraph]) -> Callable[[int, object], None]:
     return end
 
 
+def _driver_values(node: NodeSpec) -> dict[str, object]:
+    """The driver's parameters as it will read them: its parameter file's, the overrides on top."""
+    values: dict[str, object] = {}
+    if node.params_file is not None:
+        try:
+            values, _ = _params_file_values(node.params_file, "driver")
+        except BikeRigError:
+            values = {}  # (the graph's start says what is wrong with it)
+    return {**values, **node.parameters}
+
+
+def _start(spec: Graph, folder: Path, domain_id: int | None, started: list[RunningGraph]) -> RunningGraph:
+    """Start the session's graph (its PIDs in ``logs/pids``, its domain in this process's environment)."""
+    graph = RunningGraph(spec, folder / "logs", domain_id).start()
+    started.append(graph)
+    pids = f"console {os.getpid()}\n" + "".join(f"{n.name} {graph.pid(n.name)}\n" for n in spec.nodes)
+    (folder / "logs" / "pids").write_text(pids, encoding="utf-8")
+    os.environ["ROS_DOMAIN_ID"] = str(graph.domain_id)
+    return graph
+
+
+def _domain(graph: RunningGraph | None, given: int | None) -> int | None:
+    """The session's ROS domain: the started graph's, else the one given or the environment's."""
+    if graph is not None:
+        return graph.domain_id
+    text = os.environ.get("ROS_DOMAIN_ID", "").strip() or "0"
+    return given if given is not None else int(text) if text.isdigit() else None
+
+
 def run(args: argparse.Namespace) -> int:
     """Start (or join) the graph, run the console or plain mode, stop what was started.
 
@@ -182,7 +211,7 @@ def run(args: argparse.Namespace) -> int:
     graph is stopped and nothing recorded is lost.
     """
     from ..session.plain import run_plain
-    from ..session.setup import build_controller
+    from ..session.setup import build_controller, connection
 
     if args.json and not args.plain:
         print("bike-rig session: error: --json needs --plain", file=sys.stderr)
@@ -198,16 +227,14 @@ def run(args: argparse.Namespace) -> int:
     signal.signal(signal.SIGTERM, _end_on(started))
     signal.signal(signal.SIGHUP, _end_on(started))
     graph = None
+    driver: dict[str, object] = {}
     try:
         if not args.join:
             spec = load_graph(config_file("graph.yaml")).with_parameters(
                 _graph_overrides(args, bicycle_file, name, folder, resume)
             )
-            graph = RunningGraph(spec, folder / "logs", args.domain_id).start()
-            started.append(graph)
-            pids = f"console {os.getpid()}\n" + "".join(f"{n.name} {graph.pid(n.name)}\n" for n in spec.nodes)
-            (folder / "logs" / "pids").write_text(pids, encoding="utf-8")
-            os.environ["ROS_DOMAIN_ID"] = str(graph.domain_id)
+            driver = _driver_values(spec.node("driver"))
+            graph = _start(spec, folder, args.domain_id, started)
         elif args.domain_id is not None:
             os.environ["ROS_DOMAIN_ID"] = str(args.domain_id)
         from ..nodes.session_link import SessionLink
@@ -215,6 +242,7 @@ def run(args: argparse.Namespace) -> int:
         link = SessionLink()
         try:
             ctl = build_controller(rig, name, link, args.source)
+            ctl.connect(*connection(args.source, driver, _domain(graph, args.domain_id)))
             if graph is not None:
                 ctl.watch = _node_watch(graph, folder)
                 ctl.ended = _ended_nodes(graph)

@@ -1,15 +1,21 @@
 """The operator's console: a textual app over :class:`~bike_rig.session.controller.SessionController`.
 
-Works in an 80×24 terminal (over SSH, under tmux). Layout: the plan with each item's state
-(left), what to do next, the recording trial's live trace, amplitude and warnings, and the
-nodes' health from ``/diagnostics`` (right: each node's worst level, or SILENT / BEHIND while it
-is stalled or behind its input), the log of results and replies (a line whenever a node's health
-level changes, and when it stalls, falls behind or catches up), and the command line. Keys:
+Lays itself out for the terminal it is in, from 80×24 (over SSH, under tmux) up. Layout: the
+title (bicycle, progress, the speeds once there), what the session is connected to (source, bus,
+ROS domain, the ``bike-rig view`` line to paste), the plan with each item's state (left; it
+follows the recording, offered or next item), what to do next and a reading held for its
+warning, the recording trial's live trace, amplitude and warnings, and the nodes' health from
+``/diagnostics`` (right: each node's worst level, or SILENT / BEHIND while it is stalled or
+behind its input), the log of results and replies (it takes the rows the window has beyond the
+plan's share; a line whenever a node's health level changes, and when it stalls, falls behind or
+catches up), and the command line. Keys:
 
 * **F2** — do the next item: start the next trial to do or redo (or the redo just offered),
   or, when the next item is a reading, put ``reading KEY `` on the command line;
 * **F3** — stop the recording trial; **F4** — abort it (ABORT is recorded);
-* **F5** — the next item and the next-best measurement; **F10** — quit.
+* **F5** — the next item and the next-best measurement;
+* **PgUp / PgDn** — scroll the log (End: back to its newest line);
+* **F10** or **Ctrl-C** — quit, once pressed again to confirm (a recording trial is aborted first).
 
 Every command of plain mode can be typed on the command line (``help`` lists them).
 """
@@ -19,6 +25,7 @@ from __future__ import annotations
 import math
 
 from rich.text import Text
+from textual import events
 from textual.app import App, ComposeResult
 from textual.binding import Binding
 from textual.containers import Horizontal, Vertical
@@ -30,7 +37,7 @@ from ..session.controller import Reply, SessionController
 from ..session.plan import ItemState, ReadingItem, TrialItem
 from ..textfmt import format_speed, terminal_safe
 
-__all__ = ["SessionApp", "run_console", "title_text"]
+__all__ = ["SessionApp", "layout_rows", "run_console", "title_text"]
 
 #: Screen refresh and graph polling period, s.
 TICK_S = 0.05
@@ -42,8 +49,21 @@ _STATE_STYLE = {
     ItemState.REDO: "bold red",
     ItemState.DONE: "green",
 }
-_REPLY_STYLE = {"error": "bold red", "warning": "yellow", "result": "bold", "ok": "cyan", "done": "green",
-                "health": "magenta"}
+#: Rows of the title, connection, command and footer lines.
+_CHROME_ROWS = 4
+#: Fewest rows of the plan and side panels (the side panel's widgets need them).
+MIN_TOP_ROWS = 12
+#: The plan and side panels' share of the rows left, beyond :data:`MIN_TOP_ROWS` (the log has the rest).
+TOP_SHARE = 0.4
+
+_REPLY_STYLE = {
+    "error": "bold red",
+    "warning": "yellow",
+    "result": "bold",
+    "ok": "cyan",
+    "done": "green",
+    "health": "magenta",
+}
 
 
 def title_text(bicycle: str, done: int, total: int, speeds: StabilitySweep | None) -> str:
@@ -58,19 +78,32 @@ def title_text(bicycle: str, done: int, total: int, speeds: StabilitySweep | Non
     return f"{title}  weave {weave}  capsize {capsize} m/s"
 
 
+def layout_rows(height: int, plan_rows: int) -> tuple[int, int]:
+    """Rows of the plan/side panels and of the log (its border included) in a terminal ``height`` rows high.
+
+    The panels have :data:`TOP_SHARE` of the rows (at least :data:`MIN_TOP_ROWS`, at most the
+    whole plan and its header); the log grows with the window.
+    """
+    body = max(0, height - _CHROME_ROWS)
+    top = min(max(MIN_TOP_ROWS, int(TOP_SHARE * body)), plan_rows + 1)
+    top = min(top, max(0, body - 3))
+    return top, body - top
+
+
 class SessionApp(App[int]):
     """The console (see the module docstring)."""
 
     CSS = """
-    #top { height: 1fr; }
+    #conn { height: 1; }
+    #top { height: 12; }
     #plan { width: 44; }
     #side { width: 1fr; padding: 0 1; }
-    #next { height: 6; }
+    #next { height: auto; max-height: 9; }
     #trace { height: 2; }
     #live { height: 1fr; }
-    #health { height: 3; }
-    #log { height: 6; border-top: solid $accent; }
-    #cmd { height: 3; }
+    #health { height: auto; max-height: 3; }
+    #log { height: 1fr; border-top: solid $accent; border-title-align: left; }
+    #cmd { height: 1; border: none; padding: 0 1; }
     """
     BINDINGS = [
         Binding("f2", "do_next", "next item"),
@@ -78,6 +111,10 @@ class SessionApp(App[int]):
         Binding("f4", "abort", "abort"),
         Binding("f5", "advice", "next best"),
         Binding("f10", "quit_session", "quit"),
+        Binding("pageup", "log_scroll(-1)", "log ↑", priority=True, show=False),
+        Binding("pagedown", "log_scroll(1)", "log ↓", priority=True, show=False),
+        Binding("end", "log_end", priority=True, show=False),
+        Binding("ctrl+c", "quit_session", "quit", priority=True, show=False),
     ]
 
     def __init__(self, controller: SessionController) -> None:
@@ -86,10 +123,14 @@ class SessionApp(App[int]):
         self.ctl = controller
         self.offer = ""
         self._states: dict[str, ItemState] = {}
+        self._rows: dict[str, int] = {}
+        self._followed = ""
+        self._quit_asked = False
 
     def compose(self) -> ComposeResult:
         """The widgets (see the module docstring)."""
         yield Static(id="title")
+        yield Static(id="conn")
         with Horizontal(id="top"):
             yield DataTable(id="plan", cursor_type="row", zebra_stripes=False)
             with Vertical(id="side"):
@@ -98,7 +139,7 @@ class SessionApp(App[int]):
                 yield Static(id="live")
                 yield Static(id="health")
         yield RichLog(id="log", wrap=True, markup=False, max_lines=500)
-        yield Input(placeholder="command (help) — F2 next item, F3 stop, F4 abort, F5 next best, F10 quit", id="cmd")
+        yield Input(placeholder="command (help) — F2 next item, PgUp/PgDn scroll the log, F10 quit", id="cmd")
         yield Footer()
 
     def on_mount(self) -> None:
@@ -107,15 +148,30 @@ class SessionApp(App[int]):
         table.add_column("item", key="item", width=9)
         table.add_column("state", key="state", width=9)
         table.add_column("what", key="what", width=20)
-        for item in self.ctl.session.plan.items:
+        for row, item in enumerate(self.ctl.session.plan.items):
+            self._rows[item.item_id] = row
             state = self.ctl.session.state(item)
             self._states[item.item_id] = state
             what = item.key if isinstance(item, ReadingItem) else f"{item.part} {item.measurement.pendulum}"
             table.add_row(item.item_id, Text(state.value, style=_STATE_STYLE[state]), what, key=item.item_id)
         self.query_one("#cmd", Input).focus()
+        log = self.query_one("#log", RichLog)
+        log.border_title = "log · PgUp/PgDn scroll, End the newest"
+        conn = self.ctl.connection or "connected to the graph of this session"
+        self.query_one("#conn", Static).update(Text(conn, style="italic"))
+        self._fit_to(self.size.height)
         self._show([Reply("info", "bike_rig session: F2 does the next item; type 'help' for every command")])
         self.set_interval(TICK_S, self._tick)
         self._tick()
+
+    # ------------------------------------------------------------------ layout
+    def on_resize(self, event: events.Resize) -> None:
+        """Share the rows between the panels and the log for the new size."""
+        self._fit_to(event.size.height)
+
+    def _fit_to(self, height: int) -> None:
+        top, _log = layout_rows(height, len(self._rows))
+        self.query_one("#top", Horizontal).styles.height = top
 
     # ------------------------------------------------------------------ refresh
     def _show(self, replies: list[Reply]) -> None:
@@ -142,11 +198,22 @@ class SessionApp(App[int]):
             if self._states.get(item_id) != state:
                 self._states[item_id] = state
                 table.update_cell(item_id, "state", Text(state.value, style=_STATE_STYLE[state]))
-        done, total = self.ctl.session.progress()
         s = self.ctl.session
+        p = s.progress()
         speeds = s.stability if s.complete else None
-        title = terminal_safe(title_text(s.bicycle, done, total, speeds))
+        title = terminal_safe(title_text(s.bicycle, p.done, p.total, speeds))
         self.query_one("#title", Static).update(Text(title, style="bold reverse"))
+        self._follow(table)
+
+    def _follow(self, table: DataTable[object]) -> None:
+        """Keep the recording, offered or next item in sight (moved to when it changes)."""
+        s = self.ctl.session
+        view = s.recording()
+        item = s.plan.item(self.offer) if self.offer else s.next_item()
+        target = view.item_id if view is not None and view.item_id else (item.item_id if item is not None else "")
+        if target and target != self._followed and target in self._rows:
+            self._followed = target
+            table.move_cursor(row=self._rows[target], scroll=True)
 
     def _refresh_health(self) -> None:
         board = self.ctl.health
@@ -171,9 +238,18 @@ class SessionApp(App[int]):
         tail = (
             f"\nMissing: {len(missing)} ({', '.join(missing[:6])}{'…' if len(missing) > 6 else ''})" if missing else ""
         )
-        self.query_one("#next", Static).update(Text(terminal_safe(head + nxt + tail)))
+        text = Text(terminal_safe(head + nxt + tail))
+        if self._quit_asked:
+            text = Text("Quit? F10 or Ctrl-C again leaves (a recording trial is aborted); any command stays.",
+                        style="bold reverse")  # fmt: skip
+        elif self.ctl.held is not None:
+            warning = "; ".join(self.ctl.held[1])
+            key = self.ctl.held[0].key
+            text = Text(terminal_safe(f"⚠ {warning}\n'keep' enters it, or 'reading {key} …' again"), style="bold red")
+        self.query_one("#next", Static).update(text)
         live = s.live_status(self.ctl.clock())
         trace = self.query_one("#trace", Sparkline)
+        trace.display = live is not None
         if live is None:
             self.query_one("#live", Static).update(Text("No trial recording.", style="dim"))
             return
@@ -192,12 +268,17 @@ class SessionApp(App[int]):
         """Run the typed command."""
         line = event.value.strip()
         event.input.value = ""
+        self._quit_asked = False
+        self.action_log_end()
         if line:
             self._show([Reply("info", f"> {line}")])
             self._show(self.ctl.execute(line))
+            self._refresh_plan()  # (the item's new state in the same frame as the reply)
 
     def action_do_next(self) -> None:
         """F2: the offered redo, or the next item."""
+        self._quit_asked = False
+        self.action_log_end()
         s = self.ctl.session
         item = s.plan.item(self.offer) if self.offer else s.next_item()
         if item is None:
@@ -205,6 +286,7 @@ class SessionApp(App[int]):
         elif isinstance(item, TrialItem):
             self.offer = ""
             self._show(self.ctl.execute(f"start {item.item_id}"))
+            self._refresh_plan()
         else:
             cmd = self.query_one("#cmd", Input)
             cmd.value = f"reading {item.key} "
@@ -213,18 +295,44 @@ class SessionApp(App[int]):
 
     def action_stop(self) -> None:
         """F3: stop the recording trial."""
+        self._quit_asked = False
+        self.action_log_end()
         self._show(self.ctl.execute("stop"))
 
     def action_abort(self) -> None:
         """F4: abort the recording trial."""
+        self._quit_asked = False
+        self.action_log_end()
         self._show(self.ctl.execute("abort"))
 
     def action_advice(self) -> None:
         """F5: the next item and the next-best measurement."""
+        self._quit_asked = False
+        self.action_log_end()
         self._show(self.ctl.execute("next"))
 
+    def action_log_scroll(self, pages: int) -> None:
+        """PgUp / PgDn: scroll the log by a page (it stays there while new lines come, until its end)."""
+        log = self.query_one("#log", RichLog)
+        if pages < 0:
+            log.auto_scroll = False
+            log.scroll_page_up(animate=False)
+        else:
+            log.scroll_page_down(animate=False)
+            log.auto_scroll = log.scroll_y + log.scrollable_content_region.height >= log.virtual_size.height
+
+    def action_log_end(self) -> None:
+        """End: the log's newest line (and follow new ones again)."""
+        log = self.query_one("#log", RichLog)
+        log.auto_scroll = True
+        log.scroll_end(animate=False, immediate=True)
+
     def action_quit_session(self) -> None:
-        """F10: quit (a recording trial is aborted first)."""
+        """F10 or Ctrl-C: ask; pressed again, quit (a recording trial is aborted first)."""
+        if not self._quit_asked:
+            self._quit_asked = True
+            self._show([Reply("warning", "quit? F10 or Ctrl-C again leaves; any command stays")])
+            return
         self._show(self.ctl.execute("quit"))
 
 

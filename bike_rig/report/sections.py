@@ -65,8 +65,9 @@ def _facts(rows: Sequence[tuple[str, str]]) -> str:
 def _trial_counts(subject: Subject) -> str:
     n = len(subject.trials)
     used = sum(t.used for t in subject.trials)
-    flagged = sum(bool(t.fit.flags) for t in subject.trials)
-    return f"{n} trials, {used} used, {flagged} flagged"
+    flagged = sum(bool(t.result.flags) for t in subject.trials)  # (the trial's flags too: aborted, gap…)
+    aborted = sum("aborted" in t.result.flag_codes for t in subject.trials)
+    return f"{n} trials, {used} used, {flagged} flagged" + (f" ({aborted} aborted)" if aborted else "")
 
 
 def header_section(subject: Subject, results: ReportResults, figures: int, generated: str) -> Raw:

@@ -35,7 +35,13 @@ from .state import OperatorSession
 __all__ = ["COMMANDS", "COMMAND_HELP", "GraphEvent", "GraphLink", "Reply", "SessionController", "StartReply"]
 
 GraphEvent = (
-    TrialEventRecord | SampleBatch | TrialFit | FitDetails | SessionParameters | StabilitySweep | ReadingEntry
+    TrialEventRecord
+    | SampleBatch
+    | TrialFit
+    | FitDetails
+    | SessionParameters
+    | StabilitySweep
+    | ReadingEntry
     | StatusReport
 )
 
@@ -46,8 +52,9 @@ COMMAND_HELP: tuple[tuple[str, str], ...] = (
     ("stop", "stop the recording trial (its result follows)"),
     ("abort", "abort the recording trial (ABORT is recorded; the item stays REDO)"),
     ("reading KEY VALUE SIGMA", "enter a static reading (degrees only where the key says so); again for a "
-     "correction: the newer wins, both are recorded"),
-    ("status", "progress, the recording trial, what is missing, the result"),
+     "correction: the newer wins, both are recorded; one that looks wrong (a unit?) is held until answered"),
+    ("keep", "enter the reading held for its warning as it is"),
+    ("status", "what the session is connected to, progress, the recording trial, what is missing, the result"),
     ("next", "the next item with its instruction, and the next-best measurement"),
     ("best", "the ranking of open and repeatable items by σ reduction"),
     ("plan", "every item with its state"),
@@ -149,6 +156,10 @@ class SessionController:
     watch: Callable[[], list[tuple[str, str]]] = lambda: []
     ended: Callable[[], Collection[str]] = lambda: ()
     quit_requested: bool = False
+    #: What the session is connected to (source, bus, ROS domain, the ``bike-rig view`` line).
+    connection: str = ""
+    #: A reading held for its plausibility warnings, with them, until ``keep`` or a new entry of its key.
+    held: tuple[ReadingEntry, tuple[str, ...]] | None = None
     _warned: set[str] = field(default_factory=set)
     _announced: tuple[float, ...] = ()
     _resume_note: str = ""
@@ -197,6 +208,11 @@ class SessionController:
         note, self._resume_note = self._resume_note, ""
         total = len(self.session.resumed)
         return [Reply("info", f"resumed {note}: all {total} recorded trials are back", {"resumed": total})]
+
+    def connect(self, text: str, data: dict[str, Any]) -> None:
+        """Say what the session is connected to (``status`` repeats it; the next :meth:`pump` says it once)."""
+        self.connection = text
+        self._pending.append(Reply("info", text, {"connection": data}))
 
     # ------------------------------------------------------------------ commands
     def execute(self, line: str) -> list[Reply]:
@@ -270,18 +286,59 @@ class SessionController:
             entry, warnings = self.check_reading(args[0], args[1], args[2], self.session)
         except ValueError as exc:
             raise CommandError(str(exc)) from None
+        if self.held is not None and self.held[0].key == entry.key:
+            self.held = None  # answered by a new entry
+        if warnings:
+            self.held = (entry, tuple(warnings))
+            data = {"command": "reading", "key": entry.key, "value": entry.value, "sigma": entry.sigma, "held": True}
+            out = [Reply("warning", w, {"key": entry.key}) for w in warnings]
+            return out + [Reply("warning", self.held_line(), data)]
+        return self._enter(entry)
+
+    def held_line(self) -> str:
+        """What to do about the held reading ("" when none)."""
+        if self.held is None:
+            return ""
+        e = self.held[0]
+        return (
+            f"{e.key} = {e.value:g} ± {e.sigma:g} is held, not entered: 'keep' enters it as it is, "
+            f"'reading {e.key} VALUE SIGMA' enters another"
+        )
+
+    def _enter(self, entry: ReadingEntry) -> list[Reply]:
         corrected = entry.key in self.session.readings
         self.link.send_reading(entry)
         self.session.on_reading(entry)
         verb = "corrected" if corrected else "entered"
         data = {"command": "reading", "key": entry.key, "value": entry.value, "sigma": entry.sigma}
-        out = [Reply("ok", f"{verb} {entry.key} = {entry.value:g} ± {entry.sigma:g}", data)]
-        out += [Reply("warning", w, {"key": entry.key}) for w in warnings]
-        return out
+        return [Reply("ok", f"{verb} {entry.key} = {entry.value:g} ± {entry.sigma:g}", data)]
+
+    def _cmd_keep(self, args: Sequence[str]) -> list[Reply]:
+        if self.held is None:
+            raise CommandError("no reading is held (a reading is held when it looks wrong)")
+        entry, _ = self.held
+        self.held = None
+        return self._enter(entry)
 
     def _cmd_status(self, args: Sequence[str]) -> list[Reply]:
-        done, total = self.session.progress()
-        out = [Reply("info", f"progress {done}/{total}", {"done": done, "total": total})]
+        p = self.session.progress()
+        out = [Reply("info", self.connection, {"connection": self.connection})] if self.connection else []
+        out.append(
+            Reply(
+                "info",
+                f"progress {p.line()}",
+                {
+                    "done": p.done,
+                    "total": p.total,
+                    "trials_done": p.trials_done,
+                    "trials": p.trials,
+                    "readings_done": p.readings_done,
+                    "readings": p.readings,
+                },
+            )
+        )
+        if self.held is not None:
+            out.append(Reply("warning", self.held_line(), {"key": self.held[0].key, "held": True}))
         if not self.resumed:
             back, n = self.session.resuming
             out.append(Reply("info", f"resuming: {back}/{n} recorded trials back", {"resuming": [back, n]}))
@@ -300,7 +357,12 @@ class SessionController:
         if not s.complete:
             missing = s.missing()
             shown = ", ".join(missing[:12]) + (f" … ({len(missing)} in all)" if len(missing) > 12 else "")
-            return [Reply("info", f"missing: {shown or 'nothing'}", {"missing": list(missing)})]
+            out = [Reply("info", f"missing: {shown or 'nothing'}", {"missing": list(missing)})]
+            lacking = s.lacking()
+            if not missing and lacking:  # (every item done, yet the parameter node still lacks these)
+                text = f"the parameter set still lacks {', '.join(lacking)}"
+                out.append(Reply("info", text, {"lacking": list(lacking)}))
+            return out
         out = [Reply("info", "parameter set complete", {"complete": True})]
         if s.stability is not None:
             w, c = s.stability.weave, s.stability.capsize

@@ -4,13 +4,15 @@
 and reports, from them and the wall clock:
 
 * **no samples**: none has arrived for ``silence_s`` (1 s) of wall time since the start was
-  accepted or since the last sample — a silent bus, a wrong CAN id, an unplugged gyro;
+  accepted or since the last sample, with advice for the source's kind (:func:`silence_advice`:
+  a silent bus or unplugged gyro for a CAN source, a loaded machine for a simulated one);
 * **clipping**: the last ``clip_window_s`` hold runs of at least :data:`MIN_CLIP_RUN` equal
   samples at the window's largest or smallest value, at least twice — the sensor or ADC
   saturates (the trial's fit flags it too, after STOP);
 * **amplitude too small**: in the spectrum of the last ``amplitude_window_s`` (mean removed),
   the oscillation's peak stands less than :data:`MIN_SNR` times above the noise floor (the
-  median bin magnitude) — the swing is lost in the noise and too small to fit.
+  median bin magnitude) — the swing is lost in the noise and too small to fit. Judged only once
+  the window is full: a fraction of a cycle has no peak to stand out.
 
 The amplitude shown is the spectral peak's, ``2 |X_k| / n`` (rad/s), which noise does not
 inflate as a peak-to-peak would.
@@ -27,7 +29,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["MIN_CLIP_RUN", "MIN_SNR", "LiveStatus", "LiveTrace"]
+__all__ = ["MIN_CLIP_RUN", "MIN_SNR", "LiveStatus", "LiveTrace", "silence_advice"]
 
 FloatArray = NDArray[np.float64]
 
@@ -35,6 +37,20 @@ FloatArray = NDArray[np.float64]
 MIN_CLIP_RUN = 5
 #: Smallest ratio of the spectral peak to the median bin that does not warn.
 MIN_SNR = 10.0
+
+
+_SILENCE_ADVICE = {
+    "sim": "the simulated source is starved: is the machine loaded? (it catches up; abort the trial if not)",
+    "bag": "the replayed session has stalled: is the machine loaded? (abort the trial if it does not resume)",
+    "can": "silent bus, wrong CAN id or unplugged gyro? (abort the trial, check the wiring, the interface and the id)",
+    "daq": "DAQ not acquiring or gyro unplugged? (abort the trial, check the wiring and the channel)",
+}
+
+
+def silence_advice(source: str) -> str:
+    """What to check when ``source`` (its kind first: ``sim``, ``bag``, ``can``, ``daq``) sends nothing."""
+    kind = source.split()[0].lower() if source.strip() else ""
+    return _SILENCE_ADVICE.get(kind, "is the gyro connected and streaming? (abort the trial, check the wiring)")
 
 
 @dataclass(frozen=True)
@@ -64,7 +80,8 @@ class LiveTrace:
     Attributes:
         trial_id: The trial.
         started_wall_s: Wall time the start was accepted, s (any monotonic clock).
-        source: The gyro source's name, for the no-samples warning.
+        source: The gyro source's name, its kind first (``sim gyro``, ``can gyro``), for the
+            no-samples warning.
         window_s: Rig time kept for the trace, s.
         silence_s: Wall time without samples that warns, s.
     """
@@ -119,12 +136,10 @@ class LiveTrace:
         since = now_wall_s - (self.last_sample_wall_s if self.last_sample_wall_s is not None else self.started_wall_s)
         if since >= self.silence_s:
             what = "no samples yet" if self.samples == 0 else "no samples"
-            warnings.append(
-                f"{what} from the {self.source} for {since:.1f} s: silent bus, wrong CAN id or unplugged gyro? "
-                "(abort the trial, check the wiring and the id)"
-            )
-        amplitude, snr = _spectral_peak(self.recent(self.amplitude_window_s))
-        if snr < MIN_SNR:
+            warnings.append(f"{what} from the {self.source} for {since:.1f} s: {silence_advice(self.source)}")
+        recent = self.recent(self.amplitude_window_s)
+        amplitude, snr = _spectral_peak(recent)
+        if snr < MIN_SNR and self._window_full(recent.size):
             warnings.append(
                 f"amplitude {amplitude:.3g} rad/s stands only {snr:.1f}× above the noise: "
                 "too small to fit, swing it wider"
@@ -134,6 +149,12 @@ class LiveTrace:
             warnings.append(clip)
         seconds = self.samples / self.rate_hz if math.isfinite(self.rate_hz) and self.rate_hz > 0 else 0.0
         return LiveStatus(self.trial_id, self.samples, seconds, amplitude, tuple(warnings))
+
+    def _window_full(self, n: int) -> bool:
+        """Whether ``n`` samples fill the amplitude window (at the known rate)."""
+        if not (math.isfinite(self.rate_hz) and self.rate_hz > 0):
+            return False
+        return n >= int(self.amplitude_window_s * self.rate_hz)
 
     @staticmethod
     def _clipped(y: FloatArray) -> str:

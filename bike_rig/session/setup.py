@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Mapping
 from functools import partial
 
 from ..core.measurements import Measurements
@@ -23,7 +24,14 @@ from .plan import ItemState, plan_from_rig
 from .readings import ReadingInputError, parse_reading, plausibility
 from .state import OperatorSession
 
-__all__ = ["build_controller", "check_typed_reading", "rank_items", "session_measurements", "take_readings_file"]
+__all__ = [
+    "build_controller",
+    "check_typed_reading",
+    "connection",
+    "rank_items",
+    "session_measurements",
+    "take_readings_file",
+]
 
 
 def check_typed_reading(
@@ -104,3 +112,32 @@ def take_readings_file(ctl: SessionController, readings: Measurements) -> int:
             ctl.session.on_reading(ReadingEntry(key, r.value, r.sigma, note=f"from {readings.path}"))
             taken += 1
     return taken
+
+
+def connection(source: str, driver: Mapping[str, object], domain_id: int | None) -> tuple[str, dict[str, object]]:
+    """What a session is connected to, in one line, and the same for ``--json``.
+
+    Args:
+        source: The driver's source (``sim``, ``can``, ``daq``, ``bag``).
+        driver: The driver's parameters (its parameter file's values with the overrides on top).
+        domain_id: The graph's ROS domain (None: unknown, the environment's).
+
+    Returns:
+        E.g. ``can gyro on socketcan:can0 id 0x100 · ROS domain 7 · live view: bike-rig view --domain-id 7``.
+    """
+    data: dict[str, object] = {"source": source, "domain_id": domain_id}
+    where = f"{source} gyro"
+    if source == "can":
+        interface, channel = str(driver.get("can_interface", "")), str(driver.get("can_channel", ""))
+        can_id = int(str(driver.get("can_id", 0)), 0)
+        data.update(interface=interface, channel=channel, can_id=can_id)
+        where += f" on {interface}:{channel} id 0x{can_id:x}"
+    elif source == "daq":
+        data["channel"] = str(driver.get("daq_channel", ""))
+        where += f" on {data['channel']}"
+    elif source == "sim":
+        where = "simulated gyro"
+    domain = "ROS domain ?" if domain_id is None else f"ROS domain {domain_id}"
+    view = "bike-rig view" if domain_id is None else f"bike-rig view --domain-id {domain_id}"
+    data["view"] = view
+    return f"{where} · {domain} · live view: {view}", data

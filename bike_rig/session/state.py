@@ -31,7 +31,7 @@ from ..pipeline.readings import ReadingEntry
 from .live import LiveStatus, LiveTrace
 from .plan import ItemState, PlanItem, ReadingItem, SessionPlan, TrialItem
 
-__all__ = ["OperatorSession", "SessionTrialView", "result_line"]
+__all__ = ["OperatorSession", "Progress", "SessionTrialView", "flag_text", "result_line"]
 
 
 @dataclass
@@ -74,6 +74,49 @@ def _cycles(fit: TrialFit, rate_hz: float) -> float:
     return n / rate_hz / fit.period
 
 
+def flag_text(code: str, reason: str) -> str:
+    """A flag as ``code: reason → advice``, the advice without what the reason already says.
+
+    E.g. ``aborted: the trial was aborted → redo it``; ``too_few_cycles: … : record longer``
+    (the advice "record longer …" is already the reason's).
+    """
+    advice = flag_advice(code)
+    head, sep, rest = advice.partition(": ")
+    if head.split(" (")[0].strip().lower() in reason.lower():
+        advice = rest if sep else ""
+    return f"{code}: {reason} → {advice}" if advice else f"{code}: {reason}"
+
+
+@dataclass(frozen=True)
+class Progress:
+    """Where the plan stands: one definition for the console, plain mode and ``status``.
+
+    Attributes:
+        done: Plan items ok or done.
+        total: Plan items.
+        trials_done: Trial items ok.
+        trials: Trial items.
+        readings_done: Reading items entered (typed or from ``--readings``).
+        readings: Reading items.
+        open: The items still to do or redo (recording ones too), in plan order.
+    """
+
+    done: int
+    total: int
+    trials_done: int
+    trials: int
+    readings_done: int
+    readings: int
+    open: tuple[str, ...]
+
+    def line(self) -> str:
+        """E.g. ``39/68 items (trials 10/39, readings 29/29)``."""
+        return (
+            f"{self.done}/{self.total} items (trials {self.trials_done}/{self.trials}, "
+            f"readings {self.readings_done}/{self.readings})"
+        )
+
+
 def result_line(view: SessionTrialView) -> str:
     """The trial's result in one line: period ± σ, cycles, r², then ok, or REDO with every flag's reason and advice.
 
@@ -81,8 +124,8 @@ def result_line(view: SessionTrialView) -> str:
     model when not Eq 23's, the small-swing period, a period that moves along the record
     (:meth:`~bike_rig.pipeline.fit_details.FitDetails.summary`).
 
-    A flag reads ``code: reason → advice`` (:func:`~bike_rig.core.period.advice.flag_advice`,
-    the advice ``bike-rig run`` prints too).
+    A flag reads ``code: reason → advice`` (:func:`flag_text`; the advice is
+    :func:`~bike_rig.core.period.advice.flag_advice`'s, which ``bike-rig run`` prints too).
     """
     fit = view.fit
     head = f"{view.item_id or view.key} {view.trial_id}:"
@@ -96,9 +139,7 @@ def result_line(view: SessionTrialView) -> str:
     more = f"; {details}" if details else ""
     if fit.usable:
         return f"{head} {numbers} — ok{more}"
-    reasons = "; ".join(
-        f"{c}: {r} → {flag_advice(c)}" for c, r in zip(fit.flag_codes, fit.flag_reasons, strict=True)
-    )
+    reasons = "; ".join(flag_text(c, r) for c, r in zip(fit.flag_codes, fit.flag_reasons, strict=True))
     reasons = reasons or "no period"
     return f"{head} {numbers} — REDO ({reasons}){more}"
 
@@ -258,10 +299,21 @@ class OperatorSession:
         """Every item's state by item id, in plan order."""
         return {i.item_id: self.state(i) for i in self.plan.items}
 
-    def progress(self) -> tuple[int, int]:
-        """(items ok or done, items in the plan)."""
-        states = self.states().values()
-        return sum(s in (ItemState.OK, ItemState.DONE) for s in states), len(self.plan.items)
+    def progress(self) -> Progress:
+        """Where the plan stands (:class:`Progress`)."""
+        states = self.states()
+        finished = {i for i, s in states.items() if s in (ItemState.OK, ItemState.DONE)}
+        trials = [i.item_id for i in self.plan.trials]
+        readings = [i.item_id for i in self.plan.readings]
+        return Progress(
+            done=len(finished),
+            total=len(states),
+            trials_done=sum(i in finished for i in trials),
+            trials=len(trials),
+            readings_done=sum(i in finished for i in readings),
+            readings=len(readings),
+            open=tuple(i for i in states if i not in finished),
+        )
 
     def next_item(self) -> PlanItem | None:
         """The first item to do or redo, in plan order (None when everything is ok or done)."""
@@ -288,10 +340,12 @@ class OperatorSession:
         return None if self.live is None else self.live.status(now_wall_s)
 
     def missing(self) -> tuple[str, ...]:
-        """What the parameter set still lacks (the parameter node's list), or every open item."""
-        if self.parameters is not None:
-            return tuple(self.parameters.missing)
-        return tuple(i.item_id for i in self.plan.items if self.state(i) not in (ItemState.OK, ItemState.DONE))
+        """The plan items still to do or redo (:attr:`Progress.open`: the same count everywhere)."""
+        return self.progress().open
+
+    def lacking(self) -> tuple[str, ...]:
+        """What the parameter node's set still lacks (its keys; empty before its first result)."""
+        return () if self.parameters is None else tuple(self.parameters.missing)
 
     @property
     def complete(self) -> bool:

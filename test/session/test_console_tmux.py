@@ -19,8 +19,12 @@ from pathlib import Path
 import pytest
 
 from bike_rig.bag.session import read_session
+from bike_rig.core.io_yaml import dump_measurements_yaml
+from bike_rig.core.measurements import Measurements, Reading
 from bike_rig.core.sim import load_rig, load_true_parameters, simulate_session
+from bike_rig.core.symbols import PARAMETER_NAMES
 from bike_rig.paths import config_file
+from bike_rig.session.controller import COMMAND_HELP
 from bike_rig.session.plan import ReadingItem, plan_from_rig
 from test.support.sessions import kill_session, session_pids, wait_gone
 from test.support.tmux import TMUX, TmuxSession, flatten
@@ -32,7 +36,7 @@ TIME_SCALE = 150.0
 def _enter(tmux: TmuxSession, key: str, value: float, sigma: float, mistake: bool = False) -> None:
     """Enter a reading as the console offers it (F2 puts ``reading KEY`` on the command line; mistakes corrected)."""
     tmux.keys("F2")
-    tmux.wait_for(rf"reading {key} ")
+    tmux.wait_for(rf"(?m)^\s*reading {re.escape(key)}\s*$")  # (on the command line)
     tmux.type(f"{value * 1.01 if mistake else value!r} {sigma!r}")
     tmux.keys("Enter")
     tmux.wait_for(rf"entered {key} =")
@@ -61,17 +65,21 @@ def _new_trial(tmux: TmuxSession, item_id: str, known: set[str], timeout_s: floa
 
 
 def _record(tmux: TmuxSession, item_id: str) -> int:
-    """Record ``item_id`` with F2 until its result is ok (a flagged trial is redone, as offered); the redos."""
+    """Record ``item_id`` with F2 until it is ok (a flagged trial is redone, as offered); the redos.
+
+    Ok: the title's count of items done goes up; flagged: the plan's row of the item says REDO
+    (it says ``recording`` from the start's reply on). Neither needs the result line, which a long
+    REDO reason may push out of a small log pane.
+    """
     # (trials of the item already on the screen, e.g. a REDO before: not this recording)
     known = {a or b for a, b in re.findall(rf"recording {re.escape(item_id)} as (\S+) \(|{re.escape(item_id)} (\S+): "
                                            r"(?:T = |no period)", flatten(tmux.screen()))}  # fmt: skip
     for attempt in range(3):
+        done = int(re.search(r"· (\d+)/\d+ done", tmux.screen()).group(1))  # type: ignore[union-attr]
         tmux.keys("F2")
-        trial = _new_trial(tmux, item_id, known)
-        known.add(trial)
-        head = rf"{re.escape(item_id)} {re.escape(trial)}: "
-        screen = tmux.wait_for(rf"{head}(T = [0-9.]+ ± \S+ s, \d+ cycles, r² [0-9.]+\s+— ok|.*REDO)", 60, flat=True)
-        if re.search(rf"{head}T = [0-9.]+ ± \S+ s, \d+ cycles, r² [0-9.]+\s+— ok", flatten(screen)):
+        known.add(_new_trial(tmux, item_id, known))
+        screen = tmux.wait_for(rf"· {done + 1}/\d+ done|\b{re.escape(item_id)}\s+REDO\s", 60)
+        if re.search(rf"· {done + 1}/\d+ done", screen):
             return attempt
     raise AssertionError(f"{item_id}: flagged three times")
 
@@ -112,6 +120,8 @@ def test_a_whole_session_at_the_console(tmp_path: Path, ros_env: dict[str, str],
         screen = tmux.wait_for(r"68/68 done\s+weave [0-9.]+±[0-9.]+\s+capsize [0-9.]+±[0-9.]+ m/s", 60)
         weave = float(re.search(r"weave ([0-9.]+)±", screen).group(1))  # type: ignore[union-attr]
         tmux.keys("F10")
+        tmux.wait_for(r"Quit\? F10 or Ctrl-C again leaves", 30, flat=True)  # asked first
+        tmux.keys("F10")
         tmux.wait_for(r"\[exit 0\]", 60)
     finally:
         tmux.close()
@@ -131,6 +141,88 @@ def test_a_whole_session_at_the_console(tmp_path: Path, ros_env: dict[str, str],
     assert [v for v, _ in w_entries] == [readings["w"][0] * 1.01, readings["w"][0]]  # the mistake and its correction
     assert {e.key for e in recorded.reading_entries} == set(readings)
     assert len(replayed["trials"]) == len(plan.trials) + 1 + redone  # every trial, the forced and the flagged redos
+
+
+def _read_back(tmux: TmuxSession, first: str, wanted: list[str]) -> None:
+    """Read a reply from its first line ``first`` on, scrolling the log up with PgUp as the screen says; End returns.
+
+    Every pattern of ``wanted`` must be seen on some screen on the way (a reply longer than the log pane);
+    the last one first, at the log's end.
+    """
+    screen = flatten(tmux.wait_for(wanted[-1], 30, flat=True))
+    seen = screen
+    for _ in range(20):
+        if re.search(first, seen) and all(re.search(w, seen) for w in wanted):
+            break
+        tmux.keys("PageUp")
+        deadline = time.monotonic() + 10
+        now = screen
+        while now == screen and time.monotonic() < deadline:  # (until the page has moved, or at the top)
+            time.sleep(0.05)
+            now = flatten(tmux.screen())
+        screen, seen = now, f"{seen} {now}"
+    missing = [w for w in wanted if not re.search(w, seen)]
+    assert not missing and re.search(first, seen), f"never seen {missing or first}; last screen:\n{tmux.screen()}"
+    tmux.keys("End")
+
+
+@pytest.mark.skipif(not Path(TMUX).exists(), reason="tmux is installed by tools/setup_debian.sh (make test)")
+@pytest.mark.parametrize(("width", "height"), [(80, 24), (200, 50)], ids=["80x24", "200x50"])
+def test_a_session_with_a_readings_file_at_the_console(  # type: ignore[no-untyped-def]
+    tmp_path: Path, ros_env: dict[str, str], readings, width: int, height: int
+) -> None:
+    """A whole simulated session with ``--readings``: the console lays itself out for the terminal.
+
+    The readings file marks every reading done; the connection line names the ROS domain and the view
+    line; ``help`` lists every command; a trial far down the plan is flagged and the plan follows it
+    (REDO in sight); every trial is recorded from the keyboard to the end of the plan; ``params``, a
+    26-line reply with its echo, is read whole (in the log pane at 200×50, scrolled with PgUp at 80×24).
+    """
+    folder = tmp_path / "session"
+    file = tmp_path / "readings.yaml"
+    file.write_text(dump_measurements_yaml(Measurements("Browser", {k: _reading(*v) for k, v in readings.items()}, "")))
+    argv = [str(BIKE_RIG), "session", "--time-scale", str(TIME_SCALE), "--seed", "4", "--readings", str(file),
+            "--output", str(folder)]  # fmt: skip
+    tmux = TmuxSession(argv, ros_env, tmp_path, width, height)
+    plan = plan_from_rig(load_rig(config_file("rig.yaml")))
+    domain = ros_env["ROS_DOMAIN_ID"]
+    late = plan.trials[len(plan.trials) * 2 // 3].item_id  # far below the first screen of the plan
+    try:
+        tmux.wait_for(rf"· {len(plan.readings)}/{len(plan.items)} done", 60)
+        tmux.wait_for(rf"ROS domain {domain} · live view: bike-rig view --domain-id {domain}", 30, flat=True)
+        tmux.type("help")
+        tmux.keys("Enter")
+        _read_back(tmux, r"> help", [rf"{re.escape(u)}\s+{re.escape(what.split()[0])}" for u, what in COMMAND_HELP])
+        flagged = False
+        for item in plan.trials:
+            if item.item_id == late:
+                tmux.type(f"start {late} 2")  # too short: too few cycles
+                tmux.keys("Enter")
+                tmux.wait_for(rf"F2 records {re.escape(late)} again", 60, flat=True)
+                tmux.wait_for(rf"{re.escape(late)}\s+REDO", 30)  # the plan follows the item to redo
+                flagged = True
+            _record(tmux, item.item_id)
+        tmux.wait_for(rf"{len(plan.items)}/{len(plan.items)} done\s+weave [0-9.]+±[0-9.]+", 120)
+        tmux.wait_for(r"weave [0-9.]+ ± [0-9.]+ m/s, capsize", 60, flat=True)  # (the set is in: params answers)
+        tmux.type("params")
+        tmux.keys("Enter")
+        names = [rf"(?<![A-Za-z]){re.escape(n)}\s+-?[0-9.]+(?:e[-+]?\d+)? ± " for n in PARAMETER_NAMES]
+        if height >= 50:  # the whole reply in the pane at once, with its echo
+            tmux.wait_for("".join(f"(?=.*{n})" for n in [r"> params", *names]), 30, flat=True)
+        else:
+            _read_back(tmux, r"> params", names)
+        tmux.keys("C-c")
+        tmux.wait_for(r"Quit\? F10 or Ctrl-C again leaves", 30, flat=True)  # Ctrl-C asks too (no textual notice)
+        tmux.keys("C-c")
+        tmux.wait_for(r"\[exit 0\]", 60)
+    finally:
+        tmux.close()
+        kill_session(folder)
+    assert flagged
+
+
+def _reading(value: float, sigma: float) -> Reading:
+    return Reading(value, sigma)
 
 
 @pytest.mark.skipif(not Path(TMUX).exists(), reason="tmux is installed by tools/setup_debian.sh (make test)")

@@ -127,7 +127,9 @@ def test_silence_warns_within_one_second_and_once(ctl_link) -> None:  # type: ig
     assert not [r for r in ctl.pump() if r.kind == "warning"]
     t[0] = 1.0
     warnings = [r for r in ctl.pump() if r.kind == "warning"]
-    assert len(warnings) == 1 and "no samples yet" in warnings[0].text and "CAN id" in warnings[0].text
+    assert len(warnings) == 1 and "no samples yet" in warnings[0].text
+    # advice for the source's kind: a simulated source is starved, never an unplugged gyro
+    assert "machine loaded" in warnings[0].text and "unplugged" not in warnings[0].text
     t[0] = 1.5
     assert not [r for r in ctl.pump() if r.kind == "warning"]  # said once
     trial_id = link.started[0][0]
@@ -157,11 +159,34 @@ def test_clipping_and_small_amplitude_warn(ctl_link) -> None:  # type: ignore[no
     assert any("too small to fit" in w for w in warnings)
 
 
-def test_a_reading_that_looks_like_radians_warns(ctl_link) -> None:  # type: ignore[no-untyped-def]
+def test_a_reading_that_looks_like_radians_is_held_until_answered(ctl_link) -> None:  # type: ignore[no-untyped-def]
     ctl, link, t = ctl_link
+    gamma = ctl.session.plan.item("gamma")
     out = ctl.execute("reading gamma 1.2 0.01")
-    assert out[0].kind == "ok" and any(r.kind == "warning" and "radian" in r.text for r in out)
+    assert all(r.kind == "warning" for r in out) and any("radian" in r.text for r in out)
+    assert "held" in out[-1].text and out[-1].data["held"]
+    assert ctl.session.state(gamma) == ItemState.TODO and not link.entries  # not marked done, not sent
+    assert any("held" in r.text for r in ctl.execute("status"))  # still said until answered
+    assert ctl.execute("reading mR 3.0 0.02")[0].kind == "ok" and ctl.held is not None  # another key: still held
+    assert ctl.execute("reading gamma 68.9 0.1")[0].text.startswith("entered gamma")  # answered: in degrees
+    assert ctl.held is None and ctl.session.state(gamma) == ItemState.DONE
+    ctl.execute("reading gamma 1.2 0.01")
+    assert ctl.execute("keep")[0].text.startswith("corrected gamma")  # kept as it is, on purpose
+    assert ctl.held is None and link.entries[-1].value == 1.2
+    assert ctl.execute("keep")[0].kind == "error"
     assert ctl.execute("reading TtB9 1 0")[0].kind == "error"
+
+
+def test_progress_is_one_count_everywhere(ctl_link) -> None:  # type: ignore[no-untyped-def]
+    ctl, link, t = ctl_link
+    ctl.execute("reading mR 3.0 0.02")
+    p = ctl.session.progress()
+    assert (p.done, p.readings_done, p.trials_done) == (1, 1, 0)
+    assert p.total == p.trials + p.readings == len(ctl.session.plan.items)
+    assert len(ctl.session.missing()) == len(p.open) == p.total - p.done
+    status = {r.text.split()[0]: r for r in ctl.execute("status")}
+    assert status["progress"].data["done"] == 1 and p.line() in status["progress"].text
+    assert f"({len(p.open)} in all)" in status["missing:"].text
 
 
 def test_readings_are_checked_corrected_and_kept(ctl_link) -> None:  # type: ignore[no-untyped-def]
@@ -189,7 +214,8 @@ def test_a_whole_session_completes_with_speeds(ctl_link) -> None:  # type: ignor
             assert ctl.execute(f"start {item.item_id}")[0].kind == "ok"
             link.period(link.started[-1][0], item.key, sim.truth.damped_periods[item.key], 1e-5)
         ctl.pump()
-    assert ctl.session.progress() == (len(ctl.session.plan.items),) * 2
+    p = ctl.session.progress()
+    assert (p.done, p.total, p.open) == (len(ctl.session.plan.items), len(ctl.session.plan.items), ())
     assert ctl.session.complete and ctl.session.next_item() is None
     status = ctl.execute("status")
     assert any("weave" in r.text and "capsize" in r.text for r in status)

@@ -64,6 +64,16 @@ def test_a_silent_can_gyro_warns_within_a_second_and_the_trial_aborts(tmp_path: 
     finally:
         kill_session(tmp_path / "s")
     lines = [json.loads(x) for x in done.stdout.splitlines()]
+    # what the session is connected to: said first, the bus and the domain with the view line to paste
+    conn = next(x["connection"] for x in lines if "connection" in x)
+    domain = int(ros_env["ROS_DOMAIN_ID"])
+    assert (conn["interface"], conn["channel"], conn["can_id"], conn["domain_id"]) == (
+        "virtual",
+        "bike_rig",
+        256,
+        domain,
+    )
+    assert conn["view"] == f"bike-rig view --domain-id {domain}"
     started = next(x for x in lines if x.get("command") == "start")
     warning = next(x for x in lines if x["kind"] == "warning")
     assert "no samples yet" in warning["text"] and "CAN id" in warning["text"]
