@@ -1,4 +1,9 @@
-"""Fixtures shared by every test folder (keep it small: folder-specific fixtures live there)."""
+"""Fixtures shared by every test folder (keep it small: folder-specific fixtures live there).
+
+Also marks the tiers: a test that uses a ROS fixture (directly or through another fixture) is
+marked ``ros``, so that ``pytest -m "not ros and not slow"`` (``make test-fast``) starts no ROS
+process.
+"""
 
 from __future__ import annotations
 
@@ -9,6 +14,16 @@ import pytest
 
 from bike_rig.rosenv import remove_stale_fastdds_segments, ros_environment, unique_domain_id
 from test.support.paper import SharedFolderMissingError, shared_dir
+
+#: Fixtures that reserve the run's ROS domain or start ROS processes: a test using any of them is marked ``ros``.
+ROS_FIXTURES = frozenset({"ros_domain_id", "ros_env", "node_env", "probe"})
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """Mark ``ros`` every test that uses a ROS fixture (its fixture closure names one)."""
+    for item in items:
+        if ROS_FIXTURES.intersection(getattr(item, "fixturenames", ())):
+            item.add_marker(pytest.mark.ros)
 
 
 @pytest.fixture(scope="session")
