@@ -9,11 +9,15 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import pytest
 
 from bike_rig.rosenv import remove_stale_fastdds_segments, ros_environment, unique_domain_id
 from test.support.paper import SharedFolderMissingError, shared_dir
+
+if TYPE_CHECKING:
+    from test.support.probe import Probe
 
 #: Fixtures that reserve the run's ROS domain or start ROS processes: a test using any of them is marked ``ros``.
 ROS_FIXTURES = frozenset({"ros_domain_id", "ros_env", "node_env", "probe"})
@@ -59,3 +63,12 @@ def shared_dir_fixture() -> Path:
     except SharedFolderMissingError as exc:
         problem = str(exc)
     pytest.fail(f"{problem}: the tests expect shared/ beside the repository, as CI provides it", pytrace=False)
+
+
+@pytest.fixture
+def probe(ros_env: dict[str, str]) -> Iterator[Probe]:
+    """The test's own ROS node on the run's domain (:class:`test.support.probe.Probe`), closed after the test."""
+    from test.support.probe import Probe  # rclpy only for the tests that use it
+
+    with Probe(ros_env) as p:
+        yield p

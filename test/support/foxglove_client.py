@@ -111,7 +111,6 @@ class FoxgloveClient:
         self.ws.send(json.dumps({"op": "subscribe", "subscriptions": subs}))
 
 
-
 @contextlib.contextmanager
 def foxglove_client(url: str, timeout: float = 30.0) -> Iterator[FoxgloveClient]:
     """A connected client, closed (with the closing handshake) on exit.
