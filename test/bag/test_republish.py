@@ -7,7 +7,6 @@ recorder: the same bytes, in the same order, with the timing scaled.
 from __future__ import annotations
 
 import dataclasses
-import statistics
 import sys
 from pathlib import Path
 
@@ -56,18 +55,16 @@ def test_republished_stream_is_recorded_identically(
         # bag recorded from DDS holds padded payloads already, so they round-trip unchanged)
         padded = [d + b"\0" * (-len(d) % 4) for _, d in original[topic]]
         assert [d for _, d in replayed[topic]] == padded, topic
-    # timing: the republisher's send times (the MCAP publish times the recorder keeps) are the
-    # original log times' offsets divided by RATE_SCALE, up to one common shift (measured from
-    # their median: the first send alone may come late on a busy machine)
+    # timing: the republisher's send times (the MCAP publish times the recorder keeps),
+    # relative to the first, are the original log times' offsets divided by RATE_SCALE
     scan = scan_mcap(copy / "copy_0.mcap")
     gyro_id = next(cid for cid, ch in scan.channels.items() if ch.topic == GYRO.name)
     sent = [m.publish_time for m in scan.messages if m.channel_id == gyro_id]
     t0, s0 = original[GYRO.name][0][0], sent[0]
     lags = [(s - s0) / 1e9 - (t - t0) / 1e9 / RATE_SCALE for (t, _), s in zip(original[GYRO.name], sent)]
-    shift = statistics.median(lags)
     span = (original[GYRO.name][-1][0] - t0) / 1e9 / RATE_SCALE
     assert span > 2.0
-    assert max(abs(x - shift) for x in lags) < 0.25, (min(lags), shift, max(lags))
+    assert max(abs(x) for x in lags) < 0.25, (min(lags), max(lags))
     # and they were received right away
     delays = sorted((r - s) / 1e9 for (r, _), s in zip(replayed[GYRO.name], sent))
     assert delays[0] >= 0 and delays[len(delays) // 2] < 0.05, (delays[0], delays[len(delays) // 2], delays[-1])
