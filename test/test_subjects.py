@@ -17,7 +17,7 @@ from bike_rig.bag.typestore import rig_typestore
 from bike_rig.bag.writer import BagWriter, contract_qos
 from bike_rig.core.sim import SimulatedSession
 from bike_rig.subjects import SessionTrial, load_subject
-from test.bag.conftest import short_session
+from test.support.simulated import short_session
 
 GAPPED = "rear_wheel_compound_t1"  # loses a batch
 OVERLAPPED = "rear_wheel_compound_t2"  # gets a batch again, shifted to overlap the next one

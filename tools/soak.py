@@ -1,7 +1,7 @@
 """Soak: a live session on the simulated rig for a long time; every process's memory over time.
 
-``make soak`` (default: one hour at the rig's 1 kHz, real time) or, for the suite's short
-version, ``python tools/soak.py --seconds 50 --time-scale 100``.
+``make soak`` (default: one hour at the rig's 1 kHz, real time) or, a short version of the same
+checks, ``make soak SOAK_ARGS="--seconds 45 --time-scale 100 --every 2 --min-results 40"``.
 
 It runs ``bike-rig session --plain --json`` (the five nodes and the console, real processes over
 DDS on loopback, a domain id of its own) and, like an operator who never stops, records the
@@ -14,7 +14,9 @@ The warm-up is the first ``--warmup`` of the run, and at least until the driver'
 is full (counted from the trials recorded, at most 80 % of the run): the driver keeps the last
 ``DEFAULT_HISTORY_SAMPLES`` samples (the topic's transient-local history, so a restarted fitter
 can re-fit, and its resend memory), which is by design the one memory that grows for a while. The exit status
-is 1 when a process died or grew by more than ``--max-growth`` percent after the warm-up.
+is 1 when a process of the graph is missing or died, grew by more than ``--max-growth`` percent after the
+warm-up, fewer than ``--min-results`` trial results came, or the driver's history never filled (then the
+warm-up never ended and the growth says nothing).
 """
 
 from __future__ import annotations
@@ -44,6 +46,8 @@ from bike_rig.session.plan import plan_from_rig  # noqa: E402
 BIKE_RIG = Path(sys.executable).parent / "bike-rig"
 #: The simulated rig's rate, Hz.
 RATE_HZ = 1000.0
+#: The processes of ``bike-rig session --plain``, each sampled.
+PROCESSES = frozenset({"console", "driver", "fitter", "parameter", "model", "recorder"})
 
 
 @dataclass
@@ -198,6 +202,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--every", type=float, default=10.0, help="memory sampling period, s (default 10)")
     p.add_argument("--warmup", type=float, default=0.25, help="warm-up, fraction of the run (default 0.25)")
     p.add_argument("--max-growth", type=float, default=5.0, help="allowed growth after warm-up, %% (default 5)")
+    p.add_argument("--min-results", type=int, default=1, help="trial results needed (default 1)")
     p.add_argument("--out", help="session folder (default: a temporary one, removed)")
     args = p.parse_args(argv)
     with tempfile.TemporaryDirectory(prefix="bike_rig_soak_") as tmp:
@@ -207,9 +212,12 @@ def main(argv: list[str] | None = None) -> int:
     rows = report(soak, warm, args.seconds)
     died = [g.name for g in rows if g.end != g.end]  # NaN: ended before the soak did
     grew = [g.name for g in rows if g.percent > args.max_growth]
-    if died or grew or not soak.results:
+    missing = sorted(PROCESSES - set(soak.names))
+    short = soak.results < max(1, args.min_results)
+    if died or grew or missing or short or soak.history_full_s is None:
         print(f"soak: FAILED: died {died or 'none'}, grew more than {args.max_growth:g} %: {grew or 'none'}, "
-              f"{soak.results} results")  # fmt: skip
+              f"not sampled: {missing or 'none'}, {soak.results} results (at least {args.min_results} wanted), "
+              f"history {'never' if soak.history_full_s is None else 'was'} full")  # fmt: skip
         return 1
     print(f"soak: ok: {len(rows)} processes, none died, none grew more than {args.max_growth:g} % after warm-up")
     return 0

@@ -14,6 +14,7 @@ Each check raises :class:`~bike_rig.core.errors.InputFileError` with the reason,
 
 from __future__ import annotations
 
+import faulthandler
 import math
 import multiprocessing
 import struct
@@ -128,6 +129,8 @@ def check_mat_sizes(name: str, path: Path) -> None:
 def _load_mat_child(path: str, out: Connection) -> None:
     """In the child: read the file with scipy and send ``("ok", fields, warnings)`` or ``("error", reason)``."""
     from scipy.io import loadmat
+
+    faulthandler.disable()  # a crash here is expected and told in one line by the parent: no stack dump
 
     try:
         with warnings.catch_warnings(record=True) as caught:

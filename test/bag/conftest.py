@@ -2,20 +2,10 @@
 
 from __future__ import annotations
 
-import dataclasses
-
 import pytest
 
-from bike_rig.core.sim import SimulatedSession, load_rig, load_true_parameters, simulate_session
-from bike_rig.paths import config_file
-
-
-def short_session(seed: int = 7, duration_s: float = 12.0) -> SimulatedSession:
-    """The Browser measured on the paper's rig, with shorter trials (still ≥ 8 cycles each)."""
-    name, truth = load_true_parameters(config_file("bicycles/browser.yaml"))
-    rig = load_rig(config_file("rig.yaml"))
-    rig = dataclasses.replace(rig, trials=dataclasses.replace(rig.trials, durations=(duration_s,)))
-    return simulate_session(truth, rig, seed=seed, bicycle=name)
+from bike_rig.core.sim import SimulatedSession
+from test.support.simulated import short_session
 
 
 @pytest.fixture(scope="session")

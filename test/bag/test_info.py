@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import contextlib
-import io
 import json
 import math
 from pathlib import Path
@@ -15,19 +13,13 @@ from bike_rig.bag.info import summarize
 from bike_rig.bag.simulated import SimulatedMessage, write_simulated_bag
 from bike_rig.bag.typestore import new_message
 from bike_rig.bag.writer import BagWriter
-from bike_rig.cli.main import main
 from bike_rig.core.sim import SimulatedSession
 from bike_rig.topics import EIGEN_SWEEP, GYRO, PARAMETERS, PERIODS, TOPICS, TRIAL_EVENTS
+from test.support.cli import run_cli
 
 NS = 1_000_000_000
 
 
-def run_cli(*argv: str) -> tuple[int, str, str]:
-    """``bike-rig ...`` through the real entry point: (status, stdout, stderr)."""
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        code = main(list(argv))
-    return code, out.getvalue(), err.getvalue()
 
 
 def estimate(trial_id: str, key: str, log_time: int, period: float, valid: bool = True,

@@ -9,7 +9,6 @@ from __future__ import annotations
 import json
 import os
 import signal
-import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -20,7 +19,7 @@ from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
 from bike_rig.bag.reader import open_bag
-from bike_rig.bag.recover import recover_bag, scan_mcap
+from bike_rig.bag.recover import recover_bag
 from bike_rig.topics import (
     EIGEN_SWEEP,
     GYRO,
@@ -34,72 +33,42 @@ from bike_rig.topics import (
 )
 from test.bag.rig_publisher import seed_of
 from test.bag.samples import as_plain, make_message
-from test.ros.processes import RosProcess
+from test.support.nodes import node_environment
+from test.support.probe import STEP_TIMEOUT_S
+from test.support.recorder import start_publisher, start_recorder, wait_for_data
+from test.support.wait import wait_until
 
 pytestmark = pytest.mark.ros
 
 REPO = Path(__file__).resolve().parents[2]
-PUBLISHER = Path(__file__).with_name("rig_publisher.py")
-STEP_TIMEOUT_S = 60.0
 TYPES = {t.name: t.type for t in TOPICS}
 
 
-def _env(ros_env: dict[str, str]) -> dict[str, str]:
-    return {**ros_env, "PYTHONPATH": str(REPO)}
 
 
-def _publisher(tmp_path: Path, env: dict[str, str], spec: dict[str, Any]) -> RosProcess:
-    spec_file = tmp_path / "spec.json"
-    spec_file.write_text(json.dumps(spec))
-    return RosProcess("publisher", [sys.executable, str(PUBLISHER), str(spec_file)], env, tmp_path, stdin=True)
 
 
-def _recorder(tmp_path: Path, env: dict[str, str], bag: Path, *params: str) -> RosProcess:
-    argv = [sys.executable, "-m", "bike_rig.nodes.recorder", "--ros-args", "-p", f"output:={bag}"]
-    for p in params:
-        argv += ["-p", p]
-    return RosProcess("recorder", argv, env, tmp_path)
 
 
-def _wait_for_data(bag: Path, expected: dict[str, int], recorder: RosProcess, timeout_s: float = 30.0) -> None:
-    """Wait until the recorder's flushed chunks hold the expected number of messages per topic.
-
-    The recorder flushes at least every 0.5 s, so no stop is needed to see them.
-    """
-    data = bag / f"{bag.name}_0.mcap"
-    deadline = time.monotonic() + timeout_s
-    counts: dict[str, int] = {}
-    while time.monotonic() < deadline:
-        if data.exists():
-            scan = scan_mcap(data)
-            topic = {cid: ch.topic for cid, ch in scan.channels.items()}
-            counts = {}
-            for m in scan.messages:
-                counts[topic[m.channel_id]] = counts.get(topic[m.channel_id], 0) + 1
-            if all(counts.get(k, 0) >= n for k, n in expected.items()):
-                return
-        assert recorder.proc.poll() is None, recorder.describe()
-        time.sleep(0.1)
-    raise AssertionError(f"recorded {counts}, expected {expected}\n{recorder.describe()}")
 
 
 def test_recorder_records_every_topic_exactly_and_in_order(
     ros_env: dict[str, str], tmp_path: Path
 ) -> None:
-    env = _env(ros_env)
+    env = node_environment(ros_env)
     bag = tmp_path / "session"
     early = {STATIC_READINGS.name: 1, PERIODS.name: 3, READINGS.name: 2}  # transient-local, before the recorder starts
     live = {GYRO.name: 400, TRIAL_EVENTS.name: 6, PERIODS.name: 4, PARAMETERS.name: 1, MATRICES.name: 1,
             EIGEN_SWEEP.name: 1}
     spec = {"early": early, "live": live, "rate_hz": 200.0}  # 200 gyro batches/s: the 10 kHz stress rate
     expected = {name: early.get(name, 0) + live.get(name, 0) for name in TYPES}
-    with _publisher(tmp_path, env, spec) as pub:
+    with start_publisher(tmp_path, env, spec) as pub:
         pub.expect("EARLY", STEP_TIMEOUT_S)
-        with _recorder(tmp_path, env, bag) as rec:
+        with start_recorder(tmp_path, env, bag) as rec:
             pub.expect("MATCHED", STEP_TIMEOUT_S)
             pub.send("GO")
             published = json.loads(pub.expect("PUBLISHED", STEP_TIMEOUT_S))
-            _wait_for_data(bag, expected, rec)
+            wait_for_data(bag, expected, rec)
             code = rec.stop()
         assert code == 0, rec.describe()
         assert "closed" in rec.stderr_path.read_text()
@@ -145,7 +114,7 @@ def test_recorder_records_every_topic_exactly_and_in_order(
 def test_recorder_refuses_to_overwrite_a_bag(ros_env: dict[str, str], tmp_path: Path) -> None:
     bag = tmp_path / "exists"
     bag.mkdir()
-    with _recorder(tmp_path, _env(ros_env), bag) as rec:
+    with start_recorder(tmp_path, node_environment(ros_env), bag) as rec:
         code = rec.proc.wait(timeout=STEP_TIMEOUT_S)
     assert code == 2
     err = rec.stderr_path.read_text().strip().splitlines()
@@ -155,15 +124,15 @@ def test_recorder_refuses_to_overwrite_a_bag(ros_env: dict[str, str], tmp_path: 
 def test_bag_of_a_killed_recorder_is_recovered_missing_at_most_a_second(
     ros_env: dict[str, str], tmp_path: Path
 ) -> None:
-    env = _env(ros_env)
+    env = node_environment(ros_env)
     bag = tmp_path / "killed"
     spec = {"early": {STATIC_READINGS.name: 1}, "live": {GYRO.name: 0}, "rate_hz": 200.0, "until_stop": True}
-    with _publisher(tmp_path, env, spec) as pub:
+    with start_publisher(tmp_path, env, spec) as pub:
         pub.expect("EARLY", STEP_TIMEOUT_S)
-        with _recorder(tmp_path, env, bag, "topics:=[gyro, static_readings]") as rec:
+        with start_recorder(tmp_path, env, bag, "topics:=[gyro, static_readings]") as rec:
             pub.expect("MATCHED", STEP_TIMEOUT_S)
             pub.send("GO")
-            _wait_for_data(bag, {GYRO.name: 300}, rec)
+            wait_for_data(bag, {GYRO.name: 300}, rec)
             killed_at = time.time_ns()
             os.killpg(rec.pid, signal.SIGKILL)  # the recorder's own process group: timeout + python
             assert rec.stop() == -signal.SIGKILL
@@ -198,7 +167,7 @@ def test_bag_of_a_killed_recorder_is_recovered_missing_at_most_a_second(
 )
 def test_bad_parameters_end_in_one_line(ros_env: dict[str, str], tmp_path: Path, param: str, reason: str) -> None:
     bag = tmp_path / "bag"
-    with _recorder(tmp_path, _env(ros_env), bag, param) as rec:
+    with start_recorder(tmp_path, node_environment(ros_env), bag, param) as rec:
         code = rec.proc.wait(timeout=STEP_TIMEOUT_S)
     assert code == 2
     assert rec.stderr_path.read_text().strip().splitlines()[-1].startswith(f"recorder: error: {reason}")
@@ -224,18 +193,19 @@ def small_disk(tmp_path: Path) -> Any:
 def test_a_full_disk_stops_recording_in_one_line_keeps_the_bag_recoverable_and_the_node_up(
     ros_env: dict[str, str], tmp_path: Path, small_disk: Path
 ) -> None:
-    env = _env(ros_env)
+    env = node_environment(ros_env)
     bag = small_disk / "bag"
     spec = {"early": {STATIC_READINGS.name: 1}, "live": {GYRO.name: 0}, "rate_hz": 400.0, "until_stop": True}
-    with _publisher(tmp_path, env, spec) as pub:
+    with start_publisher(tmp_path, env, spec) as pub:
         pub.expect("EARLY", STEP_TIMEOUT_S)
-        with _recorder(tmp_path, env, bag, "topics:=[gyro, static_readings]") as rec:
+        with start_recorder(tmp_path, env, bag, "topics:=[gyro, static_readings]") as rec:
             pub.expect("MATCHED", STEP_TIMEOUT_S)
             pub.send("GO")
-            deadline = time.monotonic() + 60
-            while "recording stopped" not in rec.stderr_path.read_text() and time.monotonic() < deadline:
+            def stopped() -> bool:
                 assert rec.proc.poll() is None, rec.describe()
-                time.sleep(0.1)
+                return "recording stopped" in rec.stderr_path.read_text()
+
+            wait_until(stopped, "the recorder to stop recording", 60, 0.1, rec.describe)
             time.sleep(1.0)  # the node stays up and keeps counting
             assert rec.proc.poll() is None, rec.describe()
             pub.send("STOP")

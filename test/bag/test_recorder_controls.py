@@ -11,7 +11,6 @@ from __future__ import annotations
 import json
 import os
 import signal
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -24,9 +23,11 @@ from bike_rig.bag.info import summarize
 from bike_rig.bag.reader import open_bag
 from bike_rig.bag.recover import recover_bag, scan_mcap
 from bike_rig.topics import GYRO, RECORDER_PAUSE, RECORDER_RESUME, RECORDER_SNAPSHOT, RECORDER_SPLIT, STATIC_READINGS
-from test.bag.test_recorder import STEP_TIMEOUT_S, _env, _publisher, _recorder
-from test.nodes.test_driver import Probe, open_probe
 from test.ros.processes import RosProcess
+from test.support.nodes import node_environment
+from test.support.probe import STEP_TIMEOUT_S, Probe
+from test.support.recorder import start_publisher, start_recorder
+from test.support.wait import wait_until
 
 pytestmark = pytest.mark.ros
 
@@ -34,11 +35,6 @@ msgs: Any = pytest.importorskip("bike_rig_msgs.msg")
 srvs: Any = pytest.importorskip("bike_rig_msgs.srv")
 
 
-@pytest.fixture
-def probe(ros_env: dict[str, str], ros_domain_id: int, monkeypatch: pytest.MonkeyPatch) -> Iterator[Probe]:
-    """The test's own ROS node."""
-    with open_probe(ros_env, ros_domain_id, monkeypatch) as p:
-        yield p
 
 
 def _recorded_indexes(bag: Path) -> list[list[int]]:
@@ -74,15 +70,15 @@ def _more(probe: Probe, seen: list[Any], n: int) -> None:
 def test_pause_resume_split_and_snapshot_of_a_live_recording(
     ros_env: dict[str, str], tmp_path: Path, probe: Probe
 ) -> None:
-    env = _env(ros_env)
+    env = node_environment(ros_env)
     bag = tmp_path / "session"
     spec = {"early": {STATIC_READINGS.name: 1}, "live": {GYRO.name: 0}, "rate_hz": 200.0, "until_stop": True}
     clients = {name: probe.node.create_client(kind, name) for name, kind in (
         (RECORDER_PAUSE, srvs.Pause), (RECORDER_RESUME, srvs.Resume), (RECORDER_SPLIT, srvs.SplitBag),
         (RECORDER_SNAPSHOT, srvs.SaveSnapshot))}  # fmt: skip
-    with _publisher(tmp_path, env, spec) as pub:
+    with start_publisher(tmp_path, env, spec) as pub:
         pub.expect("EARLY", STEP_TIMEOUT_S)
-        with _recorder(tmp_path, env, bag, "topics:=[gyro, static_readings]", "snapshot_duration:=1.5") as rec:
+        with start_recorder(tmp_path, env, bag, "topics:=[gyro, static_readings]", "snapshot_duration:=1.5") as rec:
             pub.expect("MATCHED", STEP_TIMEOUT_S)
             seen = probe.subscribe(GYRO, msgs.GyroBatch)
             pub.send("GO")
@@ -164,12 +160,12 @@ def _check_snapshots(snap: Any, all_snap: Any, main: dict[int, bytes]) -> None:
 def test_split_by_size_with_lz4_chunks_loses_nothing_and_opens_everywhere(
     ros_env: dict[str, str], tmp_path: Path, probe: Probe
 ) -> None:
-    env = _env(ros_env)
+    env = node_environment(ros_env)
     bag = tmp_path / "sized"
     spec = {"early": {STATIC_READINGS.name: 1}, "live": {GYRO.name: 600}, "rate_hz": 300.0}
-    with _publisher(tmp_path, env, spec) as pub:
+    with start_publisher(tmp_path, env, spec) as pub:
         pub.expect("EARLY", STEP_TIMEOUT_S)
-        with _recorder(tmp_path, env, bag, "topics:=[gyro, static_readings]", "compression:=lz4",
+        with start_recorder(tmp_path, env, bag, "topics:=[gyro, static_readings]", "compression:=lz4",
                        "max_bag_size:=25000") as rec:  # fmt: skip
             pub.expect("MATCHED", STEP_TIMEOUT_S)
             pub.send("GO")
@@ -207,26 +203,22 @@ class _FileWatcher:
         self.bag, self.last_index, self.rec = bag, last_index, rec
 
     def wait(self, timeout_s: float = 30.0) -> None:
-        import time
-
-        deadline = time.monotonic() + timeout_s
-        while time.monotonic() < deadline:
+        def recorded() -> bool:
             assert self.rec.proc.poll() is None, self.rec.describe()
-            if any(self.last_index in f for f in _recorded_indexes(self.bag)):
-                return
-            time.sleep(0.1)
-        raise AssertionError(f"gyro batch {self.last_index} not recorded\n{self.rec.describe()}")
+            return any(self.last_index in f for f in _recorded_indexes(self.bag))
+
+        wait_until(recorded, f"gyro batch {self.last_index} recorded", timeout_s, 0.1, self.rec.describe)
 
 
 def test_a_split_recording_killed_mid_file_is_recovered_as_one_gap_free_prefix(
     ros_env: dict[str, str], tmp_path: Path
 ) -> None:
-    env = _env(ros_env)
+    env = node_environment(ros_env)
     bag = tmp_path / "killed"
     spec = {"early": {STATIC_READINGS.name: 1}, "live": {GYRO.name: 0}, "rate_hz": 300.0, "until_stop": True}
-    with _publisher(tmp_path, env, spec) as pub:
+    with start_publisher(tmp_path, env, spec) as pub:
         pub.expect("EARLY", STEP_TIMEOUT_S)
-        with _recorder(tmp_path, env, bag, "topics:=[gyro, static_readings]", "max_bag_size:=20000") as rec:
+        with start_recorder(tmp_path, env, bag, "topics:=[gyro, static_readings]", "max_bag_size:=20000") as rec:
             pub.expect("MATCHED", STEP_TIMEOUT_S)
             pub.send("GO")
             _FileWatcher(bag, 700, rec).wait()  # several files closed, one being written

@@ -14,7 +14,6 @@ import errno
 import json
 import os
 import subprocess
-import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
@@ -25,8 +24,11 @@ from bike_rig.bag.recover import recover_bag, scan_mcap
 from bike_rig.bag.writer import BagWriter, contract_qos
 from bike_rig.topics import GYRO, STATIC_READINGS, TOPICS
 from test.bag.samples import sample_traffic
-from test.bag.test_info import run_cli
-from test.bag.test_recorder import STEP_TIMEOUT_S, _env, _publisher, _recorder, _wait_for_data
+from test.support.cli import run_cli
+from test.support.nodes import node_environment
+from test.support.probe import STEP_TIMEOUT_S
+from test.support.recorder import start_publisher, start_recorder, wait_for_data
+from test.support.wait import wait_until
 
 TRAFFIC = sample_traffic({GYRO.name: 200, STATIC_READINGS.name: 1})
 WRITTEN = [(name, log_time, data) for name, log_time, data, _ in TRAFFIC]
@@ -159,20 +161,21 @@ def _record(env: dict[str, str], tmp_path: Path, bag: Path, *params: str) -> tup
         The exit status, the log, and its "recording stopped" lines.
     """
     spec = {"early": {STATIC_READINGS.name: 1}, "live": {GYRO.name: 200}, "rate_hz": 400.0}
-    with _publisher(tmp_path, env, spec) as pub:
+    with start_publisher(tmp_path, env, spec) as pub:
         pub.expect("EARLY", STEP_TIMEOUT_S)
-        with _recorder(tmp_path, env, bag, "topics:=[gyro, static_readings]", *params) as rec:
+        with start_recorder(tmp_path, env, bag, "topics:=[gyro, static_readings]", *params) as rec:
             pub.expect("MATCHED", STEP_TIMEOUT_S)
             pub.send("GO")
             published = json.loads(pub.expect("PUBLISHED", STEP_TIMEOUT_S))
             assert published["counts"][GYRO.name] == 200
             if params:  # a split fails while recording: wait for the recorder to say so
-                deadline = time.monotonic() + STEP_TIMEOUT_S
-                while "recording stopped" not in rec.stderr_path.read_text():
-                    assert time.monotonic() < deadline and rec.proc.poll() is None, rec.describe()
-                    time.sleep(0.05)
+                def stopped() -> bool:
+                    assert rec.proc.poll() is None, rec.describe()
+                    return "recording stopped" in rec.stderr_path.read_text()
+
+                wait_until(stopped, "the recorder to stop recording", STEP_TIMEOUT_S, describe=rec.describe)
             else:
-                _wait_for_data(bag, {GYRO.name: 200, STATIC_READINGS.name: 1}, rec)
+                wait_for_data(bag, {GYRO.name: 200, STATIC_READINGS.name: 1}, rec)
             code = rec.stop()
     log = rec.stderr_path.read_text()
     assert "Traceback" not in log, log[-3000:]
@@ -193,7 +196,7 @@ def test_the_recorder_out_of_inodes_at_close_stops_in_one_line_and_the_bag_recov
     ros_env: dict[str, str], tmp_path: Path, small_fs: Mount
 ) -> None:
     bag = small_fs("size=4m,nr_inodes=3") / "bag"  # the root, the bag folder, its storage file
-    code, log, stopped = _record(_env(ros_env), tmp_path, bag)
+    code, log, stopped = _record(node_environment(ros_env), tmp_path, bag)
     assert code == 1, log[-3000:]  # what it could not write is not hidden
     assert len(stopped) == 1, log[-3000:]
     assert "No space left on device (errno 28) after 201 messages" in stopped[0]
@@ -207,7 +210,7 @@ def test_the_recorder_out_of_inodes_at_a_split_stops_in_one_line_and_keeps_the_f
     ros_env: dict[str, str], tmp_path: Path, small_fs: Mount
 ) -> None:
     bag = small_fs("size=4m,nr_inodes=3") / "bag"
-    code, log, stopped = _record(_env(ros_env), tmp_path, bag, "max_bag_duration:=0.2")
+    code, log, stopped = _record(node_environment(ros_env), tmp_path, bag, "max_bag_duration:=0.2")
     assert code == 1, log[-3000:]
     assert len(stopped) == 1, log[-3000:]
     assert "No space left on device (errno 28) after " in stopped[0] and "the graph goes on" in stopped[0]

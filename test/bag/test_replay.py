@@ -6,9 +6,6 @@ settings; bad input; no rclpy.
 
 from __future__ import annotations
 
-import argparse
-import contextlib
-import io
 import json
 import math
 import subprocess
@@ -22,36 +19,17 @@ from bike_rig.bag.compare import in_sigma, relative_difference
 from bike_rig.bag.errors import NoRigTopicsError, ReplayError
 from bike_rig.bag.replay import FitOverrides, ReplaySettings, replay_bag
 from bike_rig.bag.simulated import SimulatedMessage, live_results, simulated_messages, write_simulated_bag
-from bike_rig.cli import replay_cmd
 from bike_rig.core.benchmark import compute_parameters
-from bike_rig.core.errors import BikeRigError
-from bike_rig.core.period import FitOptions, WindowPolicy, combine_periods, fit_period
+from bike_rig.core.period import WindowPolicy, combine_periods, fit_period
 from bike_rig.core.sim import SimulatedSession
 from bike_rig.core.uncertainty.matrix_sigma import canonical_with_sigma
 from bike_rig.core.whipple import critical_speeds
-from bike_rig.pipeline.fit import TrialFitOptions
 from bike_rig.topics import GYRO, STATIC_READINGS, TRIAL_EVENTS
+from test.support.replay import LIVE_OPTIONS, run_cli
 
 REPO = Path(__file__).resolve().parents[2]
-#: The live fitter's settings in these sessions: not the defaults, so that using the recorded
-#: ones is what makes the replay identical.
-LIVE_OPTIONS = TrialFitOptions(FitOptions(window=WindowPolicy.lead_in(1.5), min_r2=0.8))
 
 
-def run_cli(*argv: str) -> tuple[int, str, str]:
-    """``bike-rig replay ...`` as main.py runs it: BikeRigError → one line, status 2."""
-    parser = argparse.ArgumentParser(prog="bike-rig")
-    sub = parser.add_subparsers(dest="command", required=True)
-    replay_cmd.add_parser(sub)
-    args = parser.parse_args(argv)
-    out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        try:
-            code = int(args.func(args))
-        except BikeRigError as exc:
-            print(f"bike-rig {args.command}: error: {exc}", file=err)
-            code = 2
-    return code, out.getvalue(), err.getvalue()
 
 
 @pytest.fixture(scope="module")

@@ -20,12 +20,11 @@ from bike_rig.cli.main import main
 from bike_rig.core.benchmark import ParameterSet, compute_parameters
 from bike_rig.core.io_yaml import dump_measurements_yaml
 from bike_rig.core.measurements import Measurements, Reading
-from bike_rig.core.period import combine_periods, fit_period
 from bike_rig.core.sim import SimulatedSession
 from bike_rig.messages import reading_entry_from_msg
 from bike_rig.subjects import load_subject
 from test.bag.entered import MISTAKE_KEY, entries_bag, one_trial_session, session_static
-from test.bag.test_replay import run_cli
+from test.support.replay import core_periods, run_cli
 
 
 @pytest.fixture(scope="module")
@@ -39,14 +38,6 @@ def entered(session: SimulatedSession, tmp_path_factory: pytest.TempPathFactory)
     return entries_bag(tmp_path_factory.mktemp("entered") / "bag", session)[0]
 
 
-def core_periods(session: SimulatedSession) -> dict[str, tuple[float, float]]:
-    """The offline core's periods: each trial fitted (Eq 23-27), each key's trials combined."""
-    fits = {t.name: fit_period(t.rate, sample_rate_hz=t.sample_rate) for t in session.trials}
-    out = {}
-    for m in session.plan:
-        c = combine_periods([fits[t.name] for t in session.trials_of(m.key)])
-        out[m.key] = (c.value, c.sigma)
-    return out
 
 
 def assert_close(ours: ParameterSet | None, core: ParameterSet) -> None:

@@ -17,8 +17,10 @@ from bike_rig.bag.recover import scan_mcap
 from bike_rig.bag.simulated import write_simulated_bag
 from bike_rig.core.sim import SimulatedSession
 from bike_rig.topics import GYRO, STATIC_READINGS, TRIAL_EVENTS
-from test.bag.test_recorder import STEP_TIMEOUT_S, _env, _recorder, _wait_for_data
 from test.ros.processes import RosProcess
+from test.support.nodes import node_environment
+from test.support.probe import STEP_TIMEOUT_S
+from test.support.recorder import start_recorder, wait_for_data
 
 pytestmark = pytest.mark.ros
 
@@ -28,7 +30,7 @@ RATE_SCALE = 10.0
 def test_republished_stream_is_recorded_identically(
     session: SimulatedSession, ros_env: dict[str, str], tmp_path: Path
 ) -> None:
-    env = _env(ros_env)
+    env = node_environment(ros_env)
     two_trials = dataclasses.replace(session, trials=session.trials[:2])
     source = write_simulated_bag(tmp_path / "source", two_trials, pause_s=1.0)
     with open_bag(source) as b:
@@ -38,11 +40,11 @@ def test_republished_stream_is_recorded_identically(
     copy = tmp_path / "copy"
     argv = [sys.executable, "-m", "bike_rig.bag.republish", str(source), "--rate-scale", str(RATE_SCALE),
             "--wait", str(STEP_TIMEOUT_S)]
-    with _recorder(tmp_path, env, copy, "topics:=[gyro, trial_events, static_readings]") as rec:
+    with start_recorder(tmp_path, env, copy, "topics:=[gyro, trial_events, static_readings]") as rec:
         with RosProcess("republish", argv, env, tmp_path) as pub:
             summary = pub.expect("published", STEP_TIMEOUT_S)
             assert pub.proc.wait(timeout=STEP_TIMEOUT_S) == 0, pub.describe()
-        _wait_for_data(copy, expected, rec)
+        wait_for_data(copy, expected, rec)
         assert rec.stop() == 0, rec.describe()
     assert summary.startswith(f"{sum(expected.values())} messages of {source}"), summary
 

@@ -23,7 +23,7 @@ from bike_rig.bag.typestore import message_definition, rig_typestore, type_hash
 from bike_rig.bag.writer import BagWriter, contract_qos
 from bike_rig.core.sim import SimulatedSession
 from bike_rig.topics import GYRO, TOPICS
-from test.bag.test_info import run_cli
+from test.support.cli import run_cli
 
 #: GyroBatch's fields in another order than the installed .msg file's (same names and types).
 REORDERED = """float64[] raw_volts

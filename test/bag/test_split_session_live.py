@@ -22,8 +22,9 @@ from bike_rig.cli.main import main
 from bike_rig.demo import run_demo
 from bike_rig.launch import RunningGraph
 from bike_rig.paths import config_file
+from bike_rig.rosenv import ros_environment
 from bike_rig.topics import RECORDER_SPLIT
-from test.nodes.test_driver import Probe
+from test.support.probe import Probe
 
 pytestmark = pytest.mark.ros
 
@@ -44,7 +45,7 @@ def test_a_session_split_by_size_and_by_request_replays_as_the_unsplit_recording
     def split_once(running: RunningGraph, fitted: int) -> None:
         if fitted < 10 or "split" in state:
             return
-        probe = state["probe"] = Probe(running.domain_id)
+        probe = state["probe"] = Probe(ros_environment(domain_id=running.domain_id))
         client = probe.node.create_client(srvs.SplitBag, RECORDER_SPLIT)
         state["split"] = probe.call(client, srvs.SplitBag.Request())
 

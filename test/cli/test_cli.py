@@ -13,9 +13,9 @@ from pathlib import Path
 
 import pytest
 
-from bike_rig.cli.main import main
 from bike_rig.core.benchmark import PARAMETER_NAMES
 from bike_rig.paths import config_dir
+from test.support.cli import bad, run
 from test.support.paper import shared_dir
 
 BROWSER_YAML = config_dir() / "bicycles" / "browser.yaml"
@@ -25,10 +25,6 @@ def _browser_txt() -> Path:
     return shared_dir() / "data" / "bicycleparameters" / "Browser" / "RawData" / "BrowserMeasured.txt"
 
 
-def run(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
-    code = main(list(argv))
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 def test_params_json(capsys: pytest.CaptureFixture[str]) -> None:
@@ -116,16 +112,6 @@ def _line_of(path: Path, fragment: str) -> int:
     return next(i for i, line in enumerate(path.read_text().splitlines(), 1) if fragment in line)
 
 
-def bad(capsys: pytest.CaptureFixture[str], path: Path, *expected: str, command: str = "params") -> str:
-    code, out, err = run(capsys, command, str(path))
-    assert code == 2, err
-    assert out == ""
-    assert "Traceback" not in err
-    assert len(err.strip().splitlines()) == 1, err
-    assert str(path) in err
-    for e in expected:
-        assert e in err, (e, err)
-    return err
 
 
 def test_missing_key_bp(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:

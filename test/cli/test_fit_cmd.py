@@ -20,7 +20,7 @@ from scipy.io import savemat
 from bike_rig.cli import fit_cmd
 from bike_rig.cli.main import main
 from bike_rig.core.errors import BikeRigError
-from test.core.test_period_signals import coupled_trial, gyro_trial
+from test.support.signals import coupled_trial, gyro_trial
 
 JSON_KEYS = {"file", "period", "period_sigma", "valid", "flags", "r2", "zeta", "omega", "n_samples", "window",
              "damping_model", "friction", "friction_sigma", "swing_amplitude", "swing_kappa", "small_swing_period",
@@ -308,7 +308,7 @@ def test_key_option_combines_files_as_one_measurement(capsys: pytest.CaptureFixt
 def test_a_swinging_compound_pendulum_and_the_small_swing_period_option(
     capsys: pytest.CaptureFixture[str], tmp_path: Path
 ) -> None:
-    from test.core.test_period_damping import pendulum_trial
+    from test.support.signals import pendulum_trial
 
     swing = np.radians(15.0)  # (the rate in rad/s of this swing: its amplitude is the swing's)
     samples, _ = pendulum_trial(

@@ -15,7 +15,7 @@ from scipy.io import savemat
 from bike_rig.cli.main import main
 from bike_rig.paths import config_dir
 from bike_rig.textfmt import CONTROL_CHARACTERS
-from test.core.test_period_signals import gyro_trial
+from test.support.signals import gyro_trial
 
 ROOT = Path(__file__).resolve().parents[2]
 BROWSER = config_dir() / "bicycles" / "browser.yaml"

@@ -19,7 +19,7 @@ from bike_rig.cli.plot_cmd import figure_stem, unique_names
 from bike_rig.core.sim import write_session
 from bike_rig.paths import config_file
 from bike_rig.subjects import load_subject
-from test.bag.conftest import short_session
+from test.support.simulated import short_session
 
 BROWSER = str(config_file("bicycles/browser.yaml"))
 YELLOW = str(config_file("bicycles/yellow.yaml"))

@@ -17,7 +17,7 @@ import pytest
 from bike_rig.core.benchmark import PARAMETER_NAMES, SPLIT_PART_NAMES
 from bike_rig.core.io_bp import read_bp_measured, read_bp_parameters
 from bike_rig.core.measurements import fork_is_split
-from test.cli.test_cli import bad, run
+from test.support.cli import bad, run
 from test.support.paper import shared_dir
 
 BP_DATA = shared_dir() / "data" / "bicycleparameters"

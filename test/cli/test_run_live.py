@@ -8,46 +8,23 @@ installed copy of bike_rig.
 
 from __future__ import annotations
 
-import contextlib
 import re
 import subprocess
 import sys
 import time
 from pathlib import Path
 
-import yaml
-
 from bike_rig.bag.info import summarize
 from bike_rig.core.period.advice import FLAG_ADVICE, flag_advice
 from bike_rig.core.period.result import FlagCode
 from bike_rig.paths import config_file
 from test.ros.processes import RosProcess
-
-#: The beating trial (the fitter flags it, poor fit or beating: REDO).
-BEATING = "frame_torsional_o2_t1"
-#: A result line; the cycles need the trial's sample rate, from its START (DDS may deliver a
-#: START up to a heartbeat late at the very start of a run, after its result).
-RESULT = re.compile(r"^trial (\S+) \((\w+)\): T = (\d+\.\d{6}) ± (\S+) s(, \d+ cycles)?, r² (\d\.\d{5}) - (ok|REDO)$")
-
-
-def _rig(directory: Path, beating: bool = True) -> Path:
-    """A short rig: one 15 s trial per period; one trial that beats."""
-    data = yaml.safe_load(config_file("rig.yaml").read_text(encoding="utf-8"))
-    data["trials"].update({"per_measurement": 1, "duration": 15})
-    beat = {"detuning": [0.25, 0.3], "amplitude_ratio": [0.8, 0.9]}  # beats within 15 s: flagged
-    data["coupled_swing"].update({"probability": 0.0, "trials": [BEATING] if beating else [], **beat})
-    path = directory / "rig.yaml"  # also a name in the config folder: the current directory's wins
-    path.write_text(yaml.safe_dump(data, sort_keys=False), encoding="utf-8")
-    return path
-
-
-def _bike_rig(*argv: str) -> list[str]:
-    return [sys.executable, "-m", "bike_rig.cli.main", *argv]
+from test.support.live import BEATING, RESULT, all_lines, bike_rig_argv, live_rig
 
 
 def test_the_default_graph_runs_end_to_end_and_prints_every_result(ros_env: dict[str, str], tmp_path: Path) -> None:
-    _rig(tmp_path)
-    cmd = _bike_rig(
+    live_rig(tmp_path)
+    cmd = bike_rig_argv(
         "run", "--out", "session", "--param", "driver.rig=rig.yaml", "--param", "driver.bicycle=bicycles/browser.yaml",
         "--param", "driver.time_scale=100", "--param", "driver.exit_when_done=true", "--param", "driver.seed=4",
     )  # fmt: skip
@@ -90,9 +67,9 @@ def test_the_default_graph_runs_end_to_end_and_prints_every_result(ros_env: dict
 
 
 def test_ctrl_c_during_a_trial_records_abort_and_prints_a_summary(ros_env: dict[str, str], tmp_path: Path) -> None:
-    _rig(tmp_path, beating=False)
+    live_rig(tmp_path, beating=False)
     out_dir = tmp_path / "s"
-    cmd = _bike_rig(
+    cmd = bike_rig_argv(
         "run", "--out", str(out_dir), "--param", f"driver.rig={tmp_path / 'rig.yaml'}",
         "--param", "driver.time_scale=10", "--param", "driver.seed=4",
         "--param", "driver.pause_between_trials_s=0.0",  # no pause: Ctrl-C always lands in a trial
@@ -106,7 +83,7 @@ def test_ctrl_c_during_a_trial_records_abort_and_prints_a_summary(ros_env: dict[
         code = run.stop()  # SIGINT, as Ctrl-C
     finally:
         run.stop()
-    lines = _all_lines(run)
+    lines = all_lines(run)
     out = "\n".join(lines)
     assert code == 0, run.describe()
     started = [line.split()[1] for line in lines if line.endswith("): recording")]
@@ -124,16 +101,11 @@ def test_ctrl_c_during_a_trial_records_abort_and_prints_a_summary(ros_env: dict[
     assert "Ctrl-C again" in (tmp_path / "run.stderr").read_text()
 
 
-def _all_lines(run: RosProcess) -> list[str]:
-    """Every stdout line of an ended process (those not read yet too)."""
-    with contextlib.suppress(AssertionError):
-        run.expect("\0", 5)  # no line starts with it: reads up to the end
-    return run.lines
 
 
 def test_a_run_that_fails_at_start_leaves_no_empty_bag(ros_env: dict[str, str], tmp_path: Path) -> None:
     (tmp_path / "mybike.yaml").write_text(config_file("bicycles/browser.yaml").read_text())  # not a session
-    cmd = _bike_rig("run", "--out", "s", "--param", "driver.session=mybike.yaml")
+    cmd = bike_rig_argv("run", "--out", "s", "--param", "driver.session=mybike.yaml")
     done = subprocess.run(cmd, cwd=tmp_path, env=ros_env, capture_output=True, text=True, timeout=120)
     assert done.returncode == 2, done.stdout + done.stderr
     errors = [line for line in done.stderr.splitlines() if "error" in line]

@@ -17,9 +17,9 @@ from pathlib import Path
 
 import pytest
 
-from test.cli.test_run_live import RESULT, _all_lines, _bike_rig, _rig
-from test.nodes.test_parameter import node_environment
 from test.ros.processes import RosProcess
+from test.support.live import RESULT, all_lines, bike_rig_argv, live_rig
+from test.support.nodes import node_environment
 from test.support.sessions import session_pids
 
 pytestmark = pytest.mark.ros
@@ -40,8 +40,8 @@ def _stderr_line(run: RosProcess, needle: str, timeout_s: float) -> str:
 
 
 def test_a_stalled_parameter_node_is_said_waited_for_and_caught_up(ros_env: dict[str, str], tmp_path: Path) -> None:
-    rig, folder = _rig(tmp_path, beating=False), tmp_path / "session"
-    cmd = _bike_rig(
+    rig, folder = live_rig(tmp_path, beating=False), tmp_path / "session"
+    cmd = bike_rig_argv(
         "run", "--out", str(folder), "--param", f"driver.rig={rig}", "--param", "driver.bicycle=bicycles/browser.yaml",
         "--param", "driver.time_scale=25", "--param", "driver.exit_when_done=true", "--param", "driver.seed=4",
     )  # fmt: skip
@@ -67,7 +67,7 @@ def test_a_stalled_parameter_node_is_said_waited_for_and_caught_up(ros_env: dict
             with contextlib.suppress(ProcessLookupError):
                 os.kill(parameter, signal.SIGCONT)
         run.stop()
-    lines = _all_lines(run)
+    lines = all_lines(run)
     out = "\n".join(lines)
     stderr = run.stderr_path.read_text(errors="replace").splitlines()
     assert code == 0, run.describe()

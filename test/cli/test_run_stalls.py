@@ -19,6 +19,8 @@ from pathlib import Path
 
 import pytest
 
+from test.support.wait import wait_until
+
 pytestmark = pytest.mark.ros
 
 STALL_S = 20.0
@@ -40,14 +42,6 @@ def _node_pid(domain: str, name: str) -> int | None:
     return None
 
 
-def _wait_for(condition: object, timeout: float, what: str) -> None:
-    deadline = time.monotonic() + timeout
-    while not condition():  # type: ignore[operator]
-        if time.monotonic() > deadline:
-            raise AssertionError(f"no {what} within {timeout} s")
-        time.sleep(0.05)
-
-
 def test_stalled_fitter_parameter_and_model_nodes_lose_no_trial(ros_env: dict[str, str], tmp_path: Path) -> None:
     hogs = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(HOGS)]
     out_path = tmp_path / "run.out"
@@ -59,7 +53,7 @@ def test_stalled_fitter_parameter_and_model_nodes_lose_no_trial(ros_env: dict[st
         with out_path.open("w") as out:
             run = subprocess.Popen(cmd, cwd=tmp_path, env=ros_env, stdout=out, stderr=subprocess.STDOUT)
         try:
-            _wait_for(lambda: " T = " in out_path.read_text() or run.poll() is not None, 180, "first result")
+            wait_until(lambda: " T = " in out_path.read_text() or run.poll() is not None, "first result", 180)
             t0 = time.monotonic()
             pending = dict(STOPS)
             while pending or stopped:

@@ -22,7 +22,7 @@ from bike_rig.bag.simulated import live_results, simulated_messages, write_simul
 from bike_rig.cli.commands import COMMANDS, HELP
 from bike_rig.cli.main import build_overview_parser, build_parser, main
 from bike_rig.paths import config_file
-from test.bag.conftest import short_session
+from test.support.simulated import short_session
 
 REPO = Path(__file__).resolve().parents[2]
 HEAVY = ("scipy", "matplotlib", "rosbags", "rclpy")

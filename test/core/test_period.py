@@ -23,7 +23,7 @@ from bike_rig.core.period import (
 from bike_rig.core.period.damping import MAX_OFFSET_INTERVALS, offset_hats
 from bike_rig.core.period.oscillation import alpha_omega_d, fit_variance, zeta_omega
 from bike_rig.core.period.window import first_at_or_after
-from test.core.test_period_signals import gyro_trial, quantise
+from test.support.signals import gyro_trial, quantise
 
 # ---------------------------------------------------------------- the paper's equations
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from bike_rig.core.period import FlagCode, fit_period
-from test.core.test_period_signals import LSB, coupled_trial, gyro_trial
+from test.support.signals import LSB, coupled_trial, gyro_trial
 
 N_CLEAN = 200
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from bike_rig.core.period import DEFAULT_WINDOW, CombinedPeriod, Flag, FlagCode, PeriodFit, combine_periods, fit_period
-from test.core.test_period_signals import gyro_trial
+from test.support.signals import gyro_trial
 
 
 def _fit(period: float, sigma: float, flags: tuple[Flag, ...] = ()) -> PeriodFit:

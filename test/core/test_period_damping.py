@@ -16,32 +16,7 @@ import pytest
 
 from bike_rig.core.period import FlagCode, fit_period
 from bike_rig.core.period.damping import envelope, half_cycle_times
-from bike_rig.core.sim.pendulum import PendulumMotion, pendulum_rate
-from test.core.test_period_signals import LSB, gyro_trial, quantise
-
-RATE_HZ = 1000.0
-
-
-def pendulum_trial(
-    seed: int,
-    period: float = 1.6,
-    zeta: float = 0.0,
-    loss_per_cycle: float = 0.0,
-    compound: bool = False,
-    swing: float | None = None,
-    rate_amplitude: float = 0.05,
-    duration: float = 30.0,
-) -> tuple[np.ndarray, PendulumMotion]:
-    """A pendulum's rate through the test gyro: rad/s samples at 1 kHz, and its motion."""
-    rng = np.random.default_rng(seed)
-    w0 = 2 * math.pi / period
-    theta0 = rate_amplitude / w0 if swing is None else swing
-    motion = PendulumMotion(period, theta0, zeta, loss_per_cycle * theta0 * w0**2 / 4, compound)
-    t = np.arange(round(duration * RATE_HZ)) / RATE_HZ
-    y = pendulum_rate(t, motion, float(rng.uniform(0, period))) * (rate_amplitude / (theta0 * w0))
-    y += 0.01 + LSB * rng.standard_normal(t.size)
-    y += np.cumsum(rng.standard_normal(t.size)) * (3 * LSB / math.sqrt(t.size))
-    return quantise(y), motion
+from test.support.signals import LSB, RATE_HZ, gyro_trial, pendulum_trial, quantise
 
 
 def _fits(n: int, **kw: float) -> list:

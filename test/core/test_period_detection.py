@@ -14,7 +14,7 @@ import pytest
 from bike_rig.core.period import FlagCode, fit_period
 from bike_rig.core.period.advice import flag_advice
 from bike_rig.core.period.detection import FALSE_ALARM, false_alarm_of_bin
-from test.core.test_period_signals import gyro_trial
+from test.support.signals import gyro_trial
 
 RATE_HZ = 1000.0
 RECORDS = 25  # of each kind, 5-60 s

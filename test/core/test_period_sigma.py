@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from bike_rig.core.period import fit_period
-from test.core.test_period_signals import LSB, gyro_trial
+from test.support.signals import LSB, gyro_trial
 
 N_TRIALS = 240
 

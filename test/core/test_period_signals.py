@@ -1,100 +1,11 @@
-"""Synthetic rate-gyro trials for the period fitter's tests, and tests of the generator itself.
-
-A trial is the paper's rig in miniature: a damped oscillation (Eq 23) seen by a rate gyro with
-white noise, a bias that drifts as a random walk, and a 12-bit ADC over ±100 °/s (the
-CRS03-100 of the paper on a 12-bit DAQ). Optionally a second, close mode (the coupled swing of
-the paper's Fig. 7) with energy exchange.
-"""
+"""Tests of the synthetic rate-gyro trials of test/support/signals.py."""
 
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass, field
-
 import numpy as np
 import pytest
-from numpy.typing import NDArray
 
-FULL_SCALE = math.radians(100.0)  # ±100 °/s in rad/s
-BITS = 12
-LSB = 2 * FULL_SCALE / 2**BITS  # ≈ 8.5e-4 rad/s
-
-
-@dataclass(frozen=True)
-class GyroTrial:
-    """A simulated trial and its truth."""
-
-    samples: NDArray[np.float64]
-    times: NDArray[np.float64]
-    rate_hz: float
-    period: float  # the true damped period T = 2π / (ω sqrt(1 − ζ²)) [s]
-    zeta: float
-    omega: float
-    truth: dict[str, float] = field(default_factory=dict)
-
-
-def quantise(y: NDArray[np.float64], bits: int = BITS, full_scale: float = FULL_SCALE) -> NDArray[np.float64]:
-    """A ``bits``-bit ADC over ±full_scale: rounds to its steps and saturates at its ends."""
-    lsb = 2 * full_scale / 2**bits
-    code = np.clip(np.round((y + full_scale) / lsb), 0, 2**bits - 1)
-    return code * lsb - full_scale
-
-
-def gyro_trial(
-    seed: int,
-    period: float = 1.5,
-    zeta: float = 0.003,
-    amplitude: float = 0.05,
-    rate_hz: float = 1000.0,
-    duration: float = 30.0,
-    noise: float = LSB,
-    drift: float = 3 * LSB,
-    bias: float = 0.01,
-    bits: int | None = BITS,
-    times: NDArray[np.float64] | None = None,
-    second_mode: tuple[float, float] | None = None,
-) -> GyroTrial:
-    """One simulated trial.
-
-    Args:
-        seed: Seed of the random generator.
-        period: True damped period [s].
-        zeta: Damping ratio.
-        amplitude: Rate amplitude at t = 0 [rad/s].
-        rate_hz: Sample rate [Hz] (ignored with ``times``).
-        duration: Record length [s] (ignored with ``times``).
-        noise: White noise σ [rad/s].
-        drift: σ of the bias random walk at the end of the record [rad/s].
-        bias: Constant gyro bias [rad/s].
-        bits: ADC resolution, or None for no quantisation.
-        times: Sample times [s], for uneven sampling.
-        second_mode: (frequency ratio, relative amplitude) of a second, close mode.
-    """
-    rng = np.random.default_rng(seed)
-    t = np.arange(round(duration * rate_hz)) / rate_hz if times is None else np.asarray(times, dtype=float)
-    omega_d = 2 * math.pi / period
-    omega = omega_d / math.sqrt(1 - zeta**2)
-    phase = rng.uniform(0, 2 * math.pi)
-    y = bias + amplitude * np.exp(-zeta * omega * t) * np.sin(omega_d * t + phase)
-    if second_mode is not None:
-        ratio, rho = second_mode
-        y += rho * amplitude * np.exp(-zeta * omega * t) * np.sin(ratio * omega_d * t + rng.uniform(0, 2 * math.pi))
-    y += noise * rng.standard_normal(t.size)
-    y += np.cumsum(rng.standard_normal(t.size)) * (drift / math.sqrt(t.size))
-    if bits is not None:
-        y = quantise(y, bits)
-    return GyroTrial(y, t, rate_hz, period, zeta, omega, {"phase": phase})
-
-
-def coupled_trial(seed: int, period: float = 1.0, ratio: float = 1.03, exchange: float = 0.8, **kw: float) -> GyroTrial:
-    """The paper's beating: torsion coupled to a swinging mode ``ratio`` times faster.
-
-    Started torsionally, the energy flows to the swing and back at the beat frequency. The gyro
-    sees both normal modes; ``exchange`` is the second mode's relative amplitude (1: the
-    torsion stops completely at each half beat; the paper saw "neither ever reaching zero").
-    """
-    return gyro_trial(seed, period=period, second_mode=(ratio, exchange), **kw)  # type: ignore[arg-type]
-
+from test.support.signals import BITS, FULL_SCALE, LSB, gyro_trial, quantise
 
 # ---------------------------------------------------------------- the generator's own tests
 

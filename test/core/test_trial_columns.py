@@ -12,7 +12,7 @@ from bike_rig.core.errors import InputFileError
 from bike_rig.core.period import fit_period
 from bike_rig.core.trial_columns import ColumnChoice, header_time_unit, is_time_name
 from bike_rig.core.trials import key_from_name, read_trial
-from test.core.test_period_signals import gyro_trial
+from test.support.signals import gyro_trial
 
 PERIOD = 1.6
 

@@ -11,7 +11,7 @@ from scipy.io import savemat
 from bike_rig.core.errors import InputFileError
 from bike_rig.core.period import fit_period
 from bike_rig.core.trials import Trial, read_trial
-from test.core.test_period_signals import gyro_trial
+from test.support.signals import gyro_trial
 
 
 def _write(path: Path, text: str) -> Path:

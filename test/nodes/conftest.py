@@ -6,18 +6,9 @@ defines its own ``probe`` fixture, which takes precedence.
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-
 import pytest
 
-from test.nodes.test_parameter import Probe, node_environment
-
-
-@pytest.fixture
-def probe(ros_env: dict[str, str]) -> Iterator[Probe]:
-    """A node that publishes and subscribes on the run's ROS domain (parameters, models)."""
-    with Probe(ros_env) as p:
-        yield p
+from test.support.nodes import node_environment
 
 
 @pytest.fixture

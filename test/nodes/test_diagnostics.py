@@ -20,8 +20,8 @@ from bike_rig import topics
 from bike_rig.core.benchmark import ComMethod
 from bike_rig.diagnostics import HARDWARE_ID, Level, Status
 from bike_rig.messages.diagnostics import statuses_from_msg
-from test.nodes.test_model import STAMP_NS, publish_set
-from test.nodes.test_parameter import BROWSER, Probe, start_node
+from test.support.nodes import BROWSER, STAMP_NS, publish_set, start_node
+from test.support.probe import Probe
 
 pytestmark = pytest.mark.ros
 

@@ -11,118 +11,38 @@ context, the same domain, LOCALHOST discovery) and waits for messages, never for
 
 from __future__ import annotations
 
-import contextlib
 import math
 import subprocess
-import sys
-import time
 import uuid
-from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
-import rclpy
-from rclpy.context import Context
-from rclpy.executors import SingleThreadedExecutor
-from rclpy.signals import SignalHandlerOptions
 
 from bike_rig.messages import sample_batch_from_msg, trial_event_from_msg
 from bike_rig.paths import config_file
 from bike_rig.pipeline.fit import fit_trial
 from bike_rig.pipeline.resend import batch_samples
-from bike_rig.rosqos import profile
-from bike_rig.topics import GYRO, START_TRIAL, STOP_TRIAL, TRIAL_EVENTS, Topic
+from bike_rig.topics import GYRO, START_TRIAL, STOP_TRIAL, TRIAL_EVENTS
 from test.ros.processes import RosProcess
 from test.sources.support import small_session
-from test.sources.test_bag import RATE as BAG_RATE
-from test.sources.test_bag import recorded_session
+from test.support.probe import ABORT, START, STEP_TIMEOUT_S, STOP, Probe, msgs, node_command, srvs
+from test.support.recorded import RATE as BAG_RATE
+from test.support.recorded import recorded_session
 
 pytestmark = pytest.mark.ros
 
-msgs: Any = pytest.importorskip("bike_rig_msgs.msg")
-srvs: Any = pytest.importorskip("bike_rig_msgs.srv")
 
-STEP_TIMEOUT_S = 60.0
 START_S = 1_700_000_000.0
-START, STOP, ABORT = 0, 1, 2
 
 
-def node_command(module: str, *parameters: str, params_file: str | None = None) -> list[str]:
-    """``python -m MODULE --ros-args [--params-file F] -p ...``."""
-    cmd = [sys.executable, "-m", module, "--ros-args"]
-    if params_file:
-        cmd += ["--params-file", params_file]
-    for p in parameters:
-        cmd += ["-p", p]
-    return cmd
 
 
-class Probe:
-    """An rclpy node in the test process, in its own context on the run's domain."""
-
-    def __init__(self, domain_id: int):
-        self.context = Context()
-        rclpy.init(context=self.context, domain_id=domain_id, signal_handler_options=SignalHandlerOptions.NO)
-        self.node = rclpy.create_node(f"probe_{uuid.uuid4().hex[:8]}", context=self.context)
-        self.executor = SingleThreadedExecutor(context=self.context)
-        self.executor.add_node(self.node)
-        self.received: dict[str, list[Any]] = {}
-
-    def subscribe(self, topic: Topic, msg_type: Any) -> list[Any]:
-        """Keep every message of ``topic`` (reliable, transient-local, as the contract says)."""
-        got = self.received.setdefault(topic.name, [])
-        self.node.create_subscription(msg_type, topic.name, got.append, profile(topic))
-        return got
-
-    def publisher(self, topic: Topic, msg_type: Any) -> Any:
-        """A publisher with the topic's QoS."""
-        return self.node.create_publisher(msg_type, topic.name, profile(topic))
-
-    def spin_until(self, condition: Callable[[], bool], timeout: float, what: str,
-                   describe: Callable[[], str] = lambda: "") -> None:  # fmt: skip
-        """Spin until ``condition()``; fail after ``timeout`` s."""
-        deadline = time.monotonic() + timeout
-        while not condition():
-            if time.monotonic() > deadline:
-                raise AssertionError(f"no {what} within {timeout} s\n{describe()}")
-            self.executor.spin_once(timeout_sec=0.02)
-
-    def call(self, client: Any, request: Any, timeout: float = STEP_TIMEOUT_S) -> Any:
-        """A service call, waiting for the service first."""
-        self.spin_until(client.service_is_ready, timeout, f"service {client.srv_name}")
-        future = client.call_async(request)
-        self.spin_until(future.done, timeout, f"response of {client.srv_name}")
-        return future.result()
-
-    def close(self) -> None:
-        self.executor.shutdown()
-        self.node.destroy_node()
-        rclpy.shutdown(context=self.context)
 
 
-@contextlib.contextmanager
-def open_probe(ros_env: dict[str, str], ros_domain_id: int, monkeypatch: pytest.MonkeyPatch) -> Iterator[Probe]:
-    """A :class:`Probe` with this process's ROS variables set as the run's.
-
-    LOCALHOST discovery and the run's domain, for the probe's lifetime.
-    """
-    for key in ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_DOMAIN_ID", "RMW_IMPLEMENTATION"):
-        monkeypatch.setenv(key, ros_env[key])
-    monkeypatch.delenv("ROS_LOCALHOST_ONLY", raising=False)
-    p = Probe(ros_domain_id)
-    try:
-        yield p
-    finally:
-        p.close()
 
 
-@pytest.fixture
-def probe(ros_env: dict[str, str], ros_domain_id: int, monkeypatch: pytest.MonkeyPatch) -> Iterator[Probe]:
-    """The test's own ROS node."""
-    with open_probe(ros_env, ros_domain_id, monkeypatch) as p:
-        yield p
 
 
 def stamp_ns(msg: Any) -> int:

@@ -8,7 +8,6 @@ the samples.
 
 from __future__ import annotations
 
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -16,18 +15,12 @@ import numpy as np
 import pytest
 
 from bike_rig.sources.can import CanFrameLayout
-from test.nodes.test_driver import START, STOP, Probe, node_command, open_probe
 from test.nodes.test_driver_operator import Operator
 from test.ros.processes import RosProcess
 from test.sources.test_can import _write_log
+from test.support.probe import START, STOP, Probe, node_command
 
 msgs: Any = pytest.importorskip("bike_rig_msgs.msg")
-
-
-@pytest.fixture
-def probe(ros_env: dict[str, str], ros_domain_id: int, monkeypatch: pytest.MonkeyPatch) -> Iterator[Probe]:
-    with open_probe(ros_env, ros_domain_id, monkeypatch) as p:
-        yield p
 
 
 def test_a_trial_from_a_log_file_is_the_logs_samples(probe: Probe, ros_env: dict[str, str], tmp_path: Path) -> None:

@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import time
 import uuid
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -25,9 +24,9 @@ from bike_rig.messages import sample_batch_from_msg, trial_event_from_msg
 from bike_rig.paths import config_file
 from bike_rig.pipeline.fit import fit_trial
 from bike_rig.topics import GYRO, START_TRIAL, STOP_TRIAL, TRIAL_EVENTS
-from test.nodes.test_driver import ABORT, START, STEP_TIMEOUT_S, STOP, Probe, node_command, open_probe
 from test.ros.processes import RosProcess
 from test.sources.support import BICYCLE, small_rig
+from test.support.probe import ABORT, START, STEP_TIMEOUT_S, STOP, Probe, node_command
 
 pytestmark = pytest.mark.ros
 
@@ -38,11 +37,6 @@ TRIAL_S = 6.0  # the small rig's trial duration, s of rig time
 TIME_SCALE = 50.0  # a trial in 0.12 s
 
 
-@pytest.fixture
-def probe(ros_env: dict[str, str], ros_domain_id: int, monkeypatch: pytest.MonkeyPatch) -> Iterator[Probe]:
-    """The test's own ROS node."""
-    with open_probe(ros_env, ros_domain_id, monkeypatch) as p:
-        yield p
 
 
 class Operator:

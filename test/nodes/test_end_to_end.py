@@ -30,6 +30,8 @@ from bike_rig.paths import config_file
 from bike_rig.pipeline.resend import batch_samples
 from bike_rig.topics import READINGS, TOPICS
 
+pytestmark = pytest.mark.ros  # a whole graph of node processes (run_demo)
+
 BATCH = 50
 TIME_SCALE = 50.0
 

@@ -28,6 +28,8 @@ from bike_rig.demo import run_demo
 from bike_rig.launch import RunningGraph
 from bike_rig.paths import config_file
 
+pytestmark = pytest.mark.ros  # a whole graph of node processes (run_demo)
+
 
 def _short_rig(tmp: Path) -> Path:
     rig = yaml.safe_load(config_file("rig.yaml").read_text())

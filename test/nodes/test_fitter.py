@@ -14,7 +14,7 @@ import json
 import math
 import struct
 import subprocess
-from collections.abc import Iterator, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -29,9 +29,9 @@ from bike_rig.pipeline.fit import TrialFit, TrialFitOptions, fit_trial
 from bike_rig.pipeline.fit_state import FitterState
 from bike_rig.pipeline.resend import SentBatches
 from bike_rig.topics import GYRO, PERIODS, RESEND_SAMPLES, TRIAL_EVENTS
-from test.nodes.test_driver import STEP_TIMEOUT_S, Probe, msgs, node_command, open_probe
 from test.ros.processes import RosProcess
 from test.sources.support import small_session
+from test.support.probe import STEP_TIMEOUT_S, Probe, msgs, node_command
 
 RATE = 1000.0
 N = 8000
@@ -418,11 +418,6 @@ def synthetic_trial(trial_id: str, seed: int, n: int = N) -> tuple[Any, list[Any
     return start, batches, stop
 
 
-@pytest.fixture
-def probe(ros_env: dict[str, str], ros_domain_id: int, monkeypatch: pytest.MonkeyPatch) -> Iterator[Probe]:
-    """The test's own ROS node (see test_driver)."""
-    with open_probe(ros_env, ros_domain_id, monkeypatch) as p:
-        yield p
 
 
 @pytest.fixture

@@ -24,9 +24,9 @@ from bike_rig.bag.typestore import message_definition, store_for
 from bike_rig.core.loader import load_input
 from bike_rig.liveview import DIAGNOSTICS, VIEW_TOPICS
 from bike_rig.topics import EIGEN_SWEEP, GYRO, PARAMETERS, PERIODS, TRIAL_EVENTS
-from test.nodes.test_driver import STEP_TIMEOUT_S, Probe, msgs, node_command, open_probe
 from test.ros.processes import RosProcess
 from test.support.foxglove_client import foxglove_client
+from test.support.probe import STEP_TIMEOUT_S, Probe, msgs, node_command
 
 pytest.importorskip("foxglove")
 
@@ -118,11 +118,6 @@ def assert_same(decoded: Any, published: Any, where: str) -> None:
             assert got == want, f"{where}.{name}: {got!r} != {want!r}"
 
 
-@pytest.fixture
-def probe(ros_env: dict[str, str], ros_domain_id: int, monkeypatch: pytest.MonkeyPatch) -> Iterator[Probe]:
-    """The test's own ROS node (publishes the session)."""
-    with open_probe(ros_env, ros_domain_id, monkeypatch) as p:
-        yield p
 
 
 @pytest.fixture

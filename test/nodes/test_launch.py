@@ -10,6 +10,7 @@ import pytest
 
 from bike_rig.core.errors import InputFileError
 from bike_rig.launch import Graph, LaunchError, NodeSpec, RunningGraph, load_graph, parse_overrides
+from test.support.wait import wait_until
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -19,14 +20,10 @@ def _env(tmp_path: Path) -> dict[str, str]:
 
 
 def _reports(tmp_path: Path, n: int, timeout_s: float = 20.0) -> list[dict[str, object]]:
-    deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline:
-        files = sorted(tmp_path.glob("*.json"))
-        if len(files) >= n:
-            time.sleep(0.05)
-            return [json.loads(f.read_text()) for f in files]
-        time.sleep(0.02)
-    raise AssertionError(f"only {len(list(tmp_path.glob('*.json')))} of {n} fake nodes reported")
+    files = wait_until(lambda: (fs := sorted(tmp_path.glob("*.json")))[n - 1 :] and fs, f"{n} fake nodes' reports",
+                       timeout_s, 0.02, lambda: f"{len(list(tmp_path.glob('*.json')))} reported")  # fmt: skip
+    time.sleep(0.05)  # (each report is written whole before the next poll)
+    return [json.loads(f.read_text()) for f in files]
 
 
 def _running(pid: int) -> bool:
@@ -58,10 +55,7 @@ def test_nodes_get_localhost_and_the_runs_domain_id(tmp_path: Path) -> None:
 def test_a_dead_node_is_reported(tmp_path: Path) -> None:
     graph = Graph((NodeSpec("ok", "test.nodes.fake_node"), NodeSpec("bad", "test.nodes.no_such_module")))
     with RunningGraph(graph, tmp_path / "logs", env=_env(tmp_path)) as running:
-        deadline = time.monotonic() + 20
-        while not running.dead() and time.monotonic() < deadline:
-            time.sleep(0.05)
-        dead = running.dead()
+        dead = wait_until(running.dead, "a dead node", 20)
     assert [(name, code) for name, code, _ in dead] == [("bad", 1)]
     assert "No module named test.nodes.no_such_module" in dead[0][2]
 
@@ -74,9 +68,7 @@ def test_restart_after_kill(tmp_path: Path) -> None:
         import signal
 
         os.kill(running.pid("a"), signal.SIGKILL)
-        deadline = time.monotonic() + 10
-        while not running.dead() and time.monotonic() < deadline:
-            time.sleep(0.02)
+        wait_until(running.dead, "the killed node", 10, 0.02)
         running.restart("a")
         second = _reports(tmp_path, 2)
     assert len(first) == 1 and len(second) == 2

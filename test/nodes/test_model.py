@@ -10,7 +10,6 @@ from __future__ import annotations
 import math
 import subprocess
 import sys
-import weakref
 from pathlib import Path
 from typing import Any
 
@@ -20,52 +19,35 @@ import pytest
 from bike_rig import topics
 from bike_rig.core.benchmark import ComMethod, ParameterSet
 from bike_rig.core.feedback import load_feedback
-from bike_rig.core.loader import load_static_readings
 from bike_rig.core.rider import PAPER_RIDER, add_rider
 from bike_rig.core.uncertainty.matrix_sigma import SigmaConvention, canonical_with_sigma
 from bike_rig.core.uncertainty.speed_sigma import critical_speeds_with_sigma
 from bike_rig.core.whipple import eigenvalues, state_space
-from bike_rig.messages import fill_benchmark_parameters, session_parameters_from_msg, set_stamp
-from bike_rig.pipeline.assemble import assemble
+from bike_rig.messages import session_parameters_from_msg
 from bike_rig.pipeline.model import compute_model
-from test.nodes.standin import ParameterStandIn
-from test.nodes.test_parameter import (
+from test.ros.processes import RosProcess
+from test.support.nodes import (
+    ASSIST,
     BROWSER,
     REPO,
-    Probe,
+    STAMP_NS,
     browser_trials,
+    offline_set,
+    publish_set,
     publish_trials,
+    stamp_of,
     start_node,
+    state_space_request,
 )
-from test.ros.processes import RosProcess
+from test.support.probe import Probe
 
 pytestmark = pytest.mark.ros
 
-STAMP_NS = 1_700_000_000_123_456_789
-#: The stand-in parameter node of each probe (its node goes with the probe's context).
-_STAND_INS: weakref.WeakKeyDictionary[Probe, ParameterStandIn] = weakref.WeakKeyDictionary()
 
 
 
-def offline_set(method: ComMethod = ComMethod.CENTROID) -> ParameterSet:
-    result = assemble(load_static_readings(BROWSER), browser_trials(), method)
-    assert result.parameters is not None
-    return result.parameters
 
 
-def publish_set(probe: Probe, method: ComMethod, stamp_ns: int) -> None:
-    """Publish the Browser set from a node named 'parameter' in the probe's process (the model takes only its sets)."""
-    from bike_rig_msgs.msg import BenchmarkParameters
-
-    msg = fill_benchmark_parameters(
-        BenchmarkParameters(), assemble(load_static_readings(BROWSER), browser_trials(), method)
-    )
-    set_stamp(msg, stamp_ns)
-    standin = _STAND_INS.get(probe)
-    if standin is None:
-        standin = _STAND_INS[probe] = ParameterStandIn(probe.context)
-    probe.wait_for(standin.matched, f"a subscriber of {topics.PARAMETERS.name}")
-    standin.publish(msg)
 
 
 def assert_model_equals_core(
@@ -92,17 +74,8 @@ def assert_model_equals_core(
     )  # fmt: skip
 
 
-def stamp_of(msg: Any) -> int:
-    return int(msg.header.stamp.sec) * 1_000_000_000 + int(msg.header.stamp.nanosec)
 
 
-def state_space_request(speed: float, rider: str) -> Any:
-    from bike_rig_msgs.srv import StateSpace
-
-    request = StateSpace.Request()
-    request.speed = speed
-    request.rider = rider
-    return request
 
 
 def test_model_from_published_sets_and_state_space(probe: Probe, node_env: dict[str, str], tmp_path: Path) -> None:
@@ -185,7 +158,6 @@ def test_bad_model_parameter_is_one_error_line_and_status_2(node_env: dict[str, 
     assert done.stderr.strip().splitlines() == ["model: error: parameters 'speed_min' 5.0 > 'speed_max' 1.0"]
 
 
-ASSIST = REPO / "config" / "feedback" / "balance_assist.yaml"
 
 
 def test_model_node_with_feedback_publishes_the_closed_loop(

@@ -20,16 +20,18 @@ from bike_rig.core.loader import load_input
 from bike_rig.paths import config_file
 from test.nodes.rogue_parameters import ROGUE_STAMP_NS
 from test.nodes.standin import ParameterStandIn, parameter_message
-from test.nodes.test_model import STAMP_NS, offline_set, stamp_of, state_space_request
-from test.nodes.test_parameter import (
-    BROWSER,
-    STEP_TIMEOUT_S,
-    Probe,
-    browser_trials,
-    publish_trials,
-    start_node,
-)
 from test.ros.processes import RosProcess
+from test.support.nodes import (
+    BROWSER,
+    STAMP_NS,
+    browser_trials,
+    offline_set,
+    publish_trials,
+    stamp_of,
+    start_node,
+    state_space_request,
+)
+from test.support.probe import STEP_TIMEOUT_S, Probe
 
 pytestmark = pytest.mark.ros
 

@@ -21,8 +21,8 @@ from bike_rig.core.benchmark import ComMethod
 from bike_rig.core.feedback import load_feedback
 from bike_rig.messages import fill_ride_speed, state_space_model_from_msg
 from bike_rig.pipeline.model import compute_model, state_space_at, state_space_with_sigma_at
-from test.nodes.test_model import ASSIST, STAMP_NS, offline_set, publish_set
-from test.nodes.test_parameter import Probe, start_node
+from test.support.nodes import ASSIST, STAMP_NS, offline_set, publish_set, start_node
+from test.support.probe import Probe
 
 pytestmark = pytest.mark.ros
 

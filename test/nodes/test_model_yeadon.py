@@ -15,9 +15,17 @@ from bike_rig.core.io_bp import read_bp_measured
 from bike_rig.core.rider import add_rider, resolve_rider
 from bike_rig.core.rider_yeadon import RIDER_GEOMETRY_KEYS
 from bike_rig.core.uncertainty.matrix_sigma import canonical_with_sigma
-from test.nodes.test_model import STAMP_NS, offline_set, publish_set, stamp_of, state_space_request
-from test.nodes.test_parameter import Probe, node_environment, start_node
+from test.support.nodes import (
+    STAMP_NS,
+    node_environment,
+    offline_set,
+    publish_set,
+    stamp_of,
+    start_node,
+    state_space_request,
+)
 from test.support.paper import shared_dir
+from test.support.probe import Probe
 
 pytestmark = pytest.mark.ros
 

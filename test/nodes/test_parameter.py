@@ -9,173 +9,36 @@ process, on the run's domain with LOCALHOST discovery. It is also used by test_m
 
 from __future__ import annotations
 
-import os
 import subprocess
 import sys
-import time
-from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
-import rclpy
-from rclpy.executors import SingleThreadedExecutor
 
 from bike_rig import topics
 from bike_rig.core.benchmark import compute_parameters
 from bike_rig.core.loader import load_measurements, load_static_readings
-from bike_rig.messages import fill_period_estimate, session_parameters_from_msg, static_readings_from_msg
-from bike_rig.paths import config_file
+from bike_rig.messages import session_parameters_from_msg, static_readings_from_msg
 from bike_rig.pipeline.assemble import SessionParameters, assemble
 from bike_rig.pipeline.fit import TrialFit
-from bike_rig.rosqos import profile
-from test.ros.processes import RosProcess
+from test.support.nodes import BROWSER, BROWSER_KEYS, REPO, browser_trials, publish_trials, start_node
+from test.support.probe import Probe
 
 pytestmark = pytest.mark.ros
 
-REPO = Path(__file__).resolve().parents[2]
-BROWSER = config_file("bicycles/browser.yaml")
-STEP_TIMEOUT_S = 30.0
-#: A service request not answered within this long is sent again (see Probe.call), s.
-RESEND_S = 2.0
-BROWSER_KEYS = (
-    "TtP1", "TcR1", "TtR1", "TcF1", "TtF1", "TcB1", "TtB1", "TtB2", "TtB3", "TcH1", "TtH1", "TtH2", "TtH3",
-)  # fmt: skip
-_ENV_KEYS = ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_DOMAIN_ID", "RMW_IMPLEMENTATION")
-
-
-class Probe:
-    """The test's DDS participant: its own rclpy context on the run's domain (LOCALHOST).
-
-    Publishes and listens on bike_rig topics with their contract QoS and calls services; every
-    wait has a deadline.
-    """
-
-    def __init__(self, env: Mapping[str, str]) -> None:
-        self._saved = {k: os.environ.get(k) for k in _ENV_KEYS}
-        os.environ.update({k: env[k] for k in _ENV_KEYS})  # read by rcl when the context starts
-        self.context = rclpy.Context()
-        rclpy.init(context=self.context, domain_id=int(env["ROS_DOMAIN_ID"]))
-        self.node = rclpy.create_node(f"test_probe_{os.getpid()}", context=self.context)
-        self.executor = SingleThreadedExecutor(context=self.context)
-        self.executor.add_node(self.node)
-        self.inbox: dict[str, list[Any]] = {}
-        self._publishers: dict[str, Any] = {}
-        self._clients: dict[str, Any] = {}
-
-    def listen(self, topic: topics.Topic, msg_type: Any) -> list[Any]:
-        """Subscribe with the topic's QoS; the returned list fills as messages arrive."""
-        box = self.inbox.setdefault(topic.name, [])
-        self.node.create_subscription(msg_type, topic.name, box.append, profile(topic))
-        return box
-
-    def publisher(self, topic: topics.Topic, msg_type: Any, matched: bool = False) -> Any:
-        """The probe's publisher on ``topic`` (one per topic) with the topic's QoS.
-
-        Args:
-            topic: The rig topic to publish on (its name and QoS).
-            msg_type: The message class of the topic.
-            matched: Wait until a subscription has matched: a live delivery. (Data published
-                before the match reaches a transient-local subscriber too, as a late joiner,
-                but only with the writer's next heartbeat, up to 3 s later with Fast DDS.)
-        """
-        if topic.name not in self._publishers:
-            self._publishers[topic.name] = self.node.create_publisher(msg_type, topic.name, profile(topic))
-        pub = self._publishers[topic.name]
-        if matched:
-            self.wait_for(lambda: pub.get_subscription_count() > 0, f"a subscriber of {topic.name}")
-        return pub
-
-    def wait_for(self, condition: Callable[[], bool], what: str, timeout: float = STEP_TIMEOUT_S) -> None:
-        """Spin until ``condition()``; fail after ``timeout`` seconds."""
-        deadline = time.monotonic() + timeout
-        while not condition():
-            if time.monotonic() > deadline:
-                raise AssertionError(f"timed out after {timeout} s waiting for {what}")
-            self.executor.spin_once(timeout_sec=0.05)
-
-    def wait_message(
-        self, topic: topics.Topic, condition: Callable[[Any], bool], what: str, processes: Sequence[RosProcess] = ()
-    ) -> Any:
-        """The first message on ``topic`` (listened to before) for which ``condition`` holds."""
-        box = self.inbox[topic.name]
-        try:
-            self.wait_for(lambda: any(condition(m) for m in box), what)
-        except AssertionError as exc:
-            raise AssertionError(f"{exc}\n" + "\n".join(p.describe() for p in processes)) from None
-        return next(m for m in box if condition(m))
-
-    def call(self, srv_type: Any, name: str, request: Any, timeout: float = STEP_TIMEOUT_S) -> Any:
-        """Call an (idempotent) service and return its response.
-
-        ``service_is_ready()`` only means the request path is matched: the server's response
-        writer may not have matched this client's reader yet, and DDS then drops the response
-        (volatile). So a request not answered within ``RESEND_S`` is sent again, until
-        ``timeout``.
-        """
-        client = self._clients.get(name)
-        if client is None:
-            client = self._clients[name] = self.node.create_client(srv_type, name)
-        self.wait_for(lambda: client.service_is_ready(), f"service {name}", timeout)
-        deadline = time.monotonic() + timeout
-        while True:
-            future = client.call_async(request)
-            try:
-                wait = min(RESEND_S, max(0.0, deadline - time.monotonic()))
-                self.wait_for(future.done, f"a response from {name}", wait)
-            except AssertionError:
-                client.remove_pending_request(future)
-                if time.monotonic() >= deadline:
-                    raise AssertionError(f"timed out after {timeout} s waiting for a response from {name}") from None
-                continue
-            return future.result()
-
-    def __enter__(self) -> Probe:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
-
-    def close(self) -> None:
-        self.executor.shutdown(timeout_sec=1.0)
-        self.node.destroy_node()
-        rclpy.shutdown(context=self.context)
-        for key, value in self._saved.items():
-            if value is None:
-                os.environ.pop(key, None)
-            else:
-                os.environ[key] = value
-
-
-def node_environment(ros_env: Mapping[str, str]) -> dict[str, str]:
-    """The nodes' environment: the run's ROS environment, this checkout first on the path."""
-    env = dict(ros_env)
-    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(REPO), env.get("PYTHONPATH")]))
-    return env
 
 
 
-def start_node(module: str, name: str, env: Mapping[str, str], log_dir: Path, *ros_args: str) -> RosProcess:
-    """``python -m bike_rig.nodes.<module> --ros-args ...`` as a child process."""
-    argv = [sys.executable, "-m", f"bike_rig.nodes.{module}", "--ros-args", *ros_args]
-    return RosProcess(name, argv, env, log_dir)
 
 
-def browser_trials() -> list[TrialFit]:
-    """One trial per key with the Browser file's own period and σ."""
-    full = load_measurements(BROWSER)
-    return [TrialFit.from_period(f"{k}_t1", k, full.value(k), full.readings[k].sigma, True, stamp_ns=i) for i, k in
-            enumerate(BROWSER_KEYS)]  # fmt: skip
 
 
-def publish_trials(probe: Probe, trials: Sequence[TrialFit], matched: bool = False) -> None:
-    """Publish period estimates (transient local: later subscribers get them too)."""
-    from bike_rig_msgs.msg import PeriodEstimate
 
-    pub = probe.publisher(topics.PERIODS, PeriodEstimate, matched)
-    for t in trials:
-        pub.publish(fill_period_estimate(PeriodEstimate(), t))
+
+
+
 
 
 def assert_equal_sets(msg: Any, expected: SessionParameters) -> None:

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import subprocess
 import sys
-import time
 from collections import Counter
 from pathlib import Path
 from typing import Any
@@ -38,10 +37,11 @@ from bike_rig.messages import (
 from bike_rig.pipeline.assemble import SessionParameters, assemble
 from bike_rig.pipeline.readings import ReadingEntry, apply_entries
 from test.bag.entered import MISTAKE_KEY, one_trial_session, operator_entries
-from test.bag.test_recorder import _wait_for_data as wait_for_data
-from test.bag.test_replay_readings import core_periods
-from test.nodes.test_parameter import BROWSER, BROWSER_KEYS, Probe, start_node
-from test.pipeline.test_readings import STATIC_KEYS
+from test.support.nodes import BROWSER, BROWSER_KEYS, STATIC_KEYS, start_node
+from test.support.probe import Probe
+from test.support.recorder import wait_for_data
+from test.support.replay import core_periods
+from test.support.wait import wait_until
 
 pytestmark = pytest.mark.ros
 
@@ -122,19 +122,20 @@ def wait_for_static_source(bag: Path, source: str, recorder: Any, timeout_s: flo
     """Wait until the recorder's flushed chunks hold a ``StaticReadings`` with this ``source``."""
     data = bag / f"{bag.name}_0.mcap"
     store = rig_typestore()
-    deadline = time.monotonic() + timeout_s
     seen: list[str] = []
-    while time.monotonic() < deadline:
-        if data.exists():
-            scan = scan_mcap(data)
-            ids = {cid for cid, ch in scan.channels.items() if ch.topic == topics.STATIC_READINGS.name}
-            seen = [str(store.deserialize_cdr(m.data, "bike_rig_msgs/msg/StaticReadings").source)
-                    for m in scan.messages if m.channel_id in ids]  # fmt: skip
-            if source in seen:
-                return
+
+    def recorded() -> bool:
         assert recorder.proc.poll() is None, recorder.describe()
-        time.sleep(0.1)
-    raise AssertionError(f"recorded StaticReadings sources {seen}, waited for {source!r}\n{recorder.describe()}")
+        if not data.exists():
+            return False
+        scan = scan_mcap(data)
+        ids = {cid for cid, ch in scan.channels.items() if ch.topic == topics.STATIC_READINGS.name}
+        seen[:] = [str(store.deserialize_cdr(m.data, "bike_rig_msgs/msg/StaticReadings").source)
+                   for m in scan.messages if m.channel_id in ids]  # fmt: skip
+        return source in seen
+
+    wait_until(recorded, f"StaticReadings from {source!r} recorded", timeout_s, 0.1,
+               lambda: f"recorded StaticReadings sources {seen}\n{recorder.describe()}")  # fmt: skip
 
 
 def test_readings_entered_live_complete_correct_record_and_replay(

@@ -31,16 +31,11 @@ from bike_rig.pipeline.readings import (
     check_entry,
 )
 from bike_rig.topics import READINGS
+from test.support.nodes import STATIC_KEYS
 
 BROWSER = config_file("bicycles/browser.yaml")
 BROWSER_KEYS = (
     "TtP1", "TcR1", "TtR1", "TcF1", "TtF1", "TcB1", "TtB1", "TtB2", "TtB3", "TcH1", "TtH1", "TtH2", "TtH3",
-)  # fmt: skip
-#: Every static reading of a bicycle with three frame and three fork orientations, file order.
-STATIC_KEYS = (
-    "g", "w", "gamma", "f", "mP", "lP", "dP", "mR", "nR", "dR", "lR", "mF", "nF", "dF", "lF",
-    "mB", "alphaB1", "aB1", "alphaB2", "aB2", "alphaB3", "aB3",
-    "mH", "alphaH1", "aH1", "alphaH2", "aH2", "alphaH3", "aH3",
 )  # fmt: skip
 
 

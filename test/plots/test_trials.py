@@ -25,7 +25,7 @@ from bike_rig.core.sim import write_session
 from bike_rig.plots.registry import FIT_DPI, FIT_FIGURE_SIZE_IN
 from bike_rig.plots.trials import fit_figure, fit_title, overview_data, trial_overview
 from bike_rig.subjects import SessionTrial, Subject, load_subject
-from test.bag.conftest import short_session
+from test.support.simulated import short_session
 
 
 @pytest.fixture(scope="module")

@@ -39,7 +39,7 @@ from bike_rig.report import REPORT_FILE, Report, ReportOutputError, build_report
 from bike_rig.report.figures import FigureSpec, draw_figures
 from bike_rig.subjects import Subject, load_subject
 from bike_rig.textfmt import TABLE2_ORDER, format_value_sigma
-from test.bag.conftest import short_session
+from test.support.simulated import short_session
 
 BROWSER = config_file("bicycles/browser.yaml")
 #: The model figures of every report: side view; eigenvalues and root locus without and with

@@ -34,7 +34,7 @@ from matplotlib.image import imread
 from bike_rig.bag.simulated import write_simulated_bag
 from bike_rig.report import write_report
 from bike_rig.subjects import load_subject
-from test.bag.conftest import short_session
+from test.support.simulated import short_session
 
 CHROMIUM = Path("/usr/bin/chromium")
 TIMEOUT_S = 90.0

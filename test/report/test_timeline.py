@@ -26,7 +26,7 @@ from bike_rig.messages import set_stamp, stamp_ns
 from bike_rig.report.html import esc
 from bike_rig.report.sections import timeline_section, trials_section
 from bike_rig.subjects import Subject, load_subject
-from test.bag.conftest import short_session
+from test.support.simulated import short_session
 
 #: The simulated rig runs this many times faster than the computer's clock.
 TIME_SCALE = 25.0

@@ -7,8 +7,19 @@ from typing import Any
 
 import yaml
 
-from bike_rig.core.sim import SimulatedSession, load_rig, load_true_parameters, simulate_session, write_session
+from bike_rig.core.sim import (
+    SimulatedSession,
+    load_rig,
+    load_true_parameters,
+    simulate_session,
+    write_session,
+)
 from bike_rig.paths import config_file
+from bike_rig.sources import (
+    RigClock,
+    open_source,
+)
+from bike_rig.sources.sim_operator import OperatorSimSource
 
 #: Duration of every trial of the small rig, s.
 TRIAL_S = 6.0
@@ -31,3 +42,25 @@ def small_session(directory: Path, seed: int = 3) -> tuple[SimulatedSession, Pat
     name, truth = load_true_parameters(BICYCLE)
     session = simulate_session(truth, load_rig(small_rig(directory)), seed, name)
     return session, write_session(session, directory / "session", volts=True)
+
+
+class FakeMonotonic:
+    """A monotonic clock the test moves by hand."""
+
+    def __init__(self) -> None:
+        self.now = 100.0
+
+    def __call__(self) -> float:
+        return self.now
+
+
+START_NS = 1_700_000_000_123_456_789
+
+
+def operator_source(tmp_path: Path, clock: RigClock, seed: int = 3, pause_s: float = 0.5) -> OperatorSimSource:
+    """The benchmark bicycle on the small rig (6 s trials), in operator mode, on ``clock``."""
+    source = open_source("sim", mode="operator", bicycle=str(BICYCLE), rig=str(small_rig(tmp_path)), seed=seed,
+                         pause_between_trials_s=pause_s)  # fmt: skip
+    assert isinstance(source, OperatorSimSource)
+    source.clock = clock
+    return source

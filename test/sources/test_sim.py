@@ -27,7 +27,7 @@ from bike_rig.sources import (
     open_source,
 )
 from bike_rig.sources.sim import SimSource, session_file_trials
-from test.sources.support import BICYCLE, TRIAL_S, small_rig, small_session
+from test.sources.support import BICYCLE, TRIAL_S, FakeMonotonic, small_rig, small_session
 
 START_NS = 1_700_000_000_123_456_789
 
@@ -104,14 +104,6 @@ def test_in_memory_session_equals_the_simulated_one_and_writes_nothing(
     assert list(workdir.iterdir()) == []
 
 
-class FakeMonotonic:
-    """A monotonic clock the test moves by hand."""
-
-    def __init__(self) -> None:
-        self.now = 100.0
-
-    def __call__(self) -> float:
-        return self.now
 
 
 def test_paced_in_rig_time(tmp_path: Path) -> None:

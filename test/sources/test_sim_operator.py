@@ -27,20 +27,11 @@ from bike_rig.sources import (
     open_source,
 )
 from bike_rig.sources.sim_operator import OperatorSimSource, planned_measurement
-from test.sources.support import BICYCLE, TRIAL_S, small_rig
-from test.sources.test_sim import FakeMonotonic
+from test.sources.support import BICYCLE, START_NS, TRIAL_S, FakeMonotonic, operator_source, small_rig
 
-START_NS = 1_700_000_000_123_456_789
 RATE = 1000.0
 
 
-def operator_source(tmp_path: Path, clock: RigClock, seed: int = 3, pause_s: float = 0.5) -> OperatorSimSource:
-    """The benchmark bicycle on the small rig (6 s trials), in operator mode, on ``clock``."""
-    source = open_source("sim", mode="operator", bicycle=str(BICYCLE), rig=str(small_rig(tmp_path)), seed=seed,
-                         pause_between_trials_s=pause_s)  # fmt: skip
-    assert isinstance(source, OperatorSimSource)
-    source.clock = clock
-    return source
 
 
 def samples_of(events: list[SourceEvent], trial_id: str, first: int = 0) -> tuple[np.ndarray, np.ndarray]:

@@ -117,9 +117,7 @@ COEFFICIENT_KEYS: Final = (
 """The canonical matrix coefficients in the order Tables 3 and 5 print them."""
 
 _UNIT_BY_INITIAL: Final[Mapping[str, str]] = MappingProxyType({"l": "rad", "m": "kg", "I": "kgm²"})
-_UNITS: Final[Mapping[str, str]] = MappingProxyType(
-    {key: _UNIT_BY_INITIAL.get(key[0], "m") for key in PARAMETER_KEYS}
-)
+_UNITS: Final[Mapping[str, str]] = MappingProxyType({key: _UNIT_BY_INITIAL.get(key[0], "m") for key in PARAMETER_KEYS})
 """Printed unit per parameter, whitespace removed: rad for lam, kg for masses, kg m² for inertias, else m."""
 
 _SYMBOLS: Final[Mapping[str, str]] = MappingProxyType({"λ": "lam"})
@@ -321,9 +319,7 @@ def _bicycle_table(
     printed = tuple(table[BICYCLES[0]])
     if printed != keys:
         missing = [key for key in keys if key not in printed]
-        reason = (
-            f"Table {number}: expected the rows {keys} in that order, found {printed} (missing {missing})"
-        )
+        reason = f"Table {number}: expected the rows {keys} in that order, found {printed} (missing {missing})"
         raise PaperFormatError(str(path), reason, line=rows[0][0])
     return table
 
@@ -334,9 +330,7 @@ def _check_bicycle_headers(path: Path, number: int, rows: list[tuple[int, str]])
         raise _fail(path, number, *rows[0], "expected two header rows before the data")
     (header_line, header), (sigma_line, sigma_header) = rows[:2]
     if header.split() != ["Parameter", *BICYCLES]:
-        raise _fail(
-            path, number, header_line, header, f"header is not 'Parameter' and the bicycles {BICYCLES}"
-        )
+        raise _fail(path, number, header_line, header, f"header is not 'Parameter' and the bicycles {BICYCLES}")
     pairs = len(sigma_header.split()) // 2
     if pairs not in (1, len(BICYCLES)) or sigma_header.split() != list(_SIGMA_HEADER * pairs):
         raise _fail(path, number, sigma_line, sigma_header, "second header row is not 'Value σ' repeated")
@@ -431,9 +425,7 @@ def _rider(path: Path) -> Rider:
     if match is None:
         raise _fail(path, 1, line, text, "I_P is not a LaTeX bmatrix")
     try:
-        entries = [
-            [_number(entry.strip())[0] for entry in row.split("&")] for row in match["body"].split(r"\\")
-        ]
+        entries = [[_number(entry.strip())[0] for entry in row.split("&")] for row in match["body"].split(r"\\")]
     except ValueError as error:
         raise _fail(path, 1, line, text, str(error)) from None
     if [len(row) for row in entries] != [3, 3, 3]:

@@ -30,11 +30,7 @@ from test.support.paper import (
 
 def _raw_row(label: str, occurrence: int = 0) -> list[str]:
     """The whitespace-separated cells of the ``occurrence``-th line of the paper starting with ``label``."""
-    lines = [
-        line
-        for line in paper_path().read_text(encoding="utf-8").splitlines()
-        if line.startswith(label + "\t")
-    ]
+    lines = [line for line in paper_path().read_text(encoding="utf-8").splitlines() if line.startswith(label + "\t")]
     return lines[occurrence].split("\t", 1)[1].split()
 
 

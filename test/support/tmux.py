@@ -15,6 +15,8 @@ import time
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
+from test.support.wait import wait_until
+
 __all__ = ["TMUX", "TmuxSession", "flatten"]
 
 TMUX = shutil.which("tmux") or "/usr/bin/tmux"
@@ -78,15 +80,14 @@ class TmuxSession:
         Raises:
             AssertionError: Not within ``timeout_s`` (with the last screen).
         """
-        deadline = time.monotonic() + timeout_s
-        screen = ""
-        while time.monotonic() < deadline:
-            screen = self.screen()
-            text = flatten(screen) if flat else screen
-            if re.search(pattern, text):
-                return screen
-            time.sleep(0.05)
-        raise AssertionError(f"screen never matched {pattern!r} in {timeout_s} s; last screen:\n{screen}")
+        last = [""]
+
+        def matched() -> bool:
+            last[0] = self.screen()
+            return re.search(pattern, flatten(last[0]) if flat else last[0]) is not None
+
+        wait_until(matched, f"the screen to match {pattern!r}", timeout_s, describe=lambda: f"last screen:\n{last[0]}")
+        return last[0]
 
     def close(self) -> None:
         """Kill the tmux server and everything in it."""

@@ -1,4 +1,4 @@
-"""Sends a few oversized gyro batches to the fitter (never collected: no ``test_`` prefix).
+"""Sends a few oversized gyro batches to the fitter (a helper of bench_fitter_memory.py).
 
     python big_batches.py SAMPLES COUNT
 
