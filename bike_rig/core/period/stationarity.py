@@ -24,8 +24,17 @@ moved by the windows' mean departure, weighted by their cycles):
 
 * below the ``WIDEN_FROM`` quantile: nothing changes;
 * beyond it: σ² = (B σ)² + ΔT² (the small-swing period's σ: × B);
-* beyond ``FLAG_FROM`` (the model's law is rejected): the mean period is the windows', with
-  σ² = σ² + σ_ΔT²; flagged ``period_drift`` when B ≥ ``MAX_BIRGE``.
+* beyond ``REJECT_FROM`` (the model's law is rejected): the mean period is the windows', with
+  σ² = σ² + σ_ΔT²;
+* flagged ``period_drift`` only when the movement is both certain and large: beyond the
+  ``FLAG_FROM`` quantile and B ≥ ``MAX_BIRGE``.
+
+A flag sends the trial to be redone, and a session holds tens of trials: at ``REJECT_FROM`` a
+clean session would lose a trial now and then (on the rig simulator's clean trials the test's
+probabilities are uniform: 1 trial in 1000 falls below 1e-3, two windows of a short record then
+lying some 7 σ apart by chance). Below ``FLAG_FROM`` a session of a hundred clean trials is
+flagged once in a thousand sessions; in between, the σ carries the movement (widened, or the
+windows' own mean period) and a note says so.
 """
 
 from __future__ import annotations
@@ -61,8 +70,11 @@ MIN_WINDOW_CYCLES = 4
 MOVES_BELOW = 1e-3
 #: The probability under the model below which its unexplained movement widens the σ.
 WIDEN_FROM = 0.05
-#: The probability below which a movement that widens the σ this much is flagged.
-FLAG_FROM = 1e-3
+#: The probability under the model below which its period law is rejected (the windows' mean is taken).
+REJECT_FROM = 1e-3
+#: The probability below which a movement of ``MAX_BIRGE`` × its σ or more is flagged: one clean
+#: trial in 1e5 (a session of 100 trials: one in 1000 sessions).
+FLAG_FROM = 1e-5
 #: The Birge ratio from which the unexplained movement is flagged ``period_drift``.
 MAX_BIRGE = 3.0
 
@@ -158,8 +170,8 @@ class Movement:
 
     @property
     def rejects(self) -> bool:
-        """Whether the model's period law is rejected (χ² beyond its ``FLAG_FROM`` quantile)."""
-        return self.probability < FLAG_FROM
+        """Whether the model's period law is rejected (χ² beyond its ``REJECT_FROM`` quantile)."""
+        return self.probability < REJECT_FROM
 
     @property
     def birge(self) -> float:
@@ -174,12 +186,12 @@ class Movement:
         return 1.0
 
     def flag(self, windows: Stationarity | None) -> Flag | None:
-        """``period_drift`` when the model is rejected and the movement is ``MAX_BIRGE`` × its σ or more.
+        """``period_drift`` beyond χ²'s ``FLAG_FROM`` quantile with a movement of ``MAX_BIRGE`` × its σ or more.
 
         Args:
             windows: Eq 23's windowed periods, to say how far the period moves.
         """
-        if not (self.rejects and self.birge >= MAX_BIRGE):
+        if not (self.probability < FLAG_FROM and self.birge >= MAX_BIRGE):
             return None
         moves = ""
         if windows is not None:
@@ -188,7 +200,8 @@ class Movement:
         return Flag(
             FlagCode.PERIOD_DRIFT,
             f"the period moves along the record{moves} beyond {self.model}: {self.birge:.1f} × its σ "
-            f"(χ² = {self.chi2:.1f} for {self.dof} degrees of freedom; flagged from {MAX_BIRGE:g} ×)",
+            f"(χ² = {self.chi2:.1f} for {self.dof} degrees of freedom, p = {self.probability:.1g}; "
+            f"flagged from {MAX_BIRGE:g} × at p < {FLAG_FROM:g})",
         )
 
     def describe(self, reported: tuple[float, float], model: tuple[float, float]) -> str:
@@ -334,10 +347,10 @@ def with_stationarity(fit: PeriodFit, eq23: PhaseResidual, residual: PhaseResidu
     Returns:
         ``fit`` with ``window_periods`` and a note when they move. When the model leaves a
         movement beyond χ²'s ``WIDEN_FROM`` quantile, ``period_sigma`` and
-        ``small_swing_period_sigma`` are multiplied by the Birge ratio; beyond ``FLAG_FROM``
+        ``small_swing_period_sigma`` are multiplied by the Birge ratio; beyond ``REJECT_FROM``
         (the model's law rejected) the mean period is the windows' (the model's, moved by
-        their mean departure ``shift``), σ² = σ_model² + σ_shift², and ``period_drift`` is
-        flagged when the Birge ratio reaches ``MAX_BIRGE``.
+        their mean departure ``shift``), σ² = σ_model² + σ_shift²; ``period_drift`` is
+        flagged beyond ``FLAG_FROM`` when the Birge ratio reaches ``MAX_BIRGE``.
     """
     notes, flags = list(fit.notes), list(fit.flags)
     slopes = _slopes(eq23)
