@@ -26,8 +26,11 @@ min_cycles=4.0, min_r2=0.9, max_modulation=0.02, max_drift=0.5, min_valid_cycles
   ``window_policy``, ``valid``, ``flags``; also ``period_sigma_white`` (Eq 27 as printed),
   ``zeta_sigma``, ``omega_sigma``, ``alpha_sigma`` (σ of ζω), ``sigma_dof``, ``modulation``, ``drift``, ``notes``;
   ``predict(t)``; ``clean`` (valid and unflagged).
+* ``period`` is the mean period over the window (Eq 25; with a finite swing, the window's
+  length over its cycles); its σ covers the period's movement along the record beyond the
+  fit's model (``sigma_widening``, :mod:`.stationarity`).
 * Flags (:class:`FlagCode`): ``too_few_cycles``, ``poor_fit``, ``beating``, ``clipped``,
-  ``gap_filled``, ``non_finite``, ``drift``; and, without a period, ``empty``, ``constant``,
+  ``gap_filled``, ``non_finite``, ``drift``, ``period_drift``; and, without a period, ``empty``, ``constant``,
   ``no_oscillation``, ``fit_failed``, ``bad_times``. A flagged trial keeps its period but
   should be redone; :func:`combine_periods` leaves it out.
 

@@ -27,8 +27,8 @@ FLAG_ADVICE: Mapping[FlagCode, str] = {
     FlagCode.CLIPPED: "the signal hit the ADC's rails: release from a smaller angle",
     FlagCode.GAP_FILLED: "held or repeated samples: check the link to the DAQ or CAN bus for dropouts",
     FlagCode.DRIFT: "the gyro's offset drifted: let the gyro warm up and keep the temperature steady, then redo",
-    FlagCode.PERIOD_DRIFT: "the period changed during the trial: release from a smaller angle, check that the "
-    "part and the clamp are tight, then redo",
+    FlagCode.PERIOD_DRIFT: "the period changed during the trial beyond what its swing explains: check that the "
+    "part and its clamp are tight and that nothing touches the pendulum or the rig, then redo",
     FlagCode.UNKNOWN_TRIAL: "samples arrived for a trial that was never started: check that only one driver runs",
     FlagCode.NO_START: "the trial's START was lost: redo the trial",
     FlagCode.NO_STOP: "the trial never stopped (the driver stopped or died): redo the trial",

@@ -35,9 +35,11 @@ with the swing, T ≈ T₀ (1 + θ²/16), and shortens along the record as the s
 order in θ² the frequency follows the envelope's square, ``ω(τ) = ω (1 + κ (E(τ)² − 1))``
 (κ ≈ −θ_c²/16 for the swing θ_c at the window centre), so the phase is ``ωτ + ωκ I(τ)`` with
 ``I(τ) = ∫₀^τ (E² − 1)`` (:func:`swing_integral`). κ is fitted with the combined model and kept
-when ``κ/σ_κ ≤ −Z_LIMIT`` (only a softening restoring torque, as a pendulum's); then ``period``
-is the period at the centre's swing and 2π/(ω(1 − κ)) that of a vanishing swing, with σ. This
-needs no gyro calibration: the swing's effect on the period is measured, not computed from θ.
+when ``κ/σ_κ ≤ −Z_LIMIT`` (only a softening restoring torque, as a pendulum's). Then 2π/ω is
+the period at the centre's swing, 2π/(ω(1 − κ)) that of a vanishing swing, and ``period`` stays
+the paper's, the mean over the window: the window's length over its cycles, 2π/ω̄ with
+``ω̄ = ω (1 + κ (⟨E²⟩ − 1))`` (:func:`mean_period`), each with σ. This needs no gyro
+calibration: the swing's effect on the period is measured, not computed from θ.
 The θ⁴ term is left out: at a 20° swing it moves T₀ by about 5e-5 of itself.
 
 **When they are tried.** Only when Eq 23's per-cycle envelope/phase deviations reach
@@ -77,8 +79,11 @@ __all__ = [
     "envelope",
     "fit_envelope",
     "half_cycle_times",
+    "mean_period",
+    "mean_swing_square",
     "select_damping",
     "swing_integral",
+    "swing_stop",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -206,6 +211,54 @@ def swing_integral(tau: FloatArray, alpha: float, gamma: float) -> FloatArray:
     return np.asarray(np.interp(tau, grid, cumulative) - np.interp(0.0, grid, cumulative), dtype=np.float64)
 
 
+def swing_stop(alpha: float, gamma: float) -> float:
+    """When the smooth envelope ``E(τ)`` reaches 0 (the swing stops), s from the centre; inf if never."""
+    if not gamma > 0.0:
+        return math.inf
+    if alpha == 0.0:
+        return 1.0 / gamma
+    ratio = alpha / gamma
+    return math.log1p(ratio) / alpha if ratio > -1.0 else math.inf
+
+
+def mean_swing_square(alpha: float, gamma: float, start: float, stop: float) -> float:
+    """``⟨E²⟩ − 1`` over the swinging part of ``[start, stop]`` (τ from the centre, s): 1.
+
+    The mean frequency of a finite swing over a window is ``ω (1 + κ (⟨E²⟩ − 1))``
+    (:func:`swing_integral`); once the swing has stopped there is no frequency to average.
+
+    Args:
+        alpha: Viscous decay rate, 1/s.
+        gamma: Dry-friction decay rate, 1/s.
+        start: The window's start, s from the centre.
+        stop: Its end, s from the centre (> ``start``).
+    """
+    stop = min(stop, swing_stop(alpha, gamma))
+    if not stop > start:
+        return 0.0
+    ends = swing_integral(np.array([start, stop]), alpha, gamma)
+    return float(ends[1] - ends[0]) / (stop - start)
+
+
+def mean_period(omega: float, kappa: float, alpha: float, gamma: float, span: tuple[float, float]) -> float:
+    """Eq 25 over a window: ``T̄ = 2π / ω̄``, ``ω̄ = ω (1 + κ (⟨E²⟩ − 1))`` its mean frequency, s.
+
+    The paper's period of a record whose period follows its swing: the window's length over
+    the cycles in it (Eq 23 fitted to the window approximates it, weighting the larger swings
+    more).
+
+    Args:
+        omega: The frequency at the centre's swing, rad/s.
+        kappa: The finite swing's frequency change κ (0: none), 1.
+        alpha: Viscous decay rate, 1/s.
+        gamma: Dry-friction decay rate, 1/s.
+        span: The window's (start, end), s from the centre.
+    """
+    if kappa == 0.0:
+        return TWO_PI / omega
+    return TWO_PI / (omega * (1.0 + kappa * mean_swing_square(alpha, gamma, *span)))
+
+
 @dataclass(frozen=True)
 class EnvelopeFit:
     """The fit of one damping model to a trial's block means (scaled units, τ from the centre).
@@ -223,6 +276,9 @@ class EnvelopeFit:
             small-swing frequency is ω (1 − κ) (0 when not fitted) [-].
         sigma_kappa: σ of κ (NaN when not fitted) [-].
         sigma_small_swing_period: σ of 2π / (ω (1 − κ)) (NaN when κ is not fitted), s.
+        mean_period: The mean period over the window (:func:`mean_period`; 2π/ω without κ), s.
+        sigma_mean_period: Its σ, s.
+        span: The window's (start, end), s from the centre.
         stop_ratio: When the envelope reaches 0 inside the window (the swing stopped): the
             residual RMS after the stop over that before it (≈ 1 when only noise is left,
             large when the record still oscillates); 0 when it does not stop.
@@ -245,6 +301,9 @@ class EnvelopeFit:
     kappa: float
     sigma_kappa: float
     sigma_small_swing_period: float
+    mean_period: float
+    sigma_mean_period: float
+    span: tuple[float, float]
     stop_ratio: float
     dof: float
     white_fallback: bool
@@ -303,6 +362,7 @@ class _Design:
         self.w = blocks.counts
         last = float(blocks.tb[-1]) + 0.5 * blocks.step * float(blocks.counts[-1])
         self.hats = offset_hats(blocks.tb, blocks.first, last, period)
+        self.span = (blocks.first - 0.5 * blocks.step - blocks.center, last - blocks.center)
         self.n_offsets = self.hats.shape[0]
 
     def names(self) -> tuple[str, ...]:
@@ -437,13 +497,9 @@ def _statistics(design: _Design, x: dict[str, float], r: FloatArray, n_cycles: f
     factor = student_factor(dof)
     sig = {name: factor * math.sqrt(max(0.0, float(cov[i, i]))) for i, name in enumerate(names[first:])}
     sigma_t0 = math.nan
+    t_mean, sigma_mean = TWO_PI / omega, sig["omega"] * TWO_PI / omega**2
     if design.swing:
-        k, w = names[first:].index("kappa"), names[first:].index("omega")
-        kappa = x["kappa"]
-        t0 = TWO_PI / (omega * (1.0 - kappa))
-        grad = np.zeros(len(names) - first)
-        grad[w], grad[k] = -t0 / omega, t0 / (1.0 - kappa)
-        sigma_t0 = factor * math.sqrt(max(0.0, float(grad @ cov @ grad)))
+        sigma_t0, t_mean, sigma_mean = _swing_periods(x, cov * factor**2, design.span, names[first:])
     stop_ratio = 0.0
     stopped = e <= 0.0
     if np.any(stopped) and not np.all(stopped):
@@ -471,12 +527,56 @@ def _statistics(design: _Design, x: dict[str, float], r: FloatArray, n_cycles: f
         kappa=x.get("kappa", 0.0),
         sigma_kappa=sig.get("kappa", math.nan),
         sigma_small_swing_period=sigma_t0,
+        mean_period=t_mean,
+        sigma_mean_period=sigma_mean,
+        span=design.span,
         stop_ratio=stop_ratio,
         dof=dof,
         white_fallback=fallback,
         deviation=np.asarray(deviation, dtype=np.complex128),
         amplitude=np.asarray(amplitude, dtype=float),
     )
+
+
+def _swing_periods(
+    x: dict[str, float], cov: FloatArray, span: tuple[float, float], names: tuple[str, ...]
+) -> tuple[float, float, float]:
+    """σ of the small-swing period, and the mean period over ``span`` with its σ, s.
+
+    Args:
+        x: The fit's parameters (with κ).
+        cov: The covariance of the parameters ``names`` (widened).
+        span: The window's (start, end), s from the centre.
+        names: The parameters of ``cov``.
+    """
+    omega, kappa = x["omega"], x["kappa"]
+    t0 = TWO_PI / (omega * (1.0 - kappa))
+    grad = np.zeros(len(names))
+    grad[names.index("omega")], grad[names.index("kappa")] = -t0 / omega, t0 / (1.0 - kappa)
+    sigma_t0 = math.sqrt(max(0.0, float(grad @ cov @ grad)))
+    t_mean, grad = _mean_period_gradient(x, span, names)
+    return sigma_t0, t_mean, math.sqrt(max(0.0, float(grad @ cov @ grad)))
+
+
+def _mean_period_gradient(
+    x: dict[str, float], span: tuple[float, float], names: tuple[str, ...]
+) -> tuple[float, FloatArray]:
+    """:func:`mean_period` of the fit ``x`` over ``span`` and its gradient by the parameters ``names``."""
+    omega, kappa = x["omega"], x["kappa"]
+    alpha, gamma = x.get("alpha", 0.0), x.get("gamma", 0.0)
+    c = mean_swing_square(alpha, gamma, *span)
+    t_mean = TWO_PI / (omega * (1.0 + kappa * c))
+    grad = np.zeros(len(names))
+    grad[names.index("omega")] = -t_mean / omega
+    grad[names.index("kappa")] = -t_mean * c / (1.0 + kappa * c)
+    # (central differences: the envelope's mean square is smooth in α and γ)
+    for name, (da, dg) in (("alpha", (1.0, 0.0)), ("gamma", (0.0, 1.0))):
+        if name in names:
+            h = 1e-6 * max(abs(x[name]), 1.0 / (span[1] - span[0]))
+            up = mean_swing_square(alpha + h * da, gamma + h * dg, *span)
+            down = mean_swing_square(alpha - h * da, gamma - h * dg, *span)
+            grad[names.index(name)] = -t_mean * kappa * (up - down) / (2.0 * h) / (1.0 + kappa * c)
+    return t_mean, grad
 
 
 @dataclass(frozen=True)

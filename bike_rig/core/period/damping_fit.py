@@ -18,16 +18,17 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .damping import TRY_FROM, DampingChoice, EnvelopeFit, envelope, select_damping, swing_integral
-from .oscillation import zeta_omega
+from .oscillation import TWO_PI, zeta_omega
 from .quality import Modulation, modulation_index, steady_phase, two_mode_flag
 from .result import Flag, FlagCode, PeriodFit
 from .sigma import BlockDesign
 from .solver import FitFailed, Solution
+from .stationarity import PhaseResidual
 
 if TYPE_CHECKING:
     from .fit import FitOptions
 
-__all__ = ["apply_damping", "fit_damping", "swing_phase"]
+__all__ = ["apply_damping", "fit_damping", "phase_residual", "swing_phase", "with_small_swing_period"]
 
 FloatArray = NDArray[np.float64]
 
@@ -120,8 +121,8 @@ def apply_damping(
         )
     out = replace(
         fit,
-        period=env.period,
-        period_sigma=env.sigma_period,
+        period=env.mean_period,
+        period_sigma=env.sigma_mean_period,
         zeta=zeta,
         omega=omega,
         A=offset_a * caller_scale + caller_offset,
@@ -144,12 +145,27 @@ def apply_damping(
         small_swing_period=env.small_swing_period if env.swing else math.nan,
         small_swing_period_sigma=env.sigma_small_swing_period,
         centre_period=env.period if env.swing else math.nan,
+        mean_period=env.mean_period,
     )
-    if env.swing and options.small_swing_period:
-        note = "the small-swing period is reported (option small_swing_period)"
-        out = replace(out, period=out.small_swing_period, period_sigma=out.small_swing_period_sigma,
-                      notes=(*out.notes, note))  # fmt: skip
     return out
+
+
+def with_small_swing_period(fit: PeriodFit) -> PeriodFit:
+    """``fit`` reporting the small-swing period as ``period`` (option ``small_swing_period``), when it has one."""
+    if not math.isfinite(fit.small_swing_period):
+        return fit
+    note = "the small-swing period is reported (option small_swing_period)"
+    return replace(fit, period=fit.small_swing_period, period_sigma=fit.small_swing_period_sigma,
+                   notes=(*fit.notes, note))  # fmt: skip
+
+
+def phase_residual(env: EnvelopeFit) -> PhaseResidual:
+    """The chosen model's per-cycle departures, with its swing term's phase per unit κ (rad)."""
+    if not env.swing:
+        return PhaseResidual(env.deviation, env.amplitude, env.omega)
+    centres = env.span[0] + (np.arange(env.deviation.size, dtype=np.float64) + 0.5) * (TWO_PI / env.omega)
+    shape = env.omega * swing_integral(centres, env.alpha, env.gamma)
+    return PhaseResidual(env.deviation, env.amplitude, env.omega, "the swing", shape)
 
 
 def fit_damping(
@@ -160,7 +176,8 @@ def fit_damping(
     units: tuple[tuple[float, float], tuple[float, float]],
     viscous: Modulation,
     options: FitOptions,
-) -> PeriodFit:
+    residual: PhaseResidual,
+) -> tuple[PeriodFit, PhaseResidual]:
     """Eq 23's ``fit`` under the damping model the data support (:func:`select_damping`).
 
     Args:
@@ -173,23 +190,26 @@ def fit_damping(
             caller's.
         viscous: Eq 23's beating statistics.
         options: The fit's options.
+        residual: Eq 23's per-cycle departures.
 
     Returns:
         ``fit`` itself when Eq 23 stands (or the other models fail, noted), else
         :func:`apply_damping`'s fit — unless it does not fit the samples better than Eq 23
-        (the block-mean models are approximate with uneven samples).
+        (the block-mean models are approximate with uneven samples); and the returned fit's
+        per-cycle departures from its model.
     """
     if not viscous.significance >= TRY_FROM:
-        return fit  # Eq 23's envelope and phase stand out of nothing: it fits
+        return fit, residual  # Eq 23's envelope and phase stand out of nothing: it fits
     try:
         choice = select_damping(blocks, viscous_fit, fit.n_cycles)
     except FitFailed as exc:
-        return replace(fit, notes=(*fit.notes, f"the dry-friction damping models could not be fitted ({exc})"))
+        note = f"the dry-friction damping models could not be fitted ({exc})"
+        return replace(fit, notes=(*fit.notes, note)), residual
     env = choice.fit
     if env is None:
-        return fit
+        return fit, residual
     y, tau_of = samples
     chosen = apply_damping(fit, choice, env, y, tau_of(), units[0], units[1], viscous, options)
     if not chosen.residual_rms < fit.residual_rms:
-        return replace(fit, notes=(*fit.notes, f"{choice.describe()}, but Eq 23 fits the samples as well"))
-    return chosen
+        return replace(fit, notes=(*fit.notes, f"{choice.describe()}, but Eq 23 fits the samples as well")), residual
+    return chosen, phase_residual(env)

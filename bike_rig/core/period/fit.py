@@ -52,7 +52,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .clean import Invalid, clean_samples
-from .damping_fit import fit_damping
+from .damping_fit import fit_damping, with_small_swing_period
 from .detection import detect
 from .oscillation import TWO_PI, damped_cosine, damped_cosine_even, zeta_omega
 from .quality import (
@@ -68,7 +68,7 @@ from .result import Flag, FlagCode, PeriodFit
 from .sigma import BlockDesign, period_sigma
 from .solver import FitFailed, Solution, gauss_newton, varpro
 from .spectrum import block_sums, block_times, peak_of_blocks, spectrum_block
-from .stationarity import with_stationarity
+from .stationarity import PhaseResidual, with_stationarity
 from .window import DEFAULT_WINDOW, WindowPolicy, first_at_or_after, select_window, select_window_even
 
 __all__ = ["FitOptions", "fit_period"]
@@ -104,7 +104,7 @@ class FitOptions:
         max_drift: A residual drift, peak to peak, above this fraction of the oscillation's
             peak to peak is flagged.
         small_swing_period: When the period follows the swing (:mod:`.damping`), report that of
-            a vanishing swing as ``period`` (else the period at the window centre's swing).
+            a vanishing swing as ``period`` (else the mean period over the window, as Eq 23's).
         min_valid_cycles: Fewer cycles than this have no period (default 2; a ride's short segment: 1).
     """
 
@@ -541,8 +541,11 @@ class _Fitter:
             modulation=steady.depth,
             drift=drift,
             notes=tuple(self.notes),
+            mean_period=period,
         )
-        fit = with_stationarity(fit, deviation, cycle_amplitude, omega_d)
         units = (self.units, (self.scale, self.offset))
         samples = (win.ys, lambda: self._tau_of(win, blocks))  # (the times only when another model is chosen)
-        return fit_damping(fit, blocks, sol, samples, units, modulation, self.options)
+        eq23 = PhaseResidual(deviation, cycle_amplitude, omega_d)
+        fit, residual = fit_damping(fit, blocks, sol, samples, units, modulation, self.options, eq23)
+        fit = with_stationarity(fit, eq23, residual)
+        return with_small_swing_period(fit) if self.options.small_swing_period else fit

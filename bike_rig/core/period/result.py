@@ -41,7 +41,8 @@ class FlagCode(str, Enum):
     GAP_FILLED = "gap_filled"
     #: The slow drift of the offset is large against the oscillation.
     DRIFT = "drift"
-    #: The period moves along the record by more than its limit (2 %).
+    #: The period moves along the record beyond its model (constant, or following the swing)
+    #: by a multiple of its σ.
     PERIOD_DRIFT = "period_drift"
 
     # Trial-level codes: how the trial's samples were received (set by the fitting stage,
@@ -99,9 +100,12 @@ class PeriodFit:
     the window. Values that could not be determined are NaN.
 
     Attributes:
-        period: T = 2π / (ω sqrt(1 − ζ²)) (Eq 25) [s].
+        period: The mean period over the window [s]: T = 2π / (ω sqrt(1 − ζ²)) (Eq 25), the
+            window's length over its cycles also when the period follows the swing (unless
+            the option ``small_swing_period`` reports that of a vanishing swing).
         period_sigma: Its standard uncertainty [s], honest for serially correlated residuals
-            (see :mod:`bike_rig.core.period.fit`).
+            (see :mod:`bike_rig.core.period.fit`) and widened by ``sigma_widening`` when the
+            period moves along the record beyond what the fit's model explains.
         zeta: Damping ratio ζ [-].
         omega: Undamped natural angular frequency ω [rad/s].
         A: Offset [sample units].
@@ -141,9 +145,15 @@ class PeriodFit:
         small_swing_period: The period of a vanishing swing 2π / (ω_d (1 − κ)) [s]; NaN when
             the period does not follow the swing.
         small_swing_period_sigma: Its standard uncertainty [s].
-        centre_period: The period at the swing of the window's centre [s] (the fitted
-            period; ``period`` unless the option ``small_swing_period`` reports the
-            small-swing one); NaN when the period does not follow the swing.
+        centre_period: The period at the swing of the window's centre, 2π / ω_d [s]; NaN when
+            the period does not follow the swing.
+        mean_period: The mean period over the window [s] (``period`` unless the option
+            ``small_swing_period`` reports the small-swing one).
+        sigma_widening: ``period_sigma`` over the model's own σ (1: the windowed periods
+            follow the fit's model within their σ; else the Birge ratio and the model's
+            departure from the windows' mean period, or the windows' own σ when the model's law
+            is rejected; ``small_swing_period_sigma`` is multiplied by the Birge ratio, see
+            :mod:`~bike_rig.core.period.stationarity`) [-].
         window_periods: The periods of consecutive windows of whole cycles, in record order
             (:mod:`~bike_rig.core.period.stationarity`; empty for fewer than 8 cycles) [s].
         window_period_sigmas: Their standard uncertainties [s].
@@ -181,6 +191,8 @@ class PeriodFit:
     small_swing_period: float = math.nan
     small_swing_period_sigma: float = math.nan
     centre_period: float = math.nan
+    mean_period: float = math.nan
+    sigma_widening: float = 1.0
     window_periods: tuple[float, ...] = ()
     window_period_sigmas: tuple[float, ...] = ()
 
