@@ -32,10 +32,15 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 from typing import Any
 
-from ..core.benchmark import ComMethod
+import numpy as np
+
+from ..core import com
+from ..core.benchmark import ComMethod, monte_carlo_parameters
 from ..core.errors import BikeRigError
+from ..core.measurements import PART_NAMES, Measurements, hung_parts
 from ..core.rider import add_rider
 from ..core.uncertainty.budget import (
     BUDGET_PARAMETERS,
@@ -60,6 +65,14 @@ __all__ = ["BudgetUsageError", "add_parser", "budget_text", "run"]
 
 #: Inputs named in each "measure better" line of the text summary.
 SUMMARY_INPUTS = 5
+
+#: Hanging lines closer than this (degrees) trigger the Monte Carlo check of the σ.
+NEAR_PARALLEL_DEG = 10.0
+
+#: Seeded draws of the Monte Carlo check, and the σ ratio departure it reports.
+MC_SAMPLES = 20000
+MC_SEED = 1
+MC_DEPARTURE = 0.02
 
 
 class BudgetUsageError(BikeRigError):
@@ -109,6 +122,8 @@ def run(args: argparse.Namespace) -> int:
         text = json.dumps(budget_json(b), indent=2, allow_nan=False)
     else:
         text = budget_text(b, args.top, source=subject.path)
+        if subject.measurements is not None:
+            text += "\n\n" + "\n".join(conditioning_lines(subject.measurements, subject.parameters.parameters))
     emit(text, args.output)
     return 0
 
@@ -179,3 +194,40 @@ def budget_text(b: UncertaintyBudget, top: int = 5, source: str | None = None) -
         lines.append("")
         lines += _output_block(b.output(name), top, width)
     return "\n".join(lines)
+
+
+def conditioning_lines(m: Measurements, linear: Any) -> list[str]:
+    """Hanging-line conditioning of each part, with a Monte Carlo σ check where lines are nearly parallel.
+
+    The check draws the raw readings (seeded) and compares the bicycle's σ with the linear σ.
+
+    Args:
+        m: The raw readings.
+        linear: The linearly propagated parameters (an UncertainVector).
+
+    Returns:
+        Text lines: one per hung part, then the outputs whose Monte Carlo σ departs from
+        the linear σ by more than ``MC_DEPARTURE``.
+    """
+    lines = ["mass-centre line conditioning (smallest angle between hanging lines):"]
+    worst = 180.0
+    for part in hung_parts(m.readings):
+        slopes = [math.tan(math.radians(m.value(f"alpha{part}{i}"))) for i in m.orientations(part)]
+        c = com.line_conditioning(slopes)
+        deg = math.degrees(c.min_angle)
+        worst = min(worst, deg)
+        note = "  nearly parallel" if deg < NEAR_PARALLEL_DEG else ""
+        lines.append(f"    {PART_NAMES[part]:<16}{deg:6.1f}°{note}")
+    if worst >= NEAR_PARALLEL_DEG:
+        return lines
+    mc = monte_carlo_parameters(m, MC_SAMPLES, MC_SEED)
+    off = []
+    for i, name in enumerate(linear.names):
+        s = float(np.sqrt(linear.covariance[i, i]))
+        if s > 0.0 and name in mc:
+            r = float(np.std(mc[name], ddof=1)) / s
+            if abs(r - 1.0) > MC_DEPARTURE:
+                off.append(f"{name} σ_MC/σ_lin = {r:.3f}")
+    head = f"Monte Carlo check ({MC_SAMPLES} seeded draws through the raw readings): "
+    lines.append(head + (", ".join(off) if off else f"linear σ within {MC_DEPARTURE:.0%} everywhere"))
+    return lines

@@ -13,17 +13,20 @@ All functions broadcast over their arguments (complex-step and Monte Carlo frien
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 from itertools import combinations
 from typing import Any
 
 import numpy as np
 
 __all__ = [
+    "LineConditioning",
     "centroid_com",
     "com_line_slope",
     "frame_com_line_intercept",
     "fork_com_line_intercept",
     "least_squares_com",
+    "line_conditioning",
     "line_intersection",
     "pendulum_rotation_angle",
 ]
@@ -140,3 +143,42 @@ def least_squares_com(slopes: Sequence[Any], intercepts: Sequence[Any]) -> tuple
     x = (-smb * n + sm * sb) / det
     z = (smm * sb - sm * smb) / det
     return x, z
+
+
+@dataclass(frozen=True)
+class LineConditioning:
+    """How well a set of mass-centre lines fixes their crossing.
+
+    Attributes:
+        min_angle: Smallest angle between any two lines, rad (0 for parallel lines).
+        condition_number: 2-norm condition number of the line system ``[[-m_i, 1]]``
+            (infinite for parallel lines).
+    """
+
+    min_angle: float
+    condition_number: float
+
+
+def line_conditioning(slopes: Sequence[float]) -> LineConditioning:
+    """Conditioning of the lines z = m_i x + b_i whose crossing is a mass centre.
+
+    The crossing is linear in the intercepts but not in the slopes; nearly parallel lines
+    (a small ``min_angle``, a large ``condition_number``) make it strongly nonlinear in the
+    measured angles, where linear σ propagation understates the scatter.
+
+    Args:
+        slopes: Slope m_i of each line (Eq 12), at least two.
+
+    Returns:
+        The smallest pairwise angle (rad) and the system's condition number.
+    """
+    m = np.asarray(slopes, dtype=float)
+    if m.size < 2:
+        raise ValueError(f"line conditioning needs at least two lines, got {m.size}")
+    angles = np.arctan(m)
+    diffs = [abs(angles[i] - angles[j]) for i, j in combinations(range(m.size), 2)]
+    min_angle = float(min(min(d, np.pi - d) for d in diffs))
+    a = np.column_stack([-m, np.ones_like(m)])
+    sv = np.linalg.svd(a, compute_uv=False)
+    cond = float(sv[0] / sv[-1]) if sv[-1] > 0.0 else float("inf")
+    return LineConditioning(min_angle=min_angle, condition_number=cond)
