@@ -24,8 +24,7 @@ from bike_rig.core.reading_ranges import (
 )
 from bike_rig.core.rider import RiderError, load_rider
 from bike_rig.paths import config_file
-from test.core.test_plausibility import real_files
-from test.support.paper import shared_dir
+from test.support.paper import real_files, shared_dir
 
 BENCHMARK = config_file("bicycles/benchmark.yaml")
 

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -25,7 +24,7 @@ from bike_rig.core.plausibility import (
 from bike_rig.core.rider import PAPER_RIDER, add_rider
 from bike_rig.core.symbols import PARAMETER_NAMES
 from bike_rig.paths import config_file
-from test.support.paper import rider_table1, shared_dir, table2, table4
+from test.support.paper import real_files, rider_table1, table2, table4
 
 BENCHMARK = config_file("bicycles/benchmark.yaml")
 
@@ -40,15 +39,6 @@ def benchmark() -> dict[str, float]:
 def parameter_set(path: Path) -> ParameterSet:
     got = load_input(path)
     return got if isinstance(got, ParameterSet) else compute_parameters(got)
-
-
-def real_files() -> Iterator[Path]:
-    """Every shipped bicycle and every paper bicycle's raw and benchmark file (and Jason on the Browser)."""
-    yield from sorted(config_file("bicycles").glob("*.yaml"))
-    data = shared_dir() / "data" / "bicycleparameters"
-    yield from sorted(data.glob("*/RawData/*Measured.txt"))
-    yield from sorted(data.glob("*/Parameters/*Benchmark.txt"))
-    yield from sorted(data.glob("riders/*/Parameters/*Benchmark.txt"))
 
 
 def test_every_real_bicycle_is_physically_possible_alone_and_with_the_paper_rider() -> None:

@@ -15,9 +15,9 @@ import numpy as np
 import pytest
 
 from bike_rig.sources.can import CanFrameLayout
-from test.nodes.test_driver_operator import Operator
 from test.ros.processes import RosProcess
-from test.sources.test_can import _write_log
+from test.support.canlog import write_can_log
+from test.support.operator import Operator
 from test.support.probe import START, STOP, Probe, node_command
 
 msgs: Any = pytest.importorskip("bike_rig_msgs.msg")
@@ -26,7 +26,7 @@ msgs: Any = pytest.importorskip("bike_rig_msgs.msg")
 def test_a_trial_from_a_log_file_is_the_logs_samples(probe: Probe, ros_env: dict[str, str], tmp_path: Path) -> None:
     layout = CanFrameLayout(0x100, samples_per_frame=4, scale=1e-4)
     log = tmp_path / "gyro.log"
-    rates, first_stamp = _write_log(log, layout, 500, t0=1_790_000_000.0)
+    rates, first_stamp = write_can_log(log, layout, 500, t0=1_790_000_000.0)
     cmd = node_command("bike_rig.nodes.driver", "source:=can", f"can_log_file:={log}", "can_log_speed:=0.0")
     with RosProcess("driver", cmd, ros_env, tmp_path) as driver:
         op = Operator(probe, driver)

@@ -23,9 +23,9 @@ from bike_rig.core.sim import TrialSimulator, load_rig, load_true_parameters
 from bike_rig.messages import sample_batch_from_msg, trial_event_from_msg
 from bike_rig.paths import config_file
 from bike_rig.pipeline.fit import fit_trial
-from bike_rig.topics import GYRO, START_TRIAL, STOP_TRIAL, TRIAL_EVENTS
 from test.ros.processes import RosProcess
 from test.sources.support import BICYCLE, small_rig
+from test.support.operator import Operator
 from test.support.probe import ABORT, START, STEP_TIMEOUT_S, STOP, Probe, node_command
 
 pytestmark = pytest.mark.ros
@@ -37,37 +37,6 @@ TRIAL_S = 6.0  # the small rig's trial duration, s of rig time
 TIME_SCALE = 50.0  # a trial in 0.12 s
 
 
-
-
-class Operator:
-    """StartTrial and StopTrial calls, and the trial events and gyro batches seen."""
-
-    def __init__(self, probe: Probe, driver: RosProcess | None = None):
-        self.probe = probe
-        self.driver = driver
-        self.events = probe.subscribe(TRIAL_EVENTS, msgs.TrialEvent)
-        self.batches = probe.subscribe(GYRO, msgs.GyroBatch)
-        self.start_client = probe.node.create_client(srvs.StartTrial, START_TRIAL)
-        self.stop_client = probe.node.create_client(srvs.StopTrial, STOP_TRIAL)
-
-    def start(self, part: str, pendulum: str, orientation: int = 0, **fields: Any) -> Any:
-        request = srvs.StartTrial.Request(part=part, pendulum=pendulum, orientation=orientation, **fields)
-        return self.probe.call(self.start_client, request)
-
-    def stop(self, trial_id: str = "", abort: bool = False) -> Any:
-        return self.probe.call(self.stop_client, srvs.StopTrial.Request(trial_id=trial_id, abort=abort))
-
-    def event(self, kind: int, trial_id: str) -> Any:
-        """Wait for the event ``kind`` of ``trial_id``."""
-        def found() -> Any:
-            return next((e for e in self.events if e.kind == kind and e.trial_id == trial_id), None)
-
-        describe = self.driver.describe if self.driver is not None else (lambda: "")
-        self.probe.spin_until(lambda: found() is not None, STEP_TIMEOUT_S, f"event {kind} of {trial_id}", describe)
-        return found()
-
-    def samples(self, trial_id: str) -> int:
-        return sum(len(b.rates) for b in self.batches if b.trial_id == trial_id)
 
 
 def test_sim_operator_mode_trials_on_request(probe: Probe, ros_env: dict[str, str], tmp_path: Path) -> None:

@@ -8,7 +8,8 @@ import pytest
 
 from bike_rig import topics
 from bike_rig.pipeline.fit import TrialFit
-from test.nodes.test_parameter import BROWSER, Probe, browser_trials, publish_trials, start_node
+from test.support.nodes import BROWSER, browser_trials, publish_trials, start_node
+from test.support.probe import Probe
 
 pytestmark = pytest.mark.ros
 

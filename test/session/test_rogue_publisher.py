@@ -16,7 +16,7 @@ from bike_rig.core.sim.session import SimulatedTrial
 from bike_rig.paths import config_file
 from bike_rig.pipeline.acquire import SampleBatch, TrialEventKind, TrialEventRecord
 from bike_rig.pipeline.fit import TrialFit, fit_trial
-from test.session.test_session_faults import Session
+from test.support.sessions import PlainSession as Session
 from test.support.sessions import end_process, kill_session
 
 BIKE_RIG = Path(sys.executable).parent / "bike-rig"

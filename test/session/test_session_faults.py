@@ -10,57 +10,17 @@ from __future__ import annotations
 
 import json
 import os
-import queue
 import signal
 import subprocess
 import sys
-import threading
 import time
 from pathlib import Path
-from typing import IO, Any
 
-from test.support.sessions import end_process, kill_session, session_pids
+from test.support.sessions import PlainSession as Session
+from test.support.sessions import kill_session, session_pids
 
 BIKE_RIG = Path(sys.executable).parent / "bike-rig"
 ITEMS = ["TcR1#1", "TcR1#2", "TcR1#3", "TtR1#1", "TtR1#2", "TtR1#3"]
-
-
-class Session:
-    """A plain --json session driven line by line."""
-
-    def __init__(self, argv: list[str], env: dict[str, str]) -> None:
-        self.proc = subprocess.Popen(argv, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, env=env)
-        self.replies: queue.Queue[dict[str, Any]] = queue.Queue()
-        self.seen: list[dict[str, Any]] = []
-        assert self.proc.stdout is not None
-        threading.Thread(target=self._read, args=(self.proc.stdout,), daemon=True).start()
-
-    def _read(self, stream: IO[str]) -> None:
-        for line in stream:
-            self.replies.put(json.loads(line))
-
-    def send(self, line: str) -> None:
-        assert self.proc.stdin is not None
-        self.proc.stdin.write(line + "\n")
-        self.proc.stdin.flush()
-
-    def until(self, what: Any, timeout_s: float = 60) -> dict[str, Any]:
-        """The first reply from now on for which ``what(reply)`` holds."""
-        while True:
-            reply = self.replies.get(timeout=timeout_s)
-            self.seen.append(reply)
-            if what(reply):
-                return reply
-
-    def trial(self, item: str) -> dict[str, Any]:
-        """Start ``item``; its result."""
-        self.send(f"start {item}")
-        started = self.until(lambda r: r.get("command") == "start")
-        assert started["kind"] == "ok", started
-        return self.until(lambda r: r["kind"] == "result" and r.get("trial_id") == started["trial_id"])
-
-    def close(self) -> None:
-        end_process(self.proc)
 
 
 def test_killed_nodes_are_said_restarted_and_a_killed_driver_resumed(tmp_path: Path, ros_env: dict[str, str]) -> None:

@@ -36,6 +36,7 @@ from bike_rig.sources import (
 )
 from bike_rig.sources.can import CanFrameLayout, CanSource, SimulatedCanGyro, array_samples, damped_samples
 from test.sources.support import small_session
+from test.support.canlog import write_can_log
 
 RATE = 1000.0
 
@@ -347,37 +348,11 @@ def test_stamps_follow_the_clock_checked_on_the_first_frames() -> None:
         source.close()
 
 
-def _write_log(path: Path, layout: CanFrameLayout, frames: int, t0: float) -> tuple[np.ndarray, float]:
-    """Write ``frames`` gyro frames at 250 frames/s among foreign ones with python-can's writer for the suffix.
-
-    Returns the rates and the first gyro frame's stamp as python-can reads it back.
-    """
-    rates = np.round(np.cos(np.arange(frames * layout.samples_per_frame) / 11.0), 4)
-    with can.Logger(path) as writer:
-        for i in range(frames):
-            chunk = rates[i * layout.samples_per_frame : (i + 1) * layout.samples_per_frame]
-            t = t0 + i * 0.004
-            writer.on_message_received(
-                can.Message(
-                    timestamp=t,
-                    arbitration_id=layout.can_id,
-                    data=layout.encode(chunk),
-                    is_extended_id=False,
-                    channel=0,
-                )
-            )
-            writer.on_message_received(can.Message(timestamp=t + 0.001, arbitration_id=0x3F0, data=bytes(6),
-                                                   is_extended_id=False, channel=0))  # fmt: skip
-    with can.LogReader(path) as reader:
-        first = next(m for m in reader if m.arbitration_id == layout.can_id)
-    return rates, float(first.timestamp)
-
-
 @pytest.mark.parametrize("suffix", [".log", ".asc", ".blf", ".trc", ".csv"])
 def test_a_log_file_replays_bit_exact_trial_after_trial(tmp_path: Path, suffix: str) -> None:
     layout = CanFrameLayout(0x100, samples_per_frame=4, scale=1e-4)
     path = tmp_path / f"gyro{suffix}"
-    rates, first_stamp = _write_log(path, layout, 300, t0=1_790_000_000.0)
+    rates, first_stamp = write_can_log(path, layout, 300, t0=1_790_000_000.0)
     source = open_source("can", can_log_file=str(path), can_log_speed=0.0)
     assert isinstance(source, CanSource)
     try:
@@ -415,7 +390,7 @@ def test_a_log_file_is_paced_by_its_timestamps(tmp_path: Path) -> None:
 
     layout = CanFrameLayout(0x100, samples_per_frame=4, scale=1e-4)
     path = tmp_path / "gyro.log"
-    _write_log(path, layout, 100, t0=1_790_000_000.0)  # gyro frames every 4 ms, a foreign one 1 ms after each
+    write_can_log(path, layout, 100, t0=1_790_000_000.0)  # gyro frames every 4 ms, a foreign one 1 ms after each
     now = [100.0]
     bus = LogBus(path, speed=2.0, clock=lambda: now[0])
 
@@ -451,7 +426,7 @@ def test_a_bad_log_file_is_one_clear_error(tmp_path: Path, name: str, pattern: s
 def test_a_trial_that_takes_the_logs_last_frame_leaves_the_source_finished(tmp_path: Path) -> None:
     layout = CanFrameLayout(0x100, samples_per_frame=4, scale=1e-4)
     path = tmp_path / "gyro.blf"
-    _write_log(path, layout, 100, t0=1_790_000_000.0)
+    write_can_log(path, layout, 100, t0=1_790_000_000.0)
     source = open_source("can", can_log_file=str(path), can_log_speed=0.0)
     assert isinstance(source, CanSource)
     try:
@@ -467,7 +442,7 @@ def test_a_trial_that_takes_the_logs_last_frame_leaves_the_source_finished(tmp_p
 def test_a_log_that_ends_an_until_stopped_trial_stops_it(tmp_path: Path) -> None:
     layout = CanFrameLayout(0x100, samples_per_frame=4, scale=1e-4)
     path = tmp_path / "gyro.log"
-    _write_log(path, layout, 100, t0=1_790_000_000.0)
+    write_can_log(path, layout, 100, t0=1_790_000_000.0)
     source = open_source("can", can_log_file=str(path), can_log_speed=0.0)
     assert isinstance(source, CanSource)
     try:
@@ -483,7 +458,7 @@ def test_a_log_that_ends_an_until_stopped_trial_stops_it(tmp_path: Path) -> None
 def test_a_damaged_log_record_is_one_read_error(tmp_path: Path) -> None:
     layout = CanFrameLayout(0x100, samples_per_frame=4, scale=1e-4)
     path = tmp_path / "gyro.log"
-    _write_log(path, layout, 10, t0=1_790_000_000.0)
+    write_can_log(path, layout, 10, t0=1_790_000_000.0)
     lines = path.read_text(encoding="utf-8").splitlines()
     path.write_text("\n".join([*lines[:6], "(1790000000.030000) can0 100#ZZZZ R", *lines[6:]]) + "\n", encoding="utf-8")
     source = open_source("can", can_log_file=str(path), can_log_speed=0.0)

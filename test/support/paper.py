@@ -48,7 +48,7 @@ from __future__ import annotations
 
 import os
 import re
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
@@ -56,8 +56,10 @@ from types import MappingProxyType
 from typing import Final
 
 from bike_rig.core.errors import BikeRigError, InputFileError
+from bike_rig.paths import config_file
 
 __all__ = [
+    "real_files",
     "BICYCLES",
     "BICYCLE_NAMES",
     "COEFFICIENT_KEYS",
@@ -433,3 +435,12 @@ def _rider(path: Path) -> Rider:
     (xx, xy, xz), (yx, yy, yz), (zx, zy, zz) = entries
     inertia = ((xx, xy, xz), (yx, yy, yz), (zx, zy, zz))
     return Rider(mass=scalar("m_P[kg]"), x=scalar("x_P[m]"), z=scalar("z_P[m]"), inertia=inertia)
+
+
+def real_files() -> Iterator[Path]:
+    """Every shipped bicycle and every paper bicycle's raw and benchmark file (and Jason on the Browser)."""
+    yield from sorted(config_file("bicycles").glob("*.yaml"))
+    data = shared_dir() / "data" / "bicycleparameters"
+    yield from sorted(data.glob("*/RawData/*Measured.txt"))
+    yield from sorted(data.glob("*/Parameters/*Benchmark.txt"))
+    yield from sorted(data.glob("riders/*/Parameters/*Benchmark.txt"))
