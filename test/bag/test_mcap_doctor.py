@@ -69,3 +69,24 @@ def test_an_empty_bag_has_no_channels(tmp_path: Path) -> None:
     (path,) = sorted((tmp_path / "empty").glob("*.mcap"))
     in_data, in_summary, messages = data_and_summary(path)
     assert in_summary <= in_data and messages == 0
+
+
+def test_schemas_keep_each_msg_file_verbatim(tmp_path: Path) -> None:
+    """As rosbag2 stores them: the .msg text with its comments and units, then each dependency's."""
+    from bike_rig.bag.typestore import find_msg_dir
+
+    traffic = sample_traffic({t.name: 1 for t in TOPICS})
+    with BagWriter(tmp_path / "bag") as w:
+        for t in TOPICS:
+            w.add_topic(t.name, t.type, offered_qos=[contract_qos(t.qos)])
+        for name, log_time, data, _ in traffic:
+            w.write(name, log_time, data)
+    (path,) = sorted((tmp_path / "bag").glob("*.mcap"))
+    with path.open("rb") as f:
+        summary = make_reader(f).get_summary()
+    assert summary is not None
+    schemas = {s.name: s.data.decode() for s in summary.schemas.values()}
+    gyro = (find_msg_dir() / "GyroBatch.msg").read_text(encoding="utf-8")
+    assert "#" in gyro  # (the file has comments to keep)
+    assert schemas[GYRO.type].startswith(gyro.rstrip("\n") + "\n")
+    assert "\nMSG: std_msgs/Header\n" in schemas[GYRO.type]
