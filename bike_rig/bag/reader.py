@@ -197,6 +197,12 @@ def _resolve(path: Path, shown: str) -> tuple[Path, Metadata | None]:
         raise BagReadError(shown, f"cannot read ({exc.strerror or exc})") from None
     if head == MCAP_MAGIC:
         raise NotABagError(shown, "an MCAP file must be named *.mcap to be read")
+    if head.startswith(b"#ROSBAG"):
+        raise NotABagError(
+            shown,
+            "a ROS 1 bag: bike-rig reads ROS 2 bags only (a rosbag2 directory or an MCAP file); "
+            f"convert it with 'rosbags-convert --src {shown} --dst <new bag directory>'",
+        )
     raise NotABagError(shown, "not a bag (neither a rosbag2 directory nor an MCAP file)")
 
 
