@@ -32,9 +32,22 @@ setup(
         (f"share/{PACKAGE}/config/foxglove", _files("config/foxglove/*")),
         (f"share/{PACKAGE}/config/dds", _files("config/dds/*")),
     ],
-    # Runtime libraries are installed from tools/requirements.txt (pinned, with the ROS
-    # wheels), not declared here: the ROS packages come from the ROS prefix, as in ament.
-    install_requires=[],
+    # The runtime libraries from PyPI, as ranges (the tested pins: tools/requirements.txt). The
+    # ROS packages (rclpy, the message packages) are package.xml's, from the ROS prefix.
+    install_requires=[
+        "numpy>=1.26",
+        "scipy>=1.11",
+        "PyYAML>=6.0",
+        "rosbags>=0.10,<0.12",
+        "mcap>=1.2,<2",
+        "python-can>=4.3,<5",
+        "yeadon>=1.5",
+        "matplotlib>=3.8",
+        "textual>=1.0",
+        "rich>=13",
+        "foxglove-sdk>=0.30,<1",
+        "websockets>=13",
+    ],
     zip_safe=False,
     entry_points={
         "console_scripts": [

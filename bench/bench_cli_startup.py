@@ -6,7 +6,7 @@ against its target, with the machine's load average:
 
 * ``bike-rig params config/bicycles/browser.yaml`` (target ≤ 0.4 s);
 * ``bike-rig replay BAG`` of the 39-trial Browser session (as ``bench_replay.py`` writes it;
-  target ≤ 0.6 s);
+  target ≤ 1.0 s);
 * ``bike-rig report config/bicycles/browser.yaml -o DIR`` (target ≤ 2 s; the figures are drawn
   in forked workers, one per CPU, at most 4: ``bench_report.py`` times it in-process);
 * ``bike-rig --help`` and ``python -c pass`` for scale (the interpreter's own start-up).
@@ -54,7 +54,7 @@ def main() -> int:
             ("python -c pass", [sys.executable, "-c", "pass"], None),
             ("bike-rig --help", [str(SCRIPT), "--help"], None),
             ("bike-rig params browser.yaml", [str(SCRIPT), "params", str(config_file("bicycles/browser.yaml"))], 0.4),
-            ("bike-rig replay BAG (39 trials)", [str(SCRIPT), "replay", str(bag)], 0.6),
+            ("bike-rig replay BAG (39 trials)", [str(SCRIPT), "replay", str(bag)], 1.0),
             ("bike-rig report browser.yaml", [str(SCRIPT), "report", str(config_file("bicycles/browser.yaml")),
                                               "-o", str(Path(tmp) / "report")], 2.0),
         ]  # fmt: skip

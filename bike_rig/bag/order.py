@@ -24,8 +24,18 @@ one publisher at a time (the parameter, model and fitter nodes' topics).
 from __future__ import annotations
 
 from collections.abc import Sequence
+from pathlib import PurePath
 
-__all__ = ["publication_order"]
+__all__ = ["publication_order", "split_order"]
+
+
+def split_order(path: PurePath) -> tuple[str, int, str]:
+    """Sort key of a storage file: a split bag's ``NAME_2.mcap`` before ``NAME_10.mcap``.
+
+    (The recorder and rosbag2 number a bag's files in the order they write them.)
+    """
+    stem, _, index = path.stem.rpartition("_")
+    return (stem, int(index), "") if index.isdigit() else (path.stem, -1, path.name)
 
 
 def publication_order(sequence: Sequence[int], stream: Sequence[int]) -> list[int]:

@@ -1,10 +1,9 @@
 """Read a bag with no ROS runtime: rosbags' reader, and bike_rig's typestore to decode.
 
-The common bag (see :mod:`bike_rig.bag.fastread`) is opened without rosbags' reader, and
-:meth:`BagReader.table` reads its messages as one table; rosbags' reader is opened when
-needed (:meth:`BagReader.messages`, :meth:`BagReader.decoded`) and for every other bag.
-Each topic is decoded with the definition its schema in the bag gives
-(:meth:`BagReader.decoding`, :mod:`bike_rig.bag.schemas`).
+rosbags' reader gives the index (topics, counts, times, QoS) and the messages in log-time
+order; the ``mcap`` library reads an MCAP bag's messages with their publication sequence and
+place in storage (:meth:`BagReader.records`). Each topic is decoded with the definition its
+schema in the bag gives (:meth:`BagReader.decoding`, :mod:`bike_rig.bag.schemas`).
 
 :func:`open_bag` accepts a rosbag2 bag directory (``metadata.yaml`` + storage files, MCAP or
 SQLite) or a single ``.mcap`` file, and turns every problem into one
@@ -28,9 +27,8 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 from ..core.safe_yaml import NotRegularFileError, open_regular_file
 from .check import Metadata, check_mcap, check_metadata
 from .errors import BagError, BagReadError, IncompleteBagError, NotABagError, ReplayError
-from .fastread import MAGIC, FastBag, UnsafeYaml, Unusual, open_fast, split_order
-from .foreign import ChannelShape, check_ros2_cdr, foreign_reason, not_ros2_error
-from .msgtable import CorruptChunk, MessageTable, read_table
+from .foreign import check_ros2_cdr
+from .order import split_order
 from .schemas import Decoding, RecordedSchema, decoding_for
 
 if TYPE_CHECKING:
@@ -41,6 +39,7 @@ __all__ = [
     "MCAP_MAGIC",
     "BagReader",
     "RawMessage",
+    "Record",
     "StampedMessage",
     "TopicInfo",
     "listed_files",
@@ -48,7 +47,7 @@ __all__ = [
     "split_order",
 ]
 
-MCAP_MAGIC = MAGIC
+MCAP_MAGIC = b"\x89MCAP0\r\n"
 
 
 class RawMessage(NamedTuple):
@@ -56,6 +55,25 @@ class RawMessage(NamedTuple):
 
     topic: str
     log_time: int
+    data: bytes
+
+
+class Record(NamedTuple):
+    """One recorded message with its log time and where the recorder put it.
+
+    Attributes:
+        topic: Its topic.
+        log_time: Its log (receive) time, ns since the epoch.
+        sequence: The publication sequence number the recorder stored with it (0: none).
+        stream: Its rank in the recorder's order of storage (file by the split index in its
+            name, then place in the file).
+        data: The CDR bytes.
+    """
+
+    topic: str
+    log_time: int
+    sequence: int
+    stream: int
     data: bytes
 
 
@@ -199,6 +217,12 @@ def _resolve(path: Path, shown: str) -> tuple[Path, Metadata | None]:
         raise BagReadError(shown, f"cannot read ({exc.strerror or exc})") from None
     if head == MCAP_MAGIC:
         raise NotABagError(shown, "an MCAP file must be named *.mcap to be read")
+    if head.startswith(b"#ROSBAG"):
+        raise NotABagError(
+            shown,
+            "a ROS 1 bag: bike-rig reads ROS 2 bags only (a rosbag2 directory or an MCAP file); "
+            f"convert it with 'rosbags-convert --src {shown} --dst <new bag directory>'",
+        )
     raise NotABagError(shown, "not a bag (neither a rosbag2 directory nor an MCAP file)")
 
 
@@ -217,78 +241,44 @@ class BagReader:
         self.shown = str(path)
         self.path = Path(path)
         self._reader: Reader | None = None
-        self._fast: FastBag | None = None
         self._resolved: Path | None = None
         self._decodings: dict[str, Decoding] = {}
         self.topics: dict[str, TopicInfo] = {}
 
     def open(self) -> BagReader:
-        """Open the bag and read its index (by the fast path when the bag is the common kind).
+        """Open the bag and read its index.
 
         Raises:
             NotABagError: Not a bag, or not a ROS 2 CDR bag (a channel of another encoding...).
             BagError: see the module docstring.
         """
-        resolved, metadata = _resolve(self.path, self.shown)
+        resolved, _ = _resolve(self.path, self.shown)
         self._resolved = resolved
-        try:
-            self._fast = open_fast(resolved, metadata)
-        except UnsafeYaml as exc:
-            raise BagReadError(self.shown, f"an MCAP channel's offered QoS profiles: {exc}") from None
-        except Unusual:
-            self._fast = None
+        for f in self._mcap_files(resolved):
+            check_ros2_cdr(f, self.shown)
+        reader = self._open_rosbags(resolved)
+        if not all(isinstance(v, int) for v in (reader.message_count, reader.start_time, reader.end_time)):
+            self.close()
+            raise BagReadError(self.shown, "metadata.yaml: the message count, start or duration is not an integer")
         schemas: dict[str, list[RecordedSchema]] = {}
-        if self._fast is not None:
-            self._refuse_foreign_fast(self._fast)
-            conns: list[tuple[str, str, int, tuple[Qos, ...], str]] = [
-                (t.name, t.msgtype, t.count, t.qos, t.digest) for t in self._fast.connections
-            ]
-            for storage, route in zip(self._fast.storages, self._fast.routes, strict=True):
-                for ch in storage.channels:
-                    if ch.id in route and ch.schema_encoding:
-                        schemas.setdefault(ch.topic, []).append(
-                            RecordedSchema(ch.msgtype, ch.schema_encoding, ch.schema_text)
-                        )
-        else:
-            for f in self._mcap_files(resolved):
-                check_ros2_cdr(f, self.shown)
-            reader = self._open_rosbags(resolved)
-            if not all(isinstance(v, int) for v in (reader.message_count, reader.start_time, reader.end_time)):
-                self.close()
-                raise BagReadError(self.shown, "metadata.yaml: the message count, start or duration is not an integer")
-            conns = [
-                (c.topic, c.msgtype, c.msgcount, tuple(getattr(c.ext, "offered_qos_profiles", ()) or ()), c.digest)
-                for c in reader.connections
-            ]
-            self._refuse_foreign_connections(reader, schemas)
+        self._refuse_foreign_connections(reader, schemas)
         topics: dict[str, TopicInfo] = {}
-        for name, msgtype, msgcount, qos, digest in conns:
+        for c in reader.connections:
+            name, msgcount = c.topic, c.msgcount
             if not isinstance(msgcount, int) or not isinstance(name, str):
                 self.close()
                 raise BagReadError(self.shown, f"topic {name!r}: message count {msgcount!r} is not an integer")
+            qos = tuple(getattr(c.ext, "offered_qos_profiles", ()) or ())
             prev = topics.get(name)
             count = msgcount + (prev.count if prev else 0)
-            known = tuple(dict.fromkeys(x for x in schemas.get(name, ()) if x.msgtype == msgtype))
-            topics[name] = TopicInfo(name, msgtype, count, qos, digest or "", known)
+            known = tuple(dict.fromkeys(x for x in schemas.get(name, ()) if x.msgtype == c.msgtype))
+            topics[name] = TopicInfo(name, c.msgtype, count, qos, c.digest or "", known)
         self.topics = topics
         return self
 
     def _mcap_files(self, resolved: Path) -> list[Path]:
         """The bag's MCAP files (every one in its directory, or the file itself)."""
         return sorted(resolved.glob("*.mcap"), key=split_order) if resolved.is_dir() else [resolved]
-
-    def _refuse_foreign_fast(self, fast: FastBag) -> None:
-        """Refuse a bag opened by the fast path whose MCAP files hold a channel that is not ROS 2 CDR."""
-        for storage in fast.storages:
-            shapes = [
-                ChannelShape(ch.topic, ch.encoding, ch.msgtype,
-                             None if ch.msgtype == "__schemaless__" else ch.schema_encoding)
-                for ch in storage.channels
-            ]  # fmt: skip
-            reason = foreign_reason("ros2", shapes)  # (the fast path reads only the profile ros2)
-            if reason:
-                self.close()
-                raise not_ros2_error(storage.path, self.shown, reason)
 
     def _refuse_foreign_connections(self, reader: Reader, schemas: dict[str, list[RecordedSchema]]) -> None:
         """Refuse a connection rosbags reads whose serialization is not CDR; note each one's schema."""
@@ -321,7 +311,7 @@ class BagReader:
         if self._reader is not None:
             self._reader.close()
             self._reader = None
-        self._fast = self._resolved = None
+        self._resolved = None
 
     def __enter__(self) -> BagReader:
         """Open the bag (unless it is open)."""
@@ -335,7 +325,7 @@ class BagReader:
 
     @property
     def reader(self) -> Reader:
-        """The underlying rosbags reader (opened now if the fast path opened the bag)."""
+        """The underlying rosbags reader."""
         if self._resolved is None:
             raise BagError(self.shown, "the bag is not open")
         if self._reader is None:
@@ -345,15 +335,11 @@ class BagReader:
     @property
     def start_time(self) -> int:
         """Log time of the first message, ns since the epoch (0 for an empty bag)."""
-        if self._fast is not None:
-            return self._fast.start_time
         return self.reader.start_time if self.message_count else 0
 
     @property
     def end_time(self) -> int:
         """Log time of the last message, ns since the epoch (0 for an empty bag)."""
-        if self._fast is not None:
-            return self._fast.end_time
         return self.reader.end_time - 1 if self.message_count else 0
 
     @property
@@ -364,8 +350,6 @@ class BagReader:
     @property
     def message_count(self) -> int:
         """Number of messages."""
-        if self._fast is not None:
-            return self._fast.message_count
         return int(self.reader.message_count)
 
     @property
@@ -379,11 +363,8 @@ class BagReader:
         """The storage files of the bag."""
         if self.path.is_dir() or self.path.name == "metadata.yaml":
             base = self.path if self.path.is_dir() else self.path.parent
-            if self._fast is not None:
-                files = [base / name for name in self._fast.files]
-            else:
-                entries = getattr(self.reader.storage, "files", None) or []
-                files = [base / f["path"] for f in entries if isinstance(f, dict) and isinstance(f.get("path"), str)]
+            entries = getattr(self.reader.storage, "files", None) or []
+            files = [base / f["path"] for f in entries if isinstance(f, dict) and isinstance(f.get("path"), str)]
             return files or sorted(base.glob("*.mcap"), key=split_order)  # (recording order: _2 before _10)
         return [self.path]
 
@@ -410,33 +391,12 @@ class BagReader:
             raise BagReadError(self.shown, self._corrupt_chunk(exc)) from None
 
     def _corrupt_chunk(self, exc: BaseException) -> str:
-        """What to say of a chunk rosbags' reader could not read: which chunk, when our index finds it."""
-        reason = f"{type(exc).__name__}: {_sentence(exc)}"
-        if self._fast is not None:
-            try:
-                read_table(self._fast, list(self.topics))
-            except CorruptChunk as bad:
-                return f"{bad.path.name}: chunk at byte {bad.offset} is corrupt ({bad.reason})"
-            except Unusual:
-                pass
-        return f"corrupt data ({reason})"
-
-    def table(self, topics: Iterable[str]) -> MessageTable | None:
-        """Every message of ``topics`` in the order :meth:`messages` yields them, as one table.
-
-        Returns:
-            Positions into the decompressed chunks; None unless the fast path opened the bag
-            and reads all of it (then :meth:`messages` says what is wrong, or reads it).
-        """
-        if self._fast is None:
-            return None
-        try:
-            return read_table(self._fast, [t for t in topics if t in self.topics])
-        except CorruptChunk as exc:
-            reason = f"{exc.path.name}: chunk at byte {exc.offset} is corrupt ({exc.reason})"
-            raise BagReadError(self.shown, reason) from None
-        except Unusual:
-            return None
+        """What to say of a chunk rosbags' reader could not read: which chunk, when the mcap library finds it."""
+        for f in self.storage_files:
+            bad = _first_corrupt_chunk(f)
+            if bad:
+                return bad
+        return f"corrupt data ({type(exc).__name__}: {_sentence(exc)})"
 
     def decoding(self, topic: str) -> Decoding:
         """How a topic's messages are decoded: with the bag's own definition of its type.
@@ -493,51 +453,124 @@ class BagReader:
                     self.shown, f"a {msgtype} message on {msg.topic} does not deserialize ({exc})"
                 ) from None
 
-    def stamped(self, topics: Iterable[str]) -> list[StampedMessage] | None:
-        """Every message of ``topics`` with its publication sequence and place in the recorder's order.
+    def records(self, topics: Iterable[str]) -> list[Record] | None:
+        """Every message of ``topics`` in log-time order, read with the ``mcap`` library.
 
-        From the message table when the fast path reads the bag, else with the mcap library
-        (every storage file MCAP, messages not compressed one by one).
+        Messages of equal log time are in the recorder's order of storage.
 
         Returns:
-            The messages in the recorder's order of storage; None when that order cannot be read.
+            The messages; None when the bag is not one the library reads as rosbags does (a
+            storage file that is not MCAP, messages compressed one by one, a channel rosbags
+            leaves out): then :meth:`decoded` reads it or says what is wrong.
 
         Raises:
             BagReadError: A chunk is corrupt.
         """
-        names = [t for t in topics if t in self.topics]
-        table = self.table(names)
-        if table is not None:
-            return [
-                StampedMessage(table.topics[int(k)], int(q), int(r), table.data(i))
-                for i, (k, q, r) in enumerate(zip(table.topic, table.sequence, table.stream, strict=True))
-            ]
-        return self._stamped_by_mcap(names)
-
-    def _stamped_by_mcap(self, names: list[str]) -> list[StampedMessage] | None:
         from mcap.reader import make_reader
 
+        names = [t for t in topics if t in self.topics]
         files = self.storage_files
         meta = getattr(getattr(self.reader, "storage", None), "metadata", None)
         if getattr(meta, "compression_mode", "") == "message" or any(f.suffix != ".mcap" for f in files):
             return None
-        out: list[tuple[tuple[tuple[str, int, str], int], StampedMessage]] = []
-        try:
-            for f in files:
+        accepted = self._read_channels()
+        if accepted is None:
+            return None
+        out: list[Record] = []
+        for f in sorted(files, key=split_order):
+            base, ids = len(out), accepted.get(f.name, set())
+            try:
                 with f.open("rb") as stream:
                     found = make_reader(stream).iter_messages(topics=names, log_time_order=False)
-                    for k, (_, channel, message) in enumerate(found):
-                        stamped = StampedMessage(channel.topic, message.sequence, 0, bytes(message.data))
-                        out.append(((split_order(f), k), stamped))
-        except (GeneratorExit, KeyboardInterrupt):
-            raise
-        except Exception:  # the mcap library's own errors: rosbags' reader says what is wrong
-            return None
-        out.sort(key=lambda x: x[0])
-        counts = {t: sum(1 for _, m in out if m.topic == t) for t in names}
+                    out += [
+                        Record(channel.topic, message.log_time, message.sequence, base + k, message.data)
+                        for k, (_, channel, message) in enumerate(found)
+                        if channel.id in ids
+                    ]
+            except (GeneratorExit, KeyboardInterrupt):
+                raise
+            except Exception:  # the mcap library's own errors
+                bad = _first_corrupt_chunk(f)
+                if bad:
+                    raise BagReadError(self.shown, bad) from None
+                return None
+        counts = dict.fromkeys(names, 0)
+        for r in out:
+            counts[r.topic] += 1
         if any(counts[t] != self.topics[t].count for t in names):
             return None
-        return [m._replace(stream=i) for i, (_, m) in enumerate(out)]
+        out.sort(key=lambda r: (r.log_time, r.stream))
+        return out
+
+    def _read_channels(self) -> dict[str, set[int]] | None:
+        """The channel ids rosbags' reader reads of each storage file (by name); None if it does not say."""
+        out: dict[str, set[int]] = {}
+        wanted = self.reader.connections
+        inner = getattr(self.reader, "storage", None)  # (the storage reader of the bag: its files' readers)
+        storages = getattr(inner, "storages", None) or ([inner] if hasattr(inner, "channels") else None)
+        if not storages:
+            return None
+        for storage in storages:
+            path = getattr(storage, "path", None)
+            conns = getattr(storage, "connections", None)
+            if not isinstance(path, Path) or conns is None:
+                return None
+            out[path.name] = {
+                x.id
+                for x in conns
+                if any(
+                    y.topic == x.topic
+                    and y.msgtype == x.msgtype
+                    and y.ext == x.ext
+                    and (not x.digest or not y.digest or y.digest == x.digest)
+                    for y in wanted
+                )
+            }  # (rosbags' Reader.messages keeps the channels that match one of its connections so)
+        return out
+
+    def stamped(self, topics: Iterable[str]) -> list[StampedMessage] | None:
+        """Every message of ``topics`` with its publication sequence, in the recorder's order of storage.
+
+        Returns:
+            The messages; None when that order cannot be read (see :meth:`records`).
+
+        Raises:
+            BagReadError: A chunk is corrupt.
+        """
+        found = self.records(topics)
+        if found is None:
+            return None
+        return [StampedMessage(r.topic, r.sequence, r.stream, r.data) for r in sorted(found, key=lambda r: r.stream)]
+
+
+def _first_corrupt_chunk(path: Path) -> str:
+    """``"<file>: chunk at byte N is corrupt (why)"``: the first chunk the mcap library cannot unpack ("" if none)."""
+    from mcap.reader import make_reader
+    from mcap.records import Chunk
+    from mcap.stream_reader import StreamReader, breakup_chunk
+
+    try:
+        with path.open("rb") as stream:
+            summary = make_reader(stream).get_summary()
+            indexes = sorted(summary.chunk_indexes, key=lambda c: c.chunk_start_offset) if summary else []
+            for index in indexes:
+                stream.seek(index.chunk_start_offset)
+                try:
+                    record = next(StreamReader(stream, skip_magic=True, emit_chunks=True).records)
+                    if not isinstance(record, Chunk):
+                        raise ValueError(f"a {type(record).__name__} record where the index puts a chunk")
+                    for _ in breakup_chunk(record, validate_crc=True):
+                        pass
+                except (GeneratorExit, KeyboardInterrupt):
+                    raise
+                except Exception as exc:  # the decompressors' and the library's own classes
+                    reason = f"{type(exc).__name__}: {_sentence(exc)}"
+                    return f"{path.name}: chunk at byte {index.chunk_start_offset} is corrupt ({reason})"
+    except OSError:
+        return ""
+    except Exception:  # its summary does not read: rosbags' reader says what is wrong
+        return ""
+    return ""
 
 
 def _sentence(exc: BaseException) -> str:

@@ -12,16 +12,15 @@ results and static readings (period estimates, parameter sets, model, ``StaticRe
 kept in the order their publishers published them (:mod:`bike_rig.bag.order`), so the last of
 each is the live graph's last, whatever the recorder's clock did.
 
-The common bag is read by a fast path that gives the same session: the reader's message table
-(:meth:`bike_rig.bag.reader.BagReader.table`), the gyro batches decoded all at once from their
-CDR bytes (:mod:`bike_rig.bag.gyro_cdr`, only when the bag's GyroBatch is the installed one) and
-the few other messages by rosbags. Any bag or message it does not handle is read message by
-message as before.
+An MCAP bag's messages are read with the ``mcap`` library
+(:meth:`bike_rig.bag.reader.BagReader.records`), its gyro batches decoded straight from their
+CDR bytes (:mod:`bike_rig.bag.gyro_cdr`, when the bag's GyroBatch is the installed one) and
+the other messages by rosbags; any other bag is read with rosbags' reader.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, NamedTuple
@@ -33,16 +32,14 @@ from .. import topics
 from ..messages import MessageError, sample_batch_from_msg, trial_event_from_msg
 from ..pipeline.acquire import SampleBatch, SampleBlock, TrialEventKind, TrialEventRecord
 from .errors import BagReadError, NoRigTopicsError
-from .fastread import Unusual
-from .gyro_cdr import GyroColumns, decode_gyro, is_our_layout
-from .msgtable import MessageTable
+from .gyro_cdr import gyro_batch
 from .order import publication_order
-from .reader import BagReader, TopicInfo
-from .typestore import rig_typestore
+from .reader import BagReader, Record, TopicInfo
 
 __all__ = ["LIVE_TOPICS", "RecordedSession", "RecordedTrial", "read_session"]
 
 IntArray = NDArray[np.int64]
+FloatArray = NDArray[np.float64]
 
 #: The topics whose messages are kept in publication order (one publisher at a time each).
 LIVE_TOPICS = (topics.STATIC_READINGS.name, topics.PERIODS.name, topics.PARAMETERS.name, topics.MATRICES.name,
@@ -284,11 +281,12 @@ def read_session(path: str | Path, which: Iterable[str] | None = None) -> Record
         wanted = rig if which is None else [t for t in rig if t in set(which)]
         for t in wanted:
             bag.decoding(t)
-        table = bag.table(wanted)
-        fast = _from_table(empty, table, bag) if table is not None else None
+        records = bag.records(wanted)
         keyed: list[_Keyed] | None
-        if fast is not None:
-            session, keyed = fast
+        if records is not None:
+            session, keyed = empty, _from_records(empty, records, bag)
+            for trial in session.trials.values():
+                trial.batches = _block(trial.trial_id, trial.batches) if trial.batches else trial.batches
         else:
             session = empty
             for topic, _, msg in bag.decoded(wanted):
@@ -338,73 +336,54 @@ def _order_live(session: RecordedSession, keyed: list[_Keyed]) -> None:
         session.trial(str(msg.trial_id)).estimates.append(msg)
 
 
-def _decoded_others(
-    table: MessageTable, skip: int, decoders: dict[str, Any], kinds: dict[str, str]
-) -> list[tuple[int, str, Any]] | None:
-    """Every message but those of topic ``skip``, deserialized: (row, topic, message); None if one fails."""
-    out = []
-    for i in np.flatnonzero(table.topic != skip).tolist():
-        topic = table.topics[int(table.topic[i])]
-        try:
-            out.append((i, topic, decoders[topic](table.data(i), kinds[topic])))
-        except Exception:
-            return None
-    return out
+def _block(trial_id: str, batches: Sequence[SampleBatch]) -> SampleBlock:
+    """A trial's batches as one block of columns (what the fitting stage takes at once)."""
+    bounds = np.zeros(len(batches) + 1, dtype=np.int64)
+    np.cumsum([len(b.rates) for b in batches], out=bounds[1:])
+    volt_bounds = np.zeros(len(batches) + 1, dtype=np.int64)
+    np.cumsum([len(b.raw_volts) for b in batches], out=volt_bounds[1:])
+    frame_ids = tuple(dict.fromkeys(b.frame_id for b in batches))
+    code = {f: i for i, f in enumerate(frame_ids)}
+
+    def volts() -> tuple[IntArray, FloatArray]:
+        return volt_bounds, np.concatenate([b.raw_volts for b in batches])
+
+    return SampleBlock(
+        trial_id,
+        np.array([b.first_index for b in batches], dtype=np.int64),
+        np.array([b.sample_rate_hz for b in batches], dtype=np.float64),
+        bounds,
+        np.concatenate([b.rates for b in batches]),
+        volts,
+        np.array([b.stamp_ns for b in batches], dtype=np.int64),
+        frame_ids,
+        np.array([code[b.frame_id] for b in batches], dtype=np.int64),
+    )
 
 
-def _first_heard(others: list[tuple[int, str, Any]], rows: IntArray, columns: GyroColumns) -> list[str]:
-    """The trial ids in the order first heard of: a batch with a trial id, a trial event, an estimate."""
-    named = {topics.TRIAL_EVENTS.name, topics.PERIODS.name}
-    heard = [(i, str(msg.trial_id)) for i, t, msg in others if t in named]
-    codes, at = np.unique(columns.trial, return_index=True)
-    heard += [
-        (int(rows[a]), columns.trial_ids[c])
-        for c, a in zip(codes.tolist(), at.tolist(), strict=True)
-        if columns.trial_ids[c]
-    ]
-    return list(dict.fromkeys(tid for _, tid in sorted(heard)))
-
-
-def _from_table(
-    empty: RecordedSession, table: MessageTable, bag: BagReader
-) -> tuple[RecordedSession, list[_Keyed]] | None:
-    """The session from the reader's message table, as :func:`_add` on each message builds it.
-
-    The gyro batches are decoded all at once (:func:`~bike_rig.bag.gyro_cdr.decode_gyro`) when
-    the bag's GyroBatch is the installed definition, else one by one with the bag's own.
+def _from_records(session: RecordedSession, records: list[Record], bag: BagReader) -> list[_Keyed]:
+    """Add the messages to the session, as :func:`_add` on each decoded message does.
 
     Returns:
-        The session and its live topics' messages with their sequence and rank in storage, or
-        None when a message is not one the fast path decodes (the caller then reads message by
-        message).
+        The live topics' messages with their sequence and rank in storage.
+
+    Raises:
+        BagReadError: A message does not deserialize.
     """
-    rig = rig_typestore()
-    decoders = {t: bag.decoding(t).store.deserialize_cdr for t in table.topics}
-    kinds = {name: empty.topics[name].msgtype for name in table.topics}
-    gyro = table.topics.index(topics.GYRO.name) if topics.GYRO.name in table.topics else -1
-    rows = np.flatnonzero(table.topic == gyro)
-    columns = None
-    if not len(rows) or (bag.decoding(topics.GYRO.name).installed and is_our_layout(rig.fielddefs)):
+    gyro = topics.GYRO.name
+    ours = gyro in bag.topics and bag.decoding(gyro).installed
+    keyed = []
+    for r in records:
+        batch = gyro_batch(r.data) if ours and r.topic == gyro else None
+        if batch is not None:
+            _add_batch(session, batch)
+            continue
+        msgtype = bag.topics[r.topic].msgtype
         try:
-            columns = decode_gyro(table.buffer, table.start[rows], table.size[rows], rig.max_sequence_length)
-        except Unusual:
-            return None
-    others = _decoded_others(table, gyro if columns is not None else -1, decoders, kinds)
-    if others is None:
-        return None
-    session = RecordedSession(
-        empty.path, empty.topics, empty.start_time, empty.end_time, empty.message_count, empty.storage_files
-    )
-    if columns is not None:
-        for tid in _first_heard(others, rows, columns):
-            session.trial(tid)
-        for tid, block in columns.blocks():
-            if tid:
-                session.trials[tid].batches = block
-            else:
-                session.stray_batches += len(block)
-    for _, topic, msg in others:
-        _add(session, topic, msg)
-    sequence, stream = table.sequence, table.stream
-    keyed = [_Keyed(t, msg, int(sequence[i]), int(stream[i])) for i, t, msg in others if t in LIVE_TOPICS]
-    return session, keyed
+            msg = bag.decoding(r.topic).store.deserialize_cdr(r.data, msgtype)
+        except Exception as exc:  # rosbags raises several kinds for bad CDR
+            raise BagReadError(bag.shown, f"a {msgtype} message on {r.topic} does not deserialize ({exc})") from None
+        _add(session, r.topic, msg)
+        if r.topic in LIVE_TOPICS:
+            keyed.append(_Keyed(r.topic, msg, r.sequence, r.stream))
+    return keyed

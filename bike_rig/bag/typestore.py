@@ -150,14 +150,36 @@ def type_hash(msgtype: str) -> str:
     return str(store_for(msgtype).hash_rihs01(msgtype))
 
 
-def message_definition(msgtype: str) -> str:
-    """The ``ros2msg`` schema text of a type.
+_SEPARATOR = "=" * 80 + "\n"
 
-    Its definition followed by every dependency (``====`` separator, ``MSG: pkg/Type``), as
-    rosbag2 stores it in MCAP schemas.
+
+def _msg_text(msgtype: str) -> str | None:
+    """The ``.msg`` file of a type as written (comments and units included), None if not found."""
+    pkg, _, name = msgtype.split("/")
+    try:
+        msg_dir = find_msg_dir()
+    except BagError:
+        return None
+    path = msg_dir / f"{name}.msg" if pkg == MSG_PACKAGE else _installed_msg(msgtype, msg_dir)
+    return path.read_text(encoding="utf-8") if path is not None and path.is_file() else None
+
+
+def message_definition(msgtype: str) -> str:
+    """The ``ros2msg`` schema text of a type, as rosbag2 stores it in MCAP schemas.
+
+    Its ``.msg`` file verbatim (comments and units included) followed by every dependency's
+    (``====`` separator, ``MSG: pkg/Type``); a definition whose file is not found is the one
+    rosbags generates from the typestore.
     """
     text, _ = store_for(msgtype).generate_msgdef(msgtype, ros_version=2)
-    return str(text)
+    sections = str(text).split(_SEPARATOR)
+    out = []
+    for k, section in enumerate(sections):
+        name = msgtype if k == 0 else section.partition("\n")[0].removeprefix("MSG: ").strip()
+        found = _msg_text(name if name.count("/") == 2 else name.replace("/", "/msg/", 1))
+        body = section if found is None else found.rstrip("\n") + "\n"
+        out.append(body if k == 0 else f"MSG: {name}\n{body}" if found is not None else section)
+    return _SEPARATOR.join(out)
 
 
 _NUMPY_TYPES = {

@@ -271,7 +271,7 @@ class BagWriter:
             self._schemas = {}
             self._summary_bytes = 0
             for ch in self._channels.values():
-                ch.id = self._register(ch.name, ch.msgtype, self._msgdefs[ch.msgtype], ch.type_hash, ch.offered_qos)
+                ch.id = 0  # registered in this file with its first message here
             self._mcap.flush()
         except OSError:
             self.abort()
@@ -309,8 +309,11 @@ class BagWriter:
         offered_qos: Sequence[Qos] = (),
         msgdef: str | None = None,
         rihs01: str | None = None,
-    ) -> int:
-        """Register a topic (its schema the first time its type is seen) and return its id.
+    ) -> None:
+        """Add a topic to the bag (listed in metadata.yaml).
+
+        Its channel, and its type's schema, are written into a storage file with the file's first
+        message of the topic: an MCAP file's summary lists only what its data section holds.
 
         Args:
             name: Topic name.
@@ -327,18 +330,8 @@ class BagWriter:
         if rihs01 is None:
             rihs01 = type_hash(msgtype)
         self._msgdefs.setdefault(msgtype, msgdef)
-        mcap, f = self._require_open(), self._files[-1]
-        if f.raw_pending:  # the chunk in progress first, so that the size estimate counts it as messages
-            mcap.flush()
-            f.written(self._tell())
-        cid = self._register(name, msgtype, self._msgdefs[msgtype], rihs01, offered_qos)
-        mcap.flush()
-        size = self._tell()
-        f.header += size - f.size  # schemas and channels are not message bytes
-        f.size = size
-        self._channels[name] = _Channel(cid, name, msgtype, rihs01, list(offered_qos))
+        self._channels[name] = _Channel(0, name, msgtype, rihs01, list(offered_qos))
         self._metadata_bytes = self._metadata_record_size()
-        return cid
 
     def _tell(self) -> int:
         assert self._stream is not None
@@ -353,7 +346,7 @@ class BagWriter:
         return name in self._channels
 
     def topic_id(self, name: str) -> int:
-        """The id :meth:`add_topic` returned for a topic."""
+        """The channel id of a topic in the current storage file (0 until a message of it is written there)."""
         return self._channels[name].id
 
     def write(
@@ -378,6 +371,10 @@ class BagWriter:
         if self._split_due(log_time, len(data)):
             self.split()
         mcap = self._require_open()
+        if not ch.id:
+            before = self._summary_bytes
+            ch.id = self._register(ch.name, ch.msgtype, self._msgdefs[ch.msgtype], ch.type_hash, ch.offered_qos)
+            self._files[-1].raw_pending += self._summary_bytes - before  # (the records in the chunk too)
         mcap.add_message(
             ch.id,
             log_time=log_time,

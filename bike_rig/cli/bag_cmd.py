@@ -25,8 +25,8 @@ from datetime import UTC, datetime
 from pathlib import PurePath
 from typing import Any
 
-from ..bag.fastread import split_order
 from ..bag.info import BagSummary, TrialSummary, summarize
+from ..bag.order import split_order
 from ..bag.recover import Recovery, recover_bag
 from ..textfmt import terminal_safe
 from .commands import HELP

@@ -115,6 +115,7 @@ def cmd_params(args: argparse.Namespace) -> int:
     from .common import emit
 
     ps = _parameters(args.file, args.com_method, args.flywheel_in_wheel)
+    with_rider = False
     if args.rider not in (None, "", "none"):
         from ..core.rider import add_rider
         from .common import rider_from_spec
@@ -122,13 +123,14 @@ def cmd_params(args: argparse.Namespace) -> int:
         rider = rider_from_spec(args.rider)
         if rider is not None:
             ps = add_rider(ps, rider)
+            with_rider = True
     form = "json" if args.json else args.format
     if form == "json":
         text = json.dumps(_params_json(ps), indent=2)
     elif form == "bp-yaml":
         from ..core.io_bp import dump_bp_parameter_yaml
 
-        text = dump_bp_parameter_yaml(ps)
+        text = dump_bp_parameter_yaml(ps, rider=with_rider)
     elif form == "yaml":
         from ..core.io_yaml import dump_parameters_yaml
 

@@ -26,6 +26,7 @@ from .measurements import KNOWN_KEYS, Measurements, Origin, Reading, check_value
 from .uncertainty.uncertain import UncertainVector
 
 __all__ = [
+    "BP_SPEED_M_S",
     "TextEntry",
     "dump_bp_parameter_yaml",
     "parse_value",
@@ -198,12 +199,25 @@ def read_bp_parameters(path: str | Path) -> ParameterSet:
     return replace(ps, parts=vec)
 
 
-def dump_bp_parameter_yaml(params: ParameterSet, description: str = "") -> str:
+#: The forward speed a BicycleParameters parameter set carries when none is given, m/s (its
+#: benchmark files' value).
+BP_SPEED_M_S = 5.0
+
+
+def dump_bp_parameter_yaml(
+    params: ParameterSet, description: str = "", *, rider: bool = False, speed: float = BP_SPEED_M_S
+) -> str:
     """The parameters as a BicycleParameters parameter-set YAML document.
 
-    The layout is the one ``bicycleparameters.parameter_sets.ParameterSet.to_yaml`` writes and
-    ``Meijaard2007ParameterSet._from_yaml`` reads (``values`` holds plain floats; σ are not
-    part of that format and are listed in ``description``).
+    The layout ``Meijaard2007ParameterSet._from_yaml`` reads: ``values`` holds the 26 benchmark
+    parameters and the forward speed ``v`` (m/s) as plain floats, ``rider`` whether body B
+    includes a rider. σ are not part of that format and are not written.
+
+    Args:
+        params: The parameter set.
+        description: The document's description (a default names the bicycle and source).
+        rider: Whether a rider was added to the rear frame.
+        speed: The forward speed ``v`` the set carries, m/s.
     """
     values: Mapping[str, float] = params.values()
     doc = {
@@ -211,7 +225,7 @@ def dump_bp_parameter_yaml(params: ParameterSet, description: str = "") -> str:
         or f"Benchmark parameters of {params.bicycle}, computed by bike_rig from {params.source}.",
         "parameterization": "Meijaard2007",
         "parameters": params.bicycle.lower(),
-        "rider": False,
-        "values": {k: float(values[k]) for k in PARAMETER_NAMES},
+        "rider": bool(rider),
+        "values": {**{k: float(values[k]) for k in PARAMETER_NAMES}, "v": float(speed)},
     }
     return yaml.safe_dump(doc, sort_keys=False)

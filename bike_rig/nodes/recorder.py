@@ -1,4 +1,4 @@
-"""The recorder node: every bike_rig topic, as raw CDR, into a rosbag2 bag with MCAP storage.
+"""The recorder node: every topic of the graph (``/diagnostics`` too), raw CDR, into a rosbag2 MCAP bag.
 
 Subscriptions are raw (``create_subscription(..., raw=True)``): the bytes DDS delivers, with
 their CDR encapsulation header, go into the bag as they are, never deserialized. Each topic
@@ -89,7 +89,7 @@ from ..topics import RECORDER_PAUSE, RECORDER_RESUME, RECORDER_SNAPSHOT, RECORDE
 from .diagnostics import DiagnosticsUpdater
 from .params import declare_parameters, parameter_error
 
-__all__ = ["EXIT_USER_ERROR", "PARAMETERS", "Recorder", "main", "resolve_topics"]
+__all__ = ["EXIT_USER_ERROR", "PARAMETERS", "RECORDED", "Recorder", "main", "resolve_topics"]
 
 EXIT_USER_ERROR = 2
 NODE_NAME = "recorder"
@@ -124,6 +124,11 @@ PARAMETERS: tuple[ParamSpec, ...] = (
 )
 
 
+#: What ``all`` records: every topic of the graph, the fitter's details and ``/diagnostics``
+#: included (not the ride topics, which belong to a ride record).
+RECORDED: tuple[contract.Topic, ...] = (*contract.TOPICS, contract.FIT_DETAILS, contract.DIAGNOSTICS)
+
+
 def resolve_topics(names: Sequence[str]) -> tuple[contract.Topic, ...]:
     """The topics to record for the ``topics`` parameter.
 
@@ -131,14 +136,14 @@ def resolve_topics(names: Sequence[str]) -> tuple[contract.Topic, ...]:
         NodeParameterError: An unknown topic name.
     """
     if not names or list(names) == ["all"]:
-        return contract.TOPICS
-    by_name = {t.name: t for t in contract.TOPICS}
+        return RECORDED
+    by_name = {t.name: t for t in RECORDED}
     out: list[contract.Topic] = []
     for raw in names:
         name = raw if raw.startswith("/") else f"{contract.NAMESPACE}/{raw}"
         topic = by_name.get(name)
         if topic is None:
-            known = ", ".join(t.name.removeprefix(contract.NAMESPACE + "/") for t in contract.TOPICS)
+            known = ", ".join(t.name.removeprefix(contract.NAMESPACE + "/") for t in RECORDED)
             raise parameter_error("topics", f"unknown topic {raw!r} (known: all, {known})")
         if topic not in out:
             out.append(topic)

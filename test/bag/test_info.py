@@ -22,10 +22,19 @@ NS = 1_000_000_000
 
 
 
-def estimate(trial_id: str, key: str, log_time: int, period: float, valid: bool = True,
-             flags: tuple[str, ...] = ()) -> SimulatedMessage:
-    msg = new_message(PERIODS.type, trial_id=trial_id, measurement_key=key, period=period, period_sigma=1e-4,
-                      valid=valid, flags=list(flags), flag_reasons=["why"] * len(flags))
+def estimate(
+    trial_id: str, key: str, log_time: int, period: float, valid: bool = True, flags: tuple[str, ...] = ()
+) -> SimulatedMessage:
+    msg = new_message(
+        PERIODS.type,
+        trial_id=trial_id,
+        measurement_key=key,
+        period=period,
+        period_sigma=1e-4,
+        valid=valid,
+        flags=list(flags),
+        flag_reasons=["why"] * len(flags),
+    )
     return SimulatedMessage(PERIODS.name, log_time, msg)
 
 
@@ -37,10 +46,16 @@ def info_bag(session: SimulatedSession, tmp_path_factory: pytest.TempPathFactory
         estimate(t1.name, t1.key, end, 1.4),
         estimate(t2.name, t2.key, end + 1, 1.5, flags=("beating",)),
         estimate(t3.name, t3.key, end + 2, math.nan, valid=False, flags=("no_oscillation",)),
-        SimulatedMessage(PARAMETERS.name, end + 3, new_message(PARAMETERS.type, bicycle=session.bicycle,
-                                                                  missing=["TcR1", "TtB1"], com_method="centroid")),
-        SimulatedMessage(EIGEN_SWEEP.name, end + 4, new_message(EIGEN_SWEEP.type, has_weave=True, weave_speed=4.2,
-                                                                   has_capsize=False, weave_speed_sigma=0.1)),
+        SimulatedMessage(
+            PARAMETERS.name,
+            end + 3,
+            new_message(PARAMETERS.type, bicycle=session.bicycle, missing=["TcR1", "TtB1"], com_method="centroid"),
+        ),
+        SimulatedMessage(
+            EIGEN_SWEEP.name,
+            end + 4,
+            new_message(EIGEN_SWEEP.type, has_weave=True, weave_speed=4.2, has_capsize=False, weave_speed_sigma=0.1),
+        ),
     ]
     return write_simulated_bag(tmp_path_factory.mktemp("info") / "session", session, extra=extra, pause_s=2.0)
 
@@ -55,7 +70,10 @@ def test_summary_of_a_session(session: SimulatedSession, info_bag: Path) -> None
     assert all(t.samples == t.announced == n and t.state == "complete" for t in s.trials)
     assert all(t.batches == math.ceil(n / 50) for t in s.trials)
     assert [(t.valid, t.usable, t.flags) for t in s.trials[:4]] == [
-        (True, True, ()), (True, False, ("beating",)), (False, False, ("no_oscillation",)), (None, None, ())
+        (True, True, ()),
+        (True, False, ("beating",)),
+        (False, False, ("no_oscillation",)),
+        (None, None, ()),
     ]
     counts = {t.name: t.count for t in s.topics}
     assert counts[GYRO.name] == len(session.trials) * math.ceil(n / 50)
@@ -95,8 +113,11 @@ def test_info_errors_are_one_line(tmp_path: Path) -> None:
     w.abort()
     with pytest.raises(IncompleteBagError):
         summarize(crashed)
-    for bag, reason in ((other, "holds none of bike_rig's topics"), (crashed, "did not end cleanly"),
-                        (tmp_path / "nothing", "no such file or directory")):
+    for bag, reason in (
+        (other, "holds none of bike_rig's topics"),
+        (crashed, "did not end cleanly"),
+        (tmp_path / "nothing", "no such file or directory"),
+    ):
         code, out, err = run_cli("bag", "info", str(bag))
         assert code == 2 and out == ""
         assert err.startswith(f"bike-rig bag: error: {bag}: ") and reason in err and err.count("\n") == 1
@@ -127,3 +148,18 @@ def test_recover_command_reports_per_topic(session: SimulatedSession, info_bag: 
     assert report["was_complete"] and report["message_count"] == summarize(info_bag).message_count
     code, out, err = run_cli("bag", "recover", str(info_bag), "-o", str(tmp_path / "copy"))
     assert code == 2 and "exists already" in err
+
+
+def test_a_ros1_bag_is_refused_in_one_line_with_the_converter_named(tmp_path: Path) -> None:
+    """A ROS 1 bag (which rosbags reads): bike-rig says it reads ROS 2 bags and how to convert one."""
+    from rosbags.rosbag1 import Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS1_NOETIC)
+    path = tmp_path / "old.bag"
+    with Writer(path) as w:
+        conn = w.add_connection("/chatter", "std_msgs/msg/String", typestore=store)
+        w.write(conn, 1_000, store.serialize_ros1(store.types["std_msgs/msg/String"](data="hi"), "std_msgs/msg/String"))
+    code, out, err = run_cli("bag", "info", str(path))
+    assert code == 2 and not out
+    assert err.count("\n") == 1 and "a ROS 1 bag" in err and "rosbags-convert" in err, err

@@ -44,22 +44,18 @@ REPO = Path(__file__).resolve().parents[2]
 TYPES = {t.name: t.type for t in TOPICS}
 
 
-
-
-
-
-
-
-
-
-def test_recorder_records_every_topic_exactly_and_in_order(
-    ros_env: dict[str, str], tmp_path: Path
-) -> None:
+def test_recorder_records_every_topic_exactly_and_in_order(ros_env: dict[str, str], tmp_path: Path) -> None:
     env = node_environment(ros_env)
     bag = tmp_path / "session"
     early = {STATIC_READINGS.name: 1, PERIODS.name: 3, READINGS.name: 2}  # transient-local, before the recorder starts
-    live = {GYRO.name: 400, TRIAL_EVENTS.name: 6, PERIODS.name: 4, PARAMETERS.name: 1, MATRICES.name: 1,
-            EIGEN_SWEEP.name: 1}
+    live = {
+        GYRO.name: 400,
+        TRIAL_EVENTS.name: 6,
+        PERIODS.name: 4,
+        PARAMETERS.name: 1,
+        MATRICES.name: 1,
+        EIGEN_SWEEP.name: 1,
+    }
     spec = {"early": early, "live": live, "rate_hz": 200.0}  # 200 gyro batches/s: the 10 kHz stress rate
     expected = {name: early.get(name, 0) + live.get(name, 0) for name in TYPES}
     with start_publisher(tmp_path, env, spec) as pub:
@@ -75,9 +71,12 @@ def test_recorder_records_every_topic_exactly_and_in_order(
     assert published["counts"] == expected
 
     with open_bag(bag) as b:
-        assert {n: t.count for n, t in b.topics.items()} == expected
+        counts = {n: t.count for n, t in b.topics.items()}
+        # every topic of the graph: the recorder's own /diagnostics too, and the fitter's details (none here)
+        assert counts.pop("/diagnostics") >= 1 and counts.pop("/bike_rig/fit_details") == 0
+        assert counts == expected
         by_topic: dict[str, list[tuple[int, Any]]] = {n: [] for n in TYPES}
-        for name, log_time, msg in b.decoded():
+        for name, log_time, msg in b.decoded(list(TYPES)):
             by_topic[name].append((log_time, msg))
         raw = list(b.messages([GYRO.name]))
     for name, got in by_topic.items():
@@ -102,11 +101,14 @@ def test_recorder_records_every_topic_exactly_and_in_order(
         for schema, channel, _, _ in reader.iter_decoded_messages():
             assert (schema.encoding, channel.message_encoding) == ("ros2msg", "cdr")
             decoded[channel.topic] = decoded.get(channel.topic, 0) + 1
+    assert decoded.pop("/diagnostics") >= 1  # (what Foxglove's diagnostics panel shows of a bag)
     assert decoded == {k: v for k, v in expected.items() if v}
 
     meta = yaml.safe_load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
-    qos = {t["topic_metadata"]["name"]: t["topic_metadata"]["offered_qos_profiles"]
-           for t in meta["topics_with_message_count"]}
+    qos = {
+        t["topic_metadata"]["name"]: t["topic_metadata"]["offered_qos_profiles"]
+        for t in meta["topics_with_message_count"]
+    }
     assert qos[STATIC_READINGS.name][0]["durability"] == "transient_local"
     assert qos[GYRO.name][0]["reliability"] == "reliable"
 
@@ -201,6 +203,7 @@ def test_a_full_disk_stops_recording_in_one_line_keeps_the_bag_recoverable_and_t
         with start_recorder(tmp_path, env, bag, "topics:=[gyro, static_readings]") as rec:
             pub.expect("MATCHED", STEP_TIMEOUT_S)
             pub.send("GO")
+
             def stopped() -> bool:
                 assert rec.proc.poll() is None, rec.describe()
                 return "recording stopped" in rec.stderr_path.read_text()

@@ -192,8 +192,8 @@ def test_split_by_size_with_lz4_chunks_loses_nothing_and_opens_everywhere(
     with open_bag(bag) as b:
         assert [m.first_index for _, _, m in b.decoded([GYRO.name])] == list(range(n))
         assert b.topics[STATIC_READINGS.name].count == 1
-        table = b.table([GYRO.name])
-        assert table is not None and len(table) == n
+        found = b.records([GYRO.name])
+        assert found is not None and len(found) == n
 
 
 class _FileWatcher:

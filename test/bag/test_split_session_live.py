@@ -80,7 +80,12 @@ def test_a_session_split_by_size_and_by_request_replays_as_the_unsplit_recording
     assert [name for name, _ in summary.files] == files
     assert len(summary.trials) == 39 and all(t.usable and t.samples == t.announced for t in summary.trials)
     where = {"path": "", "files": []}
-    assert summary.to_dict() | where == summarize(whole.output).to_dict() | where
+
+    def heard(d: dict[str, Any]) -> dict[str, Any]:
+        # a topic that stayed silent is listed in metadata.yaml only (no MCAP channel): recover cannot see it
+        return d | where | {"topics": [t for t in d["topics"] if t["count"]]}
+
+    assert heard(summary.to_dict()) == heard(summarize(whole.output).to_dict())
 
     for bag, out in ((live.bag, tmp_path / "report_split"), (whole.output, tmp_path / "report_whole")):
         assert main(["report", str(bag), "-o", str(out), "-j", "1"]) == 0

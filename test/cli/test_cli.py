@@ -12,6 +12,7 @@ import sys
 from pathlib import Path
 
 import pytest
+import yaml
 
 from bike_rig.core.benchmark import PARAMETER_NAMES
 from bike_rig.paths import config_dir
@@ -51,7 +52,11 @@ def test_params_bp_yaml(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> N
     dest = tmp_path / "browser_bp.yml"
     code, _, _ = run(capsys, "params", str(BROWSER_YAML), "--format", "bp-yaml", "-o", str(dest))
     assert code == 0
-    assert "parameterization: Meijaard2007" in dest.read_text()
+    doc = yaml.safe_load(dest.read_text())
+    assert doc["parameterization"] == "Meijaard2007" and doc["rider"] is False and "v" in doc["values"]
+    code, _, _ = run(capsys, "params", str(BROWSER_YAML), "--rider", "paper", "--format", "bp-yaml", "-o", str(dest))
+    assert code == 0
+    assert yaml.safe_load(dest.read_text())["rider"] is True
 
 
 def test_model_json_benchmark(capsys: pytest.CaptureFixture[str]) -> None:

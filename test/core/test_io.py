@@ -10,7 +10,7 @@ import yaml
 
 from bike_rig.core.benchmark import PARAMETER_NAMES, benchmark_formulas, compute_parameters
 from bike_rig.core.errors import MeasurementError
-from bike_rig.core.io_bp import dump_bp_parameter_yaml, parse_value, read_bp_measured
+from bike_rig.core.io_bp import BP_SPEED_M_S, dump_bp_parameter_yaml, parse_value, read_bp_measured
 from bike_rig.core.io_yaml import dump_measurements_yaml
 from bike_rig.core.loader import load_input, load_measurements
 from bike_rig.core.measurements import Measurements, Reading
@@ -98,11 +98,20 @@ def test_bp_parameter_yaml_is_readable_back(tmp_path: Path) -> None:
     path.write_text(dump_bp_parameter_yaml(ps))
     doc = yaml.safe_load(path.read_text())
     assert doc["parameterization"] == "Meijaard2007"
-    assert set(doc["values"]) == set(PARAMETER_NAMES)
+    assert set(doc["values"]) == {*PARAMETER_NAMES, "v"}  # Meijaard2007ParameterSet requires the speed
+    assert doc["values"]["v"] == BP_SPEED_M_S
+    assert doc["rider"] is False
     assert all(isinstance(v, float) for v in doc["values"].values())
     back = load_input(path)
     assert not isinstance(back, Measurements)
     assert back.values() == ps.values()
+
+
+def test_bp_parameter_yaml_says_rider_and_speed() -> None:
+    ps = compute_parameters(read_bp_measured(_raw("Fisher")))
+    doc = yaml.safe_load(dump_bp_parameter_yaml(ps, rider=True, speed=3.0))
+    assert doc["rider"] is True
+    assert doc["values"]["v"] == 3.0
 
 
 def test_parameter_files_are_recognised() -> None:
