@@ -31,6 +31,7 @@ setup(
         (f"share/{PACKAGE}/config/bicycles", _files("config/bicycles/*")),
         (f"share/{PACKAGE}/config/foxglove", _files("config/foxglove/*")),
         (f"share/{PACKAGE}/config/dds", _files("config/dds/*")),
+        (f"share/{PACKAGE}/config/feedback", _files("config/feedback/*")),
     ],
     # Runtime libraries are installed from tools/requirements.txt (pinned, with the ROS
     # wheels), not declared here: the ROS packages come from the ROS prefix, as in ament.

@@ -41,7 +41,9 @@ __all__ = [
     "SessionTrial",
     "file_trial",
     "is_bag_path",
+    "load_parameters",
     "load_subject",
+    "resolve_bicycle",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -154,6 +156,41 @@ def _bag_subject(path: str, com_method: ComMethod | None) -> Subject:
     )
 
 
+def resolve_bicycle(spec: str) -> str:
+    """The input a user named: a path as given, or a shipped bicycle's file.
+
+    ``browser`` or ``config/bicycles/browser.yaml`` from any folder
+    (:func:`bike_rig.paths.resolve_shipped`).
+    """
+    from .paths import resolve_shipped
+
+    return resolve_shipped(spec, "bicycles")
+
+
+def load_parameters(
+    path: str | Path, com_method: ComMethod | str | None = None, lump_flywheel: bool = False
+) -> ParameterSet:
+    """The benchmark parameters of any input a bicycle is meant by, without a rider.
+
+    A parameter file as read; a measurement file or a session bag computed from its raw
+    readings (a bag's trials replayed, :func:`load_subject`) with ``com_method`` (None: the
+    paper's centroid for a file, the live set's method for a bag) and ``lump_flywheel``.
+
+    Raises:
+        BikeRigError: As :func:`load_subject`.
+    """
+    p = resolve_bicycle(str(path))
+    if is_bag_path(p):
+        subject = load_subject(p, com_method)
+        if not lump_flywheel or subject.measurements is None:
+            return subject.parameters
+        return compute_parameters(subject.measurements, ComMethod(com_method or ComMethod.CENTROID), lump_flywheel)
+    got = load_input(p)
+    if isinstance(got, Measurements):
+        return compute_parameters(got, ComMethod(com_method or ComMethod.CENTROID), lump_flywheel)
+    return got
+
+
 def load_subject(path: str | Path, com_method: ComMethod | str | None = None) -> Subject:
     """Open one input (measurement file, parameter file or session bag) as a :class:`Subject`.
 
@@ -166,7 +203,8 @@ def load_subject(path: str | Path, com_method: ComMethod | str | None = None) ->
         BikeRigError: The input is missing, unreadable, invalid, or (a bag) incomplete; the
             message names the file and the reason.
     """
-    p = str(path)
+    p = resolve_bicycle(str(path))
+    path = p
     if not Path(path).exists():
         raise InputFileError(p, "no such file or directory")
     method = None if com_method is None else ComMethod(com_method)
