@@ -288,7 +288,7 @@ def run_validate(args: argparse.Namespace) -> int:
         from ..plots.style import save_figure
 
         out = _figures_dir(args.out)
-        fig = ride_validation(comparison, curve, Path(args.parameters).stem)
+        fig = ride_validation(comparison, curve, Path(args.parameters).stem, fb)
         save_figure(fig, out / "ride_validation", ("png",))
         plt.close(fig)
         _segment_figures(rows, out)

@@ -68,7 +68,10 @@ def test_the_ride_example_runs_from_an_empty_folder(empty: Path) -> None:
         "--feedback", "balance_assist", "--seed", "1")  # fmt: skip
     assert "segments combined" in _ok(empty, "ride", "fit", "ride.csv")
     out = _ok(empty, "ride", "validate", BROWSER, "ride.csv", "--rider", "paper", "--feedback", FEEDBACK)
-    assert "verdict:" in out
+    assert "verdict:" in out and "hint:" not in out
+    assert f"model: {BROWSER}, rider paper, feedback {FEEDBACK}" in out.splitlines()
+    riderless = _ok(empty, "ride", "validate", BROWSER, "ride.csv", "--feedback", "balance_assist")
+    assert "rider none (the bicycle alone)" in riderless and "hint: the model has no rider" in riderless
 
 
 def test_a_name_that_is_no_shipped_file_is_still_refused_in_one_line(empty: Path) -> None:
