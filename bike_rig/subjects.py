@@ -75,6 +75,8 @@ class Subject:
             :data:`bike_rig.bag.timeline.TIME_BASE`); else empty.
         notes: What a reader should know (e.g. trials left out of a replay).
         duration_s: For a bag, the session's length, s; else None.
+        not_replayed: For a bag, the ids and states of trials that have no fit (e.g. aborted
+            before any sample), so counts of a session's trials include them.
     """
 
     name: str
@@ -86,6 +88,7 @@ class Subject:
     timeline: tuple[TimelineEntry, ...] = ()
     notes: tuple[str, ...] = ()
     duration_s: float | None = None
+    not_replayed: tuple[tuple[str, str], ...] = ()
 
 
 def is_bag_path(path: str | Path) -> bool:
@@ -153,6 +156,9 @@ def _bag_subject(path: str, com_method: ComMethod | None) -> Subject:
         timeline=timeline.entries,
         notes=tuple(result.notes),
         duration_s=session.duration / 1e9,
+        not_replayed=tuple(
+            (tid, rec.state) for tid, rec in session.trials.items() if tid not in {r.trial_id for r in records}
+        ),
     )
 
 
