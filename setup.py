@@ -31,6 +31,7 @@ setup(
         (f"share/{PACKAGE}/config/bicycles", _files("config/bicycles/*")),
         (f"share/{PACKAGE}/config/foxglove", _files("config/foxglove/*")),
         (f"share/{PACKAGE}/config/dds", _files("config/dds/*")),
+        (f"share/{PACKAGE}/config/feedback", _files("config/feedback/*")),
     ],
     # The runtime libraries from PyPI, as ranges (the tested pins: tools/requirements.txt). The
     # ROS packages (rclpy, the message packages) are package.xml's, from the ROS prefix.

@@ -44,7 +44,9 @@ __all__ = [
     "SessionTrial",
     "file_trial",
     "is_bag_path",
+    "load_parameters",
     "load_subject",
+    "resolve_bicycle",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -76,6 +78,8 @@ class Subject:
             :data:`bike_rig.bag.timeline.TIME_BASE`); else empty.
         notes: What a reader should know (e.g. trials left out of a replay).
         duration_s: For a bag, the session's length, s; else None.
+        not_replayed: For a bag, the ids and states of trials that have no fit (e.g. aborted
+            before any sample), so counts of a session's trials include them.
     """
 
     name: str
@@ -87,6 +91,7 @@ class Subject:
     timeline: tuple[TimelineEntry, ...] = ()
     notes: tuple[str, ...] = ()
     duration_s: float | None = None
+    not_replayed: tuple[tuple[str, str], ...] = ()
 
 
 def is_bag_path(path: str | Path) -> bool:
@@ -154,7 +159,45 @@ def _bag_subject(path: str, com_method: ComMethod | None) -> Subject:
         timeline=timeline.entries,
         notes=tuple(result.notes),
         duration_s=session.duration / 1e9,
+        not_replayed=tuple(
+            (tid, rec.state) for tid, rec in session.trials.items() if tid not in {r.trial_id for r in records}
+        ),
     )
+
+
+def resolve_bicycle(spec: str) -> str:
+    """The input a user named: a path as given, or a shipped bicycle's file.
+
+    ``browser`` or ``config/bicycles/browser.yaml`` from any folder
+    (:func:`bike_rig.paths.resolve_shipped`).
+    """
+    from .paths import resolve_shipped
+
+    return resolve_shipped(spec, "bicycles")
+
+
+def load_parameters(
+    path: str | Path, com_method: ComMethod | str | None = None, lump_flywheel: bool = False
+) -> ParameterSet:
+    """The benchmark parameters of any input a bicycle is meant by, without a rider.
+
+    A parameter file as read; a measurement file or a session bag computed from its raw
+    readings (a bag's trials replayed, :func:`load_subject`) with ``com_method`` (None: the
+    paper's centroid for a file, the live set's method for a bag) and ``lump_flywheel``.
+
+    Raises:
+        BikeRigError: As :func:`load_subject`.
+    """
+    p = resolve_bicycle(str(path))
+    if is_bag_path(p):
+        subject = load_subject(p, com_method)
+        if not lump_flywheel or subject.measurements is None:
+            return subject.parameters
+        return compute_checked(subject.measurements, ComMethod(com_method or ComMethod.CENTROID), lump_flywheel)
+    got = load_input(p)
+    if isinstance(got, Measurements):
+        return compute_checked(got, ComMethod(com_method or ComMethod.CENTROID), lump_flywheel)
+    return got
 
 
 def load_subject(path: str | Path, com_method: ComMethod | str | None = None) -> Subject:
@@ -169,7 +212,8 @@ def load_subject(path: str | Path, com_method: ComMethod | str | None = None) ->
         BikeRigError: The input is missing, unreadable, invalid, or (a bag) incomplete; the
             message names the file and the reason.
     """
-    p = str(path)
+    p = resolve_bicycle(str(path))
+    path = p
     if not Path(path).exists():
         raise InputFileError(p, "no such file or directory")
     method = None if com_method is None else ComMethod(com_method)

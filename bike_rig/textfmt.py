@@ -15,7 +15,9 @@ __all__ = [
     "TABLE2_ORDER",
     "SpeedLike",
     "format_speed",
+    "format_uncertain",
     "format_value_sigma",
+    "sigma_digits",
     "terminal_safe",
 ]
 
@@ -57,33 +59,68 @@ LABELS: dict[str, tuple[str, str]] = {
 TABLE2_ORDER = tuple(LABELS)
 
 
-def format_value_sigma(value: float, sigma: float | None, digits: int = 1) -> tuple[str, str]:
-    """Value and σ for print.
+def sigma_digits(sigma: float) -> int:
+    """Significant digits of σ by the Particle Data Group's rule: 1 or 2.
 
-    σ to ``digits`` significant digits, the value to the same place (``digits=1`` is how the
-    paper prints its tables).
+    The σ's first three significant digits 100–354 keep two digits, 355–949 one, and 950–999
+    are rounded up to the next decade and keep two (``0.0972`` → ``0.10``). Two digits where
+    the first is small (1, 2, 3: rounding to one digit would change σ by up to 17 %), one
+    where it is large.
+    """
+    if not math.isfinite(sigma) or sigma <= 0.0:
+        return 2
+    lead = _leading_digits(sigma)
+    return 2 if lead < 355 or lead >= 950 else 1
+
+
+def _leading_digits(sigma: float) -> int:
+    """σ's first three significant digits, 100–999 (σ > 0, finite)."""
+    return min(max(int(sigma / 10.0 ** (math.floor(math.log10(sigma)) - 2) + 1e-9), 100), 999)
+
+
+def format_value_sigma(value: float, sigma: float | None, digits: int | None = 1) -> tuple[str, str]:
+    """Value and σ for print: σ to ``digits`` significant digits, the value to σ's last digit.
 
     Args:
         value: The value (any unit).
         sigma: Its standard uncertainty, same unit; None, 0, NaN or inf when unknown.
-        digits: Significant digits of σ.
+        digits: Significant digits of σ; ``None`` for the Particle Data Group's rule
+            (:func:`sigma_digits`, what every uncertain number outside the paper-style
+            parameter table uses); ``1`` as the paper prints its Table 2.
 
     Returns:
         ``(value, sigma)`` texts; without a usable σ the value gets 6 significant digits and σ
-        is ``"0"`` (exactly zero) or ``"–"``.
+        is ``"0"`` (exactly zero) or ``"–"``. A value that rounds to zero prints without a sign.
     """
     if not math.isfinite(value):
         return str(value), "–"
     if sigma is None or not math.isfinite(sigma) or sigma <= 0.0:
-        return f"{value:.6g}", "0" if sigma == 0.0 else "–"
+        return f"{value + 0.0:.6g}", "0" if sigma == 0.0 else "–"
+    if digits is None:
+        digits = sigma_digits(sigma)
+        if _leading_digits(sigma) >= 950:  # 950–999 round up to 1000: two digits of the next decade
+            sigma = 10.0 ** (math.floor(math.log10(sigma)) + 1)
     decimals = digits - 1 - math.floor(math.log10(sigma))
     if round(sigma, decimals) >= 10.0 ** (digits - decimals):  # σ rounded up to the next decade
         decimals -= 1
     if decimals > 0:
-        return f"{value:.{decimals}f}", f"{sigma:.{decimals}f}"
-    # σ ≥ 10**(digits-1): round both to units, tens, hundreds...
-    scale = 10.0 ** (-decimals)
-    return f"{round(value / scale) * scale:.0f}", f"{round(sigma / scale) * scale:.0f}"
+        v, s = f"{value:.{decimals}f}", f"{sigma:.{decimals}f}"
+    else:  # σ ≥ 10**(digits-1): round both to units, tens, hundreds...
+        scale = 10.0 ** (-decimals)
+        v, s = f"{round(value / scale) * scale:.0f}", f"{round(sigma / scale) * scale:.0f}"
+    return _unsigned_zero(v), s
+
+
+def _unsigned_zero(text: str) -> str:
+    """``-0.00`` → ``0.00``: a value that rounds to zero has no sign."""
+    return text[1:] if text.startswith("-") and not any(c in "123456789" for c in text) else text
+
+
+def format_uncertain(value: float, sigma: float | None, unit: str = "") -> str:
+    """``value ± σ unit`` by the one rule (:func:`format_value_sigma` with ``digits=None``)."""
+    v, s = format_value_sigma(value, sigma, digits=None)
+    text = v if s == "–" else f"{v} ± {s}"
+    return f"{text} {unit}" if unit else text
 
 
 class SpeedLike(Protocol):
@@ -103,7 +140,8 @@ class SpeedLike(Protocol):
 def format_speed(speed: SpeedLike | None, mode: str = "", *, compact: bool = False) -> str:
     """A weave or capsize speed with its σ for people, the same everywhere: ``4.195 ± 0.045 m/s``.
 
-    σ to two significant digits and the speed to the same place (:func:`format_value_sigma`).
+    σ to 1–2 significant digits by the one rule (:func:`sigma_digits`), the speed to σ's
+    last digit (:func:`format_value_sigma`).
 
     Args:
         speed: The speed with σ, m/s; None (or a speed that is not finite) when the bicycle
@@ -121,11 +159,11 @@ def format_speed(speed: SpeedLike | None, mode: str = "", *, compact: bool = Fal
     if speed is None or not math.isfinite(speed.speed):
         return f"none (no {mode} crossing)" if mode and not compact else "none"
     if compact:
-        value, sigma = format_value_sigma(speed.speed, speed.sigma, digits=2)
+        value, sigma = format_value_sigma(speed.speed, speed.sigma, digits=None)
         return value if sigma == "–" else f"{value}±{sigma}"
     if not math.isfinite(speed.sigma):
         return f"{speed.speed:.6f} m/s (σ undefined: not a simple root)"
     if speed.sigma == 0.0:
         return f"{speed.speed:.6f} ± 0 m/s (the parameters carry no σ)"
-    value, sigma = format_value_sigma(speed.speed, speed.sigma, digits=2)
+    value, sigma = format_value_sigma(speed.speed, speed.sigma, digits=None)
     return f"{value} ± {sigma} m/s"

@@ -140,7 +140,7 @@ def _ranking_line(label: str, b: UncertaintyBudget, outputs: list[str] | None) -
 
 
 def _output_block(o: OutputBudget, top: int, width: int = 24) -> list[str]:
-    value, sigma = format_value_sigma(o.value, o.sigma)
+    value, sigma = format_value_sigma(o.value, o.sigma, digits=None)
     lines = [f"{o.output} [{o.unit}]: {value} ± {sigma}"]
     if not o.shares:
         why = "σ is 0: no uncertainty to share" if o.sigma == 0 else "σ not defined (a double root)"

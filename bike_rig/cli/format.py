@@ -100,11 +100,25 @@ def speeds_summary(cs: CriticalSpeeds) -> str:
     return f"weave speed:   {w}\ncapsize speed: {c}"
 
 
+def eigen_cell(z: complex) -> str:
+    """One eigenvalue in 25 columns, 1/s: ``-3.1`` real, ``-0.8+4.2j`` complex, at 6 decimals.
+
+    A part that prints as zero has no sign (``0.000000``, never ``-0.000000``), and an
+    imaginary part below print resolution leaves a real number (blank where the ``j`` part goes).
+    """
+    re_text = f"{z.real + 0.0:.6f}"
+    re_text = re_text[1:] if re_text == "-0.000000" else re_text
+    im_text = f"{abs(z.imag):.6f}"
+    if im_text == "0.000000":
+        return f"{re_text:>13}{'':>12} "
+    return f"{re_text:>13}{('-' if z.imag < 0 else '+') + im_text:>12}j"
+
+
 def eigen_table(speeds: Sequence[float], eigenvalues: np.ndarray, labels: Sequence[str]) -> str:
     """Eigenvalues per speed, one column per tracked mode."""
     head = f"{'v [m/s]':>9}" + "".join(f"{lab:>26}" for lab in labels)
     rows = ["eigenvalues [1/s]:", head]
     for v, ev in zip(speeds, eigenvalues):
-        cells = "".join(f"{z.real:>13.6f}{z.imag:>+12.6f}j" for z in ev)
+        cells = "".join(eigen_cell(complex(z)) for z in ev)
         rows.append(f"{v:>9.4f}{cells}")
     return "\n".join(rows)

@@ -57,15 +57,10 @@ def single_threaded_blas() -> None:
 
 
 def _parameters(path: str, com_method: str, lump_flywheel: bool = False) -> ParameterSet:
-    from ..core.benchmark import ComMethod
-    from ..core.loader import load_input
-    from ..core.measurements import Measurements
-    from ..core.parameter_checks import compute_checked
+    """A parameter file, a measurement file, a session bag or a shipped bicycle's name."""
+    from ..subjects import load_parameters
 
-    got = load_input(path)
-    if isinstance(got, Measurements):
-        return compute_checked(got, ComMethod(com_method), lump_flywheel)
-    return got
+    return load_parameters(path, com_method, lump_flywheel)
 
 
 #: The fastest speed, either way, and the most speeds ``model --speeds`` evaluates (m/s; as the

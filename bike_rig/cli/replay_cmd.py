@@ -155,7 +155,7 @@ def _republish(args: argparse.Namespace) -> int:
 def _vs(value: float, sigma: float) -> str:
     if not math.isfinite(value):
         return "-"
-    v, s = fmt.format_value_sigma(value, sigma)
+    v, s = fmt.format_value_sigma(value, sigma, digits=None)
     return f"{v} ± {s}"
 
 

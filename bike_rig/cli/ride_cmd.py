@@ -45,6 +45,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -166,7 +167,33 @@ def _pm(x: float, s: float) -> str:
     """``x ± σ``; "—" without a value, "(no σ)" without a σ (never NaN)."""
     if not math.isfinite(x):
         return "—"
-    return f"{x:+.3f} ± {s:.3f}" if math.isfinite(s) else f"{x:+.3f} (no σ)"
+    if not (math.isfinite(s) and s > 0):
+        return f"{x:+.3f} (no σ)"
+    from ..textfmt import format_value_sigma
+
+    v, sigma = format_value_sigma(x, s, digits=None)
+    return f"{v if v.startswith('-') else '+' + v} ± {sigma}"
+
+
+#: Normalised deviation (RMS) above which a ride without ``--rider`` gets a hint to add one.
+RIDER_HINT_DEVIATION = 3.0
+
+
+def _model_echo(args: argparse.Namespace) -> str:
+    """Which bicycle, rider and feedback the model used, in one line."""
+    from ..core.feedback import feedback_key
+
+    rider = args.rider if args.rider not in (None, "", "none") else "none (the bicycle alone)"
+    fb = feedback_key(args.feedback) or "none (open loop)"
+    return f"model: {args.parameters}, rider {rider}, feedback {fb}"
+
+
+def _rider_hint(args: argparse.Namespace, deviation: float) -> str | None:
+    """A hint to add ``--rider`` when none was given and the model is far from the ride."""
+    if args.rider not in (None, "", "none") or not (math.isfinite(deviation) and deviation > RIDER_HINT_DEVIATION):
+        return None
+    return (f"hint: the model has no rider (deviation {deviation:.1f} σ); a ridden record needs "
+            "--rider paper or --rider RIDER.yaml")  # fmt: skip
 
 
 def _line(m: MeasuredEigenvalue, seg: Segment) -> str:
@@ -245,10 +272,16 @@ def run_validate(args: argparse.Namespace) -> int:
     rows = measure(args)
     speeds = _speeds(args.speeds) if args.speeds else None
     comparison, curve = validate_ride(ps, [m for m, _, _ in rows], fb, args.sigma, speeds)
+    hint = _rider_hint(args, comparison.overall)
     if args.json:
         print(json.dumps(_validate_json(comparison, rows), indent=2))
     else:
+        print(_model_echo(args))
         print(terminal_safe(_validate_text(comparison, rows)))
+        if hint:
+            print(hint)
+    if hint and args.json:
+        print(hint, file=sys.stderr)
     if args.out:
         import matplotlib.pyplot as plt
 
@@ -256,7 +289,7 @@ def run_validate(args: argparse.Namespace) -> int:
         from ..plots.style import save_figure
 
         out = _figures_dir(args.out)
-        fig = ride_validation(comparison, curve, Path(args.parameters).stem)
+        fig = ride_validation(comparison, curve, Path(args.parameters).stem, fb)
         save_figure(fig, out / "ride_validation", ("png",))
         plt.close(fig)
         _segment_figures(rows, out)
@@ -299,6 +332,7 @@ def run_calibrate(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(calibration_json(result), indent=2))
     else:
+        print(_model_echo(args))
         print(_calibrate_text(result))
     if args.out:
         import matplotlib.pyplot as plt

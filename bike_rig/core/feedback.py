@@ -257,8 +257,7 @@ def _constant(path: str, lines: Mapping[tuple[object, ...], int], key: str, spec
     value = _number(spec)
     if value is None:
         reason = (
-            "a gain is a finite number, [value, sigma] or {speeds: [...], values: [...]} "
-            f"({short_repr(spec)} given)"
+            f"a gain is a finite number, [value, sigma] or {{speeds: [...], values: [...]}} ({short_repr(spec)} given)"
         )
         raise _error(path, lines, where, reason)
     return GainSchedule.constant(value)
@@ -333,7 +332,7 @@ def resolve_feedback(spec: str | Path | None) -> Feedback | None:
 
     Args:
         spec: ``None``, ``""`` or ``"none"`` (no feedback), or the path of a feedback file
-            (:func:`load_feedback`).
+            (:func:`load_feedback`) or a shipped one's name (``balance_assist``).
 
     Returns:
         The feedback, or ``None`` for none.
@@ -341,5 +340,7 @@ def resolve_feedback(spec: str | Path | None) -> Feedback | None:
     Raises:
         FeedbackError: The file cannot be read or is not a valid feedback file.
     """
+    from ..paths import resolve_shipped
+
     key = feedback_key(spec)
-    return None if key == NO_FEEDBACK else load_feedback(key)
+    return None if key == NO_FEEDBACK else load_feedback(resolve_shipped(str(key), "feedback"))

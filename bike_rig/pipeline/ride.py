@@ -79,6 +79,9 @@ class PredictedWeave:
         imag_sigma: Its σ [rad/s].
         notes: What was chosen where it was not obvious.
         sigma_method: How each speed's σ was found: ``linear``, ``monte_carlo`` or ``none``.
+        branches: At each speed, which eigenvalue branch the curve follows (-1: none): the
+            number changes where the chosen eigenvalue is not the continuation of the one
+            before, i.e. the curve switches to another mode and may jump.
     """
 
     speeds: FloatArray
@@ -88,6 +91,7 @@ class PredictedWeave:
     imag_sigma: FloatArray
     notes: tuple[str, ...]
     sigma_method: tuple[str, ...] = ()
+    branches: tuple[int, ...] = ()
 
 
 def predicted_weave(
@@ -116,6 +120,7 @@ def predicted_weave(
     lam = es.sweep.eigenvalues
     targets = None if near is None else np.atleast_1d(np.asarray(near, dtype=complex))
     out = np.full((4, v.size), math.nan)
+    branch = [-1] * v.size
     notes: list[str] = []
     for i in range(v.size):
         cand = [j for j in range(lam.shape[1]) if lam[i, j].imag > MIN_IMAG]
@@ -125,6 +130,7 @@ def predicted_weave(
             notes.append(f"{v[i]:.3g} m/s: the model has no oscillatory mode; its eigenvalue nearest the measured one "
                          f"({lam[i, j].real:+.3g} 1/s) is taken")  # fmt: skip
             out[:, i] = lam[i, j].real, math.nan, abs(lam[i, j].imag), math.nan  # σ by Monte Carlo below
+            branch[i] = j
             continue
         if not cand:
             notes.append(f"{v[i]:.3g} m/s: the model has no oscillatory mode")
@@ -137,6 +143,8 @@ def predicted_weave(
             weave = [c for c in cand if es.sweep.labels[c] == "weave"]
             j = weave[0] if weave else max(cand, key=lambda c: lam[i, c].imag)
         out[:, i] = lam[i, j].real, es.sigma_real[i, j], lam[i, j].imag, es.sigma_imag[i, j]
+        branch[i] = j
+    branch = _branches(lam, branch)
     method = [LINEAR if np.isfinite(out[1, i]) else NO_SIGMA for i in range(v.size)]
     missing = np.flatnonzero(np.isfinite(out[0]) & ~(np.isfinite(out[1]) & np.isfinite(out[3])))
     if missing.size:
@@ -147,7 +155,33 @@ def predicted_weave(
             if mc.real_fraction[k] > 0 and out[2, m] > 0:
                 notes.append(f"{v[m]:.3g} m/s: near a branch point: the weave pair is real in "
                              f"{100 * mc.real_fraction[k]:.0f} % of the Monte Carlo draws")  # fmt: skip
-    return PredictedWeave(v, out[0], out[1], out[2], out[3], tuple(notes), tuple(method))
+    return PredictedWeave(v, out[0], out[1], out[2], out[3], tuple(notes), tuple(method), tuple(branch))
+
+
+def _branches(lam: NDArray[np.complex128], picked: list[int]) -> list[int]:
+    """A number per speed that changes where the chosen eigenvalue is not the continuation of the last.
+
+    Consecutive speeds' eigenvalues are matched one to one by least total distance (1/s); the
+    chosen one continues the last where it is the match of the one chosen before. -1: none chosen.
+    """
+    from scipy.optimize import linear_sum_assignment
+
+    out = [-1] * len(picked)
+    current = 0
+    for i, j in enumerate(picked):
+        if j < 0:
+            continue
+        if i > 0 and picked[i - 1] >= 0:
+            a, b = lam[i - 1], lam[i]
+            ok = np.isfinite(a).all() and np.isfinite(b).all()
+            if ok:
+                rows, cols = linear_sum_assignment(np.abs(a[:, None] - b[None, :]))
+                ok = int(cols[list(rows).index(picked[i - 1])]) == j
+            current += 0 if ok else 1
+        elif i > 0:
+            current += 1
+        out[i] = current
+    return out
 
 
 def normalised_deviation(measured: float, sigma_m: float, predicted: float, sigma_p: float) -> float:

@@ -11,10 +11,13 @@ and the reason each segment starts and ends written by it.
 
 Artists that carry data have a ``gid`` so tests can find them: ``pred-re``, ``pred-im``,
 ``band-re``, ``band-im``, ``meas-re``, ``meas-im``, ``comb-re``, ``comb-im``; ``segment:<k>``,
-``kick:<k>``, ``signal``. :func:`ride_calibration` draws the same two panels for ``bike-rig ride
-calibrate``: the measured eigenvalues per speed (±σ), the best variant's weave eigenvalue at the
-prior and at the posterior, each with its ±σ band (``data-re``, ``prior-re``, ``prior-band-re``,
-``post-re``, ``post-band-re`` and the same for ``im``).
+``kick:<k>``, ``signal``; where the model curve changes to another tracked mode (and may
+jump), a dotted line ``branch-re:<k>``/``branch-im:<k>`` with a legend entry; at a feedback's
+gain-table speeds (where the closed-loop curve kinks), a dashed ``gains-re:<k>``/``gains-im:<k>``.
+:func:`ride_calibration` draws the same two panels for ``bike-rig ride calibrate``: the
+measured eigenvalues per speed (±σ), the best variant's weave eigenvalue at the prior and at
+the posterior, each with its ±σ band (``data-re``, ``prior-re``, ``prior-band-re``, ``post-re``,
+``post-band-re`` and the same for ``im``).
 """
 
 from __future__ import annotations
@@ -23,6 +26,7 @@ from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
+from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
 from ..core.feedback import Feedback
@@ -40,8 +44,14 @@ if TYPE_CHECKING:
     from ..pipeline.ride_calibrate import CalibratedRide
 
 
-def ride_validation(comparison: RideComparison, curve: PredictedWeave, title: str = "") -> Figure:
-    """Measured eigenvalues with error bars over the predicted curves with ±σ bands (module docstring)."""
+def ride_validation(
+    comparison: RideComparison, curve: PredictedWeave, title: str = "", feedback: Feedback | None = None
+) -> Figure:
+    """Measured eigenvalues with error bars over the predicted curves with ±σ bands (module docstring).
+
+    ``feedback``: the closed loop's feedback, whose gain-table speeds are marked (the model
+    curve has a kink there, as the gains change slope).
+    """
     fig = new_figure(8.0, 7.0)
     ax_re, ax_im = fig.subplots(2, 1, sharex=True)
     for ax, part, vals, sig in (
@@ -69,6 +79,8 @@ def ride_validation(comparison: RideComparison, curve: PredictedWeave, title: st
                         yerr=[getattr(c.combined, attr + "_sigma") for c in comparison.speeds],
                         fmt="D", ms=6, color="k", mfc="none", capsize=3, label="combined per speed",
                         gid=f"comb-{part}")  # fmt: skip
+    _mark_branch_changes(ax_re, ax_im, curve)
+    _mark_gain_breakpoints(ax_re, ax_im, curve, feedback)
     ax_re.axhline(0.0, color="0.5", lw=0.8)
     ax_re.set_ylabel("Re λ [1/s]")
     ax_im.set_ylabel("Im λ [rad/s]")
@@ -77,6 +89,36 @@ def ride_validation(comparison: RideComparison, curve: PredictedWeave, title: st
     overall = f"overall normalised deviation {comparison.overall:.2f}" if np.isfinite(comparison.overall) else ""
     ax_re.set_title(" — ".join(x for x in (title, overall) if x))
     return fig
+
+
+def branch_changes(curve: PredictedWeave) -> list[float]:
+    """Speeds (m/s, midway between grid speeds) where the curve switches to another tracked mode."""
+    b, v = curve.branches, curve.speeds
+    return [
+        0.5 * (float(v[i]) + float(v[i + 1]))
+        for i in range(len(b) - 1)
+        if b[i] >= 0 and b[i + 1] >= 0 and b[i] != b[i + 1]
+    ]
+
+
+def _mark_branch_changes(ax_re: Axes, ax_im: Axes, curve: PredictedWeave) -> None:
+    """A dotted line and a legend entry where the model curve changes to another closed-loop mode."""
+    for k, speed in enumerate(branch_changes(curve)):
+        for ax, part in ((ax_re, "re"), (ax_im, "im")):
+            label = "model switches to another mode" if k == 0 else None
+            ax.axvline(speed, color="C1", ls=":", lw=1.2, label=label, gid=f"branch-{part}:{k}")
+
+
+def _mark_gain_breakpoints(ax_re: Axes, ax_im: Axes, curve: PredictedWeave, feedback: Feedback | None) -> None:
+    """A dashed line and a legend entry at each gain-table speed inside the curve's range."""
+    if feedback is None or not len(curve.speeds):
+        return
+    lo, hi = float(np.min(curve.speeds)), float(np.max(curve.speeds))
+    inside = [b for b in feedback.breakpoints if lo < b < hi]
+    for k, speed in enumerate(inside):
+        for ax, part in ((ax_re, "re"), (ax_im, "im")):
+            label = "feedback gains change slope (model kinks)" if k == 0 else None
+            ax.axvline(speed, color="C4", ls="--", lw=1.0, label=label, gid=f"gains-{part}:{k}")
 
 
 def ride_segments(record: RideRecord, segments: Sequence[Segment], title: str = "") -> Figure:
@@ -118,7 +160,7 @@ def ride_figure(
     ps = subjects[0].parameters if r is None else add_rider(subjects[0].parameters, r)
     measured = [m.eigenvalue for m in measure_records(ride, RecordOptions())]
     comparison, curve = validate_ride(ps, measured, feedback, speeds=speeds)
-    return ride_validation(comparison, curve, subjects[0].name)
+    return ride_validation(comparison, curve, subjects[0].name, feedback)
 
 
 def ride_calibration(result: CalibratedRide, title: str = "") -> Figure:

@@ -229,9 +229,10 @@ def side_view(subjects: Sequence[Subject]) -> Figure:
         x_hi = max(x_hi, w + rF, sx[0])
         y_hi = max(y_hi, top)
     ax.axhline(0.0, color="0.3", linewidth=1.0)
-    ax.set_xlim(x_lo - 0.1, x_hi + 0.1)
     ax.set_ylim(-0.05, y_hi + 0.05)
-    ax.set_aspect("equal")
+    ax.set_xlim(x_lo - 0.1, x_hi + 0.1)
+    ax.set_autoscalex_on(True)  # x widens as the aspect needs: no warning about fixed limits
+    ax.set_aspect("equal", adjustable="datalim")  # the box keeps the layout's margins: labels stay inside
     ax.set_xlabel("x, forward from the rear contact [m]")
     ax.set_ylabel("height above the ground [m]")
     sigma_text = f"{ELLIPSE_SIGMA:g}σ ellipses, drawn ×{mag:g}\n(largest semi-axis {largest * 1e3:.1f} mm)"

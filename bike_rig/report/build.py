@@ -13,6 +13,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
 from ..core.benchmark import ComMethod
 from ..core.feedback import Feedback, resolve_feedback
 from ..core.ride.eigen import MeasuredEigenvalue
@@ -127,6 +129,7 @@ def build_report(
         sections.speeds_section(results),
         *([sections.closed_loop_section(results)] if results.closed_loop is not None else []),
         *([ride_section(compute_ride(results.rider, rides, feedback), dpi)] if rides else []),
+        *([_calibration(subject, rides, rider, feedback, dpi)] if rides and feedback is not None else []),
         sections.budget_section(results),
         sections.trials_section(subject),
         sections.timeline_section(subject),
@@ -135,6 +138,22 @@ def build_report(
     ]
     text = page(f"{subject.name}: bicycle parameter report", body, drawn)
     return Report(subject, results, figures, text, time.perf_counter() - t0)
+
+
+def _calibration(
+    subject: Subject, rides: Sequence[MeasuredEigenvalue], rider: str, feedback: Feedback, dpi: float
+) -> sections.Raw:
+    """The ride calibration section (nominal variants, no free parameter), or a note why it is missing."""
+    from ..core.errors import BikeRigError
+    from ..pipeline.ride_calibrate import calibrate_rides
+    from .html import esc, section
+    from .ride import calibration_section
+
+    try:
+        result = calibrate_rides(subject.parameters, rides, resolve_rider(rider), feedback)
+    except (BikeRigError, ValueError, np.linalg.LinAlgError) as exc:
+        return section("ride-calibration", "Ride calibration", [f'<p class="note">not computed: {esc(str(exc))}</p>'])
+    return calibration_section(result, dpi)
 
 
 def write_report(

@@ -26,8 +26,8 @@ __all__ = [
 ]
 
 
-#: Significant digits of every σ on the page (one more than the paper's tables print).
-SIGMA_DIGITS = 2
+#: Significant digits of every σ on the page: None, the one rule (:func:`~bike_rig.textfmt.sigma_digits`).
+SIGMA_DIGITS: int | None = None
 
 
 class Raw(str):

@@ -17,6 +17,7 @@ from collections.abc import Sequence
 from .. import __version__
 from ..bag.timeline import TIME_BASE
 from ..core.feedback import GAIN_KEYS, GAIN_UNITS
+from ..core.period import FlagCode
 from ..core.uncertainty.budget import CAPSIZE, PARAMETERS, WEAVE, OutputBudget, UncertaintyBudget, input_ranking
 from ..core.uncertainty.matrix_sigma import MATRIX_NAMES
 from ..core.uncertainty.speed_sigma import SpeedWithSigma
@@ -63,11 +64,19 @@ def _facts(rows: Sequence[tuple[str, str]]) -> str:
 
 
 def _trial_counts(subject: Subject) -> str:
-    n = len(subject.trials)
+    """``N trials, U used, F flagged, A aborted``: every trial of the session, aborted ones too.
+
+    N counts the trials a bag announced without samples to fit (aborted at once) as well.
+    """
+    n = len(subject.trials) + len(subject.not_replayed)
     used = sum(t.used for t in subject.trials)
     flagged = sum(bool(t.result.flags) for t in subject.trials)  # (the trial's flags too: aborted, gap…)
-    aborted = sum("aborted" in t.result.flag_codes for t in subject.trials)
-    return f"{n} trials, {used} used, {flagged} flagged" + (f" ({aborted} aborted)" if aborted else "")
+    aborted = sum(state == "aborted" for _, state in subject.not_replayed)
+    for t in subject.trials:
+        aborted += any(f.code is FlagCode.ABORTED for f in (*t.result.trial_flags, *t.fit.flags))
+    other = len(subject.not_replayed) - sum(state == "aborted" for _, state in subject.not_replayed)
+    text = f"{n} trials, {used} used, {flagged} flagged"
+    return text + (f", {aborted} aborted" if aborted else "") + (f", {other} without samples" if other else "")
 
 
 def header_section(subject: Subject, results: ReportResults, figures: int, generated: str) -> Raw:
@@ -81,7 +90,7 @@ def header_section(subject: Subject, results: ReportResults, figures: int, gener
     ]
     if ps.com:
         facts.append(("mass centres", ", ".join(f"{k}: {e.used.value}" for k, e in ps.com.items())))
-    if subject.trials:
+    if subject.trials or subject.not_replayed:
         facts.append(("trials", _trial_counts(subject)))
     if subject.duration_s is not None:
         facts.append(("session length", f"{subject.duration_s:.1f} s"))

@@ -177,7 +177,7 @@ def test_parallel_hanging_lines(capsys: pytest.CaptureFixture[str], tmp_path: Pa
 
 def test_unreadable_files(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
     bad(capsys, tmp_path / "nope.yaml", "no such file")
-    bad(capsys, tmp_path, "not a regular file")
+    bad(capsys, tmp_path, "not a rosbag2 bag")  # a folder where a bicycle is meant is read as a bag
     binary = tmp_path / "garbage.txt"
     binary.write_bytes(b"\xff\xfe\x00\x81")
     bad(capsys, binary, "cannot read the file")

@@ -38,7 +38,7 @@ from bike_rig.pipeline.fit_details import FitDetails
 from bike_rig.report import REPORT_FILE, Report, ReportOutputError, build_report, write_report
 from bike_rig.report.figures import FigureSpec, draw_figures
 from bike_rig.subjects import Subject, load_subject
-from bike_rig.textfmt import TABLE2_ORDER, format_value_sigma
+from bike_rig.textfmt import TABLE2_ORDER, format_value_sigma, sigma_digits
 from test.support.simulated import short_session
 
 BROWSER = config_file("bicycles/browser.yaml")
@@ -177,7 +177,8 @@ def parse(text: str) -> Page:
 def check_value_sigma(value_cell: Cell, sigma_cell: Cell, value: float, sigma: float) -> None:
     """The cells hold ``value`` and ``sigma`` exactly (data attributes) and as rounded text.
 
-    σ to two significant digits, the value to the same decimal place.
+    σ to one or two significant digits by the one rule (:func:`bike_rig.textfmt.sigma_digits`),
+    the value to the same decimal place.
     """
     assert float(value_cell.attrs["data-value"]) == value
     assert float(value_cell.attrs["data-sigma"]) == sigma
@@ -187,7 +188,7 @@ def check_value_sigma(value_cell: Cell, sigma_cell: Cell, value: float, sigma: f
         decimals = len(sigma_cell.text.split(".")[1]) if "." in sigma_cell.text else 0
         assert shown_s == pytest.approx(sigma, rel=0.051, abs=0.5 * 10.0**-decimals)
         digits = sigma_cell.text.replace(".", "").lstrip("0")
-        assert len(digits) == 2 or decimals == 0, sigma_cell.text
+        assert len(digits) == sigma_digits(sigma) or decimals == 0, sigma_cell.text
         value_decimals = len(value_cell.text.split()[0].split(".")[1]) if "." in value_cell.text else 0
         assert value_decimals == decimals
         assert abs(shown_v - value) <= 0.5 * 10.0**-decimals * (1 + 1e-9)

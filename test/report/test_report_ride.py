@@ -37,3 +37,24 @@ def test_ride_section_tables_the_segments_per_speed_and_embeds_the_figure() -> N
     assert len(re.findall(r"<tr>", html)) >= 3  # the header and one row per speed
     assert math.isfinite(rides.comparison.overall) and rides.comparison.overall < 3.0
     assert "the closed loop with feedback" in html and "balance assist" in html
+
+
+def test_report_with_rides_and_feedback_adds_the_calibration_section() -> None:
+    from bike_rig.report.build import _calibration
+    from bike_rig.subjects import load_subject
+
+    subject = load_subject("browser")
+    fb = resolve_feedback("balance_assist")
+    assert fb is not None
+    ms = compute_variant(subject.parameters, PAPER_RIDER).matrices
+    segments = []
+    for v in (3.0, 4.5, 6.0):
+        ride = simulate_ride(ms.matrices, ms.g, RideSimulation(v, 13.0, kicks=regular_kicks(13.0, 6.0)), fb.gains(v))
+        for k in ride.kicks:
+            inside = (ride.times >= k.time + 0.3) & (ride.times <= k.time + 2.3)
+            segments.append(fit_segment(ride.times[inside], ride.roll_rate[inside], speed=v, source=f"{v}"))
+    html = _calibration(subject, segments, "paper", fb, dpi=40)
+    assert 'id="ride-calibration"' in html and 'id="table-ride-calibration"' in html
+    assert "data:image/png;base64," in html and "not computed" not in html
+    one = _calibration(subject, segments[:1], "paper", fb, dpi=40)  # one segment: a section or a note, no crash
+    assert 'id="ride-calibration"' in one
