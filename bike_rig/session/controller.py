@@ -357,8 +357,9 @@ class SessionController:
         if not s.complete:
             missing = s.missing()
             shown = ", ".join(missing[:12]) + (f" … ({len(missing)} in all)" if len(missing) > 12 else "")
-            out = [Reply("info", f"missing: {shown or 'nothing'}", {"missing": list(missing)})]
             lacking = s.lacking()
+            open_items = {"missing": list(missing), "lacking": list(lacking)}
+            out = [Reply("info", f"missing: {shown or 'nothing'}", open_items)]
             if not missing and lacking:  # (every item done, yet the parameter node still lacks these)
                 text = f"the parameter set still lacks {', '.join(lacking)}"
                 out.append(Reply("info", text, {"lacking": list(lacking)}))

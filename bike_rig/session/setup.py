@@ -128,7 +128,16 @@ def connection(source: str, driver: Mapping[str, object], domain_id: int | None)
     data: dict[str, object] = {"source": source, "domain_id": domain_id}
     where = f"{source} gyro"
     if source == "can":
+        from ..sources.can_bus import choose_bus
+        from ..sources.errors import SourceConfigError
+
         interface, channel = str(driver.get("can_interface", "")), str(driver.get("can_channel", ""))
+        try:  # (the bus the driver opens: the parameters', python-can's configured one, or the virtual one)
+            bitrate = int(str(driver.get("can_bitrate", 0)), 0)
+            chosen = choose_bus(interface, channel, bitrate)
+            interface, channel = chosen.interface, chosen.channel
+        except (SourceConfigError, ValueError):
+            pass  # (the driver says what is wrong with them)
         can_id = int(str(driver.get("can_id", 0)), 0)
         data.update(interface=interface, channel=channel, can_id=can_id)
         where += f" on {interface}:{channel} id 0x{can_id:x}"

@@ -47,6 +47,8 @@ class TmuxSession:
         self.socket = f"bike_rig_test_{os.getpid()}_{time.monotonic_ns()}"
         self.env = dict(env)
         self.env.pop("TMUX", None)
+        for size in ("COLUMNS", "LINES"):  # (pytest-xdist's workers set 80×24: the pane's own size counts)
+            self.env.pop(size, None)
         self.env["TERM"] = "xterm-256color"
         # the pane stays after the program exits, so its last screen and status can be read
         script = f'{shlex.join(argv)}; echo "[exit $?]"; sleep 600'
