@@ -99,7 +99,12 @@ def main(seeds: int) -> None:
                         widened += fit.sigma_widening > 1.0
                         below_white += fit.period_sigma < fit.period_sigma_white
                         if len(trial.modes) == 1:
-                            z_true.append((fit.period - _true_mean_period(trial, fit.window)) / fit.period_sigma)
+                            truth = (
+                                _true_mean_period(trial, fit.window)
+                                if trial.dry_friction or trial.finite_swing
+                                else sim.damped_period(m.key)  # (a constant period: exact)
+                            )
+                            z_true.append((fit.period - truth) / fit.period_sigma)
                         if len(trial.modes) == 1 and seed < max(1, seeds // 5):  # (the least squares is slow)
                             z_eq23.append((fit.period - _eq23(trial.volts, trial.sample_rate, fit)) / fit.period_sigma)
             cover_true = f"{np.mean(np.abs(z_true) <= 1):.3f}" if z_true else "-"
