@@ -69,6 +69,8 @@ def _true_mean_period(trial: Any, window: tuple[int, int]) -> float:
     y = motion_rate(t, trial.modes, trial.dry_friction, trial.finite_swing)
     k = np.flatnonzero(np.signbit(y[1:]) != np.signbit(y[:-1]))
     crossings = t[k] + y[k] / (y[k] - y[k + 1]) / rate  # (each half cycle is π of phase)
+    # one half cycle beyond each end (the window may end after the last crossing: np.interp would clamp)
+    crossings = np.concatenate(([2 * crossings[0] - crossings[1]], crossings, [2 * crossings[-1] - crossings[-2]]))
     t0, t1 = (window[0] - 0.5) / rate, (window[1] - 0.5) / rate
     phase = np.interp([t0, t1], crossings, np.pi * np.arange(crossings.size))
     return float(2 * np.pi * (t1 - t0) / (phase[1] - phase[0]))
