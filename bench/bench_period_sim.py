@@ -4,7 +4,9 @@ Every trial kind the simulator makes (viscous linear trials, beating trials, dry
 finite compound swing; short and long records; several bicycles and seeds) is fitted as the
 fitter node fits it. Printed per kind: trials, ``period_drift`` flags, the share whose σ was
 widened, the share of ±σ covering the true mean period over the window (from the true motion's zero
-crossings) and Eq 23's least-squares period on every sample of the window (|Δ| ≤ σ), and the largest |Δ|/σ.
+crossings) and the largest |z| against it, the trials whose σ is below Eq 27's (``period_sigma_white``;
+none should be), and Eq 23's least-squares period on every sample of the window (|Δ| ≤ σ), and the
+largest |Δ|/σ.
 
     python bench/bench_period_sim.py [--seeds 20]
 """
@@ -67,17 +69,22 @@ def _true_mean_period(trial: Any, window: tuple[int, int]) -> float:
     y = motion_rate(t, trial.modes, trial.dry_friction, trial.finite_swing)
     k = np.flatnonzero(np.signbit(y[1:]) != np.signbit(y[:-1]))
     crossings = t[k] + y[k] / (y[k] - y[k + 1]) / rate  # (each half cycle is π of phase)
+    # one half cycle beyond each end (the window may end after the last crossing: np.interp would clamp)
+    crossings = np.concatenate(([2 * crossings[0] - crossings[1]], crossings, [2 * crossings[-1] - crossings[-2]]))
     t0, t1 = (window[0] - 0.5) / rate, (window[1] - 0.5) / rate
     phase = np.interp([t0, t1], crossings, np.pi * np.arange(crossings.size))
     return float(2 * np.pi * (t1 - t0) / (phase[1] - phase[0]))
 
 
 def main(seeds: int) -> None:
-    print(f"{'trials':18s} {'n':>5s} {'drift':>6s} {'widened':>8s} {'±σ true':>8s} {'±σ Eq23':>8s} {'max|Δ23|/σ':>10s}")
+    print(
+        f"{'trials':18s} {'n':>5s} {'drift':>6s} {'widened':>8s} {'±σ true':>8s} {'max|z|':>7s} {'σ<Eq27':>7s} "
+        f"{'±σ Eq23':>8s} {'max|Δ23|/σ':>10s}"
+    )
     with tempfile.TemporaryDirectory() as folder:
         for name, kind in KINDS.items():
             rig = _rig(kind, Path(folder))
-            n = drift = widened = 0
+            n = drift = widened = below_white = 0
             z_true: list[float] = []
             z_eq23: list[float] = []
             for bike in BICYCLES:
@@ -92,14 +99,24 @@ def main(seeds: int) -> None:
                         n += 1
                         drift += any(f.code.value == "period_drift" for f in fit.flags)
                         widened += fit.sigma_widening > 1.0
+                        below_white += fit.period_sigma < fit.period_sigma_white
                         if len(trial.modes) == 1:
-                            z_true.append((fit.period - _true_mean_period(trial, fit.window)) / fit.period_sigma)
+                            truth = (
+                                _true_mean_period(trial, fit.window)
+                                if trial.dry_friction or trial.finite_swing
+                                else sim.damped_period(m.key)  # (a constant period: exact)
+                            )
+                            z_true.append((fit.period - truth) / fit.period_sigma)
                         if len(trial.modes) == 1 and seed < max(1, seeds // 5):  # (the least squares is slow)
                             z_eq23.append((fit.period - _eq23(trial.volts, trial.sample_rate, fit)) / fit.period_sigma)
             cover_true = f"{np.mean(np.abs(z_true) <= 1):.3f}" if z_true else "-"
             cover_eq23 = f"{np.mean(np.abs(z_eq23) <= 1):.3f}" if z_eq23 else "-"
             worst = f"{np.max(np.abs(z_eq23)):.2f}" if z_eq23 else "-"
-            print(f"{name:18s} {n:5d} {drift:6d} {widened / n:8.3f} {cover_true:>8s} {cover_eq23:>8s} {worst:>10s}")
+            worst_true = f"{np.max(np.abs(z_true)):.2f}" if z_true else "-"
+            print(
+                f"{name:18s} {n:5d} {drift:6d} {widened / n:8.3f} {cover_true:>8s} {worst_true:>7s} {below_white:7d} "
+                f"{cover_eq23:>8s} {worst:>10s}"
+            )
 
 
 if __name__ == "__main__":

@@ -25,6 +25,7 @@ from scipy.optimize import least_squares
 from bike_rig.core.period import FlagCode, PeriodFit, WindowPolicy, damped_oscillation, damped_period, fit_period
 from bike_rig.core.period.advice import flag_advice
 from bike_rig.core.period.damping import mean_period, mean_swing_square, swing_stop
+from bike_rig.core.period.sigma import jackknife_windows, sandwich, window_sandwich
 from bike_rig.core.sim import TrialSimulator, load_rig, load_true_parameters
 from bike_rig.paths import config_file
 from test.core.test_period_signals import LSB, gyro_trial, quantise
@@ -241,10 +242,32 @@ def test_the_rig_simulators_clean_trials_are_not_flagged_and_their_sigma_covers(
             trial = sim.simulate(m, counter, 1)
             fit = fit_period(trial.volts, sample_rate_hz=trial.sample_rate)
             assert fit.valid and not fit.has_flag(FlagCode.PERIOD_DRIFT), (seed, m.key, fit.flags)
+            assert fit.period_sigma >= fit.period_sigma_white, (seed, m.key)  # (8-10 cycles: Eq 27 a floor)
             z.append((fit.period - sim.damped_period(m.key)) / fit.period_sigma)
             moved += any("the period moves beyond" in note for note in fit.notes)
     assert moved >= 1  # (seed 4's front wheel: said in a note, carried by the σ)
     assert 0.58 <= np.mean(np.abs(z) <= 1.0) <= 0.8, z
+
+
+def test_the_window_jackknife_takes_about_sqrt_cycles_windows_of_two_cycles_or_more() -> None:
+    assert jackknife_windows(3) is None and list(jackknife_windows(4)) == [0, 2]  # type: ignore[arg-type]
+    for cycles in range(4, 60):
+        starts = jackknife_windows(cycles)
+        assert starts is not None and np.all(np.diff(np.append(starts, cycles)) >= 2)
+        assert abs(starts.size - math.sqrt(cycles)) <= 1
+
+
+def test_the_window_jackknife_gathers_what_cycles_share_and_agrees_with_the_cycles_otherwise() -> None:
+    # one parameter, influence h per cycle: the sandwich over cycles vs over windows of cycles
+    rng = np.random.default_rng(3)
+    cycles = 25
+    G, v, e = np.eye(1) * 1e-6, np.zeros((1, cycles)), np.ones(cycles)
+    independent = [window_sandwich(G, rng.standard_normal((1, cycles)), v, e, first=0) for _ in range(400)]
+    assert np.mean([c[0, 0] for c in independent if c is not None]) == pytest.approx(cycles * 1e-12, rel=0.1)
+    shared = np.repeat(rng.choice([-1.0, 1.0], 5), 5)[None, :] + 0.1 * rng.standard_normal((1, cycles))
+    cycle_cov, _ = sandwich(G, shared, v, e, first=0)
+    window_cov = window_sandwich(G, shared, v, e, first=0)
+    assert cycle_cov is not None and window_cov is not None and window_cov[0, 0] > 3 * cycle_cov[0, 0]
 
 
 # ---------------------------------------------------------------- a larger campaign

@@ -67,7 +67,7 @@ from numpy.typing import NDArray
 
 from .lm import SingularError, minimise
 from .oscillation import TWO_PI, block_phasors
-from .sigma import BlockDesign, cycle_starts, sandwich, student_factor
+from .sigma import BlockDesign, cycle_starts, sandwich, student_factor, window_sandwich
 from .solver import FitFailed, Solution
 
 __all__ = [
@@ -489,17 +489,24 @@ def _statistics(design: _Design, x: dict[str, float], r: FloatArray, n_cycles: f
     e2 = np.add.reduceat(counts * h * h, starts)
     first = design.n_offsets + 2
     cov, dof = sandwich(G, score, v, e2, first=first)
+    n = float(np.sum(counts))
+    white = float(np.dot(rb, r)) / max(1.0, n - p) * G[first:, first:]  # Eq 26-27's covariance
     fallback = cov is None
     if cov is None:
-        n = float(np.sum(counts))
-        s2 = float(np.dot(rb, r)) / max(1.0, n - p)
-        cov, dof = s2 * G[first:, first:], n - p
+        cov, dof = white, n - p
     factor = student_factor(dof)
     sig = {name: factor * math.sqrt(max(0.0, float(cov[i, i]))) for i, name in enumerate(names[first:])}
+    # the period's σ at least the window jackknife's and Eq 27's (widening only)
+    floors = [c for c in (white, window_sandwich(G, score, v, e2, first=first)) if c is not None]
+    for c in floors:
+        sig["omega"] = max(sig["omega"], math.sqrt(max(0.0, float(c[-1, -1]))))
     sigma_t0 = math.nan
     t_mean, sigma_mean = TWO_PI / omega, sig["omega"] * TWO_PI / omega**2
     if design.swing:
         sigma_t0, t_mean, sigma_mean = _swing_periods(x, cov * factor**2, design.span, names[first:])
+        for c in floors:
+            floor_t0, _, floor_mean = _swing_periods(x, c, design.span, names[first:])
+            sigma_t0, sigma_mean = max(sigma_t0, floor_t0), max(sigma_mean, floor_mean)
     stop_ratio = 0.0
     stopped = e <= 0.0
     if np.any(stopped) and not np.all(stopped):

@@ -46,7 +46,7 @@ from __future__ import annotations
 import cmath
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -547,5 +547,7 @@ class _Fitter:
         samples = (win.ys, lambda: self._tau_of(win, blocks))  # (the times only when another model is chosen)
         eq23 = PhaseResidual(deviation, cycle_amplitude, omega_d)
         fit, residual = fit_damping(fit, blocks, sol, samples, units, modulation, self.options, eq23)
+        if fit.period_sigma < fit.period_sigma_white:  # (never below Eq 27's, whichever model was chosen)
+            fit = replace(fit, period_sigma=fit.period_sigma_white)
         fit = with_stationarity(fit, eq23, residual)
         return with_small_swing_period(fit) if self.options.small_swing_period else fit

@@ -18,7 +18,12 @@ power that moves the period — whatever its spectrum. Two corrections make it h
   ``1 − Σ_c v_cᵀ H⁻¹ v_c / |h|²`` (``v_c = Σ_{i in c} J_i h_i``);
 * with few cycles the estimate is itself uncertain: σ is multiplied by the Student-t factor
   ``t_ν(0.8413)`` for its effective degrees of freedom ν (Satterthwaite, from the per-cycle
-  weights), so that ±σ still covers the truth 68 % of the time (GUM Annex G).
+  weights), so that ±σ still covers the truth 68 % of the time (GUM Annex G);
+* cycles may share a departure the model does not explain (a period that moves late in the
+  record): the same sums over about sqrt(cycles) windows of at least two cycles (a linearised
+  window jackknife, :func:`window_sandwich`) gather it, and σ is at least theirs;
+* σ is never below Eq 27's: serially correlated residuals move the period more than white
+  ones, so a smaller sandwich σ (a few cycles' chance) is its estimate's scatter, not the truth.
 
 Whole cycles matter: with a partial last cycle slow drift leaks into the sums. The statistics
 use the block means (the influence hardly varies inside a block). T = 2π / omega_d (Eq 25), so
@@ -39,9 +44,21 @@ from numpy.typing import NDArray
 from .oscillation import TWO_PI, block_phasors, zeta_omega
 from .solver import FitFailed, Solution
 
-__all__ = ["BlockDesign", "PeriodSigma", "cycle_starts", "period_sigma", "sandwich", "student_factor"]
+__all__ = [
+    "BlockDesign",
+    "PeriodSigma",
+    "cycle_starts",
+    "jackknife_windows",
+    "period_sigma",
+    "sandwich",
+    "student_factor",
+    "window_sandwich",
+]
 
 FloatArray = NDArray[np.float64]
+
+#: Whole cycles per window of the window sandwich, at least.
+MIN_JACKKNIFE_CYCLES = 2
 
 #: One-sided normal quantile of a ±1σ interval: Φ(1).
 _PHI1 = 0.8413447460685429
@@ -181,6 +198,10 @@ def period_sigma(
         cov2, dof = s2 * G[3:, 3:], float(n - 5)
     factor = student_factor(dof)
     sigma = dT * math.sqrt(max(0.0, float(cov2[1, 1]))) * factor
+    windowed = window_sandwich(G, score, per_cycle_sums[5:10], per_cycle_sums[10])
+    if windowed is not None:  # (what the windows scatter beyond the cycles' σ)
+        sigma = max(sigma, dT * math.sqrt(max(0.0, float(windowed[1, 1]))))
+    sigma = max(sigma, sigma_white)  # (correlated residuals move the period more than white ones, never less)
     _, omega = zeta_omega(alpha, omega_d)
     jac = np.array([[omega_d**2 / omega**3, -alpha * omega_d / omega**3], [alpha / omega, omega_d / omega]])
     zw_cov = jac @ cov2 @ jac.T * factor**2
@@ -253,3 +274,43 @@ def sandwich(
         return None, 0.0
     dof = total**2 / float(np.dot(expected, expected))
     return cov * (e_total / total), max(1.0, dof)
+
+
+def jackknife_windows(cycles: int) -> NDArray[np.intp] | None:
+    """The first cycle of each window of the window sandwich, or None for fewer than two windows.
+
+    About sqrt(cycles) windows of at least ``MIN_JACKKNIFE_CYCLES`` whole cycles each: long
+    enough to gather a slow departure from the model, many enough to estimate its scatter.
+    """
+    windows = min(cycles // MIN_JACKKNIFE_CYCLES, round(math.sqrt(cycles)))
+    if windows < 2:
+        return None
+    size, extra = divmod(cycles, windows)
+    return np.asarray(np.arange(windows) * size + np.minimum(np.arange(windows), extra), dtype=np.intp)
+
+
+def window_sandwich(
+    G: FloatArray, score: FloatArray, v: FloatArray, e: FloatArray, first: int = 3
+) -> FloatArray | None:
+    """:func:`sandwich` over windows of whole cycles (:func:`jackknife_windows`): a window jackknife.
+
+    Summing the per-cycle contributions over each window before squaring is the linearised
+    leave-one-window-out jackknife of the estimates: cycles whose departures from the model
+    share a sign within a window (a period change the model does not explain) add up, where
+    the per-cycle sandwich counts them as independent. Under the model it has the per-cycle
+    sandwich's expectation, with fewer degrees of freedom.
+
+    Returns:
+        The covariance of the parameters from ``first`` on, or None with fewer than two windows.
+    """
+    starts = jackknife_windows(score.shape[1])
+    if starts is None:
+        return None
+    cov, _ = sandwich(
+        G,
+        np.add.reduceat(score, starts, axis=1),
+        np.add.reduceat(v, starts, axis=1),
+        np.add.reduceat(e, starts),
+        first,
+    )
+    return cov
