@@ -28,7 +28,7 @@ from bike_rig.core.period.damping import mean_period, mean_swing_square, swing_s
 from bike_rig.core.period.sigma import jackknife_windows, sandwich, window_sandwich
 from bike_rig.core.sim import TrialSimulator, load_rig, load_true_parameters
 from bike_rig.paths import config_file
-from test.core.test_period_signals import LSB, gyro_trial, quantise
+from test.support.signals import LSB, gyro_trial, quantise
 
 RATE_HZ = 1000.0
 T0 = 1.5848  # the small-swing period of the fork, s
