@@ -17,7 +17,7 @@ VENV := $(CURDIR)/.venv
 BIN := $(VENV)/bin
 BENCH_DEPS := $(CURDIR)/.bench-deps
 # folders that exist (ruff fails on a missing path)
-LINT_PATHS := $(wildcard bike_rig test bench)
+LINT_PATHS := $(wildcard bike_rig test bench tools docs)
 # the benchmarks (bench/bench_*.py; the other files there are their helpers)
 BENCH_SCRIPTS := $(sort $(wildcard bench/bench_*.py))
 
@@ -62,6 +62,7 @@ demo: venv
 
 lint: venv
 	$(BIN)/ruff check $(LINT_PATHS)
+	$(BIN)/ruff format --check $(LINT_PATHS)
 
 typecheck: venv
 	$(BIN)/mypy bike_rig
@@ -80,9 +81,10 @@ test-fast: venv
 	@tools/setup_debian.sh
 	timeout -k 30 $(PYTEST_TIMEOUT_S) $(PYTEST) -n $(FAST_WORKERS) -m "$(FAST_MARKERS)"
 
-# in this order: ruff, mypy, the manual, pytest (each stops the run on failure)
+# in this order: ruff (lint and format), mypy, the manual, pytest (each stops the run on failure)
 test: venv
 	$(BIN)/ruff check $(LINT_PATHS)
+	$(BIN)/ruff format --check $(LINT_PATHS)
 	$(BIN)/mypy bike_rig
 	$(BIN)/sphinx-build -W --keep-going -q -b html docs build/docs
 	@tools/setup_debian.sh

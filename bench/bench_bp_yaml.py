@@ -53,8 +53,10 @@ def main() -> int:
                 worst = max(abs(float(loaded.parameters[k]) - v) / max(abs(v), 1e-300) for k, v in ours.items())
                 ok = worst == 0.0 and loaded.includes_rider is (rider != "none")
                 bad += not ok
-                print(f"{raw.parent.parent.name:12s} rider={rider:5s}: loads, largest relative difference "
-                      f"{worst:.1e}, includes_rider={loaded.includes_rider}  {'OK' if ok else 'DIFFERS'}")  # fmt: skip
+                print(
+                    f"{raw.parent.parent.name:12s} rider={rider:5s}: loads, largest relative difference "
+                    f"{worst:.1e}, includes_rider={loaded.includes_rider}  {'OK' if ok else 'DIFFERS'}"
+                )
     print(f"{len(raws) * 2 - bad} of {len(raws) * 2} exports load in Meijaard2007ParameterSet exactly")
     return 1 if bad else 0
 

@@ -71,8 +71,10 @@ def filtered_polls(frames: int, foreign: int) -> int:
 
 
 def main() -> None:
-    print(f"{'gyro frames':>11} {'foreign/gyro':>12} {'source polls':>12} {'ms per 1000 frames':>18} "
-          f"{'filtered-bus polls':>18}")  # fmt: skip
+    print(
+        f"{'gyro frames':>11} {'foreign/gyro':>12} {'source polls':>12} {'ms per 1000 frames':>18} "
+        f"{'filtered-bus polls':>18}"
+    )
     for frames in GYRO_FRAMES:
         for foreign in FOREIGN_PER_GYRO:
             polls, seconds = source_polls(frames, foreign)

@@ -55,12 +55,17 @@ def main() -> int:
             ("bike-rig --help", [str(SCRIPT), "--help"], None),
             ("bike-rig params browser.yaml", [str(SCRIPT), "params", str(config_file("bicycles/browser.yaml"))], 0.4),
             ("bike-rig replay BAG (39 trials)", [str(SCRIPT), "replay", str(bag)], 1.0),
-            ("bike-rig report browser.yaml", [str(SCRIPT), "report", str(config_file("bicycles/browser.yaml")),
-                                              "-o", str(Path(tmp) / "report")], 2.0),
-        ]  # fmt: skip
+            (
+                "bike-rig report browser.yaml",
+                [str(SCRIPT), "report", str(config_file("bicycles/browser.yaml")), "-o", str(Path(tmp) / "report")],
+                2.0,
+            ),
+        ]
         load = os.getloadavg()
-        print(f"{SCRIPT} (median of {REPEAT} fresh processes; load average {load[0]:.2f} {load[1]:.2f}, "
-              f"{os.cpu_count()} CPUs)")  # fmt: skip
+        print(
+            f"{SCRIPT} (median of {REPEAT} fresh processes; load average {load[0]:.2f} {load[1]:.2f}, "
+            f"{os.cpu_count()} CPUs)"
+        )
         ok = True
         for name, argv, target in cases:
             median = run_median(argv)

@@ -63,8 +63,18 @@ def run_three(scale: float, work: Path) -> tuple[bool, float, dict[str, float], 
         for i, domain in enumerate(domains):
             out = (work / f"s{scale:g}_g{i}.out").open("w")
             stack.callback(out.close)
-            cmd = [sys.executable, "-m", "bike_rig.cli.main", "run", "--out", str(work / f"s{scale:g}_g{i}"),
-                   "--param", f"driver.time_scale={scale:g}", "--param", "driver.exit_when_done=true"]  # fmt: skip
+            cmd = [
+                sys.executable,
+                "-m",
+                "bike_rig.cli.main",
+                "run",
+                "--out",
+                str(work / f"s{scale:g}_g{i}"),
+                "--param",
+                f"driver.time_scale={scale:g}",
+                "--param",
+                "driver.exit_when_done=true",
+            ]
             runs.append(subprocess.Popen(cmd, env=ros_environment(domain_id=domain), stdout=out, stderr=out))
         names = {str(d) for d in domains}
         while any(p.poll() is None for p in runs):
@@ -78,8 +88,11 @@ def run_three(scale: float, work: Path) -> tuple[bool, float, dict[str, float], 
         if p.returncode or gaps or ", 0 without a result" not in text or "parameters: complete" not in text:
             summary = next((line for line in text.splitlines() if "trial(s):" in line), "no summary")
             problems.append(f"graph {i}: exit {p.returncode}, {gaps} trials with missing samples; {summary}")
-    memory = {n: statistics.mean(kb for (_, name), kb in peak.items() if name == n) / 1024
-              for n in NODES if any(name == n for _, name in peak)}  # fmt: skip
+    memory = {
+        n: statistics.mean(kb for (_, name), kb in peak.items() if name == n) / 1024
+        for n in NODES
+        if any(name == n for _, name in peak)
+    }
     return not problems, wall, memory, problems
 
 
@@ -102,8 +115,10 @@ def main() -> int:
     if best is None:
         print("three concurrent graphs lose samples already at 100x")
         return 1
-    print(f"highest time scale at which {GRAPHS} concurrent graphs lose nothing: {best[0]:g} (tried "
-          f"{', '.join(f'{s:g}' for s in scales)})")  # fmt: skip
+    print(
+        f"highest time scale at which {GRAPHS} concurrent graphs lose nothing: {best[0]:g} (tried "
+        f"{', '.join(f'{s:g}' for s in scales)})"
+    )
     print("peak resident memory per node there (mean of the graphs; + over the parameter node):")
     base = best[1].get("parameter", 0.0)
     for name, mb in best[1].items():

@@ -36,8 +36,12 @@ from bike_rig.session.setup import build_controller
 
 def _overrides(folder: Path, time_scale: float) -> dict[str, dict[str, object]]:
     return {
-        "driver": {"source": "sim", "mode": "operator", "bicycle": str(config_file("bicycles/browser.yaml")),
-                   "time_scale": time_scale},  # fmt: skip
+        "driver": {
+            "source": "sim",
+            "mode": "operator",
+            "bicycle": str(config_file("bicycles/browser.yaml")),
+            "time_scale": time_scale,
+        },
         "parameter": {"bicycle": "Browser", "measurements": ""},
         "recorder": {"output": str(folder / "bag")},
     }
@@ -77,8 +81,11 @@ def main() -> int:
                 seen = False
                 while not seen:
                     for ev in link.events():
-                        seen |= isinstance(ev, TrialEventRecord) and ev.kind == TrialEventKind.START and (
-                            ev.trial_id == trial_id)  # fmt: skip
+                        seen |= (
+                            isinstance(ev, TrialEventRecord)
+                            and ev.kind == TrialEventKind.START
+                            and (ev.trial_id == trial_id)
+                        )
                         if isinstance(ev, TrialEventRecord):
                             ctl.session.on_trial_event(ev, time.monotonic())
                     time.sleep(0.0005)
@@ -100,10 +107,14 @@ def main() -> int:
     ok_start = _p(starts, 99) <= 50.0
     ok_result = _p(results, 99) <= 100.0
     print(f"{a.trials} trials, time scale {a.time_scale:g}, load average {os.getloadavg()[0]:.2f}, 2 CPUs")
-    print(f"  keystroke -> START  median {_p(starts, 50):6.1f} ms  p99 {_p(starts, 99):6.1f} ms  "
-          f"(target p99 <= 50 ms: {'OK' if ok_start else 'MISSED'})")  # fmt: skip
-    print(f"  STOP -> result      median {_p(results, 50):6.1f} ms  p99 {_p(results, 99):6.1f} ms  "
-          f"(target p99 <= 100 ms: {'OK' if ok_result else 'MISSED'})")  # fmt: skip
+    print(
+        f"  keystroke -> START  median {_p(starts, 50):6.1f} ms  p99 {_p(starts, 99):6.1f} ms  "
+        f"(target p99 <= 50 ms: {'OK' if ok_start else 'MISSED'})"
+    )
+    print(
+        f"  STOP -> result      median {_p(results, 50):6.1f} ms  p99 {_p(results, 99):6.1f} ms  "
+        f"(target p99 <= 100 ms: {'OK' if ok_result else 'MISSED'})"
+    )
     return 0 if ok_start and ok_result else 1
 
 

@@ -81,13 +81,21 @@ class Bench:
     def wait_for_fitter(self) -> None:
         self.spin_until(
             lambda: self.events.get_subscription_count() > 0 and self.gyro.get_subscription_count() > 0,
-            MATCH_TIMEOUT_S, "fitter subscriptions",
-        )  # fmt: skip
+            MATCH_TIMEOUT_S,
+            "fitter subscriptions",
+        )
         self.spin_until(lambda: self.node.count_publishers(PERIODS.name) > 0, MATCH_TIMEOUT_S, "fitter publisher")
 
     def event(self, kind: int, trial_id: str, rate: float, count: int = 0) -> Any:
-        return msgs.TrialEvent(kind=kind, trial_id=trial_id, part="frame", pendulum="compound",
-                               measurement_key="TcB1", sample_rate_hz=rate, sample_count=count)  # fmt: skip
+        return msgs.TrialEvent(
+            kind=kind,
+            trial_id=trial_id,
+            part="frame",
+            pendulum="compound",
+            measurement_key="TcB1",
+            sample_rate_hz=rate,
+            sample_count=count,
+        )
 
     def run_trial(self, trial_id: str, rates: np.ndarray, rate: float, speedup: float) -> tuple[float, Any]:
         """Publish one trial paced at ``rate × speedup`` samples/s; (latency s, estimate)."""
@@ -136,8 +144,11 @@ def main(argv: list[str] | None = None) -> int:
         with log_path.open("wb") as log:
             fitter = subprocess.Popen(
                 ["timeout", "-k", "10", "1800", sys.executable, "-m", "bike_rig.nodes.fitter"],
-                env=env, stdout=subprocess.DEVNULL, stderr=log, start_new_session=True,
-            )  # fmt: skip
+                env=env,
+                stdout=subprocess.DEVNULL,
+                stderr=log,
+                start_new_session=True,
+            )
             bench = Bench(domain_id)
             try:
                 return run(bench, args)
@@ -167,11 +178,15 @@ def run(bench: Bench, args: argparse.Namespace) -> int:
         latencies.append(latency)
     p50, p99 = percentile(latencies, 50), percentile(latencies, 99)
     ok_latency = p99 <= TARGET_P99_S
-    print(f"fitter STOP -> PeriodEstimate, {args.trials} trials of {args.duration:g} s at 1 kHz ({n:,} samples, "
-          f"published at {args.speedup:g}x real time):")  # fmt: skip
-    print(f"  p50 {1e3 * p50:6.1f} ms   p99 {1e3 * p99:6.1f} ms   max {1e3 * max(latencies):6.1f} ms   "
-          f"mean {1e3 * statistics.fmean(latencies):6.1f} ms   (target p99 <= {1e3 * TARGET_P99_S:.0f} ms: "
-          f"{'met' if ok_latency else 'MISSED'})")  # fmt: skip
+    print(
+        f"fitter STOP -> PeriodEstimate, {args.trials} trials of {args.duration:g} s at 1 kHz ({n:,} samples, "
+        f"published at {args.speedup:g}x real time):"
+    )
+    print(
+        f"  p50 {1e3 * p50:6.1f} ms   p99 {1e3 * p99:6.1f} ms   max {1e3 * max(latencies):6.1f} ms   "
+        f"mean {1e3 * statistics.fmean(latencies):6.1f} ms   (target p99 <= {1e3 * TARGET_P99_S:.0f} ms: "
+        f"{'met' if ok_latency else 'MISSED'})"
+    )
 
     ok_drops = True
     for stress_rate in (1000.0, 10_000.0):
@@ -181,10 +196,12 @@ def run(bench: Bench, args: argparse.Namespace) -> int:
         wall = time.perf_counter() - t0
         dropped = m - int(estimate.n_samples)
         ok_drops &= dropped == 0 and int(estimate.n_expected) == m
-        print(f"drops at {stress_rate / 1e3:g} kHz ({m / BATCH:,.0f} batches of {BATCH} over {wall:.1f} s): "
-              f"published {m:,}, fitted {int(estimate.n_samples):,}, announced {int(estimate.n_expected):,}, "
-              f"dropped {dropped}; STOP -> estimate {1e3 * latency:.1f} ms; T = {estimate.period:.6f} s"
-              + ("" if math.isfinite(estimate.period) else f" ({', '.join(estimate.flags)})"))  # fmt: skip
+        print(
+            f"drops at {stress_rate / 1e3:g} kHz ({m / BATCH:,.0f} batches of {BATCH} over {wall:.1f} s): "
+            f"published {m:,}, fitted {int(estimate.n_samples):,}, announced {int(estimate.n_expected):,}, "
+            f"dropped {dropped}; STOP -> estimate {1e3 * latency:.1f} ms; T = {estimate.period:.6f} s"
+            + ("" if math.isfinite(estimate.period) else f" ({', '.join(estimate.flags)})")
+        )
     return 0 if ok_latency and ok_drops else 1
 
 

@@ -66,10 +66,16 @@ def run(samples: int, batches: int, env: dict[str, str], log_path: Path) -> tupl
     """Start the fitter and the sender, send the batches; the settled RSS before and after each, MB."""
     text = rejected_line(samples)
     with log_path.open("w") as log:
-        fitter = subprocess.Popen([sys.executable, "-m", "bike_rig.nodes.fitter"], cwd=REPO, env=env,
-                                  stdout=log, stderr=subprocess.STDOUT)  # fmt: skip
-        sender = subprocess.Popen([sys.executable, str(REPO / "bench" / "big_batches.py"), str(samples), str(batches)],
-                                  stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, env=env)  # fmt: skip
+        fitter = subprocess.Popen(
+            [sys.executable, "-m", "bike_rig.nodes.fitter"], cwd=REPO, env=env, stdout=log, stderr=subprocess.STDOUT
+        )
+        sender = subprocess.Popen(
+            [sys.executable, str(REPO / "bench" / "big_batches.py"), str(samples), str(batches)],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            text=True,
+            env=env,
+        )
         try:
             assert sender.stdin is not None and sender.stdout is not None
             if sender.stdout.readline().strip() != "MATCHED":
@@ -116,8 +122,10 @@ def main(argv: list[str] | None = None) -> int:
             print(f"bench_fitter_memory: FAILED: {exc}")
             return 1
     worst = max(after) - before
-    print(f"fitter RSS before {before:.1f} MB, largest growth {worst:+.1f} MB = {worst / payload:.2f} payloads "
-          f"of {payload:.1f} MB (bound {MAX_PAYLOADS})")  # fmt: skip
+    print(
+        f"fitter RSS before {before:.1f} MB, largest growth {worst:+.1f} MB = {worst / payload:.2f} payloads "
+        f"of {payload:.1f} MB (bound {MAX_PAYLOADS})"
+    )
     if worst >= MAX_PAYLOADS * payload:
         print(f"bench_fitter_memory: FAILED: the fitter kept more than {MAX_PAYLOADS} payloads")
         return 1

@@ -203,10 +203,14 @@ def main() -> int:
     speeds = np.linspace(0.0, 10.0, 201)
     print("in-process core calls (median):")
     print(f"  SessionAssembly.result (13 keys, combine + compute_parameters): {median_ms(session.result, 100):6.2f} ms")
-    print(f"  compute_model (201 speeds, correlated σ, speed σ):              "
-          f"{median_ms(lambda: compute_model(ps, speeds)):6.2f} ms")  # fmt: skip
-    print(f"  compute_model with the paper rider:                             "
-          f"{median_ms(lambda: compute_model(ps, speeds, 'paper')):6.2f} ms")  # fmt: skip
+    print(
+        f"  compute_model (201 speeds, correlated σ, speed σ):              "
+        f"{median_ms(lambda: compute_model(ps, speeds)):6.2f} ms"
+    )
+    print(
+        f"  compute_model with the paper rider:                             "
+        f"{median_ms(lambda: compute_model(ps, speeds, 'paper')):6.2f} ms"
+    )
 
     with unique_domain_id() as domain:
         env = ros_environment(domain_id=domain)

@@ -89,9 +89,11 @@ def live_recording(bag: Path) -> str:
         t0 = time.perf_counter()
         replay_bag(bag)
         times.append(time.perf_counter() - t0)
-    return (f"the same session in {LIVE_CHUNK_BYTES >> 10} kB chunks ({n_chunks:,}, as a live recording flushed "
-            f"every 0.5 s holds it): replay {1e3 * statistics.median(times):.0f} ms (warm, median of {REPEAT}; "
-            "no target)")  # fmt: skip
+    return (
+        f"the same session in {LIVE_CHUNK_BYTES >> 10} kB chunks ({n_chunks:,}, as a live recording flushed "
+        f"every 0.5 s holds it): replay {1e3 * statistics.median(times):.0f} ms (warm, median of {REPEAT}; "
+        "no target)"
+    )
 
 
 def main() -> int:
@@ -106,10 +108,14 @@ def main() -> int:
         write_s = time.perf_counter() - t0
         size = sum(f.stat().st_size for f in bag.iterdir())
         samples = sum(len(t.rate) for t in session.trials)
-        print(f"bag: {bicycle}, {len(session.trials)} trials of 30 s at {rig.adc.sample_rate:g} Hz "
-              f"({samples:,} samples), {n_messages:,} messages, {size / 1e6:.1f} MB (zstd chunks)")  # fmt: skip
-        print(f"write (serialize + MCAP):  {write_s:6.2f} s   {n_messages / write_s:9,.0f} msg/s  "
-              f"{size / 1e6 / write_s:5.1f} MB/s")  # fmt: skip
+        print(
+            f"bag: {bicycle}, {len(session.trials)} trials of 30 s at {rig.adc.sample_rate:g} Hz "
+            f"({samples:,} samples), {n_messages:,} messages, {size / 1e6:.1f} MB (zstd chunks)"
+        )
+        print(
+            f"write (serialize + MCAP):  {write_s:6.2f} s   {n_messages / write_s:9,.0f} msg/s  "
+            f"{size / 1e6 / write_s:5.1f} MB/s"
+        )
 
         replay_bag(bag)  # warm-up (imports, typestore)
         totals, reads, computes = [], [], []
@@ -127,18 +133,23 @@ def main() -> int:
         median = statistics.median(totals)
         floor = read_floor(bag, samples)
         print(f"replay (warm, median of {REPEAT}): {1e3 * median:6.0f} ms  (target <= {1e3 * TARGET_S:.0f} ms)")
-        print(f"  floor: zstd-decompress the chunks + copy the samples: {1e3 * floor:6.1f} ms "
-              f"(replay / floor = {median / floor:.1f})")  # fmt: skip
+        print(
+            f"  floor: zstd-decompress the chunks + copy the samples: {1e3 * floor:6.1f} ms "
+            f"(replay / floor = {median / floor:.1f})"
+        )
         print(f"  open + decode {recorded.message_count:,} messages: {1e3 * statistics.median(reads):6.0f} ms")
         print(f"  fit {len(result.trials)} trials + assembly + model:  {1e3 * statistics.median(computes):6.0f} ms")
         weave, capsize = result.stability.weave, result.stability.capsize
         assert weave is not None and capsize is not None
-        print(f"  weave {weave.speed:.4f} ± {weave.sigma:.4f} m/s, "
-              f"capsize {capsize.speed:.4f} ± {capsize.sigma:.4f} m/s")  # fmt: skip
+        print(
+            f"  weave {weave.speed:.4f} ± {weave.sigma:.4f} m/s, capsize {capsize.speed:.4f} ± {capsize.sigma:.4f} m/s"
+        )
         live = result.live
         worst = live.worst
-        print(f"  vs live results: {'identical' if live.identical else 'DIFFERENT'} "
-              f"(largest relative difference {worst.max_relative if worst else float('nan'):.1e})")  # fmt: skip
+        print(
+            f"  vs live results: {'identical' if live.identical else 'DIFFERENT'} "
+            f"(largest relative difference {worst.max_relative if worst else float('nan'):.1e})"
+        )
 
         code = (
             "import time, sys; t0 = time.perf_counter()\n"
@@ -150,10 +161,15 @@ def main() -> int:
         out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=REPO)
         process_s = time.perf_counter() - t0
         inner, rclpy_loaded = out.stdout.split()
-        print(f"fresh interpreter: {float(inner):.2f} s imports + replay, {process_s:.2f} s process wall "
-              f"(rclpy imported: {rclpy_loaded})")  # fmt: skip
-        print(live_recording(write_simulated_bag(Path(tmp) / "flushed", session, extra=extra,
-                                                 chunk_size=LIVE_CHUNK_BYTES)))  # fmt: skip
+        print(
+            f"fresh interpreter: {float(inner):.2f} s imports + replay, {process_s:.2f} s process wall "
+            f"(rclpy imported: {rclpy_loaded})"
+        )
+        print(
+            live_recording(
+                write_simulated_bag(Path(tmp) / "flushed", session, extra=extra, chunk_size=LIVE_CHUNK_BYTES)
+            )
+        )
     ok = median <= TARGET_S and live.identical
     print(f"replay of a full session: {'OK' if ok else 'MISSED'}")
     return 0

@@ -83,8 +83,9 @@ def _truth(ps: ParameterSet, name: str, rng: np.random.Generator | None) -> np.n
 
 
 def _data(truth: np.ndarray, fb: Feedback, rng: np.random.Generator, noise: bool = True) -> RideData:
-    lam, _, _ = model_weave(dict(zip(PARAMETER_NAMES, truth, strict=True)), SPEEDS, fb, TRUE_SCALE,
-                            np.full(SPEEDS.size, -3 + 10j))  # fmt: skip
+    lam, _, _ = model_weave(
+        dict(zip(PARAMETER_NAMES, truth, strict=True)), SPEEDS, fb, TRUE_SCALE, np.full(SPEEDS.size, -3 + 10j)
+    )
     sr, si = rng.uniform(0.08, 0.25, SPEEDS.size), rng.uniform(0.08, 0.25, SPEEDS.size)
     if not noise:
         return RideData(SPEEDS, lam.real, sr, lam.imag, si)
@@ -122,20 +123,31 @@ def eigenvalue_campaign(ps: ParameterSet, fb: Feedback, name: str, seeds: int, r
                 constrained_in += abs(post.values[i] - truth[i]) <= post.sigmas[i]
             elif i != j and not random_truth:
                 loose_max = max(loose_max, abs(float(post.shifts[i])))
-    how = (f"the truth drawn from the prior, {name}'s prior σ {ps.parameters.sigma(name):.4g}" if random_truth
-           else f"{name} +2σ = {2 * ps.parameters.sigma(name):.4g}, correlated parameters with it")  # fmt: skip
+    how = (
+        f"the truth drawn from the prior, {name}'s prior σ {ps.parameters.sigma(name):.4g}"
+        if random_truth
+        else f"{name} +2σ = {2 * ps.parameters.sigma(name):.4g}, correlated parameters with it"
+    )
     print(f"  {how}: {seeds} seeds")
     print(f"    true variant '{TRUE_VARIANT}' ranked first: {first / seeds:.1%}")
-    print(f"    gain scale within its posterior σ of {TRUE_SCALE}: {scale_in / seeds:.1%} "
-          f"(expected {scale_expected:.1%}: the bias of a noise-free ride's posterior)")  # fmt: skip
+    print(
+        f"    gain scale within its posterior σ of {TRUE_SCALE}: {scale_in / seeds:.1%} "
+        f"(expected {scale_expected:.1%}: the bias of a noise-free ride's posterior)"
+    )
     true = "a draw of the prior" if random_truth else "+2.00"
-    print(f"    {name}: posterior/prior σ median {np.median(ratios):.2f}; shift recovered median "
-          f"{np.median(shifts):+.2f} prior σ (true {true})")  # fmt: skip
-    print(f"    {name} within its posterior σ of the truth: {shift_in / seeds:.1%} "
-          f"(expected {np.mean(expected):.1%} for this σ ratio)")  # fmt: skip
+    print(
+        f"    {name}: posterior/prior σ median {np.median(ratios):.2f}; shift recovered median "
+        f"{np.median(shifts):+.2f} prior σ (true {true})"
+    )
+    print(
+        f"    {name} within its posterior σ of the truth: {shift_in / seeds:.1%} "
+        f"(expected {np.mean(expected):.1%} for this σ ratio)"
+    )
     if constrained_n:
-        print(f"    every constrained parameter (σ ratio < {CONSTRAINED_RATIO}) within its posterior σ: "
-              f"{constrained_in / constrained_n:.1%} of {constrained_n}")  # fmt: skip
+        print(
+            f"    every constrained parameter (σ ratio < {CONSTRAINED_RATIO}) within its posterior σ: "
+            f"{constrained_in / constrained_n:.1%} of {constrained_n}"
+        )
     if not random_truth:
         print(f"    largest shift of any unconstrained parameter (truth = prior mean): {loose_max:.2f} prior σ")
 
@@ -173,8 +185,9 @@ def end_to_end(ps: ParameterSet, fb: Feedback, seeds: int, saturation: float, ra
         segments = []
         for v in speeds:
             for _ in range(3):
-                sim = simulate_segment(mats, g, float(v), TRUE_SCALE * fb.gains(float(v)),
-                                       float(rng.uniform(1.2, 2.5)), conditions, rng)  # fmt: skip
+                sim = simulate_segment(
+                    mats, g, float(v), TRUE_SCALE * fb.gains(float(v)), float(rng.uniform(1.2, 2.5)), conditions, rng
+                )
                 segments.append(fit_segment(sim.times, sim.roll_rate, speed=float(v)))
         combined = [c for c in combine_eigenvalues(pool_drive(segments)) if c.n_used]
         sig_re += [c.real_sigma for c in combined]
@@ -186,11 +199,15 @@ def end_to_end(ps: ParameterSet, fb: Feedback, seeds: int, saturation: float, ra
         first += cal.best.name == TRUE_VARIANT
         post = next(r.posterior for r in cal.variants if r.name == TRUE_VARIANT)
         scale_in += abs(post.gain_scale - TRUE_SCALE) <= post.gain_scale_sigma
-        print(f"    seed {seed}: best '{cal.best.name}', χ²/dof {cal.best.reduced_chi2:.2f}, gain scale "
-              f"{post.gain_scale:.3f} ± {post.gain_scale_sigma:.3f}")  # fmt: skip
+        print(
+            f"    seed {seed}: best '{cal.best.name}', χ²/dof {cal.best.reduced_chi2:.2f}, gain scale "
+            f"{post.gain_scale:.3f} ± {post.gain_scale_sigma:.3f}"
+        )
     model = f"assist modelled sampled at {rate:g} Hz" if rate else "assist modelled continuous"
-    print(f"  end to end, motor saturation {saturation:g} N m, {model}, {n} rides of {speeds.size} speeds × 3 "
-          f"segments: true variant first {first}/{n}, gain scale within σ {scale_in}/{n}")  # fmt: skip
+    print(
+        f"  end to end, motor saturation {saturation:g} N m, {model}, {n} rides of {speeds.size} speeds × 3 "
+        f"segments: true variant first {first}/{n}, gain scale within σ {scale_in}/{n}"
+    )
     print(
         f"    combined σ per speed: Re λ median {np.median(sig_re):.3f} 1/s, Im λ median {np.median(sig_im):.3f} rad/s"
     )
@@ -214,8 +231,11 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--seeds", type=int, default=300)
     parser.add_argument("--e2e-seeds", type=int, default=6)
-    parser.add_argument("--scenarios", default="ibzz,ifyy,ifyy-random,random",
-                        help="eigenvalue-level scenarios, comma-separated (default all)")  # fmt: skip
+    parser.add_argument(
+        "--scenarios",
+        default="ibzz,ifyy,ifyy-random,random",
+        help="eigenvalue-level scenarios, comma-separated (default all)",
+    )
     args = parser.parse_args()
     ps = _parameters(str(config_file("bicycles/browser.yaml")), "centroid")
     fb = resolve_feedback(str(config_file("feedback/balance_assist.yaml")))

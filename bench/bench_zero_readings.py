@@ -100,8 +100,10 @@ def main(argv: list[str] | None = None) -> int:
         ours = compute_parameters(m)
         mine = [ours.parameters] + ([ours.parts] if ours.parts is not None else [])
         worst = max(abs(vec.value(k) - live[k][0]) / abs(live[k][0]) for vec in mine for k in vec.names)
-        print(f"{name}: stored values and σ against BicycleParameters now: max rel diff {stale:.1e}; "
-              f"bike_rig's {sum(len(v.names) for v in mine)} values: max rel diff {worst:.1e}")  # fmt: skip
+        print(
+            f"{name}: stored values and σ against BicycleParameters now: max rel diff {stale:.1e}; "
+            f"bike_rig's {sum(len(v.names) for v in mine)} values: max rel diff {worst:.1e}"
+        )
         if stale > 1e-12 or worst > 1e-9:
             status = 1
         sigmas = {k: vec.sigma(k) for vec in mine for k in vec.names}
@@ -109,8 +111,10 @@ def main(argv: list[str] | None = None) -> int:
         mc = monte_carlo_sigma(m, differ) if differ else {}
         for k in differ:
             s_ours, s_bp, s_mc = sigmas[k], live[k][1], mc[k]
-            print(f"  σ {k:<5} bike_rig {s_ours:.4g} ({s_ours / s_mc - 1:+.1%}), BicycleParameters {s_bp:.4g} "
-                  f"({s_bp / s_mc - 1:+.1%}), Monte Carlo {s_mc:.4g} ({SAMPLES} draws)")  # fmt: skip
+            print(
+                f"  σ {k:<5} bike_rig {s_ours:.4g} ({s_ours / s_mc - 1:+.1%}), BicycleParameters {s_bp:.4g} "
+                f"({s_bp / s_mc - 1:+.1%}), Monte Carlo {s_mc:.4g} ({SAMPLES} draws)"
+            )
     return status
 
 

@@ -76,8 +76,12 @@ GRAPH_FORMAT = "bike_rig-graph/1"
 #: read) or ``output`` (one the node creates). :meth:`Graph.checked` makes them absolute.
 PATH_PARAMETERS: Mapping[str, Mapping[str, str]] = {
     "bike_rig.nodes.driver": {
-        "session": "input", "bicycle": "input", "rig": "input", "bag": "input", "resume": "input",
-    },  # fmt: skip
+        "session": "input",
+        "bicycle": "input",
+        "rig": "input",
+        "bag": "input",
+        "resume": "input",
+    },
     "bike_rig.nodes.parameter": {"measurements": "input"},
     "bike_rig.nodes.recorder": {"output": "output"},
 }
@@ -254,9 +258,7 @@ def _unknown_parameter(node: NodeSpec, name: str, specs: Sequence[ParamSpec], wh
     names = [s.name for s in specs]
     close = difflib.get_close_matches(name, names, n=1)
     hint = f" (did you mean '{close[0]}'?)" if close else ""
-    return LaunchError(
-        f"{where}node '{node.name}' has no parameter '{name}'{hint}; its parameters: {', '.join(names)}"
-    )
+    return LaunchError(f"{where}node '{node.name}' has no parameter '{name}'{hint}; its parameters: {', '.join(names)}")
 
 
 def _as_text(value: object) -> str:

@@ -103,8 +103,9 @@ def measure_records(paths: Sequence[str], options: RecordOptions) -> list[Measur
         for k, seg in enumerate(_segments(record, options.segments), start=1):
             inside = (record.times >= seg.start) & (record.times <= seg.stop)
             speed = options.speed if options.speed is not None else record.mean_speed(seg.start, seg.stop)
-            m = fit_segment(record.times[inside], record.signal[inside], speed=speed, source=path, index=k,
-                            model=options.model)  # fmt: skip
+            m = fit_segment(
+                record.times[inside], record.signal[inside], speed=speed, source=path, index=k, model=options.model
+            )
             out.append(MeasuredSegment(m, seg, record))
     pooled = pool_drive([m.eigenvalue for m in out])  # the rider's drive shared at each speed
     return [MeasuredSegment(e, m.segment, m.record) for e, m in zip(pooled, out, strict=True)]

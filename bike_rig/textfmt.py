@@ -47,14 +47,33 @@ def terminal_safe(text: str, keep: str = "\n\t") -> str:
 
 #: Display label and unit of each benchmark parameter (paper Table 2 order).
 LABELS: dict[str, tuple[str, str]] = {
-    "w": ("w", "m"), "c": ("c", "m"), "lam": ("λ", "rad"), "g": ("g", "m/s²"),
-    "rR": ("r_R", "m"), "mR": ("m_R", "kg"), "IRxx": ("I_Rxx", "kg m²"), "IRyy": ("I_Ryy", "kg m²"),
-    "xB": ("x_B", "m"), "zB": ("z_B", "m"), "mB": ("m_B", "kg"), "IBxx": ("I_Bxx", "kg m²"),
-    "IBxz": ("I_Bxz", "kg m²"), "IByy": ("I_Byy", "kg m²"), "IBzz": ("I_Bzz", "kg m²"),
-    "xH": ("x_H", "m"), "zH": ("z_H", "m"), "mH": ("m_H", "kg"), "IHxx": ("I_Hxx", "kg m²"),
-    "IHxz": ("I_Hxz", "kg m²"), "IHyy": ("I_Hyy", "kg m²"), "IHzz": ("I_Hzz", "kg m²"),
-    "rF": ("r_F", "m"), "mF": ("m_F", "kg"), "IFxx": ("I_Fxx", "kg m²"), "IFyy": ("I_Fyy", "kg m²"),
-}  # fmt: skip
+    "w": ("w", "m"),
+    "c": ("c", "m"),
+    "lam": ("λ", "rad"),
+    "g": ("g", "m/s²"),
+    "rR": ("r_R", "m"),
+    "mR": ("m_R", "kg"),
+    "IRxx": ("I_Rxx", "kg m²"),
+    "IRyy": ("I_Ryy", "kg m²"),
+    "xB": ("x_B", "m"),
+    "zB": ("z_B", "m"),
+    "mB": ("m_B", "kg"),
+    "IBxx": ("I_Bxx", "kg m²"),
+    "IBxz": ("I_Bxz", "kg m²"),
+    "IByy": ("I_Byy", "kg m²"),
+    "IBzz": ("I_Bzz", "kg m²"),
+    "xH": ("x_H", "m"),
+    "zH": ("z_H", "m"),
+    "mH": ("m_H", "kg"),
+    "IHxx": ("I_Hxx", "kg m²"),
+    "IHxz": ("I_Hxz", "kg m²"),
+    "IHyy": ("I_Hyy", "kg m²"),
+    "IHzz": ("I_Hzz", "kg m²"),
+    "rF": ("r_F", "m"),
+    "mF": ("m_F", "kg"),
+    "IFxx": ("I_Fxx", "kg m²"),
+    "IFyy": ("I_Fyy", "kg m²"),
+}
 #: The parameters in the order of the paper's Table 2.
 TABLE2_ORDER = tuple(LABELS)
 

@@ -91,9 +91,7 @@ EIGEN_SWEEP = Topic(f"{NAMESPACE}/model/eigen_sweep", "bike_rig_msgs/msg/EigenSw
 RIDE_SPEED = Topic(f"{NAMESPACE}/ride/speed", "std_msgs/msg/Float64", QosSpec(False, False, 1))
 #: The state space (A, B, eigenvalues, with σ) at the riding speed, from the model node:
 #: latched, so a controller started late gets the current one.
-RIDE_STATE_SPACE = Topic(
-    f"{NAMESPACE}/ride/state_space", "bike_rig_msgs/msg/StateSpaceModel", QosSpec(True, True, 1)
-)
+RIDE_STATE_SPACE = Topic(f"{NAMESPACE}/ride/state_space", "bike_rig_msgs/msg/StateSpaceModel", QosSpec(True, True, 1))
 #: Every node's health (REP-107), once a second: the ROS-wide topic, default QoS (reliable,
 #: volatile, depth 10) as every diagnostics tool expects. Not recorded.
 DIAGNOSTICS = Topic("/diagnostics", "diagnostic_msgs/msg/DiagnosticArray", QosSpec(True, False, 10))
@@ -102,8 +100,15 @@ DIAGNOSTICS = Topic("/diagnostics", "diagnostic_msgs/msg/DiagnosticArray", QosSp
 #: (recorded on the bicycle, read by ``bike-rig ride``), and the state space is computed again
 #: from the recorded parameter set.
 TOPICS: tuple[Topic, ...] = (
-    GYRO, TRIAL_EVENTS, PERIODS, STATIC_READINGS, PARAMETERS, MATRICES, EIGEN_SWEEP, READINGS,
-)  # fmt: skip
+    GYRO,
+    TRIAL_EVENTS,
+    PERIODS,
+    STATIC_READINGS,
+    PARAMETERS,
+    MATRICES,
+    EIGEN_SWEEP,
+    READINGS,
+)
 
 START_TRIAL = f"{NAMESPACE}/driver/start_trial"
 STOP_TRIAL = f"{NAMESPACE}/driver/stop_trial"

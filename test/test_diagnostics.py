@@ -139,8 +139,10 @@ def test_diagnostic_array_round_trip_rclpy_and_plain() -> None:
     from diagnostic_msgs import msg as diag
 
     statuses = driver_statuses(driver(since_sample_s=1.0, range_rad_s=5.0, clipped=1))
-    for array, status, kv in ((diag.DiagnosticArray(), diag.DiagnosticStatus, diag.KeyValue),
-                              (DiagnosticArray(), DiagnosticStatus, KeyValue)):  # fmt: skip
+    for array, status, kv in (
+        (diag.DiagnosticArray(), diag.DiagnosticStatus, diag.KeyValue),
+        (DiagnosticArray(), DiagnosticStatus, KeyValue),
+    ):
         assert statuses_from_msg(fill_diagnostic_array(array, statuses, status, kv)) == statuses
     bad = DiagnosticArray([DiagnosticStatus(level=7, name="driver: samples")])
     with pytest.raises(MessageError, match="'driver: samples': level 7 is not 0..3"):

@@ -73,13 +73,37 @@ def test_nothing_outside_nodes_imports_nodes() -> None:
 @pytest.mark.parametrize("layer", ["core", "pipeline", "messages"])
 def test_ros_free_layers_import_no_ros_and_nothing_above_them(layer: str) -> None:
     above = {
-        "core": ("bike_rig.pipeline", "bike_rig.messages", "bike_rig.nodes", "bike_rig.bag", "bike_rig.cli",
-                 "bike_rig.plots", "bike_rig.report", "bike_rig.sources", "bike_rig.subjects"),
-        "pipeline": ("bike_rig.messages", "bike_rig.nodes", "bike_rig.bag", "bike_rig.cli", "bike_rig.plots",
-                     "bike_rig.report", "bike_rig.sources", "bike_rig.subjects"),
-        "messages": ("bike_rig.nodes", "bike_rig.bag", "bike_rig.cli", "bike_rig.plots", "bike_rig.report",
-                     "bike_rig.sources", "bike_rig.subjects"),
-    }[layer]  # fmt: skip
+        "core": (
+            "bike_rig.pipeline",
+            "bike_rig.messages",
+            "bike_rig.nodes",
+            "bike_rig.bag",
+            "bike_rig.cli",
+            "bike_rig.plots",
+            "bike_rig.report",
+            "bike_rig.sources",
+            "bike_rig.subjects",
+        ),
+        "pipeline": (
+            "bike_rig.messages",
+            "bike_rig.nodes",
+            "bike_rig.bag",
+            "bike_rig.cli",
+            "bike_rig.plots",
+            "bike_rig.report",
+            "bike_rig.sources",
+            "bike_rig.subjects",
+        ),
+        "messages": (
+            "bike_rig.nodes",
+            "bike_rig.bag",
+            "bike_rig.cli",
+            "bike_rig.plots",
+            "bike_rig.report",
+            "bike_rig.sources",
+            "bike_rig.subjects",
+        ),
+    }[layer]
     offenders = []
     for path in (PACKAGE / layer).rglob("*.py"):
         for m in imported_modules(path):

@@ -122,8 +122,14 @@ def test_every_panel_path_names_an_advertised_topic_and_existing_fields(layout: 
             elif fields:  # (no field: the whole output, e.g. in a raw-messages panel)
                 assert fields[0] in output_fields(outputs[topic]), f"{pid} {path}: not in the script's Output"
     used_rig = {t for t in seen if t in VIEW_TYPES} | {i for o in outputs.values() for i in script_inputs(o)}
-    for wanted in ("/bike_rig/gyro", "/bike_rig/trial_events", "/bike_rig/periods", "/bike_rig/parameters",
-                   "/bike_rig/model/eigen_sweep", DIAGNOSTICS.name):  # fmt: skip
+    for wanted in (
+        "/bike_rig/gyro",
+        "/bike_rig/trial_events",
+        "/bike_rig/periods",
+        "/bike_rig/parameters",
+        "/bike_rig/model/eigen_sweep",
+        DIAGNOSTICS.name,
+    ):
         assert wanted in used_rig, f"the layout does not show {wanted}"
 
 
@@ -140,8 +146,11 @@ def test_every_script_reads_fields_its_inputs_have(layout: dict[str, Any]) -> No
 
 def test_the_layout_opens_a_recorded_bag(layout: dict[str, Any]) -> None:
     outputs = scripts(layout)
-    used = {split_path(p, set(VIEW_TYPES) | set(outputs))[0] for c in layout["configById"].values()
-            for p in message_paths(c)}  # fmt: skip
+    used = {
+        split_path(p, set(VIEW_TYPES) | set(outputs))[0]
+        for c in layout["configById"].values()
+        for p in message_paths(c)
+    }
     used = {t for t in used if t in VIEW_TYPES} | {i for o in outputs.values() for i in script_inputs(o)}
     recorded = {t.name for t in TOPICS}
     # /diagnostics: recorded once the recorder takes it in (issue 15, section 1); live only until then

@@ -144,17 +144,33 @@ def model(complete: SessionParameters) -> tuple[ModelMatrices, StabilitySweep]:
 
 def full_trial() -> TrialFit:
     return TrialFit.from_period(
-        "frame_torsional_o2_t3", "TtB2", 2.3767175, 2.4e-5,
-        True, flags=("beating", "drift"), flag_reasons=("5 % modulation", "offset drift"), zeta=0.0012,
-        omega=2.6436, r2=0.9993, residual_rms=0.0031, n_samples=29_876, n_expected=30_000, window=(1000, 28_000),
-        fit_options_json='{"min_cycles": 4.0}', stamp_ns=1_700_000_123_456_789_012,
-    )  # fmt: skip
+        "frame_torsional_o2_t3",
+        "TtB2",
+        2.3767175,
+        2.4e-5,
+        True,
+        flags=("beating", "drift"),
+        flag_reasons=("5 % modulation", "offset drift"),
+        zeta=0.0012,
+        omega=2.6436,
+        r2=0.9993,
+        residual_rms=0.0031,
+        n_samples=29_876,
+        n_expected=30_000,
+        window=(1000, 28_000),
+        fit_options_json='{"min_cycles": 4.0}',
+        stamp_ns=1_700_000_123_456_789_012,
+    )
 
 
 def assert_sessions_equal(got: SessionParameters, expected: SessionParameters) -> None:
     assert (got.bicycle, got.com_method, got.periods, got.missing, got.complete) == (
-        expected.bicycle, expected.com_method, expected.periods, expected.missing, expected.complete,
-    )  # fmt: skip
+        expected.bicycle,
+        expected.com_method,
+        expected.periods,
+        expected.missing,
+        expected.complete,
+    )
     if expected.parameters is not None:
         assert got.parameters is not None
         assert got.parameters.parameters.names == expected.parameters.parameters.names
@@ -164,8 +180,11 @@ def assert_sessions_equal(got: SessionParameters, expected: SessionParameters) -
 
 def assert_matrices_equal(got: ModelMatrices, expected: ModelMatrices) -> None:
     assert (got.bicycle, got.rider, got.g, got.convention) == (
-        expected.bicycle, expected.rider, expected.g, expected.convention,
-    )  # fmt: skip
+        expected.bicycle,
+        expected.rider,
+        expected.g,
+        expected.convention,
+    )
     for name in ("M", "C1", "K0", "K2"):
         assert np.array_equal(getattr(got.matrices, name), getattr(expected.matrices, name))
         assert np.array_equal(getattr(got.sigma, name), getattr(expected.sigma, name))
@@ -210,9 +229,19 @@ def test_period_estimate_round_trip(make_msg: Callable[[str], Any]) -> None:
 
 def full_details() -> FitDetails:
     return FitDetails(
-        "t7", 1_700_000_000_123_456_789, "dry", 0.0251, 0.0004, -0.00171, 1.6027834, 1.5999835, 2.7e-5,
-        (1.6057, 1.60347, 1.60175, 1.60184), (4e-4, 3e-4, 3e-4, 4e-4), ("damping dry (...)", "the period ..."),
-    )  # fmt: skip
+        "t7",
+        1_700_000_000_123_456_789,
+        "dry",
+        0.0251,
+        0.0004,
+        -0.00171,
+        1.6027834,
+        1.5999835,
+        2.7e-5,
+        (1.6057, 1.60347, 1.60175, 1.60184),
+        (4e-4, 3e-4, 3e-4, 4e-4),
+        ("damping dry (...)", "the period ..."),
+    )
 
 
 def test_fit_details_round_trip_and_join_their_estimate(make_msg: Callable[[str], Any]) -> None:
@@ -399,19 +428,37 @@ def test_rosbags_reads_what_rclpy_wrote(
     from rclpy.serialization import serialize_message
 
     cases: list[tuple[str, Any, Callable[[Any], None]]] = [
-        ("PeriodEstimate", conv.fill_period_estimate(rclpy_msg("PeriodEstimate"), full_trial()),
-         lambda m: assert_equal_trial(conv.trial_fit_from_msg(m))),
-        ("FitDetails", conv.fill_fit_details(rclpy_msg("FitDetails"), full_details()),
-         lambda m: conv.fit_details_from_msg(m) == full_details() or pytest.fail("FitDetails changed")),
-        ("BenchmarkParameters", conv.fill_benchmark_parameters(rclpy_msg("BenchmarkParameters"), complete),
-         lambda m: assert_sessions_equal(conv.session_parameters_from_msg(m), complete)),
-        ("CanonicalMatrices", conv.fill_canonical_matrices(rclpy_msg("CanonicalMatrices"), model[0]),
-         lambda m: assert_matrices_equal(conv.model_matrices_from_msg(m), model[0])),
-        ("EigenSweep", conv.fill_eigen_sweep(rclpy_msg("EigenSweep"), model[1]),
-         lambda m: assert_sweeps_equal(conv.stability_sweep_from_msg(m), model[1])),
-        ("StaticReadings", conv.fill_static_readings(rclpy_msg("StaticReadings"), static),
-         lambda m: assert_same_readings(conv.static_readings_from_msg(m), static)),
-    ]  # fmt: skip
+        (
+            "PeriodEstimate",
+            conv.fill_period_estimate(rclpy_msg("PeriodEstimate"), full_trial()),
+            lambda m: assert_equal_trial(conv.trial_fit_from_msg(m)),
+        ),
+        (
+            "FitDetails",
+            conv.fill_fit_details(rclpy_msg("FitDetails"), full_details()),
+            lambda m: conv.fit_details_from_msg(m) == full_details() or pytest.fail("FitDetails changed"),
+        ),
+        (
+            "BenchmarkParameters",
+            conv.fill_benchmark_parameters(rclpy_msg("BenchmarkParameters"), complete),
+            lambda m: assert_sessions_equal(conv.session_parameters_from_msg(m), complete),
+        ),
+        (
+            "CanonicalMatrices",
+            conv.fill_canonical_matrices(rclpy_msg("CanonicalMatrices"), model[0]),
+            lambda m: assert_matrices_equal(conv.model_matrices_from_msg(m), model[0]),
+        ),
+        (
+            "EigenSweep",
+            conv.fill_eigen_sweep(rclpy_msg("EigenSweep"), model[1]),
+            lambda m: assert_sweeps_equal(conv.stability_sweep_from_msg(m), model[1]),
+        ),
+        (
+            "StaticReadings",
+            conv.fill_static_readings(rclpy_msg("StaticReadings"), static),
+            lambda m: assert_same_readings(conv.static_readings_from_msg(m), static),
+        ),
+    ]
     for name, msg, check in cases:
         decoded = typestore.deserialize_cdr(serialize_message(msg), f"bike_rig_msgs/msg/{name}")
         check(decoded)
@@ -449,9 +496,14 @@ def test_rosbags_messages_can_be_filled(typestore: Any, complete: SessionParamet
 
     for name, fill, read, record, check in (
         ("PeriodEstimate", conv.fill_period_estimate, conv.trial_fit_from_msg, full_trial(), None),
-        ("BenchmarkParameters", conv.fill_benchmark_parameters, conv.session_parameters_from_msg, complete,
-         assert_sessions_equal),
-    ):  # fmt: skip
+        (
+            "BenchmarkParameters",
+            conv.fill_benchmark_parameters,
+            conv.session_parameters_from_msg,
+            complete,
+            assert_sessions_equal,
+        ),
+    ):
         filled = fill(rosbags_default(typestore, f"bike_rig_msgs/msg/{name}"), record)
         raw = typestore.serialize_cdr(filled, f"bike_rig_msgs/msg/{name}")
         back = read(deserialize_message(bytes(raw), getattr(msgs, name)))

@@ -69,6 +69,15 @@ def test_every_import_is_declared() -> None:
 
 def test_package_xml_lists_the_ros_runtime() -> None:
     ros = _package_xml()
-    for key in ("rclpy", "std_msgs", "sensor_msgs", "diagnostic_msgs", "python3-numpy", "python3-scipy",
-                "python3-yaml", "python3-matplotlib", "python3-can"):  # fmt: skip
+    for key in (
+        "rclpy",
+        "std_msgs",
+        "sensor_msgs",
+        "diagnostic_msgs",
+        "python3-numpy",
+        "python3-scipy",
+        "python3-yaml",
+        "python3-matplotlib",
+        "python3-can",
+    ):
         assert key in ros, key

@@ -44,8 +44,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seed", type=int, default=int(time.time()), help="campaign seed (default: the time)")
     ap.add_argument("--reader", action="append", help="only this reader (repeatable)")
     ap.add_argument("--time-limit", type=float, default=10.0, help="a call longer than this is a hang [s] (10)")
-    ap.add_argument("--trace-memory", action="store_true",
-                    help="each call's peak by tracemalloc (several times slower); the peak RSS is always shown")
+    ap.add_argument(
+        "--trace-memory",
+        action="store_true",
+        help="each call's peak by tracemalloc (several times slower); the peak RSS is always shown",
+    )
     args = ap.parse_args(argv)
     print(f"fuzz: seed {args.seed}, {args.inputs} inputs per reader, hang after {args.time_limit:g} s", flush=True)
     failed = 0
@@ -56,8 +59,7 @@ def main(argv: list[str] | None = None) -> int:
             print(Tally.HEADER, "  wall s", flush=True)
         for target in chosen:
             start = time.monotonic()
-            tally = fuzz_target(target, work, args.seed, args.inputs, args.seconds, args.time_limit,
-                                args.trace_memory)
+            tally = fuzz_target(target, work, args.seed, args.inputs, args.seconds, args.time_limit, args.trace_memory)
             print(tally.line(), f"{time.monotonic() - start:8.0f}", flush=True)
             for label, outcome in tally.failures:
                 print(f"  {outcome.kind}: seed {args.seed} {label}: {outcome.message}", flush=True)
@@ -70,8 +72,7 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"  seed {args.seed} physics#{index}: {why}", flush=True)
             failed += len(physics.failures)
     verdict = f"FAILED, {failed} crash(es), hang(s) or violation(s)" if failed else "no crash, no hang, no violation"
-    print(f"fuzz: {verdict} "
-          f"(seed {args.seed}, pid {os.getpid()})")
+    print(f"fuzz: {verdict} (seed {args.seed}, pid {os.getpid()})")
     return 1 if failed else 0
 
 

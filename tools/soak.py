@@ -179,8 +179,10 @@ def warmup_seconds(soak: Soak, seconds: float, fraction: float) -> float:
 def report(soak: Soak, warm_s: float, seconds: float) -> list[Growth]:
     """Print the table over time and the growth per process; return the growth."""
     full = "not reached" if soak.history_full_s is None else f"{soak.history_full_s:.0f} s"
-    print(f"soak: {seconds:g} s, {soak.results} trial results ({soak.flagged} flagged), warm-up {warm_s:.0f} s "
-          f"(the driver's gyro history of {DEFAULT_HISTORY_SAMPLES} samples full: {full})")  # fmt: skip
+    print(
+        f"soak: {seconds:g} s, {soak.results} trial results ({soak.flagged} flagged), warm-up {warm_s:.0f} s "
+        f"(the driver's gyro history of {DEFAULT_HISTORY_SAMPLES} samples full: {full})"
+    )
     print("t [s]  " + "  ".join(f"{n:>9s}" for n in soak.names) + "   (RSS, MB)")
     step = max(1, len(soak.samples) // 20)
     for t, rss in soak.samples[::step] + soak.samples[-1:]:
@@ -215,9 +217,11 @@ def main(argv: list[str] | None = None) -> int:
     missing = sorted(PROCESSES - set(soak.names))
     short = soak.results < max(1, args.min_results)
     if died or grew or missing or short or soak.history_full_s is None:
-        print(f"soak: FAILED: died {died or 'none'}, grew more than {args.max_growth:g} %: {grew or 'none'}, "
-              f"not sampled: {missing or 'none'}, {soak.results} results (at least {args.min_results} wanted), "
-              f"history {'never' if soak.history_full_s is None else 'was'} full")  # fmt: skip
+        print(
+            f"soak: FAILED: died {died or 'none'}, grew more than {args.max_growth:g} %: {grew or 'none'}, "
+            f"not sampled: {missing or 'none'}, {soak.results} results (at least {args.min_results} wanted), "
+            f"history {'never' if soak.history_full_s is None else 'was'} full"
+        )
         return 1
     print(f"soak: ok: {len(rows)} processes, none died, none grew more than {args.max_growth:g} % after warm-up")
     return 0

@@ -418,8 +418,9 @@ def _check_open(f: BinaryIO, size: int) -> str:
         return "shorter than an MCAP header and footer"
     op, header_length = _HEAD.unpack(_read_at(f, len(_MAGIC), 9))
     if op != _OP_HEADER or header_length > footer_at - len(_MAGIC) - 9:
-        return (f"header record at byte {len(_MAGIC)}: opcode 0x{op:02x}, length {header_length}, "
-                f"in a file of {size} bytes")
+        return (
+            f"header record at byte {len(_MAGIC)}: opcode 0x{op:02x}, length {header_length}, in a file of {size} bytes"
+        )
     footer = _read_at(f, footer_at, _FOOTER_LENGTH)
     op, length = _HEAD.unpack_from(footer)
     if op != _OP_FOOTER or length != 20:

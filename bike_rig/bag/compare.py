@@ -146,11 +146,22 @@ def _trial_difference(r: SessionTrial) -> Difference:
     live, new = r.recorded, r.result
     what = f"trial {r.trial_id}"
     if (live.valid, live.flag_codes, live.measurement_key) != (new.valid, new.flag_codes, new.measurement_key):
-        detail = (f"replay valid={new.valid} flags={list(new.flag_codes)}, "
-                  f"live valid={live.valid} flags={list(live.flag_codes)}")  # fmt: skip
+        detail = (
+            f"replay valid={new.valid} flags={list(new.flag_codes)}, "
+            f"live valid={live.valid} flags={list(live.flag_codes)}"
+        )
         return Difference(what, math.inf, detail)
-    names = ("period", "period_sigma", "zeta", "omega", "r2", "residual_rms", "n_samples", "window_start",
-             "window_stop")  # fmt: skip
+    names = (
+        "period",
+        "period_sigma",
+        "zeta",
+        "omega",
+        "r2",
+        "residual_rms",
+        "n_samples",
+        "window_start",
+        "window_stop",
+    )
     nf, lf = new.fit, live.fit
     a = [nf.period, nf.period_sigma, nf.zeta, nf.omega, nf.r2, nf.residual_rms, new.n_samples, *new.window]
     b = [lf.period, lf.period_sigma, lf.zeta, lf.omega, lf.r2, lf.residual_rms, live.n_samples, *live.window]
@@ -173,8 +184,14 @@ def compare_with_live(result: ReplayResult, session: RecordedSession) -> LiveCom
     if live_ps is None:
         missing.append("parameter set")
     elif bool(live_ps.complete) != result.complete:
-        diffs.append(Difference("parameters", math.inf, f"replay complete={result.complete}, live complete="
-                                f"{bool(live_ps.complete)} (missing {', '.join(str(k) for k in live_ps.missing)})"))
+        diffs.append(
+            Difference(
+                "parameters",
+                math.inf,
+                f"replay complete={result.complete}, live complete="
+                f"{bool(live_ps.complete)} (missing {', '.join(str(k) for k in live_ps.missing)})",
+            )
+        )
     elif result.parameters is not None:
         try:
             ps = session_parameters_from_msg(live_ps).complete_parameters()
@@ -205,8 +222,11 @@ def _compare_periods(result: ReplayResult, msg: Any) -> Difference:
     live_keys = [str(k) for k in msg.period_keys]
     new_keys = [p.key for p in result.session.periods]
     if live_keys != new_keys:
-        return Difference(what, math.inf, f"replay has periods for {', '.join(new_keys) or 'no key'}, "
-                          f"live for {', '.join(live_keys) or 'no key'}")  # fmt: skip
+        return Difference(
+            what,
+            math.inf,
+            f"replay has periods for {', '.join(new_keys) or 'no key'}, live for {', '.join(live_keys) or 'no key'}",
+        )
     live_trials = sorted(str(t) for t in msg.trial_ids)
     new_trials = sorted(f"{p.key}:{t}" for p in result.session.periods for t in p.trial_ids)
     if live_trials != new_trials:
@@ -225,14 +245,24 @@ def _compare_matrices(new: ModelMatrices, msg: Any, diffs: list[Difference]) -> 
         diffs.append(Difference("canonical matrices", math.inf, f"live matrices unreadable: {exc}"))
         return
     if (live.rider, live.convention) != (new.rider, new.convention):
-        diffs.append(Difference("canonical matrices", math.inf, f"live rider '{live.rider}' σ {live.convention.value}, "
-                                f"replay rider '{new.rider}' σ {new.convention.value}"))  # fmt: skip
+        diffs.append(
+            Difference(
+                "canonical matrices",
+                math.inf,
+                f"live rider '{live.rider}' σ {live.convention.value}, "
+                f"replay rider '{new.rider}' σ {new.convention.value}",
+            )
+        )
         return
     names = ("M", "C1", "K0", "K2")
-    diffs.append(_diff("canonical matrices", [getattr(new.matrices, n) for n in names],
-                       [getattr(live.matrices, n) for n in names]))  # fmt: skip
-    diffs.append(_diff("matrix sigmas", [getattr(new.sigma, n) for n in names],
-                       [getattr(live.sigma, n) for n in names]))  # fmt: skip
+    diffs.append(
+        _diff(
+            "canonical matrices", [getattr(new.matrices, n) for n in names], [getattr(live.matrices, n) for n in names]
+        )
+    )
+    diffs.append(
+        _diff("matrix sigmas", [getattr(new.sigma, n) for n in names], [getattr(live.sigma, n) for n in names])
+    )
 
 
 def _speed_values(s: Any) -> list[float]:
@@ -250,8 +280,9 @@ def _compare_sweep(new: StabilitySweep, msg: Any, diffs: list[Difference]) -> No
         return
     for name in ("weave", "capsize"):
         a, b = _speed_values(getattr(new, name)), _speed_values(getattr(live, name))
-        diffs.append(_diff(f"{name} speed", a, b, (f"{name} speed", f"{name} speed sigma"),
-                           in_sigma(a[:1], b[:1], b[1:])))  # fmt: skip
+        diffs.append(
+            _diff(f"{name} speed", a, b, (f"{name} speed", f"{name} speed sigma"), in_sigma(a[:1], b[:1], b[1:]))
+        )
     sweep_new, sweep_live = new.sweep, live.sweep
     if sweep_new.speeds.shape == sweep_live.speeds.shape:
         both = np.concatenate([sweep_new.eigenvalues.real.ravel(), sweep_new.eigenvalues.imag.ravel()])

@@ -88,8 +88,11 @@ def mcap_shape(path: Path) -> tuple[str, list[ChannelShape]] | None:
     for cid in sorted(channels):
         ch = channels[cid]
         schema = schemas.get(ch.schema_id) if ch.schema_id else None
-        out.append(ChannelShape(ch.topic, ch.message_encoding, schema.name if schema else "",
-                                schema.encoding if schema else None))  # fmt: skip
+        out.append(
+            ChannelShape(
+                ch.topic, ch.message_encoding, schema.name if schema else "", schema.encoding if schema else None
+            )
+        )
     return profile, out
 
 

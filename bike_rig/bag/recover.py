@@ -345,12 +345,15 @@ def default_output(bag: str | Path) -> Path:
 def _refusal(s: McapScan, ch: Channel) -> str:
     """Why a channel is not copied ("" when it is: CDR messages, a ros2msg schema)."""
     schema = s.schemas.get(ch.schema_id) if ch.schema_id else None
-    shape = ChannelShape(ch.topic, ch.message_encoding, schema.name if schema else "",
-                         schema.encoding if schema else None)  # fmt: skip
+    shape = ChannelShape(
+        ch.topic, ch.message_encoding, schema.name if schema else "", schema.encoding if schema else None
+    )
     reason = foreign_reason(None, [shape])
     if not reason and schema is not None and schema.encoding != _WRITTEN_SCHEMA:
-        reason = (f"channel {ch.topic}: its schema {schema.name} has encoding {schema.encoding!r} "
-                  f"(a recovered bag holds {_WRITTEN_SCHEMA} schemas only)")  # fmt: skip
+        reason = (
+            f"channel {ch.topic}: its schema {schema.name} has encoding {schema.encoding!r} "
+            f"(a recovered bag holds {_WRITTEN_SCHEMA} schemas only)"
+        )
     return reason
 
 

@@ -355,23 +355,32 @@ def replay_session(session: RecordedSession, settings: ReplaySettings | None = N
     }
     speeds = _speeds(session)
     graph = OfflineGraph(
-        static, GraphSettings(com_method=method, rider=rider, convention=convention, speeds=speeds),
+        static,
+        GraphSettings(com_method=method, rider=rider, convention=convention, speeds=speeds),
         origin=f"{bag} (replayed fits)",
-    )  # fmt: skip
+    )
     run = graph.run((_input(t) for t in session.trials.values()), lambda t: chosen[t.trial_id][0])
     notes = [readings_note] if readings_note else []
     notes += [f"trial {tid} left out: {why}" for tid, why in run.rejected.items()]
     used = {tid for p in run.session.periods for tid in p.trial_ids}
     trials = tuple(
-        SessionTrial(r, used=r.trial_id in used, note=run.rejected.get(r.trial_id, ""),
-                     options_from=chosen[r.trial_id][1], recorded=live_estimates.get(r.trial_id), source=bag)
+        SessionTrial(
+            r,
+            used=r.trial_id in used,
+            note=run.rejected.get(r.trial_id, ""),
+            options_from=chosen[r.trial_id][1],
+            recorded=live_estimates.get(r.trial_id),
+            source=bag,
+        )
         for r in run.trials
-    )  # fmt: skip
+    )
     if session.stray_batches:
         notes.append(f"{session.stray_batches} gyro batches outside any trial ignored")
     if session.live_order == BY_LOG_TIME:
-        notes.append("the live results were taken in log-time order (the recorder's order could not be read): "
-                     "after a step of its clock they may not be the last ones published")  # fmt: skip
+        notes.append(
+            "the live results were taken in log-time order (the recorder's order could not be read): "
+            "after a step of its clock they may not be the last ones published"
+        )
     result, matrices, stability = run.session, run.matrices, run.stability
     out = ReplayResult(
         bag=bag,
@@ -456,8 +465,10 @@ def result_json(result: ReplayResult) -> dict[str, Any]:
         "capsize_speed_sigma": capsize_sigma,
         "complete": result.complete,
         "missing": list(result.session.missing),
-        "periods": [{"key": p.key, "value": p.value, "sigma": p.sigma, "trial_ids": list(p.trial_ids)}
-                    for p in result.session.periods],  # fmt: skip
+        "periods": [
+            {"key": p.key, "value": p.value, "sigma": p.sigma, "trial_ids": list(p.trial_ids)}
+            for p in result.session.periods
+        ],
         "trials": trials,
         "settings": {
             "com_method": result.com_method.value,
@@ -470,12 +481,12 @@ def result_json(result: ReplayResult) -> dict[str, Any]:
         "live": {
             "identical": live.identical and not live.missing,
             "compared_trials": live.compared_trials,
-            "max_relative_difference": {d.what: (None if math.isinf(d.max_relative) else d.max_relative)
-                                        for d in live.differences},  # fmt: skip
+            "max_relative_difference": {
+                d.what: (None if math.isinf(d.max_relative) else d.max_relative) for d in live.differences
+            },
             "differences": [f"{d.what}: {d.detail}" for d in live.differences if not d.identical],
             "largest_in_sigma": _num(live.largest_in_sigma),
             "not_compared": list(live.missing),
         },
         "notes": list(result.notes),
     }
-

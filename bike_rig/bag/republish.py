@@ -71,11 +71,14 @@ class RepublishStats:
         """A few lines for the terminal."""
         total = sum(self.counts.values())
         how = "interrupted after" if self.interrupted else "published"
-        lines = [f"{how} {total} messages of {self.bag} in {self.wall_s:.2f} s "
-                 f"(bag span {self.bag_span_s:.2f} s, rate scale {self.rate_scale:g}, "
-                 f"largest lag {1e3 * self.max_lag_s:.1f} ms)"]  # fmt: skip
-        lines += [f"  {name}: {n} (subscribers at start: {self.subscribers.get(name, 0)})"
-                  for name, n in self.counts.items()]  # fmt: skip
+        lines = [
+            f"{how} {total} messages of {self.bag} in {self.wall_s:.2f} s "
+            f"(bag span {self.bag_span_s:.2f} s, rate scale {self.rate_scale:g}, "
+            f"largest lag {1e3 * self.max_lag_s:.1f} ms)"
+        ]
+        lines += [
+            f"  {name}: {n} (subscribers at start: {self.subscribers.get(name, 0)})" for name, n in self.counts.items()
+        ]
         return "\n".join(lines)
 
 

@@ -139,8 +139,9 @@ def write_ride_bag(ride: Any, path: str | Path, start_ns: int = 1_700_000_000_00
             ns = start_ns + int(round(float(t) * 1e9))
             stamp = new_message("builtin_interfaces/msg/Time", sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
             header = new_message("std_msgs/msg/Header", stamp=stamp, frame_id="imu")
-            gyro = new_message("geometry_msgs/msg/Vector3", x=float(ride.roll_rate[k]), y=0.0,
-                               z=float(ride.steer_rate[k]))  # fmt: skip
+            gyro = new_message(
+                "geometry_msgs/msg/Vector3", x=float(ride.roll_rate[k]), y=0.0, z=float(ride.steer_rate[k])
+            )
             imu = new_message(imu_t, header=header, angular_velocity=gyro)
             w.write(RIDE_BAG_TOPICS["imu"], ns, bytes(store.serialize_cdr(imu, imu_t)))
             for key, values in (("speed", ride.speed), ("torque", ride.steer_torque)):

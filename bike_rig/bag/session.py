@@ -42,8 +42,13 @@ IntArray = NDArray[np.int64]
 FloatArray = NDArray[np.float64]
 
 #: The topics whose messages are kept in publication order (one publisher at a time each).
-LIVE_TOPICS = (topics.STATIC_READINGS.name, topics.PERIODS.name, topics.PARAMETERS.name, topics.MATRICES.name,
-               topics.EIGEN_SWEEP.name)  # fmt: skip
+LIVE_TOPICS = (
+    topics.STATIC_READINGS.name,
+    topics.PERIODS.name,
+    topics.PARAMETERS.name,
+    topics.MATRICES.name,
+    topics.EIGEN_SWEEP.name,
+)
 
 #: :attr:`RecordedSession.live_order` when the publication sequence numbers ordered the live results.
 BY_SEQUENCE = "publication sequence"

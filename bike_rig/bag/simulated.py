@@ -96,26 +96,46 @@ def simulated_messages(
         rate = float(trial.sample_rate)
         n = int(trial.rate.size)
         start = TrialEventRecord(
-            TrialEventKind.START, trial.name, trial.key, m.part, m.pendulum, m.orientation or 0, trial.trial, rate,
-            stamp_ns=t0, frame_id=frame_id,
-        )  # fmt: skip
+            TrialEventKind.START,
+            trial.name,
+            trial.key,
+            m.part,
+            m.pendulum,
+            m.orientation or 0,
+            trial.trial,
+            rate,
+            stamp_ns=t0,
+            frame_id=frame_id,
+        )
         yield SimulatedMessage(topics.TRIAL_EVENTS.name, t0 + latency_ns // 2, _event_message(start))
         for first in range(0, n, samples_per_batch):
             stop_at = min(n, first + samples_per_batch)
             batch = SampleBatch(
-                trial.name, first, rate,
+                trial.name,
+                first,
+                rate,
                 rates=np.ascontiguousarray(trial.rate[first:stop_at], dtype=np.float64),
                 raw_volts=np.ascontiguousarray(trial.volts[first:stop_at], dtype=np.float64),
-                stamp_ns=sample_stamp_ns(t0, first, rate), frame_id=frame_id,
-            )  # fmt: skip
+                stamp_ns=sample_stamp_ns(t0, first, rate),
+                frame_id=frame_id,
+            )
             # a batch is published once its last sample is taken
             log_time = sample_stamp_ns(t0, stop_at - 1, rate) + latency_ns
             yield SimulatedMessage(topics.GYRO.name, log_time, fill_gyro_batch(new_message(BATCH_TYPE), batch))
         end = sample_stamp_ns(t0, n, rate)  # just after the last sample, as the driver stamps STOP
         stop = TrialEventRecord(
-            TrialEventKind.STOP, trial.name, trial.key, m.part, m.pendulum, m.orientation or 0, trial.trial, rate,
-            sample_count=n, stamp_ns=end, frame_id=frame_id,
-        )  # fmt: skip
+            TrialEventKind.STOP,
+            trial.name,
+            trial.key,
+            m.part,
+            m.pendulum,
+            m.orientation or 0,
+            trial.trial,
+            rate,
+            sample_count=n,
+            stamp_ns=end,
+            frame_id=frame_id,
+        )
         yield SimulatedMessage(topics.TRIAL_EVENTS.name, end + latency_ns + 1000, _event_message(stop))
         t0 = end + int(pause_s * NS_PER_S)
 
@@ -189,9 +209,12 @@ def live_results(
         delay_ns: How long after its input each result is logged.
     """
     settings = GraphSettings(
-        fit_options=fit_options or TrialFitOptions(), com_method=com_method, rider=rider, convention=convention,
+        fit_options=fit_options or TrialFitOptions(),
+        com_method=com_method,
+        rider=rider,
+        convention=convention,
         speeds=DEFAULT_SPEEDS.copy() if speeds is None else np.asarray(speeds, dtype=float),
-    )  # fmt: skip
+    )
     batches: dict[str, list[SampleBatch]] = {}
     starts: dict[str, TrialEventRecord] = {}
     graph: OfflineGraph | None = None

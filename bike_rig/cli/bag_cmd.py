@@ -157,8 +157,10 @@ def info_text(summary: BagSummary) -> str:
             f"{estimated - usable} flagged or invalid, {len(trials) - estimated} none"
         )
         w = max(len("trial"), *(len(t.trial_id) for t in trials))
-        head = (f"{'trial':<{w}}  {'key':<5}  {'state':<11}  {'samples':>8}  {'announced':>9}  "
-                f"{'duration':>9}  {'period [s]':>20}  validity")  # fmt: skip
+        head = (
+            f"{'trial':<{w}}  {'key':<5}  {'state':<11}  {'samples':>8}  {'announced':>9}  "
+            f"{'duration':>9}  {'period [s]':>20}  validity"
+        )
         out += [head, "-" * len(head)]
         for t in trials:
             announced = "-" if t.announced is None else str(t.announced)
@@ -183,6 +185,7 @@ def _live_text(summary: BagSummary) -> str:
     else:
         text = f"parameter set incomplete, missing {', '.join(live.missing)}"
     if live.weave_speed is not None or live.capsize_speed is not None:
+
         def speed(v: float | None) -> str:
             return "none" if v is None else f"{v:.4f} m/s"
 
@@ -214,10 +217,17 @@ def _recover_json(r: Recovery) -> dict[str, Any]:
         "last_time_ns": r.last_time,
         "topics": [{"name": t.name, "type": t.msgtype, "recovered": t.count} for t in r.topics],
         "files": [
-            {"file": s.path.name, "size": s.size, "read_bytes": s.read_bytes, "complete": s.complete,
-             "chunks": s.chunks, "bad_chunks": s.bad_chunks, "stop_reason": s.stop_reason}
+            {
+                "file": s.path.name,
+                "size": s.size,
+                "read_bytes": s.read_bytes,
+                "complete": s.complete,
+                "chunks": s.chunks,
+                "bad_chunks": s.bad_chunks,
+                "stop_reason": s.stop_reason,
+            }
             for s in r.files
-        ],  # fmt: skip
+        ],
         "skipped": list(r.skipped),
         "missing": [{"file": m.name, "why": m.why} for m in r.missing],
         "nothing_lost": r.nothing_lost,
@@ -234,8 +244,10 @@ def recover_text(r: Recovery) -> str:
         if s.complete:
             state = "complete (it had its footer: nothing was lost)" if nothing_lost else "complete (it had its footer)"
         else:
-            state = (f"cut after byte {s.read_bytes} of {s.size}: {s.stop_reason}; "
-                     f"{s.size - s.read_bytes} bytes after the last complete record lost")  # fmt: skip
+            state = (
+                f"cut after byte {s.read_bytes} of {s.size}: {s.stop_reason}; "
+                f"{s.size - s.read_bytes} bytes after the last complete record lost"
+            )
         bad = f", {s.bad_chunks} corrupt chunk(s) skipped" if s.bad_chunks else ""
         files.append((s.path.name, f"  {s.path.name}: {s.chunks} chunks read{bad}; {state}"))
     files += [(m.name, f"  {m.name}: MISSING ({m.why}): its messages are not recovered") for m in r.missing]

@@ -146,8 +146,15 @@ def window_from_args(args: argparse.Namespace, error: UsageError) -> WindowPolic
         BikeRigError: Of the class ``error``: more than one window, or an invalid one.
     """
     span = args.start is not None or args.stop is not None
-    chosen = [name for name, given in (("--lead-in", args.lead_in is not None), ("--start/--stop", span),
-                                       ("--envelope", args.envelope is not None)) if given]  # fmt: skip
+    chosen = [
+        name
+        for name, given in (
+            ("--lead-in", args.lead_in is not None),
+            ("--start/--stop", span),
+            ("--envelope", args.envelope is not None),
+        )
+        if given
+    ]
     if len(chosen) > 1:
         raise error(f"choose one window: {' or '.join(chosen)}")
     whole = not args.no_whole_cycles

@@ -347,15 +347,26 @@ def add_parser(sub: Any) -> None:
     )
     q.add_argument("--speed", type=float, help=f"speed of modes and bode, m/s (default: {DEFAULT_SPEED_TEXT})")
     q.add_argument("--speeds", nargs=3, metavar=("START", "STOP", "N"), help="speeds of eigen and locus, m/s")
-    q.add_argument("--mode", choices=tuple(dict.fromkeys(MODE_LABELS)), default=DEFAULT_MODE,
-                   help=f"the mode of the modes figure (default {DEFAULT_MODE})")  # fmt: skip
+    q.add_argument(
+        "--mode",
+        choices=tuple(dict.fromkeys(MODE_LABELS)),
+        default=DEFAULT_MODE,
+        help=f"the mode of the modes figure (default {DEFAULT_MODE})",
+    )
     q.add_argument("--input", help=f"input of the bode figure: {', '.join(INPUTS)} (default {INPUTS[1]})")
     q.add_argument("--output", help=f"output of the bode figure: {', '.join(OUTPUTS)} (default {OUTPUTS[0]})")
-    q.add_argument("--com-method", choices=[m.value for m in ComMethod], default=None,
-                   help="mass-centre method for raw readings: centroid (paper) or lstsq "
-                        "(default: centroid; a bag: as recorded)")  # fmt: skip
+    q.add_argument(
+        "--com-method",
+        choices=[m.value for m in ComMethod],
+        default=None,
+        help="mass-centre method for raw readings: centroid (paper) or lstsq (default: centroid; a bag: as recorded)",
+    )
     add_feedback_option(q)
-    q.add_argument("--ride", action="append", metavar="RECORD",
-                   help="a ride record of the ride figure (CSV or bag with the speed; repeatable)")  # fmt: skip
+    q.add_argument(
+        "--ride",
+        action="append",
+        metavar="RECORD",
+        help="a ride record of the ride figure (CSV or bag with the speed; repeatable)",
+    )
     q.add_argument("--timings", action="store_true", help="print how long each figure took on standard error")
     q.set_defaults(func=run)

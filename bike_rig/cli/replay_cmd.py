@@ -80,14 +80,16 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     s.add_argument("--com-method", choices=[m.value for m in ComMethod], help="mass-centre method")
     s.add_argument("--rider", help="rider in the rear frame: none, paper or a rider YAML file (rigid or Yeadon)")
     s.add_argument("--sigma", choices=[c.value for c in SigmaConvention], help="σ convention")
-    s.add_argument("--readings", metavar="FILE",
-                   help="static readings from this measurement file, not the bag's (periods ignored)")  # fmt: skip
+    s.add_argument(
+        "--readings", metavar="FILE", help="static readings from this measurement file, not the bag's (periods ignored)"
+    )
     add_strict_option(s)
     r = q.add_argument_group("republish into a live graph (rclpy)")
     r.add_argument("--republish", action="store_true", help="play gyro, trial events and static readings back")
     r.add_argument("--rate-scale", type=float, default=1.0, metavar="X", help="X times the original speed (default 1)")
-    r.add_argument("--wait", type=float, default=5.0, metavar="S",
-                   help="wait up to S s for subscribers before playing (default 5)")  # fmt: skip
+    r.add_argument(
+        "--wait", type=float, default=5.0, metavar="S", help="wait up to S s for subscribers before playing (default 5)"
+    )
     q.set_defaults(func=run)
 
 
@@ -167,15 +169,19 @@ def _trials_table(result: ReplayResult) -> str:
         p = t.result
         if t.recorded is None:
             live = "-"
-        elif p.valid == t.recorded.valid and p.flag_codes == t.recorded.flag_codes and (
-            p.period == t.recorded.period or (math.isnan(p.period) and math.isnan(t.recorded.period))
+        elif (
+            p.valid == t.recorded.valid
+            and p.flag_codes == t.recorded.flag_codes
+            and (p.period == t.recorded.period or (math.isnan(p.period) and math.isnan(t.recorded.period)))
         ):
             live = "same"
         else:
             live = "differs"
         flags = ", ".join(p.flag_codes) + (f" ({t.note})" if t.note else "")
-        rows.append(f"{t.trial_id:<{w}}  {p.measurement_key or '-':<5}  {_vs(p.period, p.period_sigma):>20}  "
-                    f"{p.n_samples:>7}  {'yes' if t.used else 'no':<4}  {live:<9}  {flags}")  # fmt: skip
+        rows.append(
+            f"{t.trial_id:<{w}}  {p.measurement_key or '-':<5}  {_vs(p.period, p.period_sigma):>20}  "
+            f"{p.n_samples:>7}  {'yes' if t.used else 'no':<4}  {live:<9}  {flags}"
+        )
     return "\n".join(rows)
 
 
@@ -187,8 +193,10 @@ def replay_text(result: ReplayResult) -> str:
     """The ``replay`` report: trials, parameters, critical speeds, comparison with live."""
     out = [f"{result.bicycle}: replay of {result.bag}"]
     over = " (fit settings overridden)" if result.fit_overridden else ""
-    out.append(f"settings: com method {result.com_method.value}, rider '{result.rider or 'none'}', "
-               f"σ {result.sigma_convention.value}{over}")  # fmt: skip
+    out.append(
+        f"settings: com method {result.com_method.value}, rider '{result.rider or 'none'}', "
+        f"σ {result.sigma_convention.value}{over}"
+    )
     if result.readings_swapped:
         out.append(f"static readings: from {result.readings}, NOT the bag's (swapped with --readings)")
     else:
@@ -220,22 +228,31 @@ def _live_text(result: ReplayResult) -> str:
     others = [d.what for d in live.differences if not d.what.startswith("trial ")]
     compared = ([f"{live.compared_trials} trial fits"] if live.compared_trials else []) + others
     if live.identical:
-        text = (f"live results: identical (largest relative difference {worst.max_relative:.1e}; "
-                f"compared: {', '.join(compared)})")  # fmt: skip
+        text = (
+            f"live results: identical (largest relative difference {worst.max_relative:.1e}; "
+            f"compared: {', '.join(compared)})"
+        )
     else:
         bad = [d for d in live.differences if not d.identical]
         text = f"live results: DIFFER in {len(bad)} of {len(live.differences)} comparisons"
         results, trial = live.largest_move(trials=False), live.largest_move(trials=True)
-        moves = ([f"the results (combined periods, parameters, speeds) by at most {results.in_sigma:.2g}"]
-                 if results is not None else [])  # fmt: skip
+        moves = (
+            [f"the results (combined periods, parameters, speeds) by at most {results.in_sigma:.2g}"]
+            if results is not None
+            else []
+        )
         if trial is not None:
             moves.append(f"the trial fits' periods by at most {trial.in_sigma:.2g} ({trial.what})")
         if moves:
             text += "; moved, in units of the live σ: " + ", ".join(moves)
         expected = [
-            why for why, on in (("the fit settings are overridden", result.fit_overridden),
-                                ("the static readings are swapped", result.readings_swapped)) if on
-        ]  # fmt: skip
+            why
+            for why, on in (
+                ("the fit settings are overridden", result.fit_overridden),
+                ("the static readings are swapped", result.readings_swapped),
+            )
+            if on
+        ]
         if expected:
             text += f" (expected: {'; '.join(expected)})"
         text += "".join(f"\n  {d.what}: {d.detail or f'relative {d.max_relative:.1e}'}" for d in bad[:10])
@@ -244,4 +261,3 @@ def _live_text(result: ReplayResult) -> str:
     if live.missing:
         text += "\n  not compared: " + ", ".join(live.missing)
     return text
-

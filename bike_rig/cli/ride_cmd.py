@@ -76,11 +76,18 @@ def _record_options(q: argparse.ArgumentParser) -> None:
     g.add_argument("--field", default="angular_velocity.x", help="bag: the signal's field (default angular_velocity.x)")
     g.add_argument("--speed-topic", help="bag: a topic with the speed, m/s (field 'data')")
     g.add_argument("--torque-topic", help="bag: a topic with the steer torque, N m (field 'data')")
-    g.add_argument("--segments", choices=["auto", "whole", "find"], default="auto",
-                   help=f"whole record, find the kicks, or auto (whole below {WHOLE_BELOW_S:g} s)")  # fmt: skip
-    g.add_argument("--model", choices=list(MODELS), default=MODELS[0],
-                   help="segment model: auto (Eq 23, or with a real mode where it is significantly better) "
-                        "or one forced")  # fmt: skip
+    g.add_argument(
+        "--segments",
+        choices=["auto", "whole", "find"],
+        default="auto",
+        help=f"whole record, find the kicks, or auto (whole below {WHOLE_BELOW_S:g} s)",
+    )
+    g.add_argument(
+        "--model",
+        choices=list(MODELS),
+        default=MODELS[0],
+        help="segment model: auto (Eq 23, or with a real mode where it is significantly better) or one forced",
+    )
     q.add_argument("--json", action="store_true", help="JSON on standard output")
     q.add_argument("-o", "--out", metavar="DIR", help="write the figures to this directory")
 
@@ -108,8 +115,12 @@ def add_parser(sub: Any) -> None:
     c.add_argument("records", nargs="+", metavar="RECORD", help="CSV files or bags")
     _record_options(c)
     _model_options(c, add_feedback_option)
-    c.add_argument("--free", default="", metavar="NAME,...",
-                   help="parameters freed from their prior in further variants, e.g. IBzz,IFyy")  # fmt: skip
+    c.add_argument(
+        "--free",
+        default="",
+        metavar="NAME,...",
+        help="parameters freed from their prior in further variants, e.g. IBzz,IFyy",
+    )
     c.add_argument("--speeds", nargs=3, metavar=("START", "STOP", "N"), help="speeds of the bands, m/s")
     rate_help = "a digital assist's sample rate, Hz: torque held over each sample (default: continuous)"
     c.add_argument("--assist-rate", type=float, metavar="HZ", help=rate_help)
@@ -143,9 +154,18 @@ def measure(args: argparse.Namespace) -> list[tuple[MeasuredEigenvalue, Segment,
         RideOptionError: A negative or non-finite ``--speed``. RideDataError, BagError: a bad record.
     """
     options = RecordOptions(
-        args.signal, args.time, args.speed, args.speed_column, args.torque_column, args.topic, args.field,
-        args.speed_topic, args.torque_topic, args.segments, args.model,
-    )  # fmt: skip
+        args.signal,
+        args.time,
+        args.speed,
+        args.speed_column,
+        args.torque_column,
+        args.topic,
+        args.field,
+        args.speed_topic,
+        args.torque_topic,
+        args.segments,
+        args.model,
+    )
     return [(m.eigenvalue, m.segment, m.record) for m in measure_records(args.records, options)]
 
 
@@ -156,11 +176,23 @@ def _num(x: float) -> float | None:
 def segment_json(m: MeasuredEigenvalue, seg: Segment) -> dict[str, Any]:
     """One segment's object (module docstring)."""
     return {
-        "file": m.source, "segment": m.index, "start": _num(seg.start), "stop": _num(seg.stop),
-        "speed": _num(m.speed), "real": _num(m.real), "real_sigma": _num(m.real_sigma), "imag": _num(m.imag),
-        "imag_sigma": _num(m.imag_sigma), "valid": m.valid, "flags": list(m.flags), "n_cycles": _num(m.n_cycles),
-        "model": m.model, "start_reason": seg.start_reason, "stop_reason": seg.stop_reason, "notes": list(m.notes),
-    }  # fmt: skip
+        "file": m.source,
+        "segment": m.index,
+        "start": _num(seg.start),
+        "stop": _num(seg.stop),
+        "speed": _num(m.speed),
+        "real": _num(m.real),
+        "real_sigma": _num(m.real_sigma),
+        "imag": _num(m.imag),
+        "imag_sigma": _num(m.imag_sigma),
+        "valid": m.valid,
+        "flags": list(m.flags),
+        "n_cycles": _num(m.n_cycles),
+        "model": m.model,
+        "start_reason": seg.start_reason,
+        "stop_reason": seg.stop_reason,
+        "notes": list(m.notes),
+    }
 
 
 def _pm(x: float, s: float) -> str:
@@ -192,8 +224,10 @@ def _rider_hint(args: argparse.Namespace, deviation: float) -> str | None:
     """A hint to add ``--rider`` when none was given and the model is far from the ride."""
     if args.rider not in (None, "", "none") or not (math.isfinite(deviation) and deviation > RIDER_HINT_DEVIATION):
         return None
-    return (f"hint: the model has no rider (deviation {deviation:.1f} σ); a ridden record needs "
-            "--rider paper or --rider RIDER.yaml")  # fmt: skip
+    return (
+        f"hint: the model has no rider (deviation {deviation:.1f} σ); a ridden record needs "
+        "--rider paper or --rider RIDER.yaml"
+    )
 
 
 def _line(m: MeasuredEigenvalue, seg: Segment) -> str:
@@ -252,8 +286,10 @@ def run_fit(args: argparse.Namespace) -> int:
             print(terminal_safe(_line(m, seg)))
         for c in combine_eigenvalues([m for m, _, _ in rows]):
             if c.n_used:
-                print(f"{c.speed:.2f} m/s, {c.n_used} segments combined ({c.n_left_out} left out): "
-                      f"Re λ {_pm(c.real, c.real_sigma)} 1/s, Im λ {_pm(c.imag, c.imag_sigma)} rad/s")  # fmt: skip
+                print(
+                    f"{c.speed:.2f} m/s, {c.n_used} segments combined ({c.n_left_out} left out): "
+                    f"Re λ {_pm(c.real, c.real_sigma)} 1/s, Im λ {_pm(c.imag, c.imag_sigma)} rad/s"
+                )
     if args.out:
         _segment_figures(rows, _figures_dir(args.out))
     return 0
@@ -362,15 +398,19 @@ def _calibrate_text(result: Any) -> str:
         lines.append(f"{r.name:<44} {p.chi2:8.1f} {p.dof:4d} {red} {r.aic:8.1f} {r.bic:8.1f} {ev}  {scale}")
     best = cal.best.posterior
     caveat = "" if cal.explained else " — it does not explain the rides: shifts forced onto the model, not measured"
-    lines.append(f"best variant '{cal.best.name}': parameters that move or that the rides constrain "
-                 f"(prior → posterior, shift in prior σ, posterior/prior σ){caveat}:")  # fmt: skip
+    lines.append(
+        f"best variant '{cal.best.name}': parameters that move or that the rides constrain "
+        f"(prior → posterior, shift in prior σ, posterior/prior σ){caveat}:"
+    )
     tight = {n for n, _ in constrained(best)}
     prior = best.prior.parameters
     for i, n in enumerate(PARAMETER_NAMES):
         if n in tight or abs(best.shifts[i]) >= 0.5 or n in best.unknowns.free:
             change = f"{best.shifts[i]:+.1f} σ, ratio {best.sigma_ratio[i]:.2f}"
-            lines.append(f"    {n:<5} {prior.values[i]:.5g} ± {prior.sigmas[i]:.2g} → {best.values[i]:.5g} ± "
-                         f"{best.sigmas[i]:.2g}  ({change})")  # fmt: skip
+            lines.append(
+                f"    {n:<5} {prior.values[i]:.5g} ± {prior.sigmas[i]:.2g} → {best.values[i]:.5g} ± "
+                f"{best.sigmas[i]:.2g}  ({change})"
+            )
     if lines[-1].startswith("best variant"):
         lines.append("    none: every parameter stays within 0.5 prior σ and keeps its prior σ")
     lines.append(f"verdict: {cal.verdict}")
@@ -387,27 +427,54 @@ def _validate_json(comparison: Any, rows: list[tuple[MeasuredEigenvalue, Segment
     segments = []
     for c, (m, seg, _) in zip(comparison.segments, rows, strict=True):
         obj = segment_json(m, seg)
-        obj.update({
-            "predicted_real": _num(c.predicted_real), "predicted_real_sigma": _num(c.predicted_real_sigma),
-            "predicted_imag": _num(c.predicted_imag), "predicted_imag_sigma": _num(c.predicted_imag_sigma),
-            "normalised_deviation": _num(c.deviation), "normalised_deviation_real": _num(c.z_real),
-            "normalised_deviation_imag": _num(c.z_imag), **_verdict_json(c.verdict, c.sigma_method),
-        })  # fmt: skip
+        obj.update(
+            {
+                "predicted_real": _num(c.predicted_real),
+                "predicted_real_sigma": _num(c.predicted_real_sigma),
+                "predicted_imag": _num(c.predicted_imag),
+                "predicted_imag_sigma": _num(c.predicted_imag_sigma),
+                "normalised_deviation": _num(c.deviation),
+                "normalised_deviation_real": _num(c.z_real),
+                "normalised_deviation_imag": _num(c.z_imag),
+                **_verdict_json(c.verdict, c.sigma_method),
+            }
+        )
         segments.append(obj)
     keys = ("predicted_real", "predicted_real_sigma", "predicted_imag", "predicted_imag_sigma")
     speeds = [
-        {"speed": s.combined.speed, "n_used": s.combined.n_used, "n_left_out": s.combined.n_left_out,
-         "real": _num(s.combined.real), "real_sigma": _num(s.combined.real_sigma), "imag": _num(s.combined.imag),
-         "imag_sigma": _num(s.combined.imag_sigma), **{k: _num(getattr(s, k)) for k in keys},
-         "normalised_deviation": _num(s.deviation), "normalised_deviation_real": _num(s.z_real),
-         "normalised_deviation_imag": _num(s.z_imag), **_verdict_json(s.verdict, s.sigma_method)}
+        {
+            "speed": s.combined.speed,
+            "n_used": s.combined.n_used,
+            "n_left_out": s.combined.n_left_out,
+            "real": _num(s.combined.real),
+            "real_sigma": _num(s.combined.real_sigma),
+            "imag": _num(s.combined.imag),
+            "imag_sigma": _num(s.combined.imag_sigma),
+            **{k: _num(getattr(s, k)) for k in keys},
+            "normalised_deviation": _num(s.deviation),
+            "normalised_deviation_real": _num(s.z_real),
+            "normalised_deviation_imag": _num(s.z_imag),
+            **_verdict_json(s.verdict, s.sigma_method),
+        }
         for s in comparison.speeds
-    ]  # fmt: skip
+    ]
     for u in comparison.unmeasured:
-        speeds.append({"speed": u.speed, "n_used": 0, "n_left_out": u.n_left_out, "real": None, "real_sigma": None,
-                       "imag": None, "imag_sigma": None, **dict.fromkeys(keys), "normalised_deviation": None,
-                       "normalised_deviation_real": None, "normalised_deviation_imag": None,
-                       **_verdict_json(_unmeasured_verdict(u), "none")})  # fmt: skip
+        speeds.append(
+            {
+                "speed": u.speed,
+                "n_used": 0,
+                "n_left_out": u.n_left_out,
+                "real": None,
+                "real_sigma": None,
+                "imag": None,
+                "imag_sigma": None,
+                **dict.fromkeys(keys),
+                "normalised_deviation": None,
+                "normalised_deviation_real": None,
+                "normalised_deviation_imag": None,
+                **_verdict_json(_unmeasured_verdict(u), "none"),
+            }
+        )
     speeds.sort(key=lambda o: o["speed"])
     out: dict[str, Any] = {"segments": segments}
     out.update({k: [o[k] for o in segments] for k in keys})
@@ -438,15 +505,21 @@ def _validate_text(comparison: Any, rows: list[tuple[MeasuredEigenvalue, Segment
     for c, (m, seg, _) in zip(comparison.segments, rows, strict=True):
         lines.append(_line(m, seg))
         if m.valid:
-            lines.append(f"    model: {_model(c)}; normalised deviation re {_z(c.z_real)}, im {_z(c.z_imag)}: "
-                         f"{c.verdict.text}")  # fmt: skip
+            lines.append(
+                f"    model: {_model(c)}; normalised deviation re {_z(c.z_real)}, im {_z(c.z_imag)}: {c.verdict.text}"
+            )
     per_speed: list[tuple[float, str]] = []
     for s in comparison.speeds:
         c = s.combined
         measured = f"Re λ {_pm(c.real, c.real_sigma)}, Im λ {_pm(c.imag, c.imag_sigma)}"
         used = f"{c.n_used} segments" + (f", {c.n_left_out} left out" if c.n_left_out else "")
-        per_speed.append((c.speed, f"{c.speed:.2f} m/s ({used}): measured {measured}; model {_model(s)}; "
-                                   f"normalised deviation {s.deviation:.2f}: {s.verdict.text}"))  # fmt: skip
+        per_speed.append(
+            (
+                c.speed,
+                f"{c.speed:.2f} m/s ({used}): measured {measured}; model {_model(s)}; "
+                f"normalised deviation {s.deviation:.2f}: {s.verdict.text}",
+            )
+        )
     for u in comparison.unmeasured:
         per_speed.append((u.speed, f"{u.speed:.2f} m/s: {_unmeasured_verdict(u).text}"))
     lines += [text for _, text in sorted(per_speed)]

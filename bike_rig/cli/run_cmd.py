@@ -110,17 +110,26 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
         "--domain-id", metavar="N", help="ROS_DOMAIN_ID, 0..101 (default: the environment's, else a free one)"
     )
     q.add_argument(
-        "--only", action="append", default=[], metavar="NODE",
+        "--only",
+        action="append",
+        default=[],
+        metavar="NODE",
         help="start only this node of the graph (repeatable), e.g. --only driver on the rig's host",
-    )  # fmt: skip
+    )
     q.add_argument(
-        "--without", action="append", default=[], metavar="NODE",
+        "--without",
+        action="append",
+        default=[],
+        metavar="NODE",
         help="start every node but this one (repeatable), e.g. --without driver at the desk",
-    )  # fmt: skip
+    )
     q.add_argument(
-        "--peer", action="append", default=[], metavar="ADDRESS",
+        "--peer",
+        action="append",
+        default=[],
+        metavar="ADDRESS",
         help="the other host's IP address when the graph is split over two hosts (ROS_STATIC_PEERS; repeatable)",
-    )  # fmt: skip
+    )
     q.add_argument("--out", metavar="DIR", help="new session folder (default: ./bike_rig_sessions/<time>)")
     q.add_argument("--log-dir", metavar="DIR", help="node logs go here (default: <session folder>/logs)")
     q.set_defaults(func=run)
@@ -182,8 +191,11 @@ class RunTracker:
         else:
             return []  # the run's monitor hands on no samples or readings
         # (the set and its model, in either order: they come from two processes)
-        if self.parameters is not None and self.parameters.complete and self.stability is not None and (
-            not self._announced_complete
+        if (
+            self.parameters is not None
+            and self.parameters.complete
+            and self.stability is not None
+            and (not self._announced_complete)
         ):
             self._announced_complete = True
             return [f"parameter set complete: {self.speeds_text()}"]
@@ -216,8 +228,11 @@ class RunTracker:
         if parameters:
             held = set() if p is None else {t for k in p.periods for t in k.trial_ids}
             keys = None if p is None else {k.key for k in p.periods} | set(p.missing)
-            new = [t for t in self.trials.values() if t.fit is not None and t.fit.usable
-                   and (keys is None or t.key in keys) and t.trial_id not in held]  # fmt: skip
+            new = [
+                t
+                for t in self.trials.values()
+                if t.fit is not None and t.fit.usable and (keys is None or t.key in keys) and t.trial_id not in held
+            ]
             if new:
                 out.append(f"the parameter set ({len(new)} result(s) not in it yet)")
         if model and p is not None and p.complete and self.stability is None:
@@ -356,8 +371,11 @@ def _defaults(graph: Graph, overrides: dict[str, dict[str, object]], out: Path) 
         overrides.setdefault(recorder, {})["output"] = str(out / "bag")
     driver, parameter = _node_of(graph, _DRIVER), _node_of(graph, _PARAMETER)
     waits = graph.node(driver).parameters.get("wait_for_subscribers") if driver is not None else None
-    if driver is not None and isinstance(waits, int) and waits > 0 and "wait_for_subscribers" not in overrides.get(
-        driver, {}
+    if (
+        driver is not None
+        and isinstance(waits, int)
+        and waits > 0
+        and "wait_for_subscribers" not in overrides.get(driver, {})
     ):
         overrides.setdefault(driver, {})["wait_for_subscribers"] = waits + 1  # this process's listener too
     if driver is None or parameter is None or "measurements" in overrides.get(parameter, {}):

@@ -123,8 +123,9 @@ def _resume_from(args: argparse.Namespace, name: str, folder: Path) -> tuple[Res
     if not args.resume:
         return None, name
     if args.join:
-        raise SessionArgumentError("--resume starts its own graph (the driver streams the recorded trials): "
-                                   "it cannot be used with --join")  # fmt: skip
+        raise SessionArgumentError(
+            "--resume starts its own graph (the driver streams the recorded trials): it cannot be used with --join"
+        )
     point = resume_point(args.resume, folder / "recovered_bag")
     if point.bicycle and args.name and point.bicycle != args.name:
         raise SessionArgumentError(f"{args.resume}: the session is of bicycle {point.bicycle!r}, not {args.name!r}")

@@ -43,18 +43,22 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
         "@foxglove/ws-protocol). With no bike_rig graph on the domain it says so after a few seconds.",
     )
     q.add_argument(
-        "--port", type=int, default=DEFAULT_PORT,
+        "--port",
+        type=int,
+        default=DEFAULT_PORT,
         help=f"WebSocket port (default {DEFAULT_PORT}, Foxglove's; 0: a free one)",
-    )  # fmt: skip
+    )
     q.add_argument(
-        "--host", default="127.0.0.1",
+        "--host",
+        default="127.0.0.1",
         help="address to listen on (default 127.0.0.1: this computer only; 0.0.0.0: every interface)",
-    )  # fmt: skip
+    )
     q.add_argument(
-        "--domain-id", metavar="N",
+        "--domain-id",
+        metavar="N",
         help="ROS_DOMAIN_ID of the graph to show, 0..101 (default: the environment's, else 0); "
         "bike-rig run prints its own",
-    )  # fmt: skip
+    )
     q.set_defaults(func=run)
 
 

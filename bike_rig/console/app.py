@@ -240,8 +240,10 @@ class SessionApp(App[int]):
         )
         text = Text(terminal_safe(head + nxt + tail))
         if self._quit_asked:
-            text = Text("Quit? F10 or Ctrl-C again leaves (a recording trial is aborted); any command stays.",
-                        style="bold reverse")  # fmt: skip
+            text = Text(
+                "Quit? F10 or Ctrl-C again leaves (a recording trial is aborted); any command stays.",
+                style="bold reverse",
+            )
         elif self.ctl.held is not None:
             warning = "; ".join(self.ctl.held[1])
             key = self.ctl.held[0].key

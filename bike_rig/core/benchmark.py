@@ -221,8 +221,15 @@ def _in_plane_part(
     Ixx, Ixz, Izz = inertia.inertia_from_pendulum_axes(J, betas)  # Eq 31–35
     length = pivot(com_xz[0], com_xz[1])  # Eq 36–37
     Iyy = inertia.compound_pendulum_inertia(x[f"m{part}"], x["g"], length, x[f"Tc{part}1"])  # Eq 28
-    return {f"m{part}": x[f"m{part}"], f"x{part}": com_xz[0], f"z{part}": com_xz[1],
-            f"I{part}xx": Ixx, f"I{part}xz": Ixz, f"I{part}yy": Iyy, f"I{part}zz": Izz}  # fmt: skip
+    return {
+        f"m{part}": x[f"m{part}"],
+        f"x{part}": com_xz[0],
+        f"z{part}": com_xz[1],
+        f"I{part}xx": Ixx,
+        f"I{part}xz": Ixz,
+        f"I{part}yy": Iyy,
+        f"I{part}zz": Izz,
+    }
 
 
 def _front_assembly(

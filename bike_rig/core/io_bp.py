@@ -154,8 +154,12 @@ def read_bp_measured(path: str | Path) -> Measurements:
                     "%s:%d: key '%s': set aside: this hanging has no angle (alpha%s) and no torsional "
                     "period (Tt%s), so it places no line and no inertia; kept with the file's other "
                     "entries (BicycleParameters ignores it too)",
-                    p, e.line, key, key[1:], key[1:],
-                )  # fmt: skip
+                    p,
+                    e.line,
+                    key,
+                    key[1:],
+                    key[1:],
+                )
     return Measurements(_bicycle_name(path, "Measured"), readings, p, extras)
 
 

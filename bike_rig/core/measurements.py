@@ -91,12 +91,31 @@ __all__ = [
 
 #: Keys a measurement set of the paper's method needs (orientation keys are checked separately).
 REQUIRED_KEYS: tuple[str, ...] = (
-    "g", "w", "gamma", "f",
-    "nR", "dR", "mR", "lR", "TcR1", "TtR1",
-    "nF", "dF", "mF", "lF", "TcF1", "TtF1",
-    "mB", "TcB1", "mH", "TcH1",
-    "mP", "lP", "dP", "TtP1",
-)  # fmt: skip
+    "g",
+    "w",
+    "gamma",
+    "f",
+    "nR",
+    "dR",
+    "mR",
+    "lR",
+    "TcR1",
+    "TtR1",
+    "nF",
+    "dF",
+    "mF",
+    "lF",
+    "TcF1",
+    "TtF1",
+    "mB",
+    "TcB1",
+    "mH",
+    "TcH1",
+    "mP",
+    "lP",
+    "dP",
+    "TtP1",
+)
 #: The geometry given directly (the paper's method).
 DIRECT_GEOMETRY_KEYS: tuple[str, ...] = ("w", "gamma", "f")
 #: The geometry measured on a surface plate (refined method), instead of DIRECT_GEOMETRY_KEYS.

@@ -90,8 +90,9 @@ class Violation:
             return f"{', '.join(self.names)}: {self.rule}"
         units = self.units or ("",) * len(self.names)
         shared = len(set(units)) == 1
-        parts = [f"{n} = {v:.6g}" + ("" if shared or not u else f" {u}") for n, v, u in zip(self.names, self.values,
-                                                                                          units)]  # fmt: skip
+        parts = [
+            f"{n} = {v:.6g}" + ("" if shared or not u else f" {u}") for n, v, u in zip(self.names, self.values, units)
+        ]
         text = ", ".join(parts) + (f" {units[0]}" if shared and units[0] else "")
         return f"{text}: {self.rule}"
 
@@ -205,8 +206,10 @@ def _tensor(
     involved = {n: v for n, v in zip(names, (Ixx, Iyy, Izz, Ixz)) if n}
     units = ["kg m²"] * len(involved)
     if not Ixz * Ixz < Ixx * Izz:
-        rule = (f"{label}'s inertia tensor is not positive definite (the product of inertia must satisfy "
-                f"{names[3]}² < {names[0]}·{names[2]})")  # fmt: skip
+        rule = (
+            f"{label}'s inertia tensor is not positive definite (the product of inertia must satisfy "
+            f"{names[3]}² < {names[0]}·{names[2]})"
+        )
         return [_v([names[0], names[2], names[3]], [Ixx, Izz, Ixz], rule, ["kg m²"] * 3)]
     low, mid, high = _principal_moments(Ixx, Iyy, Izz, Ixz)
     if high > (low + mid) * (1.0 + rtol):
@@ -234,8 +237,14 @@ def body_violations(body: Body, triangle_rtol: float = TRIANGLE_RTOL) -> list[Vi
         return out
     out += _positive(n[0], body.mass, f"{body.label}'s mass", "kg")
     if not body.z < 0:
-        out.append(_v([n[2]], [body.z], f"{body.label}'s mass centre must be above the ground "
-                                        "(z < 0: the benchmark frame's z points down)", ["m"]))  # fmt: skip
+        out.append(
+            _v(
+                [n[2]],
+                [body.z],
+                f"{body.label}'s mass centre must be above the ground (z < 0: the benchmark frame's z points down)",
+                ["m"],
+            )
+        )
     return out + _tensor(body.label, n[3:], body.Ixx, body.Iyy, body.Izz, body.Ixz, triangle_rtol)
 
 
@@ -265,8 +274,16 @@ def _wheel(label: str, p: Mapping[str, float], w: str, rtol: float) -> list[Viol
     """A wheel (``w`` 'R' or 'F'): mass and radius positive, moments I_xx = I_zz, I_yy (I_yy ≤ 2·I_xx)."""
     out = _positive(f"m{w}", p[f"m{w}"], f"{label}'s mass", "kg")
     out += _positive(f"r{w}", p[f"r{w}"], "a wheel radius", "m")
-    return out + _tensor(label, (f"I{w}xx", f"I{w}yy", f"I{w}xx", ""), p[f"I{w}xx"], p[f"I{w}yy"], p[f"I{w}xx"], 0.0,
-                         rtol, f" (I{w}zz = I{w}xx by symmetry, so I{w}yy ≤ 2·I{w}xx)")  # fmt: skip
+    return out + _tensor(
+        label,
+        (f"I{w}xx", f"I{w}yy", f"I{w}xx", ""),
+        p[f"I{w}xx"],
+        p[f"I{w}yy"],
+        p[f"I{w}xx"],
+        0.0,
+        rtol,
+        f" (I{w}zz = I{w}xx by symmetry, so I{w}yy ≤ 2·I{w}xx)",
+    )
 
 
 def violations(params: ParameterSet | Mapping[str, float], triangle_rtol: float = TRIANGLE_RTOL) -> list[Violation]:

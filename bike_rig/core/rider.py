@@ -240,8 +240,12 @@ def add_rider(ps: ParameterSet, rider: AnyRider) -> ParameterSet:
         names, rcov, jac = ps.raw.names, ps.raw.covariance, jb @ ps.raw.jacobian
         if sens is not None:
             names = names + sens.names
-            rcov = np.block([[rcov, np.zeros((rcov.shape[0], sens.sigma.size))],
-                             [np.zeros((sens.sigma.size, rcov.shape[0])), np.diag(sens.sigma**2)]])  # fmt: skip
+            rcov = np.block(
+                [
+                    [rcov, np.zeros((rcov.shape[0], sens.sigma.size))],
+                    [np.zeros((sens.sigma.size, rcov.shape[0])), np.diag(sens.sigma**2)],
+                ]
+            )
             jac = np.hstack([jac, jr])
         raw = type(ps.raw)(names, rcov, jac)
     return ParameterSet(f"{ps.bicycle} + {rider.name}", params, ps.source, raw, ps.com, ps.parts, ps.extras)

@@ -148,8 +148,9 @@ def _check_expansion(root: yaml.Node, limits: YamlLimits) -> None:
                 reason = f"expands to more than {limits.max_nodes} values (through its aliases)"
                 raise YamlLimitError(reason, node.start_mark.line + 1)
             if depth[key] > limits.max_depth:
-                raise YamlLimitError(f"nested deeper than {limits.max_depth} levels (through its aliases)",
-                                     node.start_mark.line + 1)
+                raise YamlLimitError(
+                    f"nested deeper than {limits.max_depth} levels (through its aliases)", node.start_mark.line + 1
+                )
             continue
         if key in size:
             continue

@@ -81,9 +81,7 @@ _MEASURE_CHUNK = 1 << 20
 _PART_LETTERS = {"Rwheel": "R", "Fwheel": "F", "Frame": "B", "Fork": "H", "Handlebar": "G", "Rod": "P"}
 _ORDINALS = {"First": 1, "Second": 2, "Third": 3, "Fourth": 4, "Fifth": 5, "Sixth": 6}
 #: BicycleParameters' trial file stem: <bicycle><part><pendulum><ordinal><trial>.
-_BP_STEM = re.compile(
-    rf"^[A-Za-z0-9]*?({'|'.join(_PART_LETTERS)})(Compound|Torsional)({'|'.join(_ORDINALS)})\d*$"
-)
+_BP_STEM = re.compile(rf"^[A-Za-z0-9]*?({'|'.join(_PART_LETTERS)})(Compound|Torsional)({'|'.join(_ORDINALS)})\d*$")
 #: The simulated rig's trial stem: <part>_<pendulum>[_o<orientation>][_t<trial>].
 _SIM_STEM = re.compile(
     r"^(rear_wheel|front_wheel|frame|fork|calibration_rod)_(compound|torsional)(?:_o(\d+))?(?:_t\d+)?$"

@@ -316,4 +316,3 @@ def state_space_from_response(response: StateSpaceResponse, speed: float) -> Sta
     check_length("StateSpace.b", b.size, 8)
     eig = floats(response.eigenvalues_real) + 1j * floats(response.eigenvalues_imag)
     return StateSpaceAt(float(speed), a.reshape(4, 4), b.reshape(4, 2), eig, strings(response.mode_labels))
-

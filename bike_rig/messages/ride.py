@@ -61,8 +61,16 @@ def state_space_model_from_msg(msg: StateSpaceModelMsg) -> StateSpaceWithSigma:
     Raises:
         MessageError: wrong array lengths or an unknown σ convention.
     """
-    fields = {"a": 16, "a_sigma": 16, "b": 8, "b_sigma": 8, "eigenvalues_real": 4, "eigenvalues_real_sigma": 4,
-              "eigenvalues_imag": 4, "eigenvalues_imag_sigma": 4}  # fmt: skip
+    fields = {
+        "a": 16,
+        "a_sigma": 16,
+        "b": 8,
+        "b_sigma": 8,
+        "eigenvalues_real": 4,
+        "eigenvalues_real_sigma": 4,
+        "eigenvalues_imag": 4,
+        "eigenvalues_imag_sigma": 4,
+    }
     values = {}
     for name, n in fields.items():
         values[name] = floats(getattr(msg, name))

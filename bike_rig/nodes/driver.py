@@ -102,24 +102,52 @@ LINGER_S = 3.0
 COMMON_PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec("source", "sim", "gyro source backend", choices=tuple(BACKENDS)),
     ParamSpec("frame_id", "gyro", "frame_id of the gyro batches"),
-    ParamSpec("samples_per_batch", 50, "samples per GyroBatch at real time, times the time scale rounded up for a "
-              "faster sim or bag (at most 10,000; the last of a trial may hold fewer)", (1, 10_000)),  # fmt: skip
-    ParamSpec("history_samples", DEFAULT_HISTORY_SAMPLES, "samples kept for late joiners (the gyro topic's "
-              "transient-local history) and to resend to a subscriber that lost batches", (1, 2**40)),  # fmt: skip
+    ParamSpec(
+        "samples_per_batch",
+        50,
+        "samples per GyroBatch at real time, times the time scale rounded up for a "
+        "faster sim or bag (at most 10,000; the last of a trial may hold fewer)",
+        (1, 10_000),
+    ),
+    ParamSpec(
+        "history_samples",
+        DEFAULT_HISTORY_SAMPLES,
+        "samples kept for late joiners (the gyro topic's "
+        "transient-local history) and to resend to a subscriber that lost batches",
+        (1, 2**40),
+    ),
     ParamSpec("poll_period_s", 0.01, "how often the source is read, s (wall clock)", (0.001, 1.0)),
     ParamSpec("exit_when_done", False, "exit when the sim/bag plan is finished (else keep running)"),
-    ParamSpec("wait_for_subscribers", 0, "start streaming once the gyro and trial-event topics each have this many "
-              "subscribers",
-              (0, 100)),  # fmt: skip
-    ParamSpec("resume", "", "an interrupted session's bag: its recorded trials are streamed first, and new trial ids "
-              "continue after them (bike-rig session --resume)"),  # fmt: skip
-    ParamSpec("resume_time_scale", DEFAULT_RESUME_TIME_SCALE,
-              "how fast the recorded trials of 'resume' are streamed, rig seconds per wall second",
-              (1.0, 10_000.0)),  # fmt: skip
-    ParamSpec("silence_warning_s", DEFAULT_SILENCE_S,
-              "warn when a recording trial has had no samples this long, s (wall clock)", (0.05, 60.0)),  # fmt: skip
-    ParamSpec("gyro_range_rad_s", 0.0, "the gyro's measuring range, rad/s: samples at or beyond it count as "
-              "clipped on /diagnostics (0: not checked)", (0.0, 1e6)),  # fmt: skip
+    ParamSpec(
+        "wait_for_subscribers",
+        0,
+        "start streaming once the gyro and trial-event topics each have this many subscribers",
+        (0, 100),
+    ),
+    ParamSpec(
+        "resume",
+        "",
+        "an interrupted session's bag: its recorded trials are streamed first, and new trial ids "
+        "continue after them (bike-rig session --resume)",
+    ),
+    ParamSpec(
+        "resume_time_scale",
+        DEFAULT_RESUME_TIME_SCALE,
+        "how fast the recorded trials of 'resume' are streamed, rig seconds per wall second",
+        (1.0, 10_000.0),
+    ),
+    ParamSpec(
+        "silence_warning_s",
+        DEFAULT_SILENCE_S,
+        "warn when a recording trial has had no samples this long, s (wall clock)",
+        (0.05, 60.0),
+    ),
+    ParamSpec(
+        "gyro_range_rad_s",
+        0.0,
+        "the gyro's measuring range, rad/s: samples at or beyond it count as clipped on /diagnostics (0: not checked)",
+        (0.0, 1e6),
+    ),
 )
 
 
@@ -252,13 +280,29 @@ class DriverNode(Node):
         # while a trial records: since its request, START or last samples; else since any sample
         since = self.silence.longest() if self.silence.watched else self._rate.age()
         now = time.monotonic()
-        behind = max((now - t.started_s - (t.published + t.buffered + t.missing) / (t.info.sample_rate_hz *
-                      self._time_scale) for t in self._trials.values()), default=0.0)  # fmt: skip
-        return driver_statuses(DriverHealth(
-            self.source.describe(), self._errors, self.silence.watched, expected if self._trials else float("nan"),
-            self._rate.rate(), since, self.silence.limit_s, self.samples_published,
-            self.samples_missing, self.clipped, self._range, max(behind, 0.0),
-        ))  # fmt: skip
+        behind = max(
+            (
+                now - t.started_s - (t.published + t.buffered + t.missing) / (t.info.sample_rate_hz * self._time_scale)
+                for t in self._trials.values()
+            ),
+            default=0.0,
+        )
+        return driver_statuses(
+            DriverHealth(
+                self.source.describe(),
+                self._errors,
+                self.silence.watched,
+                expected if self._trials else float("nan"),
+                self._rate.rate(),
+                since,
+                self.silence.limit_s,
+                self.samples_published,
+                self.samples_missing,
+                self.clipped,
+                self._range,
+                max(behind, 0.0),
+            )
+        )
 
     def _exit_when_acknowledged(self) -> None:
         """End the process once every subscriber has everything, serving resend requests meanwhile.
@@ -270,8 +314,11 @@ class DriverNode(Node):
         now = time.monotonic()
         if now < self._exit_at:
             return
-        waiting = [p.topic_name for p in (self.events_pub, self.gyro_pub)
-                   if p.get_subscription_count() and not p.wait_for_all_acked(Duration(nanoseconds=1))]  # fmt: skip
+        waiting = [
+            p.topic_name
+            for p in (self.events_pub, self.gyro_pub)
+            if p.get_subscription_count() and not p.wait_for_all_acked(Duration(nanoseconds=1))
+        ]
         if waiting and now - self._done_at < ACK_TIMEOUT_S:
             return
         for topic in waiting:
@@ -347,8 +394,12 @@ class DriverNode(Node):
             volts = None if any(v is None for v in t.volts) else np.concatenate([v for v in t.volts if v is not None])
             full = (t.buffered // self.batch_size) * self.batch_size
             for a in range(0, full, self.batch_size):
-                self._publish_batch(t, t.first + a, rates[a : a + self.batch_size],
-                                    None if volts is None else volts[a : a + self.batch_size])  # fmt: skip
+                self._publish_batch(
+                    t,
+                    t.first + a,
+                    rates[a : a + self.batch_size],
+                    None if volts is None else volts[a : a + self.batch_size],
+                )
             t.rates = [rates[full:]] if full < rates.size else []
             t.volts = [None if volts is None else volts[full:]] if full < rates.size else []
             t.first += full
@@ -364,10 +415,14 @@ class DriverNode(Node):
 
     def _publish_batch(self, t: _Trial, first: int, rates: FloatArray, volts: FloatArray | None) -> None:
         batch = SampleBatch(
-            t.info.trial_id, first, float(t.info.sample_rate_hz), np.ascontiguousarray(rates, dtype=np.float64),
+            t.info.trial_id,
+            first,
+            float(t.info.sample_rate_hz),
+            np.ascontiguousarray(rates, dtype=np.float64),
             _EMPTY if volts is None else np.ascontiguousarray(volts, dtype=np.float64),
-            sample_stamp_ns(t.start_ns, first, t.info.sample_rate_hz), self.frame_id,
-        )  # fmt: skip
+            sample_stamp_ns(t.start_ns, first, t.info.sample_rate_hz),
+            self.frame_id,
+        )
         self.gyro_pub.publish(fill_gyro_batch(_msgs.GyroBatch(), batch))
         self.sent.add(batch)
         t.published += rates.size

@@ -40,13 +40,14 @@ def fitter_parameters() -> tuple[ParamSpec, ...]:
     w = d.fit.window
     big = float(sys.float_info.max)
     return (
-        ParamSpec("max_trial_samples", d.max_trial_samples, "samples kept per trial; more are dropped, flagged",
-                  (1, 2**40)),  # fmt: skip
-        ParamSpec("max_batch_samples", d.max_batch_samples, "a larger gyro batch is rejected and flagged",
-                  (1, 2**31)),  # fmt: skip
+        ParamSpec(
+            "max_trial_samples", d.max_trial_samples, "samples kept per trial; more are dropped, flagged", (1, 2**40)
+        ),
+        ParamSpec("max_batch_samples", d.max_batch_samples, "a larger gyro batch is rejected and flagged", (1, 2**31)),
         ParamSpec("max_open_trials", 4, "trials buffered at once (started but not stopped)", (1, 1000)),
-        ParamSpec("grace_s", 1.0, "how long a STOP waits for missing batches, and batches for their START, s",
-                  (0.0, 60.0)),  # fmt: skip
+        ParamSpec(
+            "grace_s", 1.0, "how long a STOP waits for missing batches, and batches for their START, s", (0.0, 60.0)
+        ),
         ParamSpec(
             "history_grace_s",
             10.0,
@@ -54,22 +55,30 @@ def fitter_parameters() -> tuple[ParamSpec, ...]:
             "fitted meanwhile), s",
             (0.0, 600.0),
         ),
-        ParamSpec("window", w.kind.value, "fit window policy: lead_in, span or envelope",
-                  choices=tuple(k.value for k in WindowKind)),  # fmt: skip
+        ParamSpec(
+            "window",
+            w.kind.value,
+            "fit window policy: lead_in, span or envelope",
+            choices=tuple(k.value for k in WindowKind),
+        ),
         ParamSpec("lead_in_s", w.lead_in_s, "lead_in window: seconds dropped at the start", (0.0, big)),
         ParamSpec("span_start_s", w.start_s, "span window: first time kept, s from the first sample", (0.0, big)),
         ParamSpec("span_stop_s", 0.0, "span window: end, s from the first sample (0: to the end)", (0.0, big)),
-        ParamSpec("envelope_fraction", w.fraction, "envelope window: stop below this fraction of the peak",
-                  (1e-9, 1.0)),  # fmt: skip
+        ParamSpec(
+            "envelope_fraction", w.fraction, "envelope window: stop below this fraction of the peak", (1e-9, 1.0)
+        ),
         ParamSpec("whole_cycles", w.whole_cycles, "shorten the window to whole cycles"),
         ParamSpec("min_cycles", d.fit.min_cycles, "flag a window with fewer cycles", (0.0, big)),
         ParamSpec("min_r2", d.fit.min_r2, "flag a fit with a lower r²", (-big, 1.0)),
-        ParamSpec("max_modulation", d.fit.max_modulation, "flag beating above this relative modulation",
-                  (0.0, big)),  # fmt: skip
-        ParamSpec("max_drift", d.fit.max_drift, "flag an offset drift above this fraction of the oscillation",
-                  (0.0, big)),  # fmt: skip
-        ParamSpec("small_swing_period", d.fit.small_swing_period,
-                  "a period that follows the swing: report the small-swing one (else the fitted)"),  # fmt: skip
+        ParamSpec("max_modulation", d.fit.max_modulation, "flag beating above this relative modulation", (0.0, big)),
+        ParamSpec(
+            "max_drift", d.fit.max_drift, "flag an offset drift above this fraction of the oscillation", (0.0, big)
+        ),
+        ParamSpec(
+            "small_swing_period",
+            d.fit.small_swing_period,
+            "a period that follows the swing: report the small-swing one (else the fitted)",
+        ),
     )
 
 
@@ -103,8 +112,9 @@ class FitterNode:
         options, grace, max_open, history_grace = self._parameters()
         self.state = FitterState(options, self.node.get_logger(), grace, max_open, history_grace_s=history_grace)
         # (events first: when both are ready, the executor takes them in creation order)
-        self.events_sub = self.node.create_subscription(TrialEvent, TRIAL_EVENTS.name, self._on_event,
-                                                        profile(TRIAL_EVENTS))  # fmt: skip
+        self.events_sub = self.node.create_subscription(
+            TrialEvent, TRIAL_EVENTS.name, self._on_event, profile(TRIAL_EVENTS)
+        )
         self.gyro_sub = self.node.create_subscription(GyroBatch, GYRO.name, self._on_batch, profile(GYRO))
         self.periods_pub = self.node.create_publisher(PeriodEstimate, PERIODS.name, profile(PERIODS))
         self.details_pub = self.node.create_publisher(msgs.FitDetails, FIT_DETAILS.name, profile(FIT_DETAILS))
@@ -143,11 +153,17 @@ class FitterNode:
                 whole_cycles=values["whole_cycles"],
             )
             options = TrialFitOptions(
-                FitOptions(window, values["min_cycles"], values["min_r2"], values["max_modulation"],
-                           values["max_drift"], values["small_swing_period"]),
+                FitOptions(
+                    window,
+                    values["min_cycles"],
+                    values["min_r2"],
+                    values["max_modulation"],
+                    values["max_drift"],
+                    values["small_swing_period"],
+                ),
                 values["max_trial_samples"],
                 values["max_batch_samples"],
-            )  # fmt: skip
+            )
         except ValueError as exc:
             raise parameter_error("window", str(exc), values["window"]) from None
         return options, values["grace_s"], values["max_open_trials"], values["history_grace_s"]
@@ -212,10 +228,18 @@ class FitterNode:
     def _health(self) -> list[Any]:
         """The buffer's and the fits' statuses (:func:`bike_rig.pipeline.health.fitter_statuses`)."""
         opened = list(self.state.open.values())
-        return fitter_statuses(FitterHealth(
-            len(opened), sum(o.stop is not None for o in opened), sum(o.acc.kept for o in opened), self._budget,
-            _rss_bytes(), self.state.published, self._last_fit_ms, self.state.foreign_batches,
-        ))  # fmt: skip
+        return fitter_statuses(
+            FitterHealth(
+                len(opened),
+                sum(o.stop is not None for o in opened),
+                sum(o.acc.kept for o in opened),
+                self._budget,
+                _rss_bytes(),
+                self.state.published,
+                self._last_fit_ms,
+                self.state.foreign_batches,
+            )
+        )
 
     def _publish(self, results: list[TrialFit], started: float | None = None) -> None:
         if results and started is not None:
@@ -247,4 +271,3 @@ def main(args: list[str] | None = None) -> int:
 
 if __name__ == "__main__":
     sys.exit(main())
-

@@ -186,9 +186,13 @@ class FoxgloveBridge:
         host, port = values["host"], values["port"]
         try:
             self.server = foxglove.start_server(
-                name="bike_rig", host="127.0.0.1", port=0, context=self.context, server_listener=listener,
+                name="bike_rig",
+                host="127.0.0.1",
+                port=0,
+                context=self.context,
+                server_listener=listener,
                 message_backlog_size=backlog_size(),
-            )  # fmt: skip
+            )
         except Exception as exc:  # the SDK raises RuntimeError or its own error types
             raise BridgeError(f"cannot start the live view's server on 127.0.0.1 ({exc})") from None
         try:

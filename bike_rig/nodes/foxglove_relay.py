@@ -88,9 +88,13 @@ class FoxgloveRelay:
         """One client: connect to the SDK's server and forward both ways until one side closes."""
         try:
             upstream = await connect(
-                self.upstream, subprotocols=[SDK_SUBPROTOCOL], compression=None, max_size=None,
-                ping_interval=None, open_timeout=10,
-            )  # fmt: skip
+                self.upstream,
+                subprotocols=[SDK_SUBPROTOCOL],
+                compression=None,
+                max_size=None,
+                ping_interval=None,
+                open_timeout=10,
+            )
         except (OSError, TimeoutError, InvalidHandshake) as exc:
             await client.close(1011, f"the live view's server does not answer ({exc})"[:120])
             return

@@ -110,28 +110,37 @@ _std: Any = importlib.import_module("std_msgs.msg")
 
 #: The model node's parameters (``config/model.yaml``).
 PARAMETERS: tuple[ParamSpec, ...] = (
-    ParamSpec("rider", "", "Rider lumped into the rear frame: '' (none), 'paper' (Table 1) or a rider YAML file "
-              "(rigid, or Yeadon with its bicycle_geometry: a parameter set on the topic has no rider geometry).",
-              constraints="'', paper or a rider YAML file"),  # fmt: skip
     ParamSpec(
-        "feedback", "",
+        "rider",
+        "",
+        "Rider lumped into the rear frame: '' (none), 'paper' (Table 1) or a rider YAML file "
+        "(rigid, or Yeadon with its bicycle_geometry: a parameter set on the topic has no rider geometry).",
+        constraints="'', paper or a rider YAML file",
+    ),
+    ParamSpec(
+        "feedback",
+        "",
         "Steer-torque state feedback file (format bike_rig-feedback/1), '' for none: the eigen sweep, "
         "critical speeds and state space are then of the closed loop A - B K.",
         constraints="'' or a readable feedback file",
-    ),  # fmt: skip
+    ),
     ParamSpec(
-        "sigma_convention", SigmaConvention.CORRELATED.value,
+        "sigma_convention",
+        SigmaConvention.CORRELATED.value,
         "Sigma of the matrices and critical speeds: 'correlated' (full parameter covariance) or "
         "'paper' (parameters independent, the paper's Table 3).",
         choices=tuple(c.value for c in SigmaConvention),
-    ),  # fmt: skip
+    ),
     ParamSpec("speed_min", 0.0, "Lowest speed of the eigenvalue sweep, m/s.", (0.0, 1000.0)),
     ParamSpec("speed_max", 10.0, "Highest speed of the eigenvalue sweep, m/s.", (0.0, 1000.0)),
     ParamSpec("speed_count", 201, "Number of equally spaced speeds in the eigenvalue sweep.", (1, MAX_SPEED_COUNT)),
-    ParamSpec("ride_speed_step", 0.1, "Smallest change of the riding speed that gives a new ride state space, m/s.",
-              (0.0, 100.0)),  # fmt: skip
-    ParamSpec("ride_max_rate", 5.0, "Most ride state spaces published per second, 1/s.", (0.0, 1000.0),
-              open_low=True),  # fmt: skip
+    ParamSpec(
+        "ride_speed_step",
+        0.1,
+        "Smallest change of the riding speed that gives a new ride state space, m/s.",
+        (0.0, 100.0),
+    ),
+    ParamSpec("ride_max_rate", 5.0, "Most ride state spaces published per second, 1/s.", (0.0, 1000.0), open_low=True),
 )
 
 
@@ -308,7 +317,6 @@ class ModelNode(Node):
             label += f", closed loop ({self._feedback.name})"
         return fill_state_space_response(response, state, f"{label} at {state.speed:g} m/s")
 
-
     def _on_speed(self, msg: Any, info: Any) -> None:
         self.diagnostics.note_input(info)
         try:
@@ -329,10 +337,17 @@ class ModelNode(Node):
         """The model's and the ride's statuses (:func:`bike_rig.pipeline.health.model_statuses`)."""
         ps = self._parameter_set
         speed = math.nan if self._ride_speed is None else self._ride_speed
-        return model_statuses(ModelHealth(
-            "" if ps is None else ps.bicycle, self._models_published, self._last_model_ms, speed,
-            time.monotonic() - self._speed_at, self._ride_count, self._ride_compute_ms,
-        ))  # fmt: skip
+        return model_statuses(
+            ModelHealth(
+                "" if ps is None else ps.bicycle,
+                self._models_published,
+                self._last_model_ms,
+                speed,
+                time.monotonic() - self._speed_at,
+                self._ride_count,
+                self._ride_compute_ms,
+            )
+        )
 
     def _publish_ride(self) -> None:
         """Publish the state space at the latest speed if it moved by more than the step and the rate allows."""

@@ -115,20 +115,27 @@ _msgs: Any = importlib.import_module("bike_rig_msgs.msg")
 #: The parameter node's parameters (``config/parameter.yaml``).
 PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec(
-        "measurements", "",
+        "measurements",
+        "",
         "Measurement file with the bicycle's static readings (bike_rig YAML or BicycleParameters "
         "Measured.txt); periods in it are ignored. Relative paths are also looked up in the config folder. "
         "Empty: no file (give 'bicycle'); readings entered on /bike_rig/readings are applied on top.",
-    ),  # fmt: skip
+    ),
     ParamSpec(
-        "bicycle", "",
+        "bicycle",
+        "",
         "The bicycle's name, to start without a measurement file: every static reading is then entered "
         "on /bike_rig/readings. With a file: empty, or the file's bicycle.",
-    ),  # fmt: skip
-    ParamSpec("com_method", ComMethod.CENTROID.value, "Mass-centre method: 'centroid' (paper Eq 17-19) or 'lstsq' "
-              "(Eq 20).", choices=tuple(m.value for m in ComMethod)),  # fmt: skip
-    ParamSpec("status_period", 5.0, "While incomplete, re-publish and log the missing periods this often, s.",
-              (0.5, 3600.0)),  # fmt: skip
+    ),
+    ParamSpec(
+        "com_method",
+        ComMethod.CENTROID.value,
+        "Mass-centre method: 'centroid' (paper Eq 17-19) or 'lstsq' (Eq 20).",
+        choices=tuple(m.value for m in ComMethod),
+    ),
+    ParamSpec(
+        "status_period", 5.0, "While incomplete, re-publish and log the missing periods this often, s.", (0.5, 3600.0)
+    ),
 )
 
 
@@ -308,12 +315,18 @@ class ParameterNode(Node):
     def _health(self) -> list[Any]:
         """The completeness status (:func:`bike_rig.pipeline.health.parameter_statuses`)."""
         r = self._last
-        return parameter_statuses(ParameterHealth(
-            self._base.bicycle, r is not None, bool(r is not None and r.complete),
-            0 if r is None else len(r.periods), len(self._session.required_keys),
-            () if r is None else tuple(r.missing_periods), () if r is None else tuple(r.missing_readings),
-            self._error,
-        ))  # fmt: skip
+        return parameter_statuses(
+            ParameterHealth(
+                self._base.bicycle,
+                r is not None,
+                bool(r is not None and r.complete),
+                0 if r is None else len(r.periods),
+                len(self._session.required_keys),
+                () if r is None else tuple(r.missing_periods),
+                () if r is None else tuple(r.missing_readings),
+                self._error,
+            )
+        )
 
     def _status(self) -> None:
         if self._published is not None and not self._complete:

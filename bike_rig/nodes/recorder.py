@@ -105,22 +105,46 @@ _srvs: Any = importlib.import_module("bike_rig_msgs.srv")
 #: --param`` lines, ``flush_period`` also takes an integer and ``topics`` one name.
 PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec("output", "", "bag directory to create (never overwritten); empty: bike_rig_<time>"),
-    ParamSpec("topics", ("all",), "topics to record: ['all'] or names (full or relative to /bike_rig)",
-              loose_type=True),  # fmt: skip
-    ParamSpec("compression", Compression.ZSTD.value, "chunk compression: zstd, lz4 or none",
-              choices=tuple(c.value for c in Compression)),  # fmt: skip
-    ParamSpec("flush_period", 0.5, "longest time a received message stays in memory, s", (0.0, 1.0),
-              open_low=True, loose_type=True),  # fmt: skip
-    ParamSpec("min_free_disk_mb", 500.0, "free disk space below which /diagnostics warns, MB", (0.0, 1e12),
-              loose_type=True),  # fmt: skip
-    ParamSpec("max_bag_size", 0, "split into a new storage file before one exceeds this size, bytes; 0: never",
-              (0, 2**62)),  # fmt: skip
-    ParamSpec("max_bag_duration", 0.0, "split into a new storage file before one spans more than this, s; 0: never",
-              (0.0, 1e9), loose_type=True),  # fmt: skip
-    ParamSpec("snapshot_duration", 0.0, "seconds kept in memory for save_snapshot, s; 0: no snapshots",
-              (0.0, 86400.0), loose_type=True),  # fmt: skip
-    ParamSpec("snapshot_max_bytes", 64 << 20, "most memory kept for save_snapshot (data + 240 per message), bytes",
-              (1, 2**62)),  # fmt: skip
+    ParamSpec(
+        "topics", ("all",), "topics to record: ['all'] or names (full or relative to /bike_rig)", loose_type=True
+    ),
+    ParamSpec(
+        "compression",
+        Compression.ZSTD.value,
+        "chunk compression: zstd, lz4 or none",
+        choices=tuple(c.value for c in Compression),
+    ),
+    ParamSpec(
+        "flush_period",
+        0.5,
+        "longest time a received message stays in memory, s",
+        (0.0, 1.0),
+        open_low=True,
+        loose_type=True,
+    ),
+    ParamSpec(
+        "min_free_disk_mb", 500.0, "free disk space below which /diagnostics warns, MB", (0.0, 1e12), loose_type=True
+    ),
+    ParamSpec(
+        "max_bag_size", 0, "split into a new storage file before one exceeds this size, bytes; 0: never", (0, 2**62)
+    ),
+    ParamSpec(
+        "max_bag_duration",
+        0.0,
+        "split into a new storage file before one spans more than this, s; 0: never",
+        (0.0, 1e9),
+        loose_type=True,
+    ),
+    ParamSpec(
+        "snapshot_duration",
+        0.0,
+        "seconds kept in memory for save_snapshot, s; 0: no snapshots",
+        (0.0, 86400.0),
+        loose_type=True,
+    ),
+    ParamSpec(
+        "snapshot_max_bytes", 64 << 20, "most memory kept for save_snapshot (data + 240 per message), bytes", (1, 2**62)
+    ),
 )
 
 
@@ -389,10 +413,20 @@ class Recorder(Node):
             written, free = 0, 0
         latency, self._write_ms = self._write_ms, 0.0
         failed = "" if self.failed is None else str(self.failed.strerror or self.failed)
-        return recorder_statuses(RecorderHealth(
-            str(path), written, self.writer.message_count, self.dropped + self.errors, latency, free,
-            self._min_free_bytes, failed, self.paused, self.dropped_paused,
-        ))  # fmt: skip
+        return recorder_statuses(
+            RecorderHealth(
+                str(path),
+                written,
+                self.writer.message_count,
+                self.dropped + self.errors,
+                latency,
+                free,
+                self._min_free_bytes,
+                failed,
+                self.paused,
+                self.dropped_paused,
+            )
+        )
 
     def _fail(self, exc: OSError, received: int | None = None, closing: bool = False) -> None:
         """The bag cannot be written any more (disk full, out of inodes, read-only, removed): say so once, stop.
@@ -409,8 +443,11 @@ class Recorder(Node):
         """
         self.failed = exc
         self.writer.abort()
-        after = ("the bag was being closed" if closing
-                 else "the graph goes on, and what arrives from now on is counted, not recorded")  # fmt: skip
+        after = (
+            "the bag was being closed"
+            if closing
+            else "the graph goes on, and what arrives from now on is counted, not recorded"
+        )
         self.get_logger().error(
             f"recording stopped: cannot write {self.writer.path}: {exc.strerror or exc} (errno {exc.errno}) after "
             f"{self.received if received is None else received} messages; the chunks flushed before are "

@@ -77,13 +77,21 @@ MAX_BURST = 1000
 
 #: The gyro subscription's QoS: it is there to be counted, not to receive the session's history.
 _COUNTED_ONLY = QoSProfile(
-    history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.BEST_EFFORT,
+    history=HistoryPolicy.KEEP_LAST,
+    depth=1,
+    reliability=ReliabilityPolicy.BEST_EFFORT,
     durability=DurabilityPolicy.VOLATILE,
-)  # fmt: skip
+)
 
 #: What the monitor hands on.
 MonitorRecord: TypeAlias = (
-    TrialEventRecord | TrialFit | FitDetails | SessionParameters | StabilitySweep | SampleBatch | ReadingEntry
+    TrialEventRecord
+    | TrialFit
+    | FitDetails
+    | SessionParameters
+    | StabilitySweep
+    | SampleBatch
+    | ReadingEntry
     | StatusReport
 )
 
@@ -151,8 +159,9 @@ class GraphMonitor:
             gyro = self._collector(topics.GYRO.name, sample_batch_from_msg)
             self.node.create_subscription(_msgs.GyroBatch, topics.GYRO.name, gyro, samples)
         if diagnostics:
-            self.node.create_subscription(_diag.DiagnosticArray, topics.DIAGNOSTICS.name, self._on_diagnostics,
-                                          profile(topics.DIAGNOSTICS))  # fmt: skip
+            self.node.create_subscription(
+                _diag.DiagnosticArray, topics.DIAGNOSTICS.name, self._on_diagnostics, profile(topics.DIAGNOSTICS)
+            )
 
     def _on_diagnostics(self, msg: Any) -> None:
         """Hand on one node's ``/diagnostics`` array at once (a malformed one is skipped)."""

@@ -42,9 +42,11 @@ DISCOVERY_TIMEOUT_S = 30.0
 _CALL_SPIN_S = 0.005
 
 _LIVE = QoSProfile(
-    history=HistoryPolicy.KEEP_LAST, depth=1000, reliability=ReliabilityPolicy.RELIABLE,
+    history=HistoryPolicy.KEEP_LAST,
+    depth=1000,
+    reliability=ReliabilityPolicy.RELIABLE,
     durability=DurabilityPolicy.VOLATILE,
-)  # fmt: skip
+)
 
 
 class SessionLink:

@@ -258,11 +258,21 @@ class TrialFit:
         w = (int(window[0]), int(window[1]))
         nan = math.nan
         fit = PeriodFit(
-            period=float(period), period_sigma=float(period_sigma), zeta=float(zeta), omega=float(omega),
-            A=nan, B=nan, C=nan, r2=float(r2), residual_rms=float(residual_rms), n_cycles=nan,
-            n_samples=int(n_samples), window=w, valid=bool(valid),
+            period=float(period),
+            period_sigma=float(period_sigma),
+            zeta=float(zeta),
+            omega=float(omega),
+            A=nan,
+            B=nan,
+            C=nan,
+            r2=float(r2),
+            residual_rms=float(residual_rms),
+            n_cycles=nan,
+            n_samples=int(n_samples),
+            window=w,
+            valid=bool(valid),
             flags=tuple(f for f in all_flags if f.code not in TRIAL_FLAG_CODES),
-        )  # fmt: skip
+        )
         return cls(
             trial_id=trial_id,
             measurement_key=measurement_key,
@@ -465,16 +475,20 @@ class TrialAccumulator:
             flags.append(Flag(FlagCode.ABORTED, "the trial was aborted"))
         if self.oversized:
             first, n = self.oversized[0]
-            flags.append(Flag(
-                FlagCode.OVERSIZED_BATCH,
-                f"{len(self.oversized)} batch(es) larger than max_batch_samples {options.max_batch_samples} rejected "
-                f"(first: {n} samples at index {first})",
-            ))  # fmt: skip
+            flags.append(
+                Flag(
+                    FlagCode.OVERSIZED_BATCH,
+                    f"{len(self.oversized)} batch(es) larger than max_batch_samples "
+                    f"{options.max_batch_samples} rejected (first: {n} samples at index {first})",
+                )
+            )
         if self.dropped:
-            flags.append(Flag(
-                FlagCode.TRUNCATED,
-                f"longer than max_trial_samples {options.max_trial_samples}: {self.dropped} samples dropped",
-            ))  # fmt: skip
+            flags.append(
+                Flag(
+                    FlagCode.TRUNCATED,
+                    f"longer than max_trial_samples {options.max_trial_samples}: {self.dropped} samples dropped",
+                )
+            )
         return flags
 
     def _in_order(self, flags: list[Flag]) -> tuple[list[FloatArray], list[int], int]:
@@ -522,10 +536,12 @@ class TrialAccumulator:
         rate = rates[0] if rates else (float(start.sample_rate_hz) if start is not None else math.nan)
         if any(r != rate for r in rates) or (start is not None and rates and float(start.sample_rate_hz) != rate):
             seen = sorted({*rates, *([float(start.sample_rate_hz)] if start is not None else [])})
-            flags.append(Flag(
-                FlagCode.RATE_MISMATCH,
-                f"sample rates disagree ({', '.join(f'{r:g}' for r in seen)} Hz); fitted at {rate:g} Hz",
-            ))  # fmt: skip
+            flags.append(
+                Flag(
+                    FlagCode.RATE_MISMATCH,
+                    f"sample rates disagree ({', '.join(f'{r:g}' for r in seen)} Hz); fitted at {rate:g} Hz",
+                )
+            )
         return rate
 
     def finish(
@@ -559,10 +575,13 @@ class TrialAccumulator:
 
         fo = options.fit
         kwargs: dict[str, Any] = {
-            "window": fo.window, "min_cycles": fo.min_cycles, "min_r2": fo.min_r2,
-            "max_modulation": fo.max_modulation, "max_drift": fo.max_drift,
+            "window": fo.window,
+            "min_cycles": fo.min_cycles,
+            "min_r2": fo.min_r2,
+            "max_modulation": fo.max_modulation,
+            "max_drift": fo.max_drift,
             "small_swing_period": fo.small_swing_period,
-        }  # fmt: skip
+        }
         times: FloatArray | None = None
         index: NDArray[np.intp] | None = None
         if not (math.isfinite(rate) and rate > 0):

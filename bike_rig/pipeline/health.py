@@ -114,8 +114,11 @@ def driver_statuses(h: DriverHealth, node: str = "driver") -> list[Status]:
     else:
         clip_level = Level.WARN if h.clipped else Level.OK
         clip_msg = f"{h.clipped} sample(s) clipped" if h.clipped else "no clipping"
-        out.append(Status.of(node, "gyro range", clip_level, clip_msg, **{"range (rad/s)": h.range_rad_s,
-                                                                           "clipped": h.clipped}))  # fmt: skip
+        out.append(
+            Status.of(
+                node, "gyro range", clip_level, clip_msg, **{"range (rad/s)": h.range_rad_s, "clipped": h.clipped}
+            )
+        )
     return out
 
 
@@ -149,19 +152,33 @@ def fitter_statuses(h: FitterHealth, node: str = "fitter") -> list[Status]:
     fraction = h.buffered_samples / h.sample_budget if h.sample_budget > 0 else 0.0
     buf_level = level_above(fraction, BUFFER_WARN_FRACTION, 1.0)
     buffer = Status.of(
-        node, "buffer", buf_level, f"{h.buffered_samples} samples in {h.open_trials} open trial(s)",
-        **{"open trials": h.open_trials, "buffered samples": h.buffered_samples, "sample budget": h.sample_budget,
-           "memory (MB)": h.rss_bytes / 1e6},
-    )  # fmt: skip
+        node,
+        "buffer",
+        buf_level,
+        f"{h.buffered_samples} samples in {h.open_trials} open trial(s)",
+        **{
+            "open trials": h.open_trials,
+            "buffered samples": h.buffered_samples,
+            "sample budget": h.sample_budget,
+            "memory (MB)": h.rss_bytes / 1e6,
+        },
+    )
     fit_level = Level.WARN if h.foreign_batches else Level.OK
     message = f"{h.published} estimate(s) published, {h.stopped_pending} fit(s) pending"
     if h.foreign_batches:
         message += f"; {h.foreign_batches} batch(es) of another process dropped"
     fits = Status.of(
-        node, "fits", fit_level, message,
-        **{"fits pending": h.stopped_pending, "published": h.published, "last fit (ms)": h.last_fit_ms,
-           "foreign batches": h.foreign_batches},
-    )  # fmt: skip
+        node,
+        "fits",
+        fit_level,
+        message,
+        **{
+            "fits pending": h.stopped_pending,
+            "published": h.published,
+            "last fit (ms)": h.last_fit_ms,
+            "foreign batches": h.foreign_batches,
+        },
+    )
     return [buffer, fits]
 
 
@@ -192,9 +209,13 @@ class ParameterHealth:
 
 def parameter_statuses(h: ParameterHealth, node: str = "parameter") -> list[Status]:
     """``completeness``: OK when complete, WARN while periods or readings are missing, ERROR when it failed."""
-    details = {"bicycle": h.bicycle, "periods": h.periods, "periods required": h.periods_required,
-               "missing periods": ", ".join(h.missing_periods) or "none",
-               "missing readings": ", ".join(h.missing_readings) or "none"}  # fmt: skip
+    details = {
+        "bicycle": h.bicycle,
+        "periods": h.periods,
+        "periods required": h.periods_required,
+        "missing periods": ", ".join(h.missing_periods) or "none",
+        "missing readings": ", ".join(h.missing_readings) or "none",
+    }
     if h.error:
         level, message = Level.ERROR, f"cannot compute the parameters: {h.error}"
     elif not h.evaluated:
@@ -235,12 +256,23 @@ class ModelHealth:
 def model_statuses(h: ModelHealth, node: str = "model") -> list[Status]:
     """``model`` (WARN while no parameter set arrived) and ``ride`` (the riding speed and its state spaces)."""
     if h.bicycle:
-        model = Status.of(node, "model", Level.OK, f"{h.bicycle}: {h.models} model(s) published",
-                          bicycle=h.bicycle, models=h.models, **{"last model (ms)": h.last_model_ms})  # fmt: skip
+        model = Status.of(
+            node,
+            "model",
+            Level.OK,
+            f"{h.bicycle}: {h.models} model(s) published",
+            bicycle=h.bicycle,
+            models=h.models,
+            **{"last model (ms)": h.last_model_ms},
+        )
     else:
         model = Status.of(node, "model", Level.WARN, "waiting for a complete parameter set", models=0)
-    details = {"speed (m/s)": h.ride_speed, "since speed (s)": h.since_speed_s, "published": h.ride_published,
-               "last state space (ms)": h.ride_compute_ms}  # fmt: skip
+    details = {
+        "speed (m/s)": h.ride_speed,
+        "since speed (s)": h.since_speed_s,
+        "published": h.ride_published,
+        "last state space (ms)": h.ride_compute_ms,
+    }
     message = "no riding speed received" if math.isnan(h.ride_speed) else f"{h.ride_speed:.2f} m/s"
     return [model, Status.of(node, "ride", Level.OK, message, **details)]
 
@@ -276,23 +308,33 @@ class RecorderHealth:
 
 def recorder_statuses(h: RecorderHealth, node: str = "recorder") -> list[Status]:
     """``bag`` (written, dropped, latency; WARN while paused, ERROR when it stopped) and ``disk`` (free space)."""
-    details = {"path": h.path, "bytes written": h.bytes_written, "messages": h.messages, "dropped": h.dropped,
-               "write latency (ms)": h.write_latency_ms, "paused": h.paused,
-               "dropped while paused": h.dropped_paused}  # fmt: skip
+    details = {
+        "path": h.path,
+        "bytes written": h.bytes_written,
+        "messages": h.messages,
+        "dropped": h.dropped,
+        "write latency (ms)": h.write_latency_ms,
+        "paused": h.paused,
+        "dropped while paused": h.dropped_paused,
+    }
     if h.failed:
         bag = Status.of(node, "bag", Level.ERROR, f"recording stopped: {h.failed}", **details)
     elif h.dropped:
         bag = Status.of(node, "bag", Level.ERROR, f"{h.dropped} message(s) not recorded", **details)
     elif h.paused:
-        bag = Status.of(node, "bag", Level.WARN, f"paused: {h.dropped_paused} message(s) not recorded so far",
-                        **details)  # fmt: skip
+        bag = Status.of(
+            node, "bag", Level.WARN, f"paused: {h.dropped_paused} message(s) not recorded so far", **details
+        )
     else:
         bag = Status.of(node, "bag", Level.OK, f"{h.messages} messages, {h.bytes_written / 1e6:.1f} MB", **details)
     level = level_below(h.free_bytes, h.min_free_bytes, 0)
     disk = Status.of(
-        node, "disk", level, f"{h.free_bytes / 1e9:.2f} GB free" + (" (low)" if level is not Level.OK else ""),
+        node,
+        "disk",
+        level,
+        f"{h.free_bytes / 1e9:.2f} GB free" + (" (low)" if level is not Level.OK else ""),
         **{"free (MB)": h.free_bytes / 1e6, "warn below (MB)": h.min_free_bytes / 1e6},
-    )  # fmt: skip
+    )
     return [bag, disk]
 
 
@@ -313,8 +355,7 @@ class InputLag:
 
 def input_lag_statuses(h: InputLag, node: str) -> list[Status]:
     """``input lag``: OK below :data:`LAG_WARN_S`, WARN from it (``20 s behind its input``)."""
-    details = {"lag (s)": h.lag_s, "largest lag (s)": h.largest_s, "messages": h.messages,
-               "warn from (s)": LAG_WARN_S}  # fmt: skip
+    details = {"lag (s)": h.lag_s, "largest lag (s)": h.largest_s, "messages": h.messages, "warn from (s)": LAG_WARN_S}
     level = level_above(h.lag_s, LAG_WARN_S)
     if level is Level.OK:
         return [Status.of(node, INPUT_LAG, level, f"keeping up: {h.lag_s:.2g} s behind its input", **details)]

@@ -39,6 +39,7 @@ __all__ = [
 
 FloatArray = NDArray[np.float64]
 
+
 @dataclass(frozen=True)
 class ModelMatrices:
     """Canonical matrices with σ of one bicycle (the fields of a ``CanonicalMatrices`` message).
@@ -180,8 +181,6 @@ def state_space_at(model: ModelMatrices, speed: float, feedback: Feedback | None
         a, b = closed_loop_state_space(model.matrices, v, model.g, feedback.gains(v))
         sweep = eigenvalues(model.matrices, model.g, label_speeds, gains=feedback.gains(label_speeds))
     return StateSpaceAt(v, np.asarray(a, dtype=float), np.asarray(b, dtype=float), sweep.eigenvalues[0], sweep.labels)
-
-
 
 
 @dataclass(frozen=True)

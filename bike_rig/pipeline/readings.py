@@ -48,9 +48,24 @@ __all__ = [
 
 #: The static keys that are not per hanging orientation, in the order of a measurement file.
 STATIC_KEYS: tuple[str, ...] = (
-    "g", "w", "gamma", "f", "mP", "lP", "dP",
-    "mR", "nR", "dR", "lR", "mF", "nF", "dF", "lF", "mB", "mH",
-)  # fmt: skip
+    "g",
+    "w",
+    "gamma",
+    "f",
+    "mP",
+    "lP",
+    "dP",
+    "mR",
+    "nR",
+    "dR",
+    "lR",
+    "mF",
+    "nF",
+    "dF",
+    "lF",
+    "mB",
+    "mH",
+)
 #: The refined method's static keys (surface plate, handlebar reference, split fork masses);
 #: ``mD``, the front wheel weighed with a flywheel in it, is one too.
 REFINED_STATIC_KEYS: tuple[str, ...] = SURFACE_PLATE_KEYS + ("h6", "h7", "d5", "d6", "l", "mS", "mG")

@@ -17,8 +17,13 @@ from dataclasses import dataclass
 from .acquire import SampleBatch
 
 __all__ = [
-    "DEFAULT_HISTORY_SAMPLES", "MAX_RESEND_SAMPLES", "Resent", "SentBatches", "batch_samples", "history_depth",
-]  # fmt: skip
+    "DEFAULT_HISTORY_SAMPLES",
+    "MAX_RESEND_SAMPLES",
+    "Resent",
+    "SentBatches",
+    "batch_samples",
+    "history_depth",
+]
 
 #: Samples the driver keeps for resending: 42 min of 1 kHz trials (~20 MB of rates).
 DEFAULT_HISTORY_SAMPLES = 2_500_000

@@ -127,8 +127,10 @@ def predicted_weave(
         target = targets[i] if targets is not None else complex(math.nan, math.nan)
         if not cand and np.isfinite(target):
             j = int(np.argmin(np.abs(lam[i] - target)))
-            notes.append(f"{v[i]:.3g} m/s: the model has no oscillatory mode; its eigenvalue nearest the measured one "
-                         f"({lam[i, j].real:+.3g} 1/s) is taken")  # fmt: skip
+            notes.append(
+                f"{v[i]:.3g} m/s: the model has no oscillatory mode; its eigenvalue nearest the measured one "
+                f"({lam[i, j].real:+.3g} 1/s) is taken"
+            )
             out[:, i] = lam[i, j].real, math.nan, abs(lam[i, j].imag), math.nan  # σ by Monte Carlo below
             branch[i] = j
             continue
@@ -153,8 +155,10 @@ def predicted_weave(
         for k, m in enumerate(missing.tolist()):
             method[m] = MONTE_CARLO
             if mc.real_fraction[k] > 0 and out[2, m] > 0:
-                notes.append(f"{v[m]:.3g} m/s: near a branch point: the weave pair is real in "
-                             f"{100 * mc.real_fraction[k]:.0f} % of the Monte Carlo draws")  # fmt: skip
+                notes.append(
+                    f"{v[m]:.3g} m/s: near a branch point: the weave pair is real in "
+                    f"{100 * mc.real_fraction[k]:.0f} % of the Monte Carlo draws"
+                )
     return PredictedWeave(v, out[0], out[1], out[2], out[3], tuple(notes), tuple(method), tuple(branch))
 
 
@@ -306,13 +310,15 @@ def compare_ride(
     combined = [c for c in groups if c.n_used]
     per_speed = []
     if combined:
-        cp = predicted_weave(ps, [c.speed for c in combined], feedback, convention,
-                             [complex(c.real, c.imag) for c in combined])  # fmt: skip
+        cp = predicted_weave(
+            ps, [c.speed for c in combined], feedback, convention, [complex(c.real, c.imag) for c in combined]
+        )
         per_speed = [SpeedComparison(*_against(c, cp, k), combined=c) for k, c in enumerate(combined)]
     overall = math.sqrt(float(np.mean(np.square(zs)))) if zs else math.nan
     unmeasured = tuple(c for c in groups if not c.n_used)
-    verdict = overall_verdict([(s.combined.speed, s.verdict) for s in per_speed], [c.speed for c in unmeasured],
-                              len(segments))  # fmt: skip
+    verdict = overall_verdict(
+        [(s.combined.speed, s.verdict) for s in per_speed], [c.speed for c in unmeasured], len(segments)
+    )
     notes = tuple(dict.fromkeys(pred.notes))  # one per segment's speed: each said once
     return RideComparison(tuple(rows), tuple(per_speed), overall, notes, unmeasured, verdict)
 

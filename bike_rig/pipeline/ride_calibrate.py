@@ -105,28 +105,49 @@ def _variant_json(r: VariantResult) -> dict[str, Any]:
     p = r.posterior
     prior = p.prior.parameters
     params = {
-        n: {"prior": float(prior.values[i]), "prior_sigma": float(prior.sigmas[i]), "posterior": float(p.values[i]),
-            "posterior_sigma": float(p.sigmas[i]), "shift_prior_sigma": float(p.shifts[i]),
-            "sigma_ratio": float(p.sigma_ratio[i])}
+        n: {
+            "prior": float(prior.values[i]),
+            "prior_sigma": float(prior.sigmas[i]),
+            "posterior": float(p.values[i]),
+            "posterior_sigma": float(p.sigmas[i]),
+            "shift_prior_sigma": float(p.shifts[i]),
+            "sigma_ratio": float(p.sigma_ratio[i]),
+        }
         for i, n in enumerate(PARAMETER_NAMES)
-    }  # fmt: skip
+    }
     return {
-        "name": r.name, "rider": r.rider, "free": list(p.unknowns.free), "gain_scale_free": p.unknowns.gain_scale,
-        "gain_scale": p.gain_scale, "gain_scale_sigma": _num(p.gain_scale_sigma), "chi2": _num(p.chi2),
-        "chi2_data": _num(p.chi2_data), "dof": p.dof, "reduced_chi2": _num(r.reduced_chi2), "p_value": _num(r.p_value),
-        "k": r.k, "aic": _num(r.aic), "bic": _num(r.bic), "minus_2_ln_evidence": _num(r.evidence),
+        "name": r.name,
+        "rider": r.rider,
+        "free": list(p.unknowns.free),
+        "gain_scale_free": p.unknowns.gain_scale,
+        "gain_scale": p.gain_scale,
+        "gain_scale_sigma": _num(p.gain_scale_sigma),
+        "chi2": _num(p.chi2),
+        "chi2_data": _num(p.chi2_data),
+        "dof": p.dof,
+        "reduced_chi2": _num(r.reduced_chi2),
+        "p_value": _num(r.p_value),
+        "k": r.k,
+        "aic": _num(r.aic),
+        "bic": _num(r.bic),
+        "minus_2_ln_evidence": _num(r.evidence),
         "constrained_directions": p.constrained_directions,
         "constrained": [{"parameter": n, "sigma_ratio": s} for n, s in constrained(p)],
-        "undetermined": [*p.undetermined, *loose(p)], "iterations": p.iterations,
-        "model_real": [float(x) for x in p.model.real], "model_imag": [float(abs(x)) for x in p.model.imag],
-        "linearity": {"valid": p.linearity.valid, "draws_rms": _num(p.linearity.draws_rms),
-                      "predicted_chi2": _num(p.linearity.predicted_chi2),
-                      "recomputed_chi2": _num(p.linearity.recomputed_chi2),
-                      "not_oscillatory": [float(x) for x in p.linearity.not_oscillatory],
-                      "notes": list(p.linearity.notes)},
+        "undetermined": [*p.undetermined, *loose(p)],
+        "iterations": p.iterations,
+        "model_real": [float(x) for x in p.model.real],
+        "model_imag": [float(abs(x)) for x in p.model.imag],
+        "linearity": {
+            "valid": p.linearity.valid,
+            "draws_rms": _num(p.linearity.draws_rms),
+            "predicted_chi2": _num(p.linearity.predicted_chi2),
+            "recomputed_chi2": _num(p.linearity.recomputed_chi2),
+            "not_oscillatory": [float(x) for x in p.linearity.not_oscillatory],
+            "notes": list(p.linearity.notes),
+        },
         "parameters": params,
         "covariance": [[float(x) for x in row] for row in p.covariance],
-    }  # fmt: skip
+    }
 
 
 def calibration_json(result: CalibratedRide) -> dict[str, Any]:
@@ -134,8 +155,13 @@ def calibration_json(result: CalibratedRide) -> dict[str, Any]:
     cal = result.calibration
     d = cal.data
     return {
-        "data": {"speeds": d.speeds.tolist(), "real": d.real.tolist(), "real_sigma": d.real_sigma.tolist(),
-                 "imag": d.imag.tolist(), "imag_sigma": d.imag_sigma.tolist()},
+        "data": {
+            "speeds": d.speeds.tolist(),
+            "real": d.real.tolist(),
+            "real_sigma": d.real_sigma.tolist(),
+            "imag": d.imag.tolist(),
+            "imag_sigma": d.imag_sigma.tolist(),
+        },
         "variants": [_variant_json(r) for r in cal.variants],
         "best": cal.best.name,
         "assist_rate_hz": cal.best.posterior.rate_hz,
@@ -145,4 +171,4 @@ def calibration_json(result: CalibratedRide) -> dict[str, Any]:
         "parameter_names": list(PARAMETER_NAMES),
         "prior_band": _band_json(result.prior_band),
         "posterior_band": _band_json(result.posterior_band),
-    }  # fmt: skip
+    }

@@ -71,9 +71,15 @@ def _draw_panel(ax: Axes, c: EigenCurves, bands: bool) -> None:
             sig = c.sigma_real[:, j]
             ok = np.isfinite(sig)
             ax.fill_between(
-                v, z.real - np.where(ok, sig, 0.0), z.real + np.where(ok, sig, 0.0),
-                where=ok, color=colour, alpha=0.25, lw=0, gid=f"{c.bicycle}:band:{j}",
-            )  # fmt: skip
+                v,
+                z.real - np.where(ok, sig, 0.0),
+                z.real + np.where(ok, sig, 0.0),
+                where=ok,
+                color=colour,
+                alpha=0.25,
+                lw=0,
+                gid=f"{c.bicycle}:band:{j}",
+            )
         ax.plot(v, z.real, color=colour, lw=1.4, gid=f"{c.bicycle}:re:{j}")
         if label != "weave" and c.capsize_caster_complex:  # the pair's common real part
             pair = np.abs(z.imag) > COMPLEX_TOL * np.maximum(1.0, np.abs(z))
@@ -90,13 +96,27 @@ def _draw_panel(ax: Axes, c: EigenCurves, bands: bool) -> None:
             continue
         colour = MODE_COLOURS[name]
         if math.isfinite(crit.sigma):
-            ax.axvspan(crit.speed - crit.sigma, crit.speed + crit.sigma, color=colour, alpha=0.18, lw=0,
-                       gid=f"{c.bicycle}:{name}-sigma")  # fmt: skip
+            ax.axvspan(
+                crit.speed - crit.sigma,
+                crit.speed + crit.sigma,
+                color=colour,
+                alpha=0.18,
+                lw=0,
+                gid=f"{c.bicycle}:{name}-sigma",
+            )
         ax.axvline(crit.speed, color=colour, lw=0.9, ls=":", gid=f"{c.bicycle}:{name}")
         sigma = f" ± {crit.sigma:.2f}" if math.isfinite(crit.sigma) else ""
         text.append(f"$v_{{{name[0]}}}$ = {crit.speed:.2f}{sigma} m/s")
-    ax.text(0.98, 0.97, "\n".join(text), transform=ax.transAxes, ha="right", va="top", fontsize=7.5,
-            bbox={"boxstyle": "round,pad=0.25", "fc": "white", "ec": "0.8", "alpha": 0.9})  # fmt: skip
+    ax.text(
+        0.98,
+        0.97,
+        "\n".join(text),
+        transform=ax.transAxes,
+        ha="right",
+        va="top",
+        fontsize=7.5,
+        bbox={"boxstyle": "round,pad=0.25", "fc": "white", "ec": "0.8", "alpha": 0.9},
+    )
     ax.axhline(0.0, color="0.3", lw=0.6)
     ax.set_ylim(*Y_LIMITS)
     ax.set_title(c.bicycle, fontsize=10)

@@ -67,16 +67,23 @@ def root_locus(
         whole = np.flatnonzero(np.isclose(c.speeds, np.round(c.speeds), atol=1e-9))
         for j in range(c.eigenvalues.shape[1]):
             z = c.eigenvalues[:, j]
-            scatter = ax.scatter(z.real, z.imag, c=c.speeds, cmap="viridis", norm=norm, s=3, lw=0,
-                                 gid=f"{c.bicycle}:locus:{j}")  # fmt: skip
+            scatter = ax.scatter(
+                z.real, z.imag, c=c.speeds, cmap="viridis", norm=norm, s=3, lw=0, gid=f"{c.bicycle}:locus:{j}"
+            )
             zw = z[whole]
             ax.plot(zw.real, zw.imag, "o", ms=3, mfc="none", mec="k", mew=0.6, gid=f"{c.bicycle}:ticks:{j}")
             if j in (0, 2):  # label the weave (Im ≥ 0) and the capsize–caster pair (Im > 0)
                 for i, zi in zip(whole, zw):
                     shown = zi.imag >= 0.0 if j == 0 else zi.imag > 0.0
                     if shown and X_LIMITS[0] <= zi.real <= X_LIMITS[1]:
-                        ax.annotate(f"{c.speeds[i]:g}", (zi.real, zi.imag), xytext=(3, 2), textcoords="offset points",
-                                    fontsize=6, color="0.25")  # fmt: skip
+                        ax.annotate(
+                            f"{c.speeds[i]:g}",
+                            (zi.real, zi.imag),
+                            xytext=(3, 2),
+                            textcoords="offset points",
+                            fontsize=6,
+                            color="0.25",
+                        )
         ax.axhline(0.0, color="0.3", lw=0.6)
         ax.axvline(0.0, color="0.3", lw=0.6)
         ax.set_xlim(*X_LIMITS)

@@ -125,9 +125,18 @@ def eigenvector_figure(
         phases = np.angle(sh.components)
         for i, name in enumerate(sh.names):
             rate = i >= 2
-            ax.plot([0.0, phases[i]], [0.0, lengths[i]], color=COMPONENT_COLOURS[i], lw=1.2 if rate else 2.0,
-                    ls="--" if rate else "-", marker="o", markevery=[1], ms=3,
-                    label=f"{name} ÷ |λ|" if rate else name, gid=f"{sh.bicycle}:phasor:{i}")  # fmt: skip
+            ax.plot(
+                [0.0, phases[i]],
+                [0.0, lengths[i]],
+                color=COMPONENT_COLOURS[i],
+                lw=1.2 if rate else 2.0,
+                ls="--" if rate else "-",
+                marker="o",
+                markevery=[1],
+                ms=3,
+                label=f"{name} ÷ |λ|" if rate else name,
+                gid=f"{sh.bicycle}:phasor:{i}",
+            )
         ax.set_rmax(max(1.05, float(lengths.max()) * 1.05))
         ax.set_rlabel_position(135)
         ax.tick_params(labelsize=7)
@@ -142,6 +151,10 @@ def eigenvector_figure(
     handles, labels = axes.flat[0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="outside lower center", ncols=4 if cols > 1 else 2, fontsize=8, frameon=False)
     rider_text = rider_title(shapes[0].rider)
-    fig.suptitle(f"Eigenvector of the {mode} mode {_title_speeds(shapes, reasons)}, {rider_text}\n"
-                 "(larger angle = 1 at 0°; counter-clockwise leads)", fontsize=10, wrap=True)  # fmt: skip
+    fig.suptitle(
+        f"Eigenvector of the {mode} mode {_title_speeds(shapes, reasons)}, {rider_text}\n"
+        "(larger angle = 1 at 0°; counter-clockwise leads)",
+        fontsize=10,
+        wrap=True,
+    )
     return fig

@@ -70,15 +70,33 @@ def ride_validation(
         face = "C3" if clean else "none"
         label = "segments" if clean else "flagged segments"
         for ax, part, attr in ((ax_re, "re", "real"), (ax_im, "im", "imag")):
-            ax.errorbar(v, [getattr(s, attr) for s in chosen], yerr=[getattr(s, attr + "_sigma") for s in chosen],
-                        fmt="o", ms=4, color="C3", mfc=face, capsize=2, label=label, gid=f"meas-{part}")  # fmt: skip
+            ax.errorbar(
+                v,
+                [getattr(s, attr) for s in chosen],
+                yerr=[getattr(s, attr + "_sigma") for s in chosen],
+                fmt="o",
+                ms=4,
+                color="C3",
+                mfc=face,
+                capsize=2,
+                label=label,
+                gid=f"meas-{part}",
+            )
     if comparison.speeds:
         v = [c.combined.speed for c in comparison.speeds]
         for ax, part, attr in ((ax_re, "re", "real"), (ax_im, "im", "imag")):
-            ax.errorbar(v, [getattr(c.combined, attr) for c in comparison.speeds],
-                        yerr=[getattr(c.combined, attr + "_sigma") for c in comparison.speeds],
-                        fmt="D", ms=6, color="k", mfc="none", capsize=3, label="combined per speed",
-                        gid=f"comb-{part}")  # fmt: skip
+            ax.errorbar(
+                v,
+                [getattr(c.combined, attr) for c in comparison.speeds],
+                yerr=[getattr(c.combined, attr + "_sigma") for c in comparison.speeds],
+                fmt="D",
+                ms=6,
+                color="k",
+                mfc="none",
+                capsize=3,
+                label="combined per speed",
+                gid=f"comb-{part}",
+            )
     _mark_branch_changes(ax_re, ax_im, curve)
     _mark_gain_breakpoints(ax_re, ax_im, curve, feedback)
     ax_re.axhline(0.0, color="0.5", lw=0.8)
@@ -130,8 +148,15 @@ def ride_segments(record: RideRecord, segments: Sequence[Segment], title: str = 
     for k, seg in enumerate(segments, start=1):
         ax.axvspan(seg.start, seg.stop, color="C2", alpha=0.2, gid=f"segment:{k}")
         ax.axvline(seg.kick.onset, color="C3", lw=1.0, gid=f"kick:{k}")
-        ax.text(seg.start, top, f"{k}: start {seg.start_reason.split(' (')[0]}\nend: {seg.stop_reason}",
-                fontsize=6, va="top", ha="left", rotation=0)  # fmt: skip
+        ax.text(
+            seg.start,
+            top,
+            f"{k}: start {seg.start_reason.split(' (')[0]}\nend: {seg.stop_reason}",
+            fontsize=6,
+            va="top",
+            ha="left",
+            rotation=0,
+        )
     ax.set_xlabel("time [s]")
     ax.set_ylabel(f"{record.signal_name}")
     ax.set_title(title or f"{record.source}: {len(segments)} segments (shaded), kicks (red lines)")
@@ -170,16 +195,36 @@ def ride_calibration(result: CalibratedRide, title: str = "") -> Figure:
     data = result.calibration.data
     best = result.calibration.best
     for ax, part, attr in ((ax_re, "re", "real"), (ax_im, "im", "imag")):
-        for band, tag, color, label in ((result.prior_band, "prior", "0.5", "prior model"),
-                                        (result.posterior_band, "post", "C0", f"posterior: {best.name}")):  # fmt: skip
+        for band, tag, color, label in (
+            (result.prior_band, "prior", "0.5", "prior model"),
+            (result.posterior_band, "post", "C0", f"posterior: {best.name}"),
+        ):
             vals, sig = getattr(band, attr), getattr(band, attr + "_sigma")
-            ax.plot(band.speeds, vals, color=color, lw=1.5, ls="--" if tag == "prior" else "-", label=label,
-                    gid=f"{tag}-{part}")  # fmt: skip
-            fill = ax.fill_between(band.speeds, vals - sig, vals + sig, color=color, alpha=0.25, lw=0,
-                                   label=f"{label} ±σ")  # fmt: skip
+            ax.plot(
+                band.speeds,
+                vals,
+                color=color,
+                lw=1.5,
+                ls="--" if tag == "prior" else "-",
+                label=label,
+                gid=f"{tag}-{part}",
+            )
+            fill = ax.fill_between(
+                band.speeds, vals - sig, vals + sig, color=color, alpha=0.25, lw=0, label=f"{label} ±σ"
+            )
             fill.set_gid(f"{tag}-band-{part}")
-        ax.errorbar(data.speeds, getattr(data, attr), yerr=getattr(data, attr + "_sigma"), fmt="D", ms=5, color="k",
-                    mfc="none", capsize=3, label="measured per speed", gid=f"data-{part}")  # fmt: skip
+        ax.errorbar(
+            data.speeds,
+            getattr(data, attr),
+            yerr=getattr(data, attr + "_sigma"),
+            fmt="D",
+            ms=5,
+            color="k",
+            mfc="none",
+            capsize=3,
+            label="measured per speed",
+            gid=f"data-{part}",
+        )
     ax_re.axhline(0.0, color="0.5", lw=0.8)
     ax_re.set_ylabel("Re λ [1/s]")
     ax_im.set_ylabel("Im λ [rad/s]")

@@ -65,14 +65,30 @@ def ride_section(rides: RideResults, dpi: float) -> Raw:
     rows = []
     for s in c.speeds:
         cb = s.combined
-        rows.append([
-            number_cell(cb.speed, ".2f"), Raw(f'<td class="num">{cb.n_used} ({cb.n_left_out} left out)</td>'),
-            value_sigma_cells(cb.real, cb.real_sigma), value_sigma_cells(s.predicted_real, s.predicted_real_sigma),
-            value_sigma_cells(cb.imag, cb.imag_sigma), value_sigma_cells(s.predicted_imag, s.predicted_imag_sigma),
-            number_cell(s.deviation, ".2f"),
-        ])  # fmt: skip
-    head = ["speed [m/s]", "segments", "measured Re λ [1/s]", "σ", "model Re λ [1/s]", "σ", "measured Im λ [rad/s]",
-            "σ", "model Im λ [rad/s]", "σ", "normalised deviation"]  # fmt: skip
+        rows.append(
+            [
+                number_cell(cb.speed, ".2f"),
+                Raw(f'<td class="num">{cb.n_used} ({cb.n_left_out} left out)</td>'),
+                value_sigma_cells(cb.real, cb.real_sigma),
+                value_sigma_cells(s.predicted_real, s.predicted_real_sigma),
+                value_sigma_cells(cb.imag, cb.imag_sigma),
+                value_sigma_cells(s.predicted_imag, s.predicted_imag_sigma),
+                number_cell(s.deviation, ".2f"),
+            ]
+        )
+    head = [
+        "speed [m/s]",
+        "segments",
+        "measured Re λ [1/s]",
+        "σ",
+        "model Re λ [1/s]",
+        "σ",
+        "measured Im λ [rad/s]",
+        "σ",
+        "model Im λ [rad/s]",
+        "σ",
+        "normalised deviation",
+    ]
     loop = f"the closed loop with feedback '{rides.feedback}'" if rides.feedback else "the open loop"
     overall = f"{c.overall:.2f}" if math.isfinite(c.overall) else "none (no clean segment)"
     fig = ride_validation(c, rides.curve, rides.label)
@@ -104,13 +120,22 @@ def calibration_section(result: CalibratedRide, dpi: float) -> Raw:
     rows = []
     for r in cal.variants:
         p = r.posterior
-        scale = (value_sigma_cells(p.gain_scale, p.gain_scale_sigma if math.isfinite(p.gain_scale_sigma) else None)
-                 if p.unknowns.gain_scale
-                 else Raw('<td class="num">1 (nominal)</td><td></td>'))  # fmt: skip
-        rows.append([
-            Raw(f"<td>{esc(r.name)}</td>"), number_cell(p.chi2, ".1f"), Raw(f'<td class="num">{p.dof}</td>'),
-            number_cell(r.aic, ".1f"), number_cell(r.bic, ".1f"), number_cell(r.evidence, ".1f"), scale,
-        ])  # fmt: skip
+        scale = (
+            value_sigma_cells(p.gain_scale, p.gain_scale_sigma if math.isfinite(p.gain_scale_sigma) else None)
+            if p.unknowns.gain_scale
+            else Raw('<td class="num">1 (nominal)</td><td></td>')
+        )
+        rows.append(
+            [
+                Raw(f"<td>{esc(r.name)}</td>"),
+                number_cell(p.chi2, ".1f"),
+                Raw(f'<td class="num">{p.dof}</td>'),
+                number_cell(r.aic, ".1f"),
+                number_cell(r.bic, ".1f"),
+                number_cell(r.evidence, ".1f"),
+                scale,
+            ]
+        )
     head = ["variant", "χ²", "dof", "AIC", "BIC", "−2 ln Z (Laplace)", "gain scale", "σ"]
     fig = ride_calibration(result)
     uri = png_data_uri(fig, dpi)

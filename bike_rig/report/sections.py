@@ -451,8 +451,21 @@ def trials_section(subject: Subject) -> Raw:
             "are no trials to show.",
         }.get(subject.kind, "This input holds no trials.")
         return section("trials", "Trials", [_p(why, "note")])
-    head = ["trial", "key", "period [s]", "σ", "r²", "ζ", "cycles", "used", "flags", "note", "start [s]", "stop [s]",
-            "beyond Eq 23"]  # fmt: skip
+    head = [
+        "trial",
+        "key",
+        "period [s]",
+        "σ",
+        "r²",
+        "ζ",
+        "cycles",
+        "used",
+        "flags",
+        "note",
+        "start [s]",
+        "stop [s]",
+        "beyond Eq 23",
+    ]
     rows = _trial_rows(subject.trials)
     classes = ["bad" if t.fit.flags else "" if t.used else "unused" for t in subject.trials]
     html_table = table(head, rows, "trials", "table-trials", f"Every trial ({_trial_counts(subject)})", classes)

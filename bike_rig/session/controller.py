@@ -47,12 +47,17 @@ GraphEvent = (
 
 #: Every command: its usage and what it does (``help`` prints them).
 COMMAND_HELP: tuple[tuple[str, str], ...] = (
-    ("start [ITEM] [SECONDS]", "start a trial: the next trial to do or redo, or ITEM (TtB2#3); SECONDS overrides "
-     "the plan's duration"),
+    (
+        "start [ITEM] [SECONDS]",
+        "start a trial: the next trial to do or redo, or ITEM (TtB2#3); SECONDS overrides the plan's duration",
+    ),
     ("stop", "stop the recording trial (its result follows)"),
     ("abort", "abort the recording trial (ABORT is recorded; the item stays REDO)"),
-    ("reading KEY VALUE SIGMA", "enter a static reading (degrees only where the key says so); again for a "
-     "correction: the newer wins, both are recorded; one that looks wrong (a unit?) is held until answered"),
+    (
+        "reading KEY VALUE SIGMA",
+        "enter a static reading (degrees only where the key says so); again for a "
+        "correction: the newer wins, both are recorded; one that looks wrong (a unit?) is held until answered",
+    ),
     ("keep", "enter the reading held for its warning as it is"),
     ("status", "what the session is connected to, progress, the recording trial, what is missing, the result"),
     ("next", "the next item with its instruction, and the next-best measurement"),
@@ -61,7 +66,7 @@ COMMAND_HELP: tuple[tuple[str, str], ...] = (
     ("params", "the 25 parameters with σ (once complete)"),
     ("help", "this list"),
     ("quit", "leave (a recording trial is aborted first)"),
-)  # fmt: skip
+)
 COMMANDS = tuple(usage.split()[0] for usage, _ in COMMAND_HELP)
 
 
@@ -345,8 +350,13 @@ class SessionController:
         live = self.session.live_status(self.clock())
         if live is not None:
             amp = f", amplitude {live.amplitude:.3g} rad/s" if math.isfinite(live.amplitude) else ""
-            out.append(Reply("info", f"recording {live.trial_id}: {live.samples} samples ({live.seconds:.1f} s){amp}",
-                             {"recording": live.trial_id, "samples": live.samples}))  # fmt: skip
+            out.append(
+                Reply(
+                    "info",
+                    f"recording {live.trial_id}: {live.samples} samples ({live.seconds:.1f} s){amp}",
+                    {"recording": live.trial_id, "samples": live.samples},
+                )
+            )
             out += [Reply("warning", w) for w in live.warnings]
         out += [Reply("warning", t) for t in self.stalls.troubles()]
         out += self._result_replies()
@@ -460,7 +470,7 @@ class SessionController:
             return [
                 Reply("health", f"health: {node} {level.name}: {message}", {"node": node, "level": level.name})
                 for node, level, message in self.health.update(ev.statuses)
-            ]  # fmt: skip
+            ]
         elif isinstance(ev, ReadingEntry):
             if not any(e.stamp_ns == ev.stamp_ns and e.value == ev.value for e in s.readings.get(ev.key, [])):
                 s.on_reading(ev)
@@ -492,10 +502,13 @@ class SessionController:
             self.stalls.forget(node)  # (restarted or gone: not stalled)
         out += [Reply("error", line, {"node": node}) for node, line in deaths]
         out += [
-            Reply("health", c.text, {"node": c.node, "level": c.level.name, "standing": c.standing.value,
-                                     "seconds": c.seconds})
+            Reply(
+                "health",
+                c.text,
+                {"node": c.node, "level": c.level.name, "standing": c.standing.value, "seconds": c.seconds},
+            )
             for c in self.stalls.check(self.ended())
-        ]  # fmt: skip
+        ]
         out += self._resume_replies()
         if s.complete and s.stability is not None:
             sw, sc = s.stability.weave, s.stability.capsize

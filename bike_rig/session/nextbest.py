@@ -297,9 +297,16 @@ def next_best(
         score = sum((now[n] ** 2 - later[n] ** 2) / now[n] ** 2 for n in speeds)
         out.append(
             Suggestion(
-                key, _kind(key), False, sigma, after,
-                now.get(WEAVE, nan), later.get(WEAVE, nan), now.get(CAPSIZE, nan), later.get(CAPSIZE, nan),
+                key,
+                _kind(key),
+                False,
+                sigma,
+                after,
+                now.get(WEAVE, nan),
+                later.get(WEAVE, nan),
+                now.get(CAPSIZE, nan),
+                later.get(CAPSIZE, nan),
                 score,
             )
-        )  # fmt: skip
+        )
     return tuple(sorted(out, key=lambda s: -s.score))

@@ -205,10 +205,24 @@ def _part_readings(part: str, orientations: int) -> list[ReadingItem]:
     axle = "rear axle" if part == "frame" else "front axle"
     out = [ReadingItem(f"m{p}", f"{_PART_TEXT[part]}: mass", "kg", "weigh it", part)]
     for i in range(1, orientations + 1):
-        out.append(ReadingItem(f"alpha{p}{i}", f"orientation {i}: hanging angle", "deg",
-                               "digital level on the tube while it hangs", part))  # fmt: skip
-        out.append(ReadingItem(f"a{p}{i}", f"orientation {i}: string-line distance to the {axle}", "m",
-                               "perpendicular distance from the plumb line to the axle", part))  # fmt: skip
+        out.append(
+            ReadingItem(
+                f"alpha{p}{i}",
+                f"orientation {i}: hanging angle",
+                "deg",
+                "digital level on the tube while it hangs",
+                part,
+            )
+        )
+        out.append(
+            ReadingItem(
+                f"a{p}{i}",
+                f"orientation {i}: string-line distance to the {axle}",
+                "m",
+                "perpendicular distance from the plumb line to the axle",
+                part,
+            )
+        )
     return out
 
 

@@ -46,8 +46,9 @@ def check_typed_reading(
     allowed = [i.key for i in session.plan.readings]
     note = "correction" if key in session.readings else ""
     try:
-        entry = parse_reading(key, value_text, sigma_text, allowed=allowed, where="console",
-                              stamp_ns=time.time_ns(), note=note)  # fmt: skip
+        entry = parse_reading(
+            key, value_text, sigma_text, allowed=allowed, where="console", stamp_ns=time.time_ns(), note=note
+        )
     except ReadingInputError as exc:
         raise ValueError(str(exc)) from None
     others = {k: e for k in session.readings if k != key and (e := session.reading(k)) is not None}
@@ -75,8 +76,12 @@ def rank_items(session: OperatorSession, nominal: dict[str, float]) -> list[tupl
         if view.fit is not None and view.fit.usable:
             trials.setdefault(view.key, []).append(view.fit.period_sigma)
     try:
-        ranked = next_best(session_measurements(session), list(dict.fromkeys(items)), nominal,
-                           {k: PeriodTrials(tuple(v)) for k, v in trials.items()})  # fmt: skip
+        ranked = next_best(
+            session_measurements(session),
+            list(dict.fromkeys(items)),
+            nominal,
+            {k: PeriodTrials(tuple(v)) for k, v in trials.items()},
+        )
     except Exception as exc:
         return [("", f"no ranking: {exc}")]
     out = []

@@ -129,14 +129,20 @@ class CanFrameLayout:
             out.append(("samples_per_frame", "must be >= 1", self.samples_per_frame))
         elif not self.fd and n > 8:
             out.append(
-                ("samples_per_frame", f"{n} bytes of {self.sample_format} exceed a classic frame's 8 (set can_fd)",
-                 self.samples_per_frame)
-            )  # fmt: skip
+                (
+                    "samples_per_frame",
+                    f"{n} bytes of {self.sample_format} exceed a classic frame's 8 (set can_fd)",
+                    self.samples_per_frame,
+                )
+            )
         elif self.fd and n not in FD_LENGTHS:
             out.append(
-                ("samples_per_frame", f"{n} bytes is not a CAN FD data length ({', '.join(map(str, FD_LENGTHS))})",
-                 self.samples_per_frame)
-            )  # fmt: skip
+                (
+                    "samples_per_frame",
+                    f"{n} bytes is not a CAN FD data length ({', '.join(map(str, FD_LENGTHS))})",
+                    self.samples_per_frame,
+                )
+            )
         if not (math.isfinite(self.scale) and self.scale != 0):
             out.append(("scale", "must be a finite, non-zero number of rad/s per count", self.scale))
         if not math.isfinite(self.offset):
@@ -248,7 +254,7 @@ class CanSource(StreamingSource):
             "",
             "can: python-can interface; '' = python-can's configuration (CAN_INTERFACE, its config file), "
             "else the virtual bus",
-        ),  # fmt: skip
+        ),
         ParamSpec("can_channel", "", "can: channel (e.g. can0); '' = python-can's configuration's, or bike_rig"),
         ParamSpec("can_bitrate", 0, "can: bit rate, bit/s (0 = the interface's setting)", (0, 8_000_000)),
         ParamSpec("can_id", 0x100, "can: arbitration id of the gyro's frames", (0, 0x1FFFFFFF)),
@@ -270,13 +276,13 @@ class CanSource(StreamingSource):
             1.0,
             "can: how fast can_log_file plays, times real time; 0 = as fast as read, while a trial records",
             (0.0, 1e6),
-        ),  # fmt: skip
+        ),
         ParamSpec(
             "can_simulated_gyro_period_s",
             0.0,
             "can, test/demo only: > 0 runs a simulated gyro of this period on the virtual bus in this process",
             (0.0, 1e3),
-        ),  # fmt: skip
+        ),
         TIME_SCALE,
     )
 
@@ -331,8 +337,13 @@ class CanSource(StreamingSource):
         if log_file:
             speed = p.number("can_log_speed")
             pace = "as fast as read, while a trial records" if speed == 0 else f"at {speed:g}× real time"
-            return cls(LogBus(log_file, speed), layout, rate, f"log file {log_file} {ident}, played {pace}",
-                       clock=FrameClock("the log's", epoch_window_s=math.inf))  # fmt: skip
+            return cls(
+                LogBus(log_file, speed),
+                layout,
+                rate,
+                f"log file {log_file} {ident}, played {pace}",
+                clock=FrameClock("the log's", epoch_window_s=math.inf),
+            )
         choice = choose_bus(p.text("can_interface"), p.text("can_channel"), p.integer("can_bitrate"))
         period = p.number("can_simulated_gyro_period_s")
         gyro = None
@@ -445,8 +456,11 @@ class CanSource(StreamingSource):
         if self.malformed_frames in (1, 10, 100, 1000) or self.malformed_frames % 10000 == 0:
             _log.warning(
                 "can source: %d malformed frame(s) of id 0x%X dropped (last: %d bytes, expected %d)",
-                self.malformed_frames, self.layout.can_id, length, self.layout.frame_bytes,
-            )  # fmt: skip
+                self.malformed_frames,
+                self.layout.can_id,
+                length,
+                self.layout.frame_bytes,
+            )
 
     def poll(self) -> list[SourceEvent]:
         """The events of the frames waiting (and of requests since); a log's end ends the trial recording."""

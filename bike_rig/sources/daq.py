@@ -134,8 +134,10 @@ class DaqSource(StreamingSource):
         nidaqmx = import_nidaqmx()
         constants = _constants(nidaqmx)
         names = TERMINALS[terminal]
-        config = next((getattr(constants.TerminalConfiguration, n) for n in names
-                       if hasattr(constants.TerminalConfiguration, n)), None)  # fmt: skip
+        config = next(
+            (getattr(constants.TerminalConfiguration, n) for n in names if hasattr(constants.TerminalConfiguration, n)),
+            None,
+        )
         if config is None:
             raise p.error("daq_terminal", "this nidaqmx has no such terminal configuration", terminal)
         try:

@@ -54,8 +54,16 @@ def _trial_events(trial: RecordedTrial) -> list[SourceEvent]:
     """
     start = trial.start
     assert start is not None
-    info = TrialInfo(start.trial_id, start.part, start.pendulum, start.orientation, start.repeat,
-                     start.measurement_key, start.sample_rate_hz, start.note)  # fmt: skip
+    info = TrialInfo(
+        start.trial_id,
+        start.part,
+        start.pendulum,
+        start.orientation,
+        start.repeat,
+        start.measurement_key,
+        start.sample_rate_hz,
+        start.note,
+    )
     events: list[SourceEvent] = [TrialStarted(info, start.stamp_ns)]
     seen: set[int] = set()
     end = 0
@@ -135,8 +143,12 @@ class ResumedSource(GyroSource):
     ):
         """Read the bag's trials now; tell ``live`` which ids and rig times are taken."""
         if not live.supports_requests:
-            raise SourceConfigError(live.name, "resume", "a session resumes only with a source that records "
-                                    "trials on request (sim in operator mode, can, daq)", bag)  # fmt: skip
+            raise SourceConfigError(
+                live.name,
+                "resume",
+                "a session resumes only with a source that records trials on request (sim in operator mode, can, daq)",
+                bag,
+            )
         self.live = live
         self.bag = bag
         self.time_scale = time_scale
@@ -146,8 +158,7 @@ class ResumedSource(GyroSource):
         self._pending = deque(_paced(trials, time_scale))
         self._t0: float | None = None
         ids = [t[0].info.trial_id for t in trials if isinstance(t[0], TrialStarted)]
-        last = max((ev.stamp_ns for t in trials for ev in t if isinstance(ev, (TrialStarted, TrialStopped))),
-                   default=0)  # fmt: skip
+        last = max((ev.stamp_ns for t in trials for ev in t if isinstance(ev, (TrialStarted, TrialStopped))), default=0)
         live.continue_after(ids, last)
 
     @property

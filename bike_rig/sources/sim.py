@@ -286,15 +286,21 @@ class SimSource(GyroSource):
 
     name = "sim"
     PARAMETERS = (
-        ParamSpec("mode", "plan", "sim: 'plan' walks the session's plan; 'operator' simulates each trial requested "
-                  "through StartTrial (with 'bicycle')", choices=("plan", "operator")),  # fmt: skip
+        ParamSpec(
+            "mode",
+            "plan",
+            "sim: 'plan' walks the session's plan; 'operator' simulates each trial requested "
+            "through StartTrial (with 'bicycle')",
+            choices=("plan", "operator"),
+        ),
         ParamSpec("session", "", "sim: session.yaml written by 'bike-rig simulate' (streamed in plan order)"),
         ParamSpec("bicycle", "", "sim: bicycle file whose session is simulated in memory (instead of session)"),
         ParamSpec("rig", "", "sim: rig description for 'bicycle' ('' = config/rig.yaml)"),
         ParamSpec("seed", 0, "sim: seed of the in-memory simulation", (0, 2**31 - 1)),
         ParamSpec("pause_between_trials_s", 1.0, "sim: rig time between trials, s", (0.0, 3600.0)),
-        ParamSpec("start_time_s", 0.0, "sim: rig time of the first trial's start, s since the epoch (0 = now)",
-                  (0.0, 1e10)),  # fmt: skip
+        ParamSpec(
+            "start_time_s", 0.0, "sim: rig time of the first trial's start, s since the epoch (0 = now)", (0.0, 1e10)
+        ),
         TIME_SCALE,
     )
 

@@ -77,8 +77,9 @@ def node_messages(base: Measurements, entries: Sequence[ReadingEntry]) -> list[S
     set_stamp(first, t0)
     out = [_published(topics.STATIC_READINGS, first, t0)]
     for n, entry in enumerate(entries, start=1):
-        out.append(_published(topics.READINGS, fill_reading_entry(new_message(topics.READINGS.type), entry),
-                              entry.stamp_ns))  # fmt: skip
+        out.append(
+            _published(topics.READINGS, fill_reading_entry(new_message(topics.READINGS.type), entry), entry.stamp_ns)
+        )
         merged = apply_entries(base, entries[:n])
         msg = fill_static_readings(new_message(topics.STATIC_READINGS.type), merged, dump_measurements_yaml(merged))
         set_stamp(msg, entry.stamp_ns + 1_000_000)
@@ -93,11 +94,13 @@ def entries_bag(path: Path, session: SimulatedSession, skip: Sequence[str] = ())
         The bag and the entries, in the order published.
     """
     start_ns = 1_800_000_000 * 1_000_000_000
-    trials = [m for m in simulated_messages(session, start_ns=start_ns, pause_s=2.0)
-              if m.topic != topics.STATIC_READINGS.name]  # fmt: skip
+    trials = [
+        m for m in simulated_messages(session, start_ns=start_ns, pause_s=2.0) if m.topic != topics.STATIC_READINGS.name
+    ]
     entries = operator_entries(session, start_ns - 100 * 1_000_000_000, skip)
-    messages = sorted([*node_messages(Measurements(session.bicycle, {}, ""), entries), *trials],
-                      key=lambda m: m.log_time)  # fmt: skip
+    messages = sorted(
+        [*node_messages(Measurements(session.bicycle, {}, ""), entries), *trials], key=lambda m: m.log_time
+    )
     store = rig_typestore()
     types = {t.name: t.type for t in topics.TOPICS}
     with BagWriter(path) as w:

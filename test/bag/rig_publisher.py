@@ -128,8 +128,9 @@ def main(argv: list[str]) -> int:
     threading.Thread(target=read_stdin, daemon=True).start()
     try:
         topics = list(dict.fromkeys([*spec["early"], *spec["live"]]))
-        pubs = {name: node.create_publisher(type(rclpy_message(name, 0)), name, profile(BY_NAME[name]))
-                for name in topics}
+        pubs = {
+            name: node.create_publisher(type(rclpy_message(name, 0)), name, profile(BY_NAME[name])) for name in topics
+        }
         for name, n in spec["early"].items():
             for k in range(n):
                 pubs[name].publish(rclpy_message(name, k))

@@ -15,9 +15,18 @@ from bike_rig.topics import TOPICS
 
 _INTS = {"int8", "uint8", "int16", "uint16", "int32", "uint32", "int64", "uint64", "byte", "char"}
 _FLOATS = {"float32", "float64"}
-_NUMPY = {"float64": np.float64, "float32": np.float32, "uint8": np.uint8, "int32": np.int32,
-          "uint32": np.uint32, "int64": np.int64, "uint64": np.uint64, "uint16": np.uint16, "int16": np.int16,
-          "int8": np.int8}
+_NUMPY = {
+    "float64": np.float64,
+    "float32": np.float32,
+    "uint8": np.uint8,
+    "int32": np.int32,
+    "uint32": np.uint32,
+    "int64": np.int64,
+    "uint64": np.uint64,
+    "uint16": np.uint16,
+    "int16": np.int16,
+    "int8": np.int8,
+}
 
 
 def _base(kind: str, seed: int) -> Any:
@@ -65,8 +74,9 @@ def serialize(msg: Any) -> bytes:
 def as_plain(value: Any) -> Any:
     """A message as nested plain data, for == comparisons."""
     if hasattr(value, "__dataclass_fields__"):
-        return {k: as_plain(getattr(value, k)) for k in value.__dataclass_fields__ if k != "__msgtype__"
-                and not k.isupper()}
+        return {
+            k: as_plain(getattr(value, k)) for k in value.__dataclass_fields__ if k != "__msgtype__" and not k.isupper()
+        }
     if isinstance(value, np.ndarray):
         return value.tolist()
     if isinstance(value, array.array):

@@ -90,18 +90,21 @@ def test_deeply_nested_metadata_is_refused(bag: Path, where: str) -> None:
     ("old", "new", "place", "reason"),
     [
         ("message_count: 287", "message_count: .inf", "rosbag2_bagfile_information.message_count", "not a finite"),
-        ("message_count: 287", "message_count: [1, 2]", "rosbag2_bagfile_information.message_count",
-         "not an integer"),
+        ("message_count: 287", "message_count: [1, 2]", "rosbag2_bagfile_information.message_count", "not an integer"),
         ("message_count: 287", "message_count: -3", "rosbag2_bagfile_information.message_count", "negative count"),
         ("message_count: 260", "message_count: .nan", "topics_with_message_count[0].message_count", "not a finite"),
         ("name: /bike_rig/gyro", "name: [a]", "topics_with_message_count[0].topic_metadata.name", "not a string"),
-        ("nanoseconds: 143000001000", "nanoseconds: {a: 1}", "rosbag2_bagfile_information.duration.nanoseconds",
-         "not an integer"),
+        (
+            "nanoseconds: 143000001000",
+            "nanoseconds: {a: 1}",
+            "rosbag2_bagfile_information.duration.nanoseconds",
+            "not an integer",
+        ),
         ("version: 9", "version: [9]", "rosbag2_bagfile_information.version", "not an integer"),
         ("- bag_0.mcap", "- [bag_0.mcap]", "relative_file_paths[0]", "not a string"),
         ("depth: 50000", "depth: [1]", "offered_qos_profiles[0].depth", "not a QoS policy"),
     ],
-)  # fmt: skip
+)
 def test_metadata_values_of_the_wrong_type_are_refused(bag: Path, old: str, new: str, place: str, reason: str) -> None:
     _edit_metadata(bag, lambda t: t.replace(old, new, 1))
     _refused(bag, "metadata.yaml: rosbag2_bagfile_information.", f"{place}: ", reason)
@@ -254,8 +257,12 @@ def test_the_cli_says_it_in_one_line_with_exit_2(
     damage(bag)
     done = subprocess.run(
         [sys.executable, "-m", "bike_rig.cli.main", *command, str(bag)],
-        cwd=REPO, capture_output=True, text=True, timeout=120, check=False,
-    )  # fmt: skip
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+    )
     lines = done.stderr.splitlines()
     assert done.returncode == 2, done.stderr
     assert len(lines) == 1 and lines[0].startswith(prefix), done.stderr
@@ -294,8 +301,12 @@ def _bag_command(command: str, bag: Path) -> subprocess.CompletedProcess[str]:
     """``bike-rig bag COMMAND BAG`` in a process of its own (a crash must not take the test down)."""
     return subprocess.run(
         [sys.executable, "-m", "bike_rig.cli.main", "bag", command, str(bag)],
-        cwd=REPO, capture_output=True, text=True, timeout=120, check=False,
-    )  # fmt: skip
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+    )
 
 
 def test_channel_qos_text_nested_200000_deep_is_refused_without_a_crash(

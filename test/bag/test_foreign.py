@@ -39,24 +39,45 @@ JSON = ("Foo", "jsonschema", b'{"type": "object"}')
 #: (file, profile, channels, reason)
 SHAPES = [
     ("json", "", [("/x", JSON, "json", b'{"a": 1}')], "channel /x has message encoding 'json'"),
-    ("json_ros2", "ros2", [(GYRO.name, JSON, "json", b'{"a": 1}')],
-     f"channel {GYRO.name} has message encoding 'json'"),
-    ("protobuf", "", [("/x", ("pkg.Foo", "protobuf", b"\x0a\x00"), "protobuf", b"\x08\x01")],
-     "channel /x has message encoding 'protobuf'"),
+    ("json_ros2", "ros2", [(GYRO.name, JSON, "json", b'{"a": 1}')], f"channel {GYRO.name} has message encoding 'json'"),
+    (
+        "protobuf",
+        "",
+        [("/x", ("pkg.Foo", "protobuf", b"\x0a\x00"), "protobuf", b"\x08\x01")],
+        "channel /x has message encoding 'protobuf'",
+    ),
     ("no_schema", "ros2", [(GYRO.name, None, "cdr", CDR_ZERO)], f"channel {GYRO.name} has no schema"),
     ("empty", "", [], "MCAP profile '' is not 'ros2'"),
-    ("jsonschema_cdr", "ros2", [(GYRO.name, JSON, "cdr", CDR_ZERO)],
-     f"channel {GYRO.name}: its schema Foo has encoding 'jsonschema'"),
-    ("idl", "ros2", [(GYRO.name, (GYRO.type, "ros2idl", b"module bike_rig_msgs { module msg { struct GyroBatch "
-                                  b"{ double x; }; }; };"), "cdr", CDR_ZERO)], ""),
-]  # fmt: skip
+    (
+        "jsonschema_cdr",
+        "ros2",
+        [(GYRO.name, JSON, "cdr", CDR_ZERO)],
+        f"channel {GYRO.name}: its schema Foo has encoding 'jsonschema'",
+    ),
+    (
+        "idl",
+        "ros2",
+        [
+            (
+                GYRO.name,
+                (GYRO.type, "ros2idl", b"module bike_rig_msgs { module msg { struct GyroBatch { double x; }; }; };"),
+                "cdr",
+                CDR_ZERO,
+            )
+        ],
+        "",
+    ),
+]
 
 
 @pytest.mark.parametrize(("name", "profile", "channels", "reason"), SHAPES, ids=[s[0] for s in SHAPES])
 def test_no_command_tracebacks_on_a_foreign_mcap(
-    tmp_path: Path, name: str, profile: str, channels: list[tuple[str, tuple[str, str, bytes] | None, str, bytes]],
+    tmp_path: Path,
+    name: str,
+    profile: str,
+    channels: list[tuple[str, tuple[str, str, bytes] | None, str, bytes]],
     reason: str,
-) -> None:  # fmt: skip
+) -> None:
     path = write_mcap(tmp_path / f"{name}.mcap", profile, channels)
     for command in (("bag", "info"), ("bag", "recover"), ("replay",)):
         extra = ("-o", str(tmp_path / "out")) if command[-1] == "recover" else ()
@@ -73,11 +94,18 @@ def test_no_command_tracebacks_on_a_foreign_mcap(
 def test_the_json_mcap_in_a_process_of_its_own(tmp_path: Path) -> None:
     path = write_mcap(tmp_path / "foxglove.mcap", "", [("/x", JSON, "json", b'{"a": 1}')])
     for command in (["bag", "recover"], ["bag", "info"], ["replay"]):
-        done = subprocess.run([sys.executable, "-m", "bike_rig.cli.main", *command, str(path)], cwd=REPO,
-                              capture_output=True, text=True, timeout=120, check=False)  # fmt: skip
+        done = subprocess.run(
+            [sys.executable, "-m", "bike_rig.cli.main", *command, str(path)],
+            cwd=REPO,
+            capture_output=True,
+            text=True,
+            timeout=120,
+            check=False,
+        )
         assert done.returncode == 2 and "Traceback" not in done.stderr, done.stderr
-        assert done.stderr == (f"bike-rig {command[0]}: error: {path}: not a ROS 2 CDR bag: "
-                               "channel /x has message encoding 'json'\n")  # fmt: skip
+        assert done.stderr == (
+            f"bike-rig {command[0]}: error: {path}: not a ROS 2 CDR bag: channel /x has message encoding 'json'\n"
+        )
 
 
 def test_a_foreign_file_in_a_bag_directory_is_named(tmp_path: Path) -> None:
@@ -91,10 +119,14 @@ def test_a_foreign_file_in_a_bag_directory_is_named(tmp_path: Path) -> None:
 def test_recover_copies_the_ros2_channels_and_names_the_others(tmp_path: Path) -> None:
     readings = make_message(STATIC_READINGS.type, 1)
     schema = (STATIC_READINGS.type, "ros2msg", message_definition(STATIC_READINGS.type).encode())
-    path = write_mcap(tmp_path / "mixed.mcap", "ros2", [
-        (STATIC_READINGS.name, schema, "cdr", serialize(readings)),
-        ("/foxglove/markers", JSON, "json", b"{}"),
-    ])  # fmt: skip
+    path = write_mcap(
+        tmp_path / "mixed.mcap",
+        "ros2",
+        [
+            (STATIC_READINGS.name, schema, "cdr", serialize(readings)),
+            ("/foxglove/markers", JSON, "json", b"{}"),
+        ],
+    )
     with pytest.raises(NotABagError, match="channel /foxglove/markers has message encoding 'json'"):
         open_bag(path)
     recovery = recover_bag(path, tmp_path / "out")

@@ -20,8 +20,6 @@ from test.support.cli import run_cli
 NS = 1_000_000_000
 
 
-
-
 def estimate(
     trial_id: str, key: str, log_time: int, period: float, valid: bool = True, flags: tuple[str, ...] = ()
 ) -> SimulatedMessage:

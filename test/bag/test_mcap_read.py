@@ -89,8 +89,15 @@ def plain(batch: Any) -> dict[str, Any]:
 
 def test_gyro_batches_decode_as_rosbags_does() -> None:
     store = rig_typestore()
-    shapes = [("", "t1", 50, 0), ("gyro", "t1", 50, 0), ("gyro", "trial-é", 3, 3), ("", "", 0, 0),
-              ("fr", "t1", 0, 2), ("abcdefghijklm", "t12345678901234567", 1, 0), ("g", "t", 7, 7)]  # fmt: skip
+    shapes = [
+        ("", "t1", 50, 0),
+        ("gyro", "t1", 50, 0),
+        ("gyro", "trial-é", 3, 3),
+        ("", "", 0, 0),
+        ("fr", "t1", 0, 2),
+        ("abcdefghijklm", "t12345678901234567", 1, 0),
+        ("g", "t", 7, 7),
+    ]
     msgs = [gyro_message(f, t, n, m, k) for k, (f, t, n, m) in enumerate(shapes)]
     msgs += [make_message(GYRO.type, seed) for seed in range(20)]
     datas = [serialize(m) for m in msgs]

@@ -35,8 +35,6 @@ msgs: Any = pytest.importorskip("bike_rig_msgs.msg")
 srvs: Any = pytest.importorskip("bike_rig_msgs.srv")
 
 
-
-
 def _recorded_indexes(bag: Path) -> list[list[int]]:
     """The gyro batches' ``first_index`` in each storage file on disk now (a file being written too)."""
     from bike_rig.bag.typestore import rig_typestore
@@ -46,8 +44,9 @@ def _recorded_indexes(bag: Path) -> list[list[int]]:
     for f in sorted(bag.glob("*.mcap"), key=lambda p: int(p.stem.rpartition("_")[2])):
         scan = scan_mcap(f)
         gyro = {cid for cid, ch in scan.channels.items() if ch.topic == GYRO.name}
-        out.append([store.deserialize_cdr(m.data, GYRO.type).first_index for m in scan.messages
-                    if m.channel_id in gyro])  # fmt: skip
+        out.append(
+            [store.deserialize_cdr(m.data, GYRO.type).first_index for m in scan.messages if m.channel_id in gyro]
+        )
     return out
 
 
@@ -73,9 +72,15 @@ def test_pause_resume_split_and_snapshot_of_a_live_recording(
     env = node_environment(ros_env)
     bag = tmp_path / "session"
     spec = {"early": {STATIC_READINGS.name: 1}, "live": {GYRO.name: 0}, "rate_hz": 200.0, "until_stop": True}
-    clients = {name: probe.node.create_client(kind, name) for name, kind in (
-        (RECORDER_PAUSE, srvs.Pause), (RECORDER_RESUME, srvs.Resume), (RECORDER_SPLIT, srvs.SplitBag),
-        (RECORDER_SNAPSHOT, srvs.SaveSnapshot))}  # fmt: skip
+    clients = {
+        name: probe.node.create_client(kind, name)
+        for name, kind in (
+            (RECORDER_PAUSE, srvs.Pause),
+            (RECORDER_RESUME, srvs.Resume),
+            (RECORDER_SPLIT, srvs.SplitBag),
+            (RECORDER_SNAPSHOT, srvs.SaveSnapshot),
+        )
+    }
     with start_publisher(tmp_path, env, spec) as pub:
         pub.expect("EARLY", STEP_TIMEOUT_S)
         with start_recorder(tmp_path, env, bag, "topics:=[gyro, static_readings]", "snapshot_duration:=1.5") as rec:
@@ -95,11 +100,13 @@ def test_pause_resume_split_and_snapshot_of_a_live_recording(
             _more(probe, seen, 400)  # 2 s: more than the snapshot buffer holds
             snap = probe.call(clients[RECORDER_SNAPSHOT], srvs.SaveSnapshot.Request(seconds=1.0))
             assert snap.ok and snap.path == str(tmp_path / "session_snapshot_1"), snap.message
-            all_snap = probe.call(clients[RECORDER_SNAPSHOT],
-                                  srvs.SaveSnapshot.Request(output=str(tmp_path / "whole_buffer")))  # fmt: skip
+            all_snap = probe.call(
+                clients[RECORDER_SNAPSHOT], srvs.SaveSnapshot.Request(output=str(tmp_path / "whole_buffer"))
+            )
             assert all_snap.ok, all_snap.message
-            again = probe.call(clients[RECORDER_SNAPSHOT],
-                               srvs.SaveSnapshot.Request(output=str(tmp_path / "whole_buffer")))  # fmt: skip
+            again = probe.call(
+                clients[RECORDER_SNAPSHOT], srvs.SaveSnapshot.Request(output=str(tmp_path / "whole_buffer"))
+            )
             assert not again.ok and again.path == "" and "exists already" in again.message
             pub.send("STOP")
             published = json.loads(pub.expect("PUBLISHED", STEP_TIMEOUT_S))
@@ -165,8 +172,9 @@ def test_split_by_size_with_lz4_chunks_loses_nothing_and_opens_everywhere(
     spec = {"early": {STATIC_READINGS.name: 1}, "live": {GYRO.name: 600}, "rate_hz": 300.0}
     with start_publisher(tmp_path, env, spec) as pub:
         pub.expect("EARLY", STEP_TIMEOUT_S)
-        with start_recorder(tmp_path, env, bag, "topics:=[gyro, static_readings]", "compression:=lz4",
-                       "max_bag_size:=25000") as rec:  # fmt: skip
+        with start_recorder(
+            tmp_path, env, bag, "topics:=[gyro, static_readings]", "compression:=lz4", "max_bag_size:=25000"
+        ) as rec:
             pub.expect("MATCHED", STEP_TIMEOUT_S)
             pub.send("GO")
             snapshots = probe.node.create_client(srvs.SaveSnapshot, RECORDER_SNAPSHOT)

@@ -169,6 +169,7 @@ def _record(env: dict[str, str], tmp_path: Path, bag: Path, *params: str) -> tup
             published = json.loads(pub.expect("PUBLISHED", STEP_TIMEOUT_S))
             assert published["counts"][GYRO.name] == 200
             if params:  # a split fails while recording: wait for the recorder to say so
+
                 def stopped() -> bool:
                     assert rec.proc.poll() is None, rec.describe()
                     return "recording stopped" in rec.stderr_path.read_text()

@@ -22,8 +22,9 @@ def write_flushed(bag: Path, flush_every: int = 10) -> tuple[list[tuple[str, int
 
     Returns the traffic and, after each flush, (file size, messages flushed).
     """
-    traffic = [(n, t, d) for n, t, d, _ in sample_traffic({STATIC_READINGS.name: 1, TRIAL_EVENTS.name: 6,
-                                                           GYRO.name: 60})]
+    traffic = [
+        (n, t, d) for n, t, d, _ in sample_traffic({STATIC_READINGS.name: 1, TRIAL_EVENTS.name: 6, GYRO.name: 60})
+    ]
     boundaries = []
     w = BagWriter(bag, flush_period_s=1e9)
     w.open()

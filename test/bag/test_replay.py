@@ -30,8 +30,6 @@ from test.support.replay import LIVE_OPTIONS, run_cli
 REPO = Path(__file__).resolve().parents[2]
 
 
-
-
 @pytest.fixture(scope="module")
 def raw_bag(session: SimulatedSession, tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The session's input stream only.
@@ -65,8 +63,11 @@ def test_replay_equals_the_offline_core_path(session: SimulatedSession, raw_bag:
     ours = result.parameters
     assert ours is not None
     assert list(ours.parameters.names) == list(core.parameters.names)
-    for got, want in ((ours.parameters.values, core.parameters.values), (ours.parameters.sigmas,
-                      core.parameters.sigmas), (ours.parameters.covariance, core.parameters.covariance)):
+    for got, want in (
+        (ours.parameters.values, core.parameters.values),
+        (ours.parameters.sigmas, core.parameters.sigmas),
+        (ours.parameters.covariance, core.parameters.covariance),
+    ):
         assert relative_difference(got, want)[0] <= 1e-12
     ms = canonical_with_sigma(core)
     speeds = critical_speeds(ms.matrices, ms.g)
@@ -84,8 +85,15 @@ def test_replay_reproduces_the_recorded_live_results(live_bag: Path) -> None:
     live = result.live
     assert live.compared_trials == len(result.trials) and not live.missing
     compared = {d.what for d in live.differences}
-    assert {"combined periods", "parameters", "parameter covariance", "canonical matrices", "weave speed",
-            "capsize speed", "eigenvalues"} <= compared
+    assert {
+        "combined periods",
+        "parameters",
+        "parameter covariance",
+        "canonical matrices",
+        "weave speed",
+        "capsize speed",
+        "eigenvalues",
+    } <= compared
     assert live.identical, live.worst
     code, out, err = run_cli("replay", str(live_bag))
     assert (code, err) == (0, "")
@@ -103,8 +111,11 @@ def test_other_fit_settings_are_used_and_reported_as_different(live_bag: Path) -
     assert not result.complete and result.live.largest_move(trials=False) is None
     result = replay_bag(live_bag, ReplaySettings(fit=FitOverrides(window=WindowPolicy.lead_in(2.0))))
     assert result.complete and not result.live.identical
-    moved = [abs(t.result.fit.period - t.recorded.fit.period) / t.recorded.fit.period_sigma
-             for t in result.trials if t.recorded is not None]  # fmt: skip
+    moved = [
+        abs(t.result.fit.period - t.recorded.fit.period) / t.recorded.fit.period_sigma
+        for t in result.trials
+        if t.recorded is not None
+    ]
     trial = result.live.largest_move(trials=True)
     assert trial is not None and trial.in_sigma == pytest.approx(max(moved), rel=1e-12) and trial.in_sigma > 0
     results = result.live.largest_move(trials=False)
@@ -126,8 +137,32 @@ def test_json_output(session: SimulatedSession, live_bag: Path) -> None:
     data = json.loads(out)
     assert data["bicycle"] == "Browser"
     assert set(data["parameters"]) == {
-        "IBxx", "IBxz", "IByy", "IBzz", "IFxx", "IFyy", "IHxx", "IHxz", "IHyy", "IHzz", "IRxx", "IRyy", "c",
-        "g", "lam", "mB", "mF", "mH", "mR", "rF", "rR", "w", "xB", "xH", "zB", "zH",
+        "IBxx",
+        "IBxz",
+        "IByy",
+        "IBzz",
+        "IFxx",
+        "IFyy",
+        "IHxx",
+        "IHxz",
+        "IHyy",
+        "IHzz",
+        "IRxx",
+        "IRyy",
+        "c",
+        "g",
+        "lam",
+        "mB",
+        "mF",
+        "mH",
+        "mR",
+        "rF",
+        "rR",
+        "w",
+        "xB",
+        "xH",
+        "zB",
+        "zH",
     }
     assert all(set(v) == {"value", "sigma"} for v in data["parameters"].values())
     assert isinstance(data["weave_speed"], float) and isinstance(data["capsize_speed"], float)
@@ -142,8 +177,11 @@ def test_json_output(session: SimulatedSession, live_bag: Path) -> None:
 
 def test_an_incomplete_session_exits_1(session: SimulatedSession, tmp_path: Path) -> None:
     dropped = {t.name for t in session.trials_of("TtB2")}
-    messages = [m for m in simulated_messages(session, pause_s=2.0)
-                if m.topic == STATIC_READINGS.name or str(m.message.trial_id) not in dropped]
+    messages = [
+        m
+        for m in simulated_messages(session, pause_s=2.0)
+        if m.topic == STATIC_READINGS.name or str(m.message.trial_id) not in dropped
+    ]
     bag = tmp_path / "incomplete"
     from bike_rig.bag.typestore import rig_typestore
     from bike_rig.bag.writer import BagWriter, contract_qos
@@ -179,8 +217,12 @@ def test_bad_input_is_one_line(session: SimulatedSession, tmp_path: Path) -> Non
     with pytest.raises(NoRigTopicsError):
         replay_bag(other)
     (tmp_path / "file.txt").write_text("x")
-    for path, reason in ((bag, "no StaticReadings message"), (other, "holds none of bike_rig's topics"),
-                         (tmp_path / "file.txt", "not a bag"), (tmp_path / "none", "no such file")):
+    for path, reason in (
+        (bag, "no StaticReadings message"),
+        (other, "holds none of bike_rig's topics"),
+        (tmp_path / "file.txt", "not a bag"),
+        (tmp_path / "none", "no such file"),
+    ):
         code, out, err = run_cli("replay", str(path))
         assert code == 2 and out == "" and err.count("\n") == 1
         assert err.startswith(f"bike-rig replay: error: {path}: ") and reason in err
@@ -208,8 +250,14 @@ def test_replay_runs_without_rclpy(live_bag: Path) -> None:
     site = live_bag.parent / "site"
     site.mkdir(exist_ok=True)
     (site / "rclpy_blocker.py").write_text(blocker)
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
-                         env={"PYTHONPATH": f"{REPO}:{site}", "PATH": "/usr/bin:/bin"}, cwd=REPO)
+    out = subprocess.run(
+        [sys.executable, "-c", code],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env={"PYTHONPATH": f"{REPO}:{site}", "PATH": "/usr/bin:/bin"},
+        cwd=REPO,
+    )
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "true"
 
@@ -234,8 +282,10 @@ def test_in_sigma() -> None:
 
 
 def test_relative_difference() -> None:
-    assert relative_difference([1.0, math.nan], [1.0, math.nan]) == (0.0, -1) or \
-        relative_difference([1.0, math.nan], [1.0, math.nan])[0] == 0.0
+    assert (
+        relative_difference([1.0, math.nan], [1.0, math.nan]) == (0.0, -1)
+        or relative_difference([1.0, math.nan], [1.0, math.nan])[0] == 0.0
+    )
     assert relative_difference([1.0, 2.0], [1.0, 2.0 * (1 + 1e-13)])[0] == pytest.approx(1e-13, rel=1e-3)
     assert relative_difference([1.0], [math.nan])[0] == math.inf
     assert relative_difference(np.zeros(2), np.zeros(3))[0] == math.inf

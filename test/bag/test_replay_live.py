@@ -27,14 +27,30 @@ def test_replay_of_a_live_session_is_identical(tmp_path: Path) -> None:
     rig_file = tmp_path / "rig.yaml"
     rig_file.write_text(yaml.safe_dump(rig))
     lines: list[str] = []
-    live = run_demo(tmp_path / "session", seed=3, time_scale=60.0, samples_per_batch=50, timeout_s=240,
-                    progress=lines.append, rig=rig_file)  # fmt: skip
+    live = run_demo(
+        tmp_path / "session",
+        seed=3,
+        time_scale=60.0,
+        samples_per_batch=50,
+        timeout_s=240,
+        progress=lines.append,
+        rig=rig_file,
+    )
     result = replay_bag(live.bag)
     assert result.complete and len(result.trials) == live.trials == 39
     assert {t.options_from for t in result.trials} == {"recorded"}
     compared = {d.what for d in result.live.differences if not d.what.startswith("trial ")}
-    assert compared == {"combined periods", "parameters", "parameter sigmas", "parameter covariance",
-                        "canonical matrices", "matrix sigmas", "weave speed", "capsize speed", "eigenvalues"}
+    assert compared == {
+        "combined periods",
+        "parameters",
+        "parameter sigmas",
+        "parameter covariance",
+        "canonical matrices",
+        "matrix sigmas",
+        "weave speed",
+        "capsize speed",
+        "eigenvalues",
+    }
     assert result.live.compared_trials == 39 and not result.live.missing
     assert result.live.identical, [d for d in result.live.differences if not d.identical][:5]
     # the demo's own view of the live results agrees too

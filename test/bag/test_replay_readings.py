@@ -38,13 +38,13 @@ def entered(session: SimulatedSession, tmp_path_factory: pytest.TempPathFactory)
     return entries_bag(tmp_path_factory.mktemp("entered") / "bag", session)[0]
 
 
-
-
 def assert_close(ours: ParameterSet | None, core: ParameterSet) -> None:
     assert ours is not None
     assert list(ours.parameters.names) == list(core.parameters.names)
-    for got, want in ((ours.parameters.values, core.parameters.values),
-                      (ours.parameters.covariance, core.parameters.covariance)):  # fmt: skip
+    for got, want in (
+        (ours.parameters.values, core.parameters.values),
+        (ours.parameters.covariance, core.parameters.covariance),
+    ):
         assert relative_difference(got, want)[0] <= 1e-12
 
 
@@ -94,9 +94,7 @@ def test_readings_swapped_from_a_corrected_file(session: SimulatedSession, enter
     assert data["parameters"]["mF"]["value"] == static.value("mF") + 0.15
 
 
-def test_a_reading_never_entered_is_one_line_and_a_file_completes_it(
-    session: SimulatedSession, tmp_path: Path
-) -> None:
+def test_a_reading_never_entered_is_one_line_and_a_file_completes_it(session: SimulatedSession, tmp_path: Path) -> None:
     bag, _ = entries_bag(tmp_path / "bag", session, skip=("gamma", "aH2"))
     code, out, err = run_cli("replay", str(bag))
     assert code == 2 and out == ""
@@ -123,6 +121,4 @@ def test_plot_budget_and_subjects_read_the_readings_from_the_bag(
     assert printed and all(Path(p).is_file() and Path(p).stat().st_size > 0 for p in printed)
     assert main(["budget", str(entered), "--json"]) == 0
     budget = json.loads(capsys.readouterr().out)
-    assert "gamma" in budget["inputs"] and np.isclose(
-        sum(s["share"] for s in budget["outputs"][0]["shares"]), 1.0
-    )
+    assert "gamma" in budget["inputs"] and np.isclose(sum(s["share"] for s in budget["outputs"][0]["shares"]), 1.0)

@@ -34,12 +34,22 @@ def test_republished_stream_is_recorded_identically(
     two_trials = dataclasses.replace(session, trials=session.trials[:2])
     source = write_simulated_bag(tmp_path / "source", two_trials, pause_s=1.0)
     with open_bag(source) as b:
-        original = {t: [(m.log_time, m.data) for m in b.messages([t])] for t in (STATIC_READINGS.name,
-                                                                                  TRIAL_EVENTS.name, GYRO.name)}
+        original = {
+            t: [(m.log_time, m.data) for m in b.messages([t])]
+            for t in (STATIC_READINGS.name, TRIAL_EVENTS.name, GYRO.name)
+        }
     expected = {t: len(v) for t, v in original.items()}
     copy = tmp_path / "copy"
-    argv = [sys.executable, "-m", "bike_rig.bag.republish", str(source), "--rate-scale", str(RATE_SCALE),
-            "--wait", str(STEP_TIMEOUT_S)]
+    argv = [
+        sys.executable,
+        "-m",
+        "bike_rig.bag.republish",
+        str(source),
+        "--rate-scale",
+        str(RATE_SCALE),
+        "--wait",
+        str(STEP_TIMEOUT_S),
+    ]
     with start_recorder(tmp_path, env, copy, "topics:=[gyro, trial_events, static_readings]") as rec:
         with RosProcess("republish", argv, env, tmp_path) as pub:
             summary = pub.expect("published", STEP_TIMEOUT_S)

@@ -70,8 +70,13 @@ def write_bag(path: Path, session: SimulatedSession, definition: str | None, rec
     with BagWriter(path, flush_period_s=3600.0) as w:
         for t in TOPICS:
             mine = t is GYRO and definition is not None
-            w.add_topic(t.name, t.type, offered_qos=[contract_qos(t.qos)], msgdef=definition if mine else None,
-                        rihs01=recorded_hash if mine else None)  # fmt: skip
+            w.add_topic(
+                t.name,
+                t.type,
+                offered_qos=[contract_qos(t.qos)],
+                msgdef=definition if mine else None,
+                rihs01=recorded_hash if mine else None,
+            )
         for k, m in enumerate(messages):
             if m.topic == GYRO.name:
                 data = store.serialize_cdr(_as(store, m.message, GYRO.type), GYRO.type)
@@ -148,10 +153,12 @@ def test_the_installed_definition_keeps_the_fast_decoder(installed_bag: Path, mo
     ("fields", "reason"),
     [
         (REORDERED.replace("float64[] raw_volts\n", ""), "bike_rig_msgs/GyroBatch has no field raw_volts"),
-        (REORDERED.replace("float64[] rates", "float32[] rates"),
-         "bike_rig_msgs/GyroBatch.rates is float32[], here float64[]"),
+        (
+            REORDERED.replace("float64[] rates", "float32[] rates"),
+            "bike_rig_msgs/GyroBatch.rates is float32[], here float64[]",
+        ),
     ],
-)  # fmt: skip
+)
 def test_a_definition_without_what_bike_rig_reads_is_refused_in_one_line(
     session: SimulatedSession, tmp_path: Path, fields: str, reason: str
 ) -> None:

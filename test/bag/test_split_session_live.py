@@ -50,9 +50,17 @@ def test_a_session_split_by_size_and_by_request_replays_as_the_unsplit_recording
         state["split"] = probe.call(client, srvs.SplitBag.Request())
 
     try:
-        live = run_demo(tmp_path / "session", seed=3, time_scale=60.0, samples_per_batch=50, timeout_s=240,
-                        progress=lambda _: None, rig=rig_file, on_progress=split_once,
-                        recorder={"max_bag_size": MAX_BAG_SIZE})  # fmt: skip
+        live = run_demo(
+            tmp_path / "session",
+            seed=3,
+            time_scale=60.0,
+            samples_per_batch=50,
+            timeout_s=240,
+            progress=lambda _: None,
+            rig=rig_file,
+            on_progress=split_once,
+            recorder={"max_bag_size": MAX_BAG_SIZE},
+        )
     finally:
         if "probe" in state:
             state["probe"].close()

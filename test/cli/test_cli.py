@@ -26,8 +26,6 @@ def _browser_txt() -> Path:
     return shared_dir() / "data" / "bicycleparameters" / "Browser" / "RawData" / "BrowserMeasured.txt"
 
 
-
-
 def test_params_json(capsys: pytest.CaptureFixture[str]) -> None:
     code, out, _ = run(capsys, "params", str(BROWSER_YAML), "--json")
     assert code == 0
@@ -115,8 +113,6 @@ def _edit(tmp_path: Path, source: Path, old: str, new: str, name: str | None = N
 
 def _line_of(path: Path, fragment: str) -> int:
     return next(i for i, line in enumerate(path.read_text().splitlines(), 1) if fragment in line)
-
-
 
 
 def test_missing_key_bp(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:

@@ -22,9 +22,25 @@ from bike_rig.cli.main import main
 from bike_rig.core.errors import BikeRigError
 from test.support.signals import coupled_trial, gyro_trial
 
-JSON_KEYS = {"file", "period", "period_sigma", "valid", "flags", "r2", "zeta", "omega", "n_samples", "window",
-             "damping_model", "friction", "friction_sigma", "swing_amplitude", "swing_kappa", "small_swing_period",
-             "small_swing_period_sigma"}  # fmt: skip
+JSON_KEYS = {
+    "file",
+    "period",
+    "period_sigma",
+    "valid",
+    "flags",
+    "r2",
+    "zeta",
+    "omega",
+    "n_samples",
+    "window",
+    "damping_model",
+    "friction",
+    "friction_sigma",
+    "swing_amplitude",
+    "swing_kappa",
+    "small_swing_period",
+    "small_swing_period_sigma",
+}
 
 
 def bare_parser_run(argv: Sequence[str]) -> int:
@@ -126,9 +142,16 @@ def test_groups_by_period_key(capsys: pytest.CaptureFixture[str], tmp_path: Path
             samples = gyro_trial(10 * k + len(order), period=period).samples
             savemat(
                 tmp_path / name,
-                {"data": samples, "ActualRate": 1000.0, "bicycle": "Browser", "part": "Frame",
-                 "pendulum": "Torsional", "angleOrder": order, "trial": str(k)},
-            )  # fmt: skip
+                {
+                    "data": samples,
+                    "ActualRate": 1000.0,
+                    "bicycle": "Browser",
+                    "part": "Frame",
+                    "pendulum": "Torsional",
+                    "angleOrder": order,
+                    "trial": str(k),
+                },
+            )
             files.append(str(tmp_path / name))
     code, out, _ = run(capsys, "fit", *files)
     assert code == 0

@@ -85,9 +85,22 @@ def test_model_kinds_per_rider(tmp_path: Path, capsys: pytest.CaptureFixture[str
     assert code == 0, err
     assert lines == [str(tmp_path / "eigen.png"), str(tmp_path / "eigen_rider.png")]
     code, lines, err = run(
-        capsys, "plot", "bode", BROWSER, YELLOW, "-o", str(tmp_path), "--rider", "paper",
-        "--input", "roll-torque", "--output", "steer_angle", "--speed", "4",
-    )  # fmt: skip
+        capsys,
+        "plot",
+        "bode",
+        BROWSER,
+        YELLOW,
+        "-o",
+        str(tmp_path),
+        "--rider",
+        "paper",
+        "--input",
+        "roll-torque",
+        "--output",
+        "steer_angle",
+        "--speed",
+        "4",
+    )
     assert code == 0, err
     assert lines == [str(tmp_path / "bode_rider.png")]
 

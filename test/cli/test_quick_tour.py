@@ -64,8 +64,22 @@ def test_the_quick_tour_runs_from_an_empty_folder(empty: Path) -> None:
 
 
 def test_the_ride_example_runs_from_an_empty_folder(empty: Path) -> None:
-    _ok(empty, "ride", "simulate", "browser", "--speed", "4", "-o", "ride.csv", "--rider", "paper",
-        "--feedback", "balance_assist", "--seed", "1")  # fmt: skip
+    _ok(
+        empty,
+        "ride",
+        "simulate",
+        "browser",
+        "--speed",
+        "4",
+        "-o",
+        "ride.csv",
+        "--rider",
+        "paper",
+        "--feedback",
+        "balance_assist",
+        "--seed",
+        "1",
+    )
     assert "segments combined" in _ok(empty, "ride", "fit", "ride.csv")
     out = _ok(empty, "ride", "validate", BROWSER, "ride.csv", "--rider", "paper", "--feedback", FEEDBACK)
     assert "verdict:" in out and "hint:" not in out

@@ -32,8 +32,28 @@ def rides(tmp_path_factory: pytest.TempPathFactory) -> list[str]:
     paths = []
     for k, v in enumerate(("2.5", "3.5", "4.5")):
         path = out / f"ride_{k}.csv"
-        assert main(["ride", "simulate", BROWSER, "--rider", "paper", "--feedback", ASSIST, "--speed", v,
-                     "--duration", "14", "--seed", str(k), "-o", str(path)]) == 0  # fmt: skip
+        assert (
+            main(
+                [
+                    "ride",
+                    "simulate",
+                    BROWSER,
+                    "--rider",
+                    "paper",
+                    "--feedback",
+                    ASSIST,
+                    "--speed",
+                    v,
+                    "--duration",
+                    "14",
+                    "--seed",
+                    str(k),
+                    "-o",
+                    str(path),
+                ]
+            )
+            == 0
+        )
         paths.append(str(path))
     return paths
 
@@ -41,8 +61,20 @@ def rides(tmp_path_factory: pytest.TempPathFactory) -> list[str]:
 def test_calibrate_finds_the_rider_aboard_at_the_nominal_gains(
     capsys: pytest.CaptureFixture[str], rides: list[str], tmp_path: Path
 ) -> None:
-    code, out, _ = run(capsys, "ride", "calibrate", BROWSER, *rides, "--rider", "paper", "--feedback", ASSIST,
-                       "--json", "-o", str(tmp_path / "figs"))  # fmt: skip
+    code, out, _ = run(
+        capsys,
+        "ride",
+        "calibrate",
+        BROWSER,
+        *rides,
+        "--rider",
+        "paper",
+        "--feedback",
+        ASSIST,
+        "--json",
+        "-o",
+        str(tmp_path / "figs"),
+    )
     assert code == 0
     got = json.loads(out)
     assert {"data", "variants", "best", "verdict", "explained", "prior_band", "posterior_band"} <= set(got)

@@ -25,8 +25,28 @@ def run(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
 @pytest.fixture(scope="module")
 def long_csv(tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("ride") / "long.csv"
-    assert main(["ride", "simulate", BROWSER, "--rider", "paper", "--feedback", ASSIST, "--speed", "4.5",
-                 "--duration", "25", "--seed", "3", "-o", str(out)]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "ride",
+                "simulate",
+                BROWSER,
+                "--rider",
+                "paper",
+                "--feedback",
+                ASSIST,
+                "--speed",
+                "4.5",
+                "--duration",
+                "25",
+                "--seed",
+                "3",
+                "-o",
+                str(out),
+            ]
+        )
+        == 0
+    )
     return out
 
 
@@ -50,8 +70,15 @@ def test_validate_agrees_with_the_closed_loop_and_not_the_open(
     code, out, _ = run(capsys, *base, "--feedback", ASSIST, "-o", str(tmp_path / "figs"))
     assert code == 0
     got = json.loads(out)
-    assert {"segments", "predicted_real", "predicted_imag", "predicted_real_sigma", "predicted_imag_sigma",
-            "normalised_deviation", "speeds"} <= set(got)  # fmt: skip
+    assert {
+        "segments",
+        "predicted_real",
+        "predicted_imag",
+        "predicted_real_sigma",
+        "predicted_imag_sigma",
+        "normalised_deviation",
+        "speeds",
+    } <= set(got)
     assert len(got["predicted_real"]) == len(got["segments"]) == 4
     assert got["normalised_deviation"] < 3.0
     assert (tmp_path / "figs" / "ride_validation.png").stat().st_size > 0
@@ -62,11 +89,26 @@ def test_validate_agrees_with_the_closed_loop_and_not_the_open(
 
 def test_bag_records_are_read_with_the_imu_default(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
     bag = tmp_path / "ride_bag"
-    code, _, _ = run(capsys, "ride", "simulate", BROWSER, "--rider", "paper", "--feedback", ASSIST, "--speed", "4.0",
-                     "--duration", "14", "-o", str(bag))  # fmt: skip
+    code, _, _ = run(
+        capsys,
+        "ride",
+        "simulate",
+        BROWSER,
+        "--rider",
+        "paper",
+        "--feedback",
+        ASSIST,
+        "--speed",
+        "4.0",
+        "--duration",
+        "14",
+        "-o",
+        str(bag),
+    )
     assert code == 0
-    code, out, _ = run(capsys, "ride", "fit", str(bag), "--json", "--speed", "4.0", "--torque-topic",
-                       "/ride/steer_torque")  # fmt: skip
+    code, out, _ = run(
+        capsys, "ride", "fit", str(bag), "--json", "--speed", "4.0", "--torque-topic", "/ride/steer_torque"
+    )
     segs = json.loads(out)
     assert code == 0 and len(segs) == 2 and all(s["valid"] for s in segs)
     assert np.all(np.array([s["imag"] for s in segs]) > 0)
@@ -94,8 +136,9 @@ def test_user_mistakes_end_in_one_line(
     capsys: pytest.CaptureFixture[str], tmp_path: Path, long_csv: Path, argv: tuple[str, ...], expect: str
 ) -> None:
     nospeed = tmp_path / "nospeed.csv"
-    nospeed.write_text("\n".join(line.split(",")[0] + "," + line.split(",")[1]
-                                 for line in long_csv.read_text().splitlines()[:400]))  # fmt: skip
+    nospeed.write_text(
+        "\n".join(line.split(",")[0] + "," + line.split(",")[1] for line in long_csv.read_text().splitlines()[:400])
+    )
     args = [a.format(csv=long_csv, nospeed=nospeed, tmp=tmp_path) for a in argv]
     code, _, err = run(capsys, *args)
     assert code == 2 and expect in err and len(err.strip().splitlines()) == 1 and "Traceback" not in err
@@ -104,8 +147,20 @@ def test_user_mistakes_end_in_one_line(
 def test_plot_ride_is_a_registered_figure_drawn_only_for_records(
     capsys: pytest.CaptureFixture[str], long_csv: Path, tmp_path: Path
 ) -> None:
-    code, out, _ = run(capsys, "plot", "ride", BROWSER, "--rider", "paper", "--feedback", ASSIST, "--ride",
-                       str(long_csv), "-o", str(tmp_path))  # fmt: skip
+    code, out, _ = run(
+        capsys,
+        "plot",
+        "ride",
+        BROWSER,
+        "--rider",
+        "paper",
+        "--feedback",
+        ASSIST,
+        "--ride",
+        str(long_csv),
+        "-o",
+        str(tmp_path),
+    )
     assert code == 0 and out.split() == [str(tmp_path / "ride_rider.png")]
     code, _, err = run(capsys, "plot", "ride", BROWSER, "-o", str(tmp_path))
     assert code == 2 and "--ride RECORD" in err

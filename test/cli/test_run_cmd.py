@@ -49,8 +49,10 @@ def test_unknown_param_names_the_nodes_parameters(here: Path, capsys: pytest.Cap
     assert code == 2 and out == ""
     lines = err.strip().splitlines()
     assert len(lines) == 1, err
-    assert lines[0].startswith("bike-rig run: error: node 'driver' has no parameter 'tyme_scale' (did you mean "
-                               "'time_scale'?); its parameters: source, frame_id, ")  # fmt: skip
+    assert lines[0].startswith(
+        "bike-rig run: error: node 'driver' has no parameter 'tyme_scale' (did you mean "
+        "'time_scale'?); its parameters: source, frame_id, "
+    )
     assert "time_scale" in lines[0].split("its parameters:")[1] and "bicycle" in lines[0]
     assert list(here.iterdir()) == []  # no session folder, no log
 
@@ -58,8 +60,10 @@ def test_unknown_param_names_the_nodes_parameters(here: Path, capsys: pytest.Cap
 @pytest.mark.parametrize(
     ("argv", "message"),
     [
-        (["--param", "fitter.min_cyclez=3"],
-         "node 'fitter' has no parameter 'min_cyclez' (did you mean 'min_cycles'?)"),
+        (
+            ["--param", "fitter.min_cyclez=3"],
+            "node 'fitter' has no parameter 'min_cyclez' (did you mean 'min_cycles'?)",
+        ),
         (["--param", "nodex.a=1"], "no node named 'nodex' (nodes: driver, fitter, model, parameter, recorder)"),
         (["--param", "driver.time_scale=fast"], "node 'driver': parameter 'time_scale' = 'fast': expected a number"),
         (["--param", "driver.time_scale=5000"], "node 'driver': parameter 'time_scale' = 5000: must be <= 1000"),
@@ -68,8 +72,10 @@ def test_unknown_param_names_the_nodes_parameters(here: Path, capsys: pytest.Cap
         (["--domain-id", "102"], "--domain-id=102 is outside 0..101, the domain ids Fast DDS supports on Linux"),
         (["--domain-id", "-1"], "--domain-id=-1 is outside 0..101"),
         (["--domain-id", "seven"], "--domain-id='seven' is not an integer in 0..101"),
-        (["--param", "driver.bicycle=nowhere.yaml"], "node 'driver': parameter 'bicycle' = 'nowhere.yaml': no such "
-                                                     "file (looked in "),  # fmt: skip
+        (
+            ["--param", "driver.bicycle=nowhere.yaml"],
+            "node 'driver': parameter 'bicycle' = 'nowhere.yaml': no such file (looked in ",
+        ),
         (["--config", "nowhere.yaml"], "nowhere.yaml: cannot read the file"),
         (["--without", "drivr"], "no node named 'drivr' (nodes: recorder, fitter, parameter, model, driver)"),
         (["--only", "driver", "--without", "driver"], "no node left to start"),
@@ -257,8 +263,9 @@ def test_awaited_are_results_the_set_that_holds_them_and_its_model() -> None:
     tr.add(_fit("c", "TtB2", ("beating",)))  # flagged: it enters no set
     assert tr.awaiting() == ["the parameter set (2 result(s) not in it yet)"]  # (none published yet)
     assert tr.awaiting(parameters=False) == []  # a graph without a parameter node
-    held_a = SessionParameters("Browser", ComMethod.CENTROID, (KeyPeriod("TcR1", 1.5, 2.5e-5, ("a",)),),
-                               ("TtR1", "TtB2"))  # fmt: skip
+    held_a = SessionParameters(
+        "Browser", ComMethod.CENTROID, (KeyPeriod("TcR1", 1.5, 2.5e-5, ("a",)),), ("TtR1", "TtB2")
+    )
     tr.add(held_a)
     assert tr.awaiting() == ["the parameter set (1 result(s) not in it yet)"]
     periods = (KeyPeriod("TcR1", 1.5, 2.5e-5, ("a",)), KeyPeriod("TtR1", 1.5, 2.5e-5, ("b",)))

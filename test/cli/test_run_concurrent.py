@@ -33,8 +33,15 @@ def test_three_graphs_at_once_lose_nothing_and_agree_with_their_bags(tmp_path: P
         domains = [stack.enter_context(unique_domain_id()) for _ in range(GRAPHS)]
         runs = []
         for i, domain in enumerate(domains):
-            cmd = _bike_rig("run", "--out", f"g{i}", "--param", f"driver.time_scale={TIME_SCALE}",
-                            "--param", "driver.exit_when_done=true")  # fmt: skip
+            cmd = _bike_rig(
+                "run",
+                "--out",
+                f"g{i}",
+                "--param",
+                f"driver.time_scale={TIME_SCALE}",
+                "--param",
+                "driver.exit_when_done=true",
+            )
             out = (tmp_path / f"g{i}.out").open("w")
             stack.callback(out.close)
             env = ros_environment(domain_id=domain)
@@ -53,8 +60,9 @@ def test_three_graphs_at_once_lose_nothing_and_agree_with_their_bags(tmp_path: P
         assert redo_gaps == [], text
         assert "39 trial(s): " in text and ", 0 without a result" in text, text
         assert "parameters: complete (Browser)" in text, text
-        replay = subprocess.run(_bike_rig("replay", f"g{i}/bag", "--json"), cwd=tmp_path, capture_output=True,
-                                text=True, timeout=120)  # fmt: skip
+        replay = subprocess.run(
+            _bike_rig("replay", f"g{i}/bag", "--json"), cwd=tmp_path, capture_output=True, text=True, timeout=120
+        )
         assert replay.returncode == 0, replay.stderr
         result = json.loads(replay.stdout)
         assert result["complete"] and result["live"]["compared_trials"] == 39, replay.stdout

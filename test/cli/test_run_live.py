@@ -25,9 +25,20 @@ from test.support.live import BEATING, RESULT, all_lines, bike_rig_argv, live_ri
 def test_the_default_graph_runs_end_to_end_and_prints_every_result(ros_env: dict[str, str], tmp_path: Path) -> None:
     live_rig(tmp_path)
     cmd = bike_rig_argv(
-        "run", "--out", "session", "--param", "driver.rig=rig.yaml", "--param", "driver.bicycle=bicycles/browser.yaml",
-        "--param", "driver.time_scale=100", "--param", "driver.exit_when_done=true", "--param", "driver.seed=4",
-    )  # fmt: skip
+        "run",
+        "--out",
+        "session",
+        "--param",
+        "driver.rig=rig.yaml",
+        "--param",
+        "driver.bicycle=bicycles/browser.yaml",
+        "--param",
+        "driver.time_scale=100",
+        "--param",
+        "driver.exit_when_done=true",
+        "--param",
+        "driver.seed=4",
+    )
     t0 = time.monotonic()
     done = subprocess.run(cmd, cwd=tmp_path, env=ros_env, capture_output=True, text=True, timeout=120)
     wall = time.monotonic() - t0
@@ -54,8 +65,13 @@ def test_the_default_graph_runs_end_to_end_and_prints_every_result(ros_env: dict
     assert "  bag:  session/bag  (bike-rig bag info | replay | report BAG)" in lines
     assert "  logs: session/logs" in lines
     assert sorted(p.name for p in (tmp_path / "session" / "logs").iterdir()) == [
-        "driver.log", "fitter.log", "model.log", "parameter.log", "pids", "recorder.log",
-    ]  # fmt: skip
+        "driver.log",
+        "fitter.log",
+        "model.log",
+        "parameter.log",
+        "pids",
+        "recorder.log",
+    ]
     assert "bike-rig run: parameter.measurements = bicycles/browser.yaml (the static readings of driver.bicycle)" in (
         done.stderr
     )
@@ -70,10 +86,18 @@ def test_ctrl_c_during_a_trial_records_abort_and_prints_a_summary(ros_env: dict[
     live_rig(tmp_path, beating=False)
     out_dir = tmp_path / "s"
     cmd = bike_rig_argv(
-        "run", "--out", str(out_dir), "--param", f"driver.rig={tmp_path / 'rig.yaml'}",
-        "--param", "driver.time_scale=10", "--param", "driver.seed=4",
-        "--param", "driver.pause_between_trials_s=0.0",  # no pause: Ctrl-C always lands in a trial
-    )  # fmt: skip
+        "run",
+        "--out",
+        str(out_dir),
+        "--param",
+        f"driver.rig={tmp_path / 'rig.yaml'}",
+        "--param",
+        "driver.time_scale=10",
+        "--param",
+        "driver.seed=4",
+        "--param",
+        "driver.pause_between_trials_s=0.0",  # no pause: Ctrl-C always lands in a trial
+    )
     run = RosProcess("run", cmd, ros_env, tmp_path)
     try:
         seen = 0
@@ -101,8 +125,6 @@ def test_ctrl_c_during_a_trial_records_abort_and_prints_a_summary(ros_env: dict[
     assert "Ctrl-C again" in (tmp_path / "run.stderr").read_text()
 
 
-
-
 def test_a_run_that_fails_at_start_leaves_no_empty_bag(ros_env: dict[str, str], tmp_path: Path) -> None:
     (tmp_path / "mybike.yaml").write_text(config_file("bicycles/browser.yaml").read_text())  # not a session
     cmd = bike_rig_argv("run", "--out", "s", "--param", "driver.session=mybike.yaml")
@@ -118,9 +140,7 @@ def test_a_run_that_fails_at_start_leaves_no_empty_bag(ros_env: dict[str, str], 
     assert "trial(s)" not in done.stdout  # nothing to summarise
 
 
-def test_a_node_started_with_a_domain_id_above_101_says_so_in_one_line(
-    ros_env: dict[str, str], tmp_path: Path
-) -> None:
+def test_a_node_started_with_a_domain_id_above_101_says_so_in_one_line(ros_env: dict[str, str], tmp_path: Path) -> None:
     env = {**ros_env, "ROS_DOMAIN_ID": "150"}
     cmd = [sys.executable, "-m", "bike_rig.nodes.fitter", "--ros-args"]
     done = subprocess.run(cmd, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=60)

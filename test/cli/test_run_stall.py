@@ -42,9 +42,20 @@ def _stderr_line(run: RosProcess, needle: str, timeout_s: float) -> str:
 def test_a_stalled_parameter_node_is_said_waited_for_and_caught_up(ros_env: dict[str, str], tmp_path: Path) -> None:
     rig, folder = live_rig(tmp_path, beating=False), tmp_path / "session"
     cmd = bike_rig_argv(
-        "run", "--out", str(folder), "--param", f"driver.rig={rig}", "--param", "driver.bicycle=bicycles/browser.yaml",
-        "--param", "driver.time_scale=25", "--param", "driver.exit_when_done=true", "--param", "driver.seed=4",
-    )  # fmt: skip
+        "run",
+        "--out",
+        str(folder),
+        "--param",
+        f"driver.rig={rig}",
+        "--param",
+        "driver.bicycle=bicycles/browser.yaml",
+        "--param",
+        "driver.time_scale=25",
+        "--param",
+        "driver.exit_when_done=true",
+        "--param",
+        "driver.seed=4",
+    )
     run = RosProcess("run", cmd, node_environment(ros_env), tmp_path)  # (this checkout's bike_rig, nodes too)
     parameter = 0
     try:

@@ -45,8 +45,18 @@ def _node_pid(domain: str, name: str) -> int | None:
 def test_stalled_fitter_parameter_and_model_nodes_lose_no_trial(ros_env: dict[str, str], tmp_path: Path) -> None:
     hogs = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(HOGS)]
     out_path = tmp_path / "run.out"
-    cmd = [sys.executable, "-m", "bike_rig.cli.main", "run", "--out", "session", "--param", "driver.time_scale=25",
-           "--param", "driver.exit_when_done=true"]  # fmt: skip
+    cmd = [
+        sys.executable,
+        "-m",
+        "bike_rig.cli.main",
+        "run",
+        "--out",
+        "session",
+        "--param",
+        "driver.time_scale=25",
+        "--param",
+        "driver.exit_when_done=true",
+    ]
     stopped: dict[str, int] = {}
     shown_while_stopped: list[str] = []
     try:

@@ -155,9 +155,16 @@ def _split_run(
         hosts.desk, "run", "--without", "driver", "--peer", hosts.rig_address, "--out", str(tmp / "desk")
     )
     rig_cmd = _bike_rig(
-        hosts.rig, "run", "--only", "driver", "--peer", hosts.desk_address, "--out", str(tmp / "rig"),
+        hosts.rig,
+        "run",
+        "--only",
+        "driver",
+        "--peer",
+        hosts.desk_address,
+        "--out",
+        str(tmp / "rig"),
         *_driver_params(rig, time_scale, exit_when_done=drop_after is None),
-    )  # fmt: skip
+    )
     desk = RosProcess("desk", desk_cmd, env, tmp)
     driver: RosProcess | None = None
     try:

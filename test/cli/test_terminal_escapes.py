@@ -43,8 +43,9 @@ def test_report_and_import_bp_print_the_name_escaped(
 
 def test_ride_simulate_prints_its_output_path_escaped(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
     out_path = tmp_path / "r\x1b[2J.csv"
-    code, out, err = run(capsys, "ride", "simulate", str(BENCHMARK), "--speed", "5", "--duration", "3", "-o",
-                         str(out_path))  # fmt: skip
+    code, out, err = run(
+        capsys, "ride", "simulate", str(BENCHMARK), "--speed", "5", "--duration", "3", "-o", str(out_path)
+    )
     assert code == 0, err
     assert "r\\x1b[2J.csv" in out and not RAW_CONTROLS & set(out + err)
 

@@ -55,12 +55,24 @@ def test_a_run_with_the_view_serves_what_the_bag_records(ros_env: dict[str, str]
     _rig(tmp_path, beating=False)
     port = free_port()
     cmd = _bike_rig(
-        "run", "--config", "graph_view.yaml", "--out", str(tmp_path / "session"),
-        "--param", f"driver.rig={tmp_path / 'rig.yaml'}",
-        "--param", "driver.bicycle=bicycles/browser.yaml", "--param", "driver.time_scale=25",
-        "--param", "driver.exit_when_done=true", "--param", "driver.seed=4",
-        "--param", f"foxglove_bridge.port={port}",
-    )  # fmt: skip
+        "run",
+        "--config",
+        "graph_view.yaml",
+        "--out",
+        str(tmp_path / "session"),
+        "--param",
+        f"driver.rig={tmp_path / 'rig.yaml'}",
+        "--param",
+        "driver.bicycle=bicycles/browser.yaml",
+        "--param",
+        "driver.time_scale=25",
+        "--param",
+        "driver.exit_when_done=true",
+        "--param",
+        "driver.seed=4",
+        "--param",
+        f"foxglove_bridge.port={port}",
+    )
     served = {v.name for v in VIEW_TOPICS} - {DIAGNOSTICS.name}
     t0 = time.monotonic()
     with RosProcess("run", cmd, ros_env, tmp_path) as run:
@@ -104,8 +116,10 @@ def test_a_run_with_the_view_serves_what_the_bag_records(ros_env: dict[str, str]
             )
     params = store.deserialize_cdr(got[PARAMETERS.name][-1], PARAMETERS.type)
     assert params.complete and len(params.names) == len(params.values) >= 25
-    print(f"bike-rig run with the view, 13 trials at 25x: {wall:.1f} s wall; {len(gyro)} of "
-          f"{len(bag[GYRO.name])} gyro batches live")  # fmt: skip
+    print(
+        f"bike-rig run with the view, 13 trials at 25x: {wall:.1f} s wall; {len(gyro)} of "
+        f"{len(bag[GYRO.name])} gyro batches live"
+    )
 
 
 def test_bike_rig_view_prints_where_to_connect_and_serves(ros_env: dict[str, str], tmp_path: Path) -> None:
@@ -121,8 +135,9 @@ def test_bike_rig_view_prints_where_to_connect_and_serves(ros_env: dict[str, str
                 assert client.server_info is not None and client.server_info["name"] == "bike_rig"
         official = official_client()
         if official is not None:  # the official client (@foxglove/ws-protocol), offering foxglove.websocket.v1
-            out = subprocess.run([*official, f"ws://127.0.0.1:{port}", "0"], capture_output=True, text=True,
-                                 timeout=60, check=False)  # fmt: skip
+            out = subprocess.run(
+                [*official, f"ws://127.0.0.1:{port}", "0"], capture_output=True, text=True, timeout=60, check=False
+            )
             events = [json.loads(line) for line in out.stdout.splitlines()]
             assert out.returncode == 0, (out.stdout, out.stderr)
             assert events[0] == {"event": "open", "protocol": LEGACY_SUBPROTOCOL}, events

@@ -24,9 +24,7 @@ def test_steer_axis_tilt_eq7_and_trail_eq8_round_trip() -> None:
 
 
 @settings(max_examples=50, deadline=None)
-@given(
-    x0=st.floats(0.1, 1.0), z0=st.floats(-1.0, -0.2), a=st.floats(-0.5, 0.5), alpha=st.floats(-170.0, 170.0)
-)
+@given(x0=st.floats(0.1, 1.0), z0=st.floats(-1.0, -0.2), a=st.floats(-0.5, 0.5), alpha=st.floats(-170.0, 170.0))
 def test_com_line_intercepts_are_at_the_measured_distance(x0: float, z0: float, a: float, alpha: float) -> None:
     """Eq 14 and Eq 21: the pendulum axis passes at perpendicular distance |a| from the axle."""
     lam, rR, rF, w = 0.35, 0.34, 0.345, 1.1
@@ -61,6 +59,7 @@ def test_centroid_and_least_squares_differ_for_inconsistent_lines() -> None:
     pairs = ((0, 1), (0, 2), (1, 2))
     pts = [com.line_intersection(slopes[i], intercepts[i], slopes[j], intercepts[j]) for i, j in pairs]
     assert (xc, zc) == pytest.approx(tuple(np.mean(pts, axis=0)))
+
     # least squares minimises the summed squared vertical residuals; the centroid does not
     def cost(x: float, z: float) -> float:
         return sum((z - s * x - b) ** 2 for s, b in zip(slopes, intercepts))

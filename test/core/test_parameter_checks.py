@@ -134,14 +134,24 @@ def test_a_tilt_in_degrees_is_named_as_such_in_the_refusal(tmp_path: Path) -> No
 @pytest.mark.parametrize(
     ("key", "text", "expected"),
     [
-        ("w", "1121+/-2", "w = 1121 m is outside the plausible wheelbase (0.5 to 2.5 m): it looks like "
-                          "millimetres (w = 1.121 m)"),
-        ("mF", "2020+/-20", "mF = 2020 kg is outside the plausible front wheel mass (0.5 to 10 kg): it looks "
-                            "like grams (mF = 2.02 kg)"),
-        ("gamma", "1.171+/-0.0035", "gamma = 1.171 deg is outside the plausible head-tube angle (45 to 85 deg): "
-                                    "it looks like radians (gamma = 67.0934 deg)"),
+        (
+            "w",
+            "1121+/-2",
+            "w = 1121 m is outside the plausible wheelbase (0.5 to 2.5 m): it looks like millimetres (w = 1.121 m)",
+        ),
+        (
+            "mF",
+            "2020+/-20",
+            "mF = 2020 kg is outside the plausible front wheel mass (0.5 to 10 kg): it looks like grams (mF = 2.02 kg)",
+        ),
+        (
+            "gamma",
+            "1.171+/-0.0035",
+            "gamma = 1.171 deg is outside the plausible head-tube angle (45 to 85 deg): "
+            "it looks like radians (gamma = 67.0934 deg)",
+        ),
     ],
-)  # fmt: skip
+)
 def test_a_reading_in_a_wrong_unit_warns_with_the_file_line_unit_and_corrected_value(
     tmp_path: Path, key: str, text: str, expected: str
 ) -> None:

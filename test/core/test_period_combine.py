@@ -13,10 +13,22 @@ from test.support.signals import gyro_trial
 
 def _fit(period: float, sigma: float, flags: tuple[Flag, ...] = ()) -> PeriodFit:
     return PeriodFit(
-        period=period, period_sigma=sigma, zeta=0.0, omega=2 * math.pi / period, A=0.0, B=0.0, C=1.0,
-        r2=1.0, residual_rms=0.0, n_cycles=20.0, n_samples=30000, window=(0, 30000), valid=True,
-        flags=flags, window_policy=DEFAULT_WINDOW,
-    )  # fmt: skip
+        period=period,
+        period_sigma=sigma,
+        zeta=0.0,
+        omega=2 * math.pi / period,
+        A=0.0,
+        B=0.0,
+        C=1.0,
+        r2=1.0,
+        residual_rms=0.0,
+        n_cycles=20.0,
+        n_samples=30000,
+        window=(0, 30000),
+        valid=True,
+        flags=flags,
+        window_policy=DEFAULT_WINDOW,
+    )
 
 
 BEATING = Flag(FlagCode.BEATING, "beats")

@@ -133,8 +133,9 @@ def test_every_fit_reports_its_period_along_the_record() -> None:
     assert 1.5 < np.mean(chi2) < 5.0, chi2
     # a 16° compound swing with dry friction: the period shortens along the record, beyond σ
     # (a note, no flag: 0.25 % is far from making the period meaningless)
-    fit = fit_period(pendulum_trial(4, loss_per_cycle=0.04, compound=True, swing=math.radians(16.0),
-                                    rate_amplitude=0.5)[0], RATE_HZ)  # fmt: skip
+    fit = fit_period(
+        pendulum_trial(4, loss_per_cycle=0.04, compound=True, swing=math.radians(16.0), rate_amplitude=0.5)[0], RATE_HZ
+    )
     assert fit.window_periods[0] > fit.window_periods[-1] + 3 * max(fit.window_period_sigmas)
     assert any("the period along the record" in n and "moves beyond its σ" in n for n in fit.notes)
     assert not fit.has_flag(FlagCode.PERIOD_DRIFT) and fit.clean

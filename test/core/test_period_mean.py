@@ -123,8 +123,13 @@ def _eq23(samples: NDArray[np.float64], fit: PeriodFit) -> float:
     a, b = fit.window
     t = np.arange(a, b) / RATE_HZ - fit.t_ref
     y = samples[a:b]
-    found = least_squares(lambda p: damped_oscillation(t, *p) - y, [fit.A, fit.B, fit.C, fit.zeta, fit.omega],
-                          xtol=1e-15, ftol=1e-15, gtol=1e-15)  # fmt: skip
+    found = least_squares(
+        lambda p: damped_oscillation(t, *p) - y,
+        [fit.A, fit.B, fit.C, fit.zeta, fit.omega],
+        xtol=1e-15,
+        ftol=1e-15,
+        gtol=1e-15,
+    )
     return damped_period(found.x[3], found.x[4])
 
 
@@ -175,8 +180,9 @@ def test_the_default_period_is_eq_23s_where_eq_23_fits() -> None:
 def test_the_small_swing_period_is_an_option_and_agrees_with_itself_over_windows() -> None:
     record = swing_record(7)
     spans = [(1.0, None), (1.0, 20.0), (10.0, None)]
-    fits = [fit_period(record.samples, RATE_HZ, window=WindowPolicy.span(*span), small_swing_period=True)
-            for span in spans]  # fmt: skip
+    fits = [
+        fit_period(record.samples, RATE_HZ, window=WindowPolicy.span(*span), small_swing_period=True) for span in spans
+    ]
     for fit in fits:
         assert fit.period == fit.small_swing_period and fit.mean_period > fit.period
         assert abs(fit.period - T0) < 3 * fit.period_sigma
@@ -291,11 +297,15 @@ def _campaign(seeds: int) -> None:  # pragma: no cover - run by hand
         widened = np.mean([f.sigma_widening > 1 for f in fits])
         flagged = np.mean([f.has_flag(FlagCode.PERIOD_DRIFT) for f in fits])
         took = time.perf_counter() - start
-        print(f"{name:40s} {np.mean(np.abs(z) <= 1):9.3f} {np.mean(z):7.2f} {widened:8.3f} {flagged:8.3f} "
-              f"{small:6.3f}  ({took:.1f} s)")  # fmt: skip
-    eq23 = [(f.period - _eq23(t.samples, f)) / f.period_sigma
-            for t in (gyro_trial(seed, period=1.5, zeta=0.003) for seed in range(min(seeds, 200)))
-            for f in [fit_period(t.samples, RATE_HZ)]]  # fmt: skip
+        print(
+            f"{name:40s} {np.mean(np.abs(z) <= 1):9.3f} {np.mean(z):7.2f} {widened:8.3f} {flagged:8.3f} "
+            f"{small:6.3f}  ({took:.1f} s)"
+        )
+    eq23 = [
+        (f.period - _eq23(t.samples, f)) / f.period_sigma
+        for t in (gyro_trial(seed, period=1.5, zeta=0.003) for seed in range(min(seeds, 200)))
+        for f in [fit_period(t.samples, RATE_HZ)]
+    ]
     z23 = np.abs(eq23)
     print(f"Eq 23 records: (default − Eq 23) / σ: median |z| {np.median(z23):.2g}, largest {np.max(z23):.2g}")
 

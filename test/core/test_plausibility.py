@@ -76,10 +76,15 @@ def test_measured_near_planar_bodies_break_the_exact_triangle_inequality_by_a_fe
         if found:
             exact[path.stem] = sorted({v.rule.split("'s")[0] for v in found})
     assert exact == {
-        "browser": ["the rear frame"], "BrowserMeasured": ["the rear frame"], "BrowserBenchmark": ["the rear frame"],
-        "yellow": ["the fork"], "YellowMeasured": ["the fork"], "YellowBenchmark": ["the fork"],
-        "YellowrevMeasured": ["the fork"], "YellowrevBenchmark": ["the fork"],
-    }  # fmt: skip
+        "browser": ["the rear frame"],
+        "BrowserMeasured": ["the rear frame"],
+        "BrowserBenchmark": ["the rear frame"],
+        "yellow": ["the fork"],
+        "YellowMeasured": ["the fork"],
+        "YellowBenchmark": ["the fork"],
+        "YellowrevMeasured": ["the fork"],
+        "YellowrevBenchmark": ["the fork"],
+    }
     printed = {key: cell.value for key, cell in table2()["Y*"].items()}
     printed["g"] = 9.81
     assert violations(printed, triangle_rtol=0.027) != []
@@ -127,12 +132,19 @@ RULES: dict[str, tuple[dict[str, float], tuple[str, ...], str]] = {
     "IFxx": ({"IFxx": -0.1405}, ("IFxx",), "an inertia must be positive"),
     "IFyy": ({"IFyy": 0.0}, ("IFyy",), "an inertia must be positive"),
     # the product of inertia beyond the bound IBxz² < IBxx·IBzz = 25.76
-    "B not definite": ({"IBxz": 5.1}, ("IBxx", "IBzz", "IBxz"), "the rear frame's inertia tensor is "
-                       "not positive definite (the product of inertia must satisfy IBxz² < IBxx·IBzz)"),
+    "B not definite": (
+        {"IBxz": 5.1},
+        ("IBxx", "IBzz", "IBxz"),
+        "the rear frame's inertia tensor is "
+        "not positive definite (the product of inertia must satisfy IBxz² < IBxx·IBzz)",
+    ),
     "H not definite": ({"IHxz": -0.03}, ("IHxx", "IHzz", "IHxz"), "the fork's inertia tensor is not positive definite"),
     # the out-of-plane moment too large, then an in-plane principal moment too large
-    "B triangle, y": ({"IByy": 1.1 * (9.2 + 2.8)}, ("IBxx", "IByy", "IBzz", "IBxz"), "the rear frame's principal "
-                      "moments"),
+    "B triangle, y": (
+        {"IByy": 1.1 * (9.2 + 2.8)},
+        ("IBxx", "IByy", "IBzz", "IBxz"),
+        "the rear frame's principal moments",
+    ),
     "H triangle, xz": ({"IHxx": 0.2}, ("IHxx", "IHyy", "IHzz", "IHxz"), "break the triangle inequality"),
     "rear wheel": ({"IRyy": 2.2 * 0.0603}, ("IRxx", "IRyy"), "(IRzz = IRxx by symmetry, so IRyy ≤ 2·IRxx)"),
     "front wheel": ({"IFyy": 2.2 * 0.1405}, ("IFxx", "IFyy"), "(IFzz = IFxx by symmetry, so IFyy ≤ 2·IFxx)"),
@@ -189,12 +201,20 @@ def test_a_parameter_set_is_named_by_its_bicycle() -> None:
 def test_a_rider_is_checked_as_a_body() -> None:
     rider = {"mass": 72.0, "x": 0.2909, "z": -1.1091, "Ixx": 7.9985, "Iyy": 8.0689, "Izz": 2.3624, "Ixz": -1.9272}
     assert body_violations(rider_body(rider)) == []
-    for change, names in (({"mass": 0.0}, ("mass",)), ({"z": 0.5}, ("z",)), ({"Ixz": -5.0}, ("Ixx", "Izz", "Ixz")),
-                          ({"Iyy": 12.0}, ("Ixx", "Iyy", "Izz", "Ixz")), ({"x": math.nan}, ("x",))):  # fmt: skip
+    for change, names in (
+        ({"mass": 0.0}, ("mass",)),
+        ({"z": 0.5}, ("z",)),
+        ({"Ixz": -5.0}, ("Ixx", "Izz", "Ixz")),
+        ({"Iyy": 12.0}, ("Ixx", "Iyy", "Izz", "Ixz")),
+        ({"x": math.nan}, ("x",)),
+    ):
         found = body_violations(rider_body({**rider, **change}))
         assert [v.names for v in found] == [names], change
-    with pytest.raises(ImplausibleParametersError, match=r"^the rider is not physically possible: mass = 0 kg: the "
-                                                         r"rider's mass must be positive$"):  # fmt: skip
+    with pytest.raises(
+        ImplausibleParametersError,
+        match=r"^the rider is not physically possible: mass = 0 kg: the "
+        r"rider's mass must be positive$",
+    ):
         check_body(rider_body({**rider, "mass": 0.0}))
 
 

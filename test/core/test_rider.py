@@ -69,7 +69,7 @@ def test_unknown_name_without_files() -> None:
         ("- 1\n- 2\n", r"rider\.yaml: a rider file is a mapping of mass, x, z, Ixx, Iyy, Izz, Ixz$"),
         ("mass: [1\n", r"rider\.yaml:\d+: invalid YAML"),
     ],
-)  # fmt: skip
+)
 def test_bad_rider_files(tmp_path: Path, text: str, message: str) -> None:
     """A bad rider file names the file, key and line, as any input file error does."""
     path = tmp_path / "rider.yaml"

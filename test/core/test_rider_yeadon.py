@@ -137,8 +137,10 @@ def _check_hands_and_feet(r: YeadonRider, bike: str) -> None:
 
 def _browser_copy(tmp_path: Path, **keys: float) -> ParameterSet:
     lines = (BP / "Browser" / "RawData" / "BrowserMeasured.txt").read_text(encoding="utf-8").splitlines()
-    out = [f"{ln.split('=')[0].strip()} = {keys[ln.split('=')[0].strip()]}" if ln.split("=")[0].strip() in keys else ln
-           for ln in lines]  # fmt: skip
+    out = [
+        f"{ln.split('=')[0].strip()} = {keys[ln.split('=')[0].strip()]}" if ln.split("=")[0].strip() in keys else ln
+        for ln in lines
+    ]
     path = tmp_path / "BrowserMeasured.txt"
     path.write_text("\n".join(out) + "\n", encoding="utf-8")
     return compute_parameters(read_bp_measured(path))

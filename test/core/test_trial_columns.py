@@ -184,9 +184,7 @@ def test_columns_in_any_order_and_without_time(tmp_path: Path, swing: tuple[np.n
         (None, ColumnChoice(time="time"), "no header line to name its columns; give a 0-based index"),
     ],
 )
-def test_column_errors_name_the_columns(
-    tmp_path: Path, header: str | None, choice: ColumnChoice, message: str
-) -> None:
+def test_column_errors_name_the_columns(tmp_path: Path, header: str | None, choice: ColumnChoice, message: str) -> None:
     f = write_csv(tmp_path / "bad.csv", header, np.arange(3) * 0.001, np.ones(3), np.zeros(3))
     with pytest.raises(InputFileError) as exc:
         read_trial(f, columns=choice)

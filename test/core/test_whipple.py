@@ -30,13 +30,33 @@ G = 9.81
 
 #: Meijaard, Papadopoulos, Ruina, Schwab 2007, Table 1 (SI units, lam in rad).
 BENCHMARK: dict[str, float] = {
-    "w": 1.02, "c": 0.08, "lam": math.pi / 10, "g": G,
-    "rR": 0.3, "mR": 2.0, "IRxx": 0.0603, "IRyy": 0.12,
-    "xB": 0.3, "zB": -0.9, "mB": 85.0, "IBxx": 9.2, "IByy": 11.0, "IBzz": 2.8, "IBxz": 2.4,
-    "xH": 0.9, "zH": -0.7, "mH": 4.0,
-    "IHxx": 0.05892, "IHyy": 0.06, "IHzz": 0.00708, "IHxz": -0.00756,
-    "rF": 0.35, "mF": 3.0, "IFxx": 0.1405, "IFyy": 0.28,
-}  # fmt: skip
+    "w": 1.02,
+    "c": 0.08,
+    "lam": math.pi / 10,
+    "g": G,
+    "rR": 0.3,
+    "mR": 2.0,
+    "IRxx": 0.0603,
+    "IRyy": 0.12,
+    "xB": 0.3,
+    "zB": -0.9,
+    "mB": 85.0,
+    "IBxx": 9.2,
+    "IByy": 11.0,
+    "IBzz": 2.8,
+    "IBxz": 2.4,
+    "xH": 0.9,
+    "zH": -0.7,
+    "mH": 4.0,
+    "IHxx": 0.05892,
+    "IHyy": 0.06,
+    "IHzz": 0.00708,
+    "IHxz": -0.00756,
+    "rF": 0.35,
+    "mF": 3.0,
+    "IFxx": 0.1405,
+    "IFyy": 0.28,
+}
 
 #: Paper Eq A22–A25 / section 4 values (the paper prints 14 digits).
 REFERENCE_MATRICES = {

@@ -14,16 +14,62 @@ __all__ = ["NUMBER_TOKENS", "YAML_TOKENS", "mutate"]
 
 #: Numbers that break arithmetic: huge, tiny, signed zero, not a number, long digit strings.
 NUMBER_TOKENS: tuple[bytes, ...] = (
-    b"1e308", b"-1e308", b"1.7976931348623157e308", b"5e-324", b"-0.0", b"nan", b"inf", b"-inf",
-    b"1e999", b"0", b"-1", b"99999999999999999999999", b"1" * 5000, b"0x10", b"1_000",
-)  # fmt: skip
+    b"1e308",
+    b"-1e308",
+    b"1.7976931348623157e308",
+    b"5e-324",
+    b"-0.0",
+    b"nan",
+    b"inf",
+    b"-inf",
+    b"1e999",
+    b"0",
+    b"-1",
+    b"99999999999999999999999",
+    b"1" * 5000,
+    b"0x10",
+    b"1_000",
+)
 #: YAML syntax that reaches the loader's corners: anchors, aliases, merges, tags, nesting.
 YAML_TOKENS: tuple[bytes, ...] = (
-    b"&a ", b"*a", b"<<: *a", b"[", b"]", b"{", b"}", b"? ", b": ", b"- ", b"!!binary ", b"!!python/tuple ",
-    b"!!timestamp ", b"!!float ", b"!!set ", b"|\n", b">-\n", b"'", b'"', b"\t", b"\x00", b"\xef\xbb\xbf",
-    b"---\n", b"...\n", b"%YAML 1.1\n", b"#", b"\\", b"~", b".inf", b".nan", b"yes", b"2001-13-45",
-    b"[[[[[[[[[[[[[[[[", b"+/-", b"+/- -", b"=", b",",
-)  # fmt: skip
+    b"&a ",
+    b"*a",
+    b"<<: *a",
+    b"[",
+    b"]",
+    b"{",
+    b"}",
+    b"? ",
+    b": ",
+    b"- ",
+    b"!!binary ",
+    b"!!python/tuple ",
+    b"!!timestamp ",
+    b"!!float ",
+    b"!!set ",
+    b"|\n",
+    b">-\n",
+    b"'",
+    b'"',
+    b"\t",
+    b"\x00",
+    b"\xef\xbb\xbf",
+    b"---\n",
+    b"...\n",
+    b"%YAML 1.1\n",
+    b"#",
+    b"\\",
+    b"~",
+    b".inf",
+    b".nan",
+    b"yes",
+    b"2001-13-45",
+    b"[[[[[[[[[[[[[[[[",
+    b"+/-",
+    b"+/- -",
+    b"=",
+    b",",
+)
 _NUMBER = re.compile(rb"-?\d+(?:\.\d+)?(?:[eE][-+]?\d+)?")
 
 
@@ -81,8 +127,16 @@ def _number(data: bytes, rng: random.Random, _seeds: Sequence[bytes], _tokens: S
 
 
 _MUTATORS: tuple[Callable[[bytes, random.Random, Sequence[bytes], Sequence[bytes]], bytes], ...] = (
-    _flip, _byte, _truncate, _duplicate, _delete, _splice, _token, _number, _number,
-)  # fmt: skip
+    _flip,
+    _byte,
+    _truncate,
+    _duplicate,
+    _delete,
+    _splice,
+    _token,
+    _number,
+    _number,
+)
 
 
 def mutate(data: bytes, rng: random.Random, seeds: Sequence[bytes], tokens: Sequence[bytes] = ()) -> bytes:

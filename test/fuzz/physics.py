@@ -92,7 +92,7 @@ def _parameter_rules(rng: random.Random, base: str) -> list[tuple[str, dict[str,
         (
             "inertia",
             {rng.choice([n for n in PARAMETER_NAMES if n.startswith("I") and "xz" not in n]): -rng.uniform(0.0, 10.0)},
-        ),  # fmt: skip
+        ),
         ("definite", {"IBxz": rng.choice([1, -1]) * math.sqrt(v("IBxx") * v("IBzz")) * big}),
         ("definite", {"IHxz": rng.choice([1, -1]) * math.sqrt(v("IHxx") * v("IHzz")) * big}),
         ("triangle", {"IRyy": 2.0 * v("IRxx") * rng.uniform(1.06, 4.0)}),

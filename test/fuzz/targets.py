@@ -38,9 +38,20 @@ __all__ = ["Target", "targets"]
 _CSV_TOKENS = (b",", b";", b"\t", b"time_ms", b"rate", b"volts", b"#", b"\n\n", b"\xef\xbb\xbf", b"t[us]")
 _NPY_TOKENS = (b"(1, 2)", b"(20000000000,)", b"'<f8'", b"'|O'", b"'<U9'", b"True", b"{", b"\x93NUMPY", b"\x02\x00")
 _MCAP_TOKENS = (
-    b"\x89MCAP0\r\n", b"\xff" * 8, b"\x00" * 8, b"\xff\xff\xff\x7f", b"\x06", b"\x08", b"\x0b", b"zstd", b"lz4",
-    b"ros2", b"cdr", b"\x28\xb5\x2f\xfd", b"\x02\x14\x00\x00\x00\x00\x00\x00\x00",
-)  # fmt: skip
+    b"\x89MCAP0\r\n",
+    b"\xff" * 8,
+    b"\x00" * 8,
+    b"\xff\xff\xff\x7f",
+    b"\x06",
+    b"\x08",
+    b"\x0b",
+    b"zstd",
+    b"lz4",
+    b"ros2",
+    b"cdr",
+    b"\x28\xb5\x2f\xfd",
+    b"\x02\x14\x00\x00\x00\x00\x00\x00\x00",
+)
 _MAT_TOKENS = (b"\x0f\x00\x00\x00", b"\x0e\x00\x00\x00", b"\xff\xff\xff\x7f", b"IM", b"MI", b"\x78\x9c")
 
 
@@ -74,8 +85,10 @@ def _csv_seeds() -> list[bytes]:
     rows = "".join(f"{a:.6f},{b:.6f}\n" for a, b in zip(t, x))
     return [
         ("time,rate\n" + rows).encode(),
-        ("# a comment\ntime_ms;rate;volts\n" + "".join(f"{a * 1e3:.3f};{b:.6f};{b + 2.5:.5f}\n" for a, b in zip(t, x)))
-        .encode(),
+        (
+            "# a comment\ntime_ms;rate;volts\n"
+            + "".join(f"{a * 1e3:.3f};{b:.6f};{b + 2.5:.5f}\n" for a, b in zip(t, x))
+        ).encode(),
         "".join(f"{b:.6f}\n" for b in x).encode(),
         "".join(f"{a:.6f}\t{b:.6f}\n" for a, b in zip(t, x)).encode(),
     ]
@@ -104,9 +117,11 @@ def _mat_seeds() -> list[bytes]:
     t, x = _trial_columns()
     meta = {"bicycle": "Browser", "part": "Frame", "pendulum": "Torsional", "angleOrder": "First", "trial": "1"}
     out = []
-    for fields, compress in (({"data": x, "sampleRate": 1000.0, **meta}, False),
-                             ({"data": x, "ActualRate": 1000, **meta}, True),
-                             ({"data": x, "time": t}, True)):
+    for fields, compress in (
+        ({"data": x, "sampleRate": 1000.0, **meta}, False),
+        ({"data": x, "ActualRate": 1000, **meta}, True),
+        ({"data": x, "time": t}, True),
+    ):
         buf = io.BytesIO()
         savemat(buf, fields, do_compression=compress)
         out.append(buf.getvalue())
@@ -174,18 +189,38 @@ def targets(workdir: Path) -> list[Target]:
     parameter_seeds = [(bicycles / "benchmark.yaml").read_bytes()]
     parameter_seeds.append(dump_bp_parameter_yaml(load_input(bicycles / "benchmark.yaml")).encode())  # type: ignore[arg-type]
     return [
-        Target("measurements", load_input, ".yaml",
-               [p.read_bytes() for p in sorted(bicycles.glob("*.yaml")) if p.stem != "benchmark"], YAML_TOKENS),
+        Target(
+            "measurements",
+            load_input,
+            ".yaml",
+            [p.read_bytes() for p in sorted(bicycles.glob("*.yaml")) if p.stem != "benchmark"],
+            YAML_TOKENS,
+        ),
         Target("parameters", load_input, ".yaml", parameter_seeds, YAML_TOKENS),
-        Target("bp-text", load_input, ".txt",
-               [p.read_bytes() for p in sorted(raw.glob("*/*/*.txt"))], (b" = ", b"+/-", b"#", b",", b"\n")),
+        Target(
+            "bp-text",
+            load_input,
+            ".txt",
+            [p.read_bytes() for p in sorted(raw.glob("*/*/*.txt"))],
+            (b" = ", b"+/-", b"#", b",", b"\n"),
+        ),
         Target("rig", load_rig, ".yaml", [(config_dir() / "rig.yaml").read_bytes()], YAML_TOKENS),
         Target("graph", load_graph, ".yaml", [(config_dir() / "graph.yaml").read_bytes()], YAML_TOKENS),
         Target("rider", load_rider, ".yaml", _rider_seeds(), YAML_TOKENS),
-        Target("yeadon-measurements", read_yeadon_measurements, ".txt",
-               [(jason / "JasonYeadonMeas.txt").read_bytes()], YAML_TOKENS),
-        Target("yeadon-configuration", read_yeadon_configuration, ".txt",
-               [(jason / "JasonBrowserYeadonCFG.txt").read_bytes()], YAML_TOKENS),
+        Target(
+            "yeadon-measurements",
+            read_yeadon_measurements,
+            ".txt",
+            [(jason / "JasonYeadonMeas.txt").read_bytes()],
+            YAML_TOKENS,
+        ),
+        Target(
+            "yeadon-configuration",
+            read_yeadon_configuration,
+            ".txt",
+            [(jason / "JasonBrowserYeadonCFG.txt").read_bytes()],
+            YAML_TOKENS,
+        ),
         Target("trial-csv", lambda p: read_trial(p, 1000.0), ".csv", _csv_seeds(), _CSV_TOKENS),
         Target("ride-csv", read_ride_csv, ".csv", _ride_seeds(), (*_CSV_TOKENS, b"T10:", b"roll_rate", b"1e999")),
         Target("trial-npy", lambda p: read_trial(p, 1000.0), ".npy", _npy_seeds(), _NPY_TOKENS),

@@ -67,8 +67,12 @@ def test_one_line_and_exit_2(tmp_path: Path, command: str, argv: list[str], reas
     args = [files.get(a, a) for a in argv]
     done = subprocess.run(
         [sys.executable, "-m", "bike_rig.cli.main", command, *args],
-        cwd=REPO, capture_output=True, text=True, timeout=60, check=False,
-    )  # fmt: skip
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=False,
+    )
     lines = done.stderr.splitlines()
     assert done.returncode == 2, done.stderr
     assert len(lines) == 1 and lines[0].startswith(f"bike-rig {command}: error: "), done.stderr

@@ -43,16 +43,31 @@ def by_name(fuzz_dir: Path) -> dict[str, Target]:
     return {t.name: t for t in targets(fuzz_dir)}
 
 
-NAMES = ["measurements", "parameters", "bp-text", "rig", "graph", "rider", "yeadon-measurements",
-         "yeadon-configuration", "trial-csv", "trial-npy", "trial-mat", "bag", "bag-metadata", "ride-csv"]
+NAMES = [
+    "measurements",
+    "parameters",
+    "bp-text",
+    "rig",
+    "graph",
+    "rider",
+    "yeadon-measurements",
+    "yeadon-configuration",
+    "trial-csv",
+    "trial-npy",
+    "trial-mat",
+    "bag",
+    "bag-metadata",
+    "ride-csv",
+]
 
 
 @pytest.mark.parametrize("name", NAMES)
 def test_mutated_inputs_never_crash_or_hang(name: str, by_name: dict[str, Target], fuzz_dir: Path) -> None:
     """Byte flips, truncations, duplications, splices and tokens of the valid files (seed printed)."""
     target = by_name[name]
-    tally = fuzz_target(target, fuzz_dir, SEED, INPUTS.get(name, DEFAULT_INPUTS), time_limit_s=TIME_LIMIT_S,
-                        measure_memory=False)
+    tally = fuzz_target(
+        target, fuzz_dir, SEED, INPUTS.get(name, DEFAULT_INPUTS), time_limit_s=TIME_LIMIT_S, measure_memory=False
+    )
     print(f"seed {SEED}: {tally.line()}")
     assert tally.counts["ok"] >= len(target.seeds)  # the valid seeds are read
     assert tally.counts["clean"] > tally.inputs // 3  # most mutations are refused, each in one line
@@ -65,9 +80,13 @@ def _assert_clean(target: Target, path: Path) -> None:
 
 
 _SCALARS = st.one_of(
-    st.none(), st.booleans(), st.integers(), st.floats(), st.text(max_size=20),
+    st.none(),
+    st.booleans(),
+    st.integers(),
+    st.floats(),
+    st.text(max_size=20),
     st.sampled_from(["1e308", "nan", "1.0 +/- -2", "[1, 2]", "2001-13-45"]),
-)  # fmt: skip
+)
 _TREES = st.recursive(
     _SCALARS,
     lambda children: st.lists(children, max_size=4) | st.dictionaries(st.text(max_size=10), children, max_size=4),
@@ -87,9 +106,18 @@ def _replace_leaves(doc: object, tree: object, depth: int = 0) -> object:
 
 
 @pytest.mark.parametrize(
-    "name", ["measurements", "parameters", "rig", "graph", "rider", "yeadon-measurements", "yeadon-configuration",
-             "bag-metadata"]
-)  # fmt: skip
+    "name",
+    [
+        "measurements",
+        "parameters",
+        "rig",
+        "graph",
+        "rider",
+        "yeadon-measurements",
+        "yeadon-configuration",
+        "bag-metadata",
+    ],
+)
 def test_yaml_readers_take_any_value_anywhere(name: str, by_name: dict[str, Target], fuzz_dir: Path) -> None:
     """A valid document with any YAML value (a scalar of any type, a list, a mapping) in place of one of its own."""
     target = by_name[name]
@@ -142,8 +170,12 @@ def test_npy_reader_takes_any_array(by_name: dict[str, Target], fuzz_dir: Path) 
 @given(
     fields=st.dictionaries(
         st.sampled_from(["data", "time", "sampleRate", "ActualRate", "part", "pendulum", "angleOrder", "trial"]),
-        st.one_of(st.text(max_size=8), st.floats(), st.integers(-(2**31), 2**31 - 1),
-                  hnp.arrays(np.float64, hnp.array_shapes(max_dims=2, max_side=5))),
+        st.one_of(
+            st.text(max_size=8),
+            st.floats(),
+            st.integers(-(2**31), 2**31 - 1),
+            hnp.arrays(np.float64, hnp.array_shapes(max_dims=2, max_side=5)),
+        ),
         max_size=6,
     )
 )

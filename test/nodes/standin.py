@@ -24,16 +24,18 @@ from bike_rig.rosqos import profile
 msgs: Any = importlib.import_module("bike_rig_msgs.msg")
 
 
-def parameter_message(ps: ParameterSet, stamp_ns: int, bicycle: str | None = None,
-                      changes: Mapping[str, float] | None = None) -> Any:  # fmt: skip
+def parameter_message(
+    ps: ParameterSet, stamp_ns: int, bicycle: str | None = None, changes: Mapping[str, float] | None = None
+) -> Any:
     """A complete ``BenchmarkParameters`` of ``ps``, some values changed (the covariance kept)."""
     values = np.array(ps.parameters.values, dtype=float)
     for name, value in (changes or {}).items():
         values[ps.parameters.index(name)] = value
     vector = UncertainVector(ps.parameters.names, values, np.asarray(ps.parameters.covariance))
     changed = ParameterSet(bicycle or ps.bicycle, vector, ps.source)
-    msg = fill_benchmark_parameters(msgs.BenchmarkParameters(), SessionParameters(changed.bicycle,
-                                    ComMethod.CENTROID, (), (), changed))  # fmt: skip
+    msg = fill_benchmark_parameters(
+        msgs.BenchmarkParameters(), SessionParameters(changed.bicycle, ComMethod.CENTROID, (), (), changed)
+    )
     set_stamp(msg, stamp_ns)
     return msg
 
@@ -47,8 +49,9 @@ class ParameterStandIn:
 
     def __init__(self, context: Any) -> None:
         self.node = rclpy.create_node("parameter", context=context)
-        self.publisher = self.node.create_publisher(msgs.BenchmarkParameters, topics.PARAMETERS.name,
-                                                    profile(topics.PARAMETERS))  # fmt: skip
+        self.publisher = self.node.create_publisher(
+            msgs.BenchmarkParameters, topics.PARAMETERS.name, profile(topics.PARAMETERS)
+        )
 
     def matched(self) -> bool:
         """Whether a reader (the model node) has matched."""

@@ -35,7 +35,6 @@ CONCERNS = {
 }
 
 
-
 def stamp_s(msg: Any) -> float:
     return int(msg.header.stamp.sec) + 1e-9 * int(msg.header.stamp.nanosec)
 
@@ -68,15 +67,34 @@ def test_every_node_publishes_its_statuses_at_1_hz_and_levels_follow(
     channel = f"silent-{uuid.uuid4().hex[:8]}"
     with contextlib.ExitStack() as stack:
         procs = {
-            "driver": start_node("driver", "driver", node_env, tmp_path, "-p", "source:=can",
-                                 "-p", "can_interface:=virtual", "-p", f"can_channel:={channel}",
-                                 "-p", "silence_warning_s:=0.5"),
+            "driver": start_node(
+                "driver",
+                "driver",
+                node_env,
+                tmp_path,
+                "-p",
+                "source:=can",
+                "-p",
+                "can_interface:=virtual",
+                "-p",
+                f"can_channel:={channel}",
+                "-p",
+                "silence_warning_s:=0.5",
+            ),
             "fitter": start_node("fitter", "fitter", node_env, tmp_path),
             "parameter": start_node("parameter", "parameter", node_env, tmp_path, "-p", f"measurements:={BROWSER}"),
             "model": start_node("model", "model", node_env, tmp_path),
-            "recorder": start_node("recorder", "recorder", node_env, tmp_path, "-p", f"output:={tmp_path / 'bag'}",
-                                   "-p", "min_free_disk_mb:=1000000000.0"),
-        }  # fmt: skip
+            "recorder": start_node(
+                "recorder",
+                "recorder",
+                node_env,
+                tmp_path,
+                "-p",
+                f"output:={tmp_path / 'bag'}",
+                "-p",
+                "min_free_disk_mb:=1000000000.0",
+            ),
+        }
         for p in procs.values():
             stack.enter_context(p)
         running = list(procs.values())
@@ -118,8 +136,9 @@ def test_every_node_publishes_its_statuses_at_1_hz_and_levels_follow(
         assert model_status is not None and model_status.value("bicycle") == "Browser"
 
         # a trial on a silent bus: samples WARN, then ERROR (3 x silence_warning_s), OK again once aborted
-        started = probe.call(StartTrial, topics.START_TRIAL, StartTrial.Request(part="fork", pendulum="torsional",
-                                                                                 orientation=1))  # fmt: skip
+        started = probe.call(
+            StartTrial, topics.START_TRIAL, StartTrial.Request(part="fork", pendulum="torsional", orientation=1)
+        )
         assert started.accepted, started.message
         wait(lambda: level("driver", "samples") == Level.WARN, "the driver's samples WARN")
         wait(lambda: level("driver", "samples") == Level.ERROR, "the driver's samples ERROR")

@@ -37,14 +37,6 @@ pytestmark = pytest.mark.ros
 START_S = 1_700_000_000.0
 
 
-
-
-
-
-
-
-
-
 def stamp_ns(msg: Any) -> int:
     return int(msg.header.stamp.sec) * 1_000_000_000 + int(msg.header.stamp.nanosec)
 
@@ -71,17 +63,28 @@ def test_sim_session_is_published_trial_by_trial_in_rig_time(
     batches = probe.subscribe(GYRO, msgs.GyroBatch)
     pause = 0.1
     cmd = node_command(
-        "bike_rig.nodes.driver", "source:=sim", f"session:={path}", "time_scale:=50.0",
-        f"pause_between_trials_s:={pause}", f"start_time_s:={START_S}", "wait_for_subscribers:=1",
-        "exit_when_done:=true", params_file=str(config_file("driver.yaml")),
-    )  # fmt: skip
+        "bike_rig.nodes.driver",
+        "source:=sim",
+        f"session:={path}",
+        "time_scale:=50.0",
+        f"pause_between_trials_s:={pause}",
+        f"start_time_s:={START_S}",
+        "wait_for_subscribers:=1",
+        "exit_when_done:=true",
+        params_file=str(config_file("driver.yaml")),
+    )
     n_trials = len(session.trials)
     with RosProcess("driver", cmd, ros_env, tmp_path) as driver:
-        probe.spin_until(lambda: sum(e.kind == STOP for e in events) == n_trials, STEP_TIMEOUT_S,
-                         "STOP of every trial", driver.describe)  # fmt: skip
+        probe.spin_until(
+            lambda: sum(e.kind == STOP for e in events) == n_trials,
+            STEP_TIMEOUT_S,
+            "STOP of every trial",
+            driver.describe,
+        )
         total = sum(t.rate.size for t in session.trials)
-        probe.spin_until(lambda: sum(len(b.rates) for b in batches) == total, STEP_TIMEOUT_S, "every sample",
-                         driver.describe)  # fmt: skip
+        probe.spin_until(
+            lambda: sum(len(b.rates) for b in batches) == total, STEP_TIMEOUT_S, "every sample", driver.describe
+        )
         assert wait_exit(driver) == 0, driver.describe()  # exit_when_done, after the acks
     log = driver.stderr_path.read_text()
     assert f"plan finished: {n_trials} trials, {total} samples published; exiting" in log
@@ -112,16 +115,26 @@ def test_can_gyro_trials_through_the_services(probe: Probe, ros_env: dict[str, s
     batches = probe.subscribe(GYRO, msgs.GyroBatch)
     period = 0.8
     cmd = node_command(
-        "bike_rig.nodes.driver", "source:=can", "can_interface:=virtual", f"can_channel:=test-{uuid.uuid4().hex[:8]}",
-        "can_id:=42", "sample_format:=int16", "byte_order:=big", "samples_per_frame:=4", "scale:=1.0e-5",
-        "sample_rate_hz:=1000.0", f"can_simulated_gyro_period_s:={period}", "time_scale:=10.0",
-    )  # fmt: skip
+        "bike_rig.nodes.driver",
+        "source:=can",
+        "can_interface:=virtual",
+        f"can_channel:=test-{uuid.uuid4().hex[:8]}",
+        "can_id:=42",
+        "sample_format:=int16",
+        "byte_order:=big",
+        "samples_per_frame:=4",
+        "scale:=1.0e-5",
+        "sample_rate_hz:=1000.0",
+        f"can_simulated_gyro_period_s:={period}",
+        "time_scale:=10.0",
+    )
     start_client = probe.node.create_client(srvs.StartTrial, START_TRIAL)
     stop_client = probe.node.create_client(srvs.StopTrial, STOP_TRIAL)
 
     def start(duration_s: float, orientation: int = 1) -> Any:
-        request = srvs.StartTrial.Request(part="fork", pendulum="torsional", orientation=orientation,
-                                          duration_s=duration_s, note="test")  # fmt: skip
+        request = srvs.StartTrial.Request(
+            part="fork", pendulum="torsional", orientation=orientation, duration_s=duration_s, note="test"
+        )
         return probe.call(start_client, request)
 
     with RosProcess("driver", cmd, ros_env, tmp_path) as driver:
@@ -145,8 +158,9 @@ def test_can_gyro_trials_through_the_services(probe: Probe, ros_env: dict[str, s
     stop_ev = next(e for e in events if e.kind == STOP)
     assert (start_ev.measurement_key, start_ev.note, stop_ev.sample_count) == ("TtH1", "test", 8000)
     mine = [b for b in batches if b.trial_id == first.trial_id]
-    result = fit_trial([sample_batch_from_msg(b) for b in mine], trial_event_from_msg(start_ev),
-                       trial_event_from_msg(stop_ev))  # fmt: skip
+    result = fit_trial(
+        [sample_batch_from_msg(b) for b in mine], trial_event_from_msg(start_ev), trial_event_from_msg(stop_ev)
+    )
     truth = period / math.sqrt(1 - 0.001**2)
     assert result.n_samples == 8000 and result.flags == ()
     assert abs(result.period - truth) < 3 * result.period_sigma, (result.period, truth, result.period_sigma)
@@ -158,16 +172,25 @@ def test_bag_replay_publishes_the_recorded_trials(probe: Probe, ros_env: dict[st
     bag, a, b = recorded_session(tmp_path)
     events = probe.subscribe(TRIAL_EVENTS, msgs.TrialEvent)
     batches = probe.subscribe(GYRO, msgs.GyroBatch)
-    cmd = node_command("bike_rig.nodes.driver", "source:=bag", f"bag:={bag}", "time_scale:=100.0",
-                       "wait_for_subscribers:=1")  # fmt: skip
+    cmd = node_command(
+        "bike_rig.nodes.driver", "source:=bag", f"bag:={bag}", "time_scale:=100.0", "wait_for_subscribers:=1"
+    )
     with RosProcess("driver", cmd, ros_env, tmp_path) as driver:
-        probe.spin_until(lambda: len(events) == 4 and sum(len(x.rates) for x in batches) == 180, STEP_TIMEOUT_S,
-                         "the recorded trials", driver.describe)  # fmt: skip
+        probe.spin_until(
+            lambda: len(events) == 4 and sum(len(x.rates) for x in batches) == 180,
+            STEP_TIMEOUT_S,
+            "the recorded trials",
+            driver.describe,
+        )
         probe.spin_until(lambda: "plan finished" in driver.stderr_path.read_text(), STEP_TIMEOUT_S, "the end")
         assert driver.proc.poll() is None  # still serving the history
     assert driver.proc.returncode == 0, driver.describe()
-    assert [(e.kind, e.trial_id, e.sample_count) for e in events] == [(0, "t1", 0), (1, "t1", 123), (0, "t2", 0),
-                                                                      (2, "t2", 60)]  # fmt: skip
+    assert [(e.kind, e.trial_id, e.sample_count) for e in events] == [
+        (0, "t1", 0),
+        (1, "t1", 123),
+        (0, "t2", 0),
+        (2, "t2", 60),
+    ]
     grouped = by_trial(batches)
     # (at 100 times real time a batch holds 100 × 50 samples: the trial's 120 in one)
     assert [(x.first_index, len(x.rates)) for x in grouped["t1"]] == [(0, 120)]
@@ -181,16 +204,20 @@ def test_bag_replay_publishes_the_recorded_trials(probe: Probe, ros_env: dict[st
     ("parameters", "message"),
     [
         (["source:=nope"], "driver: error: parameter 'source' = 'nope': expected one of sim, can, bag, daq"),
-        (["source:=sim", "session:=/nowhere/session.yaml"],
-         "driver: error: sim source: parameter 'session' = '/nowhere/session.yaml': no such file"),
+        (
+            ["source:=sim", "session:=/nowhere/session.yaml"],
+            "driver: error: sim source: parameter 'session' = '/nowhere/session.yaml': no such file",
+        ),
         (["source:=sim", "time_scale:=20"], "driver: error: parameter 'time_scale': expected a double (e.g. 20.0)"),
         (["source:=sim", "time_scale:=5000.0"], "driver: error: parameter 'time_scale': must be within [0.001, 1000]"),
-        (["source:=can", "samples_per_frame:=8"],
-         "driver: error: can source: parameter 'samples_per_frame' = 8: 16 bytes of int16 exceed a classic "
-         "frame's 8 (set can_fd)"),
+        (
+            ["source:=can", "samples_per_frame:=8"],
+            "driver: error: can source: parameter 'samples_per_frame' = 8: 16 bytes of int16 exceed a classic "
+            "frame's 8 (set can_fd)",
+        ),
         (["source:=daq"], "driver: error: daq source: parameter 'source' = 'daq': the daq source needs the 'nidaqmx'"),
     ],
-)  # fmt: skip
+)
 def test_bad_parameters_end_in_one_line(parameters: list[str], message: str, ros_env: dict[str, str]) -> None:
     cmd = node_command("bike_rig.nodes.driver", *parameters, params_file=str(config_file("driver.yaml")))
     done = subprocess.run(["timeout", "-k", "5", "60", *cmd], env=ros_env, capture_output=True, text=True, timeout=90)

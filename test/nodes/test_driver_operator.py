@@ -37,14 +37,18 @@ TRIAL_S = 6.0  # the small rig's trial duration, s of rig time
 TIME_SCALE = 50.0  # a trial in 0.12 s
 
 
-
-
 def test_sim_operator_mode_trials_on_request(probe: Probe, ros_env: dict[str, str], tmp_path: Path) -> None:
     rig = small_rig(tmp_path, duration_s=TRIAL_S)
     cmd = node_command(
-        "bike_rig.nodes.driver", "source:=sim", "mode:=operator", f"bicycle:={BICYCLE}", f"rig:={rig}", "seed:=3",
-        f"time_scale:={TIME_SCALE}", params_file=str(config_file("driver.yaml")),
-    )  # fmt: skip
+        "bike_rig.nodes.driver",
+        "source:=sim",
+        "mode:=operator",
+        f"bicycle:={BICYCLE}",
+        f"rig:={rig}",
+        "seed:=3",
+        f"time_scale:={TIME_SCALE}",
+        params_file=str(config_file("driver.yaml")),
+    )
     with RosProcess("driver", cmd, ros_env, tmp_path) as driver:
         op = Operator(probe, driver)
         refused = op.start("frame", "torsional", 4)
@@ -99,16 +103,23 @@ def test_sim_operator_mode_trials_on_request(probe: Probe, ros_env: dict[str, st
 def test_silent_can_bus_warns_within_a_second_and_aborts_at_once(
     probe: Probe, ros_env: dict[str, str], tmp_path: Path
 ) -> None:
-    cmd = node_command("bike_rig.nodes.driver", "source:=can", "can_interface:=virtual",
-                       f"can_channel:=silent-{uuid.uuid4().hex[:8]}", "can_id:=256")  # fmt: skip
+    cmd = node_command(
+        "bike_rig.nodes.driver",
+        "source:=can",
+        "can_interface:=virtual",
+        f"can_channel:=silent-{uuid.uuid4().hex[:8]}",
+        "can_id:=256",
+    )
     with RosProcess("driver", cmd, ros_env, tmp_path) as driver:
         op = Operator(probe, driver)
         asked, asked_ns = time.monotonic(), time.time_ns()
         started = op.start("fork", "torsional", 1)  # until stopped: nothing will ever arrive
         answered, answered_ns = time.monotonic(), time.time_ns()
         assert started.accepted and started.trial_id == "fork_torsional_o1_t1", started.message
-        warning = f"trial {started.trial_id}: no samples yet from the can gyro for 1.0 s — check the bus/wiring and " \
-                  "the CAN id (listening to virtual:"  # fmt: skip
+        warning = (
+            f"trial {started.trial_id}: no samples yet from the can gyro for 1.0 s — check the bus/wiring and "
+            "the CAN id (listening to virtual:"
+        )
 
         def log() -> str:
             return driver.stderr_path.read_text(encoding="utf-8")

@@ -133,8 +133,9 @@ def test_missing_events_and_disagreeing_rates() -> None:
 
 
 def test_options_round_trip_through_json() -> None:
-    options = TrialFitOptions(FitOptions(WindowPolicy.span(0.5, 7.25, whole_cycles=False), 3.0, 0.8, 0.1, 0.25),
-                              1234, 56)  # fmt: skip
+    options = TrialFitOptions(
+        FitOptions(WindowPolicy.span(0.5, 7.25, whole_cycles=False), 3.0, 0.8, 0.1, 0.25), 1234, 56
+    )
     assert TrialFitOptions.from_json(options.to_json()) == options
     assert TrialFitOptions.from_json(TrialFitOptions().to_json()) == TrialFitOptions()
 
@@ -348,11 +349,17 @@ def test_state_does_not_republish_trials_older_than_the_gyro_history() -> None:
 
 def expected_fields(result: TrialFit) -> dict[str, Any]:
     return {
-        "trial_id": result.trial_id, "measurement_key": result.measurement_key, "n_samples": result.n_samples,
-        "n_expected": result.n_expected, "window_start": result.window[0], "window_stop": result.window[1],
-        "valid": result.valid, "flags": result.flag_codes, "flag_reasons": result.flag_reasons,
+        "trial_id": result.trial_id,
+        "measurement_key": result.measurement_key,
+        "n_samples": result.n_samples,
+        "n_expected": result.n_expected,
+        "window_start": result.window[0],
+        "window_stop": result.window[1],
+        "valid": result.valid,
+        "flags": result.flag_codes,
+        "flag_reasons": result.flag_reasons,
         "fit_options_json": result.fit_options_json,
-    }  # fmt: skip
+    }
 
 
 def assert_identical(estimate: Any, result: TrialFit) -> None:
@@ -372,14 +379,25 @@ def test_every_trial_of_a_session_through_driver_and_fitter(
     periods = probe.subscribe(PERIODS, msgs.PeriodEstimate)
     fitter_cmd = node_command("bike_rig.nodes.fitter", params_file=str(config_file("fitter.yaml")))
     driver_cmd = node_command(
-        "bike_rig.nodes.driver", "source:=sim", f"session:={path}", "time_scale:=50.0",
-        "pause_between_trials_s:=0.1", "start_time_s:=1700000000.0", "wait_for_subscribers:=1",
+        "bike_rig.nodes.driver",
+        "source:=sim",
+        f"session:={path}",
+        "time_scale:=50.0",
+        "pause_between_trials_s:=0.1",
+        "start_time_s:=1700000000.0",
+        "wait_for_subscribers:=1",
         params_file=str(config_file("driver.yaml")),
-    )  # fmt: skip
-    with RosProcess("fitter", fitter_cmd, ros_env, tmp_path) as fitter, \
-            RosProcess("driver", driver_cmd, ros_env, tmp_path) as driver:
-        probe.spin_until(lambda: len(periods) == len(session.trials), STEP_TIMEOUT_S, "every trial's period",
-                         lambda: fitter.describe() + driver.describe())  # fmt: skip
+    )
+    with (
+        RosProcess("fitter", fitter_cmd, ros_env, tmp_path) as fitter,
+        RosProcess("driver", driver_cmd, ros_env, tmp_path) as driver,
+    ):
+        probe.spin_until(
+            lambda: len(periods) == len(session.trials),
+            STEP_TIMEOUT_S,
+            "every trial's period",
+            lambda: fitter.describe() + driver.describe(),
+        )
         assert fitter.proc.poll() is None and driver.proc.poll() is None
     assert (fitter.proc.returncode, driver.proc.returncode) == (0, 0)
 
@@ -406,18 +424,30 @@ def fit_messages(batches: Sequence[Any], start: Any, stop: Any, options: TrialFi
 def synthetic_trial(trial_id: str, seed: int, n: int = N) -> tuple[Any, list[Any], Any]:
     """START, GyroBatch messages and STOP of a clean trial, as rclpy messages."""
     rates = signal(n, seed=seed)
-    start = msgs.TrialEvent(kind=0, trial_id=trial_id, part="frame", pendulum="compound", measurement_key="TcB1",
-                            sample_rate_hz=RATE, sample_count=0)  # fmt: skip
+    start = msgs.TrialEvent(
+        kind=0,
+        trial_id=trial_id,
+        part="frame",
+        pendulum="compound",
+        measurement_key="TcB1",
+        sample_rate_hz=RATE,
+        sample_count=0,
+    )
     batches = []
     for a in range(0, n, 50):
         b = msgs.GyroBatch(trial_id=trial_id, first_index=a, sample_rate_hz=RATE)
         b.rates = rates[a : a + 50].tolist()
         batches.append(b)
-    stop = msgs.TrialEvent(kind=1, trial_id=trial_id, part="frame", pendulum="compound", measurement_key="TcB1",
-                           sample_rate_hz=RATE, sample_count=n)  # fmt: skip
+    stop = msgs.TrialEvent(
+        kind=1,
+        trial_id=trial_id,
+        part="frame",
+        pendulum="compound",
+        measurement_key="TcB1",
+        sample_rate_hz=RATE,
+        sample_count=n,
+    )
     return start, batches, stop
-
-
 
 
 @pytest.fixture
@@ -430,8 +460,12 @@ def talker(probe: Probe) -> tuple[Probe, Any, Any, list[Any]]:
 
 
 def wait_matched(probe: Probe, fitter: RosProcess, *publishers: Any) -> None:
-    probe.spin_until(lambda: all(p.get_subscription_count() > 0 for p in publishers), STEP_TIMEOUT_S,
-                     "the fitter's subscriptions", fitter.describe)  # fmt: skip
+    probe.spin_until(
+        lambda: all(p.get_subscription_count() > 0 for p in publishers),
+        STEP_TIMEOUT_S,
+        "the fitter's subscriptions",
+        fitter.describe,
+    )
 
 
 def test_bad_input_is_logged_flagged_and_the_fitter_keeps_serving(
@@ -443,8 +477,12 @@ def test_bad_input_is_logged_flagged_and_the_fitter_keeps_serving(
     options = TrialFitOptions(max_batch_samples=1000)
 
     def by_id(trial_id: str) -> Any:
-        probe.spin_until(lambda: any(p.trial_id == trial_id for p in periods), STEP_TIMEOUT_S,
-                         f"the period of {trial_id}", fitter.describe)  # fmt: skip
+        probe.spin_until(
+            lambda: any(p.trial_id == trial_id for p in periods),
+            STEP_TIMEOUT_S,
+            f"the period of {trial_id}",
+            fitter.describe,
+        )
         return next(p for p in periods if p.trial_id == trial_id)
 
     with RosProcess("fitter", cmd, ros_env, tmp_path) as fitter:
@@ -493,11 +531,13 @@ def test_bad_input_is_logged_flagged_and_the_fitter_keeps_serving(
         assert fitter.proc.poll() is None
     assert fitter.proc.returncode == 0, fitter.describe()
     log = fitter.stderr_path.read_text()
-    for line in ("trial nan_trial: 1 NaN/infinite samples in the batch at index 350",
-                 "trial ghost (?): no period, 200/0 samples; flags: unknown_trial",
-                 "trial lonely: STOP without START",
-                 "trial big: batch of 5000 samples at index 2000 rejected (max_batch_samples 1000)",
-                 "trial big: duplicate batch at index 600 ignored"):  # fmt: skip
+    for line in (
+        "trial nan_trial: 1 NaN/infinite samples in the batch at index 350",
+        "trial ghost (?): no period, 200/0 samples; flags: unknown_trial",
+        "trial lonely: STOP without START",
+        "trial big: batch of 5000 samples at index 2000 rejected (max_batch_samples 1000)",
+        "trial big: duplicate batch at index 600 ignored",
+    ):
         assert line in log, log
 
 
@@ -515,16 +555,20 @@ def test_a_restarted_fitter_refits_the_trial_in_progress(
         probe.spin_until(lambda: len(periods) == 1, STEP_TIMEOUT_S, "the period of a", fitter.describe)
     assert fitter.proc.returncode == 0
     # the first fitter is gone from the graph before the second one is waited for
-    probe.spin_until(lambda: events.get_subscription_count() == 0 and gyro.get_subscription_count() == 0,
-                     STEP_TIMEOUT_S, "the first fitter to leave")  # fmt: skip
+    probe.spin_until(
+        lambda: events.get_subscription_count() == 0 and gyro.get_subscription_count() == 0,
+        STEP_TIMEOUT_S,
+        "the first fitter to leave",
+    )
     for m in batches_b[70:120]:  # while no fitter runs
         gyro.publish(m)
     with RosProcess("fitter2", cmd, ros_env, tmp_path) as fitter:
         wait_matched(probe, fitter, events, gyro)
         for m in (*batches_b[120:], stop_b):
             (events if isinstance(m, msgs.TrialEvent) else gyro).publish(m)
-        probe.spin_until(lambda: any(p.trial_id == "b" for p in periods), STEP_TIMEOUT_S, "the period of b",
-                         fitter.describe)  # fmt: skip
+        probe.spin_until(
+            lambda: any(p.trial_id == "b" for p in periods), STEP_TIMEOUT_S, "the period of b", fitter.describe
+        )
     b = next(p for p in periods if p.trial_id == "b")
     assert_identical(b, fit_messages(batches_b, start_b, stop_b))
     assert b.n_samples == N and list(b.flags) == []
@@ -575,8 +619,12 @@ def test_lost_batches_are_fetched_again_from_the_drivers_resend_service(
     cmd = node_command("bike_rig.nodes.fitter", "grace_s:=0.3", "history_grace_s:=0.3")
 
     def by_id(trial_id: str) -> Any:
-        probe.spin_until(lambda: any(p.trial_id == trial_id for p in periods), STEP_TIMEOUT_S,
-                         f"the period of {trial_id}", fitter.describe)  # fmt: skip
+        probe.spin_until(
+            lambda: any(p.trial_id == trial_id for p in periods),
+            STEP_TIMEOUT_S,
+            f"the period of {trial_id}",
+            fitter.describe,
+        )
         return next(p for p in periods if p.trial_id == trial_id)
 
     with RosProcess("fitter", cmd, ros_env, tmp_path) as fitter:

@@ -63,37 +63,83 @@ def session_messages(shared_dir: Path) -> dict[str, list[Any]]:
     )
     events = []
     for kind, count in ((msgs.TrialEvent.START, 0), (msgs.TrialEvent.STOP, rates.size)):
-        e = msgs.TrialEvent(kind=kind, trial_id=TRIAL, part="frame", pendulum="torsional", orientation=1, repeat=1,
-                            measurement_key="TtB1", sample_rate_hz=RATE, sample_count=count)  # fmt: skip
+        e = msgs.TrialEvent(
+            kind=kind,
+            trial_id=TRIAL,
+            part="frame",
+            pendulum="torsional",
+            orientation=1,
+            repeat=1,
+            measurement_key="TtB1",
+            sample_rate_hz=RATE,
+            sample_count=count,
+        )
         _stamp(e, t0 + (0 if kind == msgs.TrialEvent.START else int(rates.size / RATE * 1e9)))
         events.append(e)
     batches = []
     for i in range(N_BATCHES):
-        b = msgs.GyroBatch(trial_id=TRIAL, first_index=i * BATCH, sample_rate_hz=RATE,
-                           rates=rates[i * BATCH : (i + 1) * BATCH].tolist())  # fmt: skip
+        b = msgs.GyroBatch(
+            trial_id=TRIAL,
+            first_index=i * BATCH,
+            sample_rate_hz=RATE,
+            rates=rates[i * BATCH : (i + 1) * BATCH].tolist(),
+        )
         _stamp(b, t0 + int(i * BATCH / RATE * 1e9))
         batches.append(b)
-    period = msgs.PeriodEstimate(trial_id=TRIAL, measurement_key="TtB1", period=1.7, period_sigma=2e-4, zeta=1e-3,
-                                 omega=2 * np.pi / 1.7, r2=0.999, n_samples=rates.size, n_expected=rates.size,
-                                 valid=True, flags=["short"], flag_reasons=["a short record"])  # fmt: skip
+    period = msgs.PeriodEstimate(
+        trial_id=TRIAL,
+        measurement_key="TtB1",
+        period=1.7,
+        period_sigma=2e-4,
+        zeta=1e-3,
+        omega=2 * np.pi / 1.7,
+        r2=0.999,
+        n_samples=rates.size,
+        n_expected=rates.size,
+        valid=True,
+        flags=["short"],
+        flag_reasons=["a short record"],
+    )
     browser = load_input(str(shared_dir / "data/bicycleparameters/Browser/Parameters/BrowserBenchmark.txt"))
     pv = browser.parameters  # type: ignore[union-attr]
-    params = msgs.BenchmarkParameters(bicycle="Browser", names=list(pv.names), values=[pv.value(k) for k in pv.names],
-                                      sigmas=[pv.sigma(k) for k in pv.names], complete=True)  # fmt: skip
+    params = msgs.BenchmarkParameters(
+        bicycle="Browser",
+        names=list(pv.names),
+        values=[pv.value(k) for k in pv.names],
+        sigmas=[pv.sigma(k) for k in pv.names],
+        complete=True,
+    )
     speeds = np.linspace(0.0, 10.0, 21)
     eig = rng.standard_normal((speeds.size, 4))
-    sweep = msgs.EigenSweep(bicycle="Browser", speeds=speeds.tolist(), eigenvalues_real=eig.ravel().tolist(),
-                            eigenvalues_imag=(0.5 * eig).ravel().tolist(),
-                            mode_labels=["weave", "weave", "capsize", "caster"], has_weave=True, weave_speed=4.3,
-                            weave_speed_sigma=0.05, has_capsize=True, capsize_speed=6.1,
-                            capsize_speed_sigma=0.04)  # fmt: skip
-    out = {TRIAL_EVENTS.name: events, GYRO.name: batches, PERIODS.name: [period], PARAMETERS.name: [params],
-           EIGEN_SWEEP.name: [sweep]}  # fmt: skip
+    sweep = msgs.EigenSweep(
+        bicycle="Browser",
+        speeds=speeds.tolist(),
+        eigenvalues_real=eig.ravel().tolist(),
+        eigenvalues_imag=(0.5 * eig).ravel().tolist(),
+        mode_labels=["weave", "weave", "capsize", "caster"],
+        has_weave=True,
+        weave_speed=4.3,
+        weave_speed_sigma=0.05,
+        has_capsize=True,
+        capsize_speed=6.1,
+        capsize_speed_sigma=0.04,
+    )
+    out = {
+        TRIAL_EVENTS.name: events,
+        GYRO.name: batches,
+        PERIODS.name: [period],
+        PARAMETERS.name: [params],
+        EIGEN_SWEEP.name: [sweep],
+    }
     diag = _diagnostics_module()
     if diag is not None:
-        status = diag.DiagnosticStatus(level=diag.DiagnosticStatus.WARN, name="driver: sample rate",
-                                       message="999.0 Hz of 1000", hardware_id="rig",
-                                       values=[diag.KeyValue(key="rate_hz", value="999.0")])  # fmt: skip
+        status = diag.DiagnosticStatus(
+            level=diag.DiagnosticStatus.WARN,
+            name="driver: sample rate",
+            message="999.0 Hz of 1000",
+            hardware_id="rig",
+            values=[diag.KeyValue(key="rate_hz", value="999.0")],
+        )
         array = diag.DiagnosticArray(status=[status])
         _stamp(array, t0)
         out[DIAGNOSTICS.name] = [array]
@@ -118,8 +164,6 @@ def assert_same(decoded: Any, published: Any, where: str) -> None:
             assert got == want, f"{where}.{name}: {got!r} != {want!r}"
 
 
-
-
 @pytest.fixture
 def bridge(ros_env: dict[str, str], tmp_path: Path) -> Iterator[tuple[RosProcess, str]]:
     """The bridge node as a process on a free port, and its ``ws://`` address."""
@@ -138,10 +182,16 @@ def test_every_channel_carries_what_was_published(
 ) -> None:
     proc, url = bridge
     session = session_messages(shared_dir)
-    publishers = {name: probe.publisher(next(v.topic for v in VIEW_TOPICS if v.name == name), type(ms[0]))
-                  for name, ms in session.items()}  # fmt: skip
-    probe.spin_until(lambda: all(p.get_subscription_count() > 0 for p in publishers.values()), STEP_TIMEOUT_S,
-                     "bridge subscription on every topic", proc.describe)  # fmt: skip
+    publishers = {
+        name: probe.publisher(next(v.topic for v in VIEW_TOPICS if v.name == name), type(ms[0]))
+        for name, ms in session.items()
+    }
+    probe.spin_until(
+        lambda: all(p.get_subscription_count() > 0 for p in publishers.values()),
+        STEP_TIMEOUT_S,
+        "bridge subscription on every topic",
+        proc.describe,
+    )
 
     with foxglove_client(url) as client:
         served = {v.name for v in VIEW_TOPICS if v.name != DIAGNOSTICS.name or _diagnostics_module() is not None}
@@ -150,7 +200,10 @@ def test_every_channel_carries_what_was_published(
         for topic, channel in client.by_topic().items():
             msgtype = _topic_types()[topic]
             assert (channel["encoding"], channel["schemaName"], channel["schemaEncoding"]) == (
-                "cdr", msgtype, "ros2msg"), topic  # fmt: skip
+                "cdr",
+                msgtype,
+                "ros2msg",
+            ), topic
             assert channel["schema"] == message_definition(msgtype), f"{topic}: not the recorder's schema text"
         client.subscribe(session)
         client.drain(0.5)  # (the subscriptions take effect before anything is published)
@@ -158,8 +211,9 @@ def test_every_channel_carries_what_was_published(
             for msg in session.get(name, []):
                 publishers[name].publish(msg)
         want = {name: len(ms) for name, ms in session.items()}
-        client.read_until(lambda: {t: len(v) for t, v in client.received.items()} == want, STEP_TIMEOUT_S,
-                          f"every message ({want})")  # fmt: skip
+        client.read_until(
+            lambda: {t: len(v) for t, v in client.received.items()} == want, STEP_TIMEOUT_S, f"every message ({want})"
+        )
         for topic, published in session.items():
             msgtype = _topic_types()[topic]
             store = store_for(msgtype)
@@ -173,8 +227,11 @@ def test_every_channel_carries_what_was_published(
         late.read_until(lambda: GYRO.name in late.by_topic(), STEP_TIMEOUT_S, "advertise")
         late.subscribe(session)
         kept = {name: len(ms) for name, ms in session.items() if name not in (GYRO.name, DIAGNOSTICS.name)}
-        late.read_until(lambda: all(len(late.received.get(t, [])) == n for t, n in kept.items()), STEP_TIMEOUT_S,
-                        f"the kept messages ({kept})")  # fmt: skip
+        late.read_until(
+            lambda: all(len(late.received.get(t, [])) == n for t, n in kept.items()),
+            STEP_TIMEOUT_S,
+            f"the kept messages ({kept})",
+        )
         late.drain(1.0)
         assert GYRO.name not in late.received, "gyro batches are live only"
         for topic, n in kept.items():
@@ -230,8 +287,9 @@ def test_a_late_client_gets_the_whole_kept_history(probe: Probe, bridge: tuple[R
         client.read_until(lambda: TRIAL_EVENTS.name in client.by_topic(), STEP_TIMEOUT_S, "advertise")
         # (those the bridge has not taken from DDS yet come live, after the replay: the order holds)
         client.subscribe([TRIAL_EVENTS.name])
-        client.read_until(lambda: len(client.received.get(TRIAL_EVENTS.name, [])) >= n, STEP_TIMEOUT_S,
-                          f"{n} kept trial events")  # fmt: skip
+        client.read_until(
+            lambda: len(client.received.get(TRIAL_EVENTS.name, [])) >= n, STEP_TIMEOUT_S, f"{n} kept trial events"
+        )
     store = store_for(TRIAL_EVENTS.type)
     ids = [store.deserialize_cdr(r.payload, TRIAL_EVENTS.type).trial_id for r in client.received[TRIAL_EVENTS.name]]
     assert ids == [f"t{i}" for i in range(n)]

@@ -73,9 +73,7 @@ def served() -> Iterator[tuple[_Server, FoxgloveRelay]]:
         server.server.stop()
 
 
-@pytest.mark.parametrize(
-    "offered", [[SDK_SUBPROTOCOL], [LEGACY_SUBPROTOCOL], [LEGACY_SUBPROTOCOL, SDK_SUBPROTOCOL]]
-)  # fmt: skip
+@pytest.mark.parametrize("offered", [[SDK_SUBPROTOCOL], [LEGACY_SUBPROTOCOL], [LEGACY_SUBPROTOCOL, SDK_SUBPROTOCOL]])
 def test_a_client_of_either_name_gets_every_message(served: tuple[_Server, FoxgloveRelay], offered: list[str]) -> None:
     server, relay = served
     with foxglove_client(f"ws://127.0.0.1:{relay.port}", subprotocols=offered) as client:
@@ -84,8 +82,10 @@ def test_a_client_of_either_name_gets_every_message(served: tuple[_Server, Foxgl
         assert client.server_info is not None and client.server_info["name"] == "relay-test"
         channel = client.by_topic()[TOPIC]
         assert (channel["encoding"], channel["schemaName"], channel["schema"]) == (
-            "cdr", "std_msgs/msg/String", "string data\n",
-        )  # fmt: skip
+            "cdr",
+            "std_msgs/msg/String",
+            "string data\n",
+        )
         client.subscribe([TOPIC])
         assert server.subscribed.wait(30), "the server saw no subscription through the relay"
         sent = server.log(500)

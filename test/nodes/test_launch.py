@@ -20,8 +20,13 @@ def _env(tmp_path: Path) -> dict[str, str]:
 
 
 def _reports(tmp_path: Path, n: int, timeout_s: float = 20.0) -> list[dict[str, object]]:
-    files = wait_until(lambda: (fs := sorted(tmp_path.glob("*.json")))[n - 1 :] and fs, f"{n} fake nodes' reports",
-                       timeout_s, 0.02, lambda: f"{len(list(tmp_path.glob('*.json')))} reported")  # fmt: skip
+    files = wait_until(
+        lambda: (fs := sorted(tmp_path.glob("*.json")))[n - 1 :] and fs,
+        f"{n} fake nodes' reports",
+        timeout_s,
+        0.02,
+        lambda: f"{len(list(tmp_path.glob('*.json')))} reported",
+    )
     time.sleep(0.05)  # (each report is written whole before the next poll)
     return [json.loads(f.read_text()) for f in files]
 
@@ -120,8 +125,13 @@ def test_the_nodes_end_with_their_launcher_however_it_dies(tmp_path: Path) -> No
         "print('started', flush=True)\n"
         "time.sleep(600)\n"
     )
-    with subprocess.Popen([sys.executable, "-c", launcher], stdout=subprocess.PIPE, text=True, cwd=REPO,
-                          env={**os.environ, "PYTHONPATH": str(REPO)}) as proc:  # fmt: skip
+    with subprocess.Popen(
+        [sys.executable, "-c", launcher],
+        stdout=subprocess.PIPE,
+        text=True,
+        cwd=REPO,
+        env={**os.environ, "PYTHONPATH": str(REPO)},
+    ) as proc:
         try:
             assert proc.stdout is not None and proc.stdout.readline() == "started\n"
             reports = _reports(tmp_path, 2)

@@ -44,12 +44,6 @@ from test.support.probe import Probe
 pytestmark = pytest.mark.ros
 
 
-
-
-
-
-
-
 def assert_model_equals_core(
     matrices: Any, sweep: Any, ps: ParameterSet, rider: str, convention: SigmaConvention, speeds: np.ndarray
 ) -> None:
@@ -70,12 +64,10 @@ def assert_model_equals_core(
     assert cs.weave is not None and cs.capsize is not None
     assert (sweep.has_weave, sweep.weave_speed, sweep.weave_speed_sigma) == (True, cs.weave.speed, cs.weave.sigma)
     assert (sweep.has_capsize, sweep.capsize_speed, sweep.capsize_speed_sigma) == (
-        True, cs.capsize.speed, cs.capsize.sigma,
-    )  # fmt: skip
-
-
-
-
+        True,
+        cs.capsize.speed,
+        cs.capsize.sigma,
+    )
 
 
 def test_model_from_published_sets_and_state_space(probe: Probe, node_env: dict[str, str], tmp_path: Path) -> None:
@@ -108,8 +100,11 @@ def test_model_from_published_sets_and_state_space(probe: Probe, node_env: dict[
             assert np.array_equal(np.asarray(got.eigenvalues_real), eig.real)
             assert np.array_equal(np.asarray(got.eigenvalues_imag), eig.imag)
             assert list(got.mode_labels) == ["weave", "weave", "capsize", "caster"]
-        for speed, rider, reason in ((-1.0, "", "speed must be"), (math.nan, "", "speed must be"),
-                                     (3.0, "tall", "unknown rider 'tall'")):  # fmt: skip
+        for speed, rider, reason in (
+            (-1.0, "", "speed must be"),
+            (math.nan, "", "speed must be"),
+            (3.0, "tall", "unknown rider 'tall'"),
+        ):
             refused = probe.call(StateSpace, topics.STATE_SPACE, state_space_request(speed, rider))
             assert not refused.ok and reason in refused.message
 
@@ -123,9 +118,7 @@ def test_model_from_published_sets_and_state_space(probe: Probe, node_env: dict[
     assert code == 0, node.describe()
 
 
-def test_late_model_node_gets_the_parameter_nodes_set(
-    probe: Probe, node_env: dict[str, str], tmp_path: Path
-) -> None:
+def test_late_model_node_gets_the_parameter_nodes_set(probe: Probe, node_env: dict[str, str], tmp_path: Path) -> None:
     from bike_rig_msgs.msg import BenchmarkParameters, CanonicalMatrices, EigenSweep
 
     probe.listen(topics.PARAMETERS, BenchmarkParameters)
@@ -135,8 +128,16 @@ def test_late_model_node_gets_the_parameter_nodes_set(
         # the model node starts only now, after the set was published
         probe.listen(topics.MATRICES, CanonicalMatrices)
         probe.listen(topics.EIGEN_SWEEP, EigenSweep)
-        model_args = ("-p", "rider:=paper", "-p", "sigma_convention:=paper", "-p", "speed_max:=5.0",
-                      "-p", "speed_count:=11")  # fmt: skip
+        model_args = (
+            "-p",
+            "rider:=paper",
+            "-p",
+            "sigma_convention:=paper",
+            "-p",
+            "speed_max:=5.0",
+            "-p",
+            "speed_count:=11",
+        )
         with start_node("model", "model_late", node_env, tmp_path, *model_args) as model:
             nodes: list[RosProcess] = [parameter, model]
             matrices = probe.wait_message(topics.MATRICES, lambda m: True, "matrices from the late model", nodes)
@@ -156,8 +157,6 @@ def test_bad_model_parameter_is_one_error_line_and_status_2(node_env: dict[str, 
     done = subprocess.run(argv, env=node_env, capture_output=True, text=True, timeout=60)
     assert done.returncode == 2
     assert done.stderr.strip().splitlines() == ["model: error: parameters 'speed_min' 5.0 > 'speed_max' 1.0"]
-
-
 
 
 def test_model_node_with_feedback_publishes_the_closed_loop(

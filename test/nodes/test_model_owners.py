@@ -88,8 +88,10 @@ def test_a_set_from_another_process_never_drives_the_model(
         with RosProcess("rogue", [sys.executable, str(ROGUE), "2"], node_env, tmp_path) as rogue:
             assert rogue.expect("MATCHED", STEP_TIMEOUT_S) == "2"
             rogue.expect("DONE", STEP_TIMEOUT_S)
-            probe.wait_for(lambda: any(m.bicycle == "Rogue" for m in probe.inbox[topics.PARAMETERS.name]),
-                           "the rogue's set on the domain")  # fmt: skip
+            probe.wait_for(
+                lambda: any(m.bicycle == "Rogue" for m in probe.inbox[topics.PARAMETERS.name]),
+                "the rogue's set on the domain",
+            )
             line = wait_for_log(probe, model, which("Rogue", ROGUE_STAMP_NS), [*nodes, rogue])
             assert line.endswith(
                 f"{which('Rogue', ROGUE_STAMP_NS)} ignored: published by node 'rogue' in another process than the "
@@ -123,12 +125,16 @@ def test_an_impossible_set_from_the_parameter_node_is_refused_and_the_last_model
         kept = "; refused, nothing published (the model of 'Browser' stays)"
         pn.publish(parameter_message(browser, STAMP_NS + 1, changes={"zB": math.nan}))
         line = wait_for_log(probe, model, which("Browser", STAMP_NS + 1), [model])
-        assert line.endswith(f"{which('Browser', STAMP_NS + 1)} is not physically possible: zB = nan m: every "
-                             f"value must be a finite number{kept}"), line  # fmt: skip
+        assert line.endswith(
+            f"{which('Browser', STAMP_NS + 1)} is not physically possible: zB = nan m: every "
+            f"value must be a finite number{kept}"
+        ), line
         pn.publish(parameter_message(benchmark, STAMP_NS + 2, "Rogue", {"IBxx": -9.2}))
         line = wait_for_log(probe, model, which("Rogue", STAMP_NS + 2), [model])
-        assert line.endswith(f"{which('Rogue', STAMP_NS + 2)} is not physically possible: IBxx = -9.2 kg m²: an "
-                             f"inertia must be positive{kept}"), line  # fmt: skip
+        assert line.endswith(
+            f"{which('Rogue', STAMP_NS + 2)} is not physically possible: IBxx = -9.2 kg m²: an "
+            f"inertia must be positive{kept}"
+        ), line
         assert line.startswith("[ERROR]"), line
 
         assert latched_sweep_stamps(ros_env) == [STAMP_NS]

@@ -31,7 +31,6 @@ RATE = 2.0  # 1/s
 INTERVAL_NS = int(1e9 / RATE)
 
 
-
 def stamp_of(msg: Any) -> int:
     return int(msg.header.stamp.sec) * 1_000_000_000 + int(msg.header.stamp.nanosec)
 
@@ -79,8 +78,16 @@ def test_ride_speed_gives_the_latched_state_space_rate_limited_and_stepped(
     from bike_rig_msgs.msg import StateSpaceModel
 
     box = probe.listen(topics.RIDE_STATE_SPACE, StateSpaceModel)
-    args = ("-p", f"ride_speed_step:={STEP}", "-p", f"ride_max_rate:={RATE}", "-p", "rider:=paper",
-            "-p", f"feedback:={ASSIST}")  # fmt: skip
+    args = (
+        "-p",
+        f"ride_speed_step:={STEP}",
+        "-p",
+        f"ride_max_rate:={RATE}",
+        "-p",
+        "rider:=paper",
+        "-p",
+        f"feedback:={ASSIST}",
+    )
     with start_node("model", "model_ride", node_env, tmp_path, *args) as node:
         speed = probe.publisher(topics.RIDE_SPEED, Float64, matched=True)
         # speeds before any parameter set give nothing; the model follows as soon as a set arrives
@@ -118,8 +125,9 @@ def test_ride_speed_gives_the_latched_state_space_rate_limited_and_stepped(
 
         # a new parameter set: the state space at the current speed again
         publish_set(probe, ComMethod.LEAST_SQUARES, STAMP_NS + 1)
-        again = probe.wait_message(topics.RIDE_STATE_SPACE, lambda m: stamp_of(m) > stamp_of(last), "after a new set",
-                                   [node])  # fmt: skip
+        again = probe.wait_message(
+            topics.RIDE_STATE_SPACE, lambda m: stamp_of(m) > stamp_of(last), "after a new set", [node]
+        )
         assert again.speed == 6.0 and not np.array_equal(np.asarray(again.a), np.asarray(last.a))
         code = node.stop()
     assert code == 0, node.describe()

@@ -33,7 +33,6 @@ BP = shared_dir() / "data" / "bicycleparameters"
 JASON = BP / "riders" / "Jason" / "RawData"
 
 
-
 def _rider_file(tmp_path: Path) -> str:
     """Jason with the Browser's rider geometry in the file: sets on the topic carry none."""
     raw = read_bp_measured(BP / "Browser" / "RawData" / "BrowserMeasured.txt").extras

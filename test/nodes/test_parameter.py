@@ -29,23 +29,14 @@ from test.support.probe import Probe
 pytestmark = pytest.mark.ros
 
 
-
-
-
-
-
-
-
-
-
-
-
-
 def assert_equal_sets(msg: Any, expected: SessionParameters) -> None:
     got = session_parameters_from_msg(msg)
     assert (got.bicycle, got.com_method, got.periods, got.missing) == (
-        expected.bicycle, expected.com_method, expected.periods, expected.missing,
-    )  # fmt: skip
+        expected.bicycle,
+        expected.com_method,
+        expected.periods,
+        expected.missing,
+    )
     assert expected.parameters is not None and got.parameters is not None
     assert got.parameters.parameters.names == expected.parameters.parameters.names
     assert np.array_equal(got.parameters.parameters.values, expected.parameters.parameters.values)
@@ -101,9 +92,7 @@ def test_late_parameter_node_assembles_the_browser_set(probe: Probe, node_env: d
     assert code == 0, node.describe()
 
 
-def test_incomplete_session_reports_what_is_missing(
-    probe: Probe, node_env: dict[str, str], tmp_path: Path
-) -> None:
+def test_incomplete_session_reports_what_is_missing(probe: Probe, node_env: dict[str, str], tmp_path: Path) -> None:
     from bike_rig_msgs.msg import BenchmarkParameters
 
     probe.listen(topics.PARAMETERS, BenchmarkParameters)

@@ -50,7 +50,6 @@ START_NS = 1_800_000_000 * 1_000_000_000
 LATE = ("mF", "aH3")
 
 
-
 def publisher(probe: Probe, topic: topics.Topic, msg_type: Any, subscribers: int) -> Any:
     """The probe's publisher on ``topic``, once ``subscribers`` subscriptions have matched."""
     pub = probe.publisher(topic, msg_type)
@@ -130,12 +129,20 @@ def wait_for_static_source(bag: Path, source: str, recorder: Any, timeout_s: flo
             return False
         scan = scan_mcap(data)
         ids = {cid for cid, ch in scan.channels.items() if ch.topic == topics.STATIC_READINGS.name}
-        seen[:] = [str(store.deserialize_cdr(m.data, "bike_rig_msgs/msg/StaticReadings").source)
-                   for m in scan.messages if m.channel_id in ids]  # fmt: skip
+        seen[:] = [
+            str(store.deserialize_cdr(m.data, "bike_rig_msgs/msg/StaticReadings").source)
+            for m in scan.messages
+            if m.channel_id in ids
+        ]
         return source in seen
 
-    wait_until(recorded, f"StaticReadings from {source!r} recorded", timeout_s, 0.1,
-               lambda: f"recorded StaticReadings sources {seen}\n{recorder.describe()}")  # fmt: skip
+    wait_until(
+        recorded,
+        f"StaticReadings from {source!r} recorded",
+        timeout_s,
+        0.1,
+        lambda: f"recorded StaticReadings sources {seen}\n{recorder.describe()}",
+    )
 
 
 def test_readings_entered_live_complete_correct_record_and_replay(
@@ -145,8 +152,9 @@ def test_readings_entered_live_complete_correct_record_and_replay(
     from bike_rig_msgs.msg import ReadingEntry as ReadingEntryMsg
 
     session = one_trial_session()
-    stream = [m for m in simulated_messages(session, start_ns=START_NS, pause_s=0.5)
-              if m.topic != topics.STATIC_READINGS.name]  # fmt: skip
+    stream = [
+        m for m in simulated_messages(session, start_ns=START_NS, pause_s=0.5) if m.topic != topics.STATIC_READINGS.name
+    ]
     estimates = live_results(stream)  # the fitter's estimates (no static readings: periods only)
     entries = operator_entries(session, START_NS - 100 * 1_000_000_000)
     correction = entries[-1]
@@ -171,11 +179,13 @@ def test_readings_entered_live_complete_correct_record_and_replay(
         enter(readings, [*bad, *early])
         publish_trials(probe, [*stream, *estimates])
 
-        status = probe.wait_message(topics.PARAMETERS, lambda m: tuple(m.missing) == LATE,
-                                    f"the status missing only {LATE}", procs)  # fmt: skip
+        status = probe.wait_message(
+            topics.PARAMETERS, lambda m: tuple(m.missing) == LATE, f"the status missing only {LATE}", procs
+        )
         assert not status.complete and list(status.period_keys) == list(BROWSER_KEYS)
-        merged_msg = probe.wait_message(topics.STATIC_READINGS, lambda m: m.source == f"{len(early)} reading entries",
-                                        "the merged readings", procs)  # fmt: skip
+        merged_msg = probe.wait_message(
+            topics.STATIC_READINGS, lambda m: m.source == f"{len(early)} reading entries", "the merged readings", procs
+        )
         merged = static_readings_from_msg(merged_msg)
         assert set(merged.readings) == set(STATIC_KEYS) - set(LATE)
 
@@ -186,13 +196,18 @@ def test_readings_entered_live_complete_correct_record_and_replay(
         fixed = probe.wait_message(
             topics.PARAMETERS,
             lambda m: m.complete and m.values[list(m.names).index("mR")] == correction.value,
-            "the set with the corrected reading", procs,
-        )  # fmt: skip
+            "the set with the corrected reading",
+            procs,
+        )
         assert_same(fixed, expected_set([*early, *late, correction], estimates))
         mr = list(fixed.names).index("mR")
         assert not [m for m in params_box if m.complete and m.values[mr] != correction.value]  # (none impossible)
-        last_msg = probe.wait_message(topics.STATIC_READINGS, lambda m: m.source == f"{len(entries)} reading entries",
-                                      "the corrected readings", procs)  # fmt: skip
+        last_msg = probe.wait_message(
+            topics.STATIC_READINGS,
+            lambda m: m.source == f"{len(entries)} reading entries",
+            "the corrected readings",
+            procs,
+        )
         last = static_readings_from_msg(last_msg)
         assert list(last.readings) == list(STATIC_KEYS) and last.value(MISTAKE_KEY) == correction.value
         assert "rear_wheel:" in last_msg.document and repr(correction.value) in last_msg.document
@@ -218,10 +233,12 @@ def test_readings_entered_live_complete_correct_record_and_replay(
     ("params", "expected"),
     [
         ((), "give parameter 'measurements' (the bicycle's measurement file"),
-        (("-p", f"measurements:={BROWSER}", "-p", "bicycle:=Fisher"),
-         "parameter 'bicycle' = 'Fisher': the measurement file"),
+        (
+            ("-p", f"measurements:={BROWSER}", "-p", "bicycle:=Fisher"),
+            "parameter 'bicycle' = 'Fisher': the measurement file",
+        ),
     ],
-)  # fmt: skip
+)
 def test_neither_file_nor_name_or_a_name_not_the_files_is_one_error_line(
     node_env: dict[str, str], tmp_path: Path, params: tuple[str, ...], expected: str
 ) -> None:

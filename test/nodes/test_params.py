@@ -75,12 +75,23 @@ def test_defaults_and_overrides_are_read_and_converted(make_node: NodeFactory) -
     from bike_rig.nodes.params import declare_parameters
 
     assert declare_parameters(make_node(), SPECS) == {
-        "mode": "a", "count": 4, "time_scale": 1.0, "flush_period": 0.5, "topics": ("all",), "flag": False,
-    }  # fmt: skip
+        "mode": "a",
+        "count": 4,
+        "time_scale": 1.0,
+        "flush_period": 0.5,
+        "topics": ("all",),
+        "flag": False,
+    }
     node = make_node(mode="b", count=64, time_scale=20.0, flush_period=1, topics="gyro", flag=True)
     values = declare_parameters(node, SPECS)
-    assert values == {"mode": "b", "count": 64, "time_scale": 20.0, "flush_period": 1.0, "topics": ("gyro",),
-                      "flag": True}  # fmt: skip
+    assert values == {
+        "mode": "b",
+        "count": 64,
+        "time_scale": 20.0,
+        "flush_period": 1.0,
+        "topics": ("gyro",),
+        "flag": True,
+    }
     assert isinstance(values["flush_period"], float)
     assert node.get_parameter("time_scale").value == 20.0
     assert node.describe_parameter("count").read_only

@@ -25,8 +25,20 @@ from bike_rig.pipeline.model import compute_model, state_space_at
 
 BICYCLES = ("browser", "browserins", "crescendo", "fisher", "stratos", "yellow")
 BROWSER_KEYS = (
-    "TtP1", "TcR1", "TtR1", "TcF1", "TtF1", "TcB1", "TtB1", "TtB2", "TtB3", "TcH1", "TtH1", "TtH2", "TtH3",
-)  # fmt: skip
+    "TtP1",
+    "TcR1",
+    "TtR1",
+    "TcF1",
+    "TtF1",
+    "TcB1",
+    "TtB1",
+    "TtB2",
+    "TtB3",
+    "TcH1",
+    "TtH1",
+    "TtH2",
+    "TtH3",
+)
 
 
 def bicycle(name: str) -> Path:

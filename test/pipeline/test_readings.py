@@ -35,8 +35,20 @@ from test.support.nodes import STATIC_KEYS
 
 BROWSER = config_file("bicycles/browser.yaml")
 BROWSER_KEYS = (
-    "TtP1", "TcR1", "TtR1", "TcF1", "TtF1", "TcB1", "TtB1", "TtB2", "TtB3", "TcH1", "TtH1", "TtH2", "TtH3",
-)  # fmt: skip
+    "TtP1",
+    "TcR1",
+    "TtR1",
+    "TcF1",
+    "TtF1",
+    "TcB1",
+    "TtB1",
+    "TtB2",
+    "TtB3",
+    "TcH1",
+    "TtH1",
+    "TtH2",
+    "TtH3",
+)
 
 
 def entries_of(static: Measurements, stamp0: int = 1_000) -> list[ReadingEntry]:
@@ -172,8 +184,13 @@ def test_converters_round_trip_rosbags_and_stand_in_messages() -> None:
     msg = fill_reading_entry(new_message(READINGS.type), entry)
     assert (msg.header.stamp.sec, msg.header.stamp.nanosec) == (1_800_000_000, 123_456_789)
     assert reading_entry_from_msg(msg) == entry
-    stand_in = SimpleNamespace(header=SimpleNamespace(stamp=SimpleNamespace(sec=0, nanosec=0), frame_id=""),
-                               key="", value=0.0, sigma=0.0, note="")  # fmt: skip
+    stand_in = SimpleNamespace(
+        header=SimpleNamespace(stamp=SimpleNamespace(sec=0, nanosec=0), frame_id=""),
+        key="",
+        value=0.0,
+        sigma=0.0,
+        note="",
+    )
     assert reading_entry_from_msg(fill_reading_entry(stand_in, entry)) == entry  # type: ignore[arg-type]
 
 

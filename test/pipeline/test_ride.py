@@ -32,8 +32,11 @@ def test_prediction_is_an_eigenvalue_of_the_state_space(path: Path, closed: bool
     pred = predicted_weave(ps, SPEEDS, fb)
     has_sigma = any(ps.parameters.sigma(k) > 0 for k in ps.parameters.names)
     for i, v in enumerate(SPEEDS):
-        a, _ = state_space(ms.matrices, v, ms.g) if fb is None else closed_loop_state_space(ms.matrices, v, ms.g,
-                                                                                            fb.gains(v))  # fmt: skip
+        a, _ = (
+            state_space(ms.matrices, v, ms.g)
+            if fb is None
+            else closed_loop_state_space(ms.matrices, v, ms.g, fb.gains(v))
+        )
         lam = np.linalg.eigvals(np.asarray(a, dtype=float))
         complex_ = lam[lam.imag > 1e-9]
         if not complex_.size:
@@ -57,8 +60,9 @@ def test_comparison_normalises_by_both_sigmas() -> None:
         ps = compute_parameters(ps)
     pred = predicted_weave(ps, [5.0])
     fit = None
-    seg = MeasuredEigenvalue("x", 1, 0.0, 2.0, 5.0, float(pred.real[0]) + 0.1, 0.05, float(pred.imag[0]) - 0.2,
-                             0.1, True, (), 2.0, fit)  # type: ignore[arg-type]  # fmt: skip
+    seg = MeasuredEigenvalue(
+        "x", 1, 0.0, 2.0, 5.0, float(pred.real[0]) + 0.1, 0.05, float(pred.imag[0]) - 0.2, 0.1, True, (), 2.0, fit
+    )  # type: ignore[arg-type]
     cmp = compare_ride(ps, [seg, seg])
     row = cmp.segments[0]
     assert row.z_real == pytest.approx(0.1 / math.hypot(0.05, float(pred.real_sigma[0])))

@@ -105,8 +105,10 @@ def test_a_node_behind_that_stalls_is_said_silent_and_a_node_without_lag_status_
     beat(watch, clock, "recorder", 1)  # (no input lag status: not late)
     assert beat(watch, clock, "model", 1, lag_s=5.0) == ["model 5 s behind: results will follow"]
     lines = wait(watch, clock, 5.0)
-    assert lines == ["recorder silent for 4 s (stalled?): results will follow",
-                     "model silent for 4 s (stalled?): results will follow"]  # fmt: skip
+    assert lines == [
+        "recorder silent for 4 s (stalled?): results will follow",
+        "model silent for 4 s (stalled?): results will follow",
+    ]
 
 
 def test_an_ended_or_forgotten_node_is_gone_not_stalled_and_other_nodes_are_not_followed() -> None:

@@ -73,8 +73,13 @@ SPEEDS = np.linspace(0.0, 10.0, 1001)
 MILD_RATE = 0.35
 #: The paper's column of each bicycle in Tables 2–5.
 COLUMNS: Mapping[str, str] = {
-    "browser": "B", "browserins": "B*", "crescendo": "C", "fisher": "G", "stratos": "S", "yellow": "Y",
-}  # fmt: skip
+    "browser": "B",
+    "browserins": "B*",
+    "crescendo": "C",
+    "fisher": "G",
+    "stratos": "S",
+    "yellow": "Y",
+}
 
 
 @pytest.fixture(scope="module")

@@ -94,9 +94,7 @@ def wait_until(node: Node, condition: Any, what: str) -> None:
 
 def run_subscriber(node: Node, topic: str) -> None:
     """Report every batch received on topic."""
-    sub = node.create_subscription(
-        GyroBatch, topic, lambda msg: report("MSG", batch_to_dict(msg)), QOS
-    )
+    sub = node.create_subscription(GyroBatch, topic, lambda msg: report("MSG", batch_to_dict(msg)), QOS)
     wait_until(node, lambda: sub.get_publisher_count() > 0, "a publisher")
     report("MATCHED", {"count": sub.get_publisher_count()})
     rclpy.spin(node)

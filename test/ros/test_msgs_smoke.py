@@ -29,16 +29,17 @@ def make_batches() -> list[dict[str, Any]]:
     for b in range(N_BATCHES):
         first = b * N_SAMPLES
         start_ns = 1_700_000_000_000_000_000 + first * 1_000_000
-        rates = [0.8 * math.sin(2 * math.pi * 1.3 * (first + i) / RATE_HZ) + 1e-3 * b
-                 for i in range(N_SAMPLES)]
-        batches.append({
-            "stamp": [start_ns // 1_000_000_000, start_ns % 1_000_000_000],
-            "frame_id": "gyro",
-            "trial_id": f"smoke-{b}",
-            "sample_rate_hz": RATE_HZ,
-            "rates": rates,
-            "raw_volts": [2.5 + r / 3.0 for r in rates] if b % 2 else [],
-        })
+        rates = [0.8 * math.sin(2 * math.pi * 1.3 * (first + i) / RATE_HZ) + 1e-3 * b for i in range(N_SAMPLES)]
+        batches.append(
+            {
+                "stamp": [start_ns // 1_000_000_000, start_ns % 1_000_000_000],
+                "frame_id": "gyro",
+                "trial_id": f"smoke-{b}",
+                "sample_rate_hz": RATE_HZ,
+                "rates": rates,
+                "raw_volts": [2.5 + r / 3.0 for r in rates] if b % 2 else [],
+            }
+        )
     return batches
 
 
@@ -50,9 +51,7 @@ def check_env(line: str, domain_id: int) -> None:
     assert env["rmw"] == "rmw_fastrtps_cpp"
 
 
-def test_gyro_batch_between_two_processes(
-    ros_env: dict[str, str], ros_domain_id: int, tmp_path: Path
-) -> None:
+def test_gyro_batch_between_two_processes(ros_env: dict[str, str], ros_domain_id: int, tmp_path: Path) -> None:
     batches = make_batches()
     batches_file = tmp_path / "batches.json"
     batches_file.write_text(json.dumps(batches))
@@ -61,8 +60,10 @@ def test_gyro_batch_between_two_processes(
     sub_argv = [sys.executable, str(NODES), "sub", topic]
     pub_argv = [sys.executable, str(NODES), "pub", topic, str(batches_file)]
     # leaving the with-block stops both by PID, whatever happened
-    with RosProcess("sub", sub_argv, ros_env, tmp_path) as sub, \
-            RosProcess("pub", pub_argv, ros_env, tmp_path, stdin=True) as pub:
+    with (
+        RosProcess("sub", sub_argv, ros_env, tmp_path) as sub,
+        RosProcess("pub", pub_argv, ros_env, tmp_path, stdin=True) as pub,
+    ):
         check_env(sub.expect("ENV", STEP_TIMEOUT_S), ros_domain_id)
         check_env(pub.expect("ENV", STEP_TIMEOUT_S), ros_domain_id)
         # both ends have matched each other before a single sample is written
@@ -87,8 +88,12 @@ def test_spawned_process_environment(ros_env: dict[str, str], ros_domain_id: int
         "'ROS_LOCALHOST_ONLY')}))"
     )
     out = subprocess.run(
-        [sys.executable, "-c", code], env=ros_env, capture_output=True, text=True,
-        timeout=60, check=True,
+        [sys.executable, "-c", code],
+        env=ros_env,
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=True,
     ).stdout
     assert json.loads(out) == {
         "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST",

@@ -115,8 +115,7 @@ def _fake_proc(root: Path, pid: int, maps: list[str], fds: list[Path]) -> None:
     proc = root / str(pid)
     (proc / "fd").mkdir(parents=True)
     (proc / "maps").write_text(
-        "".join(f"7f00-7f01 rw-s 00000000 00:19 12 {m}\n" for m in maps)
-        + "7f02-7f03 r--p 00000000 00:00 0\n"
+        "".join(f"7f00-7f01 rw-s 00000000 00:19 12 {m}\n" for m in maps) + "7f02-7f03 r--p 00000000 00:00 0\n"
     )
     for i, target in enumerate(fds):
         (proc / "fd" / str(i)).symlink_to(target)
@@ -127,11 +126,19 @@ def test_stale_segments_are_removed_and_used_ones_kept(tmp_path: Path) -> None:
     shm.mkdir()
     proc.mkdir()
     live = [  # one live port (mapped segment, open lock file, mutex not open) and participant
-        "fastdds_port7411", "fastdds_port7411_el", "sem.fastdds_port7411_mutex",
-        "fastdds_0123abcd", "fastdds_0123abcd_el",
+        "fastdds_port7411",
+        "fastdds_port7411_el",
+        "sem.fastdds_port7411_mutex",
+        "fastdds_0123abcd",
+        "fastdds_0123abcd_el",
     ]
-    stale = ["fastdds_port7413", "fastdds_port7413_el", "sem.fastdds_port7413_mutex",
-             "fastdds_feedbeef", "fastdds_feedbeef_el"]
+    stale = [
+        "fastdds_port7413",
+        "fastdds_port7413_el",
+        "sem.fastdds_port7413_mutex",
+        "fastdds_feedbeef",
+        "fastdds_feedbeef_el",
+    ]
     fresh = ["fastdds_port7415", "fastdds_port7415_el"]  # unused, but just created
     others = ["lttng-ust-wait-6", "other_fastdds_x"]
     old = time.time() - 3600
@@ -139,8 +146,7 @@ def test_stale_segments_are_removed_and_used_ones_kept(tmp_path: Path) -> None:
         (shm / name).write_bytes(b"x")
         if name not in fresh:
             os.utime(shm / name, (old, old))
-    _fake_proc(proc, 100, [str(shm / "fastdds_port7411"), str(shm / "fastdds_0123abcd")],
-               [shm / "fastdds_port7411_el"])
+    _fake_proc(proc, 100, [str(shm / "fastdds_port7411"), str(shm / "fastdds_0123abcd")], [shm / "fastdds_port7411_el"])
     _fake_proc(proc, 101, [], [shm / "fastdds_0123abcd_el"])
     (proc / "self").mkdir()  # not a pid: ignored
 

@@ -43,8 +43,9 @@ class FakeLink:
             return StartReply(False, "", self.refuse)
         trial_id = f"{item.measurement.trial_name(item.repeat)}_{len(self.started)}"
         self.started.append((trial_id, item))
-        self.events_out.append(TrialEventRecord(TrialEventKind.START, trial_id, item.key, repeat=item.repeat,
-                                                sample_rate_hz=1000.0))  # fmt: skip
+        self.events_out.append(
+            TrialEventRecord(TrialEventKind.START, trial_id, item.key, repeat=item.repeat, sample_rate_hz=1000.0)
+        )
         return StartReply(True, trial_id, f"recording trial {trial_id}")
 
     def stop_trial(self, trial_id: str, abort: bool) -> tuple[bool, str]:
@@ -68,8 +69,7 @@ class FakeLink:
 
     def period(self, trial_id: str, key: str, period: float, sigma: float, flags: tuple[str, ...] = ()) -> None:
         reasons = tuple(f"{c} reason" for c in flags)
-        fit = TrialFit.from_period(trial_id, key, period, sigma, True, flags, reasons, r2=0.9999,
-                                   window=(0, 30000))  # fmt: skip
+        fit = TrialFit.from_period(trial_id, key, period, sigma, True, flags, reasons, r2=0.9999, window=(0, 30000))
         self.fits.append(fit)
         self.events_out.append(TrialEventRecord(TrialEventKind.STOP, trial_id, key, sample_rate_hz=1000.0))
         self.events_out.append(fit)

@@ -77,8 +77,9 @@ def main() -> int:
         else:
             gyro.publish(_batch("flood_t1", 50 * sent, 500.0, back_ns, sent))
         if sent % 20 == 0:
-            events.publish(_event(msgs.TrialEvent.STOP if sent % 40 else msgs.TrialEvent.START, f"flood_e{sent}",
-                                  back_ns))  # fmt: skip
+            events.publish(
+                _event(msgs.TrialEvent.STOP if sent % 40 else msgs.TrialEvent.START, f"flood_e{sent}", back_ns)
+            )
         sent += 1
         time.sleep(max(0.0, start + sent * period - time.monotonic()))
     for p in (events, gyro):

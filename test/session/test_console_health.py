@@ -40,6 +40,8 @@ def test_a_stalled_node_is_on_the_health_line_and_said_once_in_the_log() -> None
     stalled, log, back = asyncio.run(scenario())
     assert "fitter SILENT" in stalled and "driver SILENT" in stalled, stalled
     said = [line for line in log if "silent for" in line]
-    assert said == ["driver silent for 10 s (stalled?): results will follow",
-                    "fitter silent for 10 s (stalled?): results will follow"], log  # fmt: skip
+    assert said == [
+        "driver silent for 10 s (stalled?): results will follow",
+        "fitter silent for 10 s (stalled?): results will follow",
+    ], log
     assert "fitter SILENT" in back  # back, but not on time for long enough yet

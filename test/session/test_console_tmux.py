@@ -72,8 +72,14 @@ def _record(tmux: TmuxSession, item_id: str) -> int:
     REDO reason may push out of a small log pane.
     """
     # (trials of the item already on the screen, e.g. a REDO before: not this recording)
-    known = {a or b for a, b in re.findall(rf"recording {re.escape(item_id)} as (\S+) \(|{re.escape(item_id)} (\S+): "
-                                           r"(?:T = |no period)", flatten(tmux.screen()))}  # fmt: skip
+    known = {
+        a or b
+        for a, b in re.findall(
+            rf"recording {re.escape(item_id)} as (\S+) \(|{re.escape(item_id)} (\S+): "
+            r"(?:T = |no period)",
+            flatten(tmux.screen()),
+        )
+    }
     for attempt in range(3):
         done = int(re.search(r"· (\d+)/\d+ done", tmux.screen()).group(1))  # type: ignore[union-attr]
         tmux.keys("F2")
@@ -129,8 +135,9 @@ def test_a_whole_session_at_the_console(tmp_path: Path, ros_env: dict[str, str],
         kill_session(folder)
     assert flagged and corrected
     bag = folder / "bag"
-    out = subprocess.run([str(BIKE_RIG), "replay", str(bag), "--json"], capture_output=True, text=True, timeout=120,
-                         env=ros_env)  # fmt: skip
+    out = subprocess.run(
+        [str(BIKE_RIG), "replay", str(bag), "--json"], capture_output=True, text=True, timeout=120, env=ros_env
+    )
     assert out.returncode == 0, out.stderr
     replayed = json.loads(out.stdout)
     # the offline core on the bag's own trials and readings gives what the live graph published
@@ -182,8 +189,18 @@ def test_a_session_with_a_readings_file_at_the_console(  # type: ignore[no-untyp
     folder = tmp_path / "session"
     file = tmp_path / "readings.yaml"
     file.write_text(dump_measurements_yaml(Measurements("Browser", {k: _reading(*v) for k, v in readings.items()}, "")))
-    argv = [str(BIKE_RIG), "session", "--time-scale", str(TIME_SCALE), "--seed", "4", "--readings", str(file),
-            "--output", str(folder)]  # fmt: skip
+    argv = [
+        str(BIKE_RIG),
+        "session",
+        "--time-scale",
+        str(TIME_SCALE),
+        "--seed",
+        "4",
+        "--readings",
+        str(file),
+        "--output",
+        str(folder),
+    ]
     tmux = TmuxSession(argv, ros_env, tmp_path, width, height)
     plan = plan_from_rig(load_rig(config_file("rig.yaml")))
     domain = ros_env["ROS_DOMAIN_ID"]

@@ -282,8 +282,9 @@ def test_a_resumed_session_starts_nothing_until_its_recorded_trials_are_back(ctl
     assert any(r.data.get("resuming") == [0, 2] for r in ctl.execute("status"))
     # the driver streams them: START, then their results (the first one flagged)
     for trial_id, item in zip(ids, items, strict=True):
-        link.events_out.append(TrialEventRecord(TrialEventKind.START, trial_id, item.key, repeat=item.repeat,
-                                                sample_rate_hz=1000.0))  # fmt: skip
+        link.events_out.append(
+            TrialEventRecord(TrialEventKind.START, trial_id, item.key, repeat=item.repeat, sample_rate_hz=1000.0)
+        )
     link.period(ids[0], items[0].key, 1.2, 1e-4, flags=("beating",))
     assert not any("resumed" in r.data for r in ctl.pump())
     assert ctl.execute("start")[0].kind == "error"
@@ -306,11 +307,18 @@ def test_the_fit_details_join_the_result_before_or_after_it(ctl_link, details_fi
     ctl.execute("start")
     trial_id = link.started[0][0]
     details = FitDetails(
-        trial_id, damping_model="dry", friction=0.025, friction_sigma=4e-4, swing_kappa=-0.0017,
-        centre_period=1.2027, small_swing_period=1.19998, small_swing_period_sigma=2.7e-5,
-        window_periods=(1.2057, 1.2035, 1.2017, 1.2018), window_period_sigmas=(4e-4,) * 4,
+        trial_id,
+        damping_model="dry",
+        friction=0.025,
+        friction_sigma=4e-4,
+        swing_kappa=-0.0017,
+        centre_period=1.2027,
+        small_swing_period=1.19998,
+        small_swing_period_sigma=2.7e-5,
+        window_periods=(1.2057, 1.2035, 1.2017, 1.2018),
+        window_period_sigmas=(4e-4,) * 4,
         notes=("the period along the record: ...: moves beyond its σ",),
-    )  # fmt: skip
+    )
     if details_first:
         link.events_out.append(details)
     link.period(trial_id, first.key, 1.2, 1e-4)
@@ -372,8 +380,12 @@ def test_a_stalled_or_lagging_node_is_one_health_line_each_way(ctl_link) -> None
     heartbeat("recorder", 0.01)
     assert health() == []
     heartbeat("fitter", 20.0)  # lagging: one line, no "health: fitter WARN" besides
-    assert health() == [("fitter 20 s behind: results will follow",
-                         {"node": "fitter", "level": "WARN", "standing": "behind", "seconds": 20.0})]  # fmt: skip
+    assert health() == [
+        (
+            "fitter 20 s behind: results will follow",
+            {"node": "fitter", "level": "WARN", "standing": "behind", "seconds": 20.0},
+        )
+    ]
     heartbeat("fitter", 0.01)
     assert health() == []
     heartbeat("fitter", 0.01)

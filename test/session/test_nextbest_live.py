@@ -62,8 +62,9 @@ class _PlainSession:
     def __init__(self, argv: list[str], env: dict[str, str], stderr: Path) -> None:
         self.stderr = stderr
         with stderr.open("w") as err:
-            self.proc = subprocess.Popen(argv, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=err, text=True,
-                                         env=env)  # fmt: skip
+            self.proc = subprocess.Popen(
+                argv, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=err, text=True, env=env
+            )
         self.lines: queue.Queue[Line | None] = queue.Queue()
         self.seen: list[Line] = []
         threading.Thread(target=self._read, daemon=True).start()
@@ -99,8 +100,10 @@ class _PlainSession:
             if line is None:
                 tail = "\n".join(json.dumps(x) for x in self.seen[-15:])
                 ended = self.proc.poll() is not None
-                pytest.fail(f"no {what} within {timeout_s:g} s (session ended: {ended}):\n{tail}\n"
-                            f"stderr: {self.stderr.read_text()[-2000:]}")  # fmt: skip
+                pytest.fail(
+                    f"no {what} within {timeout_s:g} s (session ended: {ended}):\n{tail}\n"
+                    f"stderr: {self.stderr.read_text()[-2000:]}"
+                )
             self.seen.append(line)
             if wanted(line):
                 return line
@@ -233,7 +236,9 @@ def test_a_poor_reading_ranks_first_and_retaking_it_reduces_the_weave_sigma_as_p
     predicted = weave_before - float(after_text)
     achieved = weave_before - weave_after
     elapsed = time.monotonic() - t0
-    print(f"{poor.key}: weave σ {weave_before:.5g} m/s; predicted {after_text} m/s, a reduction of {predicted:.4g}; "
-          f"got {weave_after:.5g} m/s, {achieved:.4g} ({achieved / predicted:.4f}×); {elapsed:.1f} s")  # fmt: skip
+    print(
+        f"{poor.key}: weave σ {weave_before:.5g} m/s; predicted {after_text} m/s, a reduction of {predicted:.4g}; "
+        f"got {weave_after:.5g} m/s, {achieved:.4g} ({achieved / predicted:.4f}×); {elapsed:.1f} s"
+    )
     assert abs(weave_after - float(after_text)) <= _half_unit(after_text)
     assert 0.9 * predicted <= achieved <= 1.1 * predicted

@@ -45,8 +45,13 @@ def test_a_scripted_session_completes_and_its_bag_replays(tmp_path: Path, ros_en
     speeds = [x for x in lines if x.get("weave")]
     assert speeds, done.stdout[-2000:]
     assert lines[-1]["kind"] == "done" and done.returncode == 1  # a command failed (the refused one)
-    out = subprocess.run([str(BIKE_RIG), "replay", str(folder / "bag"), "--json"], capture_output=True, text=True,
-                         timeout=120, env=ros_env)  # fmt: skip
+    out = subprocess.run(
+        [str(BIKE_RIG), "replay", str(folder / "bag"), "--json"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env=ros_env,
+    )
     replayed = json.loads(out.stdout)
     assert replayed["complete"] and replayed["live"]["identical"], replayed["live"]
     for k, p in params.items():
@@ -59,8 +64,9 @@ def test_a_silent_can_gyro_warns_within_a_second_and_the_trial_aborts(tmp_path: 
     script = ["start TcR1#1", "wait 1.5", "abort", "wait 5", "quit"]
     argv = [str(BIKE_RIG), "session", "--plain", "--json", "--source", "can", "--output", str(tmp_path / "s")]
     try:
-        done = subprocess.run(argv, input="\n".join(script) + "\n", capture_output=True, text=True, timeout=120,
-                              env=ros_env)  # fmt: skip
+        done = subprocess.run(
+            argv, input="\n".join(script) + "\n", capture_output=True, text=True, timeout=120, env=ros_env
+        )
     finally:
         kill_session(tmp_path / "s")
     lines = [json.loads(x) for x in done.stdout.splitlines()]

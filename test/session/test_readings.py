@@ -80,8 +80,14 @@ def test_a_reading_parses_to_an_entry_in_the_keys_unit() -> None:
     assert parse_reading("mF", "2.02", None, default_sigma=0.02).sigma == 0.02
     assert parse_reading("alphaB4", "10", "0.2", allowed=["alphaB4"]).key == "alphaB4"
     assert [reading_unit(k) for k in ("gamma", "alphaH2", "nR", "g", "mB", "aH1", "dP")] == [
-        "deg", "deg", "1", "m/s^2", "kg", "m", "m",
-    ]  # fmt: skip
+        "deg",
+        "deg",
+        "1",
+        "m/s^2",
+        "kg",
+        "m",
+        "m",
+    ]
 
 
 @pytest.mark.parametrize(
@@ -132,9 +138,16 @@ def test_the_hard_checks_are_the_measurement_files(browser: dict[str, Reading]) 
         return True
 
     cases = [
-        ("gamma", 90.0, 0.2), ("gamma", 90.5, 0.2), ("alphaB1", -360.0, 0.2), ("alphaB1", -361.0, 0.2),
-        ("w", 1e-9, 0.002), ("w", 0.0, 0.002), ("nR", 13.0, 0.0), ("nR", 13.2, 0.0), ("aB1", -0.5, 0.003),
-    ]  # fmt: skip
+        ("gamma", 90.0, 0.2),
+        ("gamma", 90.5, 0.2),
+        ("alphaB1", -360.0, 0.2),
+        ("alphaB1", -361.0, 0.2),
+        ("w", 1e-9, 0.002),
+        ("w", 0.0, 0.002),
+        ("nR", 13.0, 0.0),
+        ("nR", 13.2, 0.0),
+        ("aB1", -0.5, 0.003),
+    ]
     for key, value, sigma in cases:
         try:
             parse_reading(key, repr(value), repr(sigma) if sigma else None)

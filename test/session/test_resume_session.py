@@ -101,8 +101,14 @@ def test_a_killed_session_resumes_from_its_bag_to_the_uninterrupted_result(
 
     stdin = "\n".join(["wait 60", "status", *rest, "wait complete 60", "params", "quit"]) + "\n"
     try:
-        done = subprocess.run([*common, "--output", str(b), "--resume", str(a)], input=stdin, capture_output=True,
-                              text=True, timeout=600, env=ros_env)  # fmt: skip
+        done = subprocess.run(
+            [*common, "--output", str(b), "--resume", str(a)],
+            input=stdin,
+            capture_output=True,
+            text=True,
+            timeout=600,
+            env=ros_env,
+        )
     finally:
         kill_session(b)
     lines = [json.loads(x) for x in done.stdout.splitlines()]

@@ -36,11 +36,26 @@ def _alone(trial: SimulatedTrial) -> TrialFit:
 
 def test_junk_from_another_process_never_touches_the_drivers_trial(tmp_path: Path, ros_env: dict[str, str]) -> None:
     folder = tmp_path / "s"
-    argv = [str(BIKE_RIG), "session", "--plain", "--json", "--time-scale", "150", "--seed", str(SEED),
-            "--output", str(folder)]  # fmt: skip
+    argv = [
+        str(BIKE_RIG),
+        "session",
+        "--plain",
+        "--json",
+        "--time-scale",
+        "150",
+        "--seed",
+        str(SEED),
+        "--output",
+        str(folder),
+    ]
     s = Session(argv, ros_env)
-    rogue = subprocess.Popen([sys.executable, str(ROGUE), "rear_wheel_compound_t1"], stdin=subprocess.PIPE,
-                             stdout=subprocess.PIPE, text=True, env={**ros_env, "PYTHONPATH": str(REPO)})  # fmt: skip
+    rogue = subprocess.Popen(
+        [sys.executable, str(ROGUE), "rear_wheel_compound_t1"],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        text=True,
+        env={**ros_env, "PYTHONPATH": str(REPO)},
+    )
     try:
         assert rogue.stdin is not None and rogue.stdout is not None
         assert rogue.stdout.readline().strip() == "MATCHED"
@@ -95,13 +110,30 @@ def test_a_flood_at_ten_times_the_rate_with_backward_stamps_and_wrong_rates(
     rig_file = tmp_path / "rig.yaml"
     rig_file.write_text(yaml.safe_dump(rig))
     folder = tmp_path / "s"
-    argv = [str(BIKE_RIG), "session", "--plain", "--json", "--time-scale", "1", "--seed", str(SEED),
-            "--rig", str(rig_file), "--output", str(folder)]  # fmt: skip
+    argv = [
+        str(BIKE_RIG),
+        "session",
+        "--plain",
+        "--json",
+        "--time-scale",
+        "1",
+        "--seed",
+        str(SEED),
+        "--rig",
+        str(rig_file),
+        "--output",
+        str(folder),
+    ]
     s = Session(argv, ros_env)
     name, truth = load_true_parameters(config_file("bicycles/browser.yaml"))
     trial = simulate_session(truth, load_rig(rig_file), SEED, name).trials[0]
-    flood = subprocess.Popen([sys.executable, str(ROGUE_FLOOD), trial.name, str(FLOOD_S), "10"], stdin=subprocess.PIPE,
-                             stdout=subprocess.PIPE, text=True, env={**ros_env, "PYTHONPATH": str(REPO)})  # fmt: skip
+    flood = subprocess.Popen(
+        [sys.executable, str(ROGUE_FLOOD), trial.name, str(FLOOD_S), "10"],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        text=True,
+        env={**ros_env, "PYTHONPATH": str(REPO)},
+    )
     try:
         assert flood.stdin is not None and flood.stdout is not None
         assert flood.stdout.readline().strip() == "MATCHED"

@@ -57,8 +57,14 @@ def test_killed_nodes_are_said_restarted_and_a_killed_driver_resumed(tmp_path: P
 
     stdin = "wait 60\nstart TtR1#3\nwait 60\nstatus\nquit\n"
     try:
-        done = subprocess.run([*common, "--output", str(b), "--resume", str(a)], input=stdin, capture_output=True,
-                              text=True, timeout=300, env=ros_env)  # fmt: skip
+        done = subprocess.run(
+            [*common, "--output", str(b), "--resume", str(a)],
+            input=stdin,
+            capture_output=True,
+            text=True,
+            timeout=300,
+            env=ros_env,
+        )
     finally:
         kill_session(b)
     lines = [json.loads(x) for x in done.stdout.splitlines()]

@@ -59,8 +59,14 @@ START_NS = 1_700_000_000_123_456_789
 
 def operator_source(tmp_path: Path, clock: RigClock, seed: int = 3, pause_s: float = 0.5) -> OperatorSimSource:
     """The benchmark bicycle on the small rig (6 s trials), in operator mode, on ``clock``."""
-    source = open_source("sim", mode="operator", bicycle=str(BICYCLE), rig=str(small_rig(tmp_path)), seed=seed,
-                         pause_between_trials_s=pause_s)  # fmt: skip
+    source = open_source(
+        "sim",
+        mode="operator",
+        bicycle=str(BICYCLE),
+        rig=str(small_rig(tmp_path)),
+        seed=seed,
+        pause_between_trials_s=pause_s,
+    )
     assert isinstance(source, OperatorSimSource)
     source.clock = clock
     return source

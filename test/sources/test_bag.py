@@ -34,8 +34,17 @@ def test_replays_the_recorded_trials(tmp_path: Path) -> None:
     source.clock = RigClock(None, math.inf)
     events = list(drain(source))
     kinds = [type(e).__name__ for e in events]
-    assert kinds == ["TrialStarted", "SampleBlock", "SampleBlock", "SampleBlock", "TrialStopped",
-                     "TrialStarted", "SampleBlock", "SampleBlock", "TrialStopped"]  # fmt: skip
+    assert kinds == [
+        "TrialStarted",
+        "SampleBlock",
+        "SampleBlock",
+        "SampleBlock",
+        "TrialStopped",
+        "TrialStarted",
+        "SampleBlock",
+        "SampleBlock",
+        "TrialStopped",
+    ]
     s1, s2 = events[0], events[5]
     assert isinstance(s1, TrialStarted) and isinstance(s2, TrialStarted)
     assert s1.info == TrialInfo("t1", "frame", "compound", 0, 1, "TcB1", RATE, "n") and s1.stamp_ns == T0

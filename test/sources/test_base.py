@@ -23,8 +23,11 @@ def test_every_backend_is_a_gyro_source() -> None:
 
 
 def test_unknown_backend_is_one_clear_error() -> None:
-    with pytest.raises(SourceConfigError, match=r"^parameter 'source' = 'serial': unknown gyro source; "
-                       r"expected one of sim, can, bag, daq$"):  # fmt: skip
+    with pytest.raises(
+        SourceConfigError,
+        match=r"^parameter 'source' = 'serial': unknown gyro source; "
+        r"expected one of sim, can, bag, daq$",
+    ):
         open_source("serial")
 
 

@@ -62,9 +62,15 @@ def collect(source: CanSource, until_stopped: bool = True, timeout: float = 30.0
 
 @pytest.mark.parametrize(
     ("fmt", "order", "spf", "fd"),
-    [("int16", "little", 4, False), ("int16", "big", 4, False), ("int32", "big", 2, False),
-     ("float32", "little", 2, False), ("float32", "big", 16, True), ("int16", "little", 32, True)],
-)  # fmt: skip
+    [
+        ("int16", "little", 4, False),
+        ("int16", "big", 4, False),
+        ("int32", "big", 2, False),
+        ("float32", "little", 2, False),
+        ("float32", "big", 16, True),
+        ("int16", "little", 32, True),
+    ],
+)
 def test_frame_layout_round_trip(fmt: str, order: str, spf: int, fd: bool) -> None:
     layout = CanFrameLayout(0x123, sample_format=fmt, byte_order=order, samples_per_frame=spf, scale=1e-4, fd=fd)
     assert layout.problems() == []
@@ -89,9 +95,16 @@ def test_simulated_trial_through_the_virtual_bus_gives_its_period_within_3_sigma
     trial = session.trials_of("TtH1")[0]  # fork, torsional, orientation 1: about 0.6 s
     name = channel()
     source = open_source(
-        "can", can_interface="virtual", can_channel=name, can_id=0x2A, sample_format="int16",
-        byte_order="big", samples_per_frame=4, scale=1e-5, sample_rate_hz=RATE,
-    )  # fmt: skip
+        "can",
+        can_interface="virtual",
+        can_channel=name,
+        can_id=0x2A,
+        sample_format="int16",
+        byte_order="big",
+        samples_per_frame=4,
+        scale=1e-5,
+        sample_rate_hz=RATE,
+    )
     assert isinstance(source, CanSource)
     gyro = SimulatedCanGyro(source.layout, name, array_samples(trial.rate), RATE, time_scale=math.inf)
     try:
@@ -149,8 +162,12 @@ def test_trials_on_request_start_and_stop() -> None:
     assert stopped.aborted and stopped.trial_id == "frame_compound_t1"
     assert again.trial_id == "frame_compound_t2" and again.repeat == 2
     assert source.malformed_frames == 1
-    first = [e for e in events if getattr(e, "trial_id", None) == info.trial_id or
-             (isinstance(e, TrialStarted) and e.info.trial_id == info.trial_id)]  # fmt: skip
+    first = [
+        e
+        for e in events
+        if getattr(e, "trial_id", None) == info.trial_id
+        or (isinstance(e, TrialStarted) and e.info.trial_id == info.trial_id)
+    ]
     n = sum(e.rates.size for e in first if isinstance(e, SampleBlock))
     assert n == stopped.sample_count > 0
     assert isinstance(events[-1], TrialStopped) and events[-1].sample_count == 100 and not events[-1].aborted
@@ -159,24 +176,39 @@ def test_trials_on_request_start_and_stop() -> None:
 @pytest.mark.parametrize(
     ("parameters", "error", "pattern"),
     [
-        ({"can_interface": "nope"}, SourceConfigError,
-         r"^can source: parameter 'can_interface' = 'nope': unknown python-can interface; expected one of "),
+        (
+            {"can_interface": "nope"},
+            SourceConfigError,
+            r"^can source: parameter 'can_interface' = 'nope': unknown python-can interface; expected one of ",
+        ),
         ({"can_interface": "udp_multicast"}, SourceConfigError, r"'udp_multicast': refused: it multicasts"),
-        ({"samples_per_frame": 5}, SourceConfigError,
-         r"^can source: parameter 'samples_per_frame' = 5: 10 bytes of int16 exceed a classic frame's 8 "
-         r"\(set can_fd\)$"),
+        (
+            {"samples_per_frame": 5},
+            SourceConfigError,
+            r"^can source: parameter 'samples_per_frame' = 5: 10 bytes of int16 exceed a classic frame's 8 "
+            r"\(set can_fd\)$",
+        ),
         ({"samples_per_frame": 5, "can_fd": True}, SourceConfigError, r"10 bytes is not a CAN FD data length"),
         ({"can_id": 0x800}, SourceConfigError, r"'can_id' = 2048: must be an 11-bit .* id, 0..0x7FF$"),
-        ({"sample_format": "int8"}, SourceConfigError,
-         r"'sample_format' = 'int8': expected one of int16, int32, float32$"),
+        (
+            {"sample_format": "int8"},
+            SourceConfigError,
+            r"'sample_format' = 'int8': expected one of int16, int32, float32$",
+        ),
         ({"scale": 0.0}, SourceConfigError, r"'scale' = 0.0: must be a finite, non-zero number"),
         ({"sample_rate_hz": -1.0}, SourceConfigError, r"'sample_rate_hz' = -1.0: must be >= 0.001$"),
-        ({"can_interface": "socketcan", "can_channel": "can_nonexistent0"}, SourceUnavailableError,
-         r"^can source: parameter 'can_interface' = 'socketcan': cannot open channel 'can_nonexistent0': "),
-        ({"can_interface": "socketcan", "can_simulated_gyro_period_s": 1.0}, SourceConfigError,
-         r"simulated gyro runs on the 'virtual' interface only"),
+        (
+            {"can_interface": "socketcan", "can_channel": "can_nonexistent0"},
+            SourceUnavailableError,
+            r"^can source: parameter 'can_interface' = 'socketcan': cannot open channel 'can_nonexistent0': ",
+        ),
+        (
+            {"can_interface": "socketcan", "can_simulated_gyro_period_s": 1.0},
+            SourceConfigError,
+            r"simulated gyro runs on the 'virtual' interface only",
+        ),
     ],
-)  # fmt: skip
+)
 def test_bad_configuration_is_one_clear_error(
     parameters: dict[str, object], error: type[Exception], pattern: str
 ) -> None:
@@ -334,8 +366,9 @@ def test_stamps_follow_the_clock_checked_on_the_first_frames() -> None:
     try:
         source.start_trial(TrialRequest("frame", "compound"))
         for _ in range(5):
-            sender.send(can.Message(timestamp=time.monotonic(), arbitration_id=0x100, data=bytes(8),
-                                    is_extended_id=False))  # fmt: skip
+            sender.send(
+                can.Message(timestamp=time.monotonic(), arbitration_id=0x100, data=bytes(8), is_extended_id=False)
+            )
         before = time.time_ns()
         started = next(e for e in source.poll() if isinstance(e, TrialStarted))
         after = time.time_ns()
@@ -366,8 +399,10 @@ def test_a_log_file_replays_bit_exact_trial_after_trial(tmp_path: Path, suffix: 
         finished = source.finished
     finally:
         source.close()
-    got = {t: np.concatenate([e.rates for e in events if isinstance(e, SampleBlock) and e.trial_id == t])
-           for t in (one.trial_id, two.trial_id)}  # fmt: skip
+    got = {
+        t: np.concatenate([e.rates for e in events if isinstance(e, SampleBlock) and e.trial_id == t])
+        for t in (one.trial_id, two.trial_id)
+    }
     codes = np.rint(rates / 1e-4)
     assert np.array_equal(np.rint(got[one.trial_id] / 1e-4), codes[:500])  # the first 125 frames, bit-exact
     assert np.array_equal(np.rint(got[two.trial_id] / 1e-4), codes[500:])  # the next: the log's rest
@@ -412,9 +447,11 @@ def test_a_log_file_is_paced_by_its_timestamps(tmp_path: Path) -> None:
 
 @pytest.mark.parametrize(
     ("name", "pattern"),
-    [("missing.log", r"'can_log_file' = '.*missing\.log': no such file$"),
-     ("gyro.xyz", r"'can_log_file' = '.*gyro\.xyz': not a python-can log file: ")],
-)  # fmt: skip
+    [
+        ("missing.log", r"'can_log_file' = '.*missing\.log': no such file$"),
+        ("gyro.xyz", r"'can_log_file' = '.*gyro\.xyz': not a python-can log file: "),
+    ],
+)
 def test_a_bad_log_file_is_one_clear_error(tmp_path: Path, name: str, pattern: str) -> None:
     if name.endswith(".xyz"):
         (tmp_path / name).write_text("1 2 3\n", encoding="utf-8")

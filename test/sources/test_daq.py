@@ -88,16 +88,25 @@ def fake_nidaqmx(monkeypatch: pytest.MonkeyPatch) -> types.ModuleType:
 
 
 def test_configures_a_continuous_voltage_task(fake_nidaqmx: types.ModuleType) -> None:
-    source = open_source("daq", daq_channel="Dev2/ai1", daq_terminal="differential", daq_min_v=-10.0,
-                         daq_max_v=10.0, sample_rate_hz=RATE, daq_buffer_s=5.0)  # fmt: skip
+    source = open_source(
+        "daq",
+        daq_channel="Dev2/ai1",
+        daq_terminal="differential",
+        daq_min_v=-10.0,
+        daq_max_v=10.0,
+        sample_rate_hz=RATE,
+        daq_buffer_s=5.0,
+    )
     task = FakeTask.instances[-1]
     constants: Any = fake_nidaqmx.constants
     assert task.calls == [
-        ("add_ai_voltage_chan", ("Dev2/ai1", {"terminal_config": constants.TerminalConfiguration.DIFF,
-                                              "min_val": -10.0, "max_val": 10.0})),
+        (
+            "add_ai_voltage_chan",
+            ("Dev2/ai1", {"terminal_config": constants.TerminalConfiguration.DIFF, "min_val": -10.0, "max_val": 10.0}),
+        ),
         ("cfg_samp_clk_timing", (RATE, {"sample_mode": constants.AcquisitionType.CONTINUOUS, "samps_per_chan": 5000})),
         ("start", None),
-    ]  # fmt: skip
+    ]
     source.close()
     assert task.calls[-1] == ("stop", None) and task.closed
 
@@ -136,8 +145,10 @@ def test_missing_nidaqmx_is_one_clear_error(monkeypatch: pytest.MonkeyPatch) -> 
 
 def test_missing_ni_driver_is_one_clear_error(fake_nidaqmx: types.ModuleType) -> None:
     FakeTask.fail_on_create = OSError("libnidaqmx.so: cannot open shared object file")
-    pattern = (r"^daq source: parameter 'daq_channel' = 'Dev1/ai0': cannot create an NI-DAQmx task "
-               r"\(OSError: libnidaqmx.so: .*is NI's NI-DAQmx driver installed\?$")
+    pattern = (
+        r"^daq source: parameter 'daq_channel' = 'Dev1/ai0': cannot create an NI-DAQmx task "
+        r"\(OSError: libnidaqmx.so: .*is NI's NI-DAQmx driver installed\?$"
+    )
     with pytest.raises(SourceUnavailableError, match=pattern):
         open_source("daq", {})
 

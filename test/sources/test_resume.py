@@ -42,8 +42,11 @@ def _interrupted(session: SimulatedSession, static_source: str = "") -> list[Sim
     cut = replace(session, trials=session.trials[:RECORDED])
     out = list(simulated_messages(cut))
     last = session.trials[RECORDED - 1].name
-    out = [m for m in out if not (m.topic == topics.TRIAL_EVENTS.name and m.message.kind != 0
-                                  and m.message.trial_id == last)]  # fmt: skip
+    out = [
+        m
+        for m in out
+        if not (m.topic == topics.TRIAL_EVENTS.name and m.message.kind != 0 and m.message.trial_id == last)
+    ]
     for k, m in enumerate(out):
         if m.topic == topics.TRIAL_EVENTS.name and m.message.kind == 0:  # START: its first batch came first
             batch = next(b for b in out[k:] if b.topic == topics.GYRO.name)
@@ -52,8 +55,10 @@ def _interrupted(session: SimulatedSession, static_source: str = "") -> list[Sim
         out[0].message.source = static_source
     entries = [ReadingEntry("mR", 3.1, 0.02, stamp_ns=START_NS + k, note=n) for k, n in enumerate(("", "correction"))]
     t = out[0].log_time
-    out += [SimulatedMessage(topics.READINGS.name, t + k + 1, fill_reading_entry(new_message(topics.READINGS.type), e))
-            for k, e in enumerate(entries)]  # fmt: skip
+    out += [
+        SimulatedMessage(topics.READINGS.name, t + k + 1, fill_reading_entry(new_message(topics.READINGS.type), e))
+        for k, e in enumerate(entries)
+    ]
     return sorted(out, key=lambda m: m.log_time)
 
 

@@ -104,8 +104,6 @@ def test_in_memory_session_equals_the_simulated_one_and_writes_nothing(
     assert list(workdir.iterdir()) == []
 
 
-
-
 def test_paced_in_rig_time(tmp_path: Path) -> None:
     _, path = small_session(tmp_path)
     mono = FakeMonotonic()
@@ -138,8 +136,10 @@ def test_sim_declines_trial_requests(tmp_path: Path) -> None:
     ("parameters", "pattern"),
     [
         ({}, r"^sim source: parameter 'session' = '': the sim source needs 'session' .* or 'bicycle'"),
-        ({"session": "nowhere/session.yaml"},
-         r"^sim source: parameter 'session' = 'nowhere/session.yaml': no such file$"),
+        (
+            {"session": "nowhere/session.yaml"},
+            r"^sim source: parameter 'session' = 'nowhere/session.yaml': no such file$",
+        ),
         ({"session": "S", "bicycle": "B"}, r"^sim source: parameter 'bicycle' = 'B': give either 'session' \(S\)"),
         ({"bicycle": "nowhere.yaml"}, r"^sim source: parameter 'bicycle' = 'nowhere.yaml': nowhere.yaml: "),
         ({"bicycle": str(BICYCLE), "rig": "norig.yaml"}, r"^sim source: parameter 'rig' = 'norig.yaml': norig.yaml: "),

@@ -32,8 +32,6 @@ from test.sources.support import BICYCLE, START_NS, TRIAL_S, FakeMonotonic, oper
 RATE = 1000.0
 
 
-
-
 def samples_of(events: list[SourceEvent], trial_id: str, first: int = 0) -> tuple[np.ndarray, np.ndarray]:
     """The rates and raw volts of ``trial_id``'s blocks, checking that they follow one another from ``first``."""
     blocks = [e for e in events if isinstance(e, SampleBlock) and e.trial_id == trial_id]
@@ -52,27 +50,41 @@ def unpaced(tmp_path: Path) -> OperatorSimSource:
 @pytest.mark.parametrize(
     ("request_", "pattern"),
     [
-        (TrialRequest("frame", "torsional", orientation=4),
-         r"^orientation 4 is outside the plan: the frame hangs in orientations 1–3 \(rig orientations_deg.frame\)$"),
-        (TrialRequest("fork", "torsional", orientation=0),
-         r"^a fork torsional trial needs its orientation: the fork hangs in orientations 1–3 "
-         r"\(rig orientations_deg.fork\)$"),
-        (TrialRequest("calibration_rod", "compound"),
-         r"^the calibration rod is only hung as a torsional pendulum, not as a compound one$"),
-        (TrialRequest("saddle", "compound"),
-         r"^unknown part 'saddle'; the plan's parts are rear_wheel, front_wheel, frame, fork, calibration_rod$"),
+        (
+            TrialRequest("frame", "torsional", orientation=4),
+            r"^orientation 4 is outside the plan: the frame hangs in orientations 1–3 \(rig orientations_deg.frame\)$",
+        ),
+        (
+            TrialRequest("fork", "torsional", orientation=0),
+            r"^a fork torsional trial needs its orientation: the fork hangs in orientations 1–3 "
+            r"\(rig orientations_deg.fork\)$",
+        ),
+        (
+            TrialRequest("calibration_rod", "compound"),
+            r"^the calibration rod is only hung as a torsional pendulum, not as a compound one$",
+        ),
+        (
+            TrialRequest("saddle", "compound"),
+            r"^unknown part 'saddle'; the plan's parts are rear_wheel, front_wheel, frame, fork, calibration_rod$",
+        ),
         (TrialRequest("frame", "bifilar"), r"^unknown pendulum 'bifilar'; expected compound or torsional$"),
-        (TrialRequest("rear_wheel", "compound", orientation=2),
-         r"^the rear wheel's compound pendulum has no orientation \(give 0, not 2\); only the frame's"),
-        (TrialRequest("frame", "torsional", orientation=2, measurement_key="TtB3"),
-         r"^measurement_key 'TtB3' does not match frame torsional orientation 2 \(its key is TtB2\)$"),
-        (TrialRequest("fork", "compound", measurement_key="TcB1"),
-         r"^measurement_key 'TcB1' does not match fork compound \(its key is TcH1\)$"),
+        (
+            TrialRequest("rear_wheel", "compound", orientation=2),
+            r"^the rear wheel's compound pendulum has no orientation \(give 0, not 2\); only the frame's",
+        ),
+        (
+            TrialRequest("frame", "torsional", orientation=2, measurement_key="TtB3"),
+            r"^measurement_key 'TtB3' does not match frame torsional orientation 2 \(its key is TtB2\)$",
+        ),
+        (
+            TrialRequest("fork", "compound", measurement_key="TcB1"),
+            r"^measurement_key 'TcB1' does not match fork compound \(its key is TcH1\)$",
+        ),
         (TrialRequest("fork", "compound", duration_s=-1.0), r"^duration_s must be > 0 s \(or 0: the rig's 6 s\)"),
         (TrialRequest("fork", "compound", duration_s=math.nan), r"^duration_s must be > 0 s"),
         (TrialRequest("fork", "compound", duration_s=1e5), r"longer than the simulated rig records \(at most 3600 s\)"),
     ],
-)  # fmt: skip
+)
 def test_requests_outside_the_plan_are_refused_with_the_reason(
     unpaced: OperatorSimSource, request_: TrialRequest, pattern: str
 ) -> None:
@@ -227,6 +239,7 @@ def test_operator_mode_configuration_errors(tmp_path: Path) -> None:
     source = open_source("sim", mode="operator", bicycle=str(BICYCLE), rig=str(small_rig(tmp_path)), time_scale=50.0)
     assert isinstance(source, OperatorSimSource) and source.supports_requests
     assert source.describe().startswith("sim (operator mode): ") and "time scale 50" in source.describe()
-    assert [m.key for m in source.plan] == [m.key for m in TrialSimulator.create(
-        load_true_parameters(BICYCLE)[1], load_rig(small_rig(tmp_path)), 0).plan]  # fmt: skip
+    assert [m.key for m in source.plan] == [
+        m.key for m in TrialSimulator.create(load_true_parameters(BICYCLE)[1], load_rig(small_rig(tmp_path)), 0).plan
+    ]
     assert isinstance(OperatorSimSource.from_parameters({"bicycle": str(BICYCLE)}), OperatorSimSource)

@@ -29,8 +29,9 @@ def write_can_log(path: Path, layout: CanFrameLayout, frames: int, t0: float) ->
                     channel=0,
                 )
             )
-            writer.on_message_received(can.Message(timestamp=t + 0.001, arbitration_id=0x3F0, data=bytes(6),
-                                                   is_extended_id=False, channel=0))  # fmt: skip
+            writer.on_message_received(
+                can.Message(timestamp=t + 0.001, arbitration_id=0x3F0, data=bytes(6), is_extended_id=False, channel=0)
+            )
     with can.LogReader(path) as reader:
         first = next(m for m in reader if m.arbitration_id == layout.can_id)
     return rates, float(first.timestamp)

@@ -31,8 +31,20 @@ BROWSER = config_file("bicycles/browser.yaml")
 
 
 BROWSER_KEYS = (
-    "TtP1", "TcR1", "TtR1", "TcF1", "TtF1", "TcB1", "TtB1", "TtB2", "TtB3", "TcH1", "TtH1", "TtH2", "TtH3",
-)  # fmt: skip
+    "TtP1",
+    "TcR1",
+    "TtR1",
+    "TcF1",
+    "TtF1",
+    "TcB1",
+    "TtB1",
+    "TtB2",
+    "TtB3",
+    "TcH1",
+    "TtH1",
+    "TtH2",
+    "TtH3",
+)
 
 
 def node_environment(ros_env: Mapping[str, str]) -> dict[str, str]:
@@ -51,8 +63,10 @@ def start_node(module: str, name: str, env: Mapping[str, str], log_dir: Path, *r
 def browser_trials() -> list[TrialFit]:
     """One trial per key with the Browser file's own period and σ."""
     full = load_measurements(BROWSER)
-    return [TrialFit.from_period(f"{k}_t1", k, full.value(k), full.readings[k].sigma, True, stamp_ns=i) for i, k in
-            enumerate(BROWSER_KEYS)]  # fmt: skip
+    return [
+        TrialFit.from_period(f"{k}_t1", k, full.value(k), full.readings[k].sigma, True, stamp_ns=i)
+        for i, k in enumerate(BROWSER_KEYS)
+    ]
 
 
 def publish_trials(probe: Probe, trials: Sequence[TrialFit], matched: bool = False) -> None:
@@ -110,7 +124,33 @@ ASSIST = REPO / "config" / "feedback" / "balance_assist.yaml"
 
 #: Every static reading of a bicycle with three frame and three fork orientations, file order.
 STATIC_KEYS = (
-    "g", "w", "gamma", "f", "mP", "lP", "dP", "mR", "nR", "dR", "lR", "mF", "nF", "dF", "lF",
-    "mB", "alphaB1", "aB1", "alphaB2", "aB2", "alphaB3", "aB3",
-    "mH", "alphaH1", "aH1", "alphaH2", "aH2", "alphaH3", "aH3",
-)  # fmt: skip
+    "g",
+    "w",
+    "gamma",
+    "f",
+    "mP",
+    "lP",
+    "dP",
+    "mR",
+    "nR",
+    "dR",
+    "lR",
+    "mF",
+    "nF",
+    "dF",
+    "lF",
+    "mB",
+    "alphaB1",
+    "aB1",
+    "alphaB2",
+    "aB2",
+    "alphaB3",
+    "aB3",
+    "mH",
+    "alphaH1",
+    "aH1",
+    "alphaH2",
+    "aH2",
+    "alphaH3",
+    "aH3",
+)

@@ -29,6 +29,7 @@ class Operator:
 
     def event(self, kind: int, trial_id: str) -> Any:
         """Wait for the event ``kind`` of ``trial_id``."""
+
         def found() -> Any:
             return next((e for e in self.events if e.kind == kind and e.trial_id == trial_id), None)
 

@@ -103,19 +103,52 @@ BICYCLE_NAMES: Final[Mapping[str, str]] = MappingProxyType(
 raw data there."""
 
 PARAMETER_KEYS: Final = (
-    "w", "c", "lam", "rR", "mR", "IRxx", "IRyy",
-    "xB", "zB", "mB", "IBxx", "IBxz", "IByy", "IBzz",
-    "xH", "zH", "mH", "IHxx", "IHxz", "IHyy", "IHzz",
-    "rF", "mF", "IFxx", "IFyy",
-)  # fmt: skip
+    "w",
+    "c",
+    "lam",
+    "rR",
+    "mR",
+    "IRxx",
+    "IRyy",
+    "xB",
+    "zB",
+    "mB",
+    "IBxx",
+    "IBxz",
+    "IByy",
+    "IBzz",
+    "xH",
+    "zH",
+    "mH",
+    "IHxx",
+    "IHxz",
+    "IHyy",
+    "IHzz",
+    "rF",
+    "mF",
+    "IFxx",
+    "IFyy",
+)
 """The 25 benchmark parameters in the order Tables 2 and 4 print them (BicycleParameters names)."""
 
 COEFFICIENT_KEYS: Final = (
-    "M11", "M12", "M21", "M22",
-    "C1_11", "C1_12", "C1_21", "C1_22",
-    "K0_11", "K0_12", "K0_21", "K0_22",
-    "K2_11", "K2_12", "K2_21", "K2_22",
-)  # fmt: skip
+    "M11",
+    "M12",
+    "M21",
+    "M22",
+    "C1_11",
+    "C1_12",
+    "C1_21",
+    "C1_22",
+    "K0_11",
+    "K0_12",
+    "K0_21",
+    "K0_22",
+    "K2_11",
+    "K2_12",
+    "K2_21",
+    "K2_22",
+)
 """The canonical matrix coefficients in the order Tables 3 and 5 print them."""
 
 _UNIT_BY_INITIAL: Final[Mapping[str, str]] = MappingProxyType({"l": "rad", "m": "kg", "I": "kgm²"})

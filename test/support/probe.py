@@ -122,8 +122,12 @@ class Probe:
     ) -> Any:
         """The first message on ``topic`` (listened to before) for which ``condition`` holds."""
         box = self.inbox[topic.name]
-        self.spin_until(lambda: any(condition(m) for m in box), STEP_TIMEOUT_S, what,
-                        lambda: "\n".join(p.describe() for p in processes))  # fmt: skip
+        self.spin_until(
+            lambda: any(condition(m) for m in box),
+            STEP_TIMEOUT_S,
+            what,
+            lambda: "\n".join(p.describe() for p in processes),
+        )
         return next(m for m in box if condition(m))
 
     def call(self, service: Any, *args: Any, timeout: float = STEP_TIMEOUT_S) -> Any:

@@ -31,16 +31,29 @@ class BagBuilder:
 
     def event(self, kind: int, trial_id: str, ns: int, count: int = 0, key: str = "TcB1") -> None:
         msg = self.ts.types[TRIAL_EVENTS.type](
-            header=self.header(ns), kind=kind, trial_id=trial_id, part="frame", pendulum="compound",
-            orientation=0, repeat=1, measurement_key=key, sample_rate_hz=RATE, sample_count=count, note="n",
-        )  # fmt: skip
+            header=self.header(ns),
+            kind=kind,
+            trial_id=trial_id,
+            part="frame",
+            pendulum="compound",
+            orientation=0,
+            repeat=1,
+            measurement_key=key,
+            sample_rate_hz=RATE,
+            sample_count=count,
+            note="n",
+        )
         self.items.append((TRIAL_EVENTS.name, TRIAL_EVENTS.type, msg))
 
     def batch(self, trial_id: str, first: int, rates: np.ndarray, volts: np.ndarray | None = None) -> None:
         msg = self.ts.types[GYRO.type](
-            header=self.header(T0 + round(first * 1e9 / RATE)), trial_id=trial_id, first_index=first,
-            sample_rate_hz=RATE, rates=rates, raw_volts=np.empty(0) if volts is None else volts,
-        )  # fmt: skip
+            header=self.header(T0 + round(first * 1e9 / RATE)),
+            trial_id=trial_id,
+            first_index=first,
+            sample_rate_hz=RATE,
+            rates=rates,
+            raw_volts=np.empty(0) if volts is None else volts,
+        )
         self.items.append((GYRO.name, GYRO.type, msg))
 
     def write(self, path: Path, extra_topic: bool = True) -> Path:

@@ -23,12 +23,9 @@ Newton with Levenberg–Marquardt damping on the same block means, from the visc
 with a piecewise linear offset of knots every ``OFFSET_KNOT_CYCLES`` cycles that takes the
 gyro's drifting bias out of the envelope; :func:`offset_hats`).
 Its extra parameter γ is tested with a Wald test whose σ is the drift-robust per-cycle sandwich
-of :mod:`~bike_rig.core.period.sigma` (a likelihood criterion such as AIC or BIC would assume
-white residuals, which a drifting gyro does not give): |γ/σ_γ| ≥ ``Z_LIMIT`` means the envelope
-is not exponential. Then α is tested the same way in the combined fit: |α/σ_α| < ``Z_LIMIT``
+of :mod:`~bike_rig.core.period.sigma`: |γ/σ_γ| ≥ ``Z_LIMIT`` means the envelope is not
+exponential. Then α is tested the same way in the combined fit: |α/σ_α| < ``Z_LIMIT``
 selects ``dry`` (refitted with α = 0), else ``combined``. Otherwise Eq 23 stays: ``viscous``.
-With ``Z_LIMIT = 3`` noise alone selects another model than the true one for about 0.3 % of the
-trials (two-sided normal tail; the sandwich's Student-t widening keeps it there for few cycles).
 
 **A finite swing.** A compound pendulum's restoring torque is ∝ sin θ: the period lengthens
 with the swing, T ≈ T₀ (1 + θ²/16), and shortens along the record as the swing decays. To first
@@ -38,20 +35,16 @@ order in θ² the frequency follows the envelope's square, ``ω(τ) = ω (1 + κ
 when ``κ/σ_κ ≤ −Z_LIMIT`` (only a softening restoring torque, as a pendulum's). Then 2π/ω is
 the period at the centre's swing, 2π/(ω(1 − κ)) that of a vanishing swing, and ``period`` stays
 the paper's, the mean over the window: the window's length over its cycles, 2π/ω̄ with
-``ω̄ = ω (1 + κ (⟨E²⟩ − 1))`` (:func:`mean_period`), each with σ. This needs no gyro
-calibration: the swing's effect on the period is measured, not computed from θ.
-The θ⁴ term is left out: at a 20° swing it moves T₀ by about 5e-5 of itself.
+``ω̄ = ω (1 + κ (⟨E²⟩ − 1))`` (:func:`mean_period`), each with σ (no gyro calibration
+needed). The θ⁴ term is left out (about 5e-5 of T₀ at a 20° swing).
 
 **When they are tried.** Only when Eq 23's per-cycle envelope/phase deviations reach
-``TRY_FROM`` of the beating test's significance limit (noise alone: median 0.31, 95 % below
-0.46): elsewhere nothing departs from Eq 23 that another model could explain, and the fit costs
-what it did. A model whose swing stops inside the window while the record oscillates on
-(residual RMS after the stop above ``STOP_RATIO`` times that before) is refused: that is not
-dry friction (two modes exchanging energy can look like it).
-
-The block means are modelled as ``E(τ_b) g_k(iω) e^(iωτ_b)`` (g_k the exact block gain of
-:func:`~bike_rig.core.period.oscillation.block_gain`): the envelope's change inside a block of
-1/16 cycle is left out, a relative error of about ``0.013 |E'/E| / ω``, far below the noise.
+``TRY_FROM`` of the beating test's significance limit. A model whose swing stops inside the
+window while the record oscillates on (residual RMS after the stop above ``STOP_RATIO`` times
+that before) is refused: that is not dry friction. The block means are modelled as
+``E(τ_b) g_k(iω) e^(iωτ_b)`` (g_k the exact block gain of
+:func:`~bike_rig.core.period.oscillation.block_gain`; the envelope's change inside a block is
+left out, a relative error of about ``0.013 |E'/E| / ω``).
 """
 
 from __future__ import annotations
@@ -461,8 +454,14 @@ def _minimise(design: _Design, x: dict[str, float]) -> tuple[dict[str, float], F
         return bool(v[omega] > 0 and (kappa is None or abs(v[kappa]) < 0.5))
 
     try:
-        found = minimise(model, np.array([x[n] for n in names]), rel_tol=_TOL, step_sigma=_STEP_SIGMA,
-                         max_iter=_MAX_ITER, feasible=feasible)  # fmt: skip
+        found = minimise(
+            model,
+            np.array([x[n] for n in names]),
+            rel_tol=_TOL,
+            step_sigma=_STEP_SIGMA,
+            max_iter=_MAX_ITER,
+            feasible=feasible,
+        )
     except SingularError:
         raise FitFailed(f"the {design.model.value}-damping fit's Hessian is singular") from None
     return dict(zip(names, found.x.tolist(), strict=True)), found.r / root_w

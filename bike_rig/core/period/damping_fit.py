@@ -155,8 +155,9 @@ def with_small_swing_period(fit: PeriodFit) -> PeriodFit:
     if not math.isfinite(fit.small_swing_period):
         return fit
     note = "the small-swing period is reported (option small_swing_period)"
-    return replace(fit, period=fit.small_swing_period, period_sigma=fit.small_swing_period_sigma,
-                   notes=(*fit.notes, note))  # fmt: skip
+    return replace(
+        fit, period=fit.small_swing_period, period_sigma=fit.small_swing_period_sigma, notes=(*fit.notes, note)
+    )
 
 
 def phase_residual(env: EnvelopeFit) -> PhaseResidual:

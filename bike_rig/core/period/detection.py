@@ -154,9 +154,7 @@ def _one_floor(peak: float, residual: FloatArray, bins: NDArray[np.intp], at: fl
     return false_alarm_of_bin(ratio, bins.size, kept), ratio, slope
 
 
-def detect(
-    tb: FloatArray, yb: FloatArray, rb: FloatArray, duration: float, omega_d: float, even: bool
-) -> Detection:
+def detect(tb: FloatArray, yb: FloatArray, rb: FloatArray, duration: float, omega_d: float, even: bool) -> Detection:
     """Test the fitted oscillation at ``omega_d`` against the noise floor of the residuals.
 
     Args:

@@ -453,9 +453,15 @@ class _Fitter:
         return noise, quantum
 
     def _flags(
-        self, win: _Window, r: FloatArray, n_cycles: float, r2: float, beating: Flag | None, drift: float,
+        self,
+        win: _Window,
+        r: FloatArray,
+        n_cycles: float,
+        r2: float,
+        beating: Flag | None,
+        drift: float,
         noise_quantum: tuple[float, float],
-    ) -> list[Flag]:  # fmt: skip
+    ) -> list[Flag]:
         """The flags gathered so far and the fit's own quality flags (noise, quantum: the residuals')."""
         y = win.ys
         new: list[Flag | None] = []

@@ -72,11 +72,21 @@ class FlagCode(str, Enum):
 
 
 #: The trial-level codes, which come before a fit's own flags.
-TRIAL_FLAG_CODES: frozenset[FlagCode] = frozenset({
-    FlagCode.UNKNOWN_TRIAL, FlagCode.NO_START, FlagCode.NO_STOP, FlagCode.ABORTED, FlagCode.OVERSIZED_BATCH,
-    FlagCode.TRUNCATED, FlagCode.OVERLAP, FlagCode.GAP, FlagCode.SAMPLE_COUNT, FlagCode.RATE_MISMATCH,
-    FlagCode.BAD_RATE,
-})  # fmt: skip
+TRIAL_FLAG_CODES: frozenset[FlagCode] = frozenset(
+    {
+        FlagCode.UNKNOWN_TRIAL,
+        FlagCode.NO_START,
+        FlagCode.NO_STOP,
+        FlagCode.ABORTED,
+        FlagCode.OVERSIZED_BATCH,
+        FlagCode.TRUNCATED,
+        FlagCode.OVERLAP,
+        FlagCode.GAP,
+        FlagCode.SAMPLE_COUNT,
+        FlagCode.RATE_MISMATCH,
+        FlagCode.BAD_RATE,
+    }
+)
 
 
 @dataclass(frozen=True)
@@ -258,10 +268,23 @@ class PeriodFit:
         """A result without a period, explained by ``flags``."""
         nan = math.nan
         return cls(
-            period=nan, period_sigma=nan, zeta=nan, omega=nan, A=nan, B=nan, C=nan, r2=nan,
-            residual_rms=nan, n_cycles=nan, n_samples=n_samples, window=window, valid=False,
-            flags=flags, window_policy=window_policy, notes=notes,
-        )  # fmt: skip
+            period=nan,
+            period_sigma=nan,
+            zeta=nan,
+            omega=nan,
+            A=nan,
+            B=nan,
+            C=nan,
+            r2=nan,
+            residual_rms=nan,
+            n_cycles=nan,
+            n_samples=n_samples,
+            window=window,
+            valid=False,
+            flags=flags,
+            window_policy=window_policy,
+            notes=notes,
+        )
 
 
 @dataclass(frozen=True)

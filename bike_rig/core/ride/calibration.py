@@ -86,8 +86,10 @@ def measure_calibration(
     for v in speeds:
         gains = gains_at(v)
         for _ in range(groups):
-            sims = [simulate_segment(matrices, g, v, gains, float(rng.uniform(*cycles)), conditions, rng)
-                    for _ in range(per_group)]  # fmt: skip
+            sims = [
+                simulate_segment(matrices, g, v, gains, float(rng.uniform(*cycles)), conditions, rng)
+                for _ in range(per_group)
+            ]
             fits = pool_drive([fit_segment(s.times, s.roll_rate, speed=v, model=model) for s in sims])
             n += len(fits)
             clean = [(f, s) for f, s in zip(fits, sims, strict=True) if f.clean]
@@ -101,5 +103,6 @@ def measure_calibration(
     zz = np.array(z) if z else np.full((1, 2), math.nan)
     rms = np.sqrt(np.mean(zz**2, axis=0))
     nan = math.nan
-    return Calibration(n, n_clean, dof, chi2[0] / dof if dof else nan, chi2[1] / dof if dof else nan,
-                       float(rms[0]), float(rms[1]))  # fmt: skip
+    return Calibration(
+        n, n_clean, dof, chi2[0] / dof if dof else nan, chi2[1] / dof if dof else nan, float(rms[0]), float(rms[1])
+    )

@@ -84,8 +84,17 @@ def _choice(
     v = fit.variance
     variance = (v[0] + re_spread, v[1], v[2] + im_spread, v[3])
     a_sigma, w_sigma = _sigmas(fit, pooled_drive([(drive.drive, drive.drive_sigma)]))
-    return ModelChoice(fit, -fit.alpha, math.sqrt(a_sigma**2 + re_spread), fit.omega_d,
-                       math.sqrt(w_sigma**2 + im_spread), notes, variance, drive.drive, drive.drive_sigma)  # fmt: skip
+    return ModelChoice(
+        fit,
+        -fit.alpha,
+        math.sqrt(a_sigma**2 + re_spread),
+        fit.omega_d,
+        math.sqrt(w_sigma**2 + im_spread),
+        notes,
+        variance,
+        drive.drive,
+        drive.drive_sigma,
+    )
 
 
 def _qaicc(fit: RealModeFit, scale: float, n_eff: float) -> float:
@@ -135,8 +144,10 @@ def choose_model(t: FloatArray, y: FloatArray, alpha0: float, omega_d0: float, m
         if f is not eq23 and not (math.isfinite(f.alpha_sigma) and math.isfinite(f.omega_d_sigma)):
             continue
         if f is not eq23 and _destabilises(f, eq23, q):
-            notes.append(f"{f.model} left out: Re λ {-f.alpha:+.3f} ± {_sigmas(f, q)[0]:.3f} against Eq 23's "
-                         f"{-eq23.alpha:+.3f} ± {_sigmas(eq23, q)[0]:.3f} 1/s")  # fmt: skip
+            notes.append(
+                f"{f.model} left out: Re λ {-f.alpha:+.3f} ± {_sigmas(f, q)[0]:.3f} against Eq 23's "
+                f"{-eq23.alpha:+.3f} ± {_sigmas(eq23, q)[0]:.3f} 1/s"
+            )
             continue
         kept.append(f)
     if not scale > 0:  # a noise-free record: the most complete model

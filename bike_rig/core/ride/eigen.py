@@ -136,8 +136,12 @@ class MeasuredEigenvalue:
         if len(self.variance) != 4 or not self.valid or not math.isfinite(q):
             return self
         v = self.variance
-        return replace(self, real_sigma=math.sqrt(max(0.0, v[0] + q * v[1])),
-                       imag_sigma=math.sqrt(max(0.0, v[2] + q * v[3])), drive_used=q)  # fmt: skip
+        return replace(
+            self,
+            real_sigma=math.sqrt(max(0.0, v[0] + q * v[1])),
+            imag_sigma=math.sqrt(max(0.0, v[2] + q * v[3])),
+            drive_used=q,
+        )
 
 
 def eigenvalue_of_fit(fit: PeriodFit) -> tuple[float, float, float, float]:

@@ -113,8 +113,10 @@ class RideData:
             if not (c.n_used and math.isfinite(c.speed)):
                 continue
             if not (c.real_sigma >= MIN_DATA_SIGMA and c.imag_sigma >= MIN_DATA_SIGMA):
-                notes.append(f"{c.speed:.2f} m/s left out: its σ ({c.real_sigma:.2g}, {c.imag_sigma:.2g} 1/s) is not "
-                             f"credible (below {MIN_DATA_SIGMA:g}): a degenerate segment fit")  # fmt: skip
+                notes.append(
+                    f"{c.speed:.2f} m/s left out: its σ ({c.real_sigma:.2g}, {c.imag_sigma:.2g} 1/s) is not "
+                    f"credible (below {MIN_DATA_SIGMA:g}): a degenerate segment fit"
+                )
                 continue
             rows.append(c)
         if not rows:
@@ -398,9 +400,17 @@ def posterior(
 
 
 def _laplace(
-    p: _Problem, z: FloatArray, r: FloatArray, lam: ComplexArray, chi2: float, hess: FloatArray, jac: FloatArray,
-    iterations: int, predicted: float, recomputed: float,
-) -> Posterior:  # fmt: skip
+    p: _Problem,
+    z: FloatArray,
+    r: FloatArray,
+    lam: ComplexArray,
+    chi2: float,
+    hess: FloatArray,
+    jac: FloatArray,
+    iterations: int,
+    predicted: float,
+    recomputed: float,
+) -> Posterior:
     """The posterior's moments and the checks at the minimum ``z``."""
     w, vecs = np.linalg.eigh(hess)
     top = float(w.max()) if w.size else 1.0
@@ -455,14 +465,23 @@ def _prior_of(p: _Problem) -> ParameterSet:
 
 
 def _check(
-    p: _Problem, z: FloatArray, cov_z: FloatArray, lam: ComplexArray, jac: FloatArray, predicted: float,
-    recomputed: float, seed: int = 0,
-) -> Linearity:  # fmt: skip
+    p: _Problem,
+    z: FloatArray,
+    cov_z: FloatArray,
+    lam: ComplexArray,
+    jac: FloatArray,
+    predicted: float,
+    recomputed: float,
+    seed: int = 0,
+) -> Linearity:
     """Exact against linear model eigenvalues over posterior draws (module docstring)."""
     n_data = p.data.size
     n_speeds = n_data // 2
-    real = [f"{p.data.speeds[i]:.2f} m/s: the model has no oscillatory mode at the posterior; its nearest real "
-            "eigenvalue is compared" for i in np.flatnonzero(np.abs(lam.imag) <= MIN_IMAG).tolist()]  # fmt: skip
+    real = [
+        f"{p.data.speeds[i]:.2f} m/s: the model has no oscillatory mode at the posterior; its nearest real "
+        "eigenvalue is compared"
+        for i in np.flatnonzero(np.abs(lam.imag) <= MIN_IMAG).tolist()
+    ]
     if p.n == 0:  # nothing uncertain: the model is exact, the posterior the prior
         return Linearity(predicted, recomputed, 0.0, np.zeros(n_speeds), not real, tuple(real))
     rng = np.random.default_rng(seed)
@@ -480,14 +499,18 @@ def _check(
     not_osc = 1.0 - np.mean(osc, axis=0)
     notes = []
     if rms > NONLINEAR_LIMIT:
-        notes.append(f"the model is not linear over the posterior: exact and linearised eigenvalues of posterior "
-                     f"draws differ by {rms:.2f} data σ (RMS; limit {NONLINEAR_LIMIT:g}): the σ are "
-                     "approximate")  # fmt: skip
+        notes.append(
+            f"the model is not linear over the posterior: exact and linearised eigenvalues of posterior "
+            f"draws differ by {rms:.2f} data σ (RMS; limit {NONLINEAR_LIMIT:g}): the σ are "
+            "approximate"
+        )
     bad = np.flatnonzero(not_osc > 0.0) if p.data.speeds.size else np.zeros(0, int)
     for i in bad.tolist():
-        notes.append(f"{p.data.speeds[i]:.2f} m/s: the weave is not oscillatory in {100 * not_osc[i]:.0f} % of "
-                     "the posterior draws (a branch point within the posterior): linearisation not valid "
-                     "there")  # fmt: skip
+        notes.append(
+            f"{p.data.speeds[i]:.2f} m/s: the weave is not oscillatory in {100 * not_osc[i]:.0f} % of "
+            "the posterior draws (a branch point within the posterior): linearisation not valid "
+            "there"
+        )
     notes += real
     if abs(recomputed - predicted) > max(1.0, 0.1 * predicted) and predicted < recomputed:
         notes.append(f"the last Gauss–Newton step predicted χ² = {predicted:.1f}, recomputed {recomputed:.1f}")
@@ -514,8 +537,9 @@ class WeaveBand:
     imag_sigma: FloatArray
 
 
-def weave_band(post: Posterior, feedback: Feedback | None, speeds: FloatArray, near: ComplexArray,
-               prior: bool = False) -> WeaveBand:  # fmt: skip
+def weave_band(
+    post: Posterior, feedback: Feedback | None, speeds: FloatArray, near: ComplexArray, prior: bool = False
+) -> WeaveBand:
     """The weave eigenvalue nearest ``near`` at ``speeds`` [m/s] with σ: at the posterior, or at the prior.
 
     The prior band is the prior's values and covariance at the nominal gain scale (freed

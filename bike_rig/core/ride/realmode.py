@@ -193,8 +193,12 @@ def fit_with_real_mode(
     sse = float(r @ r)
     f2 = student_factor(max(1.0, noise.n_eff(n) - p)) ** 2
     ia, iw = cols, cols + 1
-    variance = (f2 * float(driven.white[ia, ia]), f2 * float(driven.per_drive[ia, ia]),
-                f2 * float(driven.white[iw, iw]), f2 * float(driven.per_drive[iw, iw]))  # fmt: skip
+    variance = (
+        f2 * float(driven.white[ia, ia]),
+        f2 * float(driven.per_drive[ia, ia]),
+        f2 * float(driven.white[iw, iw]),
+        f2 * float(driven.per_drive[iw, iw]),
+    )
     q = pooled_drive([(driven.drive, driven.drive_sigma)])
     centred = y - float(np.mean(y))
     sst = float(centred @ centred)

@@ -120,8 +120,16 @@ def simulate_log(
     rider = rng.normal(0.0, conditions.rider_torque)
     signs = rng.choice((-1.0, 1.0), len(pushes))
     n = int(round(duration * conditions.rate_hz))
-    t, rates, _ = _run(ad, bd, k, n, [(p, s * conditions.push_torque) for p, s in zip(pushes, signs, strict=True)],
-                       conditions, rng, rider)  # fmt: skip
+    t, rates, _ = _run(
+        ad,
+        bd,
+        k,
+        n,
+        [(p, s * conditions.push_torque) for p, s in zip(pushes, signs, strict=True)],
+        conditions,
+        rng,
+        rider,
+    )
     return t, rates + rng.normal(0.0, conditions.noise, n), weave
 
 

@@ -161,10 +161,13 @@ def _signal_kicks(t: FloatArray, z: FloatArray, sigma: float, opt: SegmentOption
         onset = i + int(np.argmax(z[i : i + n] > half))
         peak = onset + int(np.argmax(z[onset : onset + n // 2 + 1]))
         kicks.append(
-            Kick(float(t[onset]), float(t[peak]),
-                 f"roll rate rose {fwd[i] / max(bwd[i], sigma):.1f}× within {opt.window_s:g} s at {t[onset]:.2f} s "
-                 f"(first peak {t[peak]:.2f} s)")
-        )  # fmt: skip
+            Kick(
+                float(t[onset]),
+                float(t[peak]),
+                f"roll rate rose {fwd[i] / max(bwd[i], sigma):.1f}× within {opt.window_s:g} s at {t[onset]:.2f} s "
+                f"(first peak {t[peak]:.2f} s)",
+            )
+        )
         i = peak + n  # the next kick: a window after this one's peak at the earliest
 
 
@@ -208,8 +211,10 @@ def _free_decay_end(t: FloatArray, z: FloatArray, sigma: float, opt: SegmentOpti
         tol = opt.envelope_tolerance * expected + 3.0 * math.sqrt(2.0) * sigma
         if abs(peaks[k] - expected) > tol:
             end = float(times[k - 1] + 0.5 * half)  # the last peak on the envelope's half-cycle
-            return end, (f"free decay ends: the half-cycle peak at {times[k]:.2f} s is {peaks[k]:.3g}, "
-                         f"the envelope of the {k} before says {expected:.3g}")  # fmt: skip
+            return end, (
+                f"free decay ends: the half-cycle peak at {times[k]:.2f} s is {peaks[k]:.3g}, "
+                f"the envelope of the {k} before says {expected:.3g}"
+            )
     return None
 
 

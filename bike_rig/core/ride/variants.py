@@ -184,8 +184,10 @@ def calibrate(
     """
     notes = list(data.notes)
     if not np.any(bicycle.parameters.sigmas > 0):
-        notes.append("the parameters have no σ (an exact prior, e.g. a parameter file without σ): they cannot "
-                     "move; only each variant's gain scale and freed parameters are fitted")  # fmt: skip
+        notes.append(
+            "the parameters have no σ (an exact prior, e.g. a parameter file without σ): they cannot "
+            "move; only each variant's gain scale and freed parameters are fitted"
+        )
     priors: list[tuple[bool, ParameterSet]] = []
     if rider is None:
         priors.append((False, bicycle))
@@ -201,8 +203,10 @@ def calibrate(
     else:
         how = f"sampled at {rate_hz:g} Hz (its torque held over each sample)" if rate_hz else "continuous"
         notes.append(f"the assist is modelled {how}")
-        notes.append("a saturating assist is not a variant of its own: an eigenvalue is a small-signal quantity, and "
-                     "saturation acts on it as a lower gain scale, which the gain-scale variants measure")  # fmt: skip
+        notes.append(
+            "a saturating assist is not a variant of its own: an eigenvalue is a small-signal quantity, and "
+            "saturation acts on it as a lower gain scale, which the gain-scale variants measure"
+        )
     frees = [()] + ([tuple(free)] if free else [])
     results = []
     for aboard, prior in priors:
@@ -211,8 +215,10 @@ def calibrate(
                 u = Unknowns(names, scale)
                 label = _name(aboard if rider is not None else None, u, feedback is not None)
                 if u.count >= data.size:
-                    notes.append(f"'{label}' not tried: {u.count} unknowns without a prior for {data.size} data "
-                                 "values (rank deficient: the rides cannot determine them)")  # fmt: skip
+                    notes.append(
+                        f"'{label}' not tried: {u.count} unknowns without a prior for {data.size} data "
+                        "values (rank deficient: the rides cannot determine them)"
+                    )
                     continue
                 post = posterior(prior, data, feedback, u, rate_hz)
                 results.append(_result(label, aboard, post, data.size))
@@ -240,8 +246,11 @@ def _largest_shift(post: Posterior) -> tuple[str, float]:
 def constrained(post: Posterior) -> list[tuple[str, float]]:
     """The parameters the rides constrain: (name, posterior/prior σ), tightest first."""
     ratio = post.sigma_ratio
-    out = [(n, float(ratio[i])) for i, n in enumerate(PARAMETER_NAMES)
-           if post.prior.parameters.sigmas[i] > 0 and ratio[i] < CONSTRAINED_RATIO]  # fmt: skip
+    out = [
+        (n, float(ratio[i]))
+        for i, n in enumerate(PARAMETER_NAMES)
+        if post.prior.parameters.sigmas[i] > 0 and ratio[i] < CONSTRAINED_RATIO
+    ]
     return sorted(out, key=lambda p: p[1])
 
 
@@ -267,8 +276,10 @@ def describe(ranked: Sequence[VariantResult], has_feedback: bool, has_rider: boo
     if post.dof > 0 and best.p_value < MIN_P:
         tried = f"{len(ranked)} variants tried" if len(ranked) > 1 else "the one variant tried"
         loop = "with this controller " if has_feedback else ""
-        text = (f"no variant explains the rides (χ²/dof = {best.reduced_chi2:.1f} for the best, '{best.name}'; "
-                f"{tried}): the Whipple model {loop}does not describe this bicycle at these speeds")  # fmt: skip
+        text = (
+            f"no variant explains the rides (χ²/dof = {best.reduced_chi2:.1f} for the best, '{best.name}'; "
+            f"{tried}): the Whipple model {loop}does not describe this bicycle at these speeds"
+        )
         if not post.linearity.valid:
             text += ". " + "; ".join(post.linearity.notes)
         return text, False
@@ -287,12 +298,14 @@ def describe(ranked: Sequence[VariantResult], has_feedback: bool, has_rider: boo
         if name in wide:
             parts.append(f"{name} not determined (σ wider than ±{FREE_RANGE / 2:g} prior σ)")
             continue
-        parts.append(f"{name} = {_pm(float(post.values[i]), float(post.sigmas[i]))} "
-                     f"({post.shifts[i]:+.1f} prior σ)")  # fmt: skip
+        parts.append(f"{name} = {_pm(float(post.values[i]), float(post.sigmas[i]))} ({post.shifts[i]:+.1f} prior σ)")
     name, shift = _largest_shift(post)
     other = " other" if post.unknowns.free else ""
-    moved = (f"no{other} parameter moves more than {abs(shift):.1f} σ" if abs(shift) < 2.0
-             else f"the largest shift is {name} by {shift:+.1f} prior σ")  # fmt: skip
+    moved = (
+        f"no{other} parameter moves more than {abs(shift):.1f} σ"
+        if abs(shift) < 2.0
+        else f"the largest shift is {name} by {shift:+.1f} prior σ"
+    )
     text = f"the rides are explained by {', '.join(parts)} ({fit}); {moved}"
     if len(ranked) > 1:
         second = ranked[1]
@@ -310,8 +323,10 @@ def _constraints(post: Posterior) -> str:
     n_prior = int(np.sum(post.prior.parameters.sigmas > 0))
     if tight:
         listed = ", ".join(f"{n} ({r:.2f})" for n, r in tight[:6])
-        text = (f". The rides constrain {post.constrained_directions} combination(s) of the {n_prior} uncertain "
-                f"parameters (posterior/prior σ: {listed}); the others stay at their prior")  # fmt: skip
+        text = (
+            f". The rides constrain {post.constrained_directions} combination(s) of the {n_prior} uncertain "
+            f"parameters (posterior/prior σ: {listed}); the others stay at their prior"
+        )
     elif n_prior == 0:
         text = ""
     else:

@@ -113,15 +113,21 @@ def overall_verdict(
     if not compared:
         if speeds:
             return Verdict("no_sigma", f"no verdict: no speed's comparison has a σ{missing}", math.nan)
-        return Verdict("no_clean_segment",
-                       f"no verdict: no clean segment (of {n_segments}: each flagged or without an eigenvalue)",
-                       math.nan)  # fmt: skip
+        return Verdict(
+            "no_clean_segment",
+            f"no verdict: no clean segment (of {n_segments}: each flagged or without an eigenvalue)",
+            math.nan,
+        )
     worst_v, worst = max(compared, key=lambda p: p[1].sigma)
     n = len(compared)
     if worst.code == "agrees":
         where = "at the one speed" if n == 1 else f"at all {n} speeds"
-        return Verdict("agrees", f"the model agrees with the ride {where}: largest deviation {worst.sigma:.1f} σ "
-                                 f"(at {worst_v:.2f} m/s){missing}", worst.sigma)  # fmt: skip
+        return Verdict(
+            "agrees",
+            f"the model agrees with the ride {where}: largest deviation {worst.sigma:.1f} σ "
+            f"(at {worst_v:.2f} m/s){missing}",
+            worst.sigma,
+        )
     bad = [v for v, x in compared if x.code == "disagrees"]
     tense = [v for v, x in compared if x.code == "tension"]
     counts = []

@@ -90,8 +90,13 @@ def eigenvalue_monte_carlo(
         raise ValueError(f"{draws} draws for {v.size} speeds and {lam0.size} eigenvalues")
     pv = ps.parameters if SigmaConvention(convention) is SigmaConvention.CORRELATED else ps.parameters.independent()
     rng = np.random.default_rng(seed)
-    x = rng.multivariate_normal(np.asarray(pv.values, dtype=float), np.asarray(pv.covariance, dtype=float),
-                                size=draws, method="eigh", check_valid="ignore")  # fmt: skip
+    x = rng.multivariate_normal(
+        np.asarray(pv.values, dtype=float),
+        np.asarray(pv.covariance, dtype=float),
+        size=draws,
+        method="eigh",
+        check_valid="ignore",
+    )
     params = {n: x[:, pv.index(n)] for n in PARAMETER_NAMES}
     mats, g = canonical_matrices(params), params["g"][:, None, None]
     knots = () if feedback is None else feedback.uncertain_knots()

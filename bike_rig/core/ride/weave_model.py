@@ -132,8 +132,9 @@ def _sampled_eigenvalues(
         return np.asarray(np.log(mu) / dt)
 
 
-def scale_gradient(values: Mapping[str, float], speeds: FloatArray, lam: ComplexArray, feedback: Feedback,
-                    scale: float) -> ComplexArray:  # fmt: skip
+def scale_gradient(
+    values: Mapping[str, float], speeds: FloatArray, lam: ComplexArray, feedback: Feedback, scale: float
+) -> ComplexArray:
     """``∂λ/∂s`` of the closed-loop eigenvalues ``lam`` (N,) in the gain scale: complex step, implicit function."""
     k = feedback.gains(speeds)
     rows, _ = closed_loop_rows(canonical_matrices(values), values["g"], speeds, scale * k + 1j * COMPLEX_STEP * k)

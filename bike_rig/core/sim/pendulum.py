@@ -132,9 +132,15 @@ def pendulum_rate(t: FloatArray, motion: PendulumMotion, phase_time: float = 0.0
         turning.direction = -sign  # type: ignore[attr-defined]
         horizon = t0 + 4.0 * motion.period * max(1.0, 1.0 / math.sqrt(max(1e-12, 1.0 - zeta * zeta)))
         sol = solve_ivp(
-            rhs, (t0, horizon), [theta, 0.0], method="DOP853", rtol=_RTOL, atol=atol, dense_output=True,
+            rhs,
+            (t0, horizon),
+            [theta, 0.0],
+            method="DOP853",
+            rtol=_RTOL,
+            atol=atol,
+            dense_output=True,
             events=turning,
-        )  # fmt: skip
+        )
         if not sol.t_events[0].size:
             raise SimulationError("the pendulum did not reach its next turning point (damping too strong?)")
         t1 = float(sol.t_events[0][0])

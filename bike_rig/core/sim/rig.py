@@ -548,9 +548,16 @@ def rig_from_document(path: str, data: Any, lines: Mapping[tuple[object, ...], i
     """
     r = _Reader(path, lines)
     sections = (
-        "format", "torsion_rod", "calibration_rod", "wheels", "orientations_deg", "gyro", "adc", "trials",
+        "format",
+        "torsion_rod",
+        "calibration_rod",
+        "wheels",
+        "orientations_deg",
+        "gyro",
+        "adc",
+        "trials",
         "reading_sigma",
-    )  # fmt: skip
+    )
     if not isinstance(data, Mapping):
         raise r.error((), "expected a YAML mapping at the top level")
     top = r.section(data, (), sections, ("name", "coupled_swing"))

@@ -400,9 +400,17 @@ def _simulate_trial(
     rate = motion_rate(t, modes, mu, finite)
     volts = adc_quantise(gyro_volts(rate, gyro, adc.sample_rate, scale, np.random.default_rng(sensor_ss)), adc)
     return SimulatedTrial(
-        name, m.key, repeat, adc.sample_rate, volts, rate_from_volts(volts, gyro), modes,
-        dry_friction=mu, dry_friction_fraction=fraction, finite_swing=finite,
-    )  # fmt: skip
+        name,
+        m.key,
+        repeat,
+        adc.sample_rate,
+        volts,
+        rate_from_volts(volts, gyro),
+        modes,
+        dry_friction=mu,
+        dry_friction_fraction=fraction,
+        finite_swing=finite,
+    )
 
 
 def simulate_session(

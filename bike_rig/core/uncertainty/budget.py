@@ -330,10 +330,12 @@ def uncertainty_budget(
     if knots:  # the feedback's gains given with σ: further independent inputs, after the others
         n, m = len(keys), len(knots)
         keys = keys + [f"feedback.{k[3]}" for k in knots]
-        covariance = np.block([
-            [covariance, np.zeros((n, m))],
-            [np.zeros((m, n)), np.diag([k[2] ** 2 for k in knots])],
-        ])  # fmt: skip
+        covariance = np.block(
+            [
+                [covariance, np.zeros((n, m))],
+                [np.zeros((m, n)), np.diag([k[2] ** 2 for k in knots])],
+            ]
+        )
         to_input = np.hstack([to_input, np.zeros((to_input.shape[0], m))])
     groups = _groups(covariance)
     own = names or {}

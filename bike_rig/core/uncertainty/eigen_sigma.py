@@ -199,10 +199,12 @@ def eigenvalues_with_sigma(
         gain_grad = eigenvalue_gain_gradient(ps.parameters.as_dict(), sweep.speeds, sweep.eigenvalues, feedback)
         inputs = np.concatenate([grad, gain_grad], axis=2)
         sigmas = np.array([k[2] for k in feedback.uncertain_knots()])
-        covariance = np.block([
-            [covariance, np.zeros((covariance.shape[0], sigmas.size))],
-            [np.zeros((sigmas.size, covariance.shape[0])), np.diag(sigmas**2)],
-        ])  # fmt: skip
+        covariance = np.block(
+            [
+                [covariance, np.zeros((covariance.shape[0], sigmas.size))],
+                [np.zeros((sigmas.size, covariance.shape[0])), np.diag(sigmas**2)],
+            ]
+        )
     finite: NDArray[np.bool_] = np.asarray(np.isfinite(inputs).all(axis=2))
     g_re = np.where(finite[..., None], inputs.real, 0.0)
     g_im = np.where(finite[..., None], inputs.imag, 0.0)

@@ -273,9 +273,9 @@ def _crossings_on(ev: _Evaluator, lo: float, hi: float) -> list[tuple[float, str
     return [f for f in found if lo < f[0] <= hi]
 
 
-def _all_roots(matrices: WhippleMatrices, g: float, feedback: SteerFeedback, v_max: float) -> tuple[
-    _Evaluator, list[tuple[float, str, Crossing | None]]
-]:  # fmt: skip
+def _all_roots(
+    matrices: WhippleMatrices, g: float, feedback: SteerFeedback, v_max: float
+) -> tuple[_Evaluator, list[tuple[float, str, Crossing | None]]]:
     check_one_bicycle(matrices)
     ev = _Evaluator(matrices, float(g), feedback)
     found = [f for lo, hi in _pieces(feedback, v_max) for f in _crossings_on(ev, lo, hi)]

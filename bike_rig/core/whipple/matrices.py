@@ -89,18 +89,21 @@ def _total_inertia(p: Mapping[str, Array]) -> tuple[Array, Array, Array]:
     """
     i_rzz, i_fzz = p["IRxx"], p["IFxx"]
     i_txx = (
-        p["IRxx"] + p["IBxx"] + p["IHxx"] + p["IFxx"]
-        + p["mR"] * p["rR"] ** 2 + p["mB"] * p["zB"] ** 2
-        + p["mH"] * p["zH"] ** 2 + p["mF"] * p["rF"] ** 2
-    )  # fmt: skip
+        p["IRxx"]
+        + p["IBxx"]
+        + p["IHxx"]
+        + p["IFxx"]
+        + p["mR"] * p["rR"] ** 2
+        + p["mB"] * p["zB"] ** 2
+        + p["mH"] * p["zH"] ** 2
+        + p["mF"] * p["rF"] ** 2
+    )
     i_txz = (
-        p["IBxz"] + p["IHxz"] - p["mB"] * p["xB"] * p["zB"]
-        - p["mH"] * p["xH"] * p["zH"] + p["mF"] * p["w"] * p["rF"]
-    )  # fmt: skip
+        p["IBxz"] + p["IHxz"] - p["mB"] * p["xB"] * p["zB"] - p["mH"] * p["xH"] * p["zH"] + p["mF"] * p["w"] * p["rF"]
+    )
     i_tzz = (
-        i_rzz + p["IBzz"] + p["IHzz"] + i_fzz
-        + p["mB"] * p["xB"] ** 2 + p["mH"] * p["xH"] ** 2 + p["mF"] * p["w"] ** 2
-    )  # fmt: skip
+        i_rzz + p["IBzz"] + p["IHzz"] + i_fzz + p["mB"] * p["xB"] ** 2 + p["mH"] * p["xH"] ** 2 + p["mF"] * p["w"] ** 2
+    )
     return i_txx, i_txz, i_tzz
 
 
@@ -115,10 +118,7 @@ def _front_mass_centre(p: Mapping[str, Array]) -> tuple[Array, Array, Array]:
 def _front_inertia(p: Mapping[str, Array], x_a: Array, z_a: Array) -> tuple[Array, Array, Array]:
     """Front assembly inertia ``IAxx, IAxz, IAzz`` (kg m²) about its centre (App. A)."""
     i_axx = p["IHxx"] + p["IFxx"] + p["mH"] * (p["zH"] - z_a) ** 2 + p["mF"] * (p["rF"] + z_a) ** 2
-    i_axz = (
-        p["IHxz"] - p["mH"] * (p["xH"] - x_a) * (p["zH"] - z_a)
-        + p["mF"] * (p["w"] - x_a) * (p["rF"] + z_a)
-    )  # fmt: skip
+    i_axz = p["IHxz"] - p["mH"] * (p["xH"] - x_a) * (p["zH"] - z_a) + p["mF"] * (p["w"] - x_a) * (p["rF"] + z_a)
     i_azz = p["IHzz"] + p["IFxx"] + p["mH"] * (p["xH"] - x_a) ** 2 + p["mF"] * (p["w"] - x_a) ** 2
     return i_axx, i_axz, i_azz
 
@@ -230,9 +230,11 @@ def _det2(a: Array) -> Array:
 def _mixed_det(a: Array, b: Array) -> Array:
     """Mixed determinant ``D(a, b)`` with ``det(a + b) = det a + D(a, b) + det b`` (2x2)."""
     return (
-        a[..., 0, 0] * b[..., 1, 1] + b[..., 0, 0] * a[..., 1, 1]
-        - a[..., 0, 1] * b[..., 1, 0] - b[..., 0, 1] * a[..., 1, 0]
-    )  # fmt: skip
+        a[..., 0, 0] * b[..., 1, 1]
+        + b[..., 0, 0] * a[..., 1, 1]
+        - a[..., 0, 1] * b[..., 1, 0]
+        - b[..., 0, 1] * a[..., 1, 0]
+    )
 
 
 def _inverse2(a: Array) -> Array:

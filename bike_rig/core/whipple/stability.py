@@ -101,9 +101,14 @@ def hurwitz_determinant(a: Sequence[Any], da: Sequence[Any]) -> tuple[Any, Any]:
     d0, d1, d2, d3, d4 = da
     h = a3 * a2 * a1 - a4 * a1 * a1 - a0 * a3 * a3
     dh = (
-        d3 * a2 * a1 + a3 * d2 * a1 + a3 * a2 * d1
-        - d4 * a1 * a1 - 2.0 * a4 * a1 * d1 - d0 * a3 * a3 - 2.0 * a0 * a3 * d3
-    )  # fmt: skip
+        d3 * a2 * a1
+        + a3 * d2 * a1
+        + a3 * a2 * d1
+        - d4 * a1 * a1
+        - 2.0 * a4 * a1 * d1
+        - d0 * a3 * a3
+        - 2.0 * a0 * a3 * d3
+    )
     return h, dh
 
 

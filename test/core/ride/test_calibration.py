@@ -33,8 +33,9 @@ SETTLE_S = 0.3
 
 
 def _cases() -> list[tuple[object, float, np.ndarray | None]]:
-    browser = canonical_with_sigma(add_rider(_parameters(str(config_file("bicycles/browser.yaml")), "centroid"),
-                                             PAPER_RIDER))  # fmt: skip
+    browser = canonical_with_sigma(
+        add_rider(_parameters(str(config_file("bicycles/browser.yaml")), "centroid"), PAPER_RIDER)
+    )
     assist = resolve_feedback(str(config_file("feedback/balance_assist.yaml")))
     assert assist is not None
     bench = canonical_with_sigma(_parameters(str(config_file("bicycles/benchmark.yaml")), "centroid"))
@@ -53,8 +54,7 @@ def _segment(ms: object, v: float, gains: np.ndarray | None, cycles: float, seed
     weave = complex(lam[np.argmax(lam.imag)])
     length = cycles * 2 * math.pi / weave.imag
     start = 0.6 + SETTLE_S
-    sim = RideSimulation(v, start + length + 0.05, kicks=(Kick(0.5, 0.1, 0.0, 5.0),), noise_roll_rate=noise,
-                         seed=seed)  # fmt: skip
+    sim = RideSimulation(v, start + length + 0.05, kicks=(Kick(0.5, 0.1, 0.0, 5.0),), noise_roll_rate=noise, seed=seed)
     ride = simulate_ride(ms.matrices, ms.g, sim, gains=gains)  # type: ignore[attr-defined]
     inside = (ride.times >= start) & (ride.times < start + length)
     return ride.times[inside], ride.roll_rate[inside], weave
@@ -132,8 +132,9 @@ def test_noise_only_and_too_short_segments_are_flagged() -> None:
     assert not short.valid and any(f.startswith("too_few_cycles") for f in short.flags)
     assert math.isnan(short.real) and math.isnan(short.imag_sigma)
     flagged = [fit_segment(*_segment(ms, v, gains, 1.1, seed=s)[:2], speed=v) for s in range(5)]
-    assert all(not m.clean and any(f.startswith(("too_few_cycles", "no_oscillation")) for f in m.flags)
-               for m in flagged)  # fmt: skip
+    assert all(
+        not m.clean and any(f.startswith(("too_few_cycles", "no_oscillation")) for f in m.flags) for m in flagged
+    )
 
 
 @pytest.mark.parametrize("model", ["auto", "eq23_trend", "eq23_real", "eq23"])
@@ -151,16 +152,21 @@ def test_noise_free_segment_gives_the_eigenvalue(model: str) -> None:
 
 def test_realistic_rides_scatter_as_their_sigma_say() -> None:
     """Rider steering 0.05 and 0.2 N m (σ, 0.3 s correlation), motor saturating at 5 N m, 90 N m pushes."""
-    browser = canonical_with_sigma(add_rider(_parameters(str(config_file("bicycles/browser.yaml")), "centroid"),
-                                             PAPER_RIDER))  # fmt: skip
+    browser = canonical_with_sigma(
+        add_rider(_parameters(str(config_file("bicycles/browser.yaml")), "centroid"), PAPER_RIDER)
+    )
     assist = resolve_feedback(str(config_file("feedback/balance_assist.yaml")))
     assert assist is not None
 
     def gains(v: float) -> np.ndarray:  # twice the shipped roll-rate gain: a decaying weave at 6–15 km/h
         return assist.gains(v) * np.array([1.0, 1.0, 2.0, 1.0])
 
-    runs = [measure_calibration(browser.matrices, browser.g, gains, (2.5, 4.2), RideConditions(rider_torque=rider), 8,
-                                seed=seed) for rider, seed in ((0.05, 3), (0.2, 4))]  # fmt: skip
+    runs = [
+        measure_calibration(
+            browser.matrices, browser.g, gains, (2.5, 4.2), RideConditions(rider_torque=rider), 8, seed=seed
+        )
+        for rider, seed in ((0.05, 3), (0.2, 4))
+    ]
     dof = sum(c.dof for c in runs)
     assert dof >= 50 and all(c.clean >= 0.8 * c.segments for c in runs)
     for part in ("chi2_real", "chi2_imag"):

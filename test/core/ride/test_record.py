@@ -26,8 +26,10 @@ def test_default_columns_in_seconds(tmp_path: Path) -> None:
 
 
 def test_named_columns_and_iso_timestamps(tmp_path: Path) -> None:
-    p = _write(tmp_path, "stamp,gx,v\n2024-05-01T10:00:00.000,1,2\n2024-05-01T10:00:00.010,2,2\n\n"
-                         "2024-05-01T10:00:00.020,3,2\n")  # fmt: skip
+    p = _write(
+        tmp_path,
+        "stamp,gx,v\n2024-05-01T10:00:00.000,1,2\n2024-05-01T10:00:00.010,2,2\n\n2024-05-01T10:00:00.020,3,2\n",
+    )
     r = read_ride_csv(p, signal="gx", time="stamp", speed="v")
     assert r.times == pytest.approx([0.0, 0.01, 0.02], abs=1e-9)
     assert r.torque is None and r.speed is not None

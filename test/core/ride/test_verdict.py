@@ -35,9 +35,11 @@ def test_a_model_mode_that_does_not_oscillate_is_said_so() -> None:
 
 
 def test_no_numbers_no_nan_in_words() -> None:
-    for v in (pair_verdict(complex(math.nan, math.nan), complex(-0.3, 5.0), math.nan, math.nan),
-              pair_verdict(complex(-0.3, 5.0), complex(-0.3, 5.0), math.nan, math.nan),
-              overall_verdict([], [], 4)):  # fmt: skip
+    for v in (
+        pair_verdict(complex(math.nan, math.nan), complex(-0.3, 5.0), math.nan, math.nan),
+        pair_verdict(complex(-0.3, 5.0), complex(-0.3, 5.0), math.nan, math.nan),
+        overall_verdict([], [], 4),
+    ):
         assert "nan" not in v.text.lower() and v.text.startswith("no verdict")
     assert overall_verdict([], [], 4).code == "no_clean_segment"
 

@@ -19,11 +19,20 @@ from bike_rig.core.units import DEGREE
 from bike_rig.paths import config_file
 
 MEASUREMENTS = (
-    "rear_wheel_compound", "rear_wheel_torsional", "front_wheel_compound", "front_wheel_torsional",
-    "frame_compound", "frame_torsional_o1", "frame_torsional_o2", "frame_torsional_o3",
-    "fork_compound", "fork_torsional_o1", "fork_torsional_o2", "fork_torsional_o3",
+    "rear_wheel_compound",
+    "rear_wheel_torsional",
+    "front_wheel_compound",
+    "front_wheel_torsional",
+    "frame_compound",
+    "frame_torsional_o1",
+    "frame_torsional_o2",
+    "frame_torsional_o3",
+    "fork_compound",
+    "fork_torsional_o1",
+    "fork_torsional_o2",
+    "fork_torsional_o3",
     "calibration_rod_torsional",
-)  # fmt: skip
+)
 
 
 def _short(rig: RigConfig, duration: float = 0.5, swing: CoupledSwing | None = None) -> RigConfig:
@@ -38,8 +47,20 @@ def test_a_session_holds_every_reading_and_three_trials_of_every_period(
     names = [t.name for t in s.trials]
     assert names == [f"{m}_t{i}" for m in MEASUREMENTS for i in (1, 2, 3)]
     assert [m.key for m in s.plan] == [
-        "TcR1", "TtR1", "TcF1", "TtF1", "TcB1", "TtB1", "TtB2", "TtB3", "TcH1", "TtH1", "TtH2", "TtH3", "TtP1"
-    ]  # fmt: skip
+        "TcR1",
+        "TtR1",
+        "TcF1",
+        "TtF1",
+        "TcB1",
+        "TtB1",
+        "TtB2",
+        "TtB3",
+        "TcH1",
+        "TtH1",
+        "TtH2",
+        "TtH3",
+        "TtP1",
+    ]
     assert [t.key for t in s.trials_of("TtB2")] == ["TtB2"] * 3
     for t in s.trials:
         data = t.samples()

@@ -46,8 +46,9 @@ def _compound(session: SimulatedSession) -> list[str]:
 def _periods(session: SimulatedSession, small: bool) -> tuple[dict[str, tuple[float, float]], list[SessionTrial]]:
     periods, trials = {}, []
     for m in session.plan:
-        fits = [fit_period(t.rate, sample_rate_hz=t.sample_rate, small_swing_period=small)
-                for t in session.trials_of(m.key)]  # fmt: skip
+        fits = [
+            fit_period(t.rate, sample_rate_hz=t.sample_rate, small_swing_period=small) for t in session.trials_of(m.key)
+        ]
         combined = combine_periods(fits)
         periods[m.key] = (combined.value, combined.sigma)
         trials += [SessionTrial(TrialFit(f"{m.key}-{i}", m.key, f), used=f.clean) for i, f in enumerate(fits)]
