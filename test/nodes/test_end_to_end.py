@@ -26,9 +26,10 @@ from bike_rig.core.loader import load_measurements
 from bike_rig.core.symbols import PARAMETER_NAMES
 from bike_rig.core.trials import read_trial
 from bike_rig.demo import DemoResult, run_demo
+from bike_rig.nodes.recorder import RECORDED
 from bike_rig.paths import config_file
 from bike_rig.pipeline.resend import batch_samples
-from bike_rig.topics import READINGS, TOPICS
+from bike_rig.topics import READINGS
 
 pytestmark = pytest.mark.ros  # a whole graph of node processes (run_demo)
 
@@ -100,8 +101,9 @@ def test_the_bag_holds_everything_published(live: tuple[DemoResult, Path]) -> No
         gyro = [c for c in reader.connections if c.topic == "/bike_rig/gyro"]
         for conn, _, raw in reader.messages(connections=gyro):
             samples += len(ts.deserialize_cdr(raw, conn.msgtype).rates)
-    # every topic but the readings an operator enters in a console session (the demo has none)
-    assert {t.name for t in TOPICS if t is not READINGS} == set(counts)
+    # every topic the recorder's 'all' names (the fitter's details and /diagnostics too) but the
+    # readings an operator enters in a console session (the demo has none)
+    assert {t.name for t in RECORDED if t is not READINGS} == set(counts)
     for topic, n in expected.items():
         assert counts[topic] == n, topic
     assert counts["/bike_rig/parameters"] >= 1 and counts["/bike_rig/model/eigen_sweep"] >= 1
