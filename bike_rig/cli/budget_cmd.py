@@ -24,7 +24,11 @@ with every share (not only the top N); ``input``/``inputs`` are the file's names
 ``key``/``input_keys`` the BicycleParameters keys of the same inputs. With ``--feedback FILE`` the
 weave and capsize speeds are those of the closed loop ``A − B K`` of that steer-torque feedback
 (a gain value given with σ is one more input, ``feedback.<key>``) and the JSON has ``"feedback"``
-(its name) after ``"bicycle"``. Bad inputs and options
+(its name) after ``"bicycle"``. Raw readings with a part's hanging lines nearly parallel
+(:mod:`bike_rig.core.uncertainty.mc_sigma`) and no rider: the mass centre they locate, and any
+parameter whose seeded Monte Carlo σ departs from the linear σ, print the Monte Carlo σ, marked
+``*`` in the text and with ``"sigma_method": "monte_carlo"`` and ``"sigma_linear"`` in the JSON
+(shares and contributions stay the linear ones). Bad inputs and options
 end in one line on stderr and exit status 2 (:class:`~bike_rig.core.errors.BikeRigError`).
 """
 
@@ -32,15 +36,11 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 from typing import Any
 
-import numpy as np
-
-from ..core import com
-from ..core.benchmark import ComMethod, monte_carlo_parameters
+from ..core.benchmark import ComMethod, ParameterSet
 from ..core.errors import BikeRigError
-from ..core.measurements import PART_NAMES, Measurements, hung_parts
+from ..core.measurements import PART_NAMES
 from ..core.rider import add_rider
 from ..core.uncertainty.budget import (
     BUDGET_PARAMETERS,
@@ -54,6 +54,7 @@ from ..core.uncertainty.budget import (
     reading_names,
     uncertainty_budget,
 )
+from ..core.uncertainty.mc_sigma import MC_SAMPLES, NEAR_PARALLEL_DEG, PrintedSigmas, line_angles, printed_sigmas
 from ..pipeline.swing import swing_alternative
 from ..subjects import load_subject
 from .commands import HELP
@@ -65,14 +66,6 @@ __all__ = ["BudgetUsageError", "add_parser", "budget_text", "run"]
 
 #: Inputs named in each "measure better" line of the text summary.
 SUMMARY_INPUTS = 5
-
-#: Hanging lines closer than this (degrees) trigger the Monte Carlo check of the σ.
-NEAR_PARALLEL_DEG = 10.0
-
-#: Seeded draws of the Monte Carlo check, and the σ ratio departure it reports.
-MC_SAMPLES = 20000
-MC_SEED = 1
-MC_DEPARTURE = 0.02
 
 
 class BudgetUsageError(BikeRigError):
@@ -118,14 +111,31 @@ def run(args: argparse.Namespace) -> int:
     names = reading_names(subject.measurements) if subject.measurements is not None else None
     fb = feedback_from_spec(args.feedback)
     b = uncertainty_budget(ps, names, swing_alternative(subject.trials), fb)
+    sigmas = None
+    if subject.measurements is not None and rider is None:
+        sigmas = printed_sigmas(subject.measurements, ps.parameters, _com_method(ps))
     if args.json:
-        text = json.dumps(budget_json(b), indent=2, allow_nan=False)
+        text = json.dumps(_with_mc(budget_json(b), sigmas), indent=2, allow_nan=False)
     else:
-        text = budget_text(b, args.top, source=subject.path)
+        text = budget_text(b, args.top, source=subject.path, sigmas=sigmas)
         if subject.measurements is not None:
-            text += "\n\n" + "\n".join(conditioning_lines(subject.measurements, subject.parameters.parameters))
+            text += "\n\n" + "\n".join(conditioning_lines(line_angles(subject.measurements), sigmas))
     emit(text, args.output)
     return 0
+
+
+def _com_method(ps: ParameterSet) -> ComMethod:
+    return next(iter(ps.com.values())).used if ps.com else ComMethod.CENTROID
+
+
+def _with_mc(out: dict[str, Any], sigmas: PrintedSigmas | None) -> dict[str, Any]:
+    """The budget JSON with the Monte Carlo σ where it is printed."""
+    if sigmas is None:
+        return out
+    for o in out["outputs"]:
+        if o["output"] in sigmas.monte_carlo:
+            o.update(sigma=sigmas.sigma[o["output"]], sigma_method="monte_carlo", sigma_linear=o["sigma"])
+    return out
 
 
 def _percent(share: float) -> str:
@@ -139,9 +149,10 @@ def _ranking_line(label: str, b: UncertaintyBudget, outputs: list[str] | None) -
     return f"{label}: " + ", ".join(f"{r.input} {_percent(r.mean_share)}" for r in ranked)
 
 
-def _output_block(o: OutputBudget, top: int, width: int = 24) -> list[str]:
-    value, sigma = format_value_sigma(o.value, o.sigma, digits=None)
-    lines = [f"{o.output} [{o.unit}]: {value} ± {sigma}"]
+def _output_block(o: OutputBudget, top: int, width: int = 24, sigmas: PrintedSigmas | None = None) -> list[str]:
+    mc = sigmas is not None and o.output in sigmas.monte_carlo
+    value, sigma = format_value_sigma(o.value, sigmas.sigma[o.output] if sigmas and mc else o.sigma, digits=None)
+    lines = [f"{o.output} [{o.unit}]: {value} ± {sigma}" + ("*" if mc else "")]
     if not o.shares:
         why = "σ is 0: no uncertainty to share" if o.sigma == 0 else "σ not defined (a double root)"
         lines.append(f"    ({why})")
@@ -158,13 +169,16 @@ def _output_block(o: OutputBudget, top: int, width: int = 24) -> list[str]:
     return lines
 
 
-def budget_text(b: UncertaintyBudget, top: int = 5, source: str | None = None) -> str:
+def budget_text(
+    b: UncertaintyBudget, top: int = 5, source: str | None = None, sigmas: PrintedSigmas | None = None
+) -> str:
     """The budget as a readable text table.
 
     Args:
         b: The budget.
         top: Inputs shown per output.
         source: The input file, named in the heading.
+        sigmas: The σ to print (a Monte Carlo σ marked ``*``, footnoted); None: the linear σ.
 
     Returns:
         A heading, the inputs to measure better (mean share over all outputs and over the
@@ -192,42 +206,32 @@ def budget_text(b: UncertaintyBudget, top: int = 5, source: str | None = None) -
     width = max([24, *(len(name) + 2 for name in b.inputs)])
     for name in order:
         lines.append("")
-        lines += _output_block(b.output(name), top, width)
+        lines += _output_block(b.output(name), top, width, sigmas)
+    note = sigmas.note() if sigmas is not None else None
+    if note:
+        lines += ["", f"* {note}; shares and contributions are linear"]
     return "\n".join(lines)
 
 
-def conditioning_lines(m: Measurements, linear: Any) -> list[str]:
-    """Hanging-line conditioning of each part, with a Monte Carlo σ check where lines are nearly parallel.
-
-    The check draws the raw readings (seeded) and compares the bicycle's σ with the linear σ.
+def conditioning_lines(angles: dict[str, float], sigmas: PrintedSigmas | None) -> list[str]:
+    """Hanging-line conditioning of each part and which σ the Monte Carlo gave.
 
     Args:
-        m: The raw readings.
-        linear: The linearly propagated parameters (an UncertainVector).
+        angles: ``{part letter: smallest angle between its hanging lines (deg)}``.
+        sigmas: The printed σ (None: no Monte Carlo, e.g. with a rider).
 
     Returns:
-        Text lines: one per hung part, then the outputs whose Monte Carlo σ departs from
-        the linear σ by more than ``MC_DEPARTURE``.
+        Text lines: one per hung part, then, when a part is nearly parallel, the outputs whose
+        σ is the Monte Carlo one with their linear σ.
     """
     lines = ["mass-centre line conditioning (smallest angle between hanging lines):"]
-    worst = 180.0
-    for part in hung_parts(m.readings):
-        slopes = [math.tan(math.radians(m.value(f"alpha{part}{i}"))) for i in m.orientations(part)]
-        c = com.line_conditioning(slopes)
-        deg = math.degrees(c.min_angle)
-        worst = min(worst, deg)
+    for part, deg in angles.items():
         note = "  nearly parallel" if deg < NEAR_PARALLEL_DEG else ""
         lines.append(f"    {PART_NAMES[part]:<16}{deg:6.1f}°{note}")
-    if worst >= NEAR_PARALLEL_DEG:
+    if min(angles.values(), default=180.0) >= NEAR_PARALLEL_DEG:
         return lines
-    mc = monte_carlo_parameters(m, MC_SAMPLES, MC_SEED)
-    off = []
-    for i, name in enumerate(linear.names):
-        s = float(np.sqrt(linear.covariance[i, i]))
-        if s > 0.0 and name in mc:
-            r = float(np.std(mc[name], ddof=1)) / s
-            if abs(r - 1.0) > MC_DEPARTURE:
-                off.append(f"{name} σ_MC/σ_lin = {r:.3f}")
-    head = f"Monte Carlo check ({MC_SAMPLES} seeded draws through the raw readings): "
-    lines.append(head + (", ".join(off) if off else f"linear σ within {MC_DEPARTURE:.0%} everywhere"))
-    return lines
+    head = f"Monte Carlo σ ({MC_SAMPLES:,} seeded draws through the raw readings): "
+    if sigmas is None:
+        return [*lines, head + "not run with a rider; the σ printed are linear"]
+    got = [f"{n} {sigmas.sigma[n]:.3g} (linear {sigmas.linear[n]:.3g})" for n in sorted(sigmas.monte_carlo)]
+    return [*lines, head + (", ".join(got) if got else "none printed")]

@@ -12,6 +12,7 @@ import numpy as np
 
 from ..core.benchmark import PARAMETER_NAMES, ComEstimate, ParameterSet
 from ..core.uncertainty.matrix_sigma import MatrixSet
+from ..core.uncertainty.mc_sigma import PrintedSigmas
 from ..core.uncertainty.uncertain import UncertainVector
 from ..core.whipple import CriticalSpeeds
 from ..textfmt import LABELS, TABLE2_ORDER, format_value_sigma, terminal_safe
@@ -28,16 +29,23 @@ __all__ = [
 ]
 
 
-def parameter_table(ps: ParameterSet) -> str:
-    """The parameters as the paper's Table 2: symbol, unit, value, σ."""
+def parameter_table(ps: ParameterSet, sigmas: PrintedSigmas | None = None) -> str:
+    """The parameters as the paper's Table 2: symbol, unit, value, σ.
+
+    With ``sigmas``, its σ is printed; a Monte Carlo σ is marked ``*`` and explained below the table.
+    """
     assert set(TABLE2_ORDER) == set(PARAMETER_NAMES)
     title = f"{terminal_safe(ps.bicycle, keep='')}: benchmark parameters (from {terminal_safe(ps.source, keep='')})"
     rows = [title, f"{'parameter':<16}{'value':>12}{'σ':>10}"]
     pv = ps.parameters
     for key in TABLE2_ORDER:
         label, unit = LABELS[key]
-        v, s = format_value_sigma(pv.value(key), pv.sigma(key))
-        rows.append(f"{label + ' [' + unit + ']':<16}{v:>12}{s:>10}")
+        mc = sigmas is not None and key in sigmas.monte_carlo
+        v, s = format_value_sigma(pv.value(key), sigmas.sigma[key] if sigmas is not None else pv.sigma(key))
+        rows.append(f"{label + ' [' + unit + ']':<16}{v:>12}{s:>10}" + ("*" if mc else ""))
+    note = sigmas.note() if sigmas is not None else None
+    if note:
+        rows.append(f"* {note}")
     if ps.parts is not None:
         rows.append("")
         rows.append(part_table(ps.parts))

@@ -30,6 +30,7 @@ if TYPE_CHECKING:
     import numpy as np
 
     from ..core.benchmark import ParameterSet
+    from ..core.uncertainty.mc_sigma import PrintedSigmas
 
 __all__ = ["main"]
 
@@ -92,12 +93,39 @@ def _speeds(spec: Sequence[str] | None) -> np.ndarray:
     return np.linspace(start, stop, n)
 
 
-def _params_json(ps: ParameterSet) -> dict[str, Any]:
+def _printed_sigmas(path: str, ps: ParameterSet, lump_flywheel: bool) -> PrintedSigmas | None:
+    """The σ to print of parameters computed from raw readings (Monte Carlo where lines are nearly parallel)."""
+    import warnings
+
+    from ..core.benchmark import ComMethod
+    from ..core.loader import load_input
+    from ..core.measurements import Measurements
+    from ..core.uncertainty.mc_sigma import printed_sigmas
+    from ..subjects import is_bag_path, load_subject, resolve_bicycle
+
+    if ps.raw is None:
+        return None
+    p = resolve_bicycle(path)
+    if is_bag_path(p):
+        m = load_subject(p).measurements
+    else:
+        with warnings.catch_warnings():  # already shown when the parameters were computed
+            warnings.simplefilter("ignore")
+            got = load_input(p)
+        m = got if isinstance(got, Measurements) else None
+    if m is None:
+        return None
+    method = next(iter(ps.com.values())).used if ps.com else ComMethod.CENTROID
+    return printed_sigmas(m, ps.parameters, method, lump_flywheel)
+
+
+def _params_json(ps: ParameterSet, sigmas: PrintedSigmas | None = None) -> dict[str, Any]:
     pv = ps.parameters
-    out: dict[str, Any] = {
-        "bicycle": ps.bicycle,
-        "parameters": {k: {"value": pv.value(k), "sigma": pv.sigma(k)} for k in pv.names},
-    }
+    params: dict[str, Any] = {k: {"value": pv.value(k), "sigma": pv.sigma(k)} for k in pv.names}
+    if sigmas is not None:
+        for k in sigmas.monte_carlo:
+            params[k].update(sigma=sigmas.sigma[k], sigma_method="monte_carlo", sigma_linear=sigmas.linear[k])
+    out: dict[str, Any] = {"bicycle": ps.bicycle, "parameters": params}
     if ps.parts is not None:
         out["parts"] = {k: {"value": ps.parts.value(k), "sigma": ps.parts.sigma(k)} for k in ps.parts.names}
     return out
@@ -120,8 +148,9 @@ def cmd_params(args: argparse.Namespace) -> int:
             ps = add_rider(ps, rider)
             with_rider = True
     form = "json" if args.json else args.format
+    sigmas = _printed_sigmas(args.file, ps, args.flywheel_in_wheel) if not with_rider else None
     if form == "json":
-        text = json.dumps(_params_json(ps), indent=2)
+        text = json.dumps(_params_json(ps, sigmas), indent=2)
     elif form == "bp-yaml":
         from ..core.io_bp import dump_bp_parameter_yaml
 
@@ -131,7 +160,7 @@ def cmd_params(args: argparse.Namespace) -> int:
 
         text = dump_parameters_yaml(ps)
     else:
-        text = fmt.parameter_table(ps)
+        text = fmt.parameter_table(ps, sigmas)
     emit(text, args.output)
     return 0
 

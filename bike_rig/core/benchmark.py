@@ -423,7 +423,11 @@ def compute_parameters(
 
 
 def monte_carlo_parameters(
-    m: Measurements, samples: int, seed: int, method: ComMethod = ComMethod.CENTROID
+    m: Measurements,
+    samples: int,
+    seed: int,
+    method: ComMethod = ComMethod.CENTROID,
+    lump_flywheel: bool = False,
 ) -> dict[str, NDArray[np.float64]]:
     """Benchmark parameters evaluated on ``samples`` normal draws of the readings.
 
@@ -433,7 +437,7 @@ def monte_carlo_parameters(
     validate(m)
     check_orientations(m)
     values, perturbed, cov = _inputs(m)
-    return monte_carlo(_evaluator(method), values, cov, perturbed, samples, seed, PARAMETER_NAMES)
+    return monte_carlo(_evaluator(method, lump_flywheel), values, cov, perturbed, samples, seed, PARAMETER_NAMES)
 
 
 def parameters_from_values(

@@ -1,0 +1,49 @@
+"""The printed σ: Monte Carlo where hanging lines are nearly parallel, linear elsewhere."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from bike_rig.core.benchmark import compute_parameters, monte_carlo_parameters
+from bike_rig.core.loader import load_measurements
+from bike_rig.core.measurements import Measurements
+from bike_rig.core.uncertainty.mc_sigma import MC_SAMPLES, MC_SEED, NEAR_PARALLEL_DEG, line_angles, printed_sigmas
+
+DATA = Path("/work/shared/data/bicycleparameters")
+
+
+def _measurements(name: str) -> Measurements:
+    path = DATA / name / "RawData" / f"{name}Measured.txt"
+    if not path.exists():
+        pytest.skip(f"{path} not available")
+    return load_measurements(path)
+
+
+def test_rigid_frame_mass_centre_gets_the_monte_carlo_sigma() -> None:
+    m = _measurements("Rigid")
+    lin = compute_parameters(m).parameters
+    got = printed_sigmas(m, lin)
+    assert got.near_parallel["B"] < NEAR_PARALLEL_DEG
+    assert {"xB", "zB"} <= got.monte_carlo
+    draws = monte_carlo_parameters(m, MC_SAMPLES, MC_SEED)
+    for name in ("xB", "zB"):
+        assert got.sigma[name] == pytest.approx(float(np.std(draws[name], ddof=1)), rel=1e-12)
+        assert got.linear[name] == pytest.approx(lin.sigma(name), rel=1e-12)
+        assert got.sigma[name] != pytest.approx(lin.sigma(name), rel=1e-3)
+    for name in set(lin.names) - got.monte_carlo:
+        assert got.sigma[name] == lin.sigma(name)
+    note = got.note()
+    assert note is not None and "20,000-draw Monte Carlo" in note and "frame 1.2°" in note
+    assert printed_sigmas(m, lin).sigma == got.sigma  # seeded: the same σ again
+
+
+def test_well_spread_lines_keep_the_linear_sigma() -> None:
+    m = _measurements("Browser")
+    lin = compute_parameters(m).parameters
+    got = printed_sigmas(m, lin)
+    assert min(line_angles(m).values()) >= NEAR_PARALLEL_DEG
+    assert not got.monte_carlo and got.note() is None
+    assert got.sigma == {n: lin.sigma(n) for n in lin.names}
