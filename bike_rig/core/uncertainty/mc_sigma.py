@@ -10,6 +10,7 @@ its parts S and G).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -100,7 +101,8 @@ def printed_sigmas(
     near = {p: deg for p, deg in line_angles(m).items() if deg < NEAR_PARALLEL_DEG}
     if not near:
         return PrintedSigmas(sigma, frozenset(), {}, {})
-    draws = monte_carlo_parameters(m, MC_SAMPLES, MC_SEED, method, lump_flywheel)
+    in_key_order = dataclasses.replace(m, readings=dict(sorted(m.readings.items())))  # same draws, any file format
+    draws = monte_carlo_parameters(in_key_order, MC_SAMPLES, MC_SEED, method, lump_flywheel)
     located = {n for p in near for n in _LOCATED[p]}
     chosen, lin = set(), {}
     for name, s in list(sigma.items()):

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -28,7 +29,9 @@ def test_rigid_frame_mass_centre_gets_the_monte_carlo_sigma() -> None:
     got = printed_sigmas(m, lin)
     assert got.near_parallel["B"] < NEAR_PARALLEL_DEG
     assert {"xB", "zB"} <= got.monte_carlo
-    draws = monte_carlo_parameters(m, MC_SAMPLES, MC_SEED)
+    draws = monte_carlo_parameters(
+        dataclasses.replace(m, readings=dict(sorted(m.readings.items()))), MC_SAMPLES, MC_SEED
+    )
     for name in ("xB", "zB"):
         assert got.sigma[name] == pytest.approx(float(np.std(draws[name], ddof=1)), rel=1e-12)
         assert got.linear[name] == pytest.approx(lin.sigma(name), rel=1e-12)
@@ -38,6 +41,8 @@ def test_rigid_frame_mass_centre_gets_the_monte_carlo_sigma() -> None:
     note = got.note()
     assert note is not None and "20,000-draw Monte Carlo" in note and "frame 1.2°" in note
     assert printed_sigmas(m, lin).sigma == got.sigma  # seeded: the same σ again
+    shuffled = dataclasses.replace(m, readings=dict(reversed(list(m.readings.items()))))
+    assert printed_sigmas(shuffled, lin).sigma == got.sigma  # the file's reading order does not matter
 
 
 def test_well_spread_lines_keep_the_linear_sigma() -> None:
