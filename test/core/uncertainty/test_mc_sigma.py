@@ -11,7 +11,14 @@ import pytest
 from bike_rig.core.benchmark import compute_parameters, monte_carlo_parameters
 from bike_rig.core.loader import load_measurements
 from bike_rig.core.measurements import Measurements
-from bike_rig.core.uncertainty.mc_sigma import MC_SAMPLES, MC_SEED, NEAR_PARALLEL_DEG, line_angles, printed_sigmas
+from bike_rig.core.uncertainty.mc_sigma import (
+    MC_DEPARTURE,
+    MC_SAMPLES,
+    MC_SEED,
+    NEAR_PARALLEL_DEG,
+    line_angles,
+    printed_sigmas,
+)
 
 DATA = Path("/work/shared/data/bicycleparameters")
 
@@ -52,3 +59,18 @@ def test_well_spread_lines_keep_the_linear_sigma() -> None:
     assert min(line_angles(m).values()) >= NEAR_PARALLEL_DEG
     assert not got.monte_carlo and got.note() is None
     assert got.sigma == {n: lin.sigma(n) for n in lin.names}
+
+
+def test_lines_made_nearly_parallel_switch_to_the_monte_carlo_sigma() -> None:
+    m = _measurements("Browser")
+    r = dict(m.readings)
+    r["alphaB2"] = dataclasses.replace(r["alphaB2"], value=r["alphaB1"].value + 3.0)
+    near = dataclasses.replace(m, readings=r)
+    lin = compute_parameters(near).parameters
+    got = printed_sigmas(near, lin)
+    assert got.near_parallel["B"] == pytest.approx(3.0)
+    assert {"xB", "zB"} <= got.monte_carlo and not {"xH", "zH"} & got.monte_carlo
+    for name in got.monte_carlo - {"xB", "zB"}:
+        assert abs(got.sigma[name] / lin.sigma(name) - 1.0) > MC_DEPARTURE, name
+    for name in set(lin.names) - got.monte_carlo:
+        assert got.sigma[name] == lin.sigma(name)
