@@ -43,6 +43,7 @@ __all__ = [
     "TimelineEntry",
     "SessionTrial",
     "file_trial",
+    "incomplete_reason",
     "is_bag_path",
     "load_parameters",
     "load_subject",
@@ -70,8 +71,9 @@ class Subject:
         name: The bicycle's name.
         path: The input, as given.
         kind: ``measurements``, ``parameters`` or ``bag``.
-        parameters: The 26 benchmark parameters with covariance, without a rider; ``raw`` is set
-            when the input held raw readings (measurement files and bags).
+        parameter_set: The 26 benchmark parameters with covariance, without a rider; ``raw`` is
+            set when the input held raw readings (measurement files and bags); None for an
+            incomplete bag opened with ``partial=True`` (:attr:`parameters` then refuses).
         measurements: The raw readings (None for a parameter file).
         trials: Every trial, in session (or file) order; empty for a parameter file.
         timeline: For a bag, what happened when, each thing once, in time order (times in
@@ -80,18 +82,41 @@ class Subject:
         duration_s: For a bag, the session's length, s; else None.
         not_replayed: For a bag, the ids and states of trials that have no fit (e.g. aborted
             before any sample), so counts of a session's trials include them.
+        missing: For an incomplete bag, the measurement keys with no usable trial; else empty.
     """
 
     name: str
     path: str
     kind: str
-    parameters: ParameterSet
+    parameter_set: ParameterSet | None
     measurements: Measurements | None
     trials: tuple[SessionTrial, ...] = ()
     timeline: tuple[TimelineEntry, ...] = ()
     notes: tuple[str, ...] = ()
     duration_s: float | None = None
     not_replayed: tuple[tuple[str, str], ...] = ()
+    missing: tuple[str, ...] = ()
+
+    @property
+    def complete(self) -> bool:
+        """Whether the bicycle's parameters could be computed."""
+        return self.parameter_set is not None
+
+    @property
+    def parameters(self) -> ParameterSet:
+        """The parameters (see :attr:`parameter_set`).
+
+        Raises:
+            SubjectError: The session is incomplete; the message names what is missing.
+        """
+        if self.parameter_set is None:
+            raise SubjectError(self.path, incomplete_reason(self.missing))
+        return self.parameter_set
+
+
+def incomplete_reason(missing: tuple[str, ...]) -> str:
+    """Why an incomplete session has no parameters: the keys with no usable trial."""
+    return f"the session is incomplete: no usable trial for {', '.join(missing) or 'unknown'}"
 
 
 def is_bag_path(path: str | Path) -> bool:
@@ -124,7 +149,7 @@ def _file_trials(m: Measurements) -> tuple[SessionTrial, ...]:
     return tuple(out)
 
 
-def _bag_subject(path: str, com_method: ComMethod | None) -> Subject:
+def _bag_subject(path: str, com_method: ComMethod | None, partial: bool) -> Subject:
     from .bag.replay import ReplaySettings, replay_session
     from .bag.session import read_session
     from .bag.timeline import session_timeline
@@ -133,9 +158,8 @@ def _bag_subject(path: str, com_method: ComMethod | None) -> Subject:
 
     session = read_session(path)
     result = replay_session(session, ReplaySettings(com_method=com_method))
-    if result.parameters is None:
-        missing = ", ".join(result.session.missing) or "unknown"
-        raise SubjectError(path, f"the session is incomplete: no usable trial for {missing}")
+    if result.parameters is None and not partial:
+        raise SubjectError(path, incomplete_reason(tuple(result.session.missing)))
     timeline = session_timeline(session)  # one time base: the rig clock from the first trial's start
     records: list[SessionTrial] = []
     for r in result.trials:
@@ -153,7 +177,7 @@ def _bag_subject(path: str, com_method: ComMethod | None) -> Subject:
         name=result.bicycle or Path(path).stem,
         path=path,
         kind="bag",
-        parameters=result.parameters,
+        parameter_set=result.parameters,
         measurements=measurements,
         trials=tuple(records),
         timeline=timeline.entries,
@@ -162,6 +186,7 @@ def _bag_subject(path: str, com_method: ComMethod | None) -> Subject:
         not_replayed=tuple(
             (tid, rec.state) for tid, rec in session.trials.items() if tid not in {r.trial_id for r in records}
         ),
+        missing=() if result.parameters is not None else tuple(result.session.missing),
     )
 
 
@@ -200,13 +225,15 @@ def load_parameters(
     return got
 
 
-def load_subject(path: str | Path, com_method: ComMethod | str | None = None) -> Subject:
+def load_subject(path: str | Path, com_method: ComMethod | str | None = None, partial: bool = False) -> Subject:
     """Open one input (measurement file, parameter file or session bag) as a :class:`Subject`.
 
     Args:
         path: The input.
         com_method: Mass-centre method for raw readings. None: the paper's centroid for a
             file, and for a bag the method its live parameter set names.
+        partial: Accept an incomplete bag: its subject has trials, readings and timeline but no
+            parameters (:attr:`Subject.missing` names the keys without a usable trial).
 
     Raises:
         BikeRigError: The input is missing, unreadable, invalid, or (a bag) incomplete; the
@@ -218,7 +245,7 @@ def load_subject(path: str | Path, com_method: ComMethod | str | None = None) ->
         raise InputFileError(p, "no such file or directory")
     method = None if com_method is None else ComMethod(com_method)
     if is_bag_path(path):
-        return _bag_subject(p, method)
+        return _bag_subject(p, method, partial)
     with warnings.catch_warnings(record=True) as caught:  # values a wrong unit explains: shown, and kept as notes
         got = load_input(path)
     notes = tuple(str(w.message) for w in caught if issubclass(w.category, UnitMistakeWarning))

@@ -41,14 +41,14 @@ class Report:
 
     Attributes:
         subject: The bicycle it is about.
-        results: Its numbers.
+        results: Its numbers; None for a partial report (an incomplete session).
         figures: Its figures, drawn or with the reason they are not.
         html: The page.
         seconds: Wall time to build it (numbers, figures, page), s.
     """
 
     subject: Subject
-    results: ReportResults
+    results: ReportResults | None
     figures: tuple[ReportFigure, ...]
     html: str
     seconds: float
@@ -111,6 +111,10 @@ def build_report(
         rides: Measured ride segments (:func:`bike_rig.rides.measure_records`): the page adds
             a ride section (:mod:`.ride`), against the bicycle with the rider (and feedback).
 
+    An incomplete session (no parameters) gets a partial report: its header names what is
+    missing, the trials, timeline, readings and trial figures are shown, and the parameters,
+    model and budget sections are one line each saying why they are not.
+
     Returns:
         The report, its page in memory.
 
@@ -119,6 +123,8 @@ def build_report(
     """
     t0 = time.perf_counter()
     when = generated or dt.datetime.now(dt.UTC).strftime("%Y-%m-%d %H:%M:%S UTC")
+    if not subject.complete:
+        return _partial_report(subject, when, dpi, workers, t0)
     results = compute_results(subject, report_rider(rider, subject), feedback=feedback)
     figures = draw_figures(figure_specs(subject, results, rider_key(rider)), dpi, workers)
     drawn = sum(f.uri is not None for f in figures)
@@ -138,6 +144,26 @@ def build_report(
     ]
     text = page(f"{subject.name}: bicycle parameter report", body, drawn)
     return Report(subject, results, figures, text, time.perf_counter() - t0)
+
+
+def _partial_report(subject: Subject, when: str, dpi: float, workers: int | None, t0: float) -> Report:
+    """The report of an incomplete session: what its trials show, each missing part said in one line."""
+    figures = draw_figures(figure_specs(subject, None), dpi, workers)
+    drawn = sum(f.uri is not None for f in figures)
+    body = [
+        sections.header_section(subject, None, drawn, when),
+        sections.omitted_section(subject, "parameters", "Benchmark parameters", "the parameters table"),
+        sections.omitted_section(
+            subject, "model", "Model", "the canonical matrices, critical speeds, closed loop, rides and model figures"
+        ),
+        sections.omitted_section(subject, "budget", "Uncertainty budget", "the uncertainty budget"),
+        sections.trials_section(subject),
+        sections.timeline_section(subject),
+        sections.readings_section(subject),
+        sections.figures_section(figures),
+    ]
+    text = page(f"{subject.name}: partial bicycle parameter report", body, drawn)
+    return Report(subject, None, figures, text, time.perf_counter() - t0)
 
 
 def _calibration(
@@ -227,7 +253,7 @@ def report_input(
     out = check_out_dir(out_dir, ReportOutputError, create=False)  # before the input: nothing written for a bad one
     fb = resolve_feedback(feedback)
     measured = [m.eigenvalue for m in measure_records(rides, ride_options or RecordOptions())] if rides else []
-    subject = load_subject(path, com_method)
+    subject = load_subject(path, com_method, partial=True)
     written = write_report(subject, out, workers=workers, feedback=fb, rider=rider, rides=measured)
     return WrittenReport(written.path, written.report, time.perf_counter() - t0)
 

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import base64
 import io
+import math
 import multiprocessing as mp
 import os
 import time
@@ -180,7 +181,7 @@ def _spec(
     )
 
 
-def figure_specs(subject: Subject, results: ReportResults, rider_choice: str = "paper") -> list[FigureSpec]:
+def figure_specs(subject: Subject, results: ReportResults | None, rider_choice: str = "paper") -> list[FigureSpec]:
     """Every figure of the report of ``subject``, in page order.
 
     The figures are the report entries of :data:`bike_rig.plots.registry.FIGURES`; a trial
@@ -189,16 +190,19 @@ def figure_specs(subject: Subject, results: ReportResults, rider_choice: str = "
 
     Args:
         subject: The bicycle.
-        results: Its numbers (the rider's name, and the stable range for the mode shapes' speed).
+        results: Its numbers (the rider's name, and the stable range for the mode shapes' speed);
+            None for an incomplete session: only the figures drawn from its trials.
         rider_choice: The rider of the figures drawn with a rider: ``"paper"`` or a rider file.
 
     Returns:
         The specs, in page order.
     """
-    rider_name = results.rider.rider.name if results.rider.rider is not None else "rider"
-    stable_speed = round(_mode_speed(results), 1)
+    rider_name = results.rider.rider.name if results is not None and results.rider.rider is not None else "rider"
+    stable_speed = round(_mode_speed(results), 1) if results is not None else math.nan
     specs: list[FigureSpec] = []
     for kind, entry in report_entries():
+        if results is None and kind.scope not in (Scope.TRIAL, Scope.SUBJECT):
+            continue  # a model figure needs the parameters
         note = ""
         options = dict(entry.options)
         if options.get("rider"):
@@ -218,7 +222,7 @@ def figure_specs(subject: Subject, results: ReportResults, rider_choice: str = "
                 specs.append(_spec(kind, entry, subject, options, rider=rider, speed=options.get("speed")))
         else:
             specs.append(_spec(kind, entry, [subject], options, note, rider=rider, speed=options.get("speed")))
-    if results.closed_loop is not None:
+    if results is not None and results.closed_loop is not None:
         specs += _closed_loop_specs(subject, results.closed_loop.feedback)
     return specs
 

@@ -109,9 +109,11 @@ _CSS = """
 body { font-family: sans-serif; margin: 0 auto; max-width: 72rem; padding: 1rem 2rem; color: #222; }
 h1 { margin-bottom: 0.2rem; } h2 { border-bottom: 1px solid #bbb; margin-top: 2.2rem; }
 nav ul { columns: 3; list-style: none; padding: 0; }
-table { border-collapse: collapse; margin: 0.8rem 0; font-size: 0.92rem; }
+table { border-collapse: collapse; margin: 0.8rem 0; font-size: 0.92rem; max-width: 100%; }
 caption { text-align: left; font-weight: bold; padding: 0.3rem 0; }
-th, td { border: 1px solid #ccc; padding: 0.15rem 0.5rem; vertical-align: top; }
+th, td { border: 1px solid #ccc; padding: 0.15rem 0.4rem; vertical-align: top; }
+td.trial-id, td[data-key] { overflow-wrap: anywhere; min-width: 7ch; }
+table.trials { font-size: 0.8rem; } table.trials th, table.trials td { padding: 0.1rem 0.25rem; }
 th { background: #f0f0f0; }
 td.num { text-align: right; font-variant-numeric: tabular-nums; white-space: nowrap; }
 td.sigma { color: #555; }

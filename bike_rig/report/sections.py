@@ -34,6 +34,8 @@ __all__ = [
     "figures_section",
     "header_section",
     "matrices_section",
+    "missing_text",
+    "omitted_section",
     "parameters_section",
     "readings_section",
     "speeds_section",
@@ -79,22 +81,36 @@ def _trial_counts(subject: Subject) -> str:
     return text + (f", {aborted} aborted" if aborted else "") + (f", {other} without samples" if other else "")
 
 
-def header_section(subject: Subject, results: ReportResults, figures: int, generated: str) -> Raw:
-    """Title, what the bicycle is and where its data came from, the contents."""
-    ps = subject.parameters
+def missing_text(subject: Subject) -> str:
+    """What an incomplete session still lacks: its measurement keys without a usable trial."""
+    keys = ", ".join(subject.missing) or "unknown"
+    return f"a usable trial for {keys}"
+
+
+def header_section(subject: Subject, results: ReportResults | None, figures: int, generated: str) -> Raw:
+    """Title, what the bicycle is and where its data came from, the contents.
+
+    ``results`` is None for an incomplete session: the header says the report is partial and
+    what is missing, and the contents list the sections it has.
+    """
+    ps = subject.parameter_set
     facts = [
         ("bicycle", subject.name),
         ("input", subject.path),
         ("kind", KIND_TEXT.get(subject.kind, subject.kind)),
-        ("parameters from", ps.source),
     ]
-    if ps.com:
+    if ps is None:
+        facts.append(("partial report", "the session is incomplete; no parameters, model or budget"))
+        facts.append(("missing", missing_text(subject)))
+    else:
+        facts.append(("parameters from", ps.source))
+    if ps is not None and ps.com:
         facts.append(("mass centres", ", ".join(f"{k}: {e.used.value}" for k, e in ps.com.items())))
     if subject.trials or subject.not_replayed:
         facts.append(("trials", _trial_counts(subject)))
     if subject.duration_s is not None:
         facts.append(("session length", f"{subject.duration_s:.1f} s"))
-    rider = results.rider.rider
+    rider = results.rider.rider if results is not None else None
     if rider is not None:
         facts.append(
             (
@@ -105,9 +121,14 @@ def header_section(subject: Subject, results: ReportResults, figures: int, gener
     facts += [("figures", str(figures)), ("generated", f"{generated} by bike_rig {__version__}")]
     toc = [
         ("parameters", "Benchmark parameters (Table 2)"),
-        ("matrices", "Canonical matrices (Table 3)"),
-        ("speeds", "Critical speeds and stable range"),
-        *([("closed-loop", "Closed loop (feedback)")] if results.closed_loop is not None else []),
+        *([("model", "Model (not computed)")] if results is None else []),
+        *([("matrices", "Canonical matrices (Table 3)")] if results is not None else []),
+        *([("speeds", "Critical speeds and stable range")] if results is not None else []),
+        *(
+            [("closed-loop", "Closed loop (feedback)")]
+            if results is not None and results.closed_loop is not None
+            else []
+        ),
         ("budget", "Uncertainty budget"),
         ("trials", "Trials"),
         ("timeline", "Timeline"),
@@ -115,10 +136,25 @@ def header_section(subject: Subject, results: ReportResults, figures: int, gener
         ("figures", "Figures"),
     ]
     nav = "<nav><ul>" + "".join(f'<li><a href="#{k}">{esc(t)}</a></li>' for k, t in toc) + "</ul></nav>"
-    body = [f"<h1>{esc(subject.name)}: bicycle parameter report</h1>", _facts(facts)]
+    title = "partial bicycle parameter report" if ps is None else "bicycle parameter report"
+    body = [f"<h1>{esc(subject.name)}: {title}</h1>", _facts(facts)]
+    if ps is None:
+        body.append(
+            _p(
+                f"Partial report of an incomplete session: missing {missing_text(subject)}. The trials, their "
+                "figures, the timeline and the readings are shown; the sections that need the parameters say so.",
+                "note partial",
+            )
+        )
     body += [_p(n, "note") for n in subject.notes]
     body.append(nav)
     return Raw('<header id="top">\n' + "\n".join(body) + "\n</header>")
+
+
+def omitted_section(subject: Subject, section_id: str, title: str, what: str) -> Raw:
+    """A section an incomplete session cannot have: one line saying so and what is missing."""
+    text = f"Not computed ({what}): they need the parameters, and the session still lacks {missing_text(subject)}."
+    return section(section_id, title, [_p(text, "note omitted")])
 
 
 def parameters_section(results: ReportResults) -> Raw:

@@ -40,6 +40,8 @@ CHROMIUM = Path("/usr/bin/chromium")
 TIMEOUT_S = 90.0
 #: Virtual time Chromium lets the page run before dumping the DOM, ms.
 VIRTUAL_TIME_MS = 20000
+#: Width of the frame the report is laid out in, px (a narrow window; tables must fit it).
+FRAME_WIDTH_PX = 800
 #: Trials whose fit figures are in the rendered report (a few; the page layout is the same).
 TRIALS = 4
 
@@ -66,7 +68,7 @@ HARNESS = """<!DOCTYPE html>
 <html><head><meta charset="utf-8"><title>harness</title></head>
 <body>
 <pre id="result">pending</pre>
-<iframe id="report" src="{src}" width="1200" height="900"></iframe>
+<iframe id="report" src="{src}" width="{width}" height="900"></iframe>
 <script>
 const frame = document.getElementById("report");
 frame.addEventListener("load", () => {{
@@ -85,6 +87,9 @@ frame.addEventListener("load", () => {{
       figures: doc.querySelectorAll("figure.report-figure img").length,
       tables: doc.querySelectorAll("table").length,
       height: doc.documentElement.scrollHeight,
+      scrollWidth: doc.documentElement.scrollWidth,
+      clientWidth: doc.documentElement.clientWidth,
+      widest: Math.max(...Array.from(doc.querySelectorAll("table")).map((t) => t.getBoundingClientRect().right)),
     }});
   }} catch (err) {{
     out.textContent = JSON.stringify({{error: String(err)}});
@@ -139,7 +144,7 @@ def report_file(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 def test_report_renders_with_every_figure_loaded(report_file: Path, tmp_path: Path) -> None:
     harness = tmp_path / "harness.html"
-    harness.write_text(HARNESS.format(src=html.escape(report_file.as_uri())), encoding="utf-8")
+    harness.write_text(HARNESS.format(src=html.escape(report_file.as_uri()), width=FRAME_WIDTH_PX), encoding="utf-8")
     profile = tmp_path / "profile"
     profile.mkdir()
     dom = run_chromium(
@@ -158,6 +163,10 @@ def test_report_renders_with_every_figure_loaded(report_file: Path, tmp_path: Pa
     assert result["failed"] == []
     assert result["tables"] >= 8
     assert result["height"] > 5000  # laid out, not collapsed
+    # no table wider than a narrow window: the page does not scroll sideways
+    assert result["clientWidth"] == FRAME_WIDTH_PX
+    assert result["scrollWidth"] <= result["clientWidth"], result
+    assert result["widest"] <= result["clientWidth"], result
 
 
 def test_report_screenshot_is_not_blank(report_file: Path, tmp_path: Path) -> None:
