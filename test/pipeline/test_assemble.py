@@ -22,23 +22,9 @@ from bike_rig.pipeline.assemble import SessionAssembly, assemble, combine_trials
 from bike_rig.pipeline.errors import AssemblyError, FlagCodeError
 from bike_rig.pipeline.fit import TrialFit
 from bike_rig.pipeline.model import compute_model, state_space_at
+from test.support.nodes import BROWSER_KEYS
 
 BICYCLES = ("browser", "browserins", "crescendo", "fisher", "stratos", "yellow")
-BROWSER_KEYS = (
-    "TtP1",
-    "TcR1",
-    "TtR1",
-    "TcF1",
-    "TtF1",
-    "TcB1",
-    "TtB1",
-    "TtB2",
-    "TtB3",
-    "TcH1",
-    "TtH1",
-    "TtH2",
-    "TtH3",
-)
 
 
 def bicycle(name: str) -> Path:

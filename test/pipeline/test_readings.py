@@ -31,24 +31,9 @@ from bike_rig.pipeline.readings import (
     check_entry,
 )
 from bike_rig.topics import READINGS
-from test.support.nodes import STATIC_KEYS
+from test.support.nodes import BROWSER_KEYS, STATIC_KEYS
 
 BROWSER = config_file("bicycles/browser.yaml")
-BROWSER_KEYS = (
-    "TtP1",
-    "TcR1",
-    "TtR1",
-    "TcF1",
-    "TtF1",
-    "TcB1",
-    "TtB1",
-    "TtB2",
-    "TtB3",
-    "TcH1",
-    "TtH1",
-    "TtH2",
-    "TtH3",
-)
 
 
 def entries_of(static: Measurements, stamp0: int = 1_000) -> list[ReadingEntry]:
