@@ -35,6 +35,7 @@ from bike_rig.core.period.result import TRIAL_FLAG_CODES
 from bike_rig.paths import config_file
 from bike_rig.topics import GYRO
 from test.ros.processes import RosProcess
+from test.support.wait import wait_until
 
 pytestmark = pytest.mark.ros
 
@@ -167,22 +168,40 @@ def _split_run(
     )
     desk = RosProcess("desk", desk_cmd, env, tmp)
     driver: RosProcess | None = None
+    results: set[str] = set()
+    started: set[str] = set()
+
+    def desk_line() -> None:
+        """Read the desk's next trial line: a start ("recording") or a result ("T = " / "no period")."""
+        rest = desk.expect("trial", 60)
+        if rest.endswith(": recording"):
+            started.add(rest.split()[0].rstrip(":"))
+        elif ": T = " in rest or ": no period" in rest:
+            results.add(rest.split()[0])
+
     try:
         driver = RosProcess("rig", rig_cmd, env, tmp)
         if drop_after is not None:
-            started = 0
-            while started < drop_after:  # waits for the driver's START events, not for time
-                started += driver.expect("trial", 60).endswith(": recording")
+            # the desk's own view decides when: it has seen the trials start and its recorder takes
+            # the gyro topic, so the bag's receive times can show the outage
+            while len(started) < drop_after:
+                desk_line()
+            recorder_log = tmp / "desk" / "logs" / "recorder.log"
+            wait_until(
+                lambda: recorder_log.is_file() and f"recording {GYRO.name} " in recorder_log.read_text(),
+                "the desk's recorder recording the gyro topic",
+                describe=desk.describe,
+            )
+            outage = (time.time_ns(), 0)
             _ip("-n", hosts.rig, "link", "set", hosts.rig_link, "down")
             try:
                 time.sleep(DROP_S)  # the outage itself is what is tested: it must last
             finally:
                 _ip("-n", hosts.rig, "link", "set", hosts.rig_link, "up")
-        results: set[str] = set()
-        while len(results) < TRIALS:  # each trial's result at the desk (a result line has "T = ")
-            rest = desk.expect("trial", 60)
-            if ": T = " in rest or ": no period" in rest:
-                results.add(rest.split()[0])
+                outage = (outage[0], time.time_ns())
+            (tmp / "outage").write_text(f"{outage[0]} {outage[1]}", encoding="utf-8")
+        while len(results) < TRIALS:  # each trial's result at the desk
+            desk_line()
         assert desk.stop() == 0, desk.describe()
         if drop_after is not None:
             assert driver.stop() == 0, driver.describe()
@@ -218,13 +237,19 @@ def test_a_link_that_drops_mid_session_leaves_no_trial_silently_short(
     hosts: Hosts, reference: dict[str, TrialSummary], tmp_path: Path, ros_domain_id: int
 ) -> None:
     t0 = time.monotonic()
-    trials, lines = _split_run(hosts, tmp_path, ros_domain_id, time_scale=20, drop_after=3)
+    trials, lines = _split_run(hosts, tmp_path, ros_domain_id, time_scale=10, drop_after=3)
     wall = time.monotonic() - t0
     out = "\n".join(lines)
+    down, up = (int(t) for t in (tmp_path / "outage").read_text(encoding="utf-8").split())
     with open_bag(tmp_path / "desk" / "bag") as bag:  # when the desk received each batch, ns
         received = [m.log_time for m in bag.messages([GYRO.name])]
+    # the outage fell mid-stream for the desk: batches before it, none while the link was down
+    # (nothing bypassed the link), and the rest after it
+    assert received[0] < down < up < received[-1], (received[0], down, up, received[-1])
+    during = [t for t in received if down + 200_000_000 < t < up]
+    assert not during, f"{len(during)} batches received while the link was down"
     pause = max(b - a for a, b in zip(received, received[1:])) / 1e9
-    assert pause > 0.8 * DROP_S, pause  # the batches went over the link (20x: one every 2.5 ms), which was down
+    assert pause > 0.8 * DROP_S, pause
     assert sorted(trials) == sorted(reference), out
     complete, flagged = [], []
     for key, ref in reference.items():
