@@ -1,37 +1,12 @@
 """Write serialized (CDR) messages into a rosbag2 bag with MCAP storage, as rosbag2 does.
 
-Layout of a bag ``NAME/``::
-
-    NAME/NAME_0.mcap     MCAP, profile ``ros2``; one ``ros2msg`` schema per type (the .msg
-                         text and its dependencies), one channel per topic (message encoding
-                         ``cdr``, metadata ``offered_qos_profiles`` (YAML) and
-                         ``topic_type_hash`` (RIHS01)); messages in chunks (zstd by default),
-                         each with log time = receive time and publish time = send time; at
-                         the end a ``rosbag2`` metadata record and the full summary and footer
-    NAME/NAME_1.mcap ... the next storage files of a split bag, each complete on its own
-                         (schemas, channels, summary, footer), in log-time order
-    NAME/metadata.yaml   rosbag2 metadata, version 9, storage_identifier ``mcap``, written
-                         when the bag is closed (``relative_file_paths`` and ``files``
-                         list every storage file)
-
-Splitting, as rosbag2's ``--max-bag-size`` / ``--max-bag-duration`` and its ``split_bagfile``
-service: :meth:`BagWriter.split` closes the current file and opens the next; with
-``max_bytes`` a file is never closed past the limit: a message goes into the file while it
-would fit even if nothing in the chunk in progress compressed (written bytes, the chunk in
-progress and the message uncompressed, and the closing records: rosbag2 metadata, summary,
-footer); beyond that bound the chunk in progress is flushed to measure it (its data may
-compress worse than the file's so far: model results after gyro batches), unless it is small
-and over the limit even at the file's compression ratio. With ``max_duration_s`` a file is
-closed before a message whose log time is that far from the file's first. A message is never
-split from its file or lost.
-
-The data are made durable as they arrive: the chunk in progress is closed and handed to the
-operating system at least every ``flush_period_s`` (and whenever it reaches ``chunk_size``),
-so a writer killed without warning loses at most that much of the recording, and
-:mod:`bike_rig.bag.recover` can rebuild a bag from what is on disk.
-
-Raw CDR bytes (as a raw ROS subscription delivers them, with their 4-byte encapsulation
-header) are written as they are: nothing is deserialized.
+``NAME/NAME_<i>.mcap``: profile ``ros2``, one ``ros2msg`` schema per type, one ``cdr`` channel per
+topic (metadata ``offered_qos_profiles`` and ``topic_type_hash``), compressed chunks (log time =
+receive, publish time = send), then a ``rosbag2`` metadata record, summary and footer; each file
+of a split bag is complete on its own. ``NAME/metadata.yaml`` (version 9, storage ``mcap``) is
+written on close. Raw CDR (with its encapsulation header) is written as it is. The chunk in
+progress reaches the OS at least every ``flush_period_s``, so a killed writer loses at most that
+(:mod:`bike_rig.bag.recover` rebuilds the bag).
 """
 
 from __future__ import annotations
@@ -170,9 +145,11 @@ class BagWriter:
         fsync: Also ask the OS to write every flushed chunk to the disk (survives a power
             cut, not only a crash of the process; slower).
         max_bytes: Split the bag into a new storage file before a file exceeds this size,
-            bytes (0: never; see the module docstring).
-        max_duration_s: Split before a file would span more than this, s of log time
-            (0: never).
+            bytes (0: never). A message goes in while it would fit even if the chunk in
+            progress did not compress (closing records counted); beyond that the chunk is
+            flushed to measure it, unless small and over even at the file's compression ratio.
+        max_duration_s: Split before a message whose log time is this far from the file's
+            first, s (0: never). A message is never split from its file or lost.
     """
 
     def __init__(

@@ -1,37 +1,11 @@
 """``bike-rig fit FILE...``: the period of each pendulum trial (paper Eq 23–27), and combined.
 
-::
-
-    bike-rig fit FILE... [--json] [--plot DIR] [--rate HZ] [--strict] [--key KEY]
-                         [--time COLUMN] [--signal COLUMN] [--time-unit s|ms|us|ns]
-                         [--lead-in S | --start S [--stop S] | --envelope FRACTION] [--no-whole-cycles]
-                         [--min-cycles N] [--min-r2 R2] [--max-modulation M] [--max-drift D]
-
-Each FILE is a trial (CSV, ``.npy`` or a BicycleParameters pendulum ``.mat``; see
-:mod:`bike_rig.core.trials`; ``--time``/``--signal`` choose a CSV's columns, ``--time-unit``
-the unit of its times). Without ``--json`` a table of the fits is printed, each flag with its
-reason, and, for several files, their combined period per measurement key (``TtB1``): the key
-is ``--key`` for every file, else what each file says (a .mat's fields, or its name:
-``frame_torsional_o1_t2``, ``BrowserFrameTorsionalFirst2``, ``TtB1_2``). Trials of different
-keys are never combined; files that name no key are combined only when every file names none
-and their periods agree within :data:`SAME_MEASUREMENT_SPREAD`, else one line says why not.
-What the reader decided (a time unit told from the spacing, a signal column chosen among
-several) is noted on stderr. ``--json`` prints one JSON object per file (JSON Lines)::
-
-    {"file": .., "period": .., "period_sigma": .., "valid": true, "flags": [{"code": .., "reason": ..}],
-     "r2": .., "zeta": .., "omega": .., "n_samples": .., "window": [start, stop],
-     "damping_model": "viscous" | "dry" | "combined", "friction": .., "friction_sigma": ..,
-     "swing_amplitude": .., "swing_kappa": .., "small_swing_period": .., "small_swing_period_sigma": ..}
-
-(NaN as null; ``friction``: the envelope's linear fall per second relative to the amplitude at
-the window's centre, 1/s, 0 for viscous damping; ``swing_amplitude``: the swing at the window's
-start, rad for samples in rad/s; ``small_swing_period``: the period of a
-vanishing swing, s, when the period follows the swing (κ < 0), else null; see
-:mod:`bike_rig.core.period.damping`).
-``--plot DIR`` writes ``DIR/<trial name>.png``: the samples with the fit, and the residuals. A
-trial without a period is reported, not an error: the exit status is 0, or 1 with ``--strict``
-when any trial has no period. Unreadable files and bad options end with one
-line on stderr and exit status 2 (raised as :class:`~bike_rig.core.errors.BikeRigError`).
+Each FILE is a trial (:mod:`bike_rig.core.trials`). Prints a table of the fits, each flag with
+its reason, and for several files the combined period per measurement key (never combining
+different keys; keyless files only when their periods agree within
+:data:`SAME_MEASUREMENT_SPREAD`); ``--json`` prints one object per file (JSON Lines, NaN as
+null); ``--plot DIR`` writes each fit's figure. Exit 0, or 1 with ``--strict`` when a trial has
+no period, 2 for an unreadable file or bad option. Options and JSON keys: ``docs/cli.md``.
 """
 
 from __future__ import annotations
@@ -193,7 +167,12 @@ def fit_json(file: str, fit: PeriodFit) -> dict[str, Any]:
         fit: Its fit.
 
     Returns:
-        The object of the module docstring (period and σ in s, ω in rad/s, window in samples).
+        ``file``, ``period``, ``period_sigma`` (s), ``valid``, ``flags`` (``code``, ``reason``),
+        ``r2``, ``zeta``, ``omega`` (rad/s), ``n_samples``, ``window`` (samples),
+        ``damping_model`` (``viscous``, ``dry``, ``combined``), ``friction`` and its σ (the
+        envelope's linear fall per second over the amplitude at the window's centre, 1/s; 0 when
+        viscous), ``swing_amplitude`` (at the window's start, rad for rad/s samples),
+        ``swing_kappa``, ``small_swing_period`` and its σ (s; None unless κ < 0).
     """
     return {
         "file": file,

@@ -1,44 +1,11 @@
 """bike_rig's YAML files: one bicycle's measurements, and a parameter set.
 
-Measurement file (``format: bike_rig-measurements/1``), SI units, degrees only in keys ending
-in ``_deg``; every measured value is ``[value, sigma]`` (also accepted: ``{value: v, sigma: s}``
-or ``"v +/- s"``); wheel rotations are exact whole counts::
-
-    format: bike_rig-measurements/1
-    bicycle: Browser
-    gravity: [9.81, 0.01]                 # m/s^2
-    geometry:
-      wheelbase: [1.121, 0.002]           # m
-      head_tube_angle_deg: [67.1, 0.2]    # degrees from the horizontal
-      fork_offset: [0.0705, 0.001]        # m
-    rear_wheel:                           # front_wheel: the same keys
-      mass: [3.11, 0.02]                  # kg
-      rotations: 13                       # exact count
-      distance_rolled: [27.85, 0.01]      # m, over those rotations
-      pendulum_arm: [0.29325, 0.001]      # m, rod/rim contact to wheel centre
-      compound_period: [1.3611, 3.9e-06]  # s
-      torsional_period: [0.79656, 1.2e-06]  # s
-    frame:                                # fork: the same keys, distances to the front axle
-      mass: [9.86, 0.02]                  # kg
-      compound_period: [1.7173, 5.0e-06]  # s, swinging about the rear axle
-      orientations:                       # >= 3 hanging orientations
-        - {angle_deg: [3.4, 0.2], distance: [0.098, 0.003], torsional_period: [2.0996, 8.1e-05]}
-    calibration_rod:
-      mass: [5.56, 0.02]                  # kg
-      length: [1.05, 0.001]               # m
-      diameter: [0.03, 0.0001]            # m
-      torsional_period: [1.894, 5.9e-06]  # s
-    other: {}                             # anything else recorded, kept verbatim
-
-The refined method (Moore's dissertation) replaces ``geometry`` by a ``surface_plate`` section
-(``h1``..``h5``, ``d1``..``d4``, ``d`` in m, the keys of BicycleParameters' ``Measured.txt``), and
-the ``fork`` section by ``fork_only`` (the fork S, distances to the front axle) and ``handlebar``
-(G, distances to its reference centre, located by ``h6, h7, d5, d6, l`` in ``surface_plate``);
-both with the keys of ``frame``. A ``flywheel`` section (``mass``, ``compound_period``,
-``torsional_period``) holds the front wheel measured again with a flywheel D fixed in it.
-
-Parameter file (``format: bike_rig-parameters/1``): ``bicycle``, and ``parameters`` mapping
-each of the 26 BicycleParameters keys to ``[value, sigma]`` (SI, ``lam`` in rad).
+``format: bike_rig-measurements/1`` (SI, degrees only in keys ending in ``_deg``; every
+measured value ``[value, sigma]``, ``{value: v, sigma: s}`` or ``"v +/- s"``; rotations exact
+counts; the refined method's ``surface_plate``, ``fork_only``, ``handlebar`` and ``flywheel``
+sections) and ``format: bike_rig-parameters/1`` (the 26 BicycleParameters keys to
+``[value, sigma]``, SI, ``lam`` in rad). Every key is described in ``docs/formats.md``;
+``config/bicycles/browser.yaml`` is an example.
 """
 
 from __future__ import annotations

@@ -1,51 +1,11 @@
 """Records of one bicycle's raw readings (value ± σ) and their validation.
 
-Readings are stored flat under BicycleParameters' ``Measured.txt`` key names, the field's
-vocabulary, whatever file they came from (see ``README.md``, "File formats"):
-
-==================  ====================================================  ======
-key                 reading                                               unit
-==================  ====================================================  ======
-g                   local acceleration of gravity                         m/s²
-w                   wheelbase                                             m
-gamma               head-tube angle from the horizontal                   degree
-f                   fork offset                                           m
-nR, nF              wheel rotations rolled (exact count)                  1
-dR, dF              distance rolled over those rotations                  m
-mR, mF, mB, mH      masses of the rear wheel, front wheel, frame, fork    kg
-lR, lF              wheel compound-pendulum arm (rim contact to centre)   m
-TcR1, TcF1          wheel compound-pendulum periods                       s
-TtR1, TtF1          wheel torsional-pendulum periods                      s
-TcB1, TcH1          frame / fork compound-pendulum periods (about axles)  s
-alphaB<i>, aB<i>    frame hanging angle and string-to-rear-axle distance  degree, m
-TtB<i>              frame torsional period at orientation i               s
-alphaH<i>, aH<i>    fork hanging angle and string-to-front-axle distance  degree, m
-TtH<i>              fork torsional period at orientation i                s
-mP, lP, dP          calibration rod mass, length, diameter                kg, m, m
-TtP1                calibration rod torsional period                      s
-h1 … h5             surface-plate heights (refined method; replace w,     m
-                    gamma, f: see :mod:`bike_rig.core.surface_plate`)
-d1 … d4, d          surface-plate diameters and axle-to-axle distance     m
-mD, TcD1, TtD1      front wheel with a flywheel D: mass, compound and     kg, s, s
-                    torsional periods (see :mod:`bike_rig.core.flywheel`)
-mS, mG              fork and handlebar masses (fork measured split)       kg
-TcS1, TcG1          fork / handlebar compound-pendulum periods            s
-alphaS<i>, aS<i>,   fork / handlebar hanging angle, string distance and   degree, m, s
-TtS<i> (G alike)    torsional period at orientation i
-h6, h7, d5, d6, l   handlebar reference point (split fork: the            m
-                    handlebar's pivot, see :mod:`bike_rig.core.split_fork`)
-==================  ====================================================  ======
-
-The geometry is either given directly (``w``, ``gamma``, ``f``) or measured on a surface plate
-(``h1``…``h5``, ``d1``…``d4``, ``d``); the front assembly is either hung as one part ``H`` or as
-the fork ``S`` and handlebar ``G`` separately (Moore's dissertation's refined method).
-
-Surface-plate readings may be 0, each with a meaning (:mod:`bike_rig.core.surface_plate`): a
-diameter of 0 is a height read to an axis, ``h2`` = 0 a gauge standing on the plate,
-``h4`` = ``h5`` = ``d3`` = ``d4`` = 0 a fork offset of 0. They are checked together, for the
-geometry they describe (:func:`check_surface_plate`), not one by one for a sign.
-
-Degrees occur only in ``gamma`` and ``alpha*``; the science converts them to radians first.
+Readings are stored flat under BicycleParameters' ``Measured.txt`` key names (``g``, ``w``,
+``gamma``, ``TtB2``..., listed with units in ``docs/formats.md``), whatever file they came from.
+The geometry is given directly (``w``, ``gamma``, ``f``) or by a surface plate (``h1``…``h5``,
+``d1``…``d4``, ``d``); the front assembly is hung as one part ``H`` or as fork ``S`` and
+handlebar ``G``. Plate readings of 0 have meanings (:mod:`bike_rig.core.surface_plate`) and are
+checked together (:func:`check_surface_plate`). Degrees occur only in ``gamma`` and ``alpha*``.
 """
 
 from __future__ import annotations

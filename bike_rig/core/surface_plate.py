@@ -1,37 +1,12 @@
 """Geometry from a surface plate: wheelbase, steer-axis tilt and fork offset (refined method).
 
-Moore's dissertation (2012, section "Geometry"; BicycleParameters' ``Measured.txt`` keys
-``h1..h5``, ``d1..d4``, ``d``, defined in its ``docs/data.rst``) measures the frame and fork on a
-surface plate with the steer axis parallel to the plate, so that heights are distances normal to
-the steer axis:
-
-* ``a`` the rear-frame offset, the perpendicular distance from the rear axle to the steer axis:
-  the rear axle's centre (h1 + h2 − d2/2: the height gauge on a block h2 reads h1 to the top of
-  a dummy axle of diameter d2) above the head tube's axis (h3 − d1/2: top of the head tube of
-  outer diameter d1),
-* ``b`` the fork offset, the front axle's centre (h4 − d3/2) above the steer tube's axis
-  (h5 − d4/2),
-* ``c_s`` the steer-axis distance, between the feet of those two perpendiculars along the axis:
-  with the fork reversed both axles lie on the same side of the steer axis, their centres
-  (inside distance d, so d + (d2 + d3)/2 apart) differ by a − b across the axis and c_s along it.
-
-With the rear and front axle centres at ``O − a n`` and ``O + c_s s + b n`` in riding position
-(``s`` = (sin λ, cos λ) down the steer axis, ``n`` = (cos λ, −sin λ) normal to it, benchmark x
-forward, z down), both wheels touching the ground (axles at z = −r_R and −r_F) fixes λ and the
-wheelbase follows.
-
-What a zero reading means (BicycleParameters computes such files as they are, and so do we):
-
-* a diameter ``d1``…``d4`` of 0: that height was read to the tube's or axle's axis itself (a
-  centre mark), not to the top of a round tube; for ``d2``, ``d3`` also the distance ``d`` was
-  read to that axle's centre;
-* ``h2`` = 0: the height gauge stood on the plate itself;
-* ``h4`` = ``h5`` = 0 with ``d3`` = ``d4`` = 0: the front axle's centre and the steer axis are at the
-  same height, a fork offset b of exactly 0 (the front axle on the steer axis);
-* any tube or axle still lies on or above the plate (its top at least its diameter up), and the
-  offsets must close Pythagoras' triangle: :func:`tube_clearance`, :func:`axle_centre_distance`.
-
-Every function is plain analytic numpy arithmetic (complex-step safe, broadcasting).
+Moore's dissertation (2012, "Geometry"; BicycleParameters' keys ``h1..h7``, ``d1..d6``, ``d``,
+``l``) measures frame and fork with the steer axis parallel to the plate, so heights are normal
+to it: the rear-frame offset ``a``, the fork offset ``b`` and, with the fork reversed, the
+steer-axis distance ``c_s`` along the axis. Both wheels on the ground then fix λ, and the
+wheelbase follows (benchmark x forward, z down). Each function gives its formula and units; what
+a reading of 0 means is in ``docs/formats.md``. All are analytic numpy arithmetic
+(complex-step safe, broadcasting).
 """
 
 from __future__ import annotations

@@ -1,37 +1,12 @@
 """Which columns of a trial table hold the time and the gyro signal, and the unit of the times.
 
-A trial table (a CSV, or an (N, k) ``.npy`` array) has one column of gyro samples and,
-usually, one of time stamps. :func:`choose_columns` picks them; :func:`times_in_seconds`
-turns the time column into seconds.
-
-**Columns.** ``--time`` / ``--signal`` (a :class:`ColumnChoice`) choose a column by its header
-name (case-insensitive) or by its 0-based index. Without them:
-
-* with a header line, columns are recognised by name: the time column is the one whose name
-  is a time word (``t``, ``time``, ``timestamp``, ``elapsed``..., optionally with a unit:
-  ``time_s``, ``time_ms``, ``Time (s)``, ``t[us]``, ``timestamp_ns``); the signal is the only
-  other column, or else the only one named as a rate (``rate``, ``gyro``, ``omega``...;
-  ``time,rate,volts`` gives ``rate``). A two-column header that names no time and no signal
-  (``a,b``) is read as time, rate;
-* without a header, one column is the rate and two are time, rate.
-
-Anything else is an error naming the columns found and the option that resolves it.
-
-**Time units.** A unit in the time column's name (``_s``/``_ms``/``_us``/``_ns``, also in
-brackets or parentheses), or ``--time-unit``, says what the times are in. Without either, the
-spacing decides: times are seconds when their median step is a plausible gyro sample rate
-(:data:`PLAUSIBLE_RATE_HZ`); otherwise the one unit (ms, µs or ns) that gives both a plausible
-rate and a plausible record length (:data:`PLAUSIBLE_DURATION_S`) is used and a remark says
-so; with none or several the file is refused. A unit named in the header whose rate is not
-plausible is refused too, naming the unit the times look like (a column ``time_s`` holding
-milliseconds). ``--time-unit`` is taken as given.
-
-**Rates that disagree.** A sample rate given besides the times (``--rate``, a ``.mat``'s
-``sampleRate``) must agree with them within :data:`RATE_AGREEMENT`
-(:func:`check_rate_agrees`): two sources that disagree are refused, naming both, never one of
-them chosen silently.
-
-Units: times are returned in seconds; rates in Hz.
+:func:`choose_columns` picks the time and signal columns of a CSV or an (N, k) ``.npy``: as
+``--time`` / ``--signal`` say (a :class:`ColumnChoice`: header name or 0-based index), else by
+header names, else by position (one column: rate; two: time, rate). :func:`times_in_seconds`
+converts the times: ``--time-unit``, else the unit in the column's name, else the one unit whose
+spacing gives a plausible rate (:data:`PLAUSIBLE_RATE_HZ`) and record length
+(:data:`PLAUSIBLE_DURATION_S`). :func:`check_rate_agrees` refuses a given rate that disagrees with
+the times by more than :data:`RATE_AGREEMENT`. Times in s, rates in Hz; rules in ``docs/cli.md``.
 """
 
 from __future__ import annotations

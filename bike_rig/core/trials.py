@@ -1,41 +1,11 @@
 """Trial files: one rate-gyro record of a pendulum swing each, ready for the period fitter.
 
-``read_trial(path, sample_rate_hz=None, columns=None) -> Trial`` reads
-
-* **CSV** (``.csv``, ``.txt``, ``.tsv``, ``.dat``): columns ``time, rate``, or one column
-  ``rate`` sampled at ``sample_rate_hz``, or more columns of which a header names the time and
-  the signal (``time,rate,volts``) or ``columns`` (``--time``, ``--signal``) chooses them; an
-  optional header line, ``#`` comments and blank lines; separated by commas, semicolons, tabs
-  or spaces.
-* **NumPy** ``.npy``: a 1-D array of rates (needs ``sample_rate_hz``), an (N, 2) array of
-  ``[time, rate]`` rows, or (N, k) with the columns chosen by index.
-* **BicycleParameters' pendulum** ``.mat`` files (MATLAB v5, as its DAQ scripts wrote them):
-  ``data`` (the gyro voltages), ``ActualRate`` or ``sampleRate`` [Hz], and ``bicycle``,
-  ``part``, ``pendulum``, ``angleOrder`` (or ``angle``), ``trial``, ``notes``, which name the
-  trial (``BrowserFrameTorsionalFirst1``). With a ``time`` array the sample rate may vary and
-  the times are used.
-
-Samples stay in the file's unit (rad/s, °/s or volts: the period does not care). Times are
-returned in seconds: a unit in the time column's name (``time_ms``), ``--time-unit``, or else
-their spacing tells the file's unit (:mod:`bike_rig.core.trial_columns`; a time column whose
-unit cannot be told is refused, never read as seconds at an absurd rate). A file's own times
-or rate are used; ``sample_rate_hz`` is needed only when the file has neither, and when given
-besides them it must agree with them, as a .mat's ``ActualRate``, ``sampleRate`` and ``time``
-must agree with each other (within :data:`~bike_rig.core.trial_columns.RATE_AGREEMENT`, 1 %):
-rates that disagree are refused, naming both.
-
-The path must be a regular file: a FIFO, a device or a symlink loop is named as what it is and
-never read. A text trial is read a line at a time, keeping only its time and signal columns
-(8 bytes a number, at most :data:`MAX_TEXT_ROWS` rows); a line longer than
-:data:`MAX_LINE_CHARS` is refused with its length, so memory stays within a small multiple of
-the file's size.
-
-A trial's measurement key (``TtB2``) comes from a .mat file's fields, else from its file name:
-the simulated rig's ``frame_torsional_o2_t3``, BicycleParameters' ``BrowserFrameTorsionalSecond3``,
-or the key itself as a word of the name (``TtB2_t3.csv``, ``fork-TcH1-2.npy``).
-Files that cannot be used raise :class:`~bike_rig.core.errors.InputFileError` with the reason
-(and the line of a bad CSV cell, or the .mat key); bad *values* (NaN, gaps...) are left to the
-fitter, which reports them.
+:func:`read_trial` reads CSV-like text (``.csv``, ``.txt``, ``.tsv``, ``.dat``), NumPy
+``.npy`` and BicycleParameters' pendulum ``.mat`` files; the formats, column choice and time
+units are described in ``docs/cli.md`` (``fit``). Samples stay in the file's unit (the period
+does not care); times are returned in seconds. A trial's measurement key (``TtB2``) comes
+from a ``.mat``'s fields, else from its file name (:func:`key_from_name`). Unusable files raise
+:class:`~bike_rig.core.errors.InputFileError`; bad values (NaN, gaps) are left to the fitter.
 """
 
 from __future__ import annotations
@@ -192,6 +162,12 @@ def read_trial(
     path: str | os.PathLike[str], sample_rate_hz: float | None = None, columns: ColumnChoice | None = None
 ) -> Trial:
     """Read one trial file (CSV, ``.npy`` or BicycleParameters ``.mat``; see the module).
+
+    The path must be a regular file (a FIFO, a device or a symlink loop is named, never read).
+    Text is read a line at a time, keeping only the time and signal columns (at most
+    :data:`MAX_TEXT_ROWS` rows; a line over :data:`MAX_LINE_CHARS` is refused). A given sample
+    rate must agree with the file's own times or rate within
+    :data:`~bike_rig.core.trial_columns.RATE_AGREEMENT`, as a ``.mat``'s must with each other.
 
     Args:
         path: The file.

@@ -1,36 +1,11 @@
 """Fitting, the second stage: one trial's sample batches and events → its period (Eq 23–27).
 
-:class:`TrialAccumulator` assembles a trial from its :class:`~bike_rig.pipeline.acquire.SampleBatch`
-records with bounded memory, and :meth:`TrialAccumulator.finish` fits the period with
-:func:`bike_rig.core.period.fit_period`; :func:`fit_trial` does both for a trial's batches at
-once. The fitter node, the offline runner (replay, simulated sessions, the report) all call
-this code, so a replayed bag gives bit-identical results::
-
-    from bike_rig.pipeline.fit import TrialFitOptions, fit_trial
-    result = fit_trial(batches, start_event, stop_event, TrialFitOptions.from_json(estimate.fit_options_json))
-
-Assembly rules (:class:`TrialAccumulator`), applied in receiving order:
-
-* a batch with more than ``max_batch_samples`` samples is rejected (flag ``oversized_batch``);
-* a batch with the ``first_index`` of one already kept is a duplicate and is ignored;
-* samples at index ``max_trial_samples`` or beyond (or beyond that many kept samples) are
-  dropped (flag ``truncated``): a trial's memory is bounded;
-* the kept batches are put in ``first_index`` order; samples that overlap an earlier batch are
-  dropped (flag ``overlap``); missing indices in ``[0, sample_count)`` are flagged (``gap``),
-  more samples than announced too (``sample_count``);
-* the fit: ``fit_period(samples, sample_rate_hz=rate)`` when the indices are consecutive, else
-  ``fit_period(samples, times=index / rate)``, ``rate`` the batches' ``sample_rate_hz``
-  (flag ``rate_mismatch`` when they, or the START event, disagree).
-
-Trial-level flags come first, then the fit's own (:class:`~bike_rig.core.period.FlagCode`:
-``non_finite`` for NaN samples, ``too_few_cycles``...). Also: ``no_start`` (a STOP without a
-START), ``no_stop`` (a trial evicted before its STOP), ``unknown_trial`` (batches of a trial
-never announced), ``aborted`` (stopped by ABORT).
-
-A trial's result is one record, :class:`TrialFit`: the trial's identity and how its samples
-were received, with the core's :class:`~bike_rig.core.period.PeriodFit` inside. The
-``PeriodEstimate`` message carries it (:mod:`bike_rig.messages`), and a record read back from
-a message is the same type (the fit's A, B, C and cycles are then NaN, the samples None).
+:class:`TrialAccumulator` assembles a trial from its
+:class:`~bike_rig.pipeline.acquire.SampleBatch` records with bounded memory and fits it with
+:func:`bike_rig.core.period.fit_period`; :func:`fit_trial` does both at once. The fitter node
+and the offline runner both call this code, so a replayed bag gives bit-identical results.
+A trial's result is one record, :class:`TrialFit` (identity, reception, and the core's
+:class:`~bike_rig.core.period.PeriodFit`), the same type when read back from a message.
 """
 
 from __future__ import annotations
@@ -335,7 +310,16 @@ def _ranges(ranges: list[tuple[int, int]]) -> str:
 
 
 class TrialAccumulator:
-    """One trial's batches, with bounded memory (the assembly rules of the module docstring).
+    """One trial's batches, with bounded memory.
+
+    Rules, in receiving order: a batch over ``max_batch_samples`` is rejected
+    (``oversized_batch``); a repeated ``first_index`` is a duplicate, ignored; samples at index
+    ``max_trial_samples`` or beyond are dropped (``truncated``). Kept batches are put in index
+    order: overlapping samples are dropped (``overlap``), missing indices in
+    ``[0, sample_count)`` flagged (``gap``), extra ones too (``sample_count``). The fit uses the
+    batches' rate, or ``times = index / rate`` when indices are not consecutive
+    (``rate_mismatch`` when batches or START disagree). Trial flags come before the fit's own;
+    also ``no_start``, ``no_stop``, ``unknown_trial``, ``aborted``.
 
     Args:
         options: The limits (and the fit's options, used by :meth:`finish`).

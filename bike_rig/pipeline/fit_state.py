@@ -1,36 +1,12 @@
 """The fitting stage's live bookkeeping: trial events and sample batches in, results out.
 
-Batches that arrive before their START are kept (a trial's batches and events travel on two
-topics); at most ``max_open_trials`` trials are buffered.
-
-A STOP that finds samples missing waits for them as long as they can still be on their way.
-DDS delivers one writer's samples in order, so a trial's missing batches are known to be lost
-once a batch of a trial that STARTed after its STOP has arrived from the same source, or when
-the source's batches have been silent for ``grace_s``; until then the fitter may simply be
-behind (a loaded machine, a stall), and it waits, however long. A lost range is asked for
-again from the driver (:meth:`FitterState.take_resend_requests`, answered through
-:meth:`FitterState.on_resent`; the driver keeps what it sent, :mod:`bike_rig.pipeline.resend`):
-the trial is fitted once it is whole, and flagged ``gap`` only for samples the driver itself
-never had (or no longer holds); should its batches still come after that, it is fitted again
-and the new estimate replaces the first. Where nobody answers such requests (an older driver, a
-recording republished), a STOP waits ``grace_s`` after the source's last batch, at most
-``history_grace_s`` after the STOP.
-
-After a restart the fitter receives the transient-local history of both topics: the trial in
-progress and every earlier trial whose batches are all still in the history are fitted again
-(same values, consumers dedupe by trial_id); a trial that began before the oldest batch in the
-history is not re-published.
-
-Every event and batch comes with its **source**: the DDS participant that published it (the
-first 12 bytes of the publisher's GUID, shared by all publishers of one driver process). A
-trial is the pair (source, trial id): batches and events of the same id from another process
-(a second driver, a rogue publisher on the domain) never enter, evict, cut short or duplicate
-it, and the limits on open trials and buffered samples hold per source, so junk from one
-process can only evict that process's own trials. A trial id belongs to the source whose START
-opened it first: another source's batches of that id are dropped as they come (counted, one
-warning per source and trial), and what another source sent of it before the START (the two
-topics are not ordered) is dropped, not published, when it would end without a START of its
-own: no estimate ever carries a real trial's id for another process's samples.
+:class:`FitterState` buffers a trial's batches and events (which travel on two topics, in no
+common order) with bounded memory, per publishing process (the first 12 bytes of the
+publisher's GUID): another process's batches of a trial id never enter, evict or duplicate it.
+A STOP with samples missing waits while they can still arrive, asks the driver for lost ranges
+again (:mod:`bike_rig.pipeline.resend`) and flags ``gap`` only for samples the driver never
+had; late batches refit the trial. After a restart the transient-local history is refitted.
+The full rules: ``docs/ros-graph.md`` ("Restarts", "Busy machines", "Who may publish").
 """
 
 from __future__ import annotations

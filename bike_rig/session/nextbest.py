@@ -1,36 +1,11 @@
 """The next-best measurement: which open or repeatable item would most reduce the speeds' σ.
 
-**Method.** Linear (first-order) propagation, by the existing uncertainty code and nothing
-else: the parameters and their Jacobian to every raw reading come from
-:func:`~bike_rig.core.benchmark.compute_parameters` (with the rider of the model node, if any,
-by :func:`~bike_rig.core.rider.add_rider`), and :func:`~bike_rig.core.uncertainty.budget.uncertainty_budget`
-splits the variance of the weave and capsize speeds (implicit-function gradient,
-:mod:`~bike_rig.core.uncertainty.speed_sigma`, correlated convention as the model node) over the
-raw readings. Readings are independent, so a speed's variance is ``σ_v² = Σ_j c_j²`` with the
-contribution ``c_j = |∂v/∂x_j| σ_j`` of reading ``j``. Measuring item ``j`` again changes only its
-own σ, from ``σ_j`` to ``σ_j'``, so at the current point
-
-    σ_v'² = σ_v² − c_j² + c_j² (σ_j' / σ_j)².
-
-* **A static reading retaken** comes with the nominal σ of its kind of reading (the rig's
-  instrument σ, ``config/rig.yaml`` ``reading_sigma``; passed in as data, see
-  :func:`nominal_reading_sigmas`) and the newer reading wins: ``σ_j' = σ_nominal``. Retaking a
-  reading already at its nominal σ gains nothing; one better than nominal would lose.
-* **One more trial** of a period key is combined as :func:`~bike_rig.core.period.combine_periods`
-  combines trials: weights ``1/σ_i²``, so the internal σ becomes
-  ``1 / sqrt(Σ 1/σ_i² + 1/σ_t²)`` with ``σ_t`` a typical trial σ of that key (given, or the
-  median of its usable trials' σ, or its current σ when its trials are not known), times the
-  current Birge inflation ``max(1, σ_combined / σ_internal)``, which is assumed to persist.
-* **The score** of an item is the sum, over the speeds the bicycle has, of the relative variance
-  reduction ``(σ_v² − σ_v'²) / σ_v²``: for a reading, its budget share times
-  ``1 − (σ_j'/σ_j)²``. Items are ranked by score, best first (ties keep the plan's order).
-* **While the parameter set is incomplete** no speed exists: the missing items (a plan item
-  without a reading or a usable trial, and any other key the parameters need) come first, in plan
-  order, with infinite σ and score; the other items follow in plan order, unranked (NaN).
-
-An item whose current σ is 0 (an exact value) has no sensitivity in the budget: it is listed
-with no predicted change. Units: each item's σ in its key's unit (s for periods; degrees for
-``gamma``, ``alpha*``); speeds' σ in m/s.
+First-order propagation through the existing uncertainty code: the weave and capsize speeds'
+variance is split over the raw readings by
+:func:`~bike_rig.core.uncertainty.budget.uncertainty_budget`, and each item is scored by how
+much measuring it again would shrink that variance (:func:`next_best` states the method).
+Units: each item's σ in its key's unit (s for periods; degree for ``gamma``, ``alpha*``);
+speeds' σ in m/s.
 """
 
 from __future__ import annotations
@@ -249,7 +224,16 @@ def next_best(
     rider: str = "",
     com_method: ComMethod | str = ComMethod.CENTROID,
 ) -> tuple[Suggestion, ...]:
-    """Rank the items by how much measuring each again would reduce the speeds' σ (module docstring).
+    """Rank the items by how much measuring each again would reduce the speeds' σ.
+
+    Readings are independent, so a speed's variance is σ_v² = Σ_j c_j², c_j = |∂v/∂x_j| σ_j
+    (the budget's correlated convention, with the model node's rider). Remeasuring item j
+    changes only σ_j → σ_j', so σ_v'² = σ_v² − c_j² + c_j² (σ_j'/σ_j)². A retaken reading gets
+    its nominal σ (the newer wins). One more trial combines as ``combine_periods`` does:
+    σ' = 1 / sqrt(Σ 1/σ_i² + 1/σ_t²) times the current Birge factor (assumed to persist). The
+    score is Σ over the bicycle's speeds of (σ_v² − σ_v'²) / σ_v²; ties keep plan order. While
+    the set is incomplete the missing keys come first (σ and score infinite), the rest follow
+    unranked (NaN). An item of σ 0 has no sensitivity and no predicted change.
 
     Args:
         measurements: The session's readings now: every static reading (the newest entry of

@@ -1,36 +1,11 @@
 """The gyro-source interface: one rate gyro, read trial by trial, behind one API.
 
-A source yields, in order, the events of the trials it records (python-can's idea: one
-abstract bus, backends chosen by a string)::
-
-    TrialStarted(info, stamp_ns)          before the trial's first samples
-    SampleBlock(trial_id, first_index, rates, raw_volts)   consecutive samples, any size
-    TrialStopped(trial_id, sample_count, stamp_ns, aborted) after its last samples
-
-:meth:`GyroSource.poll` returns the events that are due now and never blocks for long: the
-simulated rig and the bag replay pace themselves on a clock (faster than real time with
-``time_scale``), hardware backends return what the hardware has delivered. Times are RIG
-times, in integer nanoseconds since the epoch: a trial's samples are at
-``stamp_ns + round(index * 1e9 / sample_rate_hz)`` (:func:`bike_rig.pipeline.acquire.sample_stamp_ns`).
-
-Backends, chosen by name (:data:`BACKENDS`, :func:`open_source`): ``sim`` (the simulated rig
-walking a session plan), ``can`` (a CAN gyro through python-can), ``bag`` (a recorded session
-replayed from a rosbag2 MCAP bag) and ``daq`` (an NI-DAQmx analog input). Each backend owns its
-parameters, as python-can's backends own their arguments: its class lists them in
-:attr:`GyroSource.PARAMETERS` (:class:`~bike_rig.params.ParamSpec`: name, default, description,
-range, choices), the driver node declares every backend's, and the backend's
-``from_parameters`` reads them from a mapping (the driver's parameters; unknown names are
-ignored) through :class:`Parameters`, which checks them against the same specs and raises
-:class:`~bike_rig.sources.errors.SourceConfigError` naming the parameter, its value and the
-reason when one is wrong.
-
-A new backend is one module with a :class:`GyroSource` subclass (``name``, ``PARAMETERS``,
-``from_parameters``, ``poll``) plus one line in :data:`BACKENDS`.
-
-The simulated rig (in its default ``plan`` mode) and the bag walk their own plan
-(:attr:`GyroSource.finished` turns true at its end); hardware backends, and the simulated rig in
-``operator`` mode, record trials on request (:meth:`GyroSource.start_trial`,
-:meth:`GyroSource.stop_trial`), which :class:`StreamingSource` implements for the hardware.
+A :class:`GyroSource` yields, in order, ``TrialStarted``, ``SampleBlock``... and ``TrialStopped``
+events; backends are chosen by name (:data:`BACKENDS`, :func:`open_source`), as python-can's
+are. Each backend owns its node parameters (:attr:`GyroSource.PARAMETERS`), read and checked
+through :class:`Parameters`, which raises :class:`~bike_rig.sources.errors.SourceConfigError`
+naming the parameter, its value and why. Plan-walking sources (``sim``, ``bag``) end when
+:attr:`GyroSource.finished`; hardware ones record on request (:class:`StreamingSource`).
 """
 
 from __future__ import annotations
@@ -353,7 +328,14 @@ class RigClock:
 
 
 class GyroSource(ABC):
-    """One rate gyro, trial by trial (see the module docstring).
+    """One rate gyro, trial by trial.
+
+    Events, in order: ``TrialStarted(info, stamp_ns)`` before a trial's first samples,
+    ``SampleBlock(trial_id, first_index, rates, raw_volts)`` (consecutive samples, any size),
+    ``TrialStopped(trial_id, sample_count, stamp_ns, aborted)`` after its last. :meth:`poll`
+    returns what is due now and never blocks for long (simulated and bag sources pace
+    themselves, ``time_scale`` times real time). Times are rig times in integer ns since the
+    epoch; sample ``index`` is at ``stamp_ns + round(index * 1e9 / sample_rate_hz)``.
 
     Subclasses set :attr:`name`, :attr:`PARAMETERS` and :attr:`supports_requests` and
     implement :meth:`poll` and :meth:`from_parameters`; plan-walking sources override :attr:`finished`, hardware sources

@@ -1,40 +1,11 @@
 """A CAN rate gyro as a gyro source, through python-can.
 
-The gyro sends its samples in frames of one CAN id: ``samples_per_frame`` samples each, as
-``sample_format`` (``int16``, ``int32`` or ``float32``) in ``byte_order`` (``little`` or
-``big``), oldest first; a sample is ``count * scale + offset`` rad/s. Frames of other ids are
-ignored; a frame of the gyro's id with the wrong length is counted and dropped (a lost frame
-shows up as fewer samples than the trial's duration asks for). Classic frames carry up to 8
-bytes; with ``can_fd`` up to 64 (``samples_per_frame × sample size`` must be a CAN FD data
-length: 0–8, 12, 16, 20, 24, 32, 48 or 64).
-
-The bus is ``can.Bus(interface=can_interface, channel=can_channel, fd=can_fd)`` (and ``bitrate``
-when ``can_bitrate`` > 0). With ``can_interface`` empty (the default) python-can's own
-configuration names it, as for ``can.Bus()``: ``CAN_INTERFACE`` / ``CAN_CHANNEL`` /
-``CAN_BITRATE`` / ``CAN_CONFIG`` in the environment, or its configuration file
-(:func:`bike_rig.sources.can_bus.choose_bus`); with none, the ``virtual`` bus ``bike_rig``,
-which no hardware reaches: said as a warning. SocketCAN needs a kernel with CAN support (this
-project's build machines have none: use ``virtual`` there); ``udp_multicast`` is refused because
-it sends traffic off the machine. ``can_log_file`` plays a python-can log file instead (candump
-``.log``, ``.asc``, ``.blf``, ``.trc``...) at ``can_log_speed`` times real time, paced by its
-timestamps; ``can_log_speed`` 0 plays it as fast as it is read, only while a trial records (each
-trial takes the log's next frames, no more than it asks for).
-
-The bus is read unfiltered: on interfaces that filter in software (``virtual``, ``slcan``,
-``serial``...) python-can's non-blocking receive returns nothing at a frame of another id, so
-each poll drains every frame waiting and keeps the gyro's by id. A trial starts with the first
-sample received after ``start_trial`` and is stamped from a checked clock
-(:class:`~bike_rig.sources.can_bus.FrameClock`): the first frame's own timestamp, minus its
-earlier samples at the nominal rate, when the interface stamps in epoch time (a log file: when
-its stamps are epoch dates), else the receive clock; later samples at ``index / sample_rate_hz``
-from it. :meth:`CanSource.describe` says which interface, channel, id and clock it uses, and
-warns of the default virtual bus.
-
-:class:`SimulatedCanGyro` is a stand-in gyro that sends frames of the same layout on a
-``virtual`` bus from a thread. python-can's virtual bus connects buses *of one process* only,
-so a test either reads it with a :class:`CanSource` in the same process, or asks the driver
-node to run one inside its own process (``can_simulated_gyro_period_s`` > 0: a test and demo
-option, refused for any interface but ``virtual``).
+The gyro sends ``samples_per_frame`` samples a frame on one CAN id, as ``sample_format``
+(``int16``, ``int32``, ``float32``) in ``byte_order``, oldest first; a sample is
+``count * scale + offset`` rad/s. Classic frames carry up to 8 bytes, CAN FD (``can_fd``) a
+valid FD length up to 64. The bus is chosen by :func:`bike_rig.sources.can_bus.choose_bus`;
+``can_log_file`` plays a python-can log instead. :class:`SimulatedCanGyro` is a stand-in gyro
+on a ``virtual`` bus (which connects buses of one process only).
 """
 
 from __future__ import annotations
@@ -234,7 +205,15 @@ def open_bus(
 
 
 class CanSource(StreamingSource):
-    """A CAN gyro; trials on request (see the module docstring).
+    """A CAN gyro; trials on request.
+
+    Frames of other ids are ignored; a frame of the gyro's id with the wrong length is counted
+    and dropped. The bus is read unfiltered and each poll drains every waiting frame (software
+    filters make a non-blocking receive return nothing at another id's frame). A trial starts
+    with the first sample after ``start_trial``, stamped from the first frame's own time minus
+    its earlier samples when the interface stamps in epoch time, else from the receive clock;
+    later samples at ``index / sample_rate_hz``. ``can_log_speed`` 0 plays a log as fast as it
+    is read, only while a trial records.
 
     Args:
         bus: An open python-can bus (unfiltered, or filtered on the gyro's id), or a log

@@ -1,64 +1,11 @@
 """The description of a (simulated) measurement rig, and its file ``config/rig.yaml``.
 
-A rig is everything about the measurement that is not the bicycle: the torsion rod and the
-calibration rod, the wheel fixtures, the hanging orientations, the rate gyro and the data
-acquisition, how the trials are run, and the standard deviation of every static reading.
-``format: bike_rig-rig/1``, SI units, degrees only in keys ending in ``_deg``::
-
-    format: bike_rig-rig/1
-    name: paper rig                     # free text
-    torsion_rod:
-      stiffness: 5.62                   # N m/rad; or diameter (m), length (m) and
-                                        # shear_modulus (Pa): k = G π d⁴ / (32 L)
-    calibration_rod: {mass: 5.56, length: 1.05, diameter: 0.03}   # kg, m, m (true values)
-    wheels:
-      rear: {rotations: 13, pendulum_arm: 0.29325}   # rotations rolled; rim contact to centre, m
-      front: {rotations: 13, pendulum_arm: 0.293}
-    orientations_deg:                   # head tube / steer tube to the horizontal, >= 3 each
-      frame: [3.4, 138.7, 229.8]
-      fork: [346.7, 28.1, 287.0]
-    gyro:
-      scale_factor: 1.1459156           # V per rad/s, nominal (20 mV per deg/s)
-      scale_factor_tolerance: 0.03      # relative 1σ of the true scale, drawn per session
-      zero_rate_output: 2.5             # V at zero rate (nominal)
-      bias: 0.02                        # rad/s, 1σ of the turn-on bias, drawn per trial
-      bias_drift: 1.0e-4                # rad/s/√s, random walk of the bias
-      noise_density: 1.0e-4             # (rad/s)/√Hz, white rate noise (one-sided)
-    adc:
-      bits: 12
-      range: [-5.0, 5.0]                # V, the input range (clips at the rails)
-      sample_rate: 1000                 # Hz
-    trials:
-      per_measurement: 3
-      duration: 30                      # s; or a list of durations drawn per trial
-      amplitude_deg: [0.2, 0.9]         # initial amplitude, uniform in this range (< 1°)
-      damping_ratio: 0.001
-      dry_friction: [0.0, 0.0]          # optional: swing lost per cycle / initial swing, uniform
-                                        # in this range per trial, in [0, 1) (a number: fixed)
-      finite_swing: false               # optional: compound pendulums swing with sin θ
-    coupled_swing:                      # optional: a second, close mode that beats
-      probability: 0.05                 # per frame/fork torsional trial
-      trials: []                        # and/or these trials, e.g. [frame_torsional_o2_t3]
-      detuning: [0.05, 0.15]            # |f2 / f1 − 1|, uniform, random sign
-      amplitude_ratio: [0.4, 0.9]       # second mode's amplitude over the first's, < 1
-    reading_sigma:                      # 1σ of every static reading (noise drawn = σ written)
-      gravity: 0.01                     # m/s²
-      wheelbase: 0.002                  # m
-      head_tube_angle_deg: 0.2          # degree
-      fork_offset: 0.001                # m
-      distance_rolled: 0.01             # m
-      pendulum_arm: 0.001               # m
-      mass: 0.02                        # kg (every part and the calibration rod)
-      hanging_angle_deg: 0.2            # degree
-      string_distance: 0.003            # m
-      rod_length: 0.001                 # m
-      rod_diameter: 0.0001              # m
-      plate_height: 8.0e-5              # m, optional (refined method: h1..h7)
-      plate_diameter: 4.0e-5            # m, optional (d1..d6)
-      plate_distance: 8.0e-5            # m, optional (d and l)
-
-Numbers may be written as YAML numbers or as numeric strings (``1e-4``, which YAML 1.1 reads
-as a string).
+A rig is everything about the measurement that is not the bicycle: torsion and calibration
+rods, wheel fixtures, hanging orientations, rate gyro, data acquisition, trial plan and the σ
+of every static reading. ``format: bike_rig-rig/1``, SI units, degrees only in keys ending in
+``_deg``; ``config/rig.yaml`` is the commented example, the keys are listed in
+``docs/simulated-rig.md``, and each record below gives its fields' units. Numbers may also be
+numeric strings (``1e-4``, which YAML 1.1 reads as a string).
 """
 
 from __future__ import annotations
@@ -256,7 +203,7 @@ OPTIONAL_SIGMAS = ("plate_height", "plate_diameter", "plate_distance")
 
 @dataclass(frozen=True)
 class RigConfig:
-    """A whole rig description (see the module docstring for the file).
+    """A whole rig description (the file: ``config/rig.yaml``, ``docs/simulated-rig.md``).
 
     Attributes:
         name: Free text.
