@@ -1,24 +1,12 @@
 """The order in which the live graph published a topic's messages, read from a bag.
 
-Which parameter set (or model, or static readings) the live graph published last cannot be
-told by the log time, which is the recorder's wall clock: it steps back with the system clock
-(an NTP correction, a manual reset), and so does every other stamp the messages carry (the
-``BenchmarkParameters`` header stamp is the parameter node's clock, the MCAP publish time the
-publisher's). Nor by the order metadata.yaml lists the storage files in. The key used instead:
-
-1. **The publication sequence number.** bike_rig's recorder stores each message's DDS
-   publication sequence number (rclpy's ``publication_sequence_number``) in the MCAP record's
-   ``sequence``: its publisher counts its messages from 1, whatever the clocks do.
-2. **A publisher started again** (a node restarted by the graph watch) counts from 1 again. A
-   message whose sequence is not above the first of the run before it begins a new run, and
-   runs follow each other in the recorder's order of storage: the storage files by the split
-   index in their names (the recorder numbers them as it writes them), then each record's
-   place in its file (the recorder writes in the order it takes the messages).
-3. Messages **without a sequence** (0: a simulated bag, another recorder's) are taken in that
-   order of storage.
-
-The order is ``(run, sequence)``, ties kept in the order of storage. It holds for a topic with
-one publisher at a time (the parameter, model and fitter nodes' topics).
+Log time (the recorder's wall clock) and the messages' own stamps step back with the system
+clock, and metadata.yaml's file order proves nothing, so the key is ``(run, sequence)``: the DDS
+publication sequence number bike_rig's recorder stores in each MCAP record's ``sequence``
+(counting from 1 per publisher), a new run whenever it restarts at or below the previous run's
+first (a restarted node), runs and ties in the order of storage (split index, then place in
+the file). Messages without a sequence (0) keep the order of storage. Valid for a topic with
+one publisher at a time (the parameter, model and fitter topics).
 """
 
 from __future__ import annotations
@@ -46,7 +34,7 @@ def publication_order(sequence: Sequence[int], stream: Sequence[int]) -> list[in
         stream: Each message's rank in the recorder's order of storage.
 
     Returns:
-        The indices, first published first (see the module docstring).
+        The indices, first published first, by ``(run, sequence)`` as the module says.
     """
     stored = sorted(range(len(stream)), key=lambda i: stream[i])
     if any(sequence[i] <= 0 for i in stored):

@@ -1,23 +1,12 @@
 """Where an interrupted session stands, read from its bag: what a resumed session starts from.
 
-``bike-rig session --resume FOLDER`` continues a session from its bag (the session folder's
-``bag``, or a bag given directly). :func:`resume_point` reads what counts:
-
-* the trials recorded (every START, in order: their ids are never reused, and the simulated
-  rig draws the next trial's noise where the interrupted session stopped), those left open
-  (no STOP: the session ended while they recorded; the resumed driver records them ABORT),
-  and the last rig time stamped (:func:`started_trials` orders them, for the driver too);
-* every reading entered (corrections too, in order), which the console enters again;
-* the static readings the session started from (from the parameter node's last
-  ``StaticReadings``: the measurement file, with the entries applied when there were any;
-  nothing when the session started without a file).
-
-A bag whose recording did not end cleanly (the recorder killed, a power cut) is first
-recovered (:func:`~bike_rig.bag.recover.recover_bag`) into ``recover_into``; the damaged bag
-is left as it is.
-
-The resumed driver streams the recorded trials again before the new ones
-(:mod:`bike_rig.sources.resume`), so the new session's bag holds the whole session.
+:func:`resume_point` reads, for ``bike-rig session --resume``: the trials recorded (ids never
+reused; those without STOP, which the resumed driver records ABORT; the last rig time;
+:func:`started_trials`), every reading entered (in order, for the console to enter again) and
+the static readings the session started from (the last ``StaticReadings``). A bag that did not
+end cleanly is first recovered (:func:`~bike_rig.bag.recover.recover_bag`) into
+``recover_into``, the damaged bag left as it is. :mod:`bike_rig.sources.resume` streams the
+recorded trials again before the new ones.
 """
 
 from __future__ import annotations

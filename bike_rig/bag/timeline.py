@@ -1,25 +1,13 @@
 """A recorded session's timeline: what happened when, on one clock, each thing once.
 
-**One clock.** The driver stamps trial events with the rig's clock (the simulated rig's clock
-runs faster than the computer's when its time scale is above 1), and the fitter stamps a
-trial's period with the trial's STOP stamp. The parameter and model nodes stamp what they
-publish (static readings, parameter sets, the model) with the computer's clock, and so does the
-recorder's log time: those stamps cannot be set beside the trials'. The timeline therefore has
-one time base, :data:`TIME_BASE`: seconds on the rig's clock from the first trial's START
-(:attr:`Timeline.origin_ns`). A trial event is at its own stamp. A parameter set is placed at
-the rig time of its newest trial (the STOP of the latest trial it includes, from its
-``trial_ids``): what it knew, "as of". The model's messages carry their parameter set's stamp
-and go with it. Static readings go with the newest parameter set published before them (by the
-computer's clock), and so do the readings the operator enters during the session (stamped with
-the computer's clock too), so readings published before any trial result have no rig time
-(``None``).
-
-**Each thing once.** The driver's events are kept once per trial (its first START and first
-STOP or ABORT); parameter sets are re-published (latched, on a timer while incomplete, after
-every better trial), so they are collapsed into one entry for the incomplete sets and one for
-the complete ones, with the count and the first and last times; the model likewise.
-
-Nothing here imports rclpy; messages are the dataclasses rosbags deserializes into.
+One time base, :data:`TIME_BASE`: seconds on the rig's clock from the first trial's START
+(the computer-clock stamps of the parameter, model and readings messages cannot be set beside
+the trials'). A trial event is at its own stamp; a parameter set at the STOP of the newest
+trial it includes ("as of"); the model with its parameter set; static readings and entered
+readings with the newest set published before them (``None`` before any). Each thing once:
+a trial's first START and first STOP or ABORT; re-published sets and models collapse into one
+entry for the incomplete and one for the complete, with count and first and last times.
+No rclpy: messages are rosbags' dataclasses.
 """
 
 from __future__ import annotations

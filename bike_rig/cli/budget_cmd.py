@@ -1,35 +1,13 @@
-"""``bike-rig budget INPUT``: which measurement to improve (the uncertainty budget, issue 5).
+"""``bike-rig budget INPUT``: which measurement to improve (the uncertainty budget).
 
-::
-
-    bike-rig budget INPUT [--json] [--rider none|paper] [--feedback FILE] [--top N] [--com-method centroid|lstsq]
-                          [-o FILE]
-
-INPUT is a measurement file, a parameter file or a session bag
-(:func:`bike_rig.subjects.load_subject`). For each of the 25 parameters and the weave and
-capsize speeds the inputs (raw readings, or the parameters for a parameter file) are ranked by
-their share of the output's first-order variance (:mod:`bike_rig.core.uncertainty.budget`).
-Inputs are named as INPUT names them: a bike_rig YAML measurement file by its keys as written
-(``fork.orientations[2].distance``, ``frame.compound_period``), a BicycleParameters
-``Measured.txt`` and a bag by BicycleParameters keys (``aH3``, ``TcB1``), a parameter file by
-the parameter names. The text shows which inputs matter most overall and for the speeds, then
-per output ``value ± σ`` and the top N inputs with share (%) and contribution (output unit).
-``--json`` prints one object::
-
-    {"bicycle": .., "input_kind": "raw readings"|"parameters", "inputs": [..], "input_keys": [..],
-     "outputs": [{"output": .., "value": .., "sigma": .., "unit": .., "shares": [{"input": ..,
-     "key": .., "share": .., "contribution": ..}]}]}
-
-with every share (not only the top N); ``input``/``inputs`` are the file's names and
-``key``/``input_keys`` the BicycleParameters keys of the same inputs. With ``--feedback FILE`` the
-weave and capsize speeds are those of the closed loop ``A − B K`` of that steer-torque feedback
-(a gain value given with σ is one more input, ``feedback.<key>``) and the JSON has ``"feedback"``
-(its name) after ``"bicycle"``. Raw readings with a part's hanging lines nearly parallel
-(:mod:`bike_rig.core.uncertainty.mc_sigma`) and no rider: the mass centre they locate, and any
-parameter whose seeded Monte Carlo σ departs from the linear σ, print the Monte Carlo σ, marked
-``*`` in the text and with ``"sigma_method": "monte_carlo"`` and ``"sigma_linear"`` in the JSON
-(shares and contributions stay the linear ones). Bad inputs and options
-end in one line on stderr and exit status 2 (:class:`~bike_rig.core.errors.BikeRigError`).
+For each parameter and the weave and capsize speeds, INPUT's inputs (raw readings, or the
+parameters of a parameter file) are ranked by their share of the output's first-order variance
+(:mod:`bike_rig.core.uncertainty.budget`), named as INPUT names them. ``--json``: ``bicycle``,
+``input_kind``, ``inputs``, ``input_keys`` and ``outputs`` (``output``, ``value``, ``sigma``,
+``unit``, every ``shares`` entry: ``input``, ``key``, ``share``, ``contribution``).
+``--feedback`` budgets the closed loop's speeds (a gain with σ is an input ``feedback.<key>``);
+nearly parallel hanging lines print Monte Carlo σ (``*``; ``sigma_method``, ``sigma_linear``).
+Bad input: one line, exit 2. See ``docs/results.md``.
 """
 
 from __future__ import annotations

@@ -1,30 +1,12 @@
 """``bike-rig model FILE``: the canonical matrices, the weave and capsize speeds and the eigenvalues, with σ.
 
-::
-
-    bike-rig model FILE [--rider paper|RIDER.yaml] [--feedback FEEDBACK.yaml] [--speeds START STOP N]
-                        [--sigma correlated|paper] [--com-method centroid|lstsq] [--json] [-o OUT]
-
-FILE is a measurement file or a parameter file. The text shows the matrices M, C1, K0, K2 with
-σ, the weave and capsize speeds with σ (m/s), and the eigenvalues (1/s) at the speeds. The
-speeds' σ is the first-order propagation of the parameter covariance through the
-implicit-function gradient of each speed
-(:func:`bike_rig.core.uncertainty.speed_sigma.critical_speeds_with_sigma`), the same code the
-model node, ``replay`` and ``report`` use, in the σ convention of ``--sigma``. ``--json``
-prints one object::
-
-    {"M": [[..],[..]], "C1": .., "K0": .., "K2": .., "M_sigma": .., "C1_sigma": .., "K0_sigma": ..,
-     "K2_sigma": .., "weave_speed": float|null, "weave_speed_sigma": float|null,
-     "capsize_speed": float|null, "capsize_speed_sigma": float|null, "speeds": [..], "modes": [..],
-     "eigenvalues": [[{"re": .., "im": ..}, ...], ...]}
-
-A speed is null when the bicycle has no such crossing; its σ is null then, or when the root
-is not simple. With ``--feedback FILE`` the speeds and eigenvalues are the closed loop's
-(``A − B K``, :mod:`bike_rig.core.whipple.closed_loop`; the matrices stay the bicycle's), the text
-adds the closed loop's stable speed ranges and the open loop's speeds, and the JSON adds
-``"feedback": {"name", "file", "gains": [[kφ, kδ, kφ̇, kδ̇] per speed]}``,
-``"stable_speed_ranges": [[low, high|null], ...]`` and ``"open_loop": {"weave_speed",
-"capsize_speed"}``. Bad inputs end in one line on stderr with exit status 2.
+FILE is a measurement or parameter file. Prints M, C1, K0, K2 with σ, the weave and capsize
+speeds with σ (m/s; :func:`bike_rig.core.uncertainty.speed_sigma.critical_speeds_with_sigma`,
+as the model node, ``replay`` and ``report`` compute them) and the eigenvalues (1/s) over the
+speeds; ``--json`` as :func:`model_json` (a speed is null when there is no crossing). With
+``--feedback FILE`` speeds and eigenvalues are the closed loop's ``A − B K`` (matrices stay the
+bicycle's), adding ``feedback``, ``stable_speed_ranges`` and ``open_loop``
+(:func:`feedback_json`). Bad inputs: one line on stderr, exit 2.
 """
 
 from __future__ import annotations

@@ -1,35 +1,13 @@
 """``bike-rig replay BAG``: recompute a recorded session offline, or play it back into a graph.
 
-::
-
-    bike-rig replay BAG [--json] [--default-fit] [--lead-in S | --start S [--stop S] | --envelope F]
-                        [--no-whole-cycles] [--min-cycles N] [--min-r2 R2] [--max-modulation M]
-                        [--max-drift D] [--com-method centroid|lstsq] [--rider none|paper|RIDER.yaml]
-                        [--sigma correlated|paper] [--readings FILE]
-    bike-rig replay BAG --republish [--rate-scale X] [--wait S]
-
-Offline (no ROS runtime): every trial is fitted again from its gyro batches and events with the
-fitter's own function and the fit options recorded with its period estimate, the periods are
-combined and the parameters computed with the parameter node's assembly, and the model with the
-model node's function (its rider, σ convention and speeds as recorded). The static readings are
-the bag's own (its last StaticReadings message: the measurement file's with every reading
-entered during the session applied), so a session bag needs no other file; ``--readings FILE``
-replaces them with a measurement file's (e.g. corrected after the session; its periods are
-ignored), and the output says so. It prints the 25 parameters with σ, the weave and capsize
-speeds, the trials, and whether the results equal what the live graph published last (relative
-1e-12; "last" in its publishers' own order, :mod:`bike_rig.bag.order`, not the log time). The
-fit options and the other settings can be overridden to see their effect.
-
-``--json`` prints one object: ``bike-rig params --json``'s ``bicycle`` and ``parameters``, plus
-``weave_speed``, ``capsize_speed`` (null when absent), their ``*_sigma``, ``complete``,
-``missing``, ``periods``, ``trials``, ``settings`` (with ``readings``, where the static readings
-came from, and ``readings_swapped``), ``live`` (the comparison) and ``notes``.
-
-``--republish`` instead plays the raw recorded stream (gyro batches, trial events, static
-readings) back into a live ROS graph, with the original timing divided by ``--rate-scale``.
-
-Exit status: 0; 1 when the session is incomplete (a period without any usable trial); 2 with
-one line on stderr for a bad bag or option.
+Offline (no ROS runtime) every trial is refitted with the fitter's own function and recorded
+fit options, and parameters and model are computed as the nodes do, from the bag's last
+StaticReadings (or ``--readings FILE``); the output says whether the results equal what the
+live graph published last (relative 1e-12, in publisher order: :mod:`bike_rig.bag.order`).
+``--json`` adds ``weave_speed``, ``capsize_speed``, their σ, ``complete``, ``missing``,
+``periods``, ``trials``, ``settings``, ``live`` and ``notes`` to ``params --json``'s object.
+``--republish`` plays the raw stream into a live graph. Exit 1 when the session is incomplete,
+2 for a bad bag or option (``docs/cli.md``).
 """
 
 from __future__ import annotations

@@ -1,23 +1,10 @@
 """The operator's console: a textual app over :class:`~bike_rig.session.controller.SessionController`.
 
-Lays itself out for the terminal it is in, from 80×24 (over SSH, under tmux) up. Layout: the
-title (bicycle, progress, the speeds once there), what the session is connected to (source, bus,
-ROS domain, the ``bike-rig view`` line to paste), the plan with each item's state (left; it
-follows the recording, offered or next item), what to do next and a reading held for its
-warning, the recording trial's live trace, amplitude and warnings, and the nodes' health from
-``/diagnostics`` (right: each node's worst level, or SILENT / BEHIND while it is stalled or
-behind its input), the log of results and replies (it takes the rows the window has beyond the
-plan's share; a line whenever a node's health level changes, and when it stalls, falls behind or
-catches up), and the command line. Keys:
-
-* **F2** — do the next item: start the next trial to do or redo (or the redo just offered),
-  or, when the next item is a reading, put ``reading KEY `` on the command line;
-* **F3** — stop the recording trial; **F4** — abort it (ABORT is recorded);
-* **F5** — the next item and the next-best measurement;
-* **PgUp / PgDn** — scroll the log (End: back to its newest line);
-* **F10** or **Ctrl-C** — quit, once pressed again to confirm (a recording trial is aborted first).
-
-Every command of plain mode can be typed on the command line (``help`` lists them).
+Lays itself out for any terminal from 80×24 up: title and connection, the plan with each item's
+state, what to do next, the recording trial's live trace and warnings, the nodes' health from
+``/diagnostics``, the log, and the command line (every plain-mode command). Keys: F2 next item,
+F3 stop, F4 abort, F5 next best, PgUp/PgDn scroll the log, F10 or Ctrl-C quit (pressed twice; a
+recording trial is aborted first). The screen is described in ``docs/session.md``.
 """
 
 from __future__ import annotations

@@ -1,24 +1,11 @@
 """Linear state feedback on the steer torque: the feedback file and its gains at any speed.
 
-A controller adds ``T_δ = −(kφ φ + kδ δ + kφ̇ φ̇ + kδ̇ δ̇)`` (N m) to the steer-torque input of the
-Whipple model (state ``x = [φ, δ, φ̇, δ̇]``, input ``u = [T_φ, T_δ]``), so the closed loop is
-``ẋ = (A − B K) x`` with ``K = [[0, 0, 0, 0], [kφ, kδ, kφ̇, kδ̇]]``. A feedback file
-(``format: bike_rig-feedback/1``)::
-
-    format: bike_rig-feedback/1
-    name: balance assist            # optional label (default: the file's stem)
-    k_phi: 0.0                      # N m/rad: a number ...
-    k_phidot:                       # N m s/rad: ... or a table over speed (m/s)
-      speeds: [0.0, 2.0, 4.0]
-      values: [-12.0, -6.0, 0.0]
-
-Keys ``k_phi``, ``k_delta`` (N m/rad), ``k_phidot``, ``k_deltadot`` (N m s/rad); a missing key
-is zero, an unknown key an error. A table interpolates linearly in speed and holds its end
-values outside its speeds (strictly increasing, finite, as many values as speeds). A gain is
-exact unless given with σ: ``[value, sigma]`` for a number, ``sigmas: [...]`` (one per value)
-in a table; each such σ is an independent uncertain input (:meth:`Feedback.uncertain_knots`).
-This module is the one place a feedback choice becomes a :class:`Feedback`
-(:func:`resolve_feedback`), for the command line, the pipeline and the model node.
+A controller adds ``T_δ = −(kφ φ + kδ δ + kφ̇ φ̇ + kδ̇ δ̇)`` (N m) to the Whipple model's steer
+torque (``x = [φ, δ, φ̇, δ̇]``, ``u = [T_φ, T_δ]``): the closed loop is ``ẋ = (A − B K) x``,
+``K = [[0, 0, 0, 0], [kφ, kδ, kφ̇, kδ̇]]``. The file (``format: bike_rig-feedback/1``, in
+``docs/formats.md``) gives each gain (N m/rad, N m s/rad) as a number or a table over speed
+(m/s; linear inside, held outside), optionally with σ (:meth:`Feedback.uncertain_knots`).
+:func:`resolve_feedback` is the one place a feedback choice becomes a :class:`Feedback`.
 """
 
 from __future__ import annotations

@@ -1,24 +1,12 @@
-"""A rider from Yeadon's 95 body measurements, seated on the bicycle (issue 13, section 2).
+"""A rider from Yeadon's 95 body measurements, seated on the bicycle.
 
-A rider YAML file with ``yeadon_measurements`` (the yeadon package's measurement file) and
-``yeadon_configuration`` (the initial pose, as BicycleParameters' ``<Rider><Bike>YeadonCFG.txt``)
-names such a rider (:func:`load_yeadon_rider`). Seated on a parameter set (:func:`seat_rider`)
-it becomes a rigid :class:`~bike_rig.core.rider.Rider` in the benchmark frame, as
-BicycleParameters' ``Bicycle.add_rider`` computes it: the yeadon human model, posed by
-:mod:`bike_rig.core.rider_pose` from the bicycle's rider-geometry keys, gives the mass, mass
-centre and inertia about the mass centre.
-
-The rider's σ: each body measurement has a σ (``measurement_sigma``, default
-:data:`DEFAULT_MEASUREMENT_SIGMA`; the total mass ``mass_sigma``, default
-:data:`DEFAULT_MASS_SIGMA`), independent of each other. The Jacobian of the rider's seven numbers
-to them is taken by forward differences through yeadon (the complex step cannot pass through
-it), with the pose moving along: the implicit-function theorem on the pose equations gives the
-joint angles' derivatives (d q/d m = -(∂r/∂q)⁻¹ ∂r/∂m). The pose also follows the bicycle's own
-w, rR and rF (``pose_sigma``, default true; BicycleParameters takes the rider as exact), so their
-σ reach the rider, correlated with the rest of the bicycle. The bicycle's rider-geometry keys and
-the configuration's torso angles are taken as exact.
-
-The yeadon package is imported only when a Yeadon rider is read.
+A rider YAML with ``yeadon_measurements`` (the yeadon package's file) and
+``yeadon_configuration`` (the initial pose, as BicycleParameters' ``YeadonCFG.txt``) names such a
+rider (:func:`load_yeadon_rider`). :func:`seat_rider` poses it from the bicycle's rider-geometry
+keys (:mod:`bike_rig.core.rider_pose`) and returns a rigid :class:`~bike_rig.core.rider.Rider`
+(mass kg, mass centre m, inertia kg m² in the benchmark frame), as BicycleParameters'
+``Bicycle.add_rider`` computes it, with σ. The yeadon package is imported only when a Yeadon
+rider is read.
 """
 
 from __future__ import annotations
@@ -457,6 +445,13 @@ def seated_pose(rider: YeadonRider, ps: ParameterSet) -> SeatedPose:
 
 def seat_rider(rider: YeadonRider, ps: ParameterSet) -> Rider:
     """The Yeadon rider seated on the bicycle of ``ps``, as a rigid rider with its σ.
+
+    Each body measurement has an independent σ (``measurement_sigma``, default
+    :data:`DEFAULT_MEASUREMENT_SIGMA`; total mass ``mass_sigma``, :data:`DEFAULT_MASS_SIGMA`).
+    The Jacobian of the rider's seven numbers to them is by forward differences through yeadon
+    (no complex step), the pose moving along (dq/dm = −(∂r/∂q)⁻¹ ∂r/∂m). With ``pose_sigma``
+    (default true) the pose also follows w, rR and rF, so their σ reach the rider, correlated;
+    the rider-geometry keys and the torso angles are exact.
 
     Raises:
         RiderError: Missing rider-geometry keys, or a yeadon model that cannot be built.

@@ -1,23 +1,12 @@
 """Static readings entered during a session: the entry record, its checks, and applying entries.
 
-The operator measures the static readings (masses, lengths, angles) while the session runs and
-enters each one as it is taken; a correction is a newer entry of the same key. Each entry is a
-:class:`ReadingEntry` (the ``bike_rig_msgs/ReadingEntry`` message's record). The parameter node
-applies every entry received on top of its measurement file's readings (none when it starts
-from the bicycle's name alone) with :func:`apply_entries`: the newest entry of a key wins
-(by stamp, then by arrival), and every entry is kept, so a reading and its correction are both
-recorded.
-
-Keys are the flat BicycleParameters keys of README's measurement-file table, static readings
-only (pendulum periods come from trials): ``g w gamma f``, ``mR nR dR lR``, ``mF nF dF lF``,
-``mB mH``, ``mP lP dP`` and, for hanging orientation ``i`` (1, 2, ...) of the frame ``B`` or
-the fork ``H``, ``alphaB<i> aB<i> alphaH<i> aH<i>``. Units: SI; degrees only in ``gamma`` and
-``alpha*``; σ in the key's unit.
-
-The merged readings are put in one canonical order (:func:`canonical_order`): the order of a
-``bike_rig-measurements/1`` file as :func:`bike_rig.core.loader.load_measurements` reads it,
-whatever order the entries came in, so the parameters computed from entered readings are
-bit-identical to those of a file holding the same readings.
+Each reading the operator enters (a correction is a newer entry of the same key) is a
+:class:`ReadingEntry` (the ``bike_rig_msgs/ReadingEntry`` record). :func:`apply_entries` puts
+them on top of the measurement file's readings: the newest entry of a key wins (by stamp, then
+arrival), every entry is kept. Keys are the static flat keys of ``docs/formats.md`` (periods
+come from trials); SI, degrees only in ``gamma`` and ``alpha*``, σ in the key's unit.
+:func:`canonical_order` orders merged readings as a measurement file is read, so parameters
+from entered readings are bit-identical to those from a file holding the same readings.
 """
 
 from __future__ import annotations

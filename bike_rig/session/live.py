@@ -1,23 +1,11 @@
 """What the operator sees while a trial records: the last seconds of gyro rate, and warnings.
 
-:class:`LiveTrace` keeps the recording trial's most recent samples (``window_s`` of rig time)
-and reports, from them and the wall clock:
-
-* **no samples**: none has arrived for ``silence_s`` (1 s) of wall time since the start was
-  accepted or since the last sample, with advice for the source's kind (:func:`silence_advice`:
-  a silent bus or unplugged gyro for a CAN source, a loaded machine for a simulated one);
-* **clipping**: the last ``clip_window_s`` hold runs of at least :data:`MIN_CLIP_RUN` equal
-  samples at the window's largest or smallest value, at least twice — the sensor or ADC
-  saturates (the trial's fit flags it too, after STOP);
-* **amplitude too small**: in the spectrum of the last ``amplitude_window_s`` (mean removed),
-  the oscillation's peak stands less than :data:`MIN_SNR` times above the noise floor (the
-  median bin magnitude) — the swing is lost in the noise and too small to fit. Judged only once
-  the window is full: a fraction of a cycle has no peak to stand out.
-
-The amplitude shown is the spectral peak's, ``2 |X_k| / n`` (rad/s), which noise does not
-inflate as a peak-to-peak would.
-
-Rates in rad/s, times in s.
+:class:`LiveTrace` keeps the recording trial's last ``window_s`` of samples and warns of
+**no samples** (none for ``silence_s`` of wall time; :func:`silence_advice` per source kind),
+**clipping** (runs of at least :data:`MIN_CLIP_RUN` equal samples at the window's extreme, at
+least twice, in the last ``clip_window_s``) and **amplitude too small** (the spectral peak of the
+full last ``amplitude_window_s`` under :data:`MIN_SNR` times the median bin). The amplitude
+shown is the spectral peak's ``2 |X_k| / n``, which noise does not inflate. Rates rad/s, times s.
 """
 
 from __future__ import annotations
@@ -75,7 +63,7 @@ class LiveStatus:
 
 @dataclass
 class LiveTrace:
-    """The recording trial's recent samples and their warnings (see the module docstring).
+    """The recording trial's recent samples and their warnings (no samples, clipping, small swing).
 
     Attributes:
         trial_id: The trial.

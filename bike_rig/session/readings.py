@@ -1,28 +1,10 @@
 """A static reading as the operator types it: parsed, checked, and looked at for likely mistakes.
 
-Two steps, both without ROS:
-
-* :func:`parse_reading` turns the typed key, value and σ into a
-  :class:`~bike_rig.pipeline.readings.ReadingEntry` or refuses it with a one-line
-  :class:`ReadingInputError` naming where, the key and why. The key must be a static reading of
-  README's measurement table (flat keys: ``g w gamma f``, ``mR nR dR lR``, ``mF nF dF lF``,
-  ``mB mH``, ``mP lP dP``, ``alphaB<i> aB<i> alphaH<i> aH<i>``); pendulum periods come from
-  trials. The value and σ must be finite numbers, σ ≥ 0, and the value physically possible (the
-  same rule a measurement file's reading meets: :func:`bike_rig.pipeline.readings.check_entry`).
-  **σ = 0 is refused for a measured value**: it would count as exact and drop out of every
-  uncertainty (the budget, the speeds' σ, the next-best ranking); give the instrument's σ. The
-  exact counts ``nR``/``nF`` are the exception: whole numbers with σ 0 (σ may be left out).
-* :func:`plausibility` returns warnings, one line each naming the key, the value and the
-  likely mistake, for a value that is possible but probably wrong: a head-tube angle that looks
-  like radians or like the steer-axis tilt, a length in millimetres, centimetres or inches, a
-  mass in grams or pounds or out of range for its part, σ larger than the value, a hanging
-  angle outside 0-360°, a wheel radius (distance rolled / 2π rotations) that no wheel has, a
-  pendulum arm longer than the wheel radius, a trail (paper Eq 8, computed with the core's
-  :func:`~bike_rig.core.geometry.trail`) that comes out in metres. The ranges are the one table
-  every input boundary uses (:mod:`bike_rig.core.reading_ranges`), wide enough for every bicycle
-  of the paper and of ``../shared/data`` (none of their readings warns).
-
-Units: SI; degrees only in ``gamma`` and ``alpha*``; σ in the key's unit.
+Without ROS: :func:`parse_reading` turns a typed key, value and σ into a
+:class:`~bike_rig.pipeline.readings.ReadingEntry` or refuses it in one line
+(:class:`ReadingInputError`); :func:`plausibility` warns, one line each, about a value that is
+possible but probably wrong. Keys are the static keys of ``docs/formats.md`` (periods come from
+trials). Units: SI; degrees only in ``gamma`` and ``alpha*``; σ in the key's unit.
 """
 
 from __future__ import annotations
@@ -161,6 +143,11 @@ def parse_reading(
     note: str = "",
 ) -> ReadingEntry:
     """Parse and check one typed reading.
+
+    The value must be finite and physically possible (the rule a measurement file meets:
+    :func:`bike_rig.pipeline.readings.check_entry`), σ finite and ≥ 0. σ = 0 is refused for a
+    measured value (it would drop out of every uncertainty: give the instrument's σ); the
+    counts ``nR``/``nF`` are whole numbers with σ 0 (which may be left out).
 
     Args:
         key: The flat key, e.g. ``"gamma"``, ``"mF"``, ``"alphaB2"``.
@@ -353,7 +340,13 @@ _CROSS_CHECKS: tuple[Callable[[str, float, Mapping[str, float]], Iterator[str]],
 
 
 def plausibility(key: str, value: float, sigma: float, readings_so_far: Known) -> list[str]:
-    """Warnings about a possible but probably mistaken reading (see the module docstring).
+    """Warnings about a possible but probably mistaken reading.
+
+    A head-tube angle that looks like radians or the steer-axis tilt, a length in mm, cm or
+    inches, a mass in grams or pounds or out of range for its part, σ above the value, a hanging
+    angle outside 0–360°, a wheel radius no wheel has, a pendulum arm longer than the radius, a
+    trail (Eq 8) in metres. Ranges: :mod:`bike_rig.core.reading_ranges` (no reading of the
+    paper's or the shared data's bicycles warns).
 
     Args:
         key: The static key (checked by :func:`parse_reading` before).

@@ -1,23 +1,13 @@
 """A source that first streams an interrupted session's recorded trials, then the live gyro's.
 
 The driver's ``resume`` parameter (``bike-rig session --resume``) names the interrupted
-session's bag. :class:`ResumedSource` reads its trials at once
-(:func:`~bike_rig.bag.session.read_session`: each trial's events and batches, whatever order
-the recorder received them in) and yields them before anything of the live source, one trial
-a poll in order of START, with their recorded stamps and ids, so that the fitter fits them
-again, the recorder records them into the new bag (which then holds the whole session) and a
-console sees them as the session's first trials. A trial left open (the session ended while it
-recorded) is closed with ABORT after its last recorded sample.
-
-They are paced: back to back, at ``time_scale`` rig seconds per wall second (the driver's
-``resume_time_scale``). Unpaced, a whole session's batches (hundreds of thousands) would queue
-behind their STOP events at the fitter, which waits only ``grace_s`` for a stopped trial's
-missing batches.
-
-The live source is told the recorded trial ids (:meth:`~bike_rig.sources.base.GyroSource.continue_after`):
-new ids never reuse them, and the simulated rig continues its noise streams and its rig time
-where the interrupted session stopped, so a resumed session records what the uninterrupted one
-would have.
+session's bag. :class:`ResumedSource` yields its trials first (one a poll, in START order, with
+their recorded stamps and ids; one left open closed with ABORT after its last sample), so the
+fitter refits them, the new bag holds the whole session and a console sees them. They are paced
+at ``time_scale`` rig seconds per wall second (``resume_time_scale``): unpaced, a session's
+batches would queue behind their STOPs past the fitter's ``grace_s``. The live source is then
+told the recorded ids (:meth:`~bike_rig.sources.base.GyroSource.continue_after`) and continues
+after them.
 """
 
 from __future__ import annotations

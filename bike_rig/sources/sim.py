@@ -1,31 +1,11 @@
 """The simulated rig as a gyro source: a session plan streamed in plan order, or trials on request.
 
-Parameter ``mode`` chooses how trials happen:
-
-* ``plan`` (the default): the source walks a whole session's plan by itself, trial after trial
-  (this module's :class:`SimSource`);
-* ``operator``: nothing streams until a trial is requested (the driver's ``StartTrial``
-  service); each requested trial of the ``bicycle`` is simulated then, with the same physics
-  and sensor model, and streamed until its duration or ``StopTrial``
-  (:class:`~bike_rig.sources.sim_operator.OperatorSimSource`). ``session`` cannot be used.
-
-Two ways to get the session of the ``plan`` mode:
-
-* ``session``: a ``session.yaml`` written by ``bike-rig simulate`` (or
-  :func:`~bike_rig.core.sim.write_session`). Its period entries list their trial files
-  (``{trials: [trials/frame_torsional_o2_t1.npy, ...]}``); they are streamed in the order the
-  file lists them (the plan's order), each as the trial its place in the file says
-  (``frame.orientations[1].torsional_period`` is ``TtB2``, torsional, orientation 2), with the
-  file's stem as trial id. Raw volts are streamed too when ``volts/<stem>.npy`` exists.
-* ``bicycle`` (any file ``bike-rig params`` reads), ``rig`` (default ``config/rig.yaml``) and
-  ``seed``: the session is simulated in memory with
-  :func:`~bike_rig.core.sim.simulate_session`; nothing is written.
-
-Timing: rig time starts at ``start_time_s`` (seconds since the epoch; 0 means the wall clock
-when streaming begins); trial k starts when trial k−1 ended plus ``pause_between_trials_s``;
-sample i of a trial is at ``start + i / rate`` and is yielded once the (scaled) clock has
-passed it, so ``time_scale`` 20 plays a session 20 times faster than real time with stamps
-still in rig time.
+``mode`` ``plan`` (default, :class:`SimSource`) walks a session's plan by itself: a ``session``
+written by ``bike-rig simulate`` (its trial files in the order listed, each trial's key from its
+place in the file, its file stem as trial id, ``volts/<stem>.npy`` streamed when present), or
+one simulated in memory from ``bicycle``, ``rig`` and ``seed``. ``mode`` ``operator``
+(:class:`~bike_rig.sources.sim_operator.OperatorSimSource`) simulates each trial of the
+``bicycle`` when requested.
 """
 
 from __future__ import annotations
@@ -275,7 +255,12 @@ def _bicycle_on_rig(p: Parameters, bicycle: str) -> tuple[str, dict[str, float],
 
 
 class SimSource(GyroSource):
-    """The simulated rig walking a plan of trials (see the module docstring).
+    """The simulated rig walking a plan of trials.
+
+    Rig time starts at ``start_time_s`` (s since the epoch; 0: the wall clock when streaming
+    begins); trial k starts when trial k−1 ended plus ``pause_between_trials_s``; sample i is at
+    ``start + i / rate`` and is yielded once the scaled clock has passed it, so ``time_scale``
+    20 plays 20 times faster than real time with stamps still in rig time.
 
     Args:
         trials: The plan, in order.

@@ -1,24 +1,13 @@
 """The simulated rig driven by an operator: each requested trial is simulated when it is asked for.
 
-The ``sim`` source in ``mode`` ``operator`` (:meth:`~bike_rig.sources.sim.SimSource.from_parameters`
-builds it from ``bicycle``, ``rig`` and ``seed``). Nothing streams until a trial is requested:
-
-* :meth:`OperatorSimSource.start_trial` checks the request against the rig's plan
-  (:func:`planned_measurement`: a part, pendulum or orientation outside it is refused with a
-  :class:`~bike_rig.sources.errors.TrialRequestError` that says what and why), names the trial
-  (:func:`~bike_rig.sources.base.trial_info_for`: ``<stem>_t<repeat>``, ids never reused),
-  simulates exactly that trial with :class:`~bike_rig.core.sim.TrialSimulator` (the physics and
-  sensor model of :func:`~bike_rig.core.sim.simulate_session`; the k-th trial of the session
-  draws from the seed's k-th trial streams) for the request's ``duration_s`` of rig time (0: the
-  rig's ``trials.duration``), and starts it at the clock's now;
-* :meth:`OperatorSimSource.poll` streams its samples as the (scaled) clock passes them, then its
-  STOP at ``start + n / rate``;
-* :meth:`OperatorSimSource.stop_trial` ends it at the clock's now: STOP (ABORT when ``abort``)
-  after the samples streamed so far.
-
-One trial records at a time; :attr:`~bike_rig.sources.base.GyroSource.finished` is never true.
-With an unpaced clock (``time_scale`` ``math.inf``, for tests) a trial starts where the
-previous one ended plus ``pause_between_trials_s`` and all its samples are due at once.
+The ``sim`` source in ``mode`` ``operator``. Nothing streams until
+:meth:`OperatorSimSource.start_trial`: the request is checked against the rig's plan
+(:func:`planned_measurement`; refused with a :class:`~bike_rig.sources.errors.TrialRequestError`),
+named ``<stem>_t<repeat>`` (ids never reused), and simulated with the session's physics and
+sensor model (the k-th trial draws from the seed's k-th trial streams) for ``duration_s`` of rig
+time (0: the rig's). :meth:`~OperatorSimSource.poll` streams it as the scaled clock passes;
+:meth:`~OperatorSimSource.stop_trial` ends it now (ABORT when asked). One trial at a time;
+unpaced (``time_scale`` inf) all samples are due at once.
 """
 
 from __future__ import annotations

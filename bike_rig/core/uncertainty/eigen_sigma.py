@@ -1,29 +1,12 @@
 """Standard uncertainty of every eigenvalue over a speed sweep, from the parameters' covariance.
 
-An eigenvalue ``λ`` of the Whipple model at speed ``v`` is a root of the characteristic
-polynomial ``P(s; v, p) = Σ_k a_k(v; p) s^k = det(M s² + v C1 s + g K0 + v² K2)``
-(:func:`bike_rig.core.whipple.characteristic_polynomial`). At a simple root the implicit function
-theorem gives the exact first-order sensitivity to the 26 benchmark parameters ``p``::
-
-    ∂λ/∂p = −(Σ_k ∂a_k/∂p λ^k) / (Σ_k k a_k λ^(k−1))
-
-``∂a_k/∂p`` comes from one complex-step evaluation of the canonical matrices and the
-polynomial with all 26 perturbations at once (the coefficients are real and analytic in
-``p``), so no step size is tuned. The σ of the real and imaginary parts are then
-``σ² = ∇ Σ_p ∇ᵀ`` with ``∇ = Re ∂λ/∂p`` or ``Im ∂λ/∂p`` (paper Eq 3, correlations kept).
-
-At a double root (a branch point, where two real roots merge into a complex pair) ``P'(λ) = 0``
-and ``λ`` is not differentiable in ``p``: the first-order σ grows without bound there while the
-true spread stays finite (it scales like the square root of the parameter error). Such
-speeds are marked: σ is NaN wherever the distance ``d`` from ``λ`` to the nearest other
-eigenvalue is less than 6 standard deviations of that distance (at most ``2 σ_|λ|`` when the two
-roots move against each other), i.e. ``d < 12 σ_|λ|``: within it a draw of the parameters can
-reach the branch point, where the roots change character (real ↔ complex) and the
-linearisation cannot hold.
-
-``test/core/test_eigen_sigma.py`` checks the gradient against central differences of
-:func:`eigenvalues` and the σ against a Monte Carlo over the raw measurements.
-Units: eigenvalues and their σ in 1/s, speeds in m/s.
+An eigenvalue λ at speed v is a root of ``P(s; v, p) = Σ_k a_k(v; p) s^k = det(M s² + v C1 s +
+g K0 + v² K2)``; at a simple root the implicit function theorem gives
+``∂λ/∂p = −(Σ_k ∂a_k/∂p λ^k) / (Σ_k k a_k λ^(k−1))``, with ``∂a_k/∂p`` from one complex-step
+evaluation (no step size tuned). The σ of Re λ and Im λ are ``∇ Σ_p ∇ᵀ`` (paper Eq 3,
+correlations kept); near a branch point (two roots merging) σ is NaN. Checked against central
+differences and a Monte Carlo in ``test/core/test_eigen_sigma.py``. Eigenvalues and σ in 1/s,
+speeds in m/s.
 """
 
 from __future__ import annotations
@@ -182,7 +165,10 @@ def eigenvalues_with_sigma(
             loop.
 
     Returns:
-        The sweep and σ; σ is NaN near branch points (see the module docstring).
+        The sweep and σ. σ is NaN where the distance d to the nearest other eigenvalue is
+        under 6σ of that distance (``d < 12 σ_|λ|``): a draw of the parameters can reach the
+        branch point there, where λ is not differentiable (its true spread scales like the
+        square root of the parameter error) and the linearisation cannot hold.
 
     Raises:
         ModelError: Bad speeds or a singular mass matrix.

@@ -1,25 +1,13 @@
 """Monte Carlo check of the weave and capsize speeds and their linear σ.
 
-The linear σ of the critical speeds (:mod:`bike_rig.core.uncertainty.speed_sigma`) is first order: exact
-for small errors, but the speeds are non-linear functions of the readings. This module draws
-the inputs at random, evaluates the whole chain on every draw and compares the spread of the
-speeds with the linear σ:
-
-* :func:`speed_monte_carlo`: from the raw readings of a measurement file (or a bag's merged
-  readings), independent normal draws of every uncertain reading
-  (:func:`bike_rig.core.benchmark.monte_carlo_parameters`), so the non-linearity of the
-  parameter formulas is included too;
-* :func:`speed_monte_carlo_from_parameters`: from a parameter set's covariance (a parameter
-  file), multivariate normal draws of the 26 parameters.
-
-Either may add a rider to every draw (:func:`bike_rig.core.rider.combine_rear_frame_values`); a rider with
-σ of its own (a Yeadon rider) is drawn too, linearly (:func:`bike_rig.core.rider.rider_draws`).
-The canonical matrices of all draws are computed at once; the critical speeds of all draws are
-found by :func:`critical_speeds_batch`, a vectorised form of
-:func:`bike_rig.core.whipple.critical_speeds` (the same closed-form candidates, Newton polish and
-crossing directions; ``test/core/test_speed_mc.py`` checks that both agree draw by draw).
-
-Units: speeds and σ in m/s.
+The linear σ (:mod:`bike_rig.core.uncertainty.speed_sigma`) is first order; this module draws
+the inputs, evaluates the whole chain on every draw and compares the spread:
+:func:`speed_monte_carlo` from the raw readings (independent normal draws, so the parameter
+formulas' non-linearity counts too), :func:`speed_monte_carlo_from_parameters` from a parameter
+set's covariance (multivariate normal). A rider may be added to every draw (a Yeadon rider's σ
+drawn linearly). :func:`critical_speeds_batch` is a vectorised
+:func:`bike_rig.core.whipple.critical_speeds` (checked draw by draw in
+``test/core/test_speed_mc.py``). Speeds and σ in m/s.
 """
 
 from __future__ import annotations

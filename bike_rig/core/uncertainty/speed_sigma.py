@@ -1,27 +1,11 @@
 """Standard uncertainty of the weave and capsize speeds, from the parameters' covariance.
 
-The critical speeds are implicit functions of the 26 benchmark parameters ``p``
-(:func:`bike_rig.core.whipple.critical_speeds`):
-
-* the capsize speed ``v_c`` is a root of ``F(v, p) = a0(v; p) = det(g K0 + v² K2)`` (a real
-  eigenvalue through ``s = 0``);
-* the weave speed ``v_w`` is a root of the Hurwitz determinant
-  ``F(v, p) = H = a3 a2 a1 − a4 a1² − a0 a3²`` (a complex pair through ``±iω``),
-
-where ``a_k(v; p)`` are the coefficients of ``det(M s² + v C1 s + g K0 + v² K2)``. At a simple
-root the implicit function theorem gives the exact gradient
-
-    ∂v/∂p = −(∂F/∂p) / (∂F/∂v),
-
-and the first-order variance ``σ_v² = ∇v Σ_p ∇vᵀ`` (paper Eq 3, correlations kept). ``∂F/∂p``
-comes from one complex-step evaluation of :func:`canonical_matrices` and
-:func:`characteristic_polynomial` with all 26 perturbations at once (exact to machine precision,
-no step size to tune); ``∂F/∂v`` from the polynomial's coefficients. Scaling ``F`` by any
-non-zero factor (e.g. normalising ``a4 = 1``) leaves the ratio unchanged at a root.
-
-``test/core/test_speed_sigma.py`` checks the gradient against central differences of
-:func:`critical_speeds` and the σ against a Monte Carlo over the parameter covariance.
-Units: speeds and their σ in m/s.
+The critical speeds are roots of ``F(v, p) = 0`` in the coefficients ``a_k(v; p)`` of
+``det(M s² + v C1 s + g K0 + v² K2)``: capsize ``F = a0`` (a real root through 0), weave the
+Hurwitz determinant ``F = a3 a2 a1 − a4 a1² − a0 a3²`` (a pair through ±iω). At a simple root
+``∂v/∂p = −(∂F/∂p) / (∂F/∂v)`` (implicit function theorem; ∂F/∂p by one complex step), and
+``σ_v² = ∇v Σ_p ∇vᵀ`` (paper Eq 3, correlations kept). Checked against central differences and a
+Monte Carlo in ``test/core/test_speed_sigma.py``. Speeds and their σ in m/s.
 """
 
 from __future__ import annotations
