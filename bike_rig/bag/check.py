@@ -1,16 +1,11 @@
 """Checks of a bag's files before any parser allocates or recurses on what they claim.
 
-A damaged bag must end in one :class:`~bike_rig.bag.errors.BagReadError` naming the file, the
-place and the reason, never in a traceback of rosbags, PyYAML, libyaml or zstandard:
-
-* :func:`check_metadata` reads ``metadata.yaml`` within bike_rig's YAML limits
-  (:mod:`bike_rig.core.safe_yaml`: 1 MiB, 64 levels, 100,000 values; libyaml and ruamel would
-  recurse, or crash, on a document nested a few thousand levels deep) and checks the type of
-  every value rosbags reads (an integer where a count or a time belongs, a string where a
-  name belongs);
-* :func:`check_mcap` checks every record length the MCAP reader will trust (the header, the
-  summary section, each chunk index and the chunk it points to) against the file's size, and
-  each chunk's uncompressed size against :data:`MAX_CHUNK_BYTES`, before anything is read.
+A damaged bag ends in one :class:`~bike_rig.bag.errors.BagReadError` naming the file, place and
+reason, never a traceback of rosbags, PyYAML or zstandard. :func:`check_metadata` reads
+``metadata.yaml`` within :mod:`bike_rig.core.safe_yaml`'s limits and checks the type of every
+value rosbags reads; :func:`check_mcap` checks every record length the MCAP reader will trust
+(header, summary, chunk indexes and chunks) against the file's size, and each chunk's
+uncompressed size against :data:`MAX_CHUNK_BYTES`, before anything is read.
 """
 
 from __future__ import annotations

@@ -1,16 +1,11 @@
 """A replay against the live graph's results recorded in the same bag.
 
-With the same settings every number agrees to :data:`RELATIVE_TOLERANCE` relative (bit for bit in
-practice): the last period estimate of each trial, the last parameter set, matrices and sweep.
-"Last" is in the live graph's own order: the publication sequence numbers the recorder stores
-with each message, publisher runs told apart by its order of storage (:mod:`bike_rig.bag.order`;
-:func:`bike_rig.bag.session.read_session` orders them), never the log time, which follows the
-recorder's wall clock and steps back with it, nor the order metadata.yaml lists the files in.
-``BenchmarkParameters`` itself carries no count of its own: its header stamp is the parameter
-node's clock, which steps back too.
-A recording made by an earlier version of the fit (or with other settings) differs; how much
-that matters is said in units of the live σ: the largest move of a period (trial or combined),
-a parameter or a critical speed over its σ (:attr:`LiveComparison.largest_in_sigma`).
+With the same settings every number agrees to :data:`RELATIVE_TOLERANCE` (bit for bit in
+practice): each trial's last period estimate, the last parameter set, matrices and sweep, "last"
+in the publishers' own order (:mod:`bike_rig.bag.order`), never log time or stamps. With other
+settings (or another fit) results differ, and how much is said in units of the live σ: the
+largest move of a period, parameter or critical speed over its σ
+(:attr:`LiveComparison.largest_in_sigma`).
 """
 
 from __future__ import annotations

@@ -1,22 +1,13 @@
 """Make the bag of a recording that did not end cleanly readable again.
 
-A recorder killed with SIGKILL (or a power cut) leaves its bag without metadata.yaml, and its
-MCAP file without summary and footer, possibly cut in the middle of a record. Every chunk the
-recorder had flushed is complete on disk, though (it flushes at least once a second).
-:func:`scan_mcap` reads an MCAP file front to back, keeping every complete record (schemas,
-channels, messages, and the records inside every complete chunk whose checksum holds) and
-stopping at the cut. :func:`recover_bag` writes what it read into a new bag (fresh MCAP with
-summary and footer, metadata.yaml), keeping each message's log and publish time, sequence
-number and bytes, each topic's QoS profiles, type hash and schema, and reports how many
-messages of each topic it recovered.
-
-It also says what it could not recover: a storage file metadata.yaml lists (or whose number,
-between its siblings', says it was written) that is missing, and every channel that is not ROS 2
-CDR with a ``ros2msg`` schema (:mod:`bike_rig.bag.foreign`; another tool's JSON or Protobuf
-channels), whose messages are not copied. A file of another tool with no such channel at all is
-refused in one line.
-
-The damaged bag is never modified.
+A killed recorder leaves no metadata.yaml and an MCAP file without summary and footer, maybe cut
+mid-record; every chunk it flushed is whole. :func:`scan_mcap` keeps every complete record
+(schemas, channels, messages, the records of every chunk whose checksum holds) up to the cut;
+:func:`recover_bag` writes them into a new bag (times, sequence numbers, bytes, QoS, type hashes
+and schemas kept) and counts each topic's messages. It names what it could not recover (missing
+storage files, channels that are not ROS 2 CDR with a ``ros2msg`` schema:
+:mod:`bike_rig.bag.foreign`) and refuses another tool's file in one line. The damaged bag is
+never modified.
 """
 
 from __future__ import annotations

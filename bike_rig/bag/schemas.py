@@ -1,21 +1,12 @@
 """Which definition decodes a topic: the bag's own schema, compared with the installed ``.msg`` files.
 
-Every MCAP channel carries its type's schema (``ros2msg`` text, or ``ros2idl``), the definition
-the data were serialized with. :func:`decoding_for` parses it with rosbags
-(``get_types_from_msg`` / ``get_types_from_idl``) and compares it, field by field and constant by
-constant (the type and every type it uses), with the rig's typestore
-(:func:`bike_rig.bag.typestore.rig_typestore`):
-
-* the same: the rig's typestore decodes it, and the fast decoders may be used;
-* another definition that still has every field and constant of ours, with the same types (the
-  fields in another order, fields added): a typestore registered from the bag's schema decodes
-  it, so the messages have our field names and the data are read as they were written;
-* anything else (a field missing or of another type, a schema rosbags cannot parse): refused in
-  one line naming the type and both definitions' RIHS01 hashes.
-
-The schema decides, being what the data were written with; the type hash metadata.yaml records
-is used only for a bag without schemas (SQLite storage), which is decoded with the installed
-definition unless that hash says otherwise.
+:func:`decoding_for` parses a channel's schema (``ros2msg`` or ``ros2idl``) with rosbags and
+compares it field by field and constant by constant with the rig's typestore
+(:func:`bike_rig.bag.typestore.rig_typestore`): the same decodes with ours; one that still has
+every field and constant of ours with the same types (reordered, fields added) decodes with a
+typestore from the bag's schema; anything else is refused in one line naming the type and both
+RIHS01 hashes. The schema decides; metadata.yaml's type hash is used only for a bag without
+schemas (SQLite storage).
 """
 
 from __future__ import annotations
@@ -187,7 +178,7 @@ def _short_hash(h: str) -> str:
 def decoding_for(
     shown: str, topic: str, msgtype: str, schemas: Sequence[RecordedSchema], recorded_hash: str = ""
 ) -> Decoding:
-    """The typestore that decodes a topic's messages as they were written (see the module docstring).
+    """The typestore that decodes a topic's messages as they were written.
 
     Args:
         shown: The bag, as the user named it (for the error).

@@ -1,19 +1,12 @@
-"""A simulated session written as the rig would have recorded it, without ROS.
+"""A simulated session written as the rig would have recorded it, without ROS (tests, benchmarks, demos).
 
-For tests, benchmarks and demonstrations of the bag tools.
-
-:func:`live_results` adds what the live graph publishes from such a stream, computed with the
-nodes' own ROS-free functions: the fitter's ``PeriodEstimate`` per trial (on its STOP), the
-parameter node's ``BenchmarkParameters`` after each estimate (incomplete until every period
-is there), and the model node's ``CanonicalMatrices`` and ``EigenSweep`` for the complete set.
-
-The messages follow the driver's conventions (``bike_rig.nodes.driver``): a latched
-``StaticReadings`` first (what the parameter node publishes from the measurement file), then
-per trial a START event stamped with the first sample's rig time, ``GyroBatch`` messages of
-``samples_per_batch`` samples (the last may be shorter) stamped with their first sample's rig
-time (``start + round(index * 1e9 / rate)``) with rates and raw volts, and a STOP event with
-the sample count. Trials follow each other with ``pause_s`` between them; each message is
-logged ``latency_ns`` after its stamp (STOP after the trial's last sample).
+The messages follow the driver's conventions: a latched ``StaticReadings`` first, then per trial
+a START stamped with its first sample's rig time, ``GyroBatch`` messages of
+``samples_per_batch`` samples stamped ``start + round(index * 1e9 / rate)``, and a STOP with the
+sample count; ``pause_s`` between trials, each message logged ``latency_ns`` after its stamp.
+:func:`live_results` adds what the live graph publishes, computed with the nodes' own ROS-free
+functions: a ``PeriodEstimate`` per STOP, ``BenchmarkParameters`` after each, and the model's
+``CanonicalMatrices`` and ``EigenSweep`` for the complete set.
 """
 
 from __future__ import annotations

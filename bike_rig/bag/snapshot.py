@@ -1,14 +1,10 @@
 """The recorder's snapshot buffer: the last seconds of serialized messages, in memory.
 
-As rosbag2's snapshot mode: every message the recorder takes is also kept, as the bytes it
-received, in a ring buffer bounded both in time (``duration_s`` of log time back from the
-newest message) and in bytes (``max_bytes`` of message data); the oldest messages leave first.
-:func:`write_snapshot` writes what the buffer holds (or its last ``seconds``) into a new bag.
-
-A latched topic (transient-local, depth 1: the static readings, the parameter set, the model)
-is published once and then stands; a snapshot of the last seconds without it could not be
-replayed, so the newest message of every latched topic is kept apart and written into every
-snapshot, at its own log time, even when it is older than the window.
+As rosbag2's snapshot mode: every message is also kept, as received bytes, in a ring buffer
+bounded in time (``duration_s`` of log time) and bytes (``max_bytes``), oldest out first;
+:func:`write_snapshot` writes it (or its last ``seconds``) into a new bag. The newest message of
+each latched topic (readings, parameter set, model) is kept apart and written into every
+snapshot at its own log time, so a snapshot can always be replayed.
 """
 
 from __future__ import annotations

@@ -1,16 +1,11 @@
-"""A rosbags typestore that knows bike_rig's messages.
+"""A rosbags typestore that knows bike_rig's messages, to read, write and replay bags without ROS.
 
-With it, bags can be read, written and replayed with no ROS runtime.
-
-:func:`rig_typestore` holds every ``bike_rig_msgs/msg/*.msg`` and the standard types they use
-(``std_msgs/Header``, ``builtin_interfaces/Time``), parsed with ``get_types_from_msg``. The
-``.msg`` files come from the installed interface packages (``<prefix>/share/<package>/msg``:
-exactly what the running nodes were built from) or, when that is absent, from the source tree;
-a standard type whose ``.msg`` file is not installed comes from rosbags' ROS 2 Kilted store.
-:func:`standard_typestore` adds every standard message of Kilted (the ROS distribution the rig
-runs on), for writing or naming a type that is not the rig's; it is loaded only when asked for
-(building it takes ≈ 50 ms, most of a fresh ``replay``'s type handling).
-The type hashes (RIHS01) equal rosidl's ``share/bike_rig_msgs/msg/*.json``.
+:func:`rig_typestore` holds every ``bike_rig_msgs/msg/*.msg`` and the standard types they use,
+parsed with ``get_types_from_msg``, from the installed interface packages
+(``<prefix>/share/<package>/msg``, what the nodes were built from) or else the source tree; a
+standard type not installed comes from rosbags' ROS 2 Kilted store. :func:`standard_typestore`
+adds every standard Kilted message, loaded only when asked for. Type hashes (RIHS01) equal
+rosidl's ``share/bike_rig_msgs/msg/*.json``.
 """
 
 from __future__ import annotations

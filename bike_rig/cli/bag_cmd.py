@@ -1,19 +1,11 @@
 """``bike-rig bag``: look into a recorded session, and repair one whose recording was cut.
 
-::
-
-    bike-rig bag info BAG [--json]
-    bike-rig bag recover BAG [-o OUT] [--json]
-
-``info`` summarises a session: the bicycle, every trial (measurement key, state, samples
-recorded and announced, the period estimate's validity), every topic with its message count and
-type, the duration, and what the live graph published last. ``recover`` rewrites what can be
-read of a bag whose recorder was killed (no metadata.yaml, an MCAP file without summary or
-footer) into a new, valid bag (default ``<BAG>_recovered``) and reports the messages recovered
-per topic, and what it could not recover: a storage file that is missing (metadata.yaml lists
-it, or the files numbered after it are there) or a channel that is not ROS 2 CDR; its exit
-status is then 1. BAG is a bag directory or its ``.mcap`` file. Problems end with one line on
-stderr naming the bag and the reason, and exit status 2.
+``bag info BAG [--json]`` summarises the bicycle, every trial (key, state, samples recorded and
+announced, the estimate's validity), every topic (count, type), the duration and what the live
+graph published last. ``bag recover BAG [-o OUT] [--json]`` rewrites what can be read of a bag
+whose recorder was killed into a new bag (default ``<BAG>_recovered``) with the messages per
+topic, exit 1 when a storage file or a non-CDR channel could not be recovered. BAG is a bag
+directory or its ``.mcap`` file. Problems: one line on stderr, exit 2.
 """
 
 from __future__ import annotations

@@ -1,17 +1,10 @@
 """``bike-rig``: the command line. The only place that prints for users.
 
-Every user mistake ends in one line on stderr naming the file, key, line and reason, with
-exit status 2 and no traceback.
-
-Start-up is kept short: a sub-command's module (and what it imports: numpy, scipy, rosbags,
-matplotlib...) is imported only when that sub-command runs. ``bike-rig --help``, and the error of
-a missing or unknown sub-command, come from :func:`build_overview_parser`, which knows every
-sub-command by its name and one-line help alone (:data:`~bike_rig.cli.commands.COMMANDS`) and so
-imports none of their modules.
-
-A command in :data:`SINGLE_THREADED_BLAS`, run as a command (not called with ``argv``), asks
-OpenBLAS for no worker threads before numpy loads, unless ``OPENBLAS_NUM_THREADS`` is set
-already: see :func:`single_threaded_blas`.
+Every user mistake ends in one line on stderr naming the file, key, line and reason, exit status
+2, no traceback. A sub-command's module is imported only when it runs: ``--help`` and the error
+of a missing or unknown sub-command come from :func:`build_overview_parser`, which knows the
+commands by name and one-line help (:data:`~bike_rig.cli.commands.COMMANDS`). Commands in
+:data:`SINGLE_THREADED_BLAS` ask OpenBLAS for no worker threads (:func:`single_threaded_blas`).
 """
 
 from __future__ import annotations

@@ -1,22 +1,11 @@
 """The fit-window, quality-threshold and trial-column options, for every command that fits trials.
 
-``bike-rig fit`` fits trial files with the options' defaults (:func:`add_window_options` and
-:func:`add_threshold_options` with ``overrides=False``); ``bike-rig replay`` overrides what was
-recorded with a bag, so there every option defaults to None, "as recorded" (``overrides=True``;
-the help texts say what each one overrides). The options, their parsing and their error
-messages are the same for both; each command raises its own usage error class.
-
-::
-
-    --lead-in S | --start S [--stop S] | --envelope FRACTION     the window (one of them), s
-    --no-whole-cycles                                            do not cut it to whole cycles
-    --min-cycles N  --min-r2 R2  --max-modulation M  --max-drift D   the quality thresholds
-    --time COLUMN  --signal COLUMN  --time-unit s|ms|us|ns           a trial file's columns (name or 0-based index)
-
-:func:`add_feedback_option` adds ``--feedback FILE`` (steer-torque state feedback, the closed loop
-``A − B K``), shared by ``model``, ``plot``, ``report`` and ``budget``. :func:`add_strict_option` adds
-``--strict`` (a value that a wrong unit explains is an error, not a warning), for every command that
-reads parameters or readings.
+:func:`add_window_options` (``--lead-in`` | ``--start``/``--stop`` | ``--envelope``,
+``--no-whole-cycles``), :func:`add_threshold_options` (``--min-cycles``, ``--min-r2``,
+``--max-modulation``, ``--max-drift``) and the trial-column options (``--time``, ``--signal``,
+``--time-unit``): with their defaults for ``fit`` (``overrides=False``), defaulting to None, "as
+recorded", for ``replay`` (``overrides=True``). :func:`add_feedback_option` adds ``--feedback
+FILE`` and :func:`add_strict_option` ``--strict`` (a value a wrong unit explains is an error).
 """
 
 from __future__ import annotations

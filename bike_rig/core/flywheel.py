@@ -1,15 +1,10 @@
 """An extra rigid part on the front wheel, a flywheel D (BicycleParameters' part ``D``).
 
-The front wheel is measured twice, as the paper measures any wheel (Eq 28, Eq 29): once alone
-(``mF``, ``TcF1``, ``TtF1``) and once with the flywheel fixed in it (``mD``, ``TcD1``, ``TtD1``,
-BicycleParameters' keys: ``mD`` is the mass of the wheel with the flywheel). The flywheel's mass
-centre is on the wheel's axle, so its mass and its moments of inertia about the wheel centre are
-the differences (BicycleParameters ``calculate_benchmark_from_measured``). It turns with the wheel:
-for the Whipple model it adds its mass to m_F and its moments to I_Fxx and I_Fyy (its spin
-inertia I_Dyy is what changes the gyroscopic terms); BicycleParameters reports D but leaves it
-out of its model.
-
-All functions are plain analytic arithmetic (complex-step safe, broadcasting).
+The front wheel is measured alone (``mF``, ``TcF1``, ``TtF1``) and with the flywheel fixed in
+it (``mD``: the wheel with the flywheel, ``TcD1``, ``TtD1``), each as Eq 28–29. D's mass centre
+is on the axle, so its mass and moments about the wheel centre are the differences. It turns
+with the wheel: for the model it adds to m_F, I_Fxx and I_Fyy (BicycleParameters reports D but
+leaves it out of its model). Analytic arithmetic (complex-step safe, broadcasting).
 """
 
 from __future__ import annotations

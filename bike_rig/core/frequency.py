@@ -1,17 +1,10 @@
 """Frequency response of the Whipple model at a constant speed (paper Figs 17–18).
 
-With ``q = [φ, δ]`` (roll and steer angles, rad) and the applied torques ``T = [Tφ, Tδ]`` (N m),
-the linear model ``M q̈ + v C1 q̇ + (g K0 + v² K2) q = T`` (Meijaard et al. 2007, Eq A.1 of the
-benchmark) has, for ``s = iω``, the transfer matrix
-
-    G(s) = (M s² + v C1 s + g K0 + v² K2)⁻¹        (angles per torque, rad/(N m))
-
-and the rates are ``s G(s)`` (rad/s per N m). With steer-torque state feedback
-``T_δ = T_δ,in − (kφ φ + kδ δ + kφ̇ φ̇ + kδ̇ δ̇)`` the steer row of the matrix gains
-``[kφ + kφ̇ s, kδ + kδ̇ s]`` (the closed loop ``A − B K``, input the torque added to the
-controller's). The 2 × 2 inverse is written out, so any number of frequencies is one vectorised
-expression. ``test/core/test_frequency.py`` checks it against
-:func:`scipy.signal.freqresp` of the state-space form.
+``G(s) = (M s² + v C1 s + g K0 + v² K2)⁻¹`` at ``s = iω`` (angles ``[φ, δ]`` per torque
+``[Tφ, Tδ]``, rad/(N m)); rates are ``s G(s)`` (rad/s per N m). Steer-torque state feedback adds
+``[kφ + kφ̇ s, kδ + kδ̇ s]`` to the steer row (the closed loop ``A − B K``, input the torque added
+to the controller's). The 2 × 2 inverse is written out, vectorised over frequencies; checked
+against :func:`scipy.signal.freqresp` in ``test/core/test_frequency.py``.
 """
 
 from __future__ import annotations

@@ -1,20 +1,12 @@
 """Parameters refused when impossible, each broken rule traced back to where it came from.
 
-The choke points of every path that produces or accepts benchmark parameters:
-
-* :func:`compute_checked`: raw readings → parameters (:func:`~bike_rig.core.benchmark.compute_parameters`),
-  refused when the result breaks a rule of :mod:`bike_rig.core.plausibility`. The message names
-  the result and the readings it came from: a compound-pendulum moment I_yy ≤ 0 names the period
-  and the arm and the shortest period that gives a positive moment (paper Eq 28:
-  :func:`compound_period_min`); any other rule names the readings that move the result most
-  (complex-step derivatives of the paper's chain, :func:`~bike_rig.core.benchmark.benchmark_formulas`).
-* :func:`check_parameter_set`: a parameter file's set (the file's keys named), with the unit a
-  mistyped value was likely given in (a steer-axis tilt in degrees).
-
-A rider is checked where it is read (:func:`bike_rig.core.rider.check_rider_body`).
-
-Each raises :class:`~bike_rig.core.plausibility.ImplausibleParametersError` (a
-:class:`~bike_rig.core.errors.BikeRigError`: one line, exit status 2 from the command line).
+:func:`compute_checked` (raw readings → parameters) refuses a result breaking a rule of
+:mod:`bike_rig.core.plausibility`, naming the readings it came from: for I_yy ≤ 0 the period,
+the arm and the shortest period giving a positive moment (Eq 28, :func:`compound_period_min`),
+else the readings that move the result most (complex-step derivatives). :func:`check_parameter_set`
+checks a parameter file's set, naming the unit a mistyped value was likely in. Both raise
+:class:`~bike_rig.core.plausibility.ImplausibleParametersError` (one line, exit 2); a rider is
+checked where it is read (:func:`bike_rig.core.rider.check_rider_body`).
 """
 
 from __future__ import annotations

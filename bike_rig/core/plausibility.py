@@ -1,22 +1,12 @@
 """Whether a benchmark parameter set (or a rider) is physically possible: the one plausibility layer.
 
-A set is possible when every value is a finite number and:
-
-* the masses mB, mF, mH, mR and gravity g are positive;
-* the wheel radii rR, rF and the wheelbase w are positive, and the steer-axis tilt lam lies
-  within (−π/2, π/2);
-* every body's inertia tensor about its mass centre is positive definite and its principal
-  moments obey the triangle inequality (each at most the sum of the other two, to a relative
-  :data:`TRIANGLE_RTOL`: see there why it is not a rounding tolerance). The wheels are symmetric
-  (I_zz = I_xx): IRxx, IRyy > 0 and IRyy ≤ 2·IRxx, the same for the front wheel. The rear frame
-  B and the fork H have the full tensor with the product I_xz (I_xz² < I_xx·I_zz);
-* the mass centres of B and H are above the ground: the benchmark frame's z points down, so
-  zB < 0 and zH < 0 (the wheel centres, at −rR and −rF, are above it when the radii are).
-
-:func:`violations` lists every broken rule of a set, :func:`check` raises
-:class:`ImplausibleParametersError`; :func:`body_violations` checks one rigid body (mass, mass
-centre, tensor), such as a rider (:func:`rider_body`). ROS-free; imports no other science module,
-so every reader and producer of parameters can use it.
+Possible: every value finite; masses and g > 0; rR, rF, w > 0 and lam in (−π/2, π/2); each
+body's inertia tensor about its mass centre positive definite with principal moments obeying the
+triangle inequality (to :data:`TRIANGLE_RTOL`; wheels symmetric: IRyy ≤ 2·IRxx, frame and fork
+with I_xz² < I_xx·I_zz); zB, zH < 0 (above the ground, z down). :func:`violations` lists every
+broken rule, :func:`check` raises :class:`ImplausibleParametersError`, :func:`body_violations`
+checks one rigid body such as a rider (:func:`rider_body`). ROS-free and importing no other
+science module, so every reader and producer of parameters can use it.
 """
 
 from __future__ import annotations

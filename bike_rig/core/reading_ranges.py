@@ -1,18 +1,11 @@
 """The plausible range of every reading and benchmark parameter, and the unit mistakes that explain a value outside it.
 
-One table for every input boundary: the console (:mod:`bike_rig.session.readings`), the
-measurement readers (``Measured.txt``, ``bike_rig-measurements/1``), ``replay --readings`` and the
-parameter readers (the same quantities in a parameter file: ``w``, ``rR``, ``mF``, ``g``,
-``lam``...). The ranges are wide enough for every bicycle of the paper and of ``../shared/data``
-(none of their readings or parameters falls outside).
-
-:func:`unit_mistakes` finds the values outside their range that a wrong unit explains (a
-wheelbase in millimetres, a mass in grams, a head-tube angle in radians): each a
-:class:`UnitMistake` naming the likely unit and the corrected value. A value outside its range
-that no unit explains is left to the plausibility layer (:mod:`bike_rig.core.plausibility`) and
-the readers' own checks. ROS-free.
-
-Units: SI; degrees only in ``gamma`` and ``alpha*`` (readings), ``lam`` in rad (parameters).
+One table for every input boundary (console, measurement and parameter readers, ``replay
+--readings``), wide enough for every bicycle of the paper and of ``../shared/data``.
+:func:`unit_mistakes` finds the out-of-range values a wrong unit explains (mm, grams, radians),
+each a :class:`UnitMistake` with the likely unit and corrected value; the rest is left to
+:mod:`bike_rig.core.plausibility` and the readers. ROS-free. SI; degrees only in ``gamma`` and
+``alpha*`` (readings), ``lam`` in rad.
 """
 
 from __future__ import annotations

@@ -1,15 +1,11 @@
 """A rigid rider lumped into the rear frame (paper section 10, Table 1; Tables 4–5).
 
-The rider is a rigid body fixed to the rear frame; the combined rear frame has the summed
-mass, the mass-weighted mass centre, and the inertia of both parts about the new mass centre
-(parallel-axis theorem). Broadcasting arithmetic only, so σ propagate by the complex step.
-
-The rider choice of every entry point (command line, nodes, figures, report) is resolved here,
-by :func:`resolve_rider`: no rider (``None``, ``""`` or ``"none"``), the paper's rider
-(``"paper"``, Table 1) or a rider YAML file; :func:`rider_key` is the choice's name in records.
-A rider file gives either the rigid rider's numbers or a Yeadon rider (body measurements and an
-initial pose, :mod:`bike_rig.core.rider_yeadon`), which :func:`add_rider` seats on the bicycle
-it is added to; a rider with σ (:class:`RiderSensitivity`) adds them to the covariance.
+The combined rear frame has the summed mass, the mass-weighted mass centre and both parts'
+inertia about it (parallel-axis theorem); broadcasting arithmetic, so σ propagate by the complex
+step. :func:`resolve_rider` resolves every entry point's choice: none (``None``, ``""``,
+``"none"``), ``"paper"`` (Table 1) or a rider YAML file (rigid numbers, or a Yeadon rider seated
+by :func:`add_rider`, :mod:`bike_rig.core.rider_yeadon`); :func:`rider_key` names it in records.
+A rider with σ (:class:`RiderSensitivity`) adds them to the covariance.
 """
 
 from __future__ import annotations

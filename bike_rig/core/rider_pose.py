@@ -1,21 +1,12 @@
 """Seat a Yeadon human on the bicycle: feet on the bottom bracket, hands on the grips.
 
-The rider's pose follows BicycleParameters' ``rider_on_bike`` (Moore's dissertation, ch. 4;
-the derivation is the yeadon ``bicyclerider`` example): the hip joint centre (Yeadon's origin)
-sits at the top of the seat post, the torso keeps the configuration file's angles, and for each
-limb the joint angles are solved so that
-
-* a leg's heel point (on the shank axis, ``Lj5L + Lj6L`` from the hip) lies on the bottom-bracket
-  axis: hip extension and knee flexion (2 equations, sagittal plane);
-* a hand's point at the base of the thumb (on the forearm axis, ``La4L + La5L`` from the
-  shoulder) lies on its grip, and the elbow's hinge axis is horizontal: the shoulder's three
-  angles and elbow extension (4 equations).
-
-Unlike BicycleParameters, the limb positions come from the yeadon model's own kinematics (so the
-torso angles, tilt and twist of the configuration file are honoured), each of the four limbs is
-solved on its own, the solution is checked, and a pose that cannot be reached raises
-:class:`RiderPoseError` naming the geometry (its issues #9, #11, #19 left the hands off the
-grips without a word). Every length in m, every angle in rad.
+As BicycleParameters' ``rider_on_bike`` (Moore's dissertation, ch. 4): the hip joint centre
+sits at the top of the seat post, the torso keeps the configuration's angles, and each limb's
+joint angles are solved (:func:`solve_pose`) so that a leg's heel point (``Lj5L + Lj6L`` from
+the hip) lies on the bottom-bracket axis (hip and knee, 2 equations) and a hand's thumb base
+(``La4L + La5L`` from the shoulder) on its grip with the elbow's hinge axis horizontal (shoulder
+and elbow, 4 equations), through yeadon's own kinematics. Each solution is checked; a pose out
+of reach raises :class:`RiderPoseError` naming the geometry. Lengths in m, angles in rad.
 """
 
 from __future__ import annotations

@@ -1,16 +1,11 @@
 """YAML read within bounded time and memory (size, nesting and alias-expansion caps), no key repeated.
 
-PyYAML's ``SafeLoader`` refuses arbitrary objects but not hostile shapes: a document nested a
-few thousand levels deep ends in a ``RecursionError``, and a few hundred bytes of nested aliases
-(a "billion laughs" document) expand to millions of nodes for whoever walks the result. Here a
-document is composed once with its nesting counted, its node graph is measured without
-recursion (as the tree the aliases expand to), and only a document within :data:`LIMITS` is
-constructed. A mapping that repeats a key (which PyYAML would let the last one win) is refused
-(:class:`YamlDuplicateKeyError`). Every failure is a :class:`YamlLimitError` or a
-``yaml.YAMLError`` whose one-line reason and line :func:`yaml_error_reason` gives.
-
-:func:`read_regular_file` reads the file itself: a regular file within a size cap, never a FIFO
-(whose read would block) nor a device (``/dev/zero`` never ends).
+PyYAML's ``SafeLoader`` refuses arbitrary objects but not hostile shapes (deep nesting, a
+"billion laughs" of aliases). A document is composed once with its nesting counted, its node
+graph measured without recursion, and constructed only within :data:`LIMITS`; a repeated key is
+refused (:class:`YamlDuplicateKeyError`). Failures are :class:`YamlLimitError` or
+``yaml.YAMLError`` (:func:`yaml_error_reason` gives line and reason).
+:func:`read_regular_file` reads only a regular file within a size cap (never a FIFO or device).
 """
 
 from __future__ import annotations

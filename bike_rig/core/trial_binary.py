@@ -1,15 +1,10 @@
 """Checks of a binary trial file before its arrays are read, so that a damaged file costs bounded memory.
 
-* ``.npy``: the header is parsed on its own and the array it announces (shape × item size) must
-  fit in the bytes that follow it, so a header claiming 20 billion samples, or a truncated file,
-  is refused before anything is allocated.
-* ``.mat`` (MATLAB v5): every top-level element is walked and each compressed one is inflated
-  in bounded chunks, only counting bytes, so a small file that inflates to gigabytes is refused
-  before scipy reads it. scipy's reader "is not hardened for untrusted input" (its docstring):
-  a damaged file can crash the process (a segmentation fault, found by our fuzzer), so
-  :func:`load_mat_isolated` runs it in a forked child process, within a time limit.
-
-Each check raises :class:`~bike_rig.core.errors.InputFileError` with the reason, in one line.
+``.npy``: the header's announced array (shape × item size) must fit in the bytes after it.
+``.mat`` (MATLAB v5): each compressed element is inflated in bounded chunks, counting bytes, so
+a small file that inflates to gigabytes is refused; scipy's reader is not hardened against
+damaged input (it can crash the process), so :func:`load_mat_isolated` runs it in a forked
+child within a time limit. Each check raises :class:`~bike_rig.core.errors.InputFileError`.
 """
 
 from __future__ import annotations

@@ -1,19 +1,13 @@
 """Parameter assembly, the third stage: static readings + trial results → the 25 parameters.
 
-The live rig takes the static readings (masses, lengths, angles) from a measurement file, or
-as the operator enters them during the session (:mod:`bike_rig.pipeline.readings`), and the
-pendulum periods trial by trial. :class:`SessionAssembly` holds the static readings (replaced
-when an entry changes them), takes trial results one by one (a trial published again under the
-same trial id replaces the earlier one), combines the usable trials of each measurement key
-with :func:`combine_trials`, says which readings and periods are still missing, and, once
-everything is there, computes the 25 benchmark parameters with
-:func:`~bike_rig.core.benchmark.compute_parameters`.
-
-Live (the parameter node) and offline (:mod:`bike_rig.pipeline.offline`) use these same
-functions on the same numbers, so a replayed recording gives bit-identical results.
-Everything is deterministic: the same estimates, received in any order, give identical floats
-(trials are combined in trial-id order and the readings are always in one canonical order).
-Units: SI (periods in s); degrees only in ``gamma`` and ``alpha*`` readings.
+:class:`SessionAssembly` holds the static readings (from a file or entered,
+:mod:`bike_rig.pipeline.readings`), takes trial results one by one (a trial republished under
+its id replaces the earlier), combines each key's usable trials (:func:`combine_trials`), says
+what is missing, and computes the parameters with
+:func:`~bike_rig.core.benchmark.compute_parameters`. The parameter node and the offline runner
+share it, and it is deterministic (trials combined in id order, readings in one canonical
+order), so a replay gives bit-identical results. SI (periods s); degrees only in ``gamma`` and
+``alpha*``.
 """
 
 from __future__ import annotations

@@ -1,16 +1,11 @@
 """Plain mode: one command per line from a stream, one reply per line (text or JSON lines).
 
-For scripts and automated rigs (``bike-rig session --plain [--json]``). Besides the
-controller's commands (:mod:`bike_rig.session.controller`), plain mode knows ``wait``:
-
-* ``wait [SECONDS]``: until the trial started last has its result (or was aborted), and a
-  resumed session's recorded trials are all back;
-* ``wait complete [SECONDS]``: until the parameter set is complete with its speeds, holds every
-  usable result received, and nothing new has come for :data:`QUIET_S` (the last update in);
-
-at most ``SECONDS`` (default 600) of wall time; a ``wait`` that times out replies ``error``.
-What the graph publishes meanwhile (results, warnings) is written as it arrives. End of input
-is ``quit``.
+For scripts and automated rigs (``bike-rig session --plain [--json]``): the controller's
+commands (:mod:`bike_rig.session.controller`) plus ``wait [SECONDS]`` (until the last started
+trial has its result and a resumed session's trials are back) and ``wait complete [SECONDS]``
+(until the set is complete with its speeds and nothing new came for :data:`QUIET_S`), at most
+SECONDS (default 600) of wall time, else ``error``. What the graph publishes is written as it
+arrives; end of input is ``quit``.
 """
 
 from __future__ import annotations

@@ -1,14 +1,11 @@
 """The plan of a measurement session: every trial and every static reading, in rig order.
 
-A plan is made from the rig description (:class:`~bike_rig.core.sim.rig.RigConfig`: how many
-hanging orientations the frame and fork have and at which angles, how many trials per period
-and how long) and from what the benchmark parameters need (the readings of
-:data:`~bike_rig.core.measurements.REQUIRED_KEYS` and the orientation readings). Items are
-ordered as a person works at the rig: gravity and the geometry first, then part by part its
-readings followed by its trials (the paper's sections 6-9: wheels, frame, fork, rod).
-
-Each item has a short id: a reading's is its flat key (``mR``, ``alphaB2``); a trial's is its
-measurement key and repeat (``TtB2#3``).
+Made from the rig description (:class:`~bike_rig.core.sim.rig.RigConfig`: orientations, trials
+per period, durations) and what the parameters need
+(:data:`~bike_rig.core.measurements.REQUIRED_KEYS` and the orientation readings), in the order a
+person works: gravity and geometry, then part by part its readings and trials (wheels, frame,
+fork, rod). Item ids: a reading's flat key (``mR``, ``alphaB2``), a trial's key and repeat
+(``TtB2#3``).
 """
 
 from __future__ import annotations

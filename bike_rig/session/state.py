@@ -1,18 +1,11 @@
 """The operator's session as it stands: the plan's states, the trials, the readings, the result.
 
-:class:`OperatorSession` is fed what the live graph publishes (trial events, gyro batches,
-period estimates, the parameter set, the stability sweep; records of
-:mod:`bike_rig.pipeline`) and what the operator entered (readings), and answers what the
-console shows: each plan item's state (:class:`~bike_rig.session.plan.ItemState`), the next
-item, the recording trial's live status, each trial's result line, what is still missing, and
-the parameters and speeds once complete. No ROS: the console's link to the graph
-(:mod:`bike_rig.nodes.session_link`) feeds these methods; a resumed session's recorded trials
-come back through it too (the driver streams them first), and :attr:`OperatorSession.resuming`
-counts them back.
-
-Trial items are matched to trials by the trial's measurement key and repeat (``TtB2#3``);
-a later trial of the same item replaces the earlier one in the item's state (a redo), while
-every trial stays in :attr:`OperatorSession.trials`.
+:class:`OperatorSession` is fed what the live graph publishes (records of
+:mod:`bike_rig.pipeline`) and the readings entered, and answers what the console shows: each
+plan item's state, the next item, the live trial, each trial's result line, what is missing, and
+the parameters and speeds once complete. No ROS (``nodes/session_link.py`` feeds it). Trial items
+match trials by key and repeat (``TtB2#3``): a redo replaces the earlier in the item's state,
+while every trial stays in :attr:`OperatorSession.trials`.
 """
 
 from __future__ import annotations

@@ -1,18 +1,10 @@
 """A recorded session replayed as a gyro source.
 
-The raw gyro stream and the trial events of a rosbag2 bag (MCAP or SQLite), read with rosbags
-(no ROS runtime).
-
-The bag's ``/bike_rig/gyro`` (``bike_rig_msgs/msg/GyroBatch``) and ``/bike_rig/trial_events``
-(``bike_rig_msgs/msg/TrialEvent``) messages are replayed in the order they were recorded, paced
-by their recording (log) times and ``time_scale``. Events keep their recorded rig-time stamps;
-trial ids, keys and sample counts (STOP's ``sample_count`` as the driver announced it, so a
-recording that lost samples still shows the loss) are passed on unchanged. Batches of a trial
-whose START is not in the bag (a recording that began mid-trial), and batches outside any
-trial, are skipped and counted.
-
-Messages are decoded with a rosbags typestore of ``bike_rig_msgs`` built from its ``.msg``
-files (:func:`bike_rig.bag.typestore.rig_typestore`).
+The ``/bike_rig/gyro`` and ``/bike_rig/trial_events`` messages of a rosbag2 bag (MCAP or
+SQLite, read with rosbags and :func:`bike_rig.bag.typestore.rig_typestore`; no ROS runtime) are
+replayed in recorded order, paced by their log times and ``time_scale``. Stamps, trial ids, keys
+and STOP's announced ``sample_count`` pass unchanged (a loss stays visible); batches of a trial
+whose START is not in the bag, or outside any trial, are skipped and counted.
 """
 
 from __future__ import annotations

@@ -1,17 +1,11 @@
 """Which CAN bus the CAN source reads, and the clock its frames are stamped with.
 
-* :func:`choose_bus`: the interface and channel the operator named, else python-can's own
-  configuration (``can.rc``, the environment's ``CAN_INTERFACE`` / ``CAN_CHANNEL`` /
-  ``CAN_BITRATE`` / ``CAN_CONFIG``, then its configuration files, :data:`can.util.CONFIG_FILES`),
-  read with :func:`can.util.load_config` as ``can.Bus()`` does; with neither, python-can's
-  ``virtual`` bus ``bike_rig``, which no hardware reaches (said as a warning).
-* :class:`LogBus`: a python-can log file (candump ``.log``, ``.asc``, ``.blf``, ``.trc``, ``.csv``
-  and the others :class:`can.LogReader` reads) played as a bus, paced by its timestamps at
-  ``speed`` times real time, or as fast as it is read (``speed`` 0).
-* :class:`FrameClock`: python-can timestamps are epoch time on some interfaces and monotonic or
-  relative on others. The first frames received tell which: stamps within
-  :data:`EPOCH_TOLERANCE_S` of ``time.time()`` are used as they are; otherwise samples are
-  stamped with the receive clock (``time.time()`` when read), and that is said once.
+:func:`choose_bus`: the interface and channel named, else python-can's own configuration (the
+environment's ``CAN_INTERFACE``... or its configuration files, read as ``can.Bus()`` does), else
+the ``virtual`` bus ``bike_rig`` with a warning. :class:`LogBus`: a python-can log file played
+as a bus at ``speed`` times real time (0: as fast as read). :class:`FrameClock`: frames stamped
+within :data:`EPOCH_TOLERANCE_S` of ``time.time()`` keep their stamps; otherwise samples get the
+receive clock, said once.
 """
 
 from __future__ import annotations

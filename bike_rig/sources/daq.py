@@ -1,15 +1,10 @@
-"""An analog rate gyro on an NI data-acquisition device (the paper's NI USB-6008).
+"""An analog rate gyro on an NI data-acquisition device (the paper's NI USB-6008), through NI-DAQmx.
 
-Read through NI-DAQmx (optional extra: ``pip install nidaqmx`` and NI's NI-DAQmx driver).
-
-A continuous voltage task on ``daq_channel`` (e.g. ``Dev1/ai0``) samples at
-``sample_rate_hz``; the gyro's rate is ``(V − daq_zero_rate_v) / daq_scale_v_per_rad_s`` and
-the raw volts are passed on too. Trials are recorded on request (start/stop). The samples of
-each read are stamped backwards from the read's wall-clock time at the nominal rate, so the
-trial's start stamp is good to about one poll period.
-
-``nidaqmx`` is imported when the source is opened, so the package is needed only by those who
-use it; when it or the NI driver is missing, the error says which.
+A continuous voltage task on ``daq_channel`` (``Dev1/ai0``) at ``sample_rate_hz``; the rate is
+``(V − daq_zero_rate_v) / daq_scale_v_per_rad_s`` rad/s, raw volts passed on. Trials on request;
+each read's samples are stamped back from its wall time at the nominal rate (start good to about
+one poll period). ``nidaqmx`` (optional extra, plus NI's driver) is imported when the source is
+opened; when missing, the error says which.
 """
 
 from __future__ import annotations

@@ -1,17 +1,10 @@
 """One trial's signal: a lightly damped pendulum seen through the rate gyro and the ADC.
 
-The pendulum angle is θ(t) = θ₀ e^(−ζ ωₙ t) cos(ω_d t + φ) with ω_d = ωₙ √(1 − ζ²); the
-gyro senses its rate θ'(t), the form the paper fits (Eq 23). With a coupled swing mode
-(beating, the paper's Fig 7) the sensed motion is the sum of two such modes at close
-frequencies, and energy passes back and forth between them.
-
-The sensor chain (paper section 9: CRS03 gyro, NI USB-6008, 1 kHz):
-
-1. gyro: v = V₀ + s (ω + b(t) + n(t)), where s is the true scale factor, b the turn-on bias
-   plus a random walk, n white noise of the stated one-sided density (σ = density √(f_s / 2));
-2. ADC: v is quantised to ``bits`` over the input range (mid-tread codes) and clipped at the
-   rails;
-3. the stored rate is (v − V₀) / s_nominal, the raw volts converted back by the nominal scale.
+θ(t) = θ₀ e^(−ζ ωₙ t) cos(ω_d t + φ), ω_d = ωₙ √(1 − ζ²); the gyro senses θ'(t) (paper Eq 23),
+or the sum of two close modes when the swing beats (Fig 7). Sensor chain (section 9: CRS03,
+NI USB-6008, 1 kHz): v = V₀ + s (ω + b(t) + n(t)) with true scale s, bias b (turn-on plus random
+walk) and white noise n (σ = density √(f_s / 2)); quantised to ``bits`` over the input range
+(mid-tread) and clipped at the rails; stored as (v − V₀) / s_nominal, rad/s.
 """
 
 from __future__ import annotations

@@ -1,21 +1,11 @@
 """A real pendulum's motion: dry (Coulomb) friction and a finite swing, integrated numerically.
 
-The paper's Eq 23 is the motion of a linear oscillator with viscous damping. A real pendulum on
-the rig departs from it in two ways the fitter must live with:
-
-* **Dry friction** at the pivot (a friction torque of constant size opposing the motion): the
-  swing's amplitude falls by the same amount every half cycle — a linear envelope — and the
-  motion stops for good at a turning point where the restoring torque no longer exceeds the
-  friction. A linear oscillator's period is exactly unchanged by it.
-* **A finite swing** of a compound pendulum (restoring torque ∝ sin θ): the period lengthens
-  with the swing, T ≈ T₀ (1 + θ₀²/16 + 11 θ₀⁴/3072 + …); as the swing decays the period
-  shortens along the record. A torsional pendulum's restoring torque is linear.
-
-The motion obeys ``θ'' + 2 ζ ω₀ θ' + ω₀² f(θ) + μ sgn(θ') = 0`` with ``f(θ) = sin θ``
-(compound) or ``θ`` (torsional), ``ω₀ = 2π/T₀`` the small-swing natural frequency and μ the
-friction torque over the inertia [rad/s²]. It is integrated half-swing by half-swing (between
-two turning points the sign of θ' is fixed and the right-hand side smooth) with an 8th-order
-Runge–Kutta method (``scipy.integrate.solve_ivp``, DOP853) to a relative tolerance of 1e-11.
+``θ'' + 2 ζ ω₀ θ' + ω₀² f(θ) + μ sgn(θ') = 0`` with ``f = sin θ`` (compound) or ``θ``
+(torsional), ``ω₀ = 2π/T₀`` and μ the friction torque over the inertia (rad/s²). Dry friction
+gives a linear envelope and stops the swing for good, leaving a linear oscillator's period
+unchanged; a finite swing lengthens the period, ``T ≈ T₀ (1 + θ₀²/16 + 11 θ₀⁴/3072 + …)``.
+Integrated half-swing by half-swing (θ' keeps its sign between turning points) with DOP853
+(``scipy.integrate.solve_ivp``) to a relative tolerance of 1e-11.
 """
 
 from __future__ import annotations

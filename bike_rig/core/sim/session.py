@@ -1,21 +1,12 @@
 """A whole simulated measurement session, as the paper performs it (sections 6–9).
 
-:func:`simulate_session` takes a bicycle's true parameters and a rig and returns, in memory,
-what the rig's operator would have: every static reading with its noise and σ, and every
-pendulum trial (each part as compound and torsional pendulum, at each orientation, three
-trials each) as the sampled gyro rate, plus the truth for validation. One seed gives the
-same session, bit for bit: every random draw comes from a :class:`numpy.random.Generator`
-spawned from ``SeedSequence(seed)`` (static readings, the gyro, and each trial's motion and
-sensor noise each get their own stream, so adding a trial leaves the others unchanged).
-
-A trial's motion is the analytic damped oscillation of :mod:`.gyro` unless the rig adds dry
-friction at the pivot (``trials.dry_friction``) or a finite swing of the compound pendulums
-(``trials.finite_swing``); then it is integrated numerically (:mod:`.pendulum`), from the same
-drawn amplitude and phase. A beating trial (two modes) always stays analytic, without either.
-
-:class:`TrialSimulator` is the same rig driven by an operator: it simulates any planned trial
-on request (the ``sim`` gyro source's operator mode), with the same physics, sensor model and
-random streams.
+:func:`simulate_session` turns a bicycle's true parameters and a rig into what the operator
+would have: every static reading with noise and σ, every pendulum trial as sampled gyro rate,
+and the truth. One seed gives the same session bit for bit: each kind of draw (readings, gyro,
+each trial's motion and noise) has its own stream spawned from ``SeedSequence(seed)``, so adding
+a trial leaves the others unchanged. Motion is analytic (:mod:`.gyro`) unless the rig adds dry
+friction or a finite swing (integrated, :mod:`.pendulum`); a beating trial stays analytic.
+:class:`TrialSimulator` simulates any planned trial on request, with the same streams.
 """
 
 from __future__ import annotations

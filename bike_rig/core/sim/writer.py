@@ -1,17 +1,10 @@
 """Writing a simulated session to a directory that ``bike-rig fit`` and ``params`` consume.
 
-Layout::
-
-    DIR/
-      session.yaml     format: bike_rig-measurements/1; static readings [value, sigma];
-                       every period {trials: [trials/<name>_t1.npy, ...]} (relative paths)
-      truth.yaml       format: bike_rig-sim-truth/1; the truth, for validation only
-      trials/<name>.npy   one per trial: float64, shape (N, 2), columns time s, rate rad/s
-      volts/<name>.npy    only with volts=True: float64, shape (N,), raw ADC volts
-
-``session.yaml`` is written by the core's own :func:`~bike_rig.core.io_yaml.dump_measurements_yaml`
-(so its layout and comments are the measurement file's), with each period entry then
-replaced by the list of its trial files.
+``DIR/session.yaml`` (a measurement file written by
+:func:`~bike_rig.core.io_yaml.dump_measurements_yaml`, each period replaced by its trial files,
+relative paths), ``truth.yaml`` (``format: bike_rig-sim-truth/1``, for validation only),
+``trials/<name>.npy`` (float64 (N, 2): time s, rate rad/s) and, with ``volts=True``,
+``volts/<name>.npy`` (float64 (N,): raw ADC volts). Described in ``docs/simulated-rig.md``.
 """
 
 from __future__ import annotations

@@ -1,14 +1,10 @@
 """Standard uncertainty of the first-order model ``ẋ = A x + B u`` at one speed.
 
-``A = [[0, I], [−M⁻¹(g K0 + v² K2), −M⁻¹ v C1]]`` and ``B = [[0], [M⁻¹]]``
-(:func:`bike_rig.core.whipple.state_space`) are analytic in the 26 benchmark parameters ``p``, so
-one complex-step evaluation with all 26 perturbations at once
-(:func:`bike_rig.core.uncertainty.speed_sigma.perturbed_matrices`) gives the exact Jacobian of
-every entry, and ``σ² = diag(J Σ_p Jᵀ)`` (paper Eq 3, correlations kept or dropped as the
-convention says). With steer-torque feedback the closed loop's ``A − B K`` also depends on the
-gain values given with σ (independent of the parameters): ``∂(A − B K)/∂k_n = −B[:, 1] ∂K/∂k_n``.
-
-Units: A in 1/s and 1/s², B in 1/(kg m²), their σ alike; speed in m/s.
+``A = [[0, I], [−M⁻¹(g K0 + v² K2), −M⁻¹ v C1]]``, ``B = [[0], [M⁻¹]]`` are analytic in the 26
+parameters, so one complex-step evaluation gives the Jacobian of every entry and
+``σ² = diag(J Σ_p Jᵀ)`` (paper Eq 3). Under feedback, gains given with σ are further
+independent inputs: ``∂(A − B K)/∂k_n = −B[:, 1] ∂K/∂k_n``. A in 1/s and 1/s², B in 1/(kg m²),
+σ alike; speed in m/s.
 """
 
 from __future__ import annotations

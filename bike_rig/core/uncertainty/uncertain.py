@@ -1,16 +1,10 @@
 """Linear propagation of uncertainty with correlations (paper Eq 2–3), by exact Jacobians.
 
-The paper propagates measurement variances through every formula with Eq 3,
-``s_x^2 = sum_ij (dx/du_i) s_{u_i u_j} (dx/du_j)``, keeping correlations. BicycleParameters does
-the same with the ``uncertainties`` package. We get the same first-order result faster by
-computing the whole Jacobian at once with the complex-step derivative: every core formula is
-plain analytic numpy arithmetic that broadcasts, so evaluating it once on complex inputs
-``x_k + i h e_k`` (one array element per uncertain input, h = 1e-30) returns
-``Im f / h = df/dx_k`` to machine precision, with no subtractive cancellation. The covariance of
-the outputs is then ``J Σ Jᵀ`` (Eq 3 in matrix form). ``test/core/test_uncertain.py`` checks it
-against ``uncertainties``.
-
-The same formulas evaluated on real sample arrays give a Monte Carlo propagation.
+Eq 3, ``s_x² = Σ_ij (∂x/∂u_i) s_{u_i u_j} (∂x/∂u_j)``, in matrix form ``J Σ Jᵀ``. ``J`` comes
+from one complex-step evaluation: every core formula is analytic numpy arithmetic that
+broadcasts, so evaluating it on ``x_k + i h e_k`` (h = 1e-30) gives ``Im f / h = ∂f/∂x_k`` to
+machine precision, with no cancellation. Checked against the ``uncertainties`` package in
+``test/core/test_uncertain.py``. The same formulas on real sample arrays give a Monte Carlo.
 """
 
 from __future__ import annotations

@@ -1,22 +1,13 @@
 """The Whipple model under linear steer-torque state feedback: ``ẋ = (A − B K) x``.
 
-The feedback ``T_δ = −(kφ φ + kδ δ + kφ̇ φ̇ + kδ̇ δ̇)`` (gains possibly depending on the speed,
-:class:`SteerFeedback`) adds the row ``[kφ + kφ̇ s, kδ + kδ̇ s]`` to the steer row of
-``P(s) = M s² + v C1 s + g K0 + v² K2``. Expanding the determinant along that row,
-
-    det P_cl(s) = det P(s) + (kδ + kδ̇ s) P_φφ(s) − (kφ + kφ̇ s) P_φδ(s),
-
-(:func:`steer_feedback_terms`), still a quartic in ``s`` with ``a4 = det M``. With gains linear
-in ``v`` (a piecewise-linear schedule, between its table speeds) every ``a_k(v)`` is a
-polynomial in ``v`` of the open loop's degree (``a3 ≤ 1, a2 ≤ 2, a1 ≤ 3, a0 ≤ 4``), so the
-critical speeds of each piece are real roots of polynomials: of ``a0(v)`` (a real root through
-``s = 0``) and of the Hurwitz determinant ``H = a3 a2 a1 − a4 a1² − a0 a3²`` (degree ≤ 6; a
-pair through ``±iω``). They are found piece by piece with :mod:`numpy.polynomial`
-(companion-matrix roots) and polished by Newton on the unexpanded ``a_k(v)``; a root counts as
-a crossing only where its function changes sign. So, as for the open loop (:mod:`.stability`),
-no crossing is missed and every speed is exact to rounding (no grid, no bracketing step);
-``test/core/test_feedback.py`` checks the stable ranges and each crossing's direction against
-``numpy.linalg.eigvals(A − B K)``. Units: SI, speeds m/s, eigenvalues 1/s.
+The feedback ``T_δ = −(kφ φ + kδ δ + kφ̇ φ̇ + kδ̇ δ̇)`` (gains over speed, :class:`SteerFeedback`)
+adds ``[kφ + kφ̇ s, kδ + kδ̇ s]`` to the steer row of ``P(s) = M s² + v C1 s + g K0 + v² K2``:
+``det P_cl = det P + (kδ + kδ̇ s) P_φφ − (kφ + kφ̇ s) P_φδ`` (:func:`steer_feedback_terms`), still
+a quartic with ``a4 = det M``. With gains piecewise linear in v, each ``a_k(v)`` stays a
+polynomial of the open loop's degree, so the critical speeds are exact polynomial roots found
+piece by piece (:func:`closed_loop_critical_speeds`), no grid. Checked against
+``numpy.linalg.eigvals(A − B K)`` in ``test/core/test_feedback.py``. SI; speeds m/s,
+eigenvalues 1/s.
 """
 
 from __future__ import annotations

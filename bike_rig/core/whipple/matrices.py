@@ -1,17 +1,10 @@
 """Canonical matrices of the linearised Whipple bicycle (Meijaard et al. 2007, Appendix A).
 
-The model is ``M q̈ + v C1 q̇ + (g K0 + v² K2) q = f`` with ``q = [φ, δ]`` (roll, steer; rad)
-and ``f = [T_φ, T_δ]`` (N m). This module provides
-
-* :func:`canonical_matrices`: ``M, C1, K0, K2`` from the 26 benchmark parameters (paper
-  Appendix A), as pure broadcasting arithmetic that also accepts complex values (for
-  complex-step derivatives);
-* :func:`state_space`: the first-order form ``ẋ = A x + B f``, ``x = [φ, δ, φ̇, δ̇]``;
-* :func:`characteristic_polynomial` / :func:`characteristic_coefficients`:
-  ``det(M s² + v C1 s + g K0 + v² K2)`` as a bivariate polynomial in ``s`` and ``v``.
-
-Units are SI throughout: lengths in m, masses in kg, inertias in kg m², angles in rad, ``g`` in
-m/s², speeds in m/s.
+``M q̈ + v C1 q̇ + (g K0 + v² K2) q = f``, ``q = [φ, δ]`` (rad), ``f = [T_φ, T_δ]`` (N m).
+:func:`canonical_matrices` (from the 26 parameters; broadcasting, complex-step safe),
+:func:`state_space` (``ẋ = A x + B f``, ``x = [φ, δ, φ̇, δ̇]``),
+:func:`characteristic_polynomial` / :func:`characteristic_coefficients`
+(``det(M s² + v C1 s + g K0 + v² K2)`` in ``s`` and ``v``). SI: m, kg, kg m², rad, m/s², m/s.
 """
 
 from __future__ import annotations
