@@ -243,8 +243,8 @@ def _load(text: str) -> tuple[Any, bool, bool]:
 
     libyaml's events are counted first (its parser keeps its own stack; only its composer
     recurses, and would crash the process on a document a few thousand levels deep); a document
-    within the limits and without aliases is then loaded by libyaml (about 1 ms for a bag's
-    metadata, where the pure-Python loader takes 15 ms); one with aliases by the bounded loader.
+    within the limits and without aliases is then loaded by libyaml (the faster loader); one with
+    aliases by the bounded loader.
 
     Returns:
         The document, whether libyaml loaded it, and whether a mapping repeats a key (libyaml only).

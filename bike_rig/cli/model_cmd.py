@@ -51,7 +51,12 @@ def _number(x: float | None) -> float | None:
 
 
 def model_json(ms: MatrixSet, cs: CriticalSpeedsWithSigma, speeds: np.ndarray, eig: EigenvalueSweep) -> dict[str, Any]:
-    """The ``--json`` object of the module docstring (matrices in SI, speeds m/s, eigenvalues 1/s)."""
+    """The ``--json`` object (matrices in SI, speeds m/s, eigenvalues 1/s).
+
+    Keys: ``M``, ``C1``, ``K0``, ``K2`` and their ``*_sigma``, ``weave_speed``, ``capsize_speed``
+    and their ``*_sigma`` (None when absent or not simple), ``speeds``, ``modes``, and
+    ``eigenvalues`` (per speed, ``{"re", "im"}`` per mode).
+    """
     out: dict[str, Any] = {}
     for name in ("M", "C1", "K0", "K2"):
         out[name] = np.asarray(getattr(ms.matrices, name)).tolist()

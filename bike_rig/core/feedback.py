@@ -277,7 +277,7 @@ def _schedule(path: str, lines: Mapping[tuple[object, ...], int], key: str, spec
 
 
 def load_feedback(path: str | Path) -> Feedback:
-    """A feedback from a YAML file (``format: bike_rig-feedback/1``, see the module docstring).
+    """A feedback from a YAML file (``format: bike_rig-feedback/1``, see ``docs/formats.md``).
 
     Raises:
         FeedbackError: The file is missing, unreadable or not YAML, has the wrong format, an

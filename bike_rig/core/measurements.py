@@ -146,7 +146,7 @@ class Reading:
     """One measured value with its standard uncertainty.
 
     Attributes:
-        value: The value, in the unit of its key (see the module table).
+        value: The value, in the unit of its key (``docs/formats.md``).
         sigma: Its standard deviation, same unit; 0 for exact values.
         origin: Where it was read.
     """
@@ -167,7 +167,7 @@ class Measurements:
 
     Attributes:
         bicycle: The bicycle's name.
-        readings: Readings keyed by the flat key names of the module table.
+        readings: Readings keyed by the flat key names (``docs/formats.md``).
         path: The file they were read from.
         extras: Entries of the file that the 25 parameters do not need (e.g. rider
             geometry), kept verbatim so that nothing recorded is lost on conversion.
@@ -220,7 +220,7 @@ def check_value_sigma(value: float, sigma: float) -> None:
 
 
 def check_reading(key: str, r: Reading) -> None:
-    """Check that one reading is physically possible for its key (the module table's units).
+    """Check that one reading is physically possible for its key (units as in ``docs/formats.md``).
 
     Raises:
         MeasurementError: naming the reading's origin and the reason.

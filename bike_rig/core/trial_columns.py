@@ -232,7 +232,7 @@ def _signal_column(table: _Table, choice: ColumnChoice, time: int | None) -> tup
 def choose_columns(
     path: str, width: int, names: Sequence[str] | None, choice: ColumnChoice | None = None, line: int | None = None
 ) -> Columns:
-    """The time and signal columns of a table (see the module for the rules).
+    """The time and signal columns of a table (rules: the module and ``docs/cli.md``).
 
     Args:
         path: The file, for messages.

@@ -146,7 +146,7 @@ class FitterState:
 
     # ------------------------------------------------------------------ input
     def on_event(self, event: TrialEventRecord, source: str = "") -> list[TrialFit]:
-        """A trial event from ``source`` (see the module docstring); returns the results it completes."""
+        """A trial event from ``source`` (a trial is the pair source, trial id); returns the results it completes."""
         now = self.clock()
         kind, tid, key = event.kind, event.trial_id, (source, event.trial_id)
         out: list[TrialFit | None] = []
@@ -252,7 +252,7 @@ class FitterState:
         return [r for r in out if r is not None]
 
     def _stopped_done(self, t: _Open, now: float) -> bool:
-        """Whether a stopped trial still missing samples is to be fitted now (see the module docstring).
+        """Whether a stopped trial still missing samples is to be fitted now.
 
         Its missing batches are lost once the source's stream has passed it, or its batches have
         been silent for ``grace_s``; lost ones are asked for again where a resend service answers.

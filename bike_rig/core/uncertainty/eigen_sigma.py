@@ -36,8 +36,8 @@ FloatArray = NDArray[np.float64]
 ComplexArray = NDArray[np.complex128]
 
 #: σ is reported only where the distance to the nearest other eigenvalue exceeds
-#: ``BRANCH_POINT_MARGIN · σ_|λ|`` (6 σ of a separation whose σ is at most 2 σ_|λ|; see the
-#: module docstring).
+#: ``BRANCH_POINT_MARGIN · σ_|λ|`` (6 σ of a separation whose σ is at most 2 σ_|λ|; see
+#: :func:`eigenvalues_with_sigma`).
 BRANCH_POINT_MARGIN = 12.0
 
 
