@@ -2,9 +2,9 @@
 
 One function per node turns a snapshot of its counters (one dataclass each) into its statuses,
 one per concern (:mod:`bike_rig.diagnostics`); the node fills the snapshot once a second and
-:mod:`bike_rig.nodes.diagnostics` publishes the result. The concerns, levels and details are
-the README's *Diagnostics* table. Times in s, rates in 1/s (Hz), sizes in bytes unless a key
-says otherwise.
+:mod:`bike_rig.nodes.diagnostics` publishes the result. The concerns, levels and details are in
+``docs/ros-graph.md`` (*Diagnostics*). Times in s, rates in 1/s (Hz), sizes in bytes unless a
+key says otherwise.
 """
 
 from __future__ import annotations
