@@ -3,10 +3,10 @@
 Log time (the recorder's wall clock) and the messages' own stamps step back with the system
 clock, and metadata.yaml's file order proves nothing, so the key is ``(run, sequence)``: the DDS
 publication sequence number bike_rig's recorder stores in each MCAP record's ``sequence``
-(counting from 1 per publisher), a new run whenever it restarts at or below the previous run's
-first (a restarted node), runs and ties in the order of storage (split index, then place in
-the file). Messages without a sequence (0) keep the order of storage. Valid for a topic with
-one publisher at a time (the parameter, model and fitter topics).
+(counting from 1 per publisher), a new run whenever a sequence is not above its run's first (a
+restarted node), runs and ties in the order of storage (split index, then place in the file).
+Messages without a sequence (0) keep the order of storage. Valid for a topic with one publisher
+at a time (the parameter, model and fitter topics).
 """
 
 from __future__ import annotations

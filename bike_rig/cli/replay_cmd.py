@@ -4,10 +4,10 @@ Offline (no ROS runtime) every trial is refitted with the fitter's own function 
 fit options, and parameters and model are computed as the nodes do, from the bag's last
 StaticReadings (or ``--readings FILE``); the output says whether the results equal what the
 live graph published last (relative 1e-12, in publisher order: :mod:`bike_rig.bag.order`).
-``--json`` adds ``weave_speed``, ``capsize_speed``, their σ, ``complete``, ``missing``,
-``periods``, ``trials``, ``settings``, ``live`` and ``notes`` to ``params --json``'s object.
-``--republish`` plays the raw stream into a live graph. Exit 1 when the session is incomplete,
-2 for a bad bag or option (``docs/cli.md``).
+``--json``: ``params --json``'s ``bicycle`` and ``parameters`` plus ``weave_speed``,
+``capsize_speed``, their σ, ``complete``, ``missing``, ``periods``, ``trials``, ``settings``,
+``live`` and ``notes``. ``--republish`` plays the raw stream into a live graph. Exit 1 when the
+session is incomplete, 2 for a bad bag or option (``docs/cli.md``).
 """
 
 from __future__ import annotations
