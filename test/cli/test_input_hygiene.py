@@ -12,20 +12,14 @@ import numpy as np
 import pytest
 from scipy.io import savemat
 
-from bike_rig.cli.main import main
 from bike_rig.paths import config_dir
 from bike_rig.textfmt import CONTROL_CHARACTERS
+from test.support.cli import run
 from test.support.signals import gyro_trial
 
 ROOT = Path(__file__).resolve().parents[2]
 BROWSER = config_dir() / "bicycles" / "browser.yaml"
 RAW_CONTROLS = {chr(c) for c in CONTROL_CHARACTERS} - {"\n", "\t"}
-
-
-def run(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
-    code = main(list(argv))
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 def bike_rig(*argv: str, timeout: float = 60.0) -> subprocess.CompletedProcess[str]:

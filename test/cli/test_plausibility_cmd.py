@@ -8,19 +8,13 @@ from pathlib import Path
 
 import pytest
 
-from bike_rig.cli.main import main
 from bike_rig.paths import config_file
+from test.support.cli import run
 from test.support.paper import shared_dir
 
 BENCHMARK = config_file("bicycles/benchmark.yaml")
 #: The commands and how each names its input.
 COMMANDS: tuple[tuple[str, ...], ...] = (("params",), ("model",), ("budget",), ("report", "-o", "{out}"))
-
-
-def run(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
-    code = main(list(argv))
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 def command(cmd: tuple[str, ...], path: Path, tmp_path: Path, *extra: str) -> list[str]:
