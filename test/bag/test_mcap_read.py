@@ -24,7 +24,7 @@ from bike_rig.bag.writer import BagWriter, contract_qos
 from bike_rig.core.sim import SimulatedSession
 from bike_rig.messages import sample_batch_from_msg
 from bike_rig.topics import GYRO, TOPICS, TRIAL_EVENTS
-from test.bag.samples import make_message, sample_traffic, serialize
+from test.support.samples import make_message, sample_traffic, serialize
 
 COUNTS = {t.name: n for t, n in zip(TOPICS, (60, 9, 5, 1, 2, 3, 1, 4), strict=True)}
 

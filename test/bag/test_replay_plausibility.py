@@ -16,7 +16,7 @@ from bike_rig.core.io_yaml import dump_measurements_yaml
 from bike_rig.core.measurements import Measurements, Reading
 from bike_rig.core.sim import SimulatedSession
 from bike_rig.messages.fields import set_floats
-from test.bag.entered import entries_bag, one_trial_session, session_static
+from test.support.entered import entries_bag, one_trial_session, session_static
 
 
 @pytest.fixture(scope="module")

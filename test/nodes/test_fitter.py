@@ -29,9 +29,9 @@ from bike_rig.pipeline.fit import TrialFit, TrialFitOptions, fit_trial
 from bike_rig.pipeline.fit_state import FitterState
 from bike_rig.pipeline.resend import SentBatches
 from bike_rig.topics import GYRO, PERIODS, RESEND_SAMPLES, TRIAL_EVENTS
-from test.ros.processes import RosProcess
-from test.sources.support import small_session
 from test.support.probe import STEP_TIMEOUT_S, Probe, msgs, node_command
+from test.support.processes import RosProcess
+from test.support.small_sessions import small_session
 
 RATE = 1000.0
 N = 8000

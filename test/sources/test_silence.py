@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from bike_rig.sources.silence import SilenceWatch
-from test.sources.support import FakeMonotonic
+from test.support.small_sessions import FakeMonotonic
 
 
 def test_each_silence_is_reported_once() -> None:

@@ -27,7 +27,7 @@ from bike_rig.sources import (
     open_source,
 )
 from bike_rig.sources.sim import SimSource, session_file_trials
-from test.sources.support import BICYCLE, TRIAL_S, FakeMonotonic, small_rig, small_session
+from test.support.small_sessions import BICYCLE, TRIAL_S, FakeMonotonic, small_rig, small_session
 
 START_NS = 1_700_000_000_123_456_789
 

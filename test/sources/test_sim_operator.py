@@ -27,7 +27,7 @@ from bike_rig.sources import (
     open_source,
 )
 from bike_rig.sources.sim_operator import OperatorSimSource, planned_measurement
-from test.sources.support import BICYCLE, START_NS, TRIAL_S, FakeMonotonic, operator_source, small_rig
+from test.support.small_sessions import BICYCLE, START_NS, TRIAL_S, FakeMonotonic, operator_source, small_rig
 
 RATE = 1000.0
 

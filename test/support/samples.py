@@ -41,6 +41,11 @@ def _base(kind: str, seed: int) -> Any:
     raise AssertionError(kind)
 
 
+def seed_of(topic: str, k: int) -> int:
+    """The seed of the k-th message on a topic (the recorder tests' stand-in publishes these)."""
+    return [t.name for t in TOPICS].index(topic) * 100_000 + k
+
+
 def make_message(msgtype: str, seed: int) -> Any:
     """A message of msgtype whose every field is filled from seed (sequences of seed % 5 + 1)."""
     store = rig_typestore()
