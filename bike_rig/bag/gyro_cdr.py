@@ -91,11 +91,12 @@ def _column(rows: U8Rows, at: int, dtype: str) -> NDArray[Any]:
     return np.ascontiguousarray(rows[:, at : at + size]).view(dtype)[:, 0]
 
 
-def _split(rows: U8Rows, at: int) -> Iterator[tuple[int, NDArray[np.bool_]]]:
-    """Each value of the uint32 at offset ``at`` of the rows, with the rows that hold it."""
+def _split(rows: U8Rows, at: int) -> Iterator[tuple[int, NDArray[np.bool_] | slice]]:
+    """Each value of the uint32 at offset ``at`` of the rows, with the rows that hold it (a slice: all)."""
     values = _column(rows, at, "<u4")
-    for v in np.unique(values).tolist():
-        yield v, values == v
+    distinct = np.unique(values).tolist()
+    for v in distinct:
+        yield v, (values == v) if len(distinct) > 1 else slice(None)
 
 
 def _strings(rows: U8Rows, at: int, n: int) -> tuple[list[str], IntArray]:
@@ -136,9 +137,13 @@ class _Layout:
     volts_at: int
     m: int
 
-    def values(self, at: int, count: int) -> FloatArray:
-        """The ``count`` float64 at offset ``at`` of each row (rows × count)."""
-        return np.ascontiguousarray(self.rows[:, at : at + 8 * count]).view("<f8")
+    def copy_into(self, out: FloatArray, starts: IntArray, at: int, count: int) -> None:
+        """Put each row's ``count`` float64 at offset ``at`` into ``out`` from ``starts`` on (one start a row)."""
+        raw, width = out.view(np.uint8), 8 * count
+        runs = np.flatnonzero(np.diff(starts) != count) + 1  # (rows that follow each other in ``out``: one copy)
+        for a, b in zip([0, *runs.tolist()], [*runs.tolist(), len(starts)], strict=True):
+            first = int(starts[a]) * 8
+            raw[first : first + (b - a) * width].reshape(b - a, width)[...] = self.rows[a:b, at : at + width]
 
 
 def _layouts(datas: Sequence[bytes]) -> list[_Layout]:
@@ -171,7 +176,7 @@ def _layouts(datas: Sequence[bytes]) -> list[_Layout]:
                         volts_at = _volts_at(rates_at + 8 * n, m)
                         if not 0 <= length - (volts_at + 8 * m) <= 3:
                             raise _IrregularError
-                        pick = np.flatnonzero(in3)[in4]
+                        pick = np.arange(len(rows2))[in3][in4]
                         out.append(
                             _Layout(
                                 index2[pick],
@@ -250,12 +255,12 @@ def gyro_columns(datas: Sequence[bytes]) -> GyroColumns | None:
     def gather(count: IntArray, field: str) -> tuple[IntArray, FloatArray]:
         bounds = np.zeros(k + 1, dtype=np.int64)
         np.cumsum(count[order], out=bounds[1:])
-        out = np.empty(int(bounds[-1]), dtype=np.float64)
+        out = np.empty(int(bounds[-1]), dtype="<f8")
         for g in layouts:
             at, n = (g.rates_at, g.n) if field == "rates" else (g.volts_at, g.m)
             if n:
-                out[bounds[rank[g.index]][:, None] + np.arange(n)] = g.values(at, n)
-        return bounds, out
+                g.copy_into(out, bounds[rank[g.index]], at, n)
+        return bounds, out.astype(np.float64, copy=False)
 
     bounds, rates = gather(n_rates, "rates")
     all_volts = cache(lambda: gather(n_volts, "volts"))

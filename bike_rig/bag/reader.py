@@ -18,6 +18,7 @@ from __future__ import annotations
 import gc
 import warnings
 from collections.abc import Iterable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from functools import partial
 from pathlib import Path, PurePath
@@ -478,6 +479,11 @@ class BagReader:
         accepted = self._read_channels()
         if accepted is None:
             return None
+        with _no_collection():
+            return self._records(names, files, accepted)
+
+    def _records(self, names: list[str], files: list[Path], accepted: dict[str, set[int]]) -> list[Record] | None:
+        """:meth:`records` of ``names``, its checks done."""
         out: list[Record] = []
         for f in sorted(files, key=split_order):
             base, ids = len(out), accepted.get(f.name, set())
@@ -546,6 +552,18 @@ class BagReader:
         if found is None:
             return None
         return [StampedMessage(r.topic, r.sequence, r.stream, r.data) for r in sorted(found, key=lambda r: r.stream)]
+
+
+@contextmanager
+def _no_collection() -> Iterator[None]:
+    """No cyclic garbage collection meanwhile (a bag's messages are many objects and no cycles)."""
+    enabled = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if enabled:
+            gc.enable()
 
 
 def _file_messages(stream: BinaryIO, topics: set[str]) -> list[tuple[Channel, Message]]:
