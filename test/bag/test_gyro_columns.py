@@ -8,20 +8,13 @@ from typing import Any
 import numpy as np
 
 from bike_rig.bag.gyro_cdr import gyro_batch, gyro_columns
-from bike_rig.bag.typestore import new_message, rig_typestore
 from bike_rig.pipeline.acquire import SampleBatch
-from bike_rig.topics import GYRO
+from test.support.samples import gyro_message, serialize
 
 
 def gyro_data(frame_id: str, trial_id: str, n: int, m: int, seed: int) -> bytes:
     """The CDR bytes of a GyroBatch with these strings and array lengths, its numbers from ``seed``."""
-    rng = np.random.default_rng(seed)
-    msg = new_message(GYRO.type, trial_id=trial_id, first_index=seed * 50, sample_rate_hz=1000.0 + seed / 7)
-    msg.header.frame_id = frame_id
-    msg.header.stamp.sec, msg.header.stamp.nanosec = 1_800_000_000 - 3 * seed, seed * 7919 % 1_000_000_000
-    msg.rates = rng.normal(size=n)
-    msg.raw_volts = rng.normal(size=m)
-    return bytes(rig_typestore().serialize_cdr(msg, GYRO.type))
+    return serialize(gyro_message(frame_id, trial_id, n, m, seed))
 
 
 def plain(b: SampleBatch) -> tuple[Any, ...]:

@@ -10,8 +10,8 @@ from typing import Any
 
 import numpy as np
 
-from bike_rig.bag.typestore import rig_typestore
-from bike_rig.topics import TOPICS
+from bike_rig.bag.typestore import new_message, rig_typestore
+from bike_rig.topics import GYRO, TOPICS
 
 _INTS = {"int8", "uint8", "int16", "uint16", "int32", "uint32", "int64", "uint64", "byte", "char"}
 _FLOATS = {"float32", "float64"}
@@ -114,3 +114,14 @@ def sample_traffic(per_topic: dict[str, int]) -> list[tuple[str, int, bytes, Any
                 seed += 1
                 t += 1_000_000
     return out
+
+
+def gyro_message(frame_id: str, trial_id: str, n: int, m: int, seed: int) -> Any:
+    """A GyroBatch with these header frame id, trial id and numbers of rates and raw volts, the rest from ``seed``."""
+    rng = np.random.default_rng(seed)
+    msg = new_message(GYRO.type, trial_id=trial_id, first_index=seed * 50, sample_rate_hz=1000.0 + seed)
+    msg.header.frame_id = frame_id
+    msg.header.stamp.sec, msg.header.stamp.nanosec = 1_800_000_000 + seed, seed * 7919 % 1_000_000_000
+    msg.rates = rng.normal(size=n)
+    msg.raw_volts = rng.normal(size=m)
+    return msg
