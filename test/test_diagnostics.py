@@ -23,14 +23,7 @@ from bike_rig.pipeline.health import (
     parameter_statuses,
     recorder_statuses,
 )
-
-
-class Clock:
-    def __init__(self) -> None:
-        self.t = 100.0
-
-    def __call__(self) -> float:
-        return self.t
+from test.support.fakes import ManualClock
 
 
 def test_level_rules() -> None:
@@ -42,19 +35,19 @@ def test_level_rules() -> None:
 
 
 def test_rate_meter_counts_over_its_window_from_a_restart() -> None:
-    clock = Clock()
+    clock = ManualClock(100.0)
     meter = RateMeter(2.0, clock)
     assert meter.age() == math.inf and meter.rate() == 0.0
-    clock.t += 1.0
+    clock.now += 1.0
     meter.add(500)
     assert meter.rate() == pytest.approx(500.0)  # 500 in the 1 s since the start
-    clock.t += 1.0
+    clock.now += 1.0
     meter.add(1000)
     assert meter.rate() == pytest.approx(750.0)  # 1500 in 2 s
-    clock.t += 2.5
+    clock.now += 2.5
     assert meter.rate() == pytest.approx(0.0) and meter.age() == pytest.approx(2.5)
     meter.restart()
-    clock.t += 0.5
+    clock.now += 0.5
     meter.add(100)
     assert meter.rate() == pytest.approx(200.0) and meter.total == 1600
     with pytest.raises(ValueError, match="> 0 s"):

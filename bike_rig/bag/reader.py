@@ -18,11 +18,14 @@ from __future__ import annotations
 import gc
 import warnings
 from collections.abc import Iterable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from functools import partial
 from pathlib import Path, PurePath
 from types import TracebackType
-from typing import TYPE_CHECKING, Any, NamedTuple
+from typing import TYPE_CHECKING, Any, BinaryIO, NamedTuple
+
+import numpy as np
 
 from ..core.safe_yaml import NotRegularFileError, open_regular_file
 from .check import Metadata, check_mcap, check_metadata
@@ -32,6 +35,7 @@ from .order import split_order
 from .schemas import Decoding, RecordedSchema, decoding_for
 
 if TYPE_CHECKING:
+    from mcap.records import Channel, Message
     from rosbags.interfaces import Qos
     from rosbags.rosbag2 import Reader
 
@@ -300,7 +304,8 @@ class BagReader:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", ResourceWarning)
             reader, reason = _try_rosbags(resolved)
-            gc.collect()
+            if reader is None:
+                gc.collect()
         if reader is None:
             raise BagReadError(self.shown, f"unreadable bag ({reason})")
         self._reader = reader
@@ -466,8 +471,6 @@ class BagReader:
         Raises:
             BagReadError: A chunk is corrupt.
         """
-        from mcap.reader import make_reader
-
         names = [t for t in topics if t in self.topics]
         files = self.storage_files
         meta = getattr(getattr(self.reader, "storage", None), "metadata", None)
@@ -476,15 +479,20 @@ class BagReader:
         accepted = self._read_channels()
         if accepted is None:
             return None
+        with _no_collection():
+            return self._records(names, files, accepted)
+
+    def _records(self, names: list[str], files: list[Path], accepted: dict[str, set[int]]) -> list[Record] | None:
+        """:meth:`records` of ``names``, its checks done."""
         out: list[Record] = []
         for f in sorted(files, key=split_order):
             base, ids = len(out), accepted.get(f.name, set())
             try:
                 with f.open("rb") as stream:
-                    found = make_reader(stream).iter_messages(topics=names, log_time_order=False)
+                    found = _file_messages(stream, set(names))
                     out += [
                         Record(channel.topic, message.log_time, message.sequence, base + k, message.data)
-                        for k, (_, channel, message) in enumerate(found)
+                        for k, (channel, message) in enumerate(found)
                         if channel.id in ids
                     ]
             except (GeneratorExit, KeyboardInterrupt):
@@ -499,7 +507,10 @@ class BagReader:
             counts[r.topic] += 1
         if any(counts[t] != self.topics[t].count for t in names):
             return None
-        out.sort(key=lambda r: (r.log_time, r.stream))
+        times = np.fromiter((r.log_time for r in out), dtype=np.uint64, count=len(out))
+        if len(out) > 1 and np.any(times[1:] < times[:-1]) or any(r.stream != k for k, r in enumerate(out)):
+            ranks = np.fromiter((r.stream for r in out), dtype=np.int64, count=len(out))
+            out = [out[i] for i in np.lexsort((ranks, times)).tolist()]
         return out
 
     def _read_channels(self) -> dict[str, set[int]] | None:
@@ -541,6 +552,49 @@ class BagReader:
         if found is None:
             return None
         return [StampedMessage(r.topic, r.sequence, r.stream, r.data) for r in sorted(found, key=lambda r: r.stream)]
+
+
+@contextmanager
+def _no_collection() -> Iterator[None]:
+    """No cyclic garbage collection meanwhile (a bag's messages are many objects and no cycles)."""
+    enabled = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if enabled:
+            gc.enable()
+
+
+def _file_messages(stream: BinaryIO, topics: set[str]) -> list[tuple[Channel, Message]]:
+    """The messages of ``topics`` in an MCAP file, as the mcap library's reader gives them in file order.
+
+    (``iter_messages(topics, log_time_order=False)``: chunk by chunk as the summary lists them;
+    a file without chunk indexes read by the library's reader.)
+    """
+    from mcap.reader import make_reader
+    from mcap.records import Chunk, Message
+    from mcap.stream_reader import StreamReader, breakup_chunk
+
+    reader = make_reader(stream)
+    summary = reader.get_summary()
+    if summary is None or not summary.chunk_indexes:
+        return [(c, m) for _, c, m in reader.iter_messages(topics=list(topics), log_time_order=False)]
+    channels = summary.channels
+    out = []
+    for index in summary.chunk_indexes:
+        if index.message_index_offsets and all(channels[c].topic not in topics for c in index.message_index_offsets):
+            continue
+        stream.seek(index.chunk_start_offset)
+        chunk = next(StreamReader(stream, skip_magic=True, emit_chunks=True).records)
+        if not isinstance(chunk, Chunk):
+            raise ValueError(f"a {type(chunk).__name__} record where the index puts a chunk")
+        for record in breakup_chunk(chunk):
+            if isinstance(record, Message):
+                channel = channels[record.channel_id]
+                if channel.topic in topics:
+                    out.append((channel, record))
+    return out
 
 
 def _first_corrupt_chunk(path: Path) -> str:

@@ -32,7 +32,7 @@ from .. import topics
 from ..messages import MessageError, sample_batch_from_msg, trial_event_from_msg
 from ..pipeline.acquire import SampleBatch, SampleBlock, TrialEventKind, TrialEventRecord
 from .errors import BagReadError, NoRigTopicsError
-from .gyro_cdr import gyro_batch
+from .gyro_cdr import gyro_batch, gyro_columns
 from .order import publication_order
 from .reader import BagReader, Record, TopicInfo
 
@@ -291,7 +291,8 @@ def read_session(path: str | Path, which: Iterable[str] | None = None) -> Record
         if records is not None:
             session, keyed = empty, _from_records(empty, records, bag)
             for trial in session.trials.values():
-                trial.batches = _block(trial.trial_id, trial.batches) if trial.batches else trial.batches
+                if isinstance(trial.batches, list) and trial.batches:
+                    trial.batches = _block(trial.trial_id, trial.batches)
         else:
             session = empty
             for topic, _, msg in bag.decoded(wanted):
@@ -377,8 +378,17 @@ def _from_records(session: RecordedSession, records: list[Record], bag: BagReade
     """
     gyro = topics.GYRO.name
     ours = gyro in bag.topics and bag.decoding(gyro).installed
+    at = [k for k, r in enumerate(records) if r.topic == gyro] if ours else []
+    columns = gyro_columns([records[k].data for k in at]) if at else None
+    blocks: list[tuple[int, str, SampleBlock]] = []
+    if columns is not None:  # every trial's batches at once, the trial made where its first one is
+        blocks = sorted(zip([at[k] for k in columns.first], columns.trial_ids, columns.blocks, strict=True))
     keyed = []
-    for r in records:
+    for k, r in enumerate(records):
+        while blocks and blocks[0][0] <= k:
+            _add_block(session, *blocks.pop(0)[1:])
+        if columns is not None and r.topic == gyro:
+            continue
         batch = gyro_batch(r.data) if ours and r.topic == gyro else None
         if batch is not None:
             _add_batch(session, batch)
@@ -392,3 +402,11 @@ def _from_records(session: RecordedSession, records: list[Record], bag: BagReade
         if r.topic in LIVE_TOPICS:
             keyed.append(_Keyed(r.topic, msg, r.sequence, r.stream))
     return keyed
+
+
+def _add_block(session: RecordedSession, trial_id: str, block: SampleBlock) -> None:
+    """Add a trial's batches at once, as :func:`_add_batch` on each."""
+    if trial_id:
+        session.trial(trial_id).batches = block
+    else:
+        session.stray_batches += len(block)

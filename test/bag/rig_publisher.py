@@ -6,7 +6,7 @@ collected: no ``test_`` prefix)::
     PYTHONPATH=<repo> python rig_publisher.py SPEC_JSON
 
 SPEC_JSON: ``{"early": {topic: n}, "live": {topic: n}, "rate_hz": r, "until_stop": bool}``.
-Every message is ``test.bag.samples.make_message(type, seed_of(topic, k))``; the gyro
+Every message is ``test.support.samples.make_message(type, seed_of(topic, k))``; the gyro
 batches also get ``first_index = k`` and a header stamp taken just before publishing.
 
 Protocol (one line per event on stdout, ``<WORD> <json>``):
@@ -37,15 +37,10 @@ from rclpy.serialization import deserialize_message
 
 from bike_rig.rosqos import profile
 from bike_rig.topics import GYRO, TOPICS
-from test.bag.samples import make_message, serialize
+from test.support.samples import make_message, seed_of, serialize
 
 MATCH_TIMEOUT_S = 60.0
 BY_NAME = {t.name: t for t in TOPICS}
-
-
-def seed_of(topic: str, k: int) -> int:
-    """The seed of the k-th message on a topic (shared with the tests)."""
-    return [t.name for t in TOPICS].index(topic) * 100_000 + k
 
 
 def report(word: str, payload: Any) -> None:

@@ -25,7 +25,7 @@ from bike_rig.bag.session import read_session
 from bike_rig.bag.simulated import write_simulated_bag
 from bike_rig.core.sim import load_rig, load_true_parameters, simulate_session
 from bike_rig.paths import config_file
-from test.sources.support import small_rig
+from test.support.small_sessions import small_rig
 
 
 def small_bag(directory: Path) -> Path:

@@ -14,8 +14,8 @@ from bike_rig.bag.reader import open_bag
 from bike_rig.bag.recover import recover_bag
 from bike_rig.bag.typestore import message_definition
 from bike_rig.topics import GYRO, STATIC_READINGS
-from test.bag.samples import make_message, serialize
 from test.support.cli import run_cli
+from test.support.samples import make_message, serialize
 
 REPO = Path(__file__).resolve().parents[2]
 CDR_ZERO = b"\x00\x01\x00\x00" + bytes(8)

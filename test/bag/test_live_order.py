@@ -24,8 +24,8 @@ from bike_rig.bag.writer import BagWriter, contract_qos
 from bike_rig.core.sim import SimulatedSession
 from bike_rig.pipeline.acquire import NS_PER_S
 from bike_rig.topics import PARAMETERS, TOPICS, TRIAL_EVENTS
-from test.bag.samples import as_plain
 from test.support.replay import LIVE_OPTIONS, run_cli
+from test.support.samples import as_plain
 
 HOUR = 3600 * NS_PER_S
 

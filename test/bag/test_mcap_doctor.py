@@ -15,7 +15,7 @@ from mcap.stream_reader import StreamReader
 
 from bike_rig.bag.writer import BagWriter, contract_qos
 from bike_rig.topics import GYRO, PERIODS, READINGS, TOPICS, TRIAL_EVENTS
-from test.bag.samples import sample_traffic
+from test.support.samples import sample_traffic
 
 
 def data_and_summary(path: Path) -> tuple[set[tuple[str, int]], set[tuple[str, int]], int]:

@@ -19,12 +19,12 @@ from bike_rig.bag.gyro_cdr import gyro_batch
 from bike_rig.bag.reader import BagReader, open_bag
 from bike_rig.bag.session import RecordedSession, read_session
 from bike_rig.bag.simulated import SimulatedMessage, simulated_messages
-from bike_rig.bag.typestore import new_message, rig_typestore
+from bike_rig.bag.typestore import rig_typestore
 from bike_rig.bag.writer import BagWriter, contract_qos
 from bike_rig.core.sim import SimulatedSession
 from bike_rig.messages import sample_batch_from_msg
 from bike_rig.topics import GYRO, TOPICS, TRIAL_EVENTS
-from test.bag.samples import make_message, sample_traffic, serialize
+from test.support.samples import gyro_message, make_message, sample_traffic, serialize
 
 COUNTS = {t.name: n for t, n in zip(TOPICS, (60, 9, 5, 1, 2, 3, 1, 4), strict=True)}
 
@@ -67,16 +67,6 @@ def test_messages_equal_rosbags(tmp_path: Path, compression: str) -> None:
     assert mcap_messages(single) == rosbags_messages(single)
     for topics in ([GYRO.name], [TRIAL_EVENTS.name, GYRO.name], [t.name for t in TOPICS[2:]]):
         assert mcap_messages(bag, topics) == rosbags_messages(bag, topics)
-
-
-def gyro_message(frame_id: str, trial_id: str, n: int, m: int, seed: int) -> Any:
-    rng = np.random.default_rng(seed)
-    msg = new_message(GYRO.type, trial_id=trial_id, first_index=seed * 50, sample_rate_hz=1000.0 + seed)
-    msg.header.frame_id = frame_id
-    msg.header.stamp.sec, msg.header.stamp.nanosec = 1_800_000_000 + seed, seed * 7919 % 1_000_000_000
-    msg.rates = rng.normal(size=n)
-    msg.raw_volts = rng.normal(size=m)
-    return msg
 
 
 def plain(batch: Any) -> dict[str, Any]:

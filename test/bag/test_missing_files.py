@@ -18,8 +18,8 @@ from bike_rig.bag.reader import MCAP_MAGIC, open_bag
 from bike_rig.bag.recover import recover_bag, scan_mcap
 from bike_rig.bag.writer import BagWriter, contract_qos
 from bike_rig.topics import TOPICS
-from test.bag.samples import sample_traffic
 from test.support.cli import run_cli
+from test.support.samples import sample_traffic
 
 COUNTS = {t.name: n for t, n in zip(TOPICS, (100, 12, 6, 1, 2, 3, 1, 3), strict=True)}
 TRAFFIC = sample_traffic(COUNTS)

@@ -31,11 +31,10 @@ from bike_rig.topics import (
     TOPICS,
     TRIAL_EVENTS,
 )
-from test.bag.rig_publisher import seed_of
-from test.bag.samples import as_plain, make_message
 from test.support.nodes import node_environment
 from test.support.probe import STEP_TIMEOUT_S
 from test.support.recorder import start_publisher, start_recorder, wait_for_data
+from test.support.samples import as_plain, make_message, seed_of
 from test.support.wait import wait_until
 
 pytestmark = pytest.mark.ros

@@ -23,9 +23,9 @@ from bike_rig.bag.info import summarize
 from bike_rig.bag.reader import open_bag
 from bike_rig.bag.recover import recover_bag, scan_mcap
 from bike_rig.topics import GYRO, RECORDER_PAUSE, RECORDER_RESUME, RECORDER_SNAPSHOT, RECORDER_SPLIT, STATIC_READINGS
-from test.ros.processes import RosProcess
 from test.support.nodes import node_environment
 from test.support.probe import STEP_TIMEOUT_S, Probe
+from test.support.processes import RosProcess
 from test.support.recorder import start_publisher, start_recorder
 from test.support.wait import wait_until
 

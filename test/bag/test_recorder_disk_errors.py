@@ -23,11 +23,11 @@ from bike_rig.bag.reader import open_bag
 from bike_rig.bag.recover import recover_bag, scan_mcap
 from bike_rig.bag.writer import BagWriter, contract_qos
 from bike_rig.topics import GYRO, STATIC_READINGS, TOPICS
-from test.bag.samples import sample_traffic
 from test.support.cli import run_cli
 from test.support.nodes import node_environment
 from test.support.probe import STEP_TIMEOUT_S
 from test.support.recorder import start_publisher, start_recorder, wait_for_data
+from test.support.samples import sample_traffic
 from test.support.wait import wait_until
 
 TRAFFIC = sample_traffic({GYRO.name: 200, STATIC_READINGS.name: 1})

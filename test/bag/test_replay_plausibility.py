@@ -9,14 +9,12 @@ import pytest
 
 from bike_rig import topics
 from bike_rig.bag.simulated import simulated_messages
-from bike_rig.bag.typestore import rig_typestore
-from bike_rig.bag.writer import BagWriter, contract_qos
 from bike_rig.cli.main import main
 from bike_rig.core.io_yaml import dump_measurements_yaml
 from bike_rig.core.measurements import Measurements, Reading
 from bike_rig.core.sim import SimulatedSession
 from bike_rig.messages.fields import set_floats
-from test.bag.entered import entries_bag, one_trial_session, session_static
+from test.support.entered import entries_bag, one_trial_session, session_static, write_messages
 
 
 @pytest.fixture(scope="module")
@@ -71,14 +69,7 @@ def nan_bag(path: Path, session: SimulatedSession, key: str = "mF") -> Path:
             values[list(m.message.keys).index(key)] = math.nan
             set_floats(m.message, "values", values)
             m.message.source = "/home/operator/browser.yaml"
-    store = rig_typestore()
-    types = {t.name: t.type for t in topics.TOPICS}
-    with BagWriter(path) as w:
-        for t in topics.TOPICS:
-            w.add_topic(t.name, t.type, offered_qos=[contract_qos(t.qos)])
-        for m in messages:
-            w.write(m.topic, m.log_time, bytes(store.serialize_cdr(m.message, types[m.topic])))
-    return path
+    return write_messages(path, messages)
 
 
 def test_a_nan_static_reading_in_a_bag_is_blamed_on_the_bag(

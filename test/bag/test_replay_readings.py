@@ -23,7 +23,7 @@ from bike_rig.core.measurements import Measurements, Reading
 from bike_rig.core.sim import SimulatedSession
 from bike_rig.messages import reading_entry_from_msg
 from bike_rig.subjects import load_subject
-from test.bag.entered import MISTAKE_KEY, entries_bag, one_trial_session, session_static
+from test.support.entered import MISTAKE_KEY, entries_bag, one_trial_session, session_static
 from test.support.replay import core_periods, run_cli
 
 

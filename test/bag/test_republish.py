@@ -17,9 +17,9 @@ from bike_rig.bag.recover import scan_mcap
 from bike_rig.bag.simulated import write_simulated_bag
 from bike_rig.core.sim import SimulatedSession
 from bike_rig.topics import GYRO, STATIC_READINGS, TRIAL_EVENTS
-from test.ros.processes import RosProcess
 from test.support.nodes import node_environment
 from test.support.probe import STEP_TIMEOUT_S
+from test.support.processes import RosProcess
 from test.support.recorder import start_recorder, wait_for_data
 
 pytestmark = pytest.mark.ros

@@ -109,13 +109,14 @@ def test_a_gyro_batch_with_its_fields_in_another_order_is_read_with_the_bags_sch
     bag = write_bag(tmp_path / "reordered", session, definition, recorded_hash)
     path = bag / "reordered_0.mcap" if recorded == "none" else bag
     fast_calls: list[int] = []
-    real = session_module.gyro_batch
+    for name in ("gyro_batch", "gyro_columns"):
+        real = getattr(session_module, name)
 
-    def spy(data: bytes) -> Any:
-        fast_calls.append(len(data))
-        return real(data)
+        def spy(data: Any, real: Any = real) -> Any:
+            fast_calls.append(len(data))
+            return real(data)
 
-    monkeypatch.setattr(session_module, "gyro_batch", spy)
+        monkeypatch.setattr(session_module, name, spy)
     with open_bag(path) as b:
         decoding = b.decoding(GYRO.name)
         assert not decoding.installed and decoding.bag_hash == bag_hash
@@ -135,18 +136,19 @@ def test_a_gyro_batch_with_its_fields_in_another_order_is_read_with_the_bags_sch
 
 
 def test_the_installed_definition_keeps_the_fast_decoder(installed_bag: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    fast_calls: list[int] = []
-    real = session_module.gyro_batch
+    fast_calls: list[Any] = []
+    real = session_module.gyro_columns
 
-    def spy(data: bytes) -> Any:
-        fast_calls.append(len(data))
-        return real(data)
+    def spy(datas: list[bytes]) -> Any:
+        fast_calls.append(real(datas))
+        return fast_calls[-1]
 
-    monkeypatch.setattr(session_module, "gyro_batch", spy)
+    monkeypatch.setattr(session_module, "gyro_columns", spy)
     with open_bag(installed_bag) as b:
         assert b.decoding(GYRO.name).installed and b.check_type(GYRO.name) == GYRO.type
-    read_session(installed_bag)
-    assert fast_calls and fast_calls[0] > 0  # every batch by the numpy decoder
+    session = read_session(installed_bag)
+    assert len(fast_calls) == 1 and fast_calls[0] is not None  # every batch by the numpy decoder
+    assert sum(len(t.batches) for t in session.trials.values()) == sum(len(b) for b in fast_calls[0].blocks)
 
 
 @pytest.mark.parametrize(

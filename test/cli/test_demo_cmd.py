@@ -6,16 +6,10 @@ from pathlib import Path
 
 import pytest
 
-from bike_rig.cli.main import main
 from bike_rig.paths import config_dir
+from test.support.cli import run
 
 BROWSER_YAML = config_dir() / "bicycles" / "browser.yaml"
-
-
-def run(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
-    code = main(list(argv))
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 def _speed_lines(out: str) -> list[str]:

@@ -18,8 +18,8 @@ import pytest
 from scipy.io import savemat
 
 from bike_rig.cli import fit_cmd
-from bike_rig.cli.main import main
 from bike_rig.core.errors import BikeRigError
+from test.support.cli import run
 from test.support.signals import coupled_trial, gyro_trial
 
 JSON_KEYS = {
@@ -53,12 +53,6 @@ def bare_parser_run(argv: Sequence[str]) -> int:
     except BikeRigError as exc:
         print(f"bike-rig {args.command}: error: {exc}", file=sys.stderr)
         return 2
-
-
-def run(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
-    code = main(list(argv))
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 @pytest.fixture

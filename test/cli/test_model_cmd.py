@@ -19,14 +19,9 @@ from bike_rig.core.whipple import state_space
 from bike_rig.paths import config_dir
 from bike_rig.pipeline.model import compute_model
 from bike_rig.textfmt import format_value_sigma
+from test.support.cli import run
 
 BROWSER_YAML = config_dir() / "bicycles" / "browser.yaml"
-
-
-def run(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
-    code = main(list(argv))
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 def test_model_is_its_own_module() -> None:

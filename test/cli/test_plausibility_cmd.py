@@ -3,45 +3,19 @@
 from __future__ import annotations
 
 import math
-import re
 from pathlib import Path
 
 import pytest
 
-from bike_rig.cli.main import main
-from bike_rig.paths import config_file
-from test.support.paper import shared_dir
+from test.support.cli import run
+from test.support.edited import BENCHMARK, measured, parameter_file
 
-BENCHMARK = config_file("bicycles/benchmark.yaml")
 #: The commands and how each names its input.
 COMMANDS: tuple[tuple[str, ...], ...] = (("params",), ("model",), ("budget",), ("report", "-o", "{out}"))
 
 
-def run(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
-    code = main(list(argv))
-    out, err = capsys.readouterr()
-    return code, out, err
-
-
 def command(cmd: tuple[str, ...], path: Path, tmp_path: Path, *extra: str) -> list[str]:
     return [cmd[0], str(path), *(a.format(out=tmp_path / "report") for a in cmd[1:]), *extra]
-
-
-def measured(tmp_path: Path, key: str, text: str) -> Path:
-    src = (shared_dir() / "data" / "bicycleparameters" / "Browser" / "RawData" / "BrowserMeasured.txt").read_text()
-    out, n = re.subn(rf"^{key} = .*$", f"{key} = {text}", src, flags=re.M)
-    assert n == 1
-    path = tmp_path / f"{key}Measured.txt"
-    path.write_text(out)
-    return path
-
-
-def parameter_file(tmp_path: Path, key: str, value: float) -> Path:
-    out, n = re.subn(rf"^  {key}: \[.*\]$", f"  {key}: [{value!r}, 0.0]", BENCHMARK.read_text(), flags=re.M)
-    assert n == 1
-    path = tmp_path / f"p_{key}.yaml"
-    path.write_text(out)
-    return path
 
 
 @pytest.mark.parametrize("cmd", COMMANDS, ids=lambda c: c[0])

@@ -18,7 +18,7 @@ from bike_rig import topics
 from bike_rig.bag.simulated import simulated_messages
 from bike_rig.bag.typestore import rig_typestore
 from bike_rig.bag.writer import BagWriter, contract_qos
-from test.bag.conftest import short_session
+from test.support.simulated import short_session
 
 BROWSER = "config/bicycles/browser.yaml"
 FEEDBACK = "config/feedback/balance_assist.yaml"

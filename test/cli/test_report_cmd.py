@@ -8,14 +8,9 @@ import pytest
 
 from bike_rig.cli.main import main
 from bike_rig.paths import config_file
+from test.support.cli import run
 
 BENCHMARK = config_file("bicycles/benchmark.yaml")
-
-
-def run(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
-    code = main(list(argv))
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 def test_report_writes_the_page(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:

@@ -13,49 +13,14 @@ from pathlib import Path
 
 import pytest
 
-from bike_rig.cli.main import main
-from bike_rig.paths import config_dir
-
-BROWSER = str(config_dir() / "bicycles" / "browser.yaml")
-ASSIST = str(config_dir() / "feedback" / "balance_assist.yaml")
-
-
-def run(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
-    code = main(list(argv))
-    out, err = capsys.readouterr()
-    return code, out, err
+from test.support.cli import run
+from test.support.rides import ASSIST, BROWSER, simulate_ride
 
 
 @pytest.fixture(scope="module")
 def rides(tmp_path_factory: pytest.TempPathFactory) -> list[str]:
     out = tmp_path_factory.mktemp("calibrate")
-    paths = []
-    for k, v in enumerate(("2.5", "3.5", "4.5")):
-        path = out / f"ride_{k}.csv"
-        assert (
-            main(
-                [
-                    "ride",
-                    "simulate",
-                    BROWSER,
-                    "--rider",
-                    "paper",
-                    "--feedback",
-                    ASSIST,
-                    "--speed",
-                    v,
-                    "--duration",
-                    "14",
-                    "--seed",
-                    str(k),
-                    "-o",
-                    str(path),
-                ]
-            )
-            == 0
-        )
-        paths.append(str(path))
-    return paths
+    return [str(simulate_ride(out / f"ride_{k}.csv", v, 14, seed=k)) for k, v in enumerate((2.5, 3.5, 4.5))]
 
 
 def test_calibrate_finds_the_rider_aboard_at_the_nominal_gains(

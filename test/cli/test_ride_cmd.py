@@ -8,46 +8,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bike_rig.cli.main import main
-from bike_rig.paths import config_dir
+from test.support.cli import run
+from test.support.rides import ASSIST, BROWSER, simulate_ride
 
-BROWSER = str(config_dir() / "bicycles" / "browser.yaml")
-ASSIST = str(config_dir() / "feedback" / "balance_assist.yaml")
 SEGMENT_KEYS = {"file", "speed", "real", "real_sigma", "imag", "imag_sigma", "valid", "flags"}
-
-
-def run(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
-    code = main(list(argv))
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 @pytest.fixture(scope="module")
 def long_csv(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    out = tmp_path_factory.mktemp("ride") / "long.csv"
-    assert (
-        main(
-            [
-                "ride",
-                "simulate",
-                BROWSER,
-                "--rider",
-                "paper",
-                "--feedback",
-                ASSIST,
-                "--speed",
-                "4.5",
-                "--duration",
-                "25",
-                "--seed",
-                "3",
-                "-o",
-                str(out),
-            ]
-        )
-        == 0
-    )
-    return out
+    return simulate_ride(tmp_path_factory.mktemp("ride") / "long.csv", 4.5, 25, seed=3)
 
 
 def test_fit_json_has_one_object_per_segment(capsys: pytest.CaptureFixture[str], long_csv: Path) -> None:
@@ -88,24 +57,7 @@ def test_validate_agrees_with_the_closed_loop_and_not_the_open(
 
 
 def test_bag_records_are_read_with_the_imu_default(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
-    bag = tmp_path / "ride_bag"
-    code, _, _ = run(
-        capsys,
-        "ride",
-        "simulate",
-        BROWSER,
-        "--rider",
-        "paper",
-        "--feedback",
-        ASSIST,
-        "--speed",
-        "4.0",
-        "--duration",
-        "14",
-        "-o",
-        str(bag),
-    )
-    assert code == 0
+    bag = simulate_ride(tmp_path / "ride_bag", 4.0, 14)
     code, out, _ = run(
         capsys, "ride", "fit", str(bag), "--json", "--speed", "4.0", "--torque-topic", "/ride/steer_torque"
     )

@@ -18,8 +18,8 @@ from bike_rig.bag.info import summarize
 from bike_rig.core.period.advice import FLAG_ADVICE, flag_advice
 from bike_rig.core.period.result import FlagCode
 from bike_rig.paths import config_file
-from test.ros.processes import RosProcess
 from test.support.live import BEATING, RESULT, all_lines, bike_rig_argv, live_rig
+from test.support.processes import RosProcess
 
 
 def test_the_default_graph_runs_end_to_end_and_prints_every_result(ros_env: dict[str, str], tmp_path: Path) -> None:

@@ -17,9 +17,9 @@ from pathlib import Path
 
 import pytest
 
-from test.ros.processes import RosProcess
 from test.support.live import RESULT, all_lines, bike_rig_argv, live_rig
 from test.support.nodes import node_environment
+from test.support.processes import RosProcess
 from test.support.sessions import session_pids
 
 pytestmark = pytest.mark.ros

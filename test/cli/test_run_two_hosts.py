@@ -34,7 +34,7 @@ from bike_rig.bag.reader import open_bag
 from bike_rig.core.period.result import TRIAL_FLAG_CODES
 from bike_rig.paths import config_file
 from bike_rig.topics import GYRO
-from test.ros.processes import RosProcess
+from test.support.processes import RosProcess
 from test.support.wait import wait_until
 
 pytestmark = pytest.mark.ros

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from bike_rig.cli.main import main
 from bike_rig.paths import config_dir
+from test.support.cli import run
 
 BENCHMARK = config_dir() / "bicycles" / "benchmark.yaml"
 REASONS = {
@@ -28,12 +28,6 @@ def special(folder: Path, kind: str, name: str) -> Path:
         path.symlink_to(folder / f"other-{name}")
         (folder / f"other-{name}").symlink_to(path)
     return path
-
-
-def run(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
-    code = main(list(argv))
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 @pytest.mark.parametrize("kind", list(REASONS))

@@ -7,9 +7,9 @@ from pathlib import Path
 import pytest
 
 from bike_rig.cli import run_cmd
-from bike_rig.cli.main import main
 from bike_rig.paths import config_dir
 from bike_rig.textfmt import CONTROL_CHARACTERS
+from test.support.cli import run
 
 BROWSER = config_dir() / "bicycles" / "browser.yaml"
 BENCHMARK = config_dir() / "bicycles" / "benchmark.yaml"
@@ -24,12 +24,6 @@ def evil_bike(tmp_path: Path) -> Path:
     bike = tmp_path / "bike.yaml"
     bike.write_text(BROWSER.read_text(encoding="utf-8").replace("bicycle: Browser", name), encoding="utf-8")
     return bike
-
-
-def run(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
-    code = main(list(argv))
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 def test_report_and_import_bp_print_the_name_escaped(

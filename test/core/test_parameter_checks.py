@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-import re
 import warnings
 from pathlib import Path
 
@@ -23,33 +22,8 @@ from bike_rig.core.reading_ranges import (
     unit_mistakes,
 )
 from bike_rig.core.rider import RiderError, load_rider
-from bike_rig.paths import config_file
+from test.support.edited import measured, parameter_file
 from test.support.paper import real_files, shared_dir
-
-BENCHMARK = config_file("bicycles/benchmark.yaml")
-
-
-def browser_measured() -> str:
-    return (shared_dir() / "data" / "bicycleparameters" / "Browser" / "RawData" / "BrowserMeasured.txt").read_text()
-
-
-def measured(tmp_path: Path, key: str, text: str) -> Path:
-    """Browser's Measured.txt with one reading replaced (``key = text``)."""
-    src = browser_measured()
-    out, n = re.subn(rf"^{key} = .*$", f"{key} = {text}", src, flags=re.M)
-    assert n == 1
-    path = tmp_path / f"{key}Measured.txt"
-    path.write_text(out)
-    return path
-
-
-def parameter_file(tmp_path: Path, key: str, value: float) -> Path:
-    """The benchmark bicycle's parameter file with one value replaced."""
-    out, n = re.subn(rf"^  {key}: \[.*\]$", f"  {key}: [{value!r}, 0.0]", BENCHMARK.read_text(), flags=re.M)
-    assert n == 1
-    path = tmp_path / f"p_{key}.yaml"
-    path.write_text(out)
-    return path
 
 
 def load_quietly(path: Path) -> Measurements | ParameterSet:

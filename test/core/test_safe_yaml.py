@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import tracemalloc
 from pathlib import Path
 
 import pytest
@@ -34,20 +33,17 @@ def test_deep_block_nesting_is_refused(tmp_path: Path) -> None:
     _refused(path, "nested deeper than")
 
 
-def test_the_alias_bomb_is_refused_in_bounded_time_and_memory(tmp_path: Path) -> None:
-    """A 339-byte 'billion laughs' took 24 s and 4.4 GB through the line walk before its error."""
+def test_the_alias_bomb_is_refused_before_it_expands(tmp_path: Path) -> None:
+    """A 339-byte 'billion laughs' took 24 s and 4.4 GB through the line walk before its error.
+
+    (The memory its refusal takes: bench/bench_input_memory.py.)
+    """
     text = 'a: &a ["lol","lol","lol","lol","lol","lol","lol","lol","lol"]\n'
     for prev, name in zip("abcdefg", "bcdefgh"):
         text += f"{name}: &{name} [" + ",".join([f"*{prev}"] * 9) + "]\n"
     path = tmp_path / "bomb.yaml"
     path.write_text(text + "format: bike_rig-measurements/1\n")
-    tracemalloc.start()
-    try:
-        _refused(path, "expands to more than 100000 values")
-    finally:
-        peak = tracemalloc.get_traced_memory()[1]
-        tracemalloc.stop()
-    assert peak < 20e6
+    _refused(path, "expands to more than 100000 values")
 
 
 def test_a_chain_of_merge_keys_is_refused(tmp_path: Path) -> None:

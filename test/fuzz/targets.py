@@ -29,8 +29,8 @@ from bike_rig.core.trials import read_trial
 from bike_rig.launch import load_graph
 from bike_rig.paths import config_dir
 from test.fuzz.mutate import YAML_TOKENS
-from test.sources.support import small_rig
 from test.support.paper import shared_dir
+from test.support.small_sessions import small_rig
 
 __all__ = ["Target", "targets"]
 

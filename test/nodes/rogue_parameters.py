@@ -23,9 +23,7 @@ from bike_rig.core.loader import load_input
 from bike_rig.paths import config_file
 from bike_rig.rosqos import profile
 from bike_rig.topics import PARAMETERS
-from test.nodes.standin import msgs, parameter_message
-
-ROGUE_STAMP_NS = 1_700_000_777_000_000_001
+from test.support.standin import ROGUE_STAMP_NS, msgs, parameter_message
 
 
 def rogue_message() -> Any:

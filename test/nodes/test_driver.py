@@ -25,11 +25,11 @@ from bike_rig.paths import config_file
 from bike_rig.pipeline.fit import fit_trial
 from bike_rig.pipeline.resend import batch_samples
 from bike_rig.topics import GYRO, START_TRIAL, STOP_TRIAL, TRIAL_EVENTS
-from test.ros.processes import RosProcess
-from test.sources.support import small_session
 from test.support.probe import ABORT, START, STEP_TIMEOUT_S, STOP, Probe, msgs, node_command, srvs
+from test.support.processes import RosProcess
 from test.support.recorded import RATE as BAG_RATE
 from test.support.recorded import recorded_session
+from test.support.small_sessions import small_session
 
 pytestmark = pytest.mark.ros
 

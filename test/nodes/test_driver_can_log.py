@@ -15,10 +15,10 @@ import numpy as np
 import pytest
 
 from bike_rig.sources.can import CanFrameLayout
-from test.ros.processes import RosProcess
 from test.support.canlog import write_can_log
 from test.support.operator import Operator
 from test.support.probe import START, STOP, Probe, node_command
+from test.support.processes import RosProcess
 
 msgs: Any = pytest.importorskip("bike_rig_msgs.msg")
 

@@ -29,9 +29,10 @@ from bike_rig.pipeline.fit import TrialFit, TrialFitOptions, fit_trial
 from bike_rig.pipeline.fit_state import FitterState
 from bike_rig.pipeline.resend import SentBatches
 from bike_rig.topics import GYRO, PERIODS, RESEND_SAMPLES, TRIAL_EVENTS
-from test.ros.processes import RosProcess
-from test.sources.support import small_session
+from test.support.fakes import ManualClock, RecordingLog
 from test.support.probe import STEP_TIMEOUT_S, Probe, msgs, node_command
+from test.support.processes import RosProcess
+from test.support.small_sessions import small_session
 
 RATE = 1000.0
 N = 8000
@@ -140,27 +141,8 @@ def test_options_round_trip_through_json() -> None:
     assert TrialFitOptions.from_json(TrialFitOptions().to_json()) == TrialFitOptions()
 
 
-class Log:
-    def __init__(self) -> None:
-        self.lines: list[str] = []
-
-    def info(self, message: str) -> None:
-        self.lines.append("I " + message)
-
-    def warning(self, message: str) -> None:
-        self.lines.append("W " + message)
-
-
-class Clock:
-    def __init__(self) -> None:
-        self.now = 0.0
-
-    def __call__(self) -> float:
-        return self.now
-
-
-def state(**kw: Any) -> tuple[FitterState, Log, Clock]:
-    log, clock = Log(), Clock()
+def state(**kw: Any) -> tuple[FitterState, RecordingLog, ManualClock]:
+    log, clock = RecordingLog(), ManualClock()
     options = {"grace_s": 1.0, "history_grace_s": 0.0, **kw}  # steady state unless a test says otherwise
     return FitterState(TrialFitOptions(), log, clock=clock, **options), log, clock
 

@@ -24,9 +24,9 @@ from bike_rig.bag.typestore import message_definition, store_for
 from bike_rig.core.loader import load_input
 from bike_rig.liveview import DIAGNOSTICS, VIEW_TOPICS
 from bike_rig.topics import EIGEN_SWEEP, GYRO, PARAMETERS, PERIODS, TRIAL_EVENTS
-from test.ros.processes import RosProcess
 from test.support.foxglove_client import foxglove_client
 from test.support.probe import STEP_TIMEOUT_S, Probe, msgs, node_command
+from test.support.processes import RosProcess
 
 pytest.importorskip("foxglove")
 

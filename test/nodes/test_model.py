@@ -25,7 +25,6 @@ from bike_rig.core.uncertainty.speed_sigma import critical_speeds_with_sigma
 from bike_rig.core.whipple import eigenvalues, state_space
 from bike_rig.messages import session_parameters_from_msg
 from bike_rig.pipeline.model import compute_model
-from test.ros.processes import RosProcess
 from test.support.nodes import (
     ASSIST,
     BROWSER,
@@ -40,6 +39,7 @@ from test.support.nodes import (
     state_space_request,
 )
 from test.support.probe import Probe
+from test.support.processes import RosProcess
 
 pytestmark = pytest.mark.ros
 

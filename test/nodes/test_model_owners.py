@@ -18,9 +18,6 @@ from bike_rig import topics
 from bike_rig.core.benchmark import ParameterSet
 from bike_rig.core.loader import load_input
 from bike_rig.paths import config_file
-from test.nodes.rogue_parameters import ROGUE_STAMP_NS
-from test.nodes.standin import ParameterStandIn, parameter_message
-from test.ros.processes import RosProcess
 from test.support.nodes import (
     BROWSER,
     STAMP_NS,
@@ -32,6 +29,8 @@ from test.support.nodes import (
     state_space_request,
 )
 from test.support.probe import STEP_TIMEOUT_S, Probe
+from test.support.processes import RosProcess
+from test.support.standin import ROGUE_STAMP_NS, ParameterStandIn, parameter_message
 
 pytestmark = pytest.mark.ros
 

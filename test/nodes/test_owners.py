@@ -7,6 +7,7 @@ from typing import Any
 
 from bike_rig import topics
 from bike_rig.nodes.owners import HOLD_S, RELOOK_S, TOPIC_OWNERS, OwnerFilter, Released
+from test.support.fakes import ManualClock
 
 PARAMETERS = topics.PARAMETERS.name
 OWNER, ROGUE, LATE = b"\x01" * 12, b"\x02" * 12, b"\x03" * 12
@@ -30,14 +31,6 @@ class FakeGraph:
         return list(self.publishers.get(topic_name, []))
 
 
-class Clock:
-    def __init__(self) -> None:
-        self.now = 100.0
-
-    def __call__(self) -> float:
-        return self.now
-
-
 def info(prefix: bytes) -> dict[str, Any]:
     """The message info rclpy gives for a publisher of the process ``prefix`` (its GUID prefix)."""
     return {"publisher_gid": {"data": prefix + b"\x00\x00\x01\x03" + bytes(8)}}
@@ -52,7 +45,7 @@ def verdicts(released: list[Released[str]]) -> list[tuple[str, bool, tuple[str, 
 
 
 def test_the_owners_messages_pass_and_another_process_is_told_apart() -> None:
-    f: OwnerFilter[str] = OwnerFilter(graph((OWNER, "parameter"), (ROGUE, "rogue")), clock=Clock())
+    f: OwnerFilter[str] = OwnerFilter(graph((OWNER, "parameter"), (ROGUE, "rogue")), clock=ManualClock(100.0))
     for item, who in (("a", OWNER), ("b", ROGUE), ("c", OWNER)):
         f.offer(PARAMETERS, info(who), item)
     out = f.release()
@@ -62,13 +55,13 @@ def test_the_owners_messages_pass_and_another_process_is_told_apart() -> None:
 
 
 def test_a_process_with_the_owner_among_its_nodes_is_the_owners() -> None:
-    f: OwnerFilter[str] = OwnerFilter(graph((OWNER, "test_probe"), (OWNER, "parameter")), clock=Clock())
+    f: OwnerFilter[str] = OwnerFilter(graph((OWNER, "test_probe"), (OWNER, "parameter")), clock=ManualClock(100.0))
     f.offer(PARAMETERS, info(OWNER), "a")
     assert verdicts(f.release()) == [("a", True, ("parameter", "test_probe"))]
 
 
 def test_a_message_from_an_undiscovered_process_waits_and_nothing_overtakes_it() -> None:
-    clock = Clock()
+    clock = ManualClock(100.0)
     g = graph((OWNER, "parameter"), (LATE, "_NODE_NAME_UNKNOWN_"))
     f: OwnerFilter[str] = OwnerFilter(g, clock=clock)
     f.offer(PARAMETERS, info(LATE), "late")
@@ -83,7 +76,7 @@ def test_a_message_from_an_undiscovered_process_waits_and_nothing_overtakes_it()
 
 
 def test_a_message_the_graph_never_names_is_released_as_unknown_after_the_hold() -> None:
-    clock = Clock()
+    clock = ManualClock(100.0)
     f: OwnerFilter[str] = OwnerFilter(graph((OWNER, "parameter")), clock=clock)
     f.offer(PARAMETERS, info(LATE), "ghost")
     clock.now += HOLD_S - 0.01
@@ -95,7 +88,7 @@ def test_a_message_the_graph_never_names_is_released_as_unknown_after_the_hold()
 
 def test_a_topic_without_owners_and_a_middleware_that_does_not_say_pass_unchecked() -> None:
     g = graph()
-    f: OwnerFilter[str] = OwnerFilter(g, clock=Clock())
+    f: OwnerFilter[str] = OwnerFilter(g, clock=ManualClock(100.0))
     f.offer(topics.RIDE_SPEED.name, info(ROGUE), "speed")
     f.offer(PARAMETERS, {}, "no gid")
     assert verdicts(f.release()) == [("speed", True, ()), ("no gid", True, ())] and g.looked == 0

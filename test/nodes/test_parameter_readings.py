@@ -36,7 +36,7 @@ from bike_rig.messages import (
 )
 from bike_rig.pipeline.assemble import SessionParameters, assemble
 from bike_rig.pipeline.readings import ReadingEntry, apply_entries
-from test.bag.entered import MISTAKE_KEY, one_trial_session, operator_entries
+from test.support.entered import MISTAKE_KEY, one_trial_session, operator_entries
 from test.support.nodes import BROWSER, BROWSER_KEYS, STATIC_KEYS, start_node
 from test.support.probe import Probe
 from test.support.recorder import wait_for_data

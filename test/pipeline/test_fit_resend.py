@@ -20,29 +20,11 @@ from bike_rig.pipeline.resend import (
     history_depth,
 )
 from bike_rig.topics import GYRO
+from test.support.fakes import ManualClock, RecordingLog
 
 RATE = 1000.0
 N = 6000
 DRV = "driver-participant"
-
-
-class Log:
-    def __init__(self) -> None:
-        self.lines: list[str] = []
-
-    def info(self, message: str) -> None:
-        self.lines.append("I " + message)
-
-    def warning(self, message: str) -> None:
-        self.lines.append("W " + message)
-
-
-class Clock:
-    def __init__(self) -> None:
-        self.now = 100.0
-
-    def __call__(self) -> float:
-        return self.now
 
 
 def event(kind: int, trial_id: str, count: int = 0) -> TrialEventRecord:
@@ -59,8 +41,8 @@ def batches_of(trial_id: str, rates: np.ndarray, size: int = 500) -> list[Sample
     return [SampleBatch(trial_id, a, RATE, rates[a : a + size]) for a in range(0, rates.size, size)]
 
 
-def resending_state() -> tuple[FitterState, Log, Clock]:
-    log, clock = Log(), Clock()
+def resending_state() -> tuple[FitterState, RecordingLog, ManualClock]:
+    log, clock = RecordingLog(), ManualClock(100.0)
     s = FitterState(TrialFitOptions(), log, grace_s=1.0, clock=clock, history_grace_s=0.0)
     s.can_resend = True
     return s, log, clock
@@ -245,7 +227,7 @@ def test_an_answer_that_comes_after_the_original_batches_changes_nothing() -> No
 
 def test_batches_that_come_after_the_trial_was_published_with_a_gap_refit_it() -> None:
     """No resend service (a republished recording): given up after grace, fitted again once whole."""
-    log, clock = Log(), Clock()
+    log, clock = RecordingLog(), ManualClock(100.0)
     s = FitterState(TrialFitOptions(), log, grace_s=1.0, clock=clock, history_grace_s=0.0)
     a = batches_of("a", signal())
     s.on_event(event(0, "a"), DRV)

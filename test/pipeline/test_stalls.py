@@ -6,14 +6,7 @@ from bike_rig.cli.run_cmd import HEARD_S
 from bike_rig.diagnostics import Level, Status
 from bike_rig.pipeline.health import InputLag, input_lag_statuses
 from bike_rig.pipeline.stalls import NEVER_HEARD_S, RESUMED_S, SILENT_S, StallWatch, Standing
-
-
-class Clock:
-    def __init__(self) -> None:
-        self.t = 1000.0
-
-    def __call__(self) -> float:
-        return self.t
+from test.support.fakes import ManualClock
 
 
 def array(node: str, lag_s: float | None = None) -> list[Status]:
@@ -24,27 +17,27 @@ def array(node: str, lag_s: float | None = None) -> list[Status]:
     return out
 
 
-def beat(watch: StallWatch, clock: Clock, node: str, seconds: int, lag_s: float | None = None) -> list[str]:
+def beat(watch: StallWatch, clock: ManualClock, node: str, seconds: int, lag_s: float | None = None) -> list[str]:
     """``node`` publishes once a second for ``seconds``; every line the watch says meanwhile."""
     lines = []
     for _ in range(seconds):
-        clock.t += 1.0
+        clock.now += 1.0
         watch.heard(array(node, lag_s))
         lines += [c.text for c in watch.check()]
     return lines
 
 
-def wait(watch: StallWatch, clock: Clock, seconds: float, ended: tuple[str, ...] = ()) -> list[str]:
+def wait(watch: StallWatch, clock: ManualClock, seconds: float, ended: tuple[str, ...] = ()) -> list[str]:
     """Nothing arrives for ``seconds`` (checked every 0.1 s); every line said meanwhile."""
     lines = []
     for _ in range(round(seconds * 10)):
-        clock.t += 0.1
+        clock.now += 0.1
         lines += [c.text for c in watch.check(ended)]
     return lines
 
 
 def test_a_stalled_node_is_said_once_and_caught_up_once_it_publishes_again() -> None:
-    clock = Clock()
+    clock = ManualClock(1000.0)
     watch = StallWatch(clock=clock)
     assert beat(watch, clock, "fitter", 5, lag_s=0.01) == []  # every second: nothing to say
     assert wait(watch, clock, SILENT_S - 0.2) == []
@@ -53,7 +46,7 @@ def test_a_stalled_node_is_said_once_and_caught_up_once_it_publishes_again() -> 
     assert watch.troubled() == {"fitter": Standing.SILENT}
     assert watch.troubles() == ["fitter silent for 14 s"]
     # SIGCONT: its first arrays are published before it has handled its backlog: not caught up yet
-    clock.t += 1.0
+    clock.now += 1.0
     for _ in range(2):  # (an overdue timer: two arrays at once)
         watch.heard(array("fitter", 0.01))
     assert watch.check() == []
@@ -64,10 +57,10 @@ def test_a_stalled_node_is_said_once_and_caught_up_once_it_publishes_again() -> 
 
 
 def test_a_node_behind_its_input_is_said_once_until_it_has_caught_up() -> None:
-    clock = Clock()
+    clock = ManualClock(1000.0)
     watch = StallWatch(clock=clock)
     beat(watch, clock, "fitter", 2, lag_s=0.01)
-    clock.t += 1.0
+    clock.now += 1.0
     watch.heard(array("fitter", 20.4))
     (change,) = watch.check()
     assert (change.node, change.standing, change.level) == ("fitter", Standing.BEHIND, Level.WARN)
@@ -76,7 +69,7 @@ def test_a_node_behind_its_input_is_said_once_until_it_has_caught_up() -> None:
     assert watch.troubles() == ["fitter 12 s behind"]
     assert beat(watch, clock, "fitter", 1, lag_s=0.1) == []  # one array on time is not yet caught up
     assert beat(watch, clock, "fitter", 1, lag_s=3.0) == []  # (behind again: still the same standing)
-    clock.t += 1.0
+    clock.now += 1.0
     watch.heard(array("fitter", 0.1))
     watch.heard(array("fitter", 0.1))  # two at once: not yet
     assert watch.check() == []
@@ -84,7 +77,7 @@ def test_a_node_behind_its_input_is_said_once_until_it_has_caught_up() -> None:
 
 
 def test_a_stalled_node_back_with_a_backlog_is_behind_then_caught_up() -> None:
-    clock = Clock()
+    clock = ManualClock(1000.0)
     watch = StallWatch(clock=clock)
     beat(watch, clock, "parameter", 2, lag_s=0.01)
     assert wait(watch, clock, 10.0) == ["parameter silent for 4 s (stalled?): results will follow"]
@@ -92,7 +85,7 @@ def test_a_stalled_node_back_with_a_backlog_is_behind_then_caught_up() -> None:
     assert watch.troubles() == ["parameter 10 s behind"]
     assert beat(watch, clock, "parameter", 1, lag_s=0.05) == []  # (its backlog reached it: as after a lag)
     assert watch.troubles() == ["parameter catching up after 12 s"]
-    clock.t += 1.0
+    clock.now += 1.0
     watch.heard(array("parameter", 0.05))
     (change,) = watch.check()
     assert (change.text, change.standing, change.level) == ("parameter caught up", Standing.OK, Level.OK)
@@ -100,7 +93,7 @@ def test_a_stalled_node_back_with_a_backlog_is_behind_then_caught_up() -> None:
 
 
 def test_a_node_behind_that_stalls_is_said_silent_and_a_node_without_lag_status_is_followed_too() -> None:
-    clock = Clock()
+    clock = ManualClock(1000.0)
     watch = StallWatch(clock=clock)
     beat(watch, clock, "recorder", 1)  # (no input lag status: not late)
     assert beat(watch, clock, "model", 1, lag_s=5.0) == ["model 5 s behind: results will follow"]
@@ -112,7 +105,7 @@ def test_a_node_behind_that_stalls_is_said_silent_and_a_node_without_lag_status_
 
 
 def test_an_ended_or_forgotten_node_is_gone_not_stalled_and_other_nodes_are_not_followed() -> None:
-    clock = Clock()
+    clock = ManualClock(1000.0)
     watch = StallWatch(nodes={"driver", "fitter"}, clock=clock)
     beat(watch, clock, "driver", 2)
     beat(watch, clock, "fitter", 2)
@@ -126,7 +119,7 @@ def test_an_ended_or_forgotten_node_is_gone_not_stalled_and_other_nodes_are_not_
 
 
 def test_an_expected_node_stalled_before_its_first_heartbeat_is_said_and_waited_for() -> None:
-    clock = Clock()
+    clock = ManualClock(1000.0)
     watch = StallWatch(nodes={"fitter", "parameter", "bridge"}, clock=clock, expected={"fitter", "parameter"})
     assert beat(watch, clock, "fitter", round(NEVER_HEARD_S) - 2) == []  # (still being discovered: quiet)
     assert watch.longest_silence() >= HEARD_S  # (a give-up must wait for it)
@@ -139,7 +132,7 @@ def test_an_expected_node_stalled_before_its_first_heartbeat_is_said_and_waited_
 
 
 def test_an_expected_node_whose_process_ended_before_it_was_heard_is_gone_not_silent() -> None:
-    clock = Clock()
+    clock = ManualClock(1000.0)
     watch = StallWatch(clock=clock, expected={"fitter", "parameter"})
     beat(watch, clock, "fitter", 2)
     lines = wait(watch, clock, NEVER_HEARD_S + 1, ended=("parameter",))

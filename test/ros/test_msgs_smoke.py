@@ -12,7 +12,7 @@ from typing import Any
 
 import pytest
 
-from test.ros.processes import RosProcess
+from test.support.processes import RosProcess
 
 pytestmark = pytest.mark.ros
 

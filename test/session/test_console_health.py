@@ -11,7 +11,7 @@ from bike_rig.core.sim import load_rig
 from bike_rig.diagnostics import Level, Status, StatusReport
 from bike_rig.paths import config_file
 from bike_rig.session.setup import build_controller
-from test.session.fakelink import FakeLink
+from test.support.fakelink import FakeLink
 
 
 def test_a_stalled_node_is_on_the_health_line_and_said_once_in_the_log() -> None:

@@ -11,7 +11,7 @@ from bike_rig.core.sim import load_rig
 from bike_rig.paths import config_file
 from bike_rig.session.controller import SessionController
 from bike_rig.session.setup import build_controller
-from test.session.fakelink import FakeLink
+from test.support.fakelink import FakeLink
 
 
 def _controller() -> tuple[SessionController, FakeLink]:

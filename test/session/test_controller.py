@@ -14,7 +14,7 @@ from bike_rig.session.plain import run_plain
 from bike_rig.session.plan import ItemState, ReadingItem, TrialItem, plan_from_rig
 from bike_rig.session.setup import build_controller
 from bike_rig.session.state import result_line
-from test.session.fakelink import FakeLink, browser_truth
+from test.support.fakelink import FakeLink, browser_truth
 
 
 @pytest.fixture

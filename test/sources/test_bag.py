@@ -24,6 +24,7 @@ from bike_rig.sources import (
     open_source,
 )
 from bike_rig.sources.bag import BagSource
+from test.support.fakes import ManualClock
 from test.support.recorded import RATE, T0, BagBuilder, recorded_session
 
 
@@ -60,17 +61,9 @@ def test_replays_the_recorded_trials(tmp_path: Path) -> None:
     assert source.skipped_batches == 1 and source.finished
 
 
-class FakeMonotonic:
-    def __init__(self) -> None:
-        self.now = 0.0
-
-    def __call__(self) -> float:
-        return self.now
-
-
 def test_paced_by_recording_time(tmp_path: Path) -> None:
     path, _, _ = recorded_session(tmp_path)
-    mono = FakeMonotonic()
+    mono = ManualClock()
     source = BagSource(path, RigClock(None, 2.0, monotonic=mono))
     got: list[SourceEvent] = source.poll()  # log time 0: the stray batch only (skipped)
     assert got == []

@@ -35,8 +35,8 @@ from bike_rig.sources import (
     open_source,
 )
 from bike_rig.sources.can import CanFrameLayout, CanSource, SimulatedCanGyro, array_samples, damped_samples
-from test.sources.support import small_session
 from test.support.canlog import write_can_log
+from test.support.small_sessions import small_session
 
 RATE = 1000.0
 

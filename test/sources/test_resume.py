@@ -23,7 +23,7 @@ from bike_rig.sources.base import RigClock, SampleBlock, SourceEvent, TrialReque
 from bike_rig.sources.errors import SourceConfigError
 from bike_rig.sources.resume import ResumedSource
 from bike_rig.sources.sim import SimSource
-from test.sources.support import BICYCLE, START_NS, operator_source, small_rig
+from test.support.small_sessions import BICYCLE, START_NS, operator_source, small_rig
 
 #: Trials recorded before the interruption (the last of them left open).
 RECORDED = 4

@@ -5,11 +5,11 @@ from __future__ import annotations
 import pytest
 
 from bike_rig.sources.silence import SilenceWatch
-from test.sources.support import FakeMonotonic
+from test.support.fakes import ManualClock
 
 
 def test_each_silence_is_reported_once() -> None:
-    mono = FakeMonotonic()
+    mono = ManualClock(100.0)
     watch = SilenceWatch(1.0, monotonic=mono)
     assert watch.due() == []
     watch.started("a")  # requested: no samples yet
@@ -36,7 +36,7 @@ def test_each_silence_is_reported_once() -> None:
 
 
 def test_trials_are_watched_separately() -> None:
-    mono = FakeMonotonic()
+    mono = ManualClock(100.0)
     watch = SilenceWatch(0.5, monotonic=mono)
     watch.started("a")
     mono.now += 0.3

@@ -27,7 +27,8 @@ from bike_rig.sources import (
     open_source,
 )
 from bike_rig.sources.sim import SimSource, session_file_trials
-from test.sources.support import BICYCLE, TRIAL_S, FakeMonotonic, small_rig, small_session
+from test.support.fakes import ManualClock
+from test.support.small_sessions import BICYCLE, TRIAL_S, small_rig, small_session
 
 START_NS = 1_700_000_000_123_456_789
 
@@ -106,7 +107,7 @@ def test_in_memory_session_equals_the_simulated_one_and_writes_nothing(
 
 def test_paced_in_rig_time(tmp_path: Path) -> None:
     _, path = small_session(tmp_path)
-    mono = FakeMonotonic()
+    mono = ManualClock(100.0)
     source = SimSource(session_file_trials(path), RigClock(START_NS, 20.0, monotonic=mono), pause_between_trials_s=1.0)
     first = source.poll()  # rig time START_NS: the START and the first sample
     assert isinstance(first[0], TrialStarted) and first[0].stamp_ns == START_NS

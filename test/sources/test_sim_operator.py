@@ -27,7 +27,8 @@ from bike_rig.sources import (
     open_source,
 )
 from bike_rig.sources.sim_operator import OperatorSimSource, planned_measurement
-from test.sources.support import BICYCLE, START_NS, TRIAL_S, FakeMonotonic, operator_source, small_rig
+from test.support.fakes import ManualClock
+from test.support.small_sessions import BICYCLE, START_NS, TRIAL_S, operator_source, small_rig
 
 RATE = 1000.0
 
@@ -152,7 +153,7 @@ def test_same_seed_and_counter_give_the_same_trial(tmp_path: Path) -> None:
 
 
 def test_paced_by_the_clock_from_the_request_on(tmp_path: Path) -> None:
-    mono = FakeMonotonic()
+    mono = ManualClock(100.0)
     source = operator_source(tmp_path, RigClock(START_NS, 20.0, monotonic=mono))
     assert source.poll() == []
     mono.now += 1.0  # 20 s of rig time, nothing requested: nothing streams
@@ -175,7 +176,7 @@ def test_paced_by_the_clock_from_the_request_on(tmp_path: Path) -> None:
 
 
 def test_stop_and_abort_end_the_trial_at_the_clock_now(tmp_path: Path) -> None:
-    mono = FakeMonotonic()
+    mono = ManualClock(100.0)
     source = operator_source(tmp_path, RigClock(START_NS, 8.0, monotonic=mono))
     with pytest.raises(TrialRequestError, match="^no trial is running$"):
         source.stop_trial()

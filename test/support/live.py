@@ -10,7 +10,7 @@ from pathlib import Path
 import yaml
 
 from bike_rig.paths import config_file
-from test.ros.processes import RosProcess
+from test.support.processes import RosProcess
 
 #: The beating trial (the fitter flags it, poor fit or beating: REDO).
 BEATING = "frame_torsional_o2_t1"

@@ -20,9 +20,9 @@ from bike_rig.messages import (
 from bike_rig.paths import config_file
 from bike_rig.pipeline.assemble import assemble
 from bike_rig.pipeline.fit import TrialFit
-from test.nodes.standin import ParameterStandIn
-from test.ros.processes import RosProcess
 from test.support.probe import Probe
+from test.support.processes import RosProcess
+from test.support.standin import ParameterStandIn
 
 REPO = Path(__file__).resolve().parents[2]
 

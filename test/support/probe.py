@@ -20,7 +20,7 @@ from rclpy.signals import SignalHandlerOptions
 
 from bike_rig import topics
 from bike_rig.rosqos import profile
-from test.ros.processes import RosProcess
+from test.support.processes import RosProcess
 
 __all__ = ["ABORT", "RESEND_S", "START", "STEP_TIMEOUT_S", "STOP", "Probe", "msgs", "node_command", "srvs"]
 

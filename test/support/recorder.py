@@ -8,7 +8,7 @@ from pathlib import Path
 from typing import Any
 
 from bike_rig.bag.recover import scan_mcap
-from test.ros.processes import RosProcess
+from test.support.processes import RosProcess
 from test.support.wait import wait_until
 
 PUBLISHER = Path(__file__).resolve().parents[1] / "bag" / "rig_publisher.py"

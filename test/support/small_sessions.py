@@ -44,16 +44,6 @@ def small_session(directory: Path, seed: int = 3) -> tuple[SimulatedSession, Pat
     return session, write_session(session, directory / "session", volts=True)
 
 
-class FakeMonotonic:
-    """A monotonic clock the test moves by hand."""
-
-    def __init__(self) -> None:
-        self.now = 100.0
-
-    def __call__(self) -> float:
-        return self.now
-
-
 START_NS = 1_700_000_000_123_456_789
 
 

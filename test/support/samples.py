@@ -10,8 +10,8 @@ from typing import Any
 
 import numpy as np
 
-from bike_rig.bag.typestore import rig_typestore
-from bike_rig.topics import TOPICS
+from bike_rig.bag.typestore import new_message, rig_typestore
+from bike_rig.topics import GYRO, TOPICS
 
 _INTS = {"int8", "uint8", "int16", "uint16", "int32", "uint32", "int64", "uint64", "byte", "char"}
 _FLOATS = {"float32", "float64"}
@@ -39,6 +39,11 @@ def _base(kind: str, seed: int) -> Any:
     if kind in _FLOATS:
         return seed * 0.001 + 1.0 / 3.0
     raise AssertionError(kind)
+
+
+def seed_of(topic: str, k: int) -> int:
+    """The seed of the k-th message on a topic (the recorder tests' stand-in publishes these)."""
+    return [t.name for t in TOPICS].index(topic) * 100_000 + k
 
 
 def make_message(msgtype: str, seed: int) -> Any:
@@ -109,3 +114,14 @@ def sample_traffic(per_topic: dict[str, int]) -> list[tuple[str, int, bytes, Any
                 seed += 1
                 t += 1_000_000
     return out
+
+
+def gyro_message(frame_id: str, trial_id: str, n: int, m: int, seed: int) -> Any:
+    """A GyroBatch with these header frame id, trial id and numbers of rates and raw volts, the rest from ``seed``."""
+    rng = np.random.default_rng(seed)
+    msg = new_message(GYRO.type, trial_id=trial_id, first_index=seed * 50, sample_rate_hz=1000.0 + seed)
+    msg.header.frame_id = frame_id
+    msg.header.stamp.sec, msg.header.stamp.nanosec = 1_800_000_000 + seed, seed * 7919 % 1_000_000_000
+    msg.rates = rng.normal(size=n)
+    msg.raw_volts = rng.normal(size=m)
+    return msg

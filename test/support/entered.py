@@ -101,6 +101,11 @@ def entries_bag(path: Path, session: SimulatedSession, skip: Sequence[str] = ())
     messages = sorted(
         [*node_messages(Measurements(session.bicycle, {}, ""), entries), *trials], key=lambda m: m.log_time
     )
+    return write_messages(path, messages), entries
+
+
+def write_messages(path: Path, messages: list[SimulatedMessage]) -> Path:
+    """A bag of every rig topic (the contract QoS) holding ``messages``, in their order."""
     store = rig_typestore()
     types = {t.name: t.type for t in topics.TOPICS}
     with BagWriter(path) as w:
@@ -108,4 +113,4 @@ def entries_bag(path: Path, session: SimulatedSession, skip: Sequence[str] = ())
             w.add_topic(t.name, t.type, offered_qos=[contract_qos(t.qos)])
         for m in messages:
             w.write(m.topic, m.log_time, bytes(store.serialize_cdr(m.message, types[m.topic])))
-    return path, entries
+    return path

@@ -23,6 +23,9 @@ from bike_rig.rosqos import profile
 
 msgs: Any = importlib.import_module("bike_rig_msgs.msg")
 
+#: The stamp of the rogue process's parameter set (test/nodes/rogue_parameters.py), ns.
+ROGUE_STAMP_NS = 1_700_000_777_000_000_001
+
 
 def parameter_message(
     ps: ParameterSet, stamp_ns: int, bicycle: str | None = None, changes: Mapping[str, float] | None = None
