@@ -54,6 +54,7 @@ from numpy.typing import ArrayLike, NDArray
 from .clean import Invalid, clean_samples
 from .damping_fit import fit_damping, with_small_swing_period
 from .detection import detect
+from .ends import with_end_check
 from .oscillation import TWO_PI, damped_cosine, damped_cosine_even, zeta_omega
 from .quality import (
     clipping_flag,
@@ -555,5 +556,5 @@ class _Fitter:
         fit, residual = fit_damping(fit, blocks, sol, samples, units, modulation, self.options, eq23)
         if fit.period_sigma < fit.period_sigma_white:  # (never below Eq 27's, whichever model was chosen)
             fit = replace(fit, period_sigma=fit.period_sigma_white)
-        fit = with_stationarity(fit, eq23, residual)
+        fit = with_end_check(with_stationarity(fit, eq23, residual), residual)
         return with_small_swing_period(fit) if self.options.small_swing_period else fit

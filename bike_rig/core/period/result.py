@@ -167,6 +167,16 @@ class PeriodFit:
         window_periods: The periods of consecutive windows of whole cycles, in record order
             (:mod:`~bike_rig.core.period.stationarity`; empty for fewer than 8 cycles) [s].
         window_period_sigmas: Their standard uncertainties [s].
+        ends_period: The record's own mean period from its phase at the window's two ends,
+            free of any period law (:mod:`~bike_rig.core.period.ends`; NaN for fewer than 6
+            cycles) [s].
+        ends_period_sigma: Its standard uncertainty [s].
+        small_swing_systematic: The small-swing period's systematic σ from the finite-swing
+            law's extrapolation, when the option ``small_swing_period`` is used: what the two
+            halves of the window disagree on beyond their σ (:mod:`~bike_rig.core.period.small_swing`;
+            NaN when not evaluated) [s].
+        small_swing_halves: The small-swing periods of the window's first and second halves,
+            with σ, when evaluated: (T₀₁, σ₁, T₀₂, σ₂) [s].
     """
 
     period: float
@@ -205,6 +215,10 @@ class PeriodFit:
     sigma_widening: float = 1.0
     window_periods: tuple[float, ...] = ()
     window_period_sigmas: tuple[float, ...] = ()
+    ends_period: float = math.nan
+    ends_period_sigma: float = math.nan
+    small_swing_systematic: float = math.nan
+    small_swing_halves: tuple[float, ...] = ()
 
     @property
     def swing_amplitude(self) -> float:
