@@ -19,6 +19,7 @@ from typing import Any
 from ..core.benchmark import ComMethod, ParameterSet
 from ..core.errors import BikeRigError
 from ..core.measurements import PART_NAMES
+from ..core.period.small_swing import small_swing_parts
 from ..core.rider import add_rider
 from ..core.uncertainty.budget import (
     BUDGET_PARAMETERS,
@@ -88,7 +89,8 @@ def run(args: argparse.Namespace) -> int:
         ps = add_rider(ps, rider)
     names = reading_names(subject.measurements) if subject.measurements is not None else None
     fb = feedback_from_spec(args.feedback)
-    b = uncertainty_budget(ps, names, swing_alternative(subject.trials), fb)
+    used = ((t.key, t.result.fit) for t in subject.trials if t.used)
+    b = uncertainty_budget(ps, names, swing_alternative(subject.trials), fb, small_swing_parts(used))
     sigmas = None
     if subject.measurements is not None and rider is None:
         sigmas = printed_sigmas(subject.measurements, ps.parameters, _com_method(ps))

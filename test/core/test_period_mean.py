@@ -156,11 +156,17 @@ def test_the_default_period_is_the_mean_over_the_window_and_its_sigma_covers_it(
     fits = [fit_period(r.samples, RATE_HZ) for r in records]
     assert Counter(f.damping_model for f in fits)["dry"] >= 190 and all(f.swing_kappa < 0 for f in fits)
     z = _errors(fits, records)
-    assert 0.60 <= np.mean(np.abs(z) <= 1.0) <= 0.76, np.mean(np.abs(z) <= 1.0)
+    assert 0.60 <= np.mean(np.abs(z) <= 1.0) <= 0.90, np.mean(np.abs(z) <= 1.0)  # (the ends widen a third)
     assert abs(np.mean(z)) < 0.2, np.mean(z)
     assert all(f.clean and f.period == f.mean_period for f in fits)
     # the period at the window centre's swing (the old default) is a different quantity
-    centre = np.array([(f.centre_period - r.mean_period(f.window)) / f.period_sigma for f, r in zip(fits, records)])
+    # (in units of the model's own σ: the ends' check widens some)
+    centre = np.array(
+        [
+            (f.centre_period - r.mean_period(f.window)) / (f.period_sigma / f.sigma_widening)
+            for f, r in zip(fits, records)
+        ]
+    )
     assert np.mean(np.abs(centre) <= 1.0) < 0.1 and np.all(centre < 0)
     # the small-swing period keeps its own σ honest
     small = np.array([(f.small_swing_period - T0) / f.small_swing_period_sigma for f in fits])
@@ -225,11 +231,17 @@ def test_a_small_unexplained_step_is_flagged_without_a_fixed_limit() -> None:
     assert abs(fit.period - truth) < 2 * fit.period_sigma
 
 
-def test_steady_records_are_neither_widened_nor_flagged_beyond_chance() -> None:
+def test_steady_records_are_not_flagged_and_widened_only_where_their_ends_depart_by_chance() -> None:
     fits = [fit_period(gyro_trial(seed, period=1.5, zeta=0.003).samples, RATE_HZ) for seed in range(60)]
     assert not any(f.has_flag(FlagCode.PERIOD_DRIFT) for f in fits)
-    assert sum(f.sigma_widening > 1 for f in fits) <= 6  # (the test's 5 %, and its chance)
     assert sum(f.period != f.mean_period for f in fits) == 0
+    # the windowed test widens at its 5 %; the ends' check where |ΔT| > σ_ΔT (about a third)
+    widened = [f for f in fits if f.sigma_widening > 1]
+    assert 5 <= len(widened) <= 30, len(widened)
+    for f in widened:
+        distance = abs(f.ends_period - f.period)
+        assert distance > 0 and f.period_sigma >= distance  # (the ends' distance is inside σ)
+    assert np.median([f.sigma_widening for f in fits]) == 1.0
 
 
 def test_the_rig_simulators_clean_trials_are_not_flagged_and_their_sigma_covers(tmp_path: Path) -> None:
@@ -252,7 +264,7 @@ def test_the_rig_simulators_clean_trials_are_not_flagged_and_their_sigma_covers(
             z.append((fit.period - sim.damped_period(m.key)) / fit.period_sigma)
             moved += any("the period moves beyond" in note for note in fit.notes)
     assert moved >= 1  # (seed 4's front wheel: said in a note, carried by the σ)
-    assert 0.58 <= np.mean(np.abs(z) <= 1.0) <= 0.8, z
+    assert 0.58 <= np.mean(np.abs(z) <= 1.0) <= 0.9, z
 
 
 def test_the_window_jackknife_takes_about_sqrt_cycles_windows_of_two_cycles_or_more() -> None:

@@ -213,7 +213,7 @@ def test_overview_draws_used_left_out_and_period_less_trials_apart(bag_subject: 
         note = artist(fig, f"flags:{trials[i].trial_id}")
         assert isinstance(note, Annotation) and note.get_text() == codes
     p4 = next(p for p in ov.points if p.trial is trials[4])
-    assert p4.deviation_ppm == pytest.approx(1e4, rel=2e-3)
+    assert p4.deviation_ppm == pytest.approx(1e4, rel=5e-3)  # (the other trials' mean: tens of ppm off)
     assert f"{p4.deviation_ppm:+.3g} ppm" in [t.get_text() for t in fig.axes[0].texts]  # its value, written
     # r² and cycles panels: one point per trial with a period
     r2 = artist(fig, "overview:r2")

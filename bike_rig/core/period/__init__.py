@@ -28,7 +28,10 @@ min_cycles=4.0, min_r2=0.9, max_modulation=0.02, max_drift=0.5, min_valid_cycles
   ``predict(t)``; ``clean`` (valid and unflagged).
 * ``period`` is the mean period over the window (Eq 25; with a finite swing, the window's
   length over its cycles); its σ covers the period's movement along the record beyond the
-  fit's model (``sigma_widening``, :mod:`.stationarity`).
+  fit's model (``sigma_widening``, :mod:`.stationarity`) and beyond the record's own phase at
+  the window's ends (``ends_period``, free of any period law: :mod:`.ends`). With
+  ``small_swing_period=True`` it is the period of a vanishing swing, its σ including the
+  finite-swing law's window dependence (``small_swing_systematic``, :mod:`.small_swing`).
 * Flags (:class:`FlagCode`): ``too_few_cycles``, ``poor_fit``, ``beating``, ``clipped``,
   ``gap_filled``, ``non_finite``, ``drift``, ``period_drift``; and, without a period, ``empty``, ``constant``,
   ``no_oscillation``, ``fit_failed``, ``bad_times``. A flagged trial keeps its period but
@@ -36,7 +39,8 @@ min_cycles=4.0, min_r2=0.9, max_modulation=0.02, max_drift=0.5, min_valid_cycles
 
 ``combine_periods(fits, include_flagged=False) -> CombinedPeriod``: weighted mean of the
 clean trials, σ inflated by the Birge ratio when they scatter more than their σ; ``value``,
-``sigma``, ``n_used``, ``n_flagged``, ``n_invalid``, ``chi2``, ``dof``, ``birge_ratio``,
+``sigma`` (a systematic the trials share added whole: ``systematic``), ``n_used``, ``n_flagged``,
+``n_invalid``, ``chi2``, ``dof``, ``birge_ratio``,
 ``sigma_internal``, ``notes``. Its ``value ± sigma`` is a ``Tc*``/``Tt*`` reading of the
 measurement file.
 

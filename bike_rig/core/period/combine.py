@@ -5,7 +5,9 @@ trials are averaged with weights ``1/σ_i²``; the internal σ is ``1/sqrt(Σ 1/
 trials disagree by more than their σ allow (``chi2 > dof``), σ is multiplied by the Birge ratio
 ``sqrt(chi2/dof)``, so the between-trial scatter (a different swing amplitude, a slightly
 different hanging) is part of σ. Flagged and invalid trials are left out, counted and named in
-the notes: the operator should redo them.
+the notes: the operator should redo them. A systematic σ part the trials share (the small-swing
+period's, :mod:`~bike_rig.core.period.small_swing`) is taken out of each trial's σ before the
+mean and added back whole (``systematic``): averaging trials does not reduce it.
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ import numpy as np
 
 from .result import CombinedPeriod, PeriodFit
 
-__all__ = ["combine_periods", "weighted_mean"]
+__all__ = ["combine_periods", "common_systematic", "weighted_mean"]
 
 
 def combine_periods(fits: Sequence[PeriodFit], include_flagged: bool = False) -> CombinedPeriod:
@@ -50,7 +52,12 @@ def combine_periods(fits: Sequence[PeriodFit], include_flagged: bool = False) ->
         notes.append("no usable trial")
         nan = math.nan
         return CombinedPeriod(nan, nan, 0, n_flagged, n_invalid, nan, 0, nan, nan, tuple(notes))
-    value, sigma, sigma_internal, chi2, birge = weighted_mean([f.period for f in used], [f.period_sigma for f in used])
+    systematic = common_systematic(used)
+    own = [_own_sigma(f) for f in used]
+    value, sigma, sigma_internal, chi2, birge = weighted_mean([f.period for f in used], own)
+    if systematic > 0:  # (shared by the trials: it does not average down)
+        sigma = math.hypot(sigma, systematic)
+        notes.append(f"the small-swing period's systematic σ {systematic:.2g} s is shared by the trials: added whole")
     dof = len(used) - 1
     if dof > 0 and birge > 1.0:
         notes.append(f"the trials scatter more than their σ (Birge ratio {birge:.2f}); σ inflated by it")
@@ -67,7 +74,32 @@ def combine_periods(fits: Sequence[PeriodFit], include_flagged: bool = False) ->
         birge_ratio=birge,
         sigma_internal=sigma_internal,
         notes=tuple(notes),
+        systematic=systematic,
     )
+
+
+def _systematic(fit: PeriodFit) -> float:
+    """The fit's systematic σ part (the small-swing period's), 0 when it has none, s."""
+    value = fit.small_swing_systematic
+    return value if math.isfinite(value) and fit.period == fit.small_swing_period else 0.0
+
+
+def _own_sigma(fit: PeriodFit) -> float:
+    """The fit's σ without its systematic part, s."""
+    part = _systematic(fit)
+    if part == 0.0:
+        return fit.period_sigma
+    return math.sqrt(max(fit.period_sigma**2 - part**2, 0.0)) or fit.period_sigma
+
+
+def common_systematic(fits: Sequence[PeriodFit]) -> float:
+    """The systematic σ the trials share: the mean of their small-swing systematics (0 when none has one), s.
+
+    The finite-swing law's window dependence is the pendulum's, not the trial's: the trials'
+    estimates of it are averaged, and the result is not divided down by the number of trials.
+    """
+    parts = [_systematic(f) for f in fits if math.isfinite(f.small_swing_systematic)]
+    return float(np.mean(parts)) if parts else 0.0
 
 
 def weighted_mean(values: Sequence[float], sigmas: Sequence[float]) -> tuple[float, float, float, float, float]:

@@ -54,6 +54,7 @@ from numpy.typing import ArrayLike, NDArray
 from .clean import Invalid, clean_samples
 from .damping_fit import fit_damping, with_small_swing_period
 from .detection import detect
+from .ends import with_end_check
 from .oscillation import TWO_PI, damped_cosine, damped_cosine_even, zeta_omega
 from .quality import (
     clipping_flag,
@@ -66,6 +67,7 @@ from .quality import (
 )
 from .result import Flag, FlagCode, PeriodFit
 from .sigma import BlockDesign, period_sigma
+from .small_swing import with_small_swing_systematic
 from .solver import FitFailed, Solution, gauss_newton, varpro
 from .spectrum import block_sums, block_times, peak_of_blocks, spectrum_block
 from .stationarity import PhaseResidual, with_stationarity
@@ -160,8 +162,18 @@ def fit_period(
         if not (math.isfinite(rate) and rate > 0):
             raise ValueError(f"sample_rate_hz must be a positive number, got {sample_rate_hz!r}")
     options = FitOptions(window, min_cycles, min_r2, max_modulation, max_drift, small_swing_period, min_valid_cycles)
+    fitter = _Fitter(options)
     with np.errstate(all="ignore"):
-        return _Fitter(options).run(samples, rate, times)
+        fit = fitter.run(samples, rate, times)
+    if not (small_swing_period and fit.valid and math.isfinite(fit.small_swing_period)):
+        return fit
+    keep = replace(options, small_swing_period=False)
+
+    def refit(policy: WindowPolicy) -> PeriodFit:
+        with np.errstate(all="ignore"):
+            return _Fitter(replace(keep, window=policy)).run(samples, rate, times)
+
+    return with_small_swing_systematic(fit, fitter.span, refit)
 
 
 @dataclass
@@ -207,6 +219,7 @@ class _Fitter:
         self.n_used = 0
         self.t0 = 0.0  # time of the first finite sample, on the caller's axis [s]
         self.extremes = (-1.0, 1.0)  # the window's smallest and largest scaled samples
+        self.span = (0.0, 0.0)  # the fitted window, (start, stop) [s from the first finite sample]
 
     def run(self, samples: ArrayLike, rate: float | None, times: ArrayLike | None) -> PeriodFit:
         """The fit of one trial; bad data give an invalid result (never raise)."""
@@ -488,6 +501,7 @@ class _Fitter:
     def _result(self, win: _Window, blocks: BlockDesign, sol: Solution) -> PeriodFit:
         """The statistics and flags of the fit."""
         n, first = win.n, win.first
+        self.span = (first, win.last + win.step)
         alpha, omega_d, A, K = sol.alpha, sol.omega_d, sol.A, sol.K
         s = complex(-alpha, omega_d)
         n_cycles = (n * win.step) * omega_d / TWO_PI
@@ -555,5 +569,5 @@ class _Fitter:
         fit, residual = fit_damping(fit, blocks, sol, samples, units, modulation, self.options, eq23)
         if fit.period_sigma < fit.period_sigma_white:  # (never below Eq 27's, whichever model was chosen)
             fit = replace(fit, period_sigma=fit.period_sigma_white)
-        fit = with_stationarity(fit, eq23, residual)
+        fit = with_end_check(with_stationarity(fit, eq23, residual), residual)
         return with_small_swing_period(fit) if self.options.small_swing_period else fit

@@ -167,6 +167,15 @@ class PeriodFit:
         window_periods: The periods of consecutive windows of whole cycles, in record order
             (:mod:`~bike_rig.core.period.stationarity`; empty for fewer than 8 cycles) [s].
         window_period_sigmas: Their standard uncertainties [s].
+        ends_period: The record's own mean period from its phase at the window's two ends,
+            free of any period law (:mod:`~bike_rig.core.period.ends`; NaN for fewer than 6
+            cycles) [s].
+        ends_period_sigma: Its standard uncertainty [s].
+        small_swing_systematic: The small-swing period's systematic σ (the finite-swing law's
+            extrapolation), when the option ``small_swing_period`` is used: how far trimmed
+            windows' small-swing periods depart beyond their σ (0: they agree; NaN: not
+            evaluated), included in ``period_sigma`` (:mod:`~bike_rig.core.period.small_swing`) [s].
+        small_swing_windows: The trimmed windows' small-swing periods and σ, (T₀, σ, ...) [s].
     """
 
     period: float
@@ -205,6 +214,10 @@ class PeriodFit:
     sigma_widening: float = 1.0
     window_periods: tuple[float, ...] = ()
     window_period_sigmas: tuple[float, ...] = ()
+    ends_period: float = math.nan
+    ends_period_sigma: float = math.nan
+    small_swing_systematic: float = math.nan
+    small_swing_windows: tuple[float, ...] = ()
 
     @property
     def swing_amplitude(self) -> float:
@@ -301,8 +314,10 @@ class CombinedPeriod:
         chi2: Σ ((T_i − value) / σ_i)² of the trials used.
         dof: ``n_used − 1``.
         birge_ratio: sqrt(chi2 / dof) (NaN for a single trial).
-        sigma_internal: 1 / sqrt(Σ 1/σ_i²) [s].
+        sigma_internal: 1 / sqrt(Σ 1/σ_i²) [s] (σ_i without the shared systematic).
         notes: What was left out and why, and whether σ was inflated.
+        systematic: The systematic σ part the trials share, included in ``sigma`` whole (the
+            small-swing period's; 0 when none) [s].
     """
 
     value: float
@@ -315,3 +330,4 @@ class CombinedPeriod:
     birge_ratio: float
     sigma_internal: float
     notes: tuple[str, ...]
+    systematic: float = 0.0

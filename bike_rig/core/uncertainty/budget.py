@@ -35,6 +35,11 @@ in a bike_rig YAML measurement file, ``aH3`` in a ``Measured.txt``. Pass that ma
 :func:`uncertainty_budget` as ``names``; every share and the budget also keep the
 BicycleParameters key (:attr:`BudgetShare.key`, :attr:`UncertaintyBudget.input_keys`).
 
+**Named σ parts.** A reading's σ may include a named part, e.g. the small-swing period's
+systematic (:mod:`bike_rig.core.period.small_swing`): given as ``sigma_parts``, the reading's
+share is split into a line ``<input> (<source>)`` of ``(σ part / σ)²`` of it and the rest, so
+the budget shows how much that systematic limits each output.
+
 An output with σ = 0 (e.g. the benchmark parameter file, which carries no σ) has no shares.
 A critical speed at a double root has no derivative: its σ is NaN and it has no shares.
 
@@ -252,6 +257,7 @@ def _output_budget(
     covariance: FloatArray,
     groups: list[list[int]],
     labels: list[tuple[str, str]],
+    named: Mapping[int, list[tuple[str, float]]] | None = None,
 ) -> OutputBudget:
     unit = OUTPUT_UNITS[name]
     if not np.all(np.isfinite(sens)):
@@ -261,11 +267,41 @@ def _output_budget(
     total = float(parts.sum())
     if not total > 0.0:
         return OutputBudget(name, value, 0.0, unit, ())
-    order = sorted((k for k in range(len(groups)) if parts[k] > 0.0), key=lambda k: -parts[k])
-    shares = tuple(
-        BudgetShare(labels[k][0], float(parts[k] / total), math.sqrt(float(parts[k])), labels[k][1]) for k in order
-    )
+    lines: list[tuple[str, float, str]] = []  # (line, its variance, key)
+    for k in (k for k in range(len(groups)) if parts[k] > 0.0):
+        label, key = labels[k]
+        rest = 1.0
+        for source, fraction in (named or {}).get(k, []):  # (a fraction of the input's variance)
+            lines.append((f"{label} ({source})", float(parts[k]) * fraction, key))
+            rest -= fraction
+        if rest > 0.0:
+            lines.append((label, float(parts[k]) * rest if rest < 1.0 else float(parts[k]), key))
+    lines.sort(key=lambda line: -line[1])
+    shares = tuple(BudgetShare(label, v / total, math.sqrt(v), key) for label, v, key in lines)
     return OutputBudget(name, value, math.sqrt(total), unit, shares)
+
+
+def _sigma_parts(
+    keys: Sequence[str],
+    covariance: FloatArray,
+    groups: list[list[int]],
+    sigma_parts: Mapping[str, Mapping[str, float]],
+) -> dict[int, list[tuple[str, float]]]:
+    """Per group of one input with named σ parts: (source, fraction of its variance), at most 1 in all."""
+    out: dict[int, list[tuple[str, float]]] = {}
+    for k, group in enumerate(groups):
+        if len(group) != 1:
+            continue
+        i = group[0]
+        variance = float(covariance[i, i])
+        left = 1.0
+        for source, by_key in sigma_parts.items():
+            part = float(by_key.get(keys[i], 0.0))
+            if variance > 0.0 and math.isfinite(part) and part > 0.0:
+                fraction = min(left, part * part / variance)
+                left -= fraction
+                out.setdefault(k, []).append((source, fraction))
+    return out
 
 
 def _speeds(ps: ParameterSet, feedback: Feedback | None = None) -> list[tuple[str, SpeedWithSigma]]:
@@ -296,6 +332,7 @@ def uncertainty_budget(
     names: Mapping[str, str] | None = None,
     systematic: Mapping[str, Mapping[str, float]] | None = None,
     feedback: Feedback | None = None,
+    sigma_parts: Mapping[str, Mapping[str, float]] | None = None,
 ) -> UncertaintyBudget:
     """Rank every input by its share of the variance of each parameter and critical speed.
 
@@ -311,6 +348,11 @@ def uncertainty_budget(
         feedback: Steer-torque state feedback: the weave and capsize speeds are the closed
             loop's; its gain values given with σ are further inputs (``feedback.<key>``,
             independent). None: the open loop.
+        sigma_parts: Named parts of the inputs' σ, each ``{source: {input key: σ part}}``
+            (e.g. the small-swing period's systematic, per period key, s): an input's share is
+            split into a line ``<input> (<source>)`` of ``(σ part / σ)²`` of it and the rest,
+            so a budget shows what a systematic contributes. Keys that are not single
+            independent inputs are ignored.
 
     Returns:
         The budget: 25 parameters (PARAMETER_NAMES order without g), then the weave and
@@ -340,8 +382,10 @@ def uncertainty_budget(
     groups = _groups(covariance)
     own = names or {}
     labels = [("+".join(own.get(keys[i], keys[i]) for i in g), "+".join(keys[i] for i in g)) for g in groups]
+    parts = _sigma_parts(keys, covariance, groups, sigma_parts or {})
     outputs = [
-        _output_budget(n, values[n], to_input[r], covariance, groups, labels) for n, r in zip(BUDGET_PARAMETERS, rows)
+        _output_budget(n, values[n], to_input[r], covariance, groups, labels, parts)
+        for n, r in zip(BUDGET_PARAMETERS, rows)
     ]
     shifts = _input_shifts(keys, systematic or {})
     outputs = [replace(o, systematic=_shifts(to_input[r], shifts)) for o, r in zip(outputs, rows, strict=True)]
@@ -350,7 +394,7 @@ def uncertainty_budget(
         sens = grad @ to_input
         if knots:
             sens[-len(knots) :] = sp.gain_gradient if sp.gain_gradient is not None else math.nan
-        o = _output_budget(name, sp.speed, sens, covariance, groups, labels)
+        o = _output_budget(name, sp.speed, sens, covariance, groups, labels, parts)
         outputs.append(replace(o, systematic=_shifts(sens, shifts)))
     inputs = tuple(label for label, _ in labels)
     keys_out = tuple(key for _, key in labels)

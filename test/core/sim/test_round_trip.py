@@ -115,16 +115,18 @@ def test_round_trip_browser_session(recovered: list[Recovered]) -> None:
 
 
 def test_period_sigmas_are_calibrated(recovered: list[Recovered]) -> None:
-    """The 1σ interval of each of the 50 × 39 = 1 950 independent trial fits contains the truth in 60–76 % of them.
+    """The 1σ interval of each of the 50 × 39 = 1 950 independent trial fits contains the truth in 60–90 % of them.
 
-    For honest σ (68.3 %) the binomial count leaves that range with probability 2.9e-14.
+    For honest σ (68.3 %) the binomial count falls below 60 % with probability 1e-14; the check of
+    the phase at the window's ends (:mod:`bike_rig.core.period.ends`) widens the σ of the third
+    of trials whose ends depart from the fit by more than their σ, to about 82 % (at most 90 %).
     """
     trials = np.concatenate([r.trials for r in recovered])
     periods = np.concatenate([r.periods for r in recovered])
     assert trials.shape == (SESSIONS * 39,)
     coverage = float(np.mean(np.abs(trials) < 1.0))
     print(f"trial periods: {coverage:.1%} within 1σ; combined periods: {np.mean(np.abs(periods) < 1.0):.1%}")
-    assert 0.60 <= coverage <= 0.76
+    assert 0.60 <= coverage <= 0.90
 
 
 def test_parameter_sigmas_are_calibrated(recovered: list[Recovered]) -> None:

@@ -18,6 +18,7 @@ import pytest
 
 from bike_rig.core.benchmark import compute_parameters
 from bike_rig.core.period import combine_periods, fit_period
+from bike_rig.core.period.small_swing import SMALL_SWING_SOURCE, small_swing_parts
 from bike_rig.core.sim.rig import RigConfig
 from bike_rig.core.sim.session import SimulatedSession, simulate_session
 from bike_rig.core.uncertainty.budget import uncertainty_budget
@@ -92,3 +93,17 @@ def test_the_budget_states_the_swing_as_a_systematic_line(sessions: list[Simulat
         delta = again.value(name) - ps.parameters.value(name)
         shift = budget.output(name).systematic[0].shift
         assert shift == pytest.approx(-delta, rel=0.05, abs=1e-9 * max(1.0, abs(ps.parameters.value(name))))
+
+
+def test_the_budget_shows_the_small_swing_systematic_as_a_line(sessions: list[SimulatedSession]) -> None:
+    session = sessions[0]
+    periods, trials = _periods(session, small=True)
+    parts = small_swing_parts((t.key, t.result.fit) for t in trials if t.used)
+    assert parts, "no compound period of the session has a small-swing systematic"
+    by_key = parts[SMALL_SWING_SOURCE]
+    assert set(by_key) <= set(_compound(session))
+    assert all(0 < v < periods[k][1] for k, v in by_key.items())  # (a part of the combined σ)
+    ps = compute_parameters(session.measurements(periods))
+    budget = uncertainty_budget(ps, None, None, None, parts)
+    lines = [s for o in budget.outputs for s in o.shares if s.input.endswith(f"({SMALL_SWING_SOURCE})")]
+    assert lines and all(s.key in by_key for s in lines)
