@@ -71,7 +71,7 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
         "--small-swing-period",
         action="store_true",
         help="when the period follows the swing (a compound pendulum's finite swing), report the period of "
-        "a vanishing swing instead of the fitted one",
+        "a vanishing swing instead of the mean period over the window",
     )
     q.add_argument(
         "--key",
@@ -172,7 +172,10 @@ def fit_json(file: str, fit: PeriodFit) -> dict[str, Any]:
         ``damping_model`` (``viscous``, ``dry``, ``combined``), ``friction`` and its σ (the
         envelope's linear fall per second over the amplitude at the window's centre, 1/s; 0 when
         viscous), ``swing_amplitude`` (at the window's start, rad for rad/s samples),
-        ``swing_kappa``, ``small_swing_period`` and its σ (s; None unless κ < 0).
+        ``swing_kappa``, ``small_swing_period`` and its σ (s; None unless κ < 0),
+        ``small_swing_systematic`` (s; None unless the small-swing period was asked for),
+        ``ends_period`` and its σ (the record's own mean period from the phase at the window's
+        ends, s; None under 6 cycles).
     """
     return {
         "file": file,
@@ -192,6 +195,9 @@ def fit_json(file: str, fit: PeriodFit) -> dict[str, Any]:
         "swing_kappa": _number(fit.swing_kappa),
         "small_swing_period": _number(fit.small_swing_period),
         "small_swing_period_sigma": _number(fit.small_swing_period_sigma),
+        "small_swing_systematic": _number(fit.small_swing_systematic),
+        "ends_period": _number(fit.ends_period),
+        "ends_period_sigma": _number(fit.ends_period_sigma),
     }
 
 

@@ -1,8 +1,8 @@
 """The finite swing's systematic alternative: what the periods would be with the other choice.
 
 A compound pendulum's period follows its swing (:mod:`bike_rig.core.period.damping`): the fit
-gives the period at the window centre's swing and that of a vanishing swing, and the option
-``small_swing_period`` says which one feeds the parameters. The other choice is a systematic
+gives the mean period over the window (the default) and that of a vanishing swing, and the
+option ``small_swing_period`` says which one feeds the parameters. The other choice is a systematic
 alternative of the analysis, not a random error: the uncertainty budget shows how far each
 output would move under it (:func:`bike_rig.core.uncertainty.budget.uncertainty_budget`'s
 ``systematic``), so a lab sees when the swing's size, not the gyro's noise, limits its results.
@@ -20,8 +20,8 @@ from .offline import SessionTrial
 __all__ = ["swing_alternative"]
 
 #: The alternatives' names, by the choice made.
-TO_SMALL = "finite swing: the small-swing periods instead of the fitted"
-TO_FITTED = "finite swing: the fitted periods instead of the small-swing"
+TO_SMALL = "finite swing: the small-swing periods instead of the mean"
+TO_FITTED = "finite swing: the mean periods instead of the small-swing"
 
 
 def swing_alternative(trials: Sequence[SessionTrial]) -> dict[str, dict[str, float]]:
@@ -38,13 +38,13 @@ def swing_alternative(trials: Sequence[SessionTrial]) -> dict[str, dict[str, flo
     small_chosen = False
     for t in trials:
         fit = t.result.fit
-        if not (t.used and math.isfinite(fit.small_swing_period) and math.isfinite(fit.centre_period)):
+        if not (t.used and math.isfinite(fit.small_swing_period) and math.isfinite(fit.mean_period)):
             continue
-        if fit.period == fit.small_swing_period and fit.period != fit.centre_period:
+        if fit.period == fit.small_swing_period and fit.period != fit.mean_period:
             small_chosen = True
-            delta = fit.centre_period - fit.small_swing_period
+            delta = fit.mean_period - fit.small_swing_period
         else:
-            delta = fit.small_swing_period - fit.centre_period
+            delta = fit.small_swing_period - fit.mean_period
         shifts.setdefault(t.key, []).append(delta)
     if not shifts:
         return {}

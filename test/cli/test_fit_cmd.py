@@ -40,6 +40,9 @@ JSON_KEYS = {
     "swing_kappa",
     "small_swing_period",
     "small_swing_period_sigma",
+    "small_swing_systematic",
+    "ends_period",
+    "ends_period_sigma",
 }
 
 

@@ -140,7 +140,7 @@ class SystematicShift:
     """How much an output moves under a stated alternative of the analysis (not a σ).
 
     Attributes:
-        source: The alternative, e.g. "finite swing: the small-swing periods instead of the fitted".
+        source: The alternative, e.g. "finite swing: the small-swing periods instead of the mean".
         shift: The output's first-order change, ``Σ_j ∂y/∂x_j Δx_j``, in the output's unit.
     """
 
@@ -342,7 +342,7 @@ def uncertainty_budget(
         names: The input file's name of each input key (:func:`reading_names`); None (or a
             key missing from it) names an input by its key.
         systematic: Alternatives of the analysis, each ``{source: {input key: Δx}}`` (e.g.
-            the small-swing periods instead of the fitted, per period key, s): every output
+            the small-swing periods instead of the mean, per period key, s): every output
             gets its first-order shift under each as a systematic line. Keys that are not
             inputs are ignored.
         feedback: Steer-torque state feedback: the weave and capsize speeds are the closed
