@@ -8,7 +8,7 @@ recorder would hold it, together with what the live fitter, parameter and model 
 from it (computed with their own functions). Prints:
 
 * writing the bag (raw CDR → MCAP with zstd chunks): messages/s and MB/s;
-* the replay (:func:`bike_rig.bag.replay.replay_bag`, imports warm): median wall time of a few
+* the replay (:func:`bike_rig.offline.replay.replay_bag`, imports warm): median wall time of a few
   runs and its parts (open + decode every message, fit every trial, assembly + model);
 * the floor of reading that bag: decompressing its chunks (zstd) into one buffer and one copy
   of its gyro samples (median of as many runs), and the replay's ratio to it;
@@ -32,11 +32,11 @@ import zstandard
 from mcap.reader import make_reader
 from mcap.records import ChunkIndex
 
-from bike_rig.bag.replay import replay_bag, replay_session
-from bike_rig.bag.session import read_session
 from bike_rig.bag.simulated import live_results, simulated_messages, write_simulated_bag
+from bike_rig.config.paths import config_file
 from bike_rig.core.sim import load_rig, load_true_parameters, simulate_session
-from bike_rig.paths import config_file
+from bike_rig.offline.replay import replay_bag, replay_session
+from bike_rig.offline.session import read_session
 
 TARGET_S = 0.4
 #: Uncompressed chunk size of the second bag, bytes: about what 0.5 s of a 1 kHz trial makes.
@@ -153,7 +153,7 @@ def main() -> int:
 
         code = (
             "import time, sys; t0 = time.perf_counter()\n"
-            "from bike_rig.bag.replay import replay_bag\n"
+            "from bike_rig.offline.replay import replay_bag\n"
             f"r = replay_bag({str(bag)!r})\n"
             "print(f'{time.perf_counter() - t0:.3f}', 'rclpy' in sys.modules)\n"
         )

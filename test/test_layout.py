@@ -1,6 +1,6 @@
 """The package's shape: dependencies point one way, and modules stay small.
 
-Nothing outside ``bike_rig/nodes/`` imports :mod:`bike_rig.nodes` (the launcher and the CLI
+Nothing outside ``bike_rig/ros/nodes/`` imports :mod:`bike_rig.ros.nodes` (the launcher and the CLI
 aside: they start node processes); the ROS-free layers (``core/``, ``pipeline/``,
 ``messages/``) import no ROS runtime and nothing above them. Checked on the source text with
 :mod:`ast`, so a lazy import inside a function counts too.
@@ -14,8 +14,8 @@ from pathlib import Path
 import pytest
 
 PACKAGE = Path(__file__).resolve().parents[1] / "bike_rig"
-#: Modules allowed to import bike_rig.nodes besides the nodes themselves.
-NODE_IMPORTERS = {"launch.py", "cli"}
+#: Modules allowed to import bike_rig.ros.nodes besides the nodes themselves.
+NODE_IMPORTERS = {"cli"}
 #: ROS runtime packages the ROS-free layers must not import.
 ROS_RUNTIME = ("rclpy", "rcl_interfaces", "bike_rig_msgs", "std_msgs", "builtin_interfaces")
 #: Longest module, lines.
@@ -55,16 +55,18 @@ def _under(path: Path, *folders: str) -> bool:
 
 
 def test_imported_modules_resolves_relative_imports() -> None:
-    got = imported_modules(PACKAGE / "bag" / "replay.py")
+    got = imported_modules(PACKAGE / "offline" / "replay.py")
     assert "bike_rig.pipeline.offline" in got and "bike_rig.messages" in got
 
 
 def test_nothing_outside_nodes_imports_nodes() -> None:
     offenders = []
     for path in sources():
-        if _under(path, "nodes", *NODE_IMPORTERS):
+        if _under(path, "ros", *NODE_IMPORTERS):
             continue
-        bad = sorted(m for m in imported_modules(path) if m == "bike_rig.nodes" or m.startswith("bike_rig.nodes."))
+        bad = sorted(
+            m for m in imported_modules(path) if m == "bike_rig.ros.nodes" or m.startswith("bike_rig.ros.nodes.")
+        )
         if bad:
             offenders.append(f"{path.relative_to(PACKAGE)}: {', '.join(bad)}")
     assert offenders == []
@@ -76,32 +78,32 @@ def test_ros_free_layers_import_no_ros_and_nothing_above_them(layer: str) -> Non
         "core": (
             "bike_rig.pipeline",
             "bike_rig.messages",
-            "bike_rig.nodes",
+            "bike_rig.ros.nodes",
             "bike_rig.bag",
             "bike_rig.cli",
             "bike_rig.plots",
             "bike_rig.report",
             "bike_rig.sources",
-            "bike_rig.subjects",
+            "bike_rig.offline.subjects",
         ),
         "pipeline": (
             "bike_rig.messages",
-            "bike_rig.nodes",
+            "bike_rig.ros.nodes",
             "bike_rig.bag",
             "bike_rig.cli",
             "bike_rig.plots",
             "bike_rig.report",
             "bike_rig.sources",
-            "bike_rig.subjects",
+            "bike_rig.offline.subjects",
         ),
         "messages": (
-            "bike_rig.nodes",
+            "bike_rig.ros.nodes",
             "bike_rig.bag",
             "bike_rig.cli",
             "bike_rig.plots",
             "bike_rig.report",
             "bike_rig.sources",
-            "bike_rig.subjects",
+            "bike_rig.offline.subjects",
         ),
     }[layer]
     offenders = []

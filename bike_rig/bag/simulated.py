@@ -7,7 +7,7 @@ nodes' own ROS-free functions: the fitter's ``PeriodEstimate`` per trial (on its
 parameter node's ``BenchmarkParameters`` after each estimate (incomplete until every period
 is there), and the model node's ``CanonicalMatrices`` and ``EigenSweep`` for the complete set.
 
-The messages follow the driver's conventions (``bike_rig.nodes.driver``): a latched
+The messages follow the driver's conventions (``bike_rig.ros.nodes.driver``): a latched
 ``StaticReadings`` first (what the parameter node publishes from the measurement file), then
 per trial a START event stamped with the first sample's rig time, ``GyroBatch`` messages of
 ``samples_per_batch`` samples (the last may be shorter) stamped with their first sample's rig
@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from .. import topics
+from ..config import topics
 from ..core.benchmark import ComMethod
 from ..core.measurements import Measurements
 from ..core.sim import SimulatedSession

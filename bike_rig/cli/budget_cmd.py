@@ -6,7 +6,7 @@
                           [-o FILE]
 
 INPUT is a measurement file, a parameter file or a session bag
-(:func:`bike_rig.subjects.load_subject`). For each of the 25 parameters and the weave and
+(:func:`bike_rig.offline.subjects.load_subject`). For each of the 25 parameters and the weave and
 capsize speeds the inputs (raw readings, or the parameters for a parameter file) are ranked by
 their share of the output's first-order variance (:mod:`bike_rig.core.uncertainty.budget`).
 Inputs are named as INPUT names them: a bike_rig YAML measurement file by its keys as written
@@ -55,8 +55,8 @@ from ..core.uncertainty.budget import (
     uncertainty_budget,
 )
 from ..core.uncertainty.mc_sigma import MC_SAMPLES, NEAR_PARALLEL_DEG, PrintedSigmas, line_angles, printed_sigmas
+from ..offline.subjects import load_subject
 from ..pipeline.swing import swing_alternative
-from ..subjects import load_subject
 from .commands import HELP
 from .common import emit, feedback_from_spec, rider_from_spec
 from .format import format_value_sigma

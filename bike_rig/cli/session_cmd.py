@@ -10,16 +10,16 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
-from ..bag.resume import ResumePoint, resume_point
+from ..config.paths import config_file
 from ..core.errors import BikeRigError
 from ..core.sim import load_rig, load_true_parameters
 from ..core.sim.rig import RigConfig
-from ..graphwatch import NodeWatch
-from ..launch import Graph, LaunchError, NodeSpec, RunningGraph, _params_file_values, load_graph, parse_overrides
-from ..paths import config_file
-from ..rosenv import check_domain_id
+from ..core.textfmt import terminal_safe
+from ..offline.resume import ResumePoint, resume_point
+from ..ros.env import check_domain_id
+from ..ros.graphwatch import NodeWatch
+from ..ros.launch import Graph, LaunchError, NodeSpec, RunningGraph, _params_file_values, load_graph, parse_overrides
 from ..session.controller import SessionController
-from ..textfmt import terminal_safe
 from .commands import HELP
 
 __all__ = ["SessionArgumentError", "add_parser", "run"]
@@ -238,7 +238,7 @@ def run(args: argparse.Namespace) -> int:
             graph = _start(spec, folder, args.domain_id, started)
         elif args.domain_id is not None:
             os.environ["ROS_DOMAIN_ID"] = str(args.domain_id)
-        from ..nodes.session_link import SessionLink
+        from ..ros.nodes.session_link import SessionLink
 
         link = SessionLink()
         try:

@@ -2,9 +2,9 @@
 
     bike-rig view [--port N] [--host ADDR] [--domain-id N]
 
-Starts the Foxglove bridge node (:mod:`bike_rig.nodes.foxglove_bridge`) in this process on the
+Starts the Foxglove bridge node (:mod:`bike_rig.ros.nodes.foxglove_bridge`) in this process on the
 graph's ROS domain, prints the address to open in Foxglove and the layout file to import, and
-serves until Ctrl-C. Once discovery has had :data:`~bike_rig.liveview.GRAPH_GRACE_S` s, it says
+serves until Ctrl-C. Once discovery has had :data:`~bike_rig.ros.liveview.GRAPH_GRACE_S` s, it says
 whether a bike_rig graph is on the domain (and how to point the view at one when none is), and
 again whenever one appears or goes. The Foxglove SDK is imported only here and in the node, so the other
 commands start no slower.
@@ -18,11 +18,11 @@ import time
 from typing import TYPE_CHECKING
 
 from ..core.errors import BikeRigError
-from ..liveview import DEFAULT_PORT, LAYOUT_FILE, GraphPresence
+from ..ros.liveview import DEFAULT_PORT, LAYOUT_FILE, GraphPresence
 from .commands import HELP
 
 if TYPE_CHECKING:
-    from ..nodes.foxglove_bridge import FoxgloveBridge
+    from ..ros.nodes.foxglove_bridge import FoxgloveBridge
 
 __all__ = ["add_parser", "run"]
 
@@ -63,7 +63,7 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
 
 
 def _domain_id(given: str | None) -> int:
-    from ..rosenv import check_domain_id
+    from ..ros.env import check_domain_id
 
     if given is not None:
         return check_domain_id(given, "--domain-id")
@@ -89,8 +89,8 @@ def run(args: argparse.Namespace) -> int:
     if not 0 <= args.port <= 65535:
         raise ViewUsageError(f"--port must be within 0..65535, got {args.port}")
     os.environ["ROS_DOMAIN_ID"] = str(_domain_id(args.domain_id))
-    from ..nodes.foxglove_bridge import main
-    from ..paths import config_dir
+    from ..config.paths import config_dir
+    from ..ros.nodes.foxglove_bridge import main
 
     layout = config_dir() / LAYOUT_FILE
 

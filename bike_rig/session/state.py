@@ -6,7 +6,7 @@ period estimates, the parameter set, the stability sweep; records of
 console shows: each plan item's state (:class:`~bike_rig.session.plan.ItemState`), the next
 item, the recording trial's live status, each trial's result line, what is still missing, and
 the parameters and speeds once complete. No ROS: the console's link to the graph
-(:mod:`bike_rig.nodes.session_link`) feeds these methods; a resumed session's recorded trials
+(:mod:`bike_rig.ros.nodes.session_link`) feeds these methods; a resumed session's recorded trials
 come back through it too (the driver streams them first), and :attr:`OperatorSession.resuming`
 counts them back.
 

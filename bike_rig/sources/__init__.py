@@ -14,7 +14,7 @@ Python-can style::
 * ``bag`` (:mod:`.bag`): a recorded session's gyro stream and trial events, from a rosbag2 bag;
 * ``daq`` (:mod:`.daq`): an NI-DAQmx analog input (optional ``nidaqmx``); trials on request.
 
-Each backend owns its parameters: its class's ``PARAMETERS`` (:class:`bike_rig.params.ParamSpec`:
+Each backend owns its parameters: its class's ``PARAMETERS`` (:class:`bike_rig.config.settings.ParamSpec`:
 name, default, description, range, choices) are what the driver node declares
 (:func:`backend_parameters`) and what its ``from_parameters`` reads and checks
 (:class:`~bike_rig.sources.base.Parameters`). Adding a gyro source is one module and one line:

@@ -26,9 +26,9 @@ from typing import Any
 import numpy as np
 
 from ..bag.typestore import rig_typestore
-from ..params import ParamSpec
+from ..config.settings import ParamSpec
+from ..config.topics import GYRO, TRIAL_EVENTS
 from ..pipeline.acquire import NS_PER_S
-from ..topics import GYRO, TRIAL_EVENTS
 from .base import (
     TIME_SCALE,
     GyroSource,

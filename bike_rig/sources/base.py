@@ -17,7 +17,7 @@ Backends, chosen by name (:data:`BACKENDS`, :func:`open_source`): ``sim`` (the s
 walking a session plan), ``can`` (a CAN gyro through python-can), ``bag`` (a recorded session
 replayed from a rosbag2 MCAP bag) and ``daq`` (an NI-DAQmx analog input). Each backend owns its
 parameters, as python-can's backends own their arguments: its class lists them in
-:attr:`GyroSource.PARAMETERS` (:class:`~bike_rig.params.ParamSpec`: name, default, description,
+:attr:`GyroSource.PARAMETERS` (:class:`~bike_rig.config.settings.ParamSpec`: name, default, description,
 range, choices), the driver node declares every backend's, and the backend's
 ``from_parameters`` reads them from a mapping (the driver's parameters; unknown names are
 ignored) through :class:`Parameters`, which checks them against the same specs and raises
@@ -47,8 +47,8 @@ from typing import Any, ClassVar, TypeAlias
 import numpy as np
 from numpy.typing import NDArray
 
+from ..config.settings import ParamSpec, ParamValue, ParamValueError, merge_specs
 from ..core.sim.plan import PART_LETTERS, PlannedMeasurement
-from ..params import ParamSpec, ParamValue, ParamValueError, merge_specs
 from ..pipeline.acquire import NS_PER_S, sample_stamp_ns
 from .errors import SourceConfigError, TrialRequestError
 
@@ -241,7 +241,7 @@ class Parameters:
     """Typed access to a backend's parameters, checked against its specs.
 
     Each value is the mapping's, or the spec's default when the mapping lacks the name; it is
-    checked with :meth:`~bike_rig.params.ParamSpec.validate` (type, range, choices), and a bad
+    checked with :meth:`~bike_rig.config.settings.ParamSpec.validate` (type, range, choices), and a bad
     one raises :class:`SourceConfigError` naming the source, the parameter, its value and the
     reason (e.g. ``sim source: parameter 'time_scale' = 5000.0: must be <= 1000``).
 

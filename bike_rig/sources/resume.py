@@ -2,7 +2,7 @@
 
 The driver's ``resume`` parameter (``bike-rig session --resume``) names the interrupted
 session's bag. :class:`ResumedSource` reads its trials at once
-(:func:`~bike_rig.bag.session.read_session`: each trial's events and batches, whatever order
+(:func:`~bike_rig.offline.session.read_session`: each trial's events and batches, whatever order
 the recorder received them in) and yields them before anything of the live source, one trial
 a poll in order of START, with their recorded stamps and ids, so that the fitter fits them
 again, the recorder records them into the new bag (which then holds the whole session) and a
@@ -31,8 +31,8 @@ from typing import Any
 import numpy as np
 
 from ..bag.errors import BagError
-from ..bag.resume import started_trials
-from ..bag.session import RecordedTrial, read_session
+from ..offline.resume import started_trials
+from ..offline.session import RecordedTrial, read_session
 from ..pipeline.acquire import TrialEventKind, sample_stamp_ns
 from .base import GyroSource, SampleBlock, SourceEvent, TrialInfo, TrialRequest, TrialStarted, TrialStopped
 from .errors import SourceConfigError

@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 from bike_rig.cli.main import main
-from bike_rig.paths import config_dir
+from bike_rig.config.paths import config_dir
 
 BROWSER_YAML = config_dir() / "bicycles" / "browser.yaml"
 

@@ -13,8 +13,8 @@ import pytest
 from scipy.io import savemat
 
 from bike_rig.cli.main import main
-from bike_rig.paths import config_dir
-from bike_rig.textfmt import CONTROL_CHARACTERS
+from bike_rig.config.paths import config_dir
+from bike_rig.core.textfmt import CONTROL_CHARACTERS
 from test.support.signals import gyro_trial
 
 ROOT = Path(__file__).resolve().parents[2]

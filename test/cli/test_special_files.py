@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 from bike_rig.cli.main import main
-from bike_rig.paths import config_dir
+from bike_rig.config.paths import config_dir
 
 BENCHMARK = config_dir() / "bicycles" / "benchmark.yaml"
 REASONS = {

@@ -8,8 +8,8 @@ import pytest
 
 from bike_rig.cli import run_cmd
 from bike_rig.cli.main import main
-from bike_rig.paths import config_dir
-from bike_rig.textfmt import CONTROL_CHARACTERS
+from bike_rig.config.paths import config_dir
+from bike_rig.core.textfmt import CONTROL_CHARACTERS
 
 BROWSER = config_dir() / "bicycles" / "browser.yaml"
 BENCHMARK = config_dir() / "bicycles" / "benchmark.yaml"

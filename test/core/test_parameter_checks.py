@@ -9,6 +9,7 @@ from pathlib import Path
 
 import pytest
 
+from bike_rig.config.paths import config_file
 from bike_rig.core.benchmark import ParameterSet
 from bike_rig.core.inertia import compound_pendulum_inertia
 from bike_rig.core.loader import load_input, load_static_readings
@@ -23,7 +24,6 @@ from bike_rig.core.reading_ranges import (
     unit_mistakes,
 )
 from bike_rig.core.rider import RiderError, load_rider
-from bike_rig.paths import config_file
 from test.support.paper import real_files, shared_dir
 
 BENCHMARK = config_file("bicycles/benchmark.yaml")
