@@ -18,7 +18,6 @@ import time
 from typing import TYPE_CHECKING
 
 from ..core.errors import BikeRigError
-from ..ros.liveview import DEFAULT_PORT, LAYOUT_FILE, GraphPresence
 from .commands import HELP
 
 if TYPE_CHECKING:
@@ -33,6 +32,8 @@ class ViewUsageError(BikeRigError):
 
 def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Register ``view``."""
+    from ..ros.liveview import DEFAULT_PORT
+
     q = subparsers.add_parser(
         "view",
         help=HELP["view"],
@@ -73,6 +74,8 @@ def _domain_id(given: str | None) -> int:
 
 def _watch_graph(bridge: FoxgloveBridge, domain_id: int) -> None:
     """Print, each time it changes, whether a bike_rig graph is on the domain (a 1 s timer of the bridge node)."""
+    from ..ros.liveview import GraphPresence
+
     presence = GraphPresence(domain_id)
     t0 = time.monotonic()
 
@@ -90,6 +93,7 @@ def run(args: argparse.Namespace) -> int:
         raise ViewUsageError(f"--port must be within 0..65535, got {args.port}")
     os.environ["ROS_DOMAIN_ID"] = str(_domain_id(args.domain_id))
     from ..config.paths import config_dir
+    from ..ros.liveview import LAYOUT_FILE
     from ..ros.nodes.foxglove_bridge import main
 
     layout = config_dir() / LAYOUT_FILE
