@@ -58,6 +58,7 @@ from rclpy.node import Node
 from ...config.settings import ParamSpec, merge_specs
 from ...config.topics import GYRO, RESEND_SAMPLES, START_TRIAL, STOP_TRIAL, TRIAL_EVENTS
 from ...messages import fill_gyro_batch
+from ...messages.fields import fill_fields, set_stamp
 from ...pipeline.acquire import SampleBatch, sample_stamp_ns
 from ...pipeline.diagnostics import RateMeter
 from ...pipeline.health import DriverHealth, driver_statuses
@@ -343,18 +344,11 @@ class DriverNode(Node):
 
     def _event(self, info: TrialInfo, kind: int, stamp_ns: int, sample_count: int = 0) -> Any:
         msg = _msgs.TrialEvent()
-        msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(stamp_ns, 1_000_000_000)
+        fill_fields(msg, info)
+        set_stamp(msg, stamp_ns)
         msg.header.frame_id = self.frame_id
         msg.kind = kind
-        msg.trial_id = info.trial_id
-        msg.part = info.part
-        msg.pendulum = info.pendulum
-        msg.orientation = info.orientation
-        msg.repeat = info.repeat
-        msg.measurement_key = info.measurement_key
-        msg.sample_rate_hz = float(info.sample_rate_hz)
         msg.sample_count = sample_count
-        msg.note = info.note
         return msg
 
     def _on_started(self, ev: TrialStarted) -> None:
