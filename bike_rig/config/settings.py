@@ -1,4 +1,4 @@
-"""Parameter specifications: one type for every node parameter and every gyro-source option.
+"""Settings: one spec type for every node setting (a ROS parameter) and every gyro-source option.
 
 A :class:`ParamSpec` names a parameter and gives its default (whose Python type is the
 parameter's type), a description, and what values it accepts: an inclusive ``range`` (the low

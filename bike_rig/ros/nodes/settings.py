@@ -1,4 +1,4 @@
-"""Node parameters: a node's :class:`~bike_rig.config.settings.ParamSpec` list as read-only ROS parameters.
+"""Node settings as ROS parameters: a node's :class:`~bike_rig.config.settings.ParamSpec` list, declared read-only.
 
 Every bike_rig node declares its parameters with :func:`declare_parameters`: each spec becomes a
 read-only parameter whose descriptor carries the description, the range (``integer_range`` or
