@@ -11,7 +11,7 @@ import array
 import dataclasses
 import enum
 import typing
-from collections.abc import Collection, Iterable
+from collections.abc import Callable, Collection, Iterable
 from typing import Any, TypeAlias
 
 import numpy as np
@@ -34,6 +34,8 @@ __all__ = [
 ]
 
 FloatArray = NDArray[np.float64]
+#: A field a message does not carry.
+_ABSENT = object()
 #: A message object: rclpy's generated class, rosbags' deserialised dataclass, or a stand-in.
 Message: TypeAlias = Any
 
@@ -81,60 +83,58 @@ def check_length(what: str, n: int, expected: int) -> None:
         raise MessageError(f"{what}: {n} entries, expected {expected}")
 
 
-_ANNOTATED: dict[type, tuple[tuple[str, Any], ...]] = {}
+#: Per record type: (name, read, write) of each field its constructor takes.
+_PLANS: dict[type, tuple[tuple[str, Callable[[Any], Any], Callable[[Message, str, Any], None]], ...]] = {}
 
 
-def _annotated_fields(record_type: type) -> tuple[tuple[str, Any], ...]:
-    """(name, resolved type) of each field a record type's constructor takes (cached per type)."""
-    known = _ANNOTATED.get(record_type)
-    if known is None:
-        hints = typing.get_type_hints(record_type)
-        known = tuple((f.name, hints[f.name]) for f in dataclasses.fields(record_type) if f.init)
-        _ANNOTATED[record_type] = known
-    return known
+def _float_array(value: Any) -> FloatArray:
+    """A float64 array field: rosbags' own 1-D array is kept, other containers copied."""
+    if isinstance(value, np.ndarray) and value.dtype == np.float64 and value.ndim == 1:
+        return value
+    return floats(value)
 
 
-def _item_type(kind: Any) -> Any:
-    """``str`` or ``float`` for ``tuple[str, ...]``/``tuple[float, ...]`` and float arrays, else None."""
-    origin = typing.get_origin(kind)
-    if origin is tuple:
-        args = typing.get_args(kind)
-        return args[0] if len(args) == 2 and args[1] is Ellipsis and args[0] in (str, float) else None
-    return float if kind is np.ndarray or origin is np.ndarray else None
+def _conversions(kind: Any) -> tuple[Callable[[Any], Any], Callable[[Message, str, Any], None]] | None:
+    """How a record field of type ``kind`` is read from and written to a message field (None: no copy).
 
-
-def _read(value: Any, kind: Any, where: str) -> Any:
-    """A message field's value as the record's type ``kind``."""
+    Enums are read from their value (a bad one raises ValueError) and written as it.
+    """
     if kind in (str, bool, int, float):
-        return kind(value)
+        return kind, lambda msg, name, value: setattr(msg, name, kind(value))
     if isinstance(kind, type) and issubclass(kind, enum.Enum):
-        try:
-            return kind(int(value) if issubclass(kind, int) else str(value))
-        except ValueError:
-            raise MessageError(f"{where}: unknown {value!r}") from None
-    item = _item_type(kind)
-    if item is str:
-        return strings(value)
-    if item is float and typing.get_origin(kind) is tuple:
-        return tuple(float(x) for x in floats(value))
-    if item is float:  # a float64 array: rosbags' own array is kept, other containers copied
-        ok = isinstance(value, np.ndarray) and value.dtype == np.float64 and value.ndim == 1
-        return value if ok else floats(value)
-    raise TypeError(f"{where}: no copy between a message field and a record field of type {kind}")
+        raw = int if issubclass(kind, int) else str
+        return (lambda value: kind(raw(value))), (lambda msg, name, value: setattr(msg, name, value.value))
+    origin, args = typing.get_origin(kind), typing.get_args(kind)
+    if origin is tuple and args == (str, Ellipsis):
+        return strings, lambda msg, name, value: setattr(msg, name, [str(v) for v in value])
+    if origin is tuple and args == (float, Ellipsis):
+        return (lambda value: tuple(float(x) for x in floats(value))), set_floats
+    if kind is np.ndarray or origin is np.ndarray:
+        return _float_array, set_floats
+    return None
 
 
-def _write(msg: Message, name: str, value: Any, kind: Any) -> None:
-    """Write a record's value of type ``kind`` into the message field ``name``."""
-    if isinstance(value, enum.Enum):
-        setattr(msg, name, value.value)
-    elif kind in (str, bool, int, float):
-        setattr(msg, name, kind(value))
-    elif _item_type(kind) is str:
-        setattr(msg, name, [str(v) for v in value])
-    elif _item_type(kind) is float:
-        set_floats(msg, name, value)
-    else:
-        raise TypeError(f"{name}: no copy between a record field of type {kind} and a message field")
+def _plan(record_type: type) -> tuple[tuple[str, Callable[[Any], Any], Callable[[Message, str, Any], None]], ...]:
+    """The (name, read, write) of each field of a record type (built once per type)."""
+    plan = _PLANS.get(record_type)
+    if plan is None:
+        hints = typing.get_type_hints(record_type)
+        steps = []
+        for f in (f for f in dataclasses.fields(record_type) if f.init):
+            refuse = _no_copy(record_type, f.name)
+            read, write = _conversions(hints[f.name]) or (refuse, refuse)
+            steps.append((f.name, read, write))
+        plan = _PLANS[record_type] = tuple(steps)
+    return plan
+
+
+def _no_copy(record_type: type, name: str) -> Callable[..., Any]:
+    """For a field of a type with no copy: raises TypeError if a message carries a field of that name."""
+
+    def refuse(*_: Any) -> Any:
+        raise TypeError(f"{record_type.__name__}.{name}: no copy between its type and a message field")
+
+    return refuse
 
 
 def _message_name(msg: Message) -> str:
@@ -152,11 +152,15 @@ def record_fields(record_type: type, msg: Message, skip: Collection[str] = ()) -
     """
     out: dict[str, Any] = {}
     header = getattr(msg, "header", None)
-    for name, kind in _annotated_fields(record_type):
+    for name, read, _ in _plan(record_type):
         if name in skip:
             continue
-        if hasattr(msg, name):
-            out[name] = _read(getattr(msg, name), kind, f"{_message_name(msg)}.{name}")
+        value = getattr(msg, name, _ABSENT)
+        if value is not _ABSENT:
+            try:
+                out[name] = read(value)
+            except ValueError:
+                raise MessageError(f"{_message_name(msg)}.{name}: unknown {value!r}") from None
         elif header is not None and name == "stamp_ns":
             out[name] = stamp_ns(header)
         elif header is not None and name == "frame_id":
@@ -171,13 +175,12 @@ def fill_fields(msg: Message, record: object, skip: Collection[str] = ()) -> Non
     float arrays in the container the field holds.
     """
     header = getattr(msg, "header", None)
-    for name, kind in _annotated_fields(type(record)):
+    for name, _, write in _plan(type(record)):
         if name in skip:
             continue
-        value = getattr(record, name)
         if hasattr(msg, name):
-            _write(msg, name, value, kind)
+            write(msg, name, getattr(record, name))
         elif header is not None and name == "stamp_ns":
-            set_stamp(msg, value)
+            set_stamp(msg, getattr(record, name))
         elif header is not None and name == "frame_id":
-            header.frame_id = str(value)
+            header.frame_id = str(getattr(record, name))
