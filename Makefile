@@ -23,7 +23,7 @@ BENCH_SCRIPTS := $(sort $(wildcard bench/bench_*.py))
 
 # Every ROS process started from here (tests, demo, benches) discovers on loopback only and
 # finds the packages in the venv, which is the ROS prefix. ROS_DOMAIN_ID is chosen per run
-# by bike_rig.rosenv (tests: the ros_env fixture).
+# by bike_rig.ros.env (tests: the ros_env fixture).
 export ROS_AUTOMATIC_DISCOVERY_RANGE := LOCALHOST
 export AMENT_PREFIX_PATH := $(VENV)
 export CMAKE_PREFIX_PATH := $(VENV)

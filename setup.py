@@ -53,12 +53,12 @@ setup(
     entry_points={
         "console_scripts": [
             "bike-rig = bike_rig.cli.main:main",
-            "bike-rig-driver = bike_rig.nodes.driver:main",
-            "bike-rig-fitter = bike_rig.nodes.fitter:main",
-            "bike-rig-parameter = bike_rig.nodes.parameter:main",
-            "bike-rig-model = bike_rig.nodes.model:main",
-            "bike-rig-recorder = bike_rig.nodes.recorder:main",
-            "bike-rig-foxglove-bridge = bike_rig.nodes.foxglove_bridge:main",
+            "bike-rig-driver = bike_rig.ros.nodes.driver:main",
+            "bike-rig-fitter = bike_rig.ros.nodes.fitter:main",
+            "bike-rig-parameter = bike_rig.ros.nodes.parameter:main",
+            "bike-rig-model = bike_rig.ros.nodes.model:main",
+            "bike-rig-recorder = bike_rig.ros.nodes.recorder:main",
+            "bike-rig-foxglove-bridge = bike_rig.ros.nodes.foxglove_bridge:main",
         ],
     },
 )

@@ -25,8 +25,8 @@ import time
 from pathlib import Path
 
 from bike_rig.bag.simulated import live_results, simulated_messages, write_simulated_bag
+from bike_rig.config.paths import config_file
 from bike_rig.core.sim import load_rig, load_true_parameters, simulate_session
-from bike_rig.paths import config_file
 
 REPEAT = 7
 SCRIPT = Path(sys.executable).with_name("bike-rig")

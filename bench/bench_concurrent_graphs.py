@@ -25,7 +25,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from bike_rig.rosenv import ros_environment, unique_domain_id
+from bike_rig.ros.env import ros_environment, unique_domain_id
 
 GRAPHS = 3
 #: The driver's largest time_scale.
@@ -43,7 +43,7 @@ def _node_memory(domains: set[str]) -> dict[tuple[str, str], int]:
             status = Path(f"/proc/{pid}/status").read_text()
         except OSError:
             continue
-        module = next((c.decode() for c in cmd if c.startswith(b"bike_rig.nodes.")), "")
+        module = next((c.decode() for c in cmd if c.startswith(b"bike_rig.ros.nodes.")), "")
         domain = env.get(b"ROS_DOMAIN_ID", b"").decode()
         if not module or domain not in domains:
             continue

@@ -3,7 +3,7 @@
 The graph of ``bike-rig session`` runs as processes (driver with the operator-driven simulated
 rig, fitter, parameter and model nodes, recorder) on a ROS domain reserved for this run, with
 LOCALHOST discovery; this process is the console: the same controller and rclpy link the
-console's keys call (:mod:`bike_rig.session`, :mod:`bike_rig.nodes.session_link`).
+console's keys call (:mod:`bike_rig.session`, :mod:`bike_rig.ros.nodes.session_link`).
 
 * keystroke → START: from the ``start`` command (what F2 runs) to the driver's START event
   arriving back at the console (so the driver's START was published before; this bounds it);
@@ -26,11 +26,11 @@ from pathlib import Path
 
 import numpy as np
 
+from bike_rig.config.paths import config_file
 from bike_rig.core.sim import load_rig
-from bike_rig.launch import RunningGraph, load_graph
-from bike_rig.paths import config_file
 from bike_rig.pipeline.acquire import TrialEventKind, TrialEventRecord
-from bike_rig.rosenv import remove_stale_fastdds_segments, unique_domain_id
+from bike_rig.ros.env import remove_stale_fastdds_segments, unique_domain_id
+from bike_rig.ros.launch import RunningGraph, load_graph
 from bike_rig.session.setup import build_controller
 
 
@@ -59,7 +59,7 @@ def main() -> int:
     ap.add_argument("--stop-after", type=float, default=0.3, help="wall seconds between start and stop")
     a = ap.parse_args()
     remove_stale_fastdds_segments()
-    from bike_rig.nodes.session_link import SessionLink
+    from bike_rig.ros.nodes.session_link import SessionLink
 
     starts: list[float] = []
     results: list[float] = []

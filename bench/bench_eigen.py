@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 from timing import median_ms  # bench/timing.py
 
+from bike_rig.config.paths import config_file
 from bike_rig.core.benchmark import ParameterSet
 from bike_rig.core.loader import load_input
 from bike_rig.core.whipple import (
@@ -35,7 +36,6 @@ from bike_rig.core.whipple import (
     eigenvalues,
     state_space,
 )
-from bike_rig.paths import config_file
 
 N_SPEEDS = 100_000
 #: The Meijaard et al. (2007) benchmark bicycle, as shipped in config/bicycles/benchmark.yaml.

@@ -2,7 +2,7 @@
 
 This process plays the driver (an rclpy node publishing TrialEvent and GyroBatch messages of
 50 samples with the topics' QoS) and listens to the periods; the fitter runs as its own process
-(``python -m bike_rig.nodes.fitter``), both on a ROS domain reserved for this run with LOCALHOST
+(``python -m bike_rig.ros.nodes.fitter``), both on a ROS domain reserved for this run with LOCALHOST
 discovery.
 
 * Latency: ``--trials`` trials of ``--duration`` s at 1 kHz (30 s: 30,000 samples), each
@@ -35,9 +35,9 @@ from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.signals import SignalHandlerOptions
 
-from bike_rig.rosenv import remove_stale_fastdds_segments, ros_environment, unique_domain_id
-from bike_rig.rosqos import profile
-from bike_rig.topics import GYRO, PERIODS, TRIAL_EVENTS
+from bike_rig.config.topics import GYRO, PERIODS, TRIAL_EVENTS
+from bike_rig.ros.env import remove_stale_fastdds_segments, ros_environment, unique_domain_id
+from bike_rig.ros.qos import profile
 
 msgs: Any = importlib.import_module("bike_rig_msgs.msg")
 
@@ -143,7 +143,7 @@ def main(argv: list[str] | None = None) -> int:
         log_path = Path(tmp) / "fitter.stderr"
         with log_path.open("wb") as log:
             fitter = subprocess.Popen(
-                ["timeout", "-k", "10", "1800", sys.executable, "-m", "bike_rig.nodes.fitter"],
+                ["timeout", "-k", "10", "1800", sys.executable, "-m", "bike_rig.ros.nodes.fitter"],
                 env=env,
                 stdout=subprocess.DEVNULL,
                 stderr=log,

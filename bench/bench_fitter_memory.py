@@ -21,7 +21,7 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from bike_rig.rosenv import remove_stale_fastdds_segments, ros_environment, unique_domain_id  # noqa: E402
+from bike_rig.ros.env import remove_stale_fastdds_segments, ros_environment, unique_domain_id  # noqa: E402
 
 #: Payloads of growth allowed over the start, whatever the number of batches.
 MAX_PAYLOADS = 5
@@ -67,7 +67,7 @@ def run(samples: int, batches: int, env: dict[str, str], log_path: Path) -> tupl
     text = rejected_line(samples)
     with log_path.open("w") as log:
         fitter = subprocess.Popen(
-            [sys.executable, "-m", "bike_rig.nodes.fitter"], cwd=REPO, env=env, stdout=log, stderr=subprocess.STDOUT
+            [sys.executable, "-m", "bike_rig.ros.nodes.fitter"], cwd=REPO, env=env, stdout=log, stderr=subprocess.STDOUT
         )
         sender = subprocess.Popen(
             [sys.executable, str(REPO / "bench" / "big_batches.py"), str(samples), str(batches)],

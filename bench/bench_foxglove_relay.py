@@ -2,7 +2,7 @@
 
 An SDK server in this process with one channel (``cdr``), a Python protocol client
 (``websockets``) connected either to it directly (``foxglove.sdk.v1``) or through
-:class:`bike_rig.nodes.foxglove_relay.FoxgloveRelay` (``foxglove.websocket.v1``). Printed:
+:class:`bike_rig.ros.nodes.foxglove_relay.FoxgloveRelay` (``foxglove.websocket.v1``). Printed:
 
 * latency: median and 95th percentile, ms, from ``channel.log`` to the client's receipt of one
   408-byte message (a 50-sample gyro batch's size), over 300 messages sent one at a time;
@@ -22,7 +22,7 @@ import foxglove
 from foxglove.websocket import ServerListener
 from websockets.sync.client import connect
 
-from bike_rig.nodes.foxglove_relay import LEGACY_SUBPROTOCOL, SDK_SUBPROTOCOL, FoxgloveRelay
+from bike_rig.ros.nodes.foxglove_relay import LEGACY_SUBPROTOCOL, SDK_SUBPROTOCOL, FoxgloveRelay
 
 PAYLOAD = bytes(408)
 LATENCY_N = 300

@@ -4,7 +4,7 @@ A parameter set published → the model node's matrices and eigen sweep received
 chain period estimate → parameter node → model.
 
 Real processes over DDS (Fast DDS, shared memory), LOCALHOST discovery on a domain reserved for
-this run (bike_rig.rosenv). This process is the rest of the graph: it publishes parameter sets
+this run (bike_rig.ros.env). This process is the rest of the graph: it publishes parameter sets
 (or period estimates) stamped with the wall clock and measures when the model arrives; the
 model node copies the parameter set's stamp into its messages.
 
@@ -29,14 +29,14 @@ from typing import Any
 import numpy as np
 from timing import median_ms  # bench/timing.py
 
-from bike_rig import topics
+from bike_rig.config import topics
+from bike_rig.config.paths import config_file
 from bike_rig.core.loader import load_measurements, load_static_readings
 from bike_rig.messages import fill_benchmark_parameters, fill_period_estimate, set_stamp
-from bike_rig.paths import config_file
 from bike_rig.pipeline.assemble import SessionAssembly
 from bike_rig.pipeline.fit import TrialFit
 from bike_rig.pipeline.model import compute_model
-from bike_rig.rosenv import remove_stale_fastdds_segments, ros_environment, unique_domain_id
+from bike_rig.ros.env import remove_stale_fastdds_segments, ros_environment, unique_domain_id
 
 REPO = Path(__file__).resolve().parents[1]
 BROWSER = config_file("bicycles/browser.yaml")
@@ -104,7 +104,7 @@ class Graph:
 
 def model_latency(graph: Graph) -> tuple[float, list[float]]:
     """Parameter set published → matrices and sweep received, per set (ms)."""
-    from bike_rig.rosqos import profile
+    from bike_rig.ros.qos import profile
     from bike_rig_msgs.msg import BenchmarkParameters, CanonicalMatrices, EigenSweep
 
     received: dict[int, list[int]] = {}
@@ -118,7 +118,7 @@ def model_latency(graph: Graph) -> tuple[float, list[float]]:
         graph.node.create_subscription(CanonicalMatrices, topics.MATRICES.name, on_model, profile(topics.MATRICES)),
         graph.node.create_subscription(EigenSweep, topics.EIGEN_SWEEP.name, on_model, profile(topics.EIGEN_SWEEP)),
     ]
-    graph.start("bike_rig.nodes.model")
+    graph.start("bike_rig.ros.nodes.model")
     graph.spin_until(lambda: pub.get_subscription_count() > 0, "model node subscription")
     graph.spin_until(lambda: all(s.get_publisher_count() > 0 for s in subs), "model node publishers")
     static = load_static_readings(BROWSER)
@@ -148,7 +148,7 @@ def chain_latency(graph: Graph) -> tuple[list[float], list[float]]:
     Trials are spaced by PAUSE_S (live trials come tens of seconds apart; the parameter node
     evaluates an estimate after a quiet spell at once, a burst together).
     """
-    from bike_rig.rosqos import profile
+    from bike_rig.ros.qos import profile
     from bike_rig_msgs.msg import BenchmarkParameters, EigenSweep, PeriodEstimate
 
     params: list[tuple[int, int]] = []  # (stamp, received) of complete sets
@@ -171,7 +171,7 @@ def chain_latency(graph: Graph) -> tuple[list[float], list[float]]:
         ),
         graph.node.create_subscription(EigenSweep, topics.EIGEN_SWEEP.name, on_sweep, profile(topics.EIGEN_SWEEP)),
     ]
-    graph.start("bike_rig.nodes.parameter", "-p", f"measurements:={BROWSER}")
+    graph.start("bike_rig.ros.nodes.parameter", "-p", f"measurements:={BROWSER}")
     graph.spin_until(lambda: pub.get_subscription_count() > 0, "parameter node subscription")
     graph.spin_until(lambda: all(s.get_publisher_count() > 0 for s in subs), "publishers")
     for t in trials():

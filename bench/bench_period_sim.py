@@ -22,11 +22,11 @@ import numpy as np
 import yaml
 from scipy.optimize import least_squares
 
+from bike_rig.config.paths import config_file
 from bike_rig.core.period import fit_period
 from bike_rig.core.period.oscillation import damped_oscillation, damped_period
 from bike_rig.core.sim import TrialSimulator, load_rig, load_true_parameters
 from bike_rig.core.sim.session import motion_rate
-from bike_rig.paths import config_file
 
 BICYCLES = ("browser", "rigid", "fisher", "benchmark")
 KINDS: dict[str, dict[str, Any]] = {

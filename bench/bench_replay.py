@@ -8,7 +8,7 @@ recorder would hold it, together with what the live fitter, parameter and model 
 from it (computed with their own functions). Prints:
 
 * writing the bag (raw CDR → MCAP with zstd chunks): messages/s and MB/s;
-* the replay (:func:`bike_rig.bag.replay.replay_bag`, imports warm): median wall and CPU time
+* the replay (:func:`bike_rig.offline.replay.replay_bag`, imports warm): median wall and CPU time
   of a few runs and its parts (open + decode every message, fit every trial, assembly + model);
 * the floor of reading that bag, timed between the replays so that both see the same load:
   decompressing its chunks (zstd) into one buffer and one copy of its gyro samples, and the
@@ -39,11 +39,11 @@ import zstandard
 from mcap.reader import make_reader
 from mcap.records import ChunkIndex
 
-from bike_rig.bag.replay import replay_bag, replay_session
-from bike_rig.bag.session import read_session
 from bike_rig.bag.simulated import live_results, simulated_messages, write_simulated_bag
+from bike_rig.config.paths import config_file
 from bike_rig.core.sim import load_rig, load_true_parameters, simulate_session
-from bike_rig.paths import config_file
+from bike_rig.offline.replay import replay_bag, replay_session
+from bike_rig.offline.session import read_session
 
 TARGET_S = 0.4
 #: Target of ``bike-rig replay BAG`` in a fresh process, s.
@@ -192,7 +192,7 @@ def main() -> int:
         )
         code = (
             "import sys\n"
-            "from bike_rig.bag.replay import replay_bag\n"
+            "from bike_rig.offline.replay import replay_bag\n"
             f"r = replay_bag({str(bag)!r})\n"
             "print('rclpy' in sys.modules, 'matplotlib' in sys.modules)\n"
         )

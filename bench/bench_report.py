@@ -30,8 +30,8 @@ from pathlib import Path
 from timing import median_ms  # bench/timing.py
 
 from bike_rig.bag.simulated import write_simulated_bag
+from bike_rig.config.paths import config_file
 from bike_rig.core.sim import SimulatedSession, load_rig, load_true_parameters, simulate_session
-from bike_rig.paths import config_file
 from bike_rig.report import report_input
 from bike_rig.report.figures import default_workers
 

@@ -43,6 +43,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from timing import median_ms
 
 from bike_rig.cli.main import _parameters
+from bike_rig.config.paths import config_file
 from bike_rig.core.benchmark import ParameterSet
 from bike_rig.core.feedback import Feedback, resolve_feedback
 from bike_rig.core.ride.eigen import combine_eigenvalues, fit_segment, pool_drive
@@ -54,7 +55,6 @@ from bike_rig.core.rider import PAPER_RIDER
 from bike_rig.core.symbols import PARAMETER_NAMES
 from bike_rig.core.uncertainty.uncertain import UncertainVector
 from bike_rig.core.whipple import canonical_matrices
-from bike_rig.paths import config_file
 
 TRUE_VARIANT = "no rider, gain scale free"
 TRUE_SCALE = 0.7

@@ -13,11 +13,11 @@ import statistics
 import sys
 import time
 
+from bike_rig.config.paths import config_file
 from bike_rig.core.benchmark import compute_parameters
 from bike_rig.core.period import combine_periods, fit_period
 from bike_rig.core.sim import load_rig, load_true_parameters, simulate_session
 from bike_rig.core.sim.session import SimulatedSession
-from bike_rig.paths import config_file
 
 TARGET_S = 0.15
 REPEAT = 7

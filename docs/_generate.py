@@ -5,17 +5,17 @@ from __future__ import annotations
 import ast
 from pathlib import Path
 
-from bike_rig import topics
-from bike_rig.nodes.params import node_parameter_specs
+from bike_rig.config import topics
+from bike_rig.ros.nodes.settings import node_parameter_specs
 
 #: The node modules whose parameters the manual lists, in data-flow order.
 NODE_MODULES = (
-    "bike_rig.nodes.driver",
-    "bike_rig.nodes.fitter",
-    "bike_rig.nodes.parameter",
-    "bike_rig.nodes.model",
-    "bike_rig.nodes.recorder",
-    "bike_rig.nodes.foxglove_bridge",
+    "bike_rig.ros.nodes.driver",
+    "bike_rig.ros.nodes.fitter",
+    "bike_rig.ros.nodes.parameter",
+    "bike_rig.ros.nodes.model",
+    "bike_rig.ros.nodes.recorder",
+    "bike_rig.ros.nodes.foxglove_bridge",
 )
 
 
@@ -28,8 +28,8 @@ def _cell(text: object) -> str:
 
 
 def topics_page() -> str:
-    """The topics (name, type, QoS) and services of ``bike_rig.topics``."""
-    lines = ["# Topics and services", "", "Generated from `bike_rig/topics.py`.", ""]
+    """The topics (name, type, QoS) and services of ``bike_rig.config.topics``."""
+    lines = ["# Topics and services", "", "Generated from `bike_rig/config/topics.py`.", ""]
     lines += ["| topic | type | reliability | durability | depth |", "| --- | --- | --- | --- | --- |"]
     for value in vars(topics).values():
         if isinstance(value, topics.Topic):

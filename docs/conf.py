@@ -1,7 +1,7 @@
 """Sphinx configuration of the bike_rig manual (``make docs``; MyST Markdown pages).
 
 The reference pages are generated from the code at build time: the command line from the
-parsers (sphinx-argparse), the topics from ``bike_rig.topics`` and each node's parameters from
+parsers (sphinx-argparse), the topics from ``bike_rig.config.topics`` and each node's parameters from
 its ``ParamSpec`` list (:mod:`docs._generate`).
 """
 

@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING
 
 import pytest
 
-from bike_rig.rosenv import remove_stale_fastdds_segments, ros_environment, unique_domain_id
+from bike_rig.ros.env import remove_stale_fastdds_segments, ros_environment, unique_domain_id
 from test.support.paper import SharedFolderMissingError, shared_dir
 
 if TYPE_CHECKING:
@@ -91,7 +91,7 @@ def ros_domain_id() -> Iterator[int]:
 def ros_env(ros_domain_id: int) -> dict[str, str]:
     """Environment for a ROS process started by a test: LOCALHOST discovery, the run's domain.
 
-    A fresh copy per test, from bike_rig.rosenv.ros_environment.
+    A fresh copy per test, from bike_rig.ros.env.ros_environment.
     """
     return ros_environment(domain_id=ros_domain_id)
 

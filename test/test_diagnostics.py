@@ -8,9 +8,9 @@ from typing import Any
 
 import pytest
 
-from bike_rig.diagnostics import Level, RateMeter, Status, age_level, level_above, level_below, worst
 from bike_rig.messages import MessageError
 from bike_rig.messages.diagnostics import fill_diagnostic_array, statuses_from_msg
+from bike_rig.pipeline.diagnostics import Level, RateMeter, Status, age_level, level_above, level_below, worst
 from bike_rig.pipeline.health import (
     DriverHealth,
     FitterHealth,
@@ -166,7 +166,7 @@ class NsClock:
 
 
 def test_the_lag_meter_reads_the_largest_lag_of_the_last_second_then_clears() -> None:
-    from bike_rig.diagnostics import LagMeter
+    from bike_rig.pipeline.diagnostics import LagMeter
 
     clock = NsClock()
     meter = LagMeter(1.0, clock)
@@ -229,8 +229,8 @@ class _FakeNode:
 
 
 def test_the_updater_adds_the_input_lag_from_the_first_message_noted() -> None:
-    from bike_rig.diagnostics import LagMeter
-    from bike_rig.nodes.diagnostics import DiagnosticsUpdater
+    from bike_rig.pipeline.diagnostics import LagMeter
+    from bike_rig.ros.nodes.diagnostics import DiagnosticsUpdater
 
     node = _FakeNode()
     clock = NsClock()
@@ -254,7 +254,7 @@ def test_the_updater_adds_the_input_lag_from_the_first_message_noted() -> None:
 
 
 def test_the_health_board_leaves_the_input_lag_to_the_stall_watch() -> None:
-    from bike_rig.diagnostics import HealthBoard
+    from bike_rig.pipeline.diagnostics import HealthBoard
 
     board = HealthBoard()
     ok = Status.of("fitter", "fits", Level.OK, "fine")

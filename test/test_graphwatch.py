@@ -5,7 +5,7 @@ from __future__ import annotations
 import signal
 from dataclasses import dataclass, field
 
-from bike_rig.graphwatch import NodeWatch, how_it_ended
+from bike_rig.ros.graphwatch import NodeWatch, how_it_ended
 
 
 @dataclass

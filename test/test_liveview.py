@@ -1,10 +1,10 @@
 """The Foxglove layout shipped in ``config/foxglove/``, checked against what the bridge serves.
 
-Every panel refers to a topic the bridge advertises (:data:`bike_rig.liveview.VIEW_TOPICS`) or
+Every panel refers to a topic the bridge advertises (:data:`bike_rig.ros.liveview.VIEW_TOPICS`) or
 to the output of one of the layout's user scripts, and every field it names exists: in the
 message definition (the ``ros2msg`` text the bridge and the recorder send) or in the script's
 output type. Every field a script reads exists in its inputs' definitions. The layout's rig
-topics are all recorded (:data:`bike_rig.topics.TOPICS`), so it opens a recorded bag as well;
+topics are all recorded (:data:`bike_rig.config.topics.TOPICS`), so it opens a recorded bag as well;
 ``/diagnostics`` is the exception until the recorder records it (a documented expectation).
 """
 
@@ -18,9 +18,9 @@ from typing import Any
 import pytest
 
 from bike_rig.bag.typestore import store_for
-from bike_rig.liveview import DIAGNOSTICS, LAYOUT_FILE, VIEW_TOPICS, GraphPresence, schema_text
-from bike_rig.paths import config_dir
-from bike_rig.topics import TOPICS
+from bike_rig.config.paths import config_dir
+from bike_rig.config.topics import TOPICS
+from bike_rig.ros.liveview import DIAGNOSTICS, LAYOUT_FILE, VIEW_TOPICS, GraphPresence, schema_text
 
 SCRIPT_PREFIX = "/studio_script/"
 VIEW_TYPES = {v.name: v.type for v in VIEW_TOPICS}

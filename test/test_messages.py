@@ -18,10 +18,10 @@ import numpy as np
 import pytest
 
 from bike_rig import messages as conv
+from bike_rig.config.paths import config_file
 from bike_rig.core.benchmark import compute_parameters
 from bike_rig.core.loader import load_measurements, load_static_readings
 from bike_rig.core.measurements import Measurements
-from bike_rig.paths import config_file
 from bike_rig.pipeline.assemble import SessionParameters, assemble
 from bike_rig.pipeline.errors import AssemblyError
 from bike_rig.pipeline.fit import TrialFit

@@ -1,4 +1,4 @@
-"""Tests of ``bike_rig.subjects``: a bag's trials and the mass-centre method.
+"""Tests of ``bike_rig.offline.subjects``: a bag's trials and the mass-centre method.
 
 A bag's trials come with the samples and the time axis their fit used (also across gaps and
 overlaps), and the mass-centre method reaches a replayed bag.
@@ -11,12 +11,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bike_rig import topics
 from bike_rig.bag.simulated import simulated_messages
 from bike_rig.bag.typestore import rig_typestore
 from bike_rig.bag.writer import BagWriter, contract_qos
+from bike_rig.config import topics
 from bike_rig.core.sim import SimulatedSession
-from bike_rig.subjects import SessionTrial, load_subject
+from bike_rig.offline.subjects import SessionTrial, load_subject
 from test.support.simulated import short_session
 
 GAPPED = "rear_wheel_compound_t1"  # loses a batch

@@ -8,13 +8,13 @@ from dataclasses import replace
 import pytest
 
 from bike_rig.cli.model_cmd import speeds_text
+from bike_rig.config.paths import config_dir
 from bike_rig.console.app import title_text
 from bike_rig.core.benchmark import compute_parameters
 from bike_rig.core.loader import load_measurements
+from bike_rig.core.textfmt import format_speed, format_value_sigma
 from bike_rig.core.uncertainty.speed_sigma import SpeedWithSigma, critical_speeds_with_sigma
-from bike_rig.paths import config_dir
 from bike_rig.pipeline.model import compute_model
-from bike_rig.textfmt import format_speed, format_value_sigma
 
 BICYCLES = config_dir() / "bicycles"
 

@@ -37,10 +37,10 @@ from typing import IO
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
+from bike_rig.config.paths import config_file  # noqa: E402
 from bike_rig.core.sim import load_rig  # noqa: E402
-from bike_rig.paths import config_file  # noqa: E402
 from bike_rig.pipeline.resend import DEFAULT_HISTORY_SAMPLES  # noqa: E402
-from bike_rig.rosenv import ros_environment  # noqa: E402
+from bike_rig.ros.env import ros_environment  # noqa: E402
 from bike_rig.session.plan import plan_from_rig  # noqa: E402
 
 BIKE_RIG = Path(sys.executable).parent / "bike-rig"

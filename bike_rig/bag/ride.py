@@ -17,8 +17,8 @@ from typing import Any
 
 import numpy as np
 
+from ..config.topics import RIDE_SPEED
 from ..core.ride.record import RideRecord
-from ..topics import RIDE_SPEED
 from .errors import BagError
 from .reader import open_bag
 from .typestore import standard_typestore

@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from .. import topics
+from ..config import topics
 from ..core.benchmark import ComMethod
 from ..core.measurements import Measurements
 from ..core.sim import SimulatedSession

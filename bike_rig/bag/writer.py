@@ -29,7 +29,7 @@ from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, Qo
 from rosbags.rosbag2.metadata import dump_qos_v9
 
 from .. import __version__
-from ..topics import QosSpec
+from ..config.topics import QosSpec
 from .errors import BagError, BagExistsError
 from .filesize import MESSAGE_RECORD_OVERHEAD, RATIO_MIN_BYTES, FileStats
 from .typestore import message_definition, type_hash
@@ -79,7 +79,7 @@ def data_file_name(bag: Path, index: int = 0) -> str:
 
 
 def contract_qos(spec: QosSpec) -> Qos:
-    """A QoS of :mod:`bike_rig.topics` as rosbag2 describes an offered profile.
+    """A QoS of :mod:`bike_rig.config.topics` as rosbag2 describes an offered profile.
 
     KEEP_LAST with the depth; deadline, lifespan and lease left at the system default.
     """

@@ -17,10 +17,10 @@ from datetime import UTC, datetime
 from pathlib import PurePath
 from typing import Any
 
-from ..bag.info import BagSummary, TrialSummary, summarize
 from ..bag.order import split_order
 from ..bag.recover import Recovery, recover_bag
-from ..textfmt import terminal_safe
+from ..core.textfmt import terminal_safe
+from ..offline.info import BagSummary, TrialSummary, summarize
 from .commands import HELP
 from .format import format_value_sigma
 

@@ -34,8 +34,8 @@ from ..core.uncertainty.budget import (
     uncertainty_budget,
 )
 from ..core.uncertainty.mc_sigma import MC_SAMPLES, NEAR_PARALLEL_DEG, PrintedSigmas, line_angles, printed_sigmas
+from ..offline.subjects import load_subject
 from ..pipeline.swing import swing_alternative
-from ..subjects import load_subject
 from .commands import HELP
 from .common import emit, feedback_from_spec, rider_from_spec
 from .format import format_value_sigma

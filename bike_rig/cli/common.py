@@ -9,7 +9,7 @@ from typing import TextIO
 from ..core.errors import BikeRigError, InputFileError
 from ..core.feedback import Feedback, resolve_feedback
 from ..core.rider import AnyRider, resolve_rider
-from ..textfmt import terminal_safe
+from ..core.textfmt import terminal_safe
 
 __all__ = ["UsageError", "emit", "feedback_from_spec", "rider_from_spec", "show"]
 
@@ -22,7 +22,7 @@ def show(text: str, file: TextIO | None = None) -> None:
     r"""Print ``text`` (to standard output, or ``file``) with its control characters escaped.
 
     Newlines and tabs are kept; ESC, NUL, DEL, C1 and the other control characters that a
-    name or a file may hold are written as ``\xNN`` (:func:`~bike_rig.textfmt.terminal_safe`).
+    name or a file may hold are written as ``\xNN`` (:func:`~bike_rig.core.textfmt.terminal_safe`).
     """
     print(terminal_safe(text), file=sys.stdout if file is None else file)
 

@@ -21,8 +21,8 @@ from typing import Any
 
 from ..core.errors import BikeRigError, InputFileError
 from ..core.period import CombinedPeriod, PeriodFit, WindowPolicy, combine_periods, fit_period
+from ..core.textfmt import terminal_safe
 from ..core.trials import Trial, read_trial
-from ..textfmt import terminal_safe
 from .commands import HELP
 from .common import show
 from .format import format_value_sigma
@@ -340,9 +340,9 @@ def plot_fit(trial: Trial, fit: PeriodFit, path: Path) -> None:
     Raises:
         InputFileError: The PNG cannot be written.
     """
+    from ..offline.subjects import file_trial
     from ..plots.style import save_figure
     from ..plots.trials import fit_figure
-    from ..subjects import file_trial
 
     record = file_trial(trial, fit, trial.period_key or "", trial.name, str(trial.path))
     save_figure(fit_figure(record), path.with_suffix(""), ("png",))

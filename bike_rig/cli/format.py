@@ -1,7 +1,7 @@
 """Plain-text tables for the terminal: values with σ rounded the way the paper prints them.
 
 Names that come from files (the bicycle, its source) are written with their control characters
-escaped (:func:`~bike_rig.textfmt.terminal_safe`), whoever prints the table.
+escaped (:func:`~bike_rig.core.textfmt.terminal_safe`), whoever prints the table.
 """
 
 from __future__ import annotations
@@ -11,11 +11,11 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 
 from ..core.benchmark import PARAMETER_NAMES, ComEstimate, ParameterSet
+from ..core.textfmt import LABELS, TABLE2_ORDER, format_value_sigma, terminal_safe
 from ..core.uncertainty.matrix_sigma import MatrixSet
 from ..core.uncertainty.mc_sigma import PrintedSigmas
 from ..core.uncertainty.uncertain import UncertainVector
 from ..core.whipple import CriticalSpeeds
-from ..textfmt import LABELS, TABLE2_ORDER, format_value_sigma, terminal_safe
 
 __all__ = [
     "LABELS",

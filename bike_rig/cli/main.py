@@ -52,7 +52,7 @@ def single_threaded_blas() -> None:
 
 def _parameters(path: str, com_method: str, lump_flywheel: bool = False) -> ParameterSet:
     """A parameter file, a measurement file, a session bag or a shipped bicycle's name."""
-    from ..subjects import load_parameters
+    from ..offline.subjects import load_parameters
 
     return load_parameters(path, com_method, lump_flywheel)
 
@@ -94,7 +94,7 @@ def _printed_sigmas(path: str, ps: ParameterSet, lump_flywheel: bool) -> Printed
     from ..core.loader import load_input
     from ..core.measurements import Measurements
     from ..core.uncertainty.mc_sigma import printed_sigmas
-    from ..subjects import is_bag_path, load_subject, resolve_bicycle
+    from ..offline.subjects import is_bag_path, load_subject, resolve_bicycle
 
     if ps.raw is None:
         return None
@@ -174,7 +174,7 @@ def cmd_import_bp(args: argparse.Namespace) -> int:
         text = dump_parameters_yaml(got, ATTRIBUTION)
         what = f"parameters, {len(got.parameters.names)} values"
     Path(args.output).write_text(text, encoding="utf-8")
-    from ..textfmt import terminal_safe
+    from ..core.textfmt import terminal_safe
 
     print(terminal_safe(f"wrote {args.output}: {got.bicycle} {what}"), file=sys.stderr)
     return 0
@@ -184,13 +184,13 @@ def cmd_demo(args: argparse.Namespace) -> int:
     import time
     from pathlib import Path
 
-    from ..paths import config_file
+    from ..config.paths import config_file
     from . import format as fmt
 
     if args.offline:
         return _demo_offline(args.bicycle or str(config_file(DEFAULT_BICYCLE)))
-    from ..demo import run_demo
-    from ..textfmt import format_speed
+    from ..core.textfmt import format_speed
+    from ..ros.demo import run_demo
 
     out = Path(args.out) if args.out else Path("bike_rig_demo") / time.strftime("%Y%m%d-%H%M%S")
     result = run_demo(
@@ -340,7 +340,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         apply_unit_policy(args.command, bool(getattr(args, "strict", False)))
         return int(args.func(args))
     except BikeRigError as exc:
-        from ..textfmt import terminal_safe
+        from ..core.textfmt import terminal_safe
 
         print(f"bike-rig {args.command}: error: {terminal_safe(str(exc), keep='')}", file=sys.stderr)
         return EXIT_USER_ERROR

@@ -20,11 +20,11 @@ import numpy as np
 
 from ..core.feedback import GAIN_KEYS, GAIN_UNITS, Feedback
 from ..core.rider import add_rider
+from ..core.textfmt import format_speed
 from ..core.uncertainty.matrix_sigma import MatrixSet, SigmaConvention, canonical_with_sigma
 from ..core.uncertainty.speed_sigma import CriticalSpeedsWithSigma, critical_speeds_with_sigma
 from ..core.whipple import EigenvalueSweep, critical_speeds, eigenvalues
 from ..core.whipple.closed_loop import closed_loop_stable_range
-from ..textfmt import format_speed
 from . import format as fmt
 from .commands import HELP
 from .common import emit, feedback_from_spec, rider_from_spec

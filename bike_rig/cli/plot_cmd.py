@@ -7,7 +7,7 @@
                   [--input NAME] [--output NAME] [--com-method centroid|lstsq] [--feedback FILE]
 
 KIND is one of :data:`KINDS`, or ``all`` for every kind. Each INPUT is a measurement file, a
-parameter file or a session bag (:func:`bike_rig.subjects.load_subject`). The model figures
+parameter file or a session bag (:func:`bike_rig.offline.subjects.load_subject`). The model figures
 (``eigen``, ``locus``, ``modes``, ``bode``, once per rider asked for) and ``side`` draw every
 input in one figure (a panel or a line each); ``trials`` and ``fits`` draw each input that
 has trials on its own (with ``all``, inputs without trials are skipped with a note on stderr;
@@ -58,7 +58,7 @@ from .common import feedback_from_spec
 from .options import add_feedback_option
 
 if TYPE_CHECKING:
-    from ..subjects import Subject
+    from ..offline.subjects import Subject
 
 __all__ = [
     "DEFAULT_MODE",
@@ -288,8 +288,8 @@ def run(args: argparse.Namespace) -> int:
         InputFileError: An input cannot be read, or the output directory or a file cannot be
             written.
     """
+    from ..offline.subjects import load_subject
     from ..plots.style import save_figure
-    from ..subjects import load_subject
 
     if args.kind not in (*KINDS, "all"):
         raise PlotUsageError(f"unknown figure kind '{args.kind}' (expected one of: {', '.join(KINDS)}, all)")

@@ -17,11 +17,11 @@ import json
 import math
 from typing import Any
 
-from ..bag.replay import FitOverrides, ReplayResult, ReplaySettings, replay_bag, result_json
 from ..core.benchmark import ComMethod
 from ..core.errors import BikeRigError
+from ..core.textfmt import terminal_safe
 from ..core.uncertainty.matrix_sigma import SigmaConvention
-from ..textfmt import terminal_safe
+from ..offline.replay import FitOverrides, ReplayResult, ReplaySettings, replay_bag, result_json
 from . import format as fmt
 from .commands import HELP
 from .options import (
@@ -119,7 +119,7 @@ def _republish(args: argparse.Namespace) -> int:
         raise ReplayUsageError(f"--rate-scale must be a positive number, got {args.rate_scale}")
     if not (math.isfinite(args.wait) and args.wait >= 0):
         raise ReplayUsageError(f"--wait must be a non-negative number of seconds, got {args.wait}")
-    from ..bag.republish import republish  # rclpy only here
+    from ..ros.republish import republish  # rclpy only here
 
     stats = republish(args.bag, rate_scale=args.rate_scale, wait_s=args.wait)
     if args.json:

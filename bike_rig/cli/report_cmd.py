@@ -17,7 +17,7 @@ import sys
 from typing import Any
 
 from ..core.benchmark import ComMethod
-from ..textfmt import terminal_safe
+from ..core.textfmt import terminal_safe
 from .commands import HELP
 from .options import add_feedback_option, add_strict_option
 

@@ -53,8 +53,8 @@ from ..core.ride.eigen import MODELS, MeasuredEigenvalue, combine_eigenvalues
 from ..core.ride.record import RideRecord
 from ..core.ride.segment import Segment
 from ..core.symbols import PARAMETER_NAMES
-from ..rides import WHOLE_BELOW_S, RecordOptions, measure_records
-from ..textfmt import terminal_safe
+from ..core.textfmt import terminal_safe
+from ..offline.rides import WHOLE_BELOW_S, RecordOptions, measure_records
 from .commands import HELP
 from .common import UsageError
 
@@ -148,7 +148,7 @@ def _model_options(q: argparse.ArgumentParser, add_feedback_option: Any) -> None
 
 
 def measure(args: argparse.Namespace) -> list[tuple[MeasuredEigenvalue, Segment, RideRecord]]:
-    """Every record's segments fitted, in order (:func:`bike_rig.rides.measure_records`).
+    """Every record's segments fitted, in order (:func:`bike_rig.offline.rides.measure_records`).
 
     Raises:
         RideOptionError: A negative or non-finite ``--speed``. RideDataError, BagError: a bad record.
@@ -201,7 +201,7 @@ def _pm(x: float, s: float) -> str:
         return "—"
     if not (math.isfinite(s) and s > 0):
         return f"{x:+.3f} (no σ)"
-    from ..textfmt import format_value_sigma
+    from ..core.textfmt import format_value_sigma
 
     v, sigma = format_value_sigma(x, s, digits=None)
     return f"{v if v.startswith('-') else '+' + v} ± {sigma}"

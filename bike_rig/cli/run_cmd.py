@@ -3,7 +3,7 @@
 The graph (``config/graph.yaml`` by default: the simulated rig's driver, fitter, parameter,
 model and recorder) runs until Ctrl-C, until a node dies, or until a node finishes by itself
 (a driver with ``exit_when_done``). Meanwhile a listener in this process
-(:class:`bike_rig.nodes.run_monitor.GraphMonitor`) prints every trial as it starts and its
+(:class:`bike_rig.ros.nodes.run_monitor.GraphMonitor`) prints every trial as it starts and its
 result as the fitter publishes it: trial id, measurement key, period ± σ, cycles, r², ``ok``
 or ``REDO`` with every flag's reason and advice. At the end it prints a summary and where the
 session is:
@@ -46,19 +46,19 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from ..config.paths import config_dir, config_file
 from ..core.errors import BikeRigError
-from ..paths import config_dir, config_file
+from ..core.textfmt import terminal_safe
 from ..pipeline.stalls import StallWatch
-from ..textfmt import terminal_safe
 from .commands import HELP
 from .common import UsageError
 
 if TYPE_CHECKING:
-    from ..launch import Graph, RunningGraph
-    from ..nodes.run_monitor import GraphMonitor, MonitorRecord
     from ..pipeline.assemble import SessionParameters
     from ..pipeline.fit import TrialFit
     from ..pipeline.model import StabilitySweep
+    from ..ros.launch import Graph, RunningGraph
+    from ..ros.nodes.run_monitor import GraphMonitor, MonitorRecord
 
 __all__ = ["SETTLE_MAX_S", "SETTLE_S", "RunTracker", "add_parser", "run", "session_folder"]
 
@@ -75,12 +75,12 @@ POLL_S = 0.1
 #: Giving up on an awaited result needs every node heard within this (none about to be found stalled), s.
 HEARD_S = 2.0
 
-_DRIVER = "bike_rig.nodes.driver"
-_PARAMETER = "bike_rig.nodes.parameter"
-_MODEL = "bike_rig.nodes.model"
-_RECORDER = "bike_rig.nodes.recorder"
+_DRIVER = "bike_rig.ros.nodes.driver"
+_PARAMETER = "bike_rig.ros.nodes.parameter"
+_MODEL = "bike_rig.ros.nodes.model"
+_RECORDER = "bike_rig.ros.nodes.recorder"
 #: The nodes that publish a ``/diagnostics`` heartbeat (followed even if never heard).
-_HEARTBEAT_MODULES = frozenset({_DRIVER, "bike_rig.nodes.fitter", _PARAMETER, _MODEL, _RECORDER})
+_HEARTBEAT_MODULES = frozenset({_DRIVER, "bike_rig.ros.nodes.fitter", _PARAMETER, _MODEL, _RECORDER})
 
 
 def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -405,7 +405,7 @@ def _is_measurement_file(value: str) -> bool:
 
 
 def _domain_id(given: str | None) -> int:
-    from ..rosenv import check_domain_id, ros_environment
+    from ..ros.env import check_domain_id, ros_environment
 
     if given is not None:
         return check_domain_id(given, "--domain-id")  # (a ROS_DOMAIN_ID in the environment is then not used)
@@ -414,8 +414,8 @@ def _domain_id(given: str | None) -> int:
 
 def run(args: argparse.Namespace) -> int:
     """Check everything, start the graph, follow it until Ctrl-C or a node ends, stop it, summarise."""
-    from ..launch import load_graph, parse_overrides
-    from ..rosenv import static_peers_value
+    from ..ros.env import static_peers_value
+    from ..ros.launch import load_graph, parse_overrides
 
     domain_id = _domain_id(args.domain_id)
     graph = load_graph(_config_path(args.config)).subset(args.only, args.without)
@@ -459,8 +459,8 @@ class _Session:
         self.bag = Path(str(output)) if output else None
 
     def run(self) -> int:
-        from ..launch import RunningGraph
-        from ..nodes.run_monitor import GraphMonitor
+        from ..ros.launch import RunningGraph
+        from ..ros.nodes.run_monitor import GraphMonitor
 
         inside = self.out.resolve()
         if (self.bag is not None and self.bag.parent == inside) or self.log_dir.resolve().parent == inside:
@@ -496,7 +496,7 @@ class _Session:
 
     def _feed(self, monitor: GraphMonitor, timeout_s: float) -> int:
         """Print what arrived (waiting up to ``timeout_s``, s) and who stalled; return the number of results."""
-        from ..diagnostics import StatusReport
+        from ..pipeline.diagnostics import StatusReport
 
         results = 0
         for record in monitor.poll(timeout_s):
@@ -624,7 +624,7 @@ def _no_trial_recorded(bag: Path) -> bool:
     """Whether the bag holds no trial event and no gyro batch (or is missing its summary and empty)."""
     import yaml
 
-    from ..topics import GYRO, TRIAL_EVENTS
+    from ..config.topics import GYRO, TRIAL_EVENTS
 
     if not bag.exists():
         return False

@@ -9,18 +9,20 @@ import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from ..bag.resume import ResumePoint, resume_point
+from ..config.paths import config_file
 from ..core.errors import BikeRigError
 from ..core.sim import load_rig, load_true_parameters
 from ..core.sim.rig import RigConfig
-from ..graphwatch import NodeWatch
-from ..launch import Graph, LaunchError, NodeSpec, RunningGraph, _params_file_values, load_graph, parse_overrides
-from ..paths import config_file
-from ..rosenv import check_domain_id
+from ..core.textfmt import terminal_safe
+from ..offline.resume import ResumePoint, resume_point
 from ..session.controller import SessionController
-from ..textfmt import terminal_safe
 from .commands import HELP
+
+if TYPE_CHECKING:
+    from ..ros.graphwatch import NodeWatch
+    from ..ros.launch import Graph, NodeSpec, RunningGraph
 
 __all__ = ["SessionArgumentError", "add_parser", "run"]
 
@@ -83,6 +85,8 @@ def _graph_overrides(
         "parameter": parameter,
         "recorder": {"output": str(folder / "bag")},
     }
+    from ..ros.launch import parse_overrides
+
     for node, values in parse_overrides(args.param).items():
         over.setdefault(node, {}).update(values)
     return over
@@ -140,6 +144,8 @@ def _checked(args: argparse.Namespace) -> tuple[RigConfig, str, str]:
     Raises:
         BikeRigError: A domain id out of range, or a rig or bicycle file that cannot be read.
     """
+    from ..ros.env import check_domain_id
+
     args.domain_id = None if args.domain_id is None else check_domain_id(args.domain_id, "--domain-id")
     if "ROS_DOMAIN_ID" in os.environ:
         check_domain_id(os.environ["ROS_DOMAIN_ID"], where=" in the environment")
@@ -150,6 +156,8 @@ def _checked(args: argparse.Namespace) -> tuple[RigConfig, str, str]:
 
 def _node_watch(graph: RunningGraph, folder: Path) -> NodeWatch:
     """The session's watch of its nodes: the driver's or the recorder's death ends it (resume it)."""
+    from ..ros.graphwatch import NodeWatch
+
     then = f"quit, then continue it with 'bike-rig session --resume {folder}'"
     hints = {"driver": f"the session cannot go on: {then}", "recorder": f"nothing more is recorded: {then}"}
     return NodeWatch(graph, hints=hints)
@@ -178,6 +186,8 @@ def _end_on(started: list[RunningGraph]) -> Callable[[int, object], None]:
 
 def _driver_values(node: NodeSpec) -> dict[str, object]:
     """The driver's parameters as it will read them: its parameter file's, the overrides on top."""
+    from ..ros.launch import _params_file_values
+
     values: dict[str, object] = {}
     if node.params_file is not None:
         try:
@@ -189,6 +199,8 @@ def _driver_values(node: NodeSpec) -> dict[str, object]:
 
 def _start(spec: Graph, folder: Path, domain_id: int | None, started: list[RunningGraph]) -> RunningGraph:
     """Start the session's graph (its PIDs in ``logs/pids``, its domain in this process's environment)."""
+    from ..ros.launch import RunningGraph
+
     graph = RunningGraph(spec, folder / "logs", domain_id).start()
     started.append(graph)
     pids = f"console {os.getpid()}\n" + "".join(f"{n.name} {graph.pid(n.name)}\n" for n in spec.nodes)
@@ -211,6 +223,7 @@ def run(args: argparse.Namespace) -> int:
     SIGTERM and SIGHUP (a closed terminal or SSH link) end the session like quitting: the
     graph is stopped and nothing recorded is lost.
     """
+    from ..ros.launch import LaunchError, load_graph
     from ..session.plain import run_plain
     from ..session.setup import build_controller, connection
 
@@ -238,7 +251,7 @@ def run(args: argparse.Namespace) -> int:
             graph = _start(spec, folder, args.domain_id, started)
         elif args.domain_id is not None:
             os.environ["ROS_DOMAIN_ID"] = str(args.domain_id)
-        from ..nodes.session_link import SessionLink
+        from ..ros.nodes.session_link import SessionLink
 
         link = SessionLink()
         try:

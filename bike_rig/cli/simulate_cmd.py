@@ -15,9 +15,9 @@ import secrets
 import sys
 from pathlib import Path
 
+from ..config.paths import config_file
 from ..core.errors import BikeRigError, InputFileError
 from ..core.sim import load_rig, load_true_parameters, simulate_session, write_session
-from ..paths import config_file
 from .commands import HELP
 
 __all__ = ["DEFAULT_RIG", "add_parser", "run"]

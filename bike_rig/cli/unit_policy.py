@@ -10,7 +10,7 @@ import warnings
 from typing import Any
 
 from ..core.reading_ranges import UnitMistakeWarning
-from ..textfmt import terminal_safe
+from ..core.textfmt import terminal_safe
 
 __all__ = ["apply_unit_policy"]
 

@@ -2,9 +2,9 @@
 
     bike-rig view [--port N] [--host ADDR] [--domain-id N]
 
-Starts the Foxglove bridge node (:mod:`bike_rig.nodes.foxglove_bridge`) in this process on the
+Starts the Foxglove bridge node (:mod:`bike_rig.ros.nodes.foxglove_bridge`) in this process on the
 graph's ROS domain, prints the address to open in Foxglove and the layout file to import, and
-serves until Ctrl-C. Once discovery has had :data:`~bike_rig.liveview.GRAPH_GRACE_S` s, it says
+serves until Ctrl-C. Once discovery has had :data:`~bike_rig.ros.liveview.GRAPH_GRACE_S` s, it says
 whether a bike_rig graph is on the domain (and how to point the view at one when none is), and
 again whenever one appears or goes. The Foxglove SDK is imported only here and in the node, so the other
 commands start no slower.
@@ -18,11 +18,10 @@ import time
 from typing import TYPE_CHECKING
 
 from ..core.errors import BikeRigError
-from ..liveview import DEFAULT_PORT, LAYOUT_FILE, GraphPresence
 from .commands import HELP
 
 if TYPE_CHECKING:
-    from ..nodes.foxglove_bridge import FoxgloveBridge
+    from ..ros.nodes.foxglove_bridge import FoxgloveBridge
 
 __all__ = ["add_parser", "run"]
 
@@ -33,6 +32,8 @@ class ViewUsageError(BikeRigError):
 
 def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Register ``view``."""
+    from ..ros.liveview import DEFAULT_PORT
+
     q = subparsers.add_parser(
         "view",
         help=HELP["view"],
@@ -63,7 +64,7 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
 
 
 def _domain_id(given: str | None) -> int:
-    from ..rosenv import check_domain_id
+    from ..ros.env import check_domain_id
 
     if given is not None:
         return check_domain_id(given, "--domain-id")
@@ -73,6 +74,8 @@ def _domain_id(given: str | None) -> int:
 
 def _watch_graph(bridge: FoxgloveBridge, domain_id: int) -> None:
     """Print, each time it changes, whether a bike_rig graph is on the domain (a 1 s timer of the bridge node)."""
+    from ..ros.liveview import GraphPresence
+
     presence = GraphPresence(domain_id)
     t0 = time.monotonic()
 
@@ -89,8 +92,9 @@ def run(args: argparse.Namespace) -> int:
     if not 0 <= args.port <= 65535:
         raise ViewUsageError(f"--port must be within 0..65535, got {args.port}")
     os.environ["ROS_DOMAIN_ID"] = str(_domain_id(args.domain_id))
-    from ..nodes.foxglove_bridge import main
-    from ..paths import config_dir
+    from ..config.paths import config_dir
+    from ..ros.liveview import LAYOUT_FILE
+    from ..ros.nodes.foxglove_bridge import main
 
     layout = config_dir() / LAYOUT_FILE
 

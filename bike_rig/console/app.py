@@ -18,11 +18,11 @@ from textual.binding import Binding
 from textual.containers import Horizontal, Vertical
 from textual.widgets import DataTable, Footer, Input, RichLog, Sparkline, Static
 
-from ..diagnostics import Level, node_of
+from ..core.textfmt import format_speed, terminal_safe
+from ..pipeline.diagnostics import Level, node_of
 from ..pipeline.model import StabilitySweep
 from ..session.controller import Reply, SessionController
 from ..session.plan import ItemState, ReadingItem, TrialItem
-from ..textfmt import format_speed, terminal_safe
 
 __all__ = ["SessionApp", "layout_rows", "run_console", "title_text"]
 

@@ -327,7 +327,7 @@ def resolve_feedback(spec: str | Path | None) -> Feedback | None:
     Raises:
         FeedbackError: The file cannot be read or is not a valid feedback file.
     """
-    from ..paths import resolve_shipped
+    from ..config.paths import resolve_shipped
 
     key = feedback_key(spec)
     return None if key == NO_FEEDBACK else load_feedback(resolve_shipped(str(key), "feedback"))

@@ -1,12 +1,15 @@
 """The one boundary between ``bike_rig_msgs`` messages and the pipeline's records, without ROS.
 
 One pair of converters per message type: ``<record>_from_msg`` reads a message (rclpy's, the
-dataclasses rosbags deserialises a recording into, or a stand-in satisfying the protocol in
-:mod:`.protocols`) into a record; ``fill_<message>`` writes a record into a given message
-object and returns it. Float arrays are written in the container the object already holds
-(numpy array, ``array.array`` or list), so rclpy's field checks and rosbags' serialiser both
-accept them. The live nodes and the offline runner both use these functions, so a recording
-converts to exactly the records the nodes computed with.
+dataclasses rosbags deserialises a recording into, or a stand-in) into a record;
+``fill_<message>`` writes a record into a given message object and returns it. A record field
+travels in the message field of the same name, converted by the record's annotated type
+(:func:`.fields.record_fields`, :func:`.fields.fill_fields`): a field added to a ``.msg`` and to
+its record needs nothing here. The converters spell out only real conversions (nested records,
+matrices, flags, enums under another name). Float arrays are written in the container the object
+already holds (numpy array, ``array.array`` or list), so rclpy's field checks and rosbags'
+serialiser both accept them. The live nodes and the offline runner both use these functions, so
+a recording converts to exactly the records the nodes computed with.
 
 Pairs (message: record, converters):
 

@@ -1,4 +1,4 @@
-"""Converters of ``diagnostic_msgs/DiagnosticArray`` (``/diagnostics``): :class:`~bike_rig.diagnostics.Status` records.
+"""Converters of ``/diagnostics`` (``DiagnosticArray``) to and from :class:`~bike_rig.pipeline.diagnostics.Status`.
 
 ``level`` is a ``byte`` field: rclpy holds it as ``bytes`` of length 1, rosbags as an int; both
 are read and written. The nested ``DiagnosticStatus`` and ``KeyValue`` objects are built with the
@@ -10,7 +10,7 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from typing import Any
 
-from ..diagnostics import Level, Status
+from ..pipeline.diagnostics import Level, Status
 from .fields import MessageError
 
 __all__ = ["fill_diagnostic_array", "statuses_from_msg"]

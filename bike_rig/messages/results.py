@@ -20,7 +20,7 @@ import math
 
 import numpy as np
 
-from ..core.benchmark import ComMethod, ParameterSet
+from ..core.benchmark import ParameterSet
 from ..core.measurements import Measurements, Origin, Reading
 from ..core.symbols import PARAMETER_NAMES
 from ..core.uncertainty.matrix_sigma import SigmaConvention
@@ -29,14 +29,7 @@ from ..core.uncertainty.uncertain import UncertainVector
 from ..core.whipple import EigenvalueSweep, WhippleMatrices
 from ..pipeline.assemble import KeyPeriod, SessionParameters
 from ..pipeline.model import ModelMatrices, StabilitySweep, StateSpaceAt
-from .fields import MessageError, check_length, floats, set_floats, strings
-from .protocols import (
-    BenchmarkParametersMsg,
-    CanonicalMatricesMsg,
-    EigenSweepMsg,
-    StateSpaceResponse,
-    StaticReadingsMsg,
-)
+from .fields import Message, MessageError, check_length, fill_fields, floats, record_fields, set_floats, strings
 
 __all__ = [
     "fill_benchmark_parameters",
@@ -61,7 +54,7 @@ _MATRIX_FIELDS = ("m", "c1", "k0", "k2")
 # --------------------------------------------------------------------------------------------
 
 
-def static_readings_from_msg(msg: StaticReadingsMsg) -> Measurements:
+def static_readings_from_msg(msg: Message) -> Measurements:
     """A ``StaticReadings`` as :class:`Measurements` (readings in the message's key order).
 
     Each reading's origin names the message's ``source`` and the key.
@@ -77,7 +70,7 @@ def static_readings_from_msg(msg: StaticReadingsMsg) -> Measurements:
     return Measurements(str(msg.bicycle), readings, source)
 
 
-def fill_static_readings(msg: StaticReadingsMsg, static: Measurements, document: str = "") -> StaticReadingsMsg:
+def fill_static_readings(msg: Message, static: Measurements, document: str = "") -> Message:
     """Write static readings into a ``StaticReadings`` (``source`` is ``static.path``).
 
     Args:
@@ -99,14 +92,14 @@ def fill_static_readings(msg: StaticReadingsMsg, static: Measurements, document:
 # --------------------------------------------------------------------------------------------
 
 
-def fill_benchmark_parameters(msg: BenchmarkParametersMsg, session: SessionParameters) -> BenchmarkParametersMsg:
+def fill_benchmark_parameters(msg: Message, session: SessionParameters) -> Message:
     """Write a session's state into a ``BenchmarkParameters``.
 
     Complete: names, values, sigmas and the covariance of the 26 parameters. Incomplete: those
     are empty and ``missing`` lists the keys still to measure. The provenance (periods
     combined so far and their trials) is written in both cases.
     """
-    msg.bicycle = session.bicycle
+    fill_fields(msg, session)
     ps = session.parameters
     if ps is not None:
         pv = ps.parameters
@@ -119,16 +112,14 @@ def fill_benchmark_parameters(msg: BenchmarkParametersMsg, session: SessionParam
         for name in ("values", "sigmas", "covariance"):
             set_floats(msg, name, [])
     msg.complete = session.complete
-    msg.missing = list(session.missing)
     msg.period_keys = [p.key for p in session.periods]
     set_floats(msg, "period_values", [p.value for p in session.periods])
     set_floats(msg, "period_sigmas", [p.sigma for p in session.periods])
     msg.trial_ids = [f"{p.key}:{t}" for p in session.periods for t in p.trial_ids]
-    msg.com_method = session.com_method.value
     return msg
 
 
-def _parameter_set(msg: BenchmarkParametersMsg, source: str) -> ParameterSet:
+def _parameter_set(msg: Message, source: str) -> ParameterSet:
     """The parameter set of a complete ``BenchmarkParameters``, in PARAMETER_NAMES order.
 
     Args:
@@ -156,7 +147,7 @@ def _parameter_set(msg: BenchmarkParametersMsg, source: str) -> ParameterSet:
     return ParameterSet(str(msg.bicycle), UncertainVector(PARAMETER_NAMES, values, cov), source)
 
 
-def _key_periods(msg: BenchmarkParametersMsg) -> tuple[KeyPeriod, ...]:
+def _key_periods(msg: Message) -> tuple[KeyPeriod, ...]:
     keys = strings(msg.period_keys)
     values, sigmas = floats(msg.period_values), floats(msg.period_sigmas)
     check_length("BenchmarkParameters.period_values", values.size, len(keys))
@@ -170,20 +161,14 @@ def _key_periods(msg: BenchmarkParametersMsg) -> tuple[KeyPeriod, ...]:
     return tuple(KeyPeriod(k, float(v), float(s), tuple(trials[k])) for k, v, s in zip(keys, values, sigmas))
 
 
-def session_parameters_from_msg(
-    msg: BenchmarkParametersMsg, source: str = "<BenchmarkParameters message>"
-) -> SessionParameters:
+def session_parameters_from_msg(msg: Message, source: str = "<BenchmarkParameters message>") -> SessionParameters:
     """A ``BenchmarkParameters`` as :class:`SessionParameters` (the parameter set when complete).
 
     Raises:
         MessageError: inconsistent fields.
     """
     parameters = _parameter_set(msg, source) if msg.complete else None
-    try:
-        method = ComMethod(str(msg.com_method))
-    except ValueError:
-        raise MessageError(f"BenchmarkParameters.com_method: unknown method '{msg.com_method}'") from None
-    return SessionParameters(str(msg.bicycle), method, _key_periods(msg), strings(msg.missing), parameters)
+    return SessionParameters(**record_fields(SessionParameters, msg), periods=_key_periods(msg), parameters=parameters)
 
 
 # --------------------------------------------------------------------------------------------
@@ -191,11 +176,9 @@ def session_parameters_from_msg(
 # --------------------------------------------------------------------------------------------
 
 
-def fill_canonical_matrices(msg: CanonicalMatricesMsg, model: ModelMatrices) -> CanonicalMatricesMsg:
+def fill_canonical_matrices(msg: Message, model: ModelMatrices) -> Message:
     """Write canonical matrices with σ into a ``CanonicalMatrices``."""
-    msg.bicycle = model.bicycle
-    msg.rider = model.rider
-    msg.g = float(model.g)
+    fill_fields(msg, model)
     for attr, field in zip(_MATRICES, _MATRIX_FIELDS):
         set_floats(msg, field, np.asarray(getattr(model.matrices, attr), dtype=float))
         set_floats(msg, f"{field}_sigma", np.asarray(getattr(model.sigma, attr), dtype=float))
@@ -203,7 +186,7 @@ def fill_canonical_matrices(msg: CanonicalMatricesMsg, model: ModelMatrices) -> 
     return msg
 
 
-def _matrices(msg: CanonicalMatricesMsg, suffix: str) -> WhippleMatrices:
+def _matrices(msg: Message, suffix: str) -> WhippleMatrices:
     mats = []
     for field in _MATRIX_FIELDS:
         data = floats(getattr(msg, field + suffix))
@@ -212,7 +195,7 @@ def _matrices(msg: CanonicalMatricesMsg, suffix: str) -> WhippleMatrices:
     return WhippleMatrices(M=mats[0], C1=mats[1], K0=mats[2], K2=mats[3])
 
 
-def model_matrices_from_msg(msg: CanonicalMatricesMsg) -> ModelMatrices:
+def model_matrices_from_msg(msg: Message) -> ModelMatrices:
     """A ``CanonicalMatrices`` as :class:`ModelMatrices`.
 
     Raises:
@@ -223,7 +206,10 @@ def model_matrices_from_msg(msg: CanonicalMatricesMsg) -> ModelMatrices:
     except ValueError:
         raise MessageError(f"CanonicalMatrices.sigma_convention: unknown '{msg.sigma_convention}'") from None
     return ModelMatrices(
-        str(msg.bicycle), str(msg.rider), float(msg.g), _matrices(msg, ""), _matrices(msg, "_sigma"), convention
+        **record_fields(ModelMatrices, msg),
+        matrices=_matrices(msg, ""),
+        sigma=_matrices(msg, "_sigma"),
+        convention=convention,
     )
 
 
@@ -232,22 +218,21 @@ def model_matrices_from_msg(msg: CanonicalMatricesMsg) -> ModelMatrices:
 # --------------------------------------------------------------------------------------------
 
 
-def _set_speed(msg: EigenSweepMsg, name: str, speed: SpeedWithSigma | None) -> None:
+def _set_speed(msg: Message, name: str, speed: SpeedWithSigma | None) -> None:
     setattr(msg, f"has_{name}", speed is not None)
     setattr(msg, f"{name}_speed", math.nan if speed is None else float(speed.speed))
     setattr(msg, f"{name}_speed_sigma", math.nan if speed is None else float(speed.sigma))
 
 
-def _get_speed(msg: EigenSweepMsg, name: str) -> SpeedWithSigma | None:
+def _get_speed(msg: Message, name: str) -> SpeedWithSigma | None:
     if not getattr(msg, f"has_{name}"):
         return None
     return SpeedWithSigma(float(getattr(msg, f"{name}_speed")), float(getattr(msg, f"{name}_speed_sigma")))
 
 
-def fill_eigen_sweep(msg: EigenSweepMsg, stability: StabilitySweep) -> EigenSweepMsg:
+def fill_eigen_sweep(msg: Message, stability: StabilitySweep) -> Message:
     """Write an eigenvalue sweep and the critical speeds into an ``EigenSweep``."""
-    msg.bicycle = stability.bicycle
-    msg.rider = stability.rider
+    fill_fields(msg, stability)
     sweep = stability.sweep
     set_floats(msg, "speeds", sweep.speeds)
     set_floats(msg, "eigenvalues_real", np.ascontiguousarray(sweep.eigenvalues.real))
@@ -258,7 +243,7 @@ def fill_eigen_sweep(msg: EigenSweepMsg, stability: StabilitySweep) -> EigenSwee
     return msg
 
 
-def stability_sweep_from_msg(msg: EigenSweepMsg) -> StabilitySweep:
+def stability_sweep_from_msg(msg: Message) -> StabilitySweep:
     """An ``EigenSweep`` as :class:`StabilitySweep`.
 
     Raises:
@@ -271,7 +256,12 @@ def stability_sweep_from_msg(msg: EigenSweepMsg) -> StabilitySweep:
     check_length("EigenSweep.eigenvalues_imag", im.size, speeds.size * len(labels))
     values = (re + 1j * im).reshape(speeds.size, len(labels))
     sweep = EigenvalueSweep(speeds=speeds, eigenvalues=values, labels=labels)
-    return StabilitySweep(str(msg.bicycle), str(msg.rider), sweep, _get_speed(msg, "weave"), _get_speed(msg, "capsize"))
+    return StabilitySweep(
+        **record_fields(StabilitySweep, msg),
+        sweep=sweep,
+        weave=_get_speed(msg, "weave"),
+        capsize=_get_speed(msg, "capsize"),
+    )
 
 
 # --------------------------------------------------------------------------------------------
@@ -279,9 +269,7 @@ def stability_sweep_from_msg(msg: EigenSweepMsg) -> StabilitySweep:
 # --------------------------------------------------------------------------------------------
 
 
-def fill_state_space_response(
-    response: StateSpaceResponse, state: StateSpaceAt, message: str = ""
-) -> StateSpaceResponse:
+def fill_state_space_response(response: Message, state: StateSpaceAt, message: str = "") -> Message:
     """Write A, B and the eigenvalues into a ``StateSpace`` response with ``ok = true``."""
     response.ok = True
     response.message = message
@@ -293,7 +281,7 @@ def fill_state_space_response(
     return response
 
 
-def fill_state_space_error(response: StateSpaceResponse, message: str) -> StateSpaceResponse:
+def fill_state_space_error(response: Message, message: str) -> Message:
     """A ``StateSpace`` response with ``ok = false``, the reason, and NaN numbers."""
     response.ok = False
     response.message = message
@@ -303,7 +291,7 @@ def fill_state_space_error(response: StateSpaceResponse, message: str) -> StateS
     return response
 
 
-def state_space_from_response(response: StateSpaceResponse, speed: float) -> StateSpaceAt:
+def state_space_from_response(response: Message, speed: float) -> StateSpaceAt:
     """A successful ``StateSpace`` response (for the request's ``speed``, m/s) as :class:`StateSpaceAt`.
 
     Raises:

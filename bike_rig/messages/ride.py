@@ -10,19 +10,21 @@ import math
 
 from ..core.uncertainty.matrix_sigma import SigmaConvention
 from ..pipeline.model import StateSpaceAt, StateSpaceWithSigma
-from .fields import MessageError, check_length, floats, set_floats, strings
-from .protocols import Float64Msg, StateSpaceModelMsg
+from .fields import Message, MessageError, check_length, fill_fields, floats, record_fields, set_floats, strings
 
 __all__ = ["fill_ride_speed", "fill_state_space_model", "ride_speed_from_msg", "state_space_model_from_msg"]
 
+#: Fields of :class:`StateSpaceWithSigma` written here, not copied: the matrices' σ are reshaped.
+_EXPLICIT = ("a_sigma", "b_sigma")
 
-def fill_ride_speed(msg: Float64Msg, speed: float) -> Float64Msg:
+
+def fill_ride_speed(msg: Message, speed: float) -> Message:
     """Write a riding speed (m/s) into a ``std_msgs/Float64``."""
     msg.data = float(speed)
     return msg
 
 
-def ride_speed_from_msg(msg: Float64Msg, topic: str = "") -> float:
+def ride_speed_from_msg(msg: Message, topic: str = "") -> float:
     """The riding speed (m/s) of a ``std_msgs/Float64``.
 
     Raises:
@@ -35,13 +37,11 @@ def ride_speed_from_msg(msg: Float64Msg, topic: str = "") -> float:
     return v
 
 
-def fill_state_space_model(msg: StateSpaceModelMsg, model: StateSpaceWithSigma) -> StateSpaceModelMsg:
+def fill_state_space_model(msg: Message, model: StateSpaceWithSigma) -> Message:
     """Write the state space with σ into a ``StateSpaceModel`` (the header is left to the caller)."""
     state = model.state
+    fill_fields(msg, model, skip=_EXPLICIT)
     msg.speed = float(state.speed)
-    msg.bicycle = model.bicycle
-    msg.rider = model.rider
-    msg.feedback = model.feedback
     msg.sigma_convention = model.convention.value
     set_floats(msg, "a", state.a)
     set_floats(msg, "a_sigma", model.a_sigma)
@@ -55,7 +55,7 @@ def fill_state_space_model(msg: StateSpaceModelMsg, model: StateSpaceWithSigma) 
     return msg
 
 
-def state_space_model_from_msg(msg: StateSpaceModelMsg) -> StateSpaceWithSigma:
+def state_space_model_from_msg(msg: Message) -> StateSpaceWithSigma:
     """A ``StateSpaceModel`` as :class:`~bike_rig.pipeline.model.StateSpaceWithSigma`.
 
     Raises:
@@ -84,13 +84,11 @@ def state_space_model_from_msg(msg: StateSpaceModelMsg) -> StateSpaceWithSigma:
     eig = values["eigenvalues_real"] + 1j * values["eigenvalues_imag"]
     state = StateSpaceAt(float(msg.speed), values["a"].reshape(4, 4), values["b"].reshape(4, 2), eig, labels)
     return StateSpaceWithSigma(
-        state,
-        values["a_sigma"].reshape(4, 4),
-        values["b_sigma"].reshape(4, 2),
-        values["eigenvalues_real_sigma"],
-        values["eigenvalues_imag_sigma"],
-        str(msg.bicycle),
-        str(msg.rider),
-        str(msg.feedback),
-        convention,
+        **record_fields(StateSpaceWithSigma, msg, skip=_EXPLICIT),
+        state=state,
+        a_sigma=values["a_sigma"].reshape(4, 4),
+        b_sigma=values["b_sigma"].reshape(4, 2),
+        eigenvalues_sigma_real=values["eigenvalues_real_sigma"],
+        eigenvalues_sigma_imag=values["eigenvalues_imag_sigma"],
+        convention=convention,
     )

@@ -6,6 +6,6 @@
 * :mod:`.model`: parameters → canonical matrices, eigenvalues, critical speeds, state space;
 * :mod:`.offline`: one runner over a recorded or simulated session, calling the same stages.
 
-The nodes (:mod:`bike_rig.nodes`) are thin adapters around these stages; the offline replay,
+The nodes (:mod:`bike_rig.ros.nodes`) are thin adapters around these stages; the offline replay,
 simulated sessions and the report run them without a ROS runtime. Nothing here imports ROS.
 """

@@ -1,8 +1,8 @@
 """Each node's health as REP-107 statuses (``/diagnostics``), from plain records, without ROS.
 
 One function per node turns a snapshot of its counters (one dataclass each) into its statuses,
-one per concern (:mod:`bike_rig.diagnostics`); the node fills the snapshot once a second and
-:mod:`bike_rig.nodes.diagnostics` publishes the result. The concerns, levels and details are in
+one per concern (:mod:`bike_rig.pipeline.diagnostics`); the node fills the snapshot once a second and
+:mod:`bike_rig.ros.nodes.diagnostics` publishes the result. The concerns, levels and details are in
 ``docs/ros-graph.md`` (*Diagnostics*). Times in s, rates in 1/s (Hz), sizes in bytes unless a
 key says otherwise.
 """
@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from ..diagnostics import INPUT_LAG, Level, Status, age_level, level_above, level_below
+from .diagnostics import INPUT_LAG, Level, Status, age_level, level_above, level_below
 
 __all__ = [
     "LAG_WARN_S",
@@ -340,7 +340,7 @@ def recorder_statuses(h: RecorderHealth, node: str = "recorder") -> list[Status]
 
 @dataclass(frozen=True)
 class InputLag:
-    """How far behind its input a node is (:class:`bike_rig.diagnostics.LagMeter`).
+    """How far behind its input a node is (:class:`bike_rig.pipeline.diagnostics.LagMeter`).
 
     Attributes:
         lag_s: The largest lag (now − source time) of the messages handled over the last 1.5 s, s.

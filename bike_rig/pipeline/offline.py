@@ -5,7 +5,7 @@ no ROS runtime, so a replayed bag, a simulated session and the report get the nu
 live graph would publish (bit-identical in practice):
 
 * :meth:`OfflineGraph.run` fits every trial, assembles the parameters once and computes the
-  model once: the replay of a recording (:mod:`bike_rig.bag.replay`) and the report;
+  model once: the replay of a recording (:mod:`bike_rig.offline.replay`) and the report;
 * :meth:`OfflineGraph.step` takes one trial at a time and returns what the graph publishes
   after it (the estimate, the session's state and, once complete, the model): the simulated
   live results of :mod:`bike_rig.bag.simulated`.

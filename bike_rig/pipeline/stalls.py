@@ -18,7 +18,7 @@ from collections.abc import Callable, Collection, Sequence
 from dataclasses import dataclass
 from enum import Enum
 
-from ..diagnostics import INPUT_LAG, Level, Status, node_of
+from .diagnostics import INPUT_LAG, Level, Status, node_of
 
 __all__ = ["CAUGHT_UP_S", "NEVER_HEARD_S", "RESUMED_S", "SILENT_S", "StallWatch", "Standing", "StandingChange"]
 

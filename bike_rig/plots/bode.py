@@ -23,7 +23,7 @@ from numpy.typing import NDArray
 
 from ..core.feedback import Feedback
 from ..core.frequency import output_unit
-from ..subjects import Subject
+from ..offline.subjects import Subject
 from .model_data import BodeCurves, FigureInputError, bode_curves, rider_title
 from .style import bicycle_line_style, closed_loop_text, new_figure
 

@@ -24,7 +24,7 @@ from matplotlib.patches import Patch
 from numpy.typing import NDArray
 
 from ..core.feedback import Feedback
-from ..subjects import Subject
+from ..offline.subjects import Subject
 from .model_data import COMPLEX_TOL, EigenCurves, FigureInputError, eigen_curves, rider_title
 from .style import MODE_COLOURS, closed_loop_text, new_figure
 

@@ -20,7 +20,7 @@ from matplotlib.figure import Figure
 from numpy.typing import NDArray
 
 from ..core.feedback import Feedback
-from ..subjects import Subject
+from ..offline.subjects import Subject
 from .eigen import panel_grid
 from .model_data import eigen_curves, rider_title
 from .style import closed_loop_text, new_figure

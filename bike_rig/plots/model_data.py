@@ -39,7 +39,7 @@ from ..core.uncertainty.matrix_sigma import MatrixSet, SigmaConvention, canonica
 from ..core.uncertainty.speed_sigma import SpeedWithSigma, critical_speeds_with_sigma
 from ..core.whipple import MODE_LABELS, WhippleMatrices, characteristic_coefficients, eigenvalues
 from ..core.whipple.closed_loop import closed_loop_coefficients
-from ..subjects import Subject
+from ..offline.subjects import Subject
 
 __all__ = [
     "MAX_SPEED",

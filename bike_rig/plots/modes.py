@@ -24,7 +24,7 @@ from collections.abc import Sequence
 import numpy as np
 from matplotlib.figure import Figure
 
-from ..subjects import Subject
+from ..offline.subjects import Subject
 from .eigen import panel_grid
 from .model_data import ModeShape, capsize_caster_speed, mode_shape, rider_title
 from .style import new_figure

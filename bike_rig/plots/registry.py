@@ -65,9 +65,9 @@ class Scope(Enum):
 
     #: Every input in one figure (a panel or a line each): takes a sequence of subjects.
     BICYCLES = "bicycles"
-    #: One figure per input that has trials: takes a :class:`bike_rig.subjects.Subject`.
+    #: One figure per input that has trials: takes a :class:`bike_rig.offline.subjects.Subject`.
     SUBJECT = "subject"
-    #: One figure per trial: takes a trial record of :class:`bike_rig.subjects.Subject`.
+    #: One figure per trial: takes a trial record of :class:`bike_rig.offline.subjects.Subject`.
     TRIAL = "trial"
 
 

@@ -33,8 +33,8 @@ from ..core.feedback import Feedback
 from ..core.ride.eigen import MeasuredEigenvalue
 from ..core.ride.record import RideRecord
 from ..core.ride.segment import Segment
+from ..offline.subjects import Subject
 from ..pipeline.ride import PredictedWeave, RideComparison, validate_ride
-from ..subjects import Subject
 from .model_data import FigureInputError
 from .style import new_figure
 
@@ -177,7 +177,7 @@ def ride_figure(
             without a speed.
     """
     from ..core.rider import add_rider, resolve_rider
-    from ..rides import RecordOptions, measure_records
+    from ..offline.rides import RecordOptions, measure_records
 
     if len(subjects) != 1 or not ride:
         raise FigureInputError("the ride figure compares ride records (--ride) with exactly one bicycle")

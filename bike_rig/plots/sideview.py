@@ -24,7 +24,7 @@ from numpy.typing import NDArray
 
 from ..core.benchmark import ParameterSet
 from ..core.uncertainty.uncertain import complex_step_jacobian
-from ..subjects import Subject
+from ..offline.subjects import Subject
 from .style import bicycle_colour, new_figure
 
 __all__ = [

@@ -17,7 +17,7 @@ from matplotlib.figure import Figure
 from matplotlib.text import Text
 
 from ..core.errors import InputFileError
-from ..textfmt import terminal_safe
+from ..core.textfmt import terminal_safe
 
 __all__ = [
     "closed_loop_text",

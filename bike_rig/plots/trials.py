@@ -16,10 +16,10 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Patch
 from numpy.typing import NDArray
 
-from ..bag.timeline import TIME_BASE
 from ..core.period import FitOptions, combine_periods
-from ..subjects import SessionTrial, Subject, is_bag_path
-from ..textfmt import format_value_sigma
+from ..core.textfmt import format_value_sigma
+from ..offline.subjects import SessionTrial, Subject, is_bag_path
+from ..offline.timeline import TIME_BASE
 from .style import new_figure
 
 __all__ = [
@@ -174,7 +174,7 @@ class OverviewPoint:
         trial: The trial.
         status: See :func:`trial_status`.
         x: Its place on the horizontal axis: start time (bags; s,
-            :data:`bike_rig.bag.timeline.TIME_BASE`), or its position in session order.
+            :data:`bike_rig.offline.timeline.TIME_BASE`), or its position in session order.
         deviation_ppm: (T − T_ref) / T_ref of its key, ppm (NaN without a period).
         sigma_ppm: σ_T / T_ref, ppm (NaN without a period).
     """

@@ -19,9 +19,9 @@ from ..core.benchmark import ComMethod
 from ..core.feedback import Feedback, resolve_feedback
 from ..core.ride.eigen import MeasuredEigenvalue
 from ..core.rider import Rider, RiderError, resolve_rider, rider_key
+from ..offline.rides import RecordOptions, measure_records
+from ..offline.subjects import Subject, load_subject
 from ..plots.output import check_out_dir
-from ..rides import RecordOptions, measure_records
-from ..subjects import Subject, load_subject
 from . import sections
 from .errors import ReportOutputError
 from .figures import REPORT_DPI, ReportFigure, draw_figures, figure_specs
@@ -100,7 +100,7 @@ def build_report(
     """The report of one bicycle.
 
     Args:
-        subject: The bicycle (:func:`bike_rig.subjects.load_subject`).
+        subject: The bicycle (:func:`bike_rig.offline.subjects.load_subject`).
         generated: The creation time printed on the page (default: now, UTC, to the second).
         dpi: Resolution of the embedded figures, dots per inch.
         workers: Processes to draw the figures in (default: one per CPU, at most
@@ -108,7 +108,7 @@ def build_report(
         feedback: A steer-torque feedback: the page adds its closed loop (a section and the
             closed-loop eigenvalue and Bode figures); None: the open loop only.
         rider: The rider variant: ``"paper"`` or a rider file (:func:`report_rider`).
-        rides: Measured ride segments (:func:`bike_rig.rides.measure_records`): the page adds
+        rides: Measured ride segments (:func:`bike_rig.offline.rides.measure_records`): the page adds
             a ride section (:mod:`.ride`), against the bicycle with the rider (and feedback).
 
     An incomplete session (no parameters) gets a partial report: its header names what is

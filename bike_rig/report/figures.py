@@ -37,6 +37,7 @@ from matplotlib.figure import Figure
 
 from ..core.errors import BikeRigError
 from ..core.feedback import Feedback
+from ..offline.subjects import Subject
 from ..plots.registry import (
     FIGURES,
     FIT_DPI,
@@ -48,7 +49,6 @@ from ..plots.registry import (
     report_entries,
 )
 from ..plots.style import escape_figure_text
-from ..subjects import Subject
 from .results import ReportResults
 
 __all__ = [

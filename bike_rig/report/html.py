@@ -13,7 +13,7 @@ import html
 import math
 from collections.abc import Iterable, Sequence
 
-from ..textfmt import format_value_sigma
+from ..core.textfmt import format_value_sigma
 
 __all__ = [
     "Raw",
@@ -26,7 +26,7 @@ __all__ = [
 ]
 
 
-#: Significant digits of every σ on the page: None, the one rule (:func:`~bike_rig.textfmt.sigma_digits`).
+#: Significant digits of every σ on the page: None, the one rule (:func:`~bike_rig.core.textfmt.sigma_digits`).
 SIGMA_DIGITS: int | None = None
 
 

@@ -21,7 +21,7 @@ from ..core.uncertainty.speed_mc import SpeedMonteCarlo, speed_monte_carlo, spee
 from ..core.uncertainty.speed_sigma import CriticalSpeedsWithSigma, critical_speeds_with_sigma
 from ..core.whipple import stable_speed_range
 from ..core.whipple.closed_loop import closed_loop_stable_range
-from ..subjects import Subject
+from ..offline.subjects import Subject
 
 __all__ = [
     "MONTE_CARLO_SAMPLES",

@@ -1,6 +1,6 @@
 """The report's ride section: measured weave eigenvalues against the model (``report --ride``).
 
-Given ride records (:mod:`bike_rig.rides`), the bicycle with the report's rider (the paper's,
+Given ride records (:mod:`bike_rig.offline.rides`), the bicycle with the report's rider (the paper's,
 :class:`~bike_rig.report.results.ReportResults` ``.rider``) and, with ``--feedback``, its closed
 loop is compared with every segment (:func:`bike_rig.pipeline.ride.compare_ride`): a table per
 speed (measured and predicted eigenvalue with σ, normalised deviation), the overall normalised

@@ -4,7 +4,7 @@ The bicycle and its source, the parameters (paper Table 2), the canonical matric
 the critical speeds, the uncertainty budget, the trials and the timeline. A section without
 data says why instead of being empty.
 
-Each function takes the :class:`~bike_rig.subjects.Subject` and/or the computed
+Each function takes the :class:`~bike_rig.offline.subjects.Subject` and/or the computed
 :class:`~bike_rig.report.results.ReportResults` and returns a :class:`~.html.Raw` section.
 Units: SI throughout (lam in rad, speeds in m/s, periods in s, times in s).
 """
@@ -15,15 +15,15 @@ import math
 from collections.abc import Sequence
 
 from .. import __version__
-from ..bag.timeline import TIME_BASE
 from ..core.feedback import GAIN_KEYS, GAIN_UNITS
 from ..core.period import FlagCode
+from ..core.textfmt import LABELS, TABLE2_ORDER
 from ..core.uncertainty.budget import CAPSIZE, PARAMETERS, WEAVE, OutputBudget, UncertaintyBudget, input_ranking
 from ..core.uncertainty.matrix_sigma import MATRIX_NAMES
 from ..core.uncertainty.speed_sigma import SpeedWithSigma
+from ..offline.subjects import SessionTrial, Subject
+from ..offline.timeline import TIME_BASE
 from ..pipeline.fit_details import FitDetails
-from ..subjects import SessionTrial, Subject
-from ..textfmt import LABELS, TABLE2_ORDER
 from .figures import ReportFigure
 from .html import Raw, esc, number_cell, section, table, value_sigma_cells
 from .results import ReportResults, Variant

@@ -18,17 +18,17 @@ from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 from ..core.period.advice import flag_advice
+from ..core.suggest import did_you_mean
 from ..core.symbols import PARAMETER_NAMES
-from ..diagnostics import HealthBoard, StatusReport
+from ..core.textfmt import format_speed
 from ..pipeline.acquire import SampleBatch, TrialEventRecord
 from ..pipeline.assemble import SessionParameters
+from ..pipeline.diagnostics import HealthBoard, StatusReport
 from ..pipeline.fit import TrialFit
 from ..pipeline.fit_details import FitDetails
 from ..pipeline.model import StabilitySweep
 from ..pipeline.readings import ReadingEntry
 from ..pipeline.stalls import StallWatch
-from ..suggest import did_you_mean
-from ..textfmt import format_speed
 from .plan import ItemState, ReadingItem, TrialItem
 from .state import OperatorSession
 
@@ -86,7 +86,7 @@ class StartReply:
 
 
 class GraphLink(Protocol):
-    """What the controller needs of the live graph (ROS: :mod:`bike_rig.nodes.session_link`)."""
+    """What the controller needs of the live graph (ROS: :mod:`bike_rig.ros.nodes.session_link`)."""
 
     def start_trial(self, item: TrialItem, duration_s: float) -> StartReply:
         """Ask the driver to start a trial of ``item`` lasting ``duration_s`` (s)."""
@@ -147,7 +147,7 @@ class SessionController:
             raises ``ValueError`` with a one-line reason for a reading that cannot be taken.
         rank: ``(session) -> [(item_id, text)]``, best first: the next-best measurements.
         watch: ``() -> [(node, line)]``: the graph's nodes that died since the last call
-            (:class:`~bike_rig.graphwatch.NodeWatch`), said as errors by :meth:`pump`.
+            (:class:`~bike_rig.ros.graphwatch.NodeWatch`), said as errors by :meth:`pump`.
         ended: ``() -> nodes``: the graph's nodes whose process has ended now (not stalled:
             gone); unknown when joining a graph (none).
         stalls: The nodes stalled or behind their input (a line when that changes).

@@ -25,6 +25,7 @@ from ..core.reading_ranges import (
     plausible_range,
     reading_unit,
 )
+from ..core.suggest import did_you_mean
 from ..core.units import radians
 from ..pipeline.readings import (
     REFINED_STATIC_KEYS,
@@ -36,7 +37,6 @@ from ..pipeline.readings import (
     check_entry,
     is_static_key,
 )
-from ..suggest import did_you_mean
 
 __all__ = [
     "COUNT_KEYS",

@@ -18,9 +18,9 @@ from typing import Any
 import numpy as np
 
 from ..bag.typestore import rig_typestore
-from ..params import ParamSpec
-from ..pipeline.acquire import NS_PER_S
-from ..topics import GYRO, TRIAL_EVENTS
+from ..config.settings import ParamSpec
+from ..config.topics import GYRO, TRIAL_EVENTS
+from ..messages.fields import record_fields, stamp_ns
 from .base import (
     TIME_SCALE,
     GyroSource,
@@ -39,10 +39,6 @@ __all__ = ["BagSource"]
 _log = logging.getLogger(__name__)
 
 _START, _STOP, _ABORT = 0, 1, 2
-
-
-def _stamp_ns(msg: Any) -> int:
-    return int(msg.header.stamp.sec) * NS_PER_S + int(msg.header.stamp.nanosec)
 
 
 class BagSource(GyroSource):
@@ -174,23 +170,13 @@ class BagSource(GyroSource):
         if msg.kind == _START:
             self._open_trials.add(msg.trial_id)
             self.trials_seen += 1
-            info = TrialInfo(
-                trial_id=msg.trial_id,
-                part=msg.part,
-                pendulum=msg.pendulum,
-                orientation=int(msg.orientation),
-                repeat=int(msg.repeat),
-                measurement_key=msg.measurement_key,
-                sample_rate_hz=float(msg.sample_rate_hz),
-                note=msg.note,
-            )
-            return TrialStarted(info, _stamp_ns(msg))
+            return TrialStarted(TrialInfo(**record_fields(TrialInfo, msg)), stamp_ns(msg.header))
         if msg.kind in (_STOP, _ABORT):
             if msg.trial_id not in self._open_trials:
                 _log.warning("bag %s: STOP of trial %s without its START skipped", self.path, msg.trial_id)
                 return None
             self._open_trials.discard(msg.trial_id)
-            return TrialStopped(msg.trial_id, int(msg.sample_count), _stamp_ns(msg), aborted=msg.kind == _ABORT)
+            return TrialStopped(msg.trial_id, int(msg.sample_count), stamp_ns(msg.header), aborted=msg.kind == _ABORT)
         _log.warning("bag %s: trial event of unknown kind %d skipped", self.path, msg.kind)
         return None
 

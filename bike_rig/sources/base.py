@@ -22,8 +22,8 @@ from typing import Any, ClassVar, TypeAlias
 import numpy as np
 from numpy.typing import NDArray
 
+from ..config.settings import ParamSpec, ParamValue, ParamValueError, merge_specs
 from ..core.sim.plan import PART_LETTERS, PlannedMeasurement
-from ..params import ParamSpec, ParamValue, ParamValueError, merge_specs
 from ..pipeline.acquire import NS_PER_S, sample_stamp_ns
 from .errors import SourceConfigError, TrialRequestError
 
@@ -216,7 +216,7 @@ class Parameters:
     """Typed access to a backend's parameters, checked against its specs.
 
     Each value is the mapping's, or the spec's default when the mapping lacks the name; it is
-    checked with :meth:`~bike_rig.params.ParamSpec.validate` (type, range, choices), and a bad
+    checked with :meth:`~bike_rig.config.settings.ParamSpec.validate` (type, range, choices), and a bad
     one raises :class:`SourceConfigError` naming the source, the parameter, its value and the
     reason (e.g. ``sim source: parameter 'time_scale' = 5000.0: must be <= 1000``).
 

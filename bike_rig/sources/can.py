@@ -20,8 +20,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..config.settings import ParamSpec
 from ..core.sim.gyro import Mode, angular_rate
-from ..params import ParamSpec
 from ..pipeline.acquire import NS_PER_S
 from .base import SAMPLE_RATE, TIME_SCALE, FloatArray, Parameters, SourceEvent, StreamingSource
 from .errors import SourceIOError, SourceUnavailableError

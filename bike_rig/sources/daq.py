@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from ..params import ParamSpec
+from ..config.settings import ParamSpec
 from ..pipeline.acquire import NS_PER_S
 from .base import SAMPLE_RATE, FloatArray, Parameters, StreamingSource
 from .errors import SourceConfigError, SourceIOError, SourceUnavailableError

@@ -9,8 +9,8 @@ why, in one line, so that a node can end with that line and exit status 2.
 
 from __future__ import annotations
 
+from ..config.settings import parameter_message
 from ..core.errors import BikeRigError
-from ..params import parameter_message
 
 __all__ = [
     "SourceConfigError",

@@ -21,8 +21,8 @@ from typing import Any
 import numpy as np
 
 from ..bag.errors import BagError
-from ..bag.resume import started_trials
-from ..bag.session import RecordedTrial, read_session
+from ..offline.resume import started_trials
+from ..offline.session import RecordedTrial, read_session
 from ..pipeline.acquire import TrialEventKind, sample_stamp_ns
 from .base import GyroSource, SampleBlock, SourceEvent, TrialInfo, TrialRequest, TrialStarted, TrialStopped
 from .errors import SourceConfigError

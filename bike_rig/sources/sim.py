@@ -18,6 +18,8 @@ from typing import Any, TypeAlias
 
 import numpy as np
 
+from ..config.paths import config_file
+from ..config.settings import ParamSpec
 from ..core.errors import BikeRigError
 from ..core.io_yaml import load_yaml_document
 from ..core.sim import (
@@ -31,8 +33,6 @@ from ..core.sim import (
 from ..core.sim.plan import PlannedMeasurement
 from ..core.sim.writer import VOLTS_DIR
 from ..core.trials import read_trial
-from ..params import ParamSpec
-from ..paths import config_file
 from ..pipeline.acquire import NS_PER_S, sample_stamp_ns
 from .base import (
     TIME_SCALE,

@@ -35,8 +35,8 @@ from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.serialization import deserialize_message
 
-from bike_rig.rosqos import profile
-from bike_rig.topics import GYRO, TOPICS
+from bike_rig.config.topics import GYRO, TOPICS
+from bike_rig.ros.qos import profile
 from test.support.samples import make_message, seed_of, serialize
 
 MATCH_TIMEOUT_S = 60.0

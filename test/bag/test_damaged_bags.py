@@ -20,11 +20,11 @@ from mcap.records import ChunkIndex
 
 from bike_rig.bag.check import MAX_CHUNK_BYTES
 from bike_rig.bag.errors import BagReadError
-from bike_rig.bag.info import summarize
-from bike_rig.bag.session import read_session
 from bike_rig.bag.simulated import write_simulated_bag
+from bike_rig.config.paths import config_file
 from bike_rig.core.sim import load_rig, load_true_parameters, simulate_session
-from bike_rig.paths import config_file
+from bike_rig.offline.info import summarize
+from bike_rig.offline.session import read_session
 from test.support.small_sessions import small_rig
 
 

@@ -13,7 +13,7 @@ from bike_rig.bag.errors import NotABagError
 from bike_rig.bag.reader import open_bag
 from bike_rig.bag.recover import recover_bag
 from bike_rig.bag.typestore import message_definition
-from bike_rig.topics import GYRO, STATIC_READINGS
+from bike_rig.config.topics import GYRO, STATIC_READINGS
 from test.support.cli import run_cli
 from test.support.samples import make_message, serialize
 

@@ -9,12 +9,12 @@ from pathlib import Path
 import pytest
 
 from bike_rig.bag.errors import IncompleteBagError, NoRigTopicsError
-from bike_rig.bag.info import summarize
 from bike_rig.bag.simulated import SimulatedMessage, write_simulated_bag
 from bike_rig.bag.typestore import new_message
 from bike_rig.bag.writer import BagWriter
+from bike_rig.config.topics import EIGEN_SWEEP, GYRO, PARAMETERS, PERIODS, TOPICS, TRIAL_EVENTS
 from bike_rig.core.sim import SimulatedSession
-from bike_rig.topics import EIGEN_SWEEP, GYRO, PARAMETERS, PERIODS, TOPICS, TRIAL_EVENTS
+from bike_rig.offline.info import summarize
 from test.support.cli import run_cli
 
 NS = 1_000_000_000

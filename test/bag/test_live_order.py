@@ -14,16 +14,16 @@ import pytest
 import yaml
 
 from bike_rig.bag import reader as reader_module
-from bike_rig.bag.info import summarize
 from bike_rig.bag.order import publication_order
-from bike_rig.bag.replay import replay_bag
-from bike_rig.bag.session import BY_LOG_TIME, BY_SEQUENCE, BY_STORAGE, LIVE_TOPICS, read_session
 from bike_rig.bag.simulated import SimulatedMessage, live_results, simulated_messages
 from bike_rig.bag.typestore import rig_typestore
 from bike_rig.bag.writer import BagWriter, contract_qos
+from bike_rig.config.topics import PARAMETERS, TOPICS, TRIAL_EVENTS
 from bike_rig.core.sim import SimulatedSession
+from bike_rig.offline.info import summarize
+from bike_rig.offline.replay import replay_bag
+from bike_rig.offline.session import BY_LOG_TIME, BY_SEQUENCE, BY_STORAGE, LIVE_TOPICS, read_session
 from bike_rig.pipeline.acquire import NS_PER_S
-from bike_rig.topics import PARAMETERS, TOPICS, TRIAL_EVENTS
 from test.support.replay import LIVE_OPTIONS, run_cli
 from test.support.samples import as_plain
 

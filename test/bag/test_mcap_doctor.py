@@ -14,7 +14,7 @@ from mcap.records import Channel, DataEnd, Schema
 from mcap.stream_reader import StreamReader
 
 from bike_rig.bag.writer import BagWriter, contract_qos
-from bike_rig.topics import GYRO, PERIODS, READINGS, TOPICS, TRIAL_EVENTS
+from bike_rig.config.topics import GYRO, PERIODS, READINGS, TOPICS, TRIAL_EVENTS
 from test.support.samples import sample_traffic
 
 

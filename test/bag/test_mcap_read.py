@@ -17,13 +17,13 @@ from rosbags.rosbag2 import Reader
 
 from bike_rig.bag.gyro_cdr import gyro_batch
 from bike_rig.bag.reader import BagReader, open_bag
-from bike_rig.bag.session import RecordedSession, read_session
 from bike_rig.bag.simulated import SimulatedMessage, simulated_messages
 from bike_rig.bag.typestore import rig_typestore
 from bike_rig.bag.writer import BagWriter, contract_qos
+from bike_rig.config.topics import GYRO, TOPICS, TRIAL_EVENTS
 from bike_rig.core.sim import SimulatedSession
 from bike_rig.messages import sample_batch_from_msg
-from bike_rig.topics import GYRO, TOPICS, TRIAL_EVENTS
+from bike_rig.offline.session import RecordedSession, read_session
 from test.support.samples import gyro_message, make_message, sample_traffic, serialize
 
 COUNTS = {t.name: n for t, n in zip(TOPICS, (60, 9, 5, 1, 2, 3, 1, 4), strict=True)}

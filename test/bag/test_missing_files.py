@@ -13,11 +13,11 @@ import pytest
 import yaml
 
 from bike_rig.bag.errors import BagReadError
-from bike_rig.bag.info import summarize
 from bike_rig.bag.reader import MCAP_MAGIC, open_bag
 from bike_rig.bag.recover import recover_bag, scan_mcap
 from bike_rig.bag.writer import BagWriter, contract_qos
-from bike_rig.topics import TOPICS
+from bike_rig.config.topics import TOPICS
+from bike_rig.offline.info import summarize
 from test.support.cli import run_cli
 from test.support.samples import sample_traffic
 

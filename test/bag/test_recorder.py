@@ -20,7 +20,7 @@ from mcap_ros2.decoder import DecoderFactory
 
 from bike_rig.bag.reader import open_bag
 from bike_rig.bag.recover import recover_bag
-from bike_rig.topics import (
+from bike_rig.config.topics import (
     EIGEN_SWEEP,
     GYRO,
     MATRICES,

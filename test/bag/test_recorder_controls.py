@@ -19,10 +19,17 @@ import yaml
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
-from bike_rig.bag.info import summarize
 from bike_rig.bag.reader import open_bag
 from bike_rig.bag.recover import recover_bag, scan_mcap
-from bike_rig.topics import GYRO, RECORDER_PAUSE, RECORDER_RESUME, RECORDER_SNAPSHOT, RECORDER_SPLIT, STATIC_READINGS
+from bike_rig.config.topics import (
+    GYRO,
+    RECORDER_PAUSE,
+    RECORDER_RESUME,
+    RECORDER_SNAPSHOT,
+    RECORDER_SPLIT,
+    STATIC_READINGS,
+)
+from bike_rig.offline.info import summarize
 from test.support.nodes import node_environment
 from test.support.probe import STEP_TIMEOUT_S, Probe
 from test.support.processes import RosProcess

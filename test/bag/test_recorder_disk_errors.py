@@ -22,7 +22,7 @@ import pytest
 from bike_rig.bag.reader import open_bag
 from bike_rig.bag.recover import recover_bag, scan_mcap
 from bike_rig.bag.writer import BagWriter, contract_qos
-from bike_rig.topics import GYRO, STATIC_READINGS, TOPICS
+from bike_rig.config.topics import GYRO, STATIC_READINGS, TOPICS
 from test.support.cli import run_cli
 from test.support.nodes import node_environment
 from test.support.probe import STEP_TIMEOUT_S

@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from bike_rig import topics
-from bike_rig.nodes.recorder import resolve_topics
+from bike_rig.config import topics
+from bike_rig.ros.nodes.recorder import resolve_topics
 
 
 def test_all_records_every_topic_of_the_graph_diagnostics_and_fit_details_included() -> None:

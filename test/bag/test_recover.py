@@ -11,7 +11,7 @@ from bike_rig.bag.errors import BagExistsError, BagReadError, NotABagError
 from bike_rig.bag.reader import open_bag
 from bike_rig.bag.recover import recover_bag, scan_mcap
 from bike_rig.bag.writer import BagWriter, contract_qos
-from bike_rig.topics import GYRO, STATIC_READINGS, TRIAL_EVENTS
+from bike_rig.config.topics import GYRO, STATIC_READINGS, TRIAL_EVENTS
 from test.support.samples import sample_traffic
 
 TOPICS = (STATIC_READINGS, TRIAL_EVENTS, GYRO)

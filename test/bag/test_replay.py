@@ -15,16 +15,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bike_rig.bag.compare import in_sigma, relative_difference
 from bike_rig.bag.errors import NoRigTopicsError, ReplayError
-from bike_rig.bag.replay import FitOverrides, ReplaySettings, replay_bag
 from bike_rig.bag.simulated import SimulatedMessage, live_results, simulated_messages, write_simulated_bag
+from bike_rig.config.topics import GYRO, STATIC_READINGS, TRIAL_EVENTS
 from bike_rig.core.benchmark import compute_parameters
 from bike_rig.core.period import WindowPolicy, combine_periods, fit_period
 from bike_rig.core.sim import SimulatedSession
 from bike_rig.core.uncertainty.matrix_sigma import canonical_with_sigma
 from bike_rig.core.whipple import critical_speeds
-from bike_rig.topics import GYRO, STATIC_READINGS, TRIAL_EVENTS
+from bike_rig.offline.compare import in_sigma, relative_difference
+from bike_rig.offline.replay import FitOverrides, ReplaySettings, replay_bag
 from test.support.replay import LIVE_OPTIONS, run_cli
 
 REPO = Path(__file__).resolve().parents[2]
@@ -185,7 +185,7 @@ def test_an_incomplete_session_exits_1(session: SimulatedSession, tmp_path: Path
     bag = tmp_path / "incomplete"
     from bike_rig.bag.typestore import rig_typestore
     from bike_rig.bag.writer import BagWriter, contract_qos
-    from bike_rig.topics import TOPICS
+    from bike_rig.config.topics import TOPICS
 
     with BagWriter(bag) as w:
         for t in TOPICS:
@@ -234,7 +234,7 @@ def test_replay_runs_without_rclpy(live_bag: Path) -> None:
     code = (
         "import sys, json\n"
         "import rclpy_blocker\n"
-        "from bike_rig.bag.replay import replay_bag, result_json\n"
+        "from bike_rig.offline.replay import replay_bag, result_json\n"
         f"r = replay_bag({str(live_bag)!r})\n"
         "assert 'rclpy' not in sys.modules, sorted(m for m in sys.modules if 'rcl' in m)\n"
         "print(json.dumps(result_json(r)['live']['identical']))\n"

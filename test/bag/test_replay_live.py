@@ -1,6 +1,6 @@
 """The replay against a real live graph.
 
-A simulated session through the node processes over DDS (``bike_rig.demo``: driver, fitter,
+A simulated session through the node processes over DDS (``bike_rig.ros.demo``: driver, fitter,
 parameter, model and the recorder), then replayed offline from the recorded bag: every number
 equals what the graph published.
 """
@@ -13,10 +13,10 @@ from pathlib import Path
 import pytest
 import yaml
 
-from bike_rig.bag.info import summarize
-from bike_rig.bag.replay import replay_bag
-from bike_rig.demo import run_demo
-from bike_rig.paths import config_file
+from bike_rig.config.paths import config_file
+from bike_rig.offline.info import summarize
+from bike_rig.offline.replay import replay_bag
+from bike_rig.ros.demo import run_demo
 
 pytestmark = pytest.mark.ros
 

@@ -7,9 +7,9 @@ from pathlib import Path
 
 import pytest
 
-from bike_rig import topics
 from bike_rig.bag.simulated import simulated_messages
 from bike_rig.cli.main import main
+from bike_rig.config import topics
 from bike_rig.core.io_yaml import dump_measurements_yaml
 from bike_rig.core.measurements import Measurements, Reading
 from bike_rig.core.sim import SimulatedSession

@@ -2,7 +2,7 @@
 
 ``bike-rig replay BAG`` uses the bag's own last StaticReadings (the parameter node's merged
 readings), ``--readings FILE`` swaps in a corrected file, and ``plot``/``budget`` (and the
-report, through the same :func:`bike_rig.subjects.load_subject`) need no file either.
+report, through the same :func:`bike_rig.offline.subjects.load_subject`) need no file either.
 """
 
 from __future__ import annotations
@@ -13,16 +13,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bike_rig.bag.compare import relative_difference
-from bike_rig.bag.replay import ReplaySettings, replay_bag
-from bike_rig.bag.session import read_session
 from bike_rig.cli.main import main
 from bike_rig.core.benchmark import ParameterSet, compute_parameters
 from bike_rig.core.io_yaml import dump_measurements_yaml
 from bike_rig.core.measurements import Measurements, Reading
 from bike_rig.core.sim import SimulatedSession
 from bike_rig.messages import reading_entry_from_msg
-from bike_rig.subjects import load_subject
+from bike_rig.offline.compare import relative_difference
+from bike_rig.offline.replay import ReplaySettings, replay_bag
+from bike_rig.offline.session import read_session
+from bike_rig.offline.subjects import load_subject
 from test.support.entered import MISTAKE_KEY, entries_bag, one_trial_session, session_static
 from test.support.replay import core_periods, run_cli
 

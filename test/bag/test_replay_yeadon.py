@@ -6,12 +6,12 @@ from pathlib import Path
 
 import pytest
 
-from bike_rig.bag.replay import ReplaySettings, replay_bag
 from bike_rig.bag.simulated import write_simulated_bag
 from bike_rig.core.io_bp import read_bp_measured
 from bike_rig.core.rider import RiderError, resolve_rider
 from bike_rig.core.rider_yeadon import RIDER_GEOMETRY_KEYS
 from bike_rig.core.sim import SimulatedSession
+from bike_rig.offline.replay import ReplaySettings, replay_bag
 from bike_rig.pipeline.model import compute_model
 from test.support.paper import shared_dir
 

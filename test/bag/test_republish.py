@@ -15,8 +15,8 @@ import pytest
 from bike_rig.bag.reader import open_bag
 from bike_rig.bag.recover import scan_mcap
 from bike_rig.bag.simulated import write_simulated_bag
+from bike_rig.config.topics import GYRO, STATIC_READINGS, TRIAL_EVENTS
 from bike_rig.core.sim import SimulatedSession
-from bike_rig.topics import GYRO, STATIC_READINGS, TRIAL_EVENTS
 from test.support.nodes import node_environment
 from test.support.probe import STEP_TIMEOUT_S
 from test.support.processes import RosProcess
@@ -43,7 +43,7 @@ def test_republished_stream_is_recorded_identically(
     argv = [
         sys.executable,
         "-m",
-        "bike_rig.bag.republish",
+        "bike_rig.ros.republish",
         str(source),
         "--rate-scale",
         str(RATE_SCALE),

@@ -13,16 +13,16 @@ import numpy as np
 import pytest
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
-from bike_rig.bag import session as session_module
 from bike_rig.bag.errors import ReplayError
 from bike_rig.bag.reader import open_bag
-from bike_rig.bag.replay import replay_bag
-from bike_rig.bag.session import read_session
 from bike_rig.bag.simulated import SimulatedMessage, simulated_messages
 from bike_rig.bag.typestore import message_definition, rig_typestore, type_hash
 from bike_rig.bag.writer import BagWriter, contract_qos
+from bike_rig.config.topics import GYRO, TOPICS
 from bike_rig.core.sim import SimulatedSession
-from bike_rig.topics import GYRO, TOPICS
+from bike_rig.offline import session as session_module
+from bike_rig.offline.replay import replay_bag
+from bike_rig.offline.session import read_session
 from test.support.cli import run_cli
 
 #: GyroBatch's fields in another order than the installed .msg file's (same names and types).

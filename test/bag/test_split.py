@@ -22,7 +22,7 @@ from bike_rig.bag.reader import open_bag
 from bike_rig.bag.recover import recover_bag, storage_files
 from bike_rig.bag.snapshot import MESSAGE_OVERHEAD, BufferedMessage, SnapshotBuffer, SnapshotTopic, write_snapshot
 from bike_rig.bag.writer import BagWriter, contract_qos
-from bike_rig.topics import GYRO, STATIC_READINGS, TOPICS
+from bike_rig.config.topics import GYRO, STATIC_READINGS, TOPICS
 from test.support.samples import sample_traffic
 
 COUNTS = {t.name: n for t, n in zip(TOPICS, (1500, 30, 20, 1, 2, 3, 1, 3))}

@@ -1,6 +1,6 @@
 """A live session recorded across splits (by size and by a service call) reads as one session.
 
-The simulated session runs through the node processes over DDS (``bike_rig.demo``) with the
+The simulated session runs through the node processes over DDS (``bike_rig.ros.demo``) with the
 recorder splitting its bag at 250 kB and once more when the test calls its ``split_bag``
 service mid-session. The split bag is then replayed, summarized and reported as one session:
 the replay equals the live results, and equals, number for number, the replay of the same
@@ -15,15 +15,15 @@ from typing import Any
 import pytest
 import yaml
 
-from bike_rig.bag.info import summarize
 from bike_rig.bag.recover import recover_bag
-from bike_rig.bag.replay import replay_bag, result_json
 from bike_rig.cli.main import main
-from bike_rig.demo import run_demo
-from bike_rig.launch import RunningGraph
-from bike_rig.paths import config_file
-from bike_rig.rosenv import ros_environment
-from bike_rig.topics import RECORDER_SPLIT
+from bike_rig.config.paths import config_file
+from bike_rig.config.topics import RECORDER_SPLIT
+from bike_rig.offline.info import summarize
+from bike_rig.offline.replay import replay_bag, result_json
+from bike_rig.ros.demo import run_demo
+from bike_rig.ros.env import ros_environment
+from bike_rig.ros.launch import RunningGraph
 from test.support.probe import Probe
 
 pytestmark = pytest.mark.ros

@@ -18,7 +18,7 @@ from bike_rig.bag.reader import open_bag
 from bike_rig.bag.recover import scan_mcap
 from bike_rig.bag.typestore import find_msg_dir, rig_typestore, standard_typestore, type_hash
 from bike_rig.bag.writer import BagWriter, contract_qos
-from bike_rig.topics import GYRO, TOPICS
+from bike_rig.config.topics import GYRO, TOPICS
 from test.support.samples import as_plain, sample_traffic
 
 COUNTS = {t.name: n for t, n in zip(TOPICS, (40, 7, 5, 1, 2, 3, 1, 3))}

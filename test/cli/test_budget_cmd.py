@@ -11,13 +11,13 @@ import pytest
 import yaml
 
 from bike_rig.cli.main import main
+from bike_rig.config.paths import config_file
 from bike_rig.core.benchmark import compute_parameters
 from bike_rig.core.feedback import load_feedback
 from bike_rig.core.loader import load_measurements
 from bike_rig.core.rider import PAPER_RIDER, add_rider
 from bike_rig.core.uncertainty.budget import BUDGET_PARAMETERS, CAPSIZE, WEAVE, reading_names, uncertainty_budget
 from bike_rig.core.uncertainty.speed_sigma import critical_speeds_with_sigma
-from bike_rig.paths import config_file
 from test.support.paper import shared_dir
 
 BROWSER = str(config_file("bicycles/browser.yaml"))

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from bike_rig.cli.main import main
-from bike_rig.paths import config_file
+from bike_rig.config.paths import config_file
 
 DATA = Path("/work/shared/data/bicycleparameters")
 

@@ -14,8 +14,8 @@ from pathlib import Path
 import pytest
 import yaml
 
+from bike_rig.config.paths import config_dir
 from bike_rig.core.benchmark import PARAMETER_NAMES
-from bike_rig.paths import config_dir
 from test.support.cli import bad, run
 from test.support.paper import shared_dir
 

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from bike_rig.paths import config_dir
+from bike_rig.config.paths import config_dir
 from test.support.cli import run
 
 BROWSER_YAML = config_dir() / "bicycles" / "browser.yaml"

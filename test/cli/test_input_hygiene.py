@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 from scipy.io import savemat
 
+from bike_rig.config.paths import config_dir
+from bike_rig.core.textfmt import CONTROL_CHARACTERS
 from bike_rig.core.trials import read_trial
-from bike_rig.paths import config_dir
-from bike_rig.textfmt import CONTROL_CHARACTERS
 from test.support.cli import run
 from test.support.signals import gyro_trial
 

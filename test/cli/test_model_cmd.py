@@ -11,14 +11,14 @@ import pytest
 from bike_rig.cli import model_cmd
 from bike_rig.cli.commands import COMMANDS
 from bike_rig.cli.main import main
+from bike_rig.config.paths import config_dir
 from bike_rig.core.benchmark import compute_parameters
 from bike_rig.core.feedback import load_feedback
 from bike_rig.core.loader import load_measurements
+from bike_rig.core.textfmt import format_value_sigma
 from bike_rig.core.uncertainty.matrix_sigma import canonical_with_sigma
 from bike_rig.core.whipple import state_space
-from bike_rig.paths import config_dir
 from bike_rig.pipeline.model import compute_model
-from bike_rig.textfmt import format_value_sigma
 from test.support.cli import run
 
 BROWSER_YAML = config_dir() / "bicycles" / "browser.yaml"

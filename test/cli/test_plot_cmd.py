@@ -16,9 +16,9 @@ import pytest
 
 from bike_rig.cli.main import main
 from bike_rig.cli.plot_cmd import figure_stem, unique_names
+from bike_rig.config.paths import config_file
 from bike_rig.core.sim import write_session
-from bike_rig.paths import config_file
-from bike_rig.subjects import load_subject
+from bike_rig.offline.subjects import load_subject
 from test.support.simulated import short_session
 
 BROWSER = str(config_file("bicycles/browser.yaml"))

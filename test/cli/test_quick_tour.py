@@ -14,10 +14,10 @@ from pathlib import Path
 
 import pytest
 
-from bike_rig import topics
 from bike_rig.bag.simulated import simulated_messages
 from bike_rig.bag.typestore import rig_typestore
 from bike_rig.bag.writer import BagWriter, contract_qos
+from bike_rig.config import topics
 from test.support.simulated import short_session
 
 BROWSER = "config/bicycles/browser.yaml"

@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 from bike_rig.cli.main import main
-from bike_rig.paths import config_file
+from bike_rig.config.paths import config_file
 from test.support.cli import run
 
 BENCHMARK = config_file("bicycles/benchmark.yaml")

@@ -72,9 +72,9 @@ def test_report_section_tables_the_variants(rides: list[str]) -> None:
     from bike_rig.cli.main import _parameters
     from bike_rig.core.feedback import resolve_feedback
     from bike_rig.core.rider import PAPER_RIDER
+    from bike_rig.offline.rides import RecordOptions, measure_records
     from bike_rig.pipeline.ride_calibrate import calibrate_rides
     from bike_rig.report.ride import calibration_section
-    from bike_rig.rides import RecordOptions, measure_records
 
     segments = [m.eigenvalue for m in measure_records(rides, RecordOptions())]
     result = calibrate_rides(_parameters(BROWSER, "centroid"), segments, PAPER_RIDER, resolve_feedback(ASSIST))

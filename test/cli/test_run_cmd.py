@@ -16,17 +16,17 @@ import pytest
 
 from bike_rig.cli.main import main
 from bike_rig.cli.run_cmd import RunTracker, result_lines, session_folder
+from bike_rig.config.paths import config_dir, config_file
 from bike_rig.core.benchmark import ComMethod, ParameterSet
 from bike_rig.core.period.advice import FLAG_ADVICE
 from bike_rig.core.period.result import FlagCode
 from bike_rig.core.uncertainty.speed_sigma import SpeedWithSigma
 from bike_rig.core.whipple import EigenvalueSweep, eigenvalues
-from bike_rig.launch import LaunchError, load_graph
-from bike_rig.paths import config_dir, config_file
 from bike_rig.pipeline.acquire import TrialEventKind, TrialEventRecord
 from bike_rig.pipeline.assemble import SessionParameters
 from bike_rig.pipeline.fit import TrialFit
 from bike_rig.pipeline.model import StabilitySweep
+from bike_rig.ros.launch import LaunchError, load_graph
 
 
 def _run(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
@@ -148,7 +148,7 @@ def test_relative_paths_resolve_against_the_current_directory_then_the_config_fo
 def test_a_parameter_file_with_an_unknown_name_is_refused(here: Path) -> None:
     (here / "fitter.yaml").write_text("fitter:\n  ros__parameters:\n    min_r3: 0.5\n")
     (here / "graph.yaml").write_text(
-        "format: bike_rig-graph/1\nnodes:\n  - {name: fitter, module: bike_rig.nodes.fitter, params: fitter.yaml}\n"
+        "format: bike_rig-graph/1\nnodes:\n  - {name: fitter, module: bike_rig.ros.nodes.fitter, params: fitter.yaml}\n"
     )
     message = r"fitter.yaml: node 'fitter' has no parameter 'min_r3' \(did you mean 'min_r2'"
     with pytest.raises(LaunchError, match=message):

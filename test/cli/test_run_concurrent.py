@@ -16,7 +16,7 @@ from pathlib import Path
 
 import pytest
 
-from bike_rig.rosenv import ros_environment, unique_domain_id
+from bike_rig.ros.env import ros_environment, unique_domain_id
 
 pytestmark = pytest.mark.ros
 

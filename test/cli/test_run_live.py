@@ -14,10 +14,10 @@ import sys
 import time
 from pathlib import Path
 
-from bike_rig.bag.info import summarize
+from bike_rig.config.paths import config_file
 from bike_rig.core.period.advice import FLAG_ADVICE, flag_advice
 from bike_rig.core.period.result import FlagCode
-from bike_rig.paths import config_file
+from bike_rig.offline.info import summarize
 from test.support.live import BEATING, RESULT, all_lines, bike_rig_argv, live_rig
 from test.support.processes import RosProcess
 
@@ -142,7 +142,7 @@ def test_a_run_that_fails_at_start_leaves_no_empty_bag(ros_env: dict[str, str], 
 
 def test_a_node_started_with_a_domain_id_above_101_says_so_in_one_line(ros_env: dict[str, str], tmp_path: Path) -> None:
     env = {**ros_env, "ROS_DOMAIN_ID": "150"}
-    cmd = [sys.executable, "-m", "bike_rig.nodes.fitter", "--ros-args"]
+    cmd = [sys.executable, "-m", "bike_rig.ros.nodes.fitter", "--ros-args"]
     done = subprocess.run(cmd, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=60)
     assert done.returncode == 2 and done.stderr.strip().splitlines() == [
         "fitter: error: ROS_DOMAIN_ID=150 in the environment is outside 0..101, the domain ids Fast DDS supports "

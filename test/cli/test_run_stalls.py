@@ -37,7 +37,7 @@ def _node_pid(domain: str, name: str) -> int | None:
             env = Path(f"/proc/{pid}/environ").read_bytes().split(b"\0")
         except OSError:
             continue
-        if f"bike_rig.nodes.{name}".encode() in cmd and f"ROS_DOMAIN_ID={domain}".encode() in env:
+        if f"bike_rig.ros.nodes.{name}".encode() in cmd and f"ROS_DOMAIN_ID={domain}".encode() in env:
             return int(pid)
     return None
 

@@ -29,11 +29,11 @@ from pathlib import Path
 import pytest
 import yaml
 
-from bike_rig.bag.info import TrialSummary, summarize
 from bike_rig.bag.reader import open_bag
+from bike_rig.config.paths import config_file
+from bike_rig.config.topics import GYRO
 from bike_rig.core.period.result import TRIAL_FLAG_CODES
-from bike_rig.paths import config_file
-from bike_rig.topics import GYRO
+from bike_rig.offline.info import TrialSummary, summarize
 from test.support.processes import RosProcess
 from test.support.wait import wait_until
 
@@ -123,7 +123,7 @@ def _bike_rig(ns: str | None, *argv: str) -> list[str]:
 @pytest.fixture(scope="module")
 def reference(tmp_path_factory: pytest.TempPathFactory, ros_domain_id: int) -> dict[str, TrialSummary]:
     """The whole graph on one host (loopback), recorded: the trials by id."""
-    from bike_rig.rosenv import ros_environment
+    from bike_rig.ros.env import ros_environment
 
     tmp = tmp_path_factory.mktemp("one_host")
     rig = _rig(tmp)
@@ -148,7 +148,7 @@ def _split_run(
         drop_after: Take the rig's end of the link down for :data:`DROP_S` when this many
             trials have started (as the rig's own listener sees them), then up again.
     """
-    from bike_rig.rosenv import ros_environment
+    from bike_rig.ros.env import ros_environment
 
     env = ros_environment(domain_id=ros_domain_id)
     rig = _rig(tmp)

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from bike_rig.paths import config_dir
+from bike_rig.config.paths import config_dir
 from test.support.cli import run
 
 BENCHMARK = config_dir() / "bicycles" / "benchmark.yaml"

@@ -21,7 +21,7 @@ import pytest
 from bike_rig.bag.simulated import live_results, simulated_messages, write_simulated_bag
 from bike_rig.cli.commands import COMMANDS, HELP
 from bike_rig.cli.main import build_overview_parser, build_parser, main
-from bike_rig.paths import config_file
+from bike_rig.config.paths import config_file
 from test.support.simulated import short_session
 
 REPO = Path(__file__).resolve().parents[2]

@@ -7,8 +7,8 @@ from pathlib import Path
 import pytest
 
 from bike_rig.cli import run_cmd
-from bike_rig.paths import config_dir
-from bike_rig.textfmt import CONTROL_CHARACTERS
+from bike_rig.config.paths import config_dir
+from bike_rig.core.textfmt import CONTROL_CHARACTERS
 from test.support.cli import run
 
 BROWSER = config_dir() / "bicycles" / "browser.yaml"

@@ -26,9 +26,9 @@ from mcap.reader import make_reader
 from rosbags.rosbag2 import Reader
 
 from bike_rig.bag.typestore import rig_typestore
-from bike_rig.liveview import DIAGNOSTICS, VIEW_TOPICS
-from bike_rig.nodes.foxglove_relay import LEGACY_SUBPROTOCOL, SUBPROTOCOLS
-from bike_rig.topics import EIGEN_SWEEP, GYRO, MATRICES, PARAMETERS, PERIODS, TRIAL_EVENTS
+from bike_rig.config.topics import EIGEN_SWEEP, GYRO, MATRICES, PARAMETERS, PERIODS, TRIAL_EVENTS
+from bike_rig.ros.liveview import DIAGNOSTICS, VIEW_TOPICS
+from bike_rig.ros.nodes.foxglove_relay import LEGACY_SUBPROTOCOL, SUBPROTOCOLS
 from test.support.foxglove_client import foxglove_client, official_client
 from test.support.live import all_lines as _all_lines
 from test.support.live import bike_rig_argv as _bike_rig

@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 from scipy import signal
 
+from bike_rig.config.paths import config_file
 from bike_rig.core.errors import ModelError
 from bike_rig.core.frequency import INPUTS, OUTPUTS, bode, frequency_response
 from bike_rig.core.uncertainty.matrix_sigma import MatrixSet, canonical_with_sigma
 from bike_rig.core.whipple import state_space
-from bike_rig.paths import config_file
-from bike_rig.subjects import load_subject
+from bike_rig.offline.subjects import load_subject
 
 
 @pytest.fixture(scope="module")

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 from scipy.io import savemat
 
+from bike_rig.config.paths import config_dir
 from bike_rig.core.benchmark import compute_parameters
 from bike_rig.core.errors import BikeRigError, InputFileError
 from bike_rig.core.feedback import load_feedback
@@ -21,10 +22,9 @@ from bike_rig.core.rider import load_rider
 from bike_rig.core.rider_yeadon import read_yeadon_configuration, read_yeadon_measurements
 from bike_rig.core.safe_yaml import YamlDuplicateKeyError, compose_bounded, read_regular_file
 from bike_rig.core.sim.rig import load_rig
+from bike_rig.core.textfmt import terminal_safe
 from bike_rig.core.trials import MAX_LINE_CHARS, read_trial
-from bike_rig.launch import load_graph
-from bike_rig.paths import config_dir
-from bike_rig.textfmt import terminal_safe
+from bike_rig.ros.launch import load_graph
 
 BROWSER = config_dir() / "bicycles" / "browser.yaml"
 

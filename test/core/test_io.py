@@ -8,13 +8,13 @@ import numpy as np
 import pytest
 import yaml
 
+from bike_rig.config.paths import config_dir
 from bike_rig.core.benchmark import PARAMETER_NAMES, benchmark_formulas, compute_parameters
 from bike_rig.core.errors import MeasurementError
 from bike_rig.core.io_bp import BP_SPEED_M_S, dump_bp_parameter_yaml, parse_value, read_bp_measured
 from bike_rig.core.io_yaml import dump_measurements_yaml
 from bike_rig.core.loader import load_input, load_measurements
 from bike_rig.core.measurements import Measurements, Reading
-from bike_rig.paths import config_dir
 from test.support.paper import BICYCLE_NAMES, shared_dir
 
 BIKES = sorted(BICYCLE_NAMES.values())

@@ -20,12 +20,12 @@ from __future__ import annotations
 
 import pytest
 
+from bike_rig.config.paths import config_dir
 from bike_rig.core.benchmark import ParameterSet, compute_parameters
 from bike_rig.core.loader import load_measurements
 from bike_rig.core.rider import PAPER_RIDER, add_rider
 from bike_rig.core.uncertainty.matrix_sigma import SigmaConvention, canonical_with_sigma
 from bike_rig.core.uncertainty.uncertain import UncertainVector
-from bike_rig.paths import config_dir
 from test.support.paper import BICYCLE_NAMES, rider_table1, table3, table4, table5
 
 COLUMNS = sorted(BICYCLE_NAMES)

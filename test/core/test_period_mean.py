@@ -22,12 +22,12 @@ import yaml
 from numpy.typing import NDArray
 from scipy.optimize import least_squares
 
+from bike_rig.config.paths import config_file
 from bike_rig.core.period import FlagCode, PeriodFit, WindowPolicy, damped_oscillation, damped_period, fit_period
 from bike_rig.core.period.advice import flag_advice
 from bike_rig.core.period.damping import mean_period, mean_swing_square, swing_stop
 from bike_rig.core.period.sigma import jackknife_windows, sandwich, window_sandwich
 from bike_rig.core.sim import TrialSimulator, load_rig, load_true_parameters
-from bike_rig.paths import config_file
 from test.support.signals import LSB, gyro_trial, quantise
 
 RATE_HZ = 1000.0

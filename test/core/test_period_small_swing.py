@@ -8,12 +8,12 @@ import math
 import numpy as np
 import pytest
 
+from bike_rig.config.paths import config_file
 from bike_rig.core.benchmark import compute_parameters
 from bike_rig.core.loader import load_measurements
 from bike_rig.core.period import WindowPolicy, combine_periods, fit_period
 from bike_rig.core.period.small_swing import SMALL_SWING_SOURCE, small_swing_parts, trimmed_windows
 from bike_rig.core.uncertainty.budget import uncertainty_budget
-from bike_rig.paths import config_file
 from test.core.test_period_mean import RATE_HZ, T0, swing_record
 from test.support.signals import LSB
 

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import pytest
 
+from bike_rig.config.paths import config_file
 from bike_rig.core.benchmark import ParameterSet, compute_parameters
 from bike_rig.core.loader import load_input
 from bike_rig.core.plausibility import (
@@ -23,7 +24,6 @@ from bike_rig.core.plausibility import (
 )
 from bike_rig.core.rider import PAPER_RIDER, add_rider
 from bike_rig.core.symbols import PARAMETER_NAMES
-from bike_rig.paths import config_file
 from test.support.paper import real_files, rider_table1, table2, table4
 
 BENCHMARK = config_file("bicycles/benchmark.yaml")

@@ -18,11 +18,11 @@ import numpy as np
 import pytest
 from numpy.typing import NDArray
 
+from bike_rig.config.paths import config_dir
 from bike_rig.core.benchmark import ParameterSet, compute_parameters
 from bike_rig.core.loader import load_input
 from bike_rig.core.rider import PAPER_RIDER, add_rider
 from bike_rig.core.whipple import canonical_matrices, characteristic_coefficients, eigenvalues, quartic_roots
-from bike_rig.paths import config_dir
 
 FloatArray = NDArray[np.float64]
 ComplexArray = NDArray[np.complex128]

@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 
 from bike_rig.cli.main import main
+from bike_rig.config.paths import config_dir
 from bike_rig.core.errors import InputFileError
 from bike_rig.core.loader import load_measurements
 from bike_rig.core.period import combine_periods
-from bike_rig.paths import config_dir
 
 
 @pytest.fixture(scope="module")

@@ -30,6 +30,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from bike_rig.cli.main import main
+from bike_rig.config.paths import config_file
 from bike_rig.core.benchmark import ParameterSet, compute_parameters
 from bike_rig.core.errors import BikeRigError
 from bike_rig.core.io_bp import read_bp_measured
@@ -37,7 +38,6 @@ from bike_rig.core.io_yaml import load_yaml_document, parameters_from_document
 from bike_rig.core.plausibility import violations
 from bike_rig.core.reading_ranges import UnitMistakeWarning
 from bike_rig.core.symbols import PARAMETER_NAMES
-from bike_rig.paths import config_file
 from test.support.paper import shared_dir
 
 __all__ = ["PhysicsInput", "PhysicsTally", "physics_campaign", "physics_input"]

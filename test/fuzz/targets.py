@@ -15,9 +15,9 @@ from pathlib import Path
 import numpy as np
 from scipy.io import savemat
 
-from bike_rig.bag.info import summarize
 from bike_rig.bag.simulated import write_simulated_bag
 from bike_rig.bag.writer import Compression
+from bike_rig.config.paths import config_dir
 from bike_rig.core.io_bp import dump_bp_parameter_yaml
 from bike_rig.core.loader import load_input
 from bike_rig.core.ride.record import read_ride_csv
@@ -26,8 +26,8 @@ from bike_rig.core.rider_yeadon import read_yeadon_configuration, read_yeadon_me
 from bike_rig.core.sim import load_true_parameters, simulate_session
 from bike_rig.core.sim.rig import load_rig
 from bike_rig.core.trials import read_trial
-from bike_rig.launch import load_graph
-from bike_rig.paths import config_dir
+from bike_rig.offline.info import summarize
+from bike_rig.ros.launch import load_graph
 from test.fuzz.mutate import YAML_TOKENS
 from test.support.paper import shared_dir
 from test.support.small_sessions import small_rig
@@ -146,7 +146,7 @@ class _BagReader:
     """Reads a bag whose storage file (``part="mcap"``) or metadata.yaml is the fuzzer's input.
 
     The other file of the bag is the valid one; the bag is then read as ``bike-rig bag info``
-    reads it (open, :func:`~bike_rig.bag.session.read_session`, summary).
+    reads it (open, :func:`~bike_rig.offline.session.read_session`, summary).
     """
 
     def __init__(self, bag: Path, part: str) -> None:

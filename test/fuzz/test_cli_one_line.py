@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from numpy.lib import format as npy_format
 
-from bike_rig.paths import config_dir
+from bike_rig.config.paths import config_dir
 
 REPO = Path(__file__).resolve().parents[2]
 BOMB = 'a: &a ["lol","lol","lol","lol","lol","lol","lol","lol","lol"]\n' + "".join(

@@ -18,11 +18,11 @@ import rclpy
 from rclpy.duration import Duration
 from rclpy.node import Node
 
+from bike_rig.config.paths import config_file
+from bike_rig.config.topics import PARAMETERS
 from bike_rig.core.benchmark import ParameterSet
 from bike_rig.core.loader import load_input
-from bike_rig.paths import config_file
-from bike_rig.rosqos import profile
-from bike_rig.topics import PARAMETERS
+from bike_rig.ros.qos import profile
 from test.support.standin import ROGUE_STAMP_NS, msgs, parameter_message
 
 

@@ -16,10 +16,10 @@ from typing import Any
 
 import pytest
 
-from bike_rig import topics
+from bike_rig.config import topics
 from bike_rig.core.benchmark import ComMethod
-from bike_rig.diagnostics import HARDWARE_ID, Level, Status
 from bike_rig.messages.diagnostics import statuses_from_msg
+from bike_rig.pipeline.diagnostics import HARDWARE_ID, Level, Status
 from test.support.nodes import BROWSER, STAMP_NS, publish_set, start_node
 from test.support.probe import Probe
 

@@ -20,11 +20,11 @@ from typing import Any
 import numpy as np
 import pytest
 
+from bike_rig.config.paths import config_file
+from bike_rig.config.topics import GYRO, START_TRIAL, STOP_TRIAL, TRIAL_EVENTS
 from bike_rig.messages import sample_batch_from_msg, trial_event_from_msg
-from bike_rig.paths import config_file
 from bike_rig.pipeline.fit import fit_trial
 from bike_rig.pipeline.resend import batch_samples
-from bike_rig.topics import GYRO, START_TRIAL, STOP_TRIAL, TRIAL_EVENTS
 from test.support.probe import ABORT, START, STEP_TIMEOUT_S, STOP, Probe, msgs, node_command, srvs
 from test.support.processes import RosProcess
 from test.support.recorded import RATE as BAG_RATE
@@ -63,7 +63,7 @@ def test_sim_session_is_published_trial_by_trial_in_rig_time(
     batches = probe.subscribe(GYRO, msgs.GyroBatch)
     pause = 0.1
     cmd = node_command(
-        "bike_rig.nodes.driver",
+        "bike_rig.ros.nodes.driver",
         "source:=sim",
         f"session:={path}",
         "time_scale:=50.0",
@@ -115,7 +115,7 @@ def test_can_gyro_trials_through_the_services(probe: Probe, ros_env: dict[str, s
     batches = probe.subscribe(GYRO, msgs.GyroBatch)
     period = 0.8
     cmd = node_command(
-        "bike_rig.nodes.driver",
+        "bike_rig.ros.nodes.driver",
         "source:=can",
         "can_interface:=virtual",
         f"can_channel:=test-{uuid.uuid4().hex[:8]}",
@@ -173,7 +173,7 @@ def test_bag_replay_publishes_the_recorded_trials(probe: Probe, ros_env: dict[st
     events = probe.subscribe(TRIAL_EVENTS, msgs.TrialEvent)
     batches = probe.subscribe(GYRO, msgs.GyroBatch)
     cmd = node_command(
-        "bike_rig.nodes.driver", "source:=bag", f"bag:={bag}", "time_scale:=100.0", "wait_for_subscribers:=1"
+        "bike_rig.ros.nodes.driver", "source:=bag", f"bag:={bag}", "time_scale:=100.0", "wait_for_subscribers:=1"
     )
     with RosProcess("driver", cmd, ros_env, tmp_path) as driver:
         probe.spin_until(
@@ -219,7 +219,7 @@ def test_bag_replay_publishes_the_recorded_trials(probe: Probe, ros_env: dict[st
     ],
 )
 def test_bad_parameters_end_in_one_line(parameters: list[str], message: str, ros_env: dict[str, str]) -> None:
-    cmd = node_command("bike_rig.nodes.driver", *parameters, params_file=str(config_file("driver.yaml")))
+    cmd = node_command("bike_rig.ros.nodes.driver", *parameters, params_file=str(config_file("driver.yaml")))
     done = subprocess.run(["timeout", "-k", "5", "60", *cmd], env=ros_env, capture_output=True, text=True, timeout=90)
     assert done.returncode == 2, done.stderr
     lines = done.stderr.strip().splitlines()

@@ -27,7 +27,7 @@ def test_a_trial_from_a_log_file_is_the_logs_samples(probe: Probe, ros_env: dict
     layout = CanFrameLayout(0x100, samples_per_frame=4, scale=1e-4)
     log = tmp_path / "gyro.log"
     rates, first_stamp = write_can_log(log, layout, 500, t0=1_790_000_000.0)
-    cmd = node_command("bike_rig.nodes.driver", "source:=can", f"can_log_file:={log}", "can_log_speed:=0.0")
+    cmd = node_command("bike_rig.ros.nodes.driver", "source:=can", f"can_log_file:={log}", "can_log_speed:=0.0")
     with RosProcess("driver", cmd, ros_env, tmp_path) as driver:
         op = Operator(probe, driver)
         started = op.start("fork", "torsional", 1, duration_s=1.5)

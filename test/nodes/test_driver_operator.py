@@ -19,9 +19,9 @@ from typing import Any
 
 import pytest
 
+from bike_rig.config.paths import config_file
 from bike_rig.core.sim import TrialSimulator, load_rig, load_true_parameters
 from bike_rig.messages import sample_batch_from_msg, trial_event_from_msg
-from bike_rig.paths import config_file
 from bike_rig.pipeline.fit import fit_trial
 from test.support.operator import Operator
 from test.support.probe import ABORT, START, STEP_TIMEOUT_S, STOP, Probe, node_command
@@ -40,7 +40,7 @@ TIME_SCALE = 50.0  # a trial in 0.12 s
 def test_sim_operator_mode_trials_on_request(probe: Probe, ros_env: dict[str, str], tmp_path: Path) -> None:
     rig = small_rig(tmp_path, duration_s=TRIAL_S)
     cmd = node_command(
-        "bike_rig.nodes.driver",
+        "bike_rig.ros.nodes.driver",
         "source:=sim",
         "mode:=operator",
         f"bicycle:={BICYCLE}",
@@ -102,7 +102,7 @@ def test_sim_operator_mode_trials_on_request(probe: Probe, ros_env: dict[str, st
 
 def test_silent_can_bus_warns_after_a_second_and_aborts(probe: Probe, ros_env: dict[str, str], tmp_path: Path) -> None:
     cmd = node_command(
-        "bike_rig.nodes.driver",
+        "bike_rig.ros.nodes.driver",
         "source:=can",
         "can_interface:=virtual",
         f"can_channel:=silent-{uuid.uuid4().hex[:8]}",

@@ -21,15 +21,15 @@ from mcap_ros2.decoder import DecoderFactory
 from rosbags.rosbag2 import Reader
 
 from bike_rig.bag.typestore import rig_typestore
+from bike_rig.config.paths import config_file
+from bike_rig.config.topics import READINGS
 from bike_rig.core.benchmark import compute_parameters
 from bike_rig.core.loader import load_measurements
 from bike_rig.core.symbols import PARAMETER_NAMES
 from bike_rig.core.trials import read_trial
-from bike_rig.demo import DemoResult, run_demo
-from bike_rig.nodes.recorder import RECORDED
-from bike_rig.paths import config_file
 from bike_rig.pipeline.resend import batch_samples
-from bike_rig.topics import READINGS
+from bike_rig.ros.demo import DemoResult, run_demo
+from bike_rig.ros.nodes.recorder import RECORDED
 
 pytestmark = pytest.mark.ros  # a whole graph of node processes (run_demo)
 
@@ -138,8 +138,8 @@ def test_offline_replay_is_identical_to_the_live_run(live: tuple[DemoResult, Pat
 
     It gets exactly what the live graph published (same fit settings: recorded in the bag).
     """
-    from bike_rig.bag.replay import compare_with_live, replay_bag
-    from bike_rig.bag.session import read_session
+    from bike_rig.offline.replay import compare_with_live, replay_bag
+    from bike_rig.offline.session import read_session
 
     result, _ = live
     replayed = replay_bag(result.bag)

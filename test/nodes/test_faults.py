@@ -7,7 +7,7 @@ was seen, once in a few runs, to receive nothing. The recorder's SIGKILL case is
 recover test.)
 
 A restarted fitter gets the session's trial events and the gyro batches still in the
-transient-local history (``bike_rig.topics``) and re-fits the trial in progress; a restarted
+transient-local history (``bike_rig.config.topics``) and re-fits the trial in progress; a restarted
 parameter node gets every period estimate again.
 """
 
@@ -21,12 +21,12 @@ from pathlib import Path
 import pytest
 import yaml
 
+from bike_rig.config.paths import config_file
 from bike_rig.core.benchmark import compute_parameters
 from bike_rig.core.loader import load_measurements
 from bike_rig.core.symbols import PARAMETER_NAMES
-from bike_rig.demo import run_demo
-from bike_rig.launch import RunningGraph
-from bike_rig.paths import config_file
+from bike_rig.ros.demo import run_demo
+from bike_rig.ros.launch import RunningGraph
 
 pytestmark = pytest.mark.ros  # a whole graph of node processes (run_demo)
 

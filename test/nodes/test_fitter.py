@@ -22,13 +22,13 @@ import numpy as np
 import pytest
 
 from bike_rig import messages
+from bike_rig.config.paths import config_file
+from bike_rig.config.topics import GYRO, PERIODS, RESEND_SAMPLES, TRIAL_EVENTS
 from bike_rig.core.period import FitOptions, WindowPolicy, fit_period
-from bike_rig.paths import config_file
 from bike_rig.pipeline.acquire import SampleBatch, TrialEventKind, TrialEventRecord
 from bike_rig.pipeline.fit import TrialFit, TrialFitOptions, fit_trial
 from bike_rig.pipeline.fit_state import FitterState
 from bike_rig.pipeline.resend import SentBatches
-from bike_rig.topics import GYRO, PERIODS, RESEND_SAMPLES, TRIAL_EVENTS
 from test.support.fakes import ManualClock, RecordingLog
 from test.support.probe import STEP_TIMEOUT_S, Probe, msgs, node_command
 from test.support.processes import RosProcess
@@ -359,9 +359,9 @@ def test_every_trial_of_a_session_through_driver_and_fitter(
 ) -> None:
     session, path = small_session(tmp_path)
     periods = probe.subscribe(PERIODS, msgs.PeriodEstimate)
-    fitter_cmd = node_command("bike_rig.nodes.fitter", params_file=str(config_file("fitter.yaml")))
+    fitter_cmd = node_command("bike_rig.ros.nodes.fitter", params_file=str(config_file("fitter.yaml")))
     driver_cmd = node_command(
-        "bike_rig.nodes.driver",
+        "bike_rig.ros.nodes.driver",
         "source:=sim",
         f"session:={path}",
         "time_scale:=50.0",
@@ -455,7 +455,7 @@ def test_bad_input_is_logged_flagged_and_the_fitter_keeps_serving(
 ) -> None:
     probe, events, gyro, periods = talker
     # (history_grace_s: the fitter starts before any history exists, so nothing late is expected)
-    cmd = node_command("bike_rig.nodes.fitter", "grace_s:=0.3", "history_grace_s:=0.3", "max_batch_samples:=1000")
+    cmd = node_command("bike_rig.ros.nodes.fitter", "grace_s:=0.3", "history_grace_s:=0.3", "max_batch_samples:=1000")
     options = TrialFitOptions(max_batch_samples=1000)
 
     def by_id(trial_id: str) -> Any:
@@ -527,7 +527,7 @@ def test_a_restarted_fitter_refits_the_trial_in_progress(
     talker: tuple[Probe, Any, Any, list[Any]], ros_env: dict[str, str], tmp_path: Path
 ) -> None:
     probe, events, gyro, periods = talker
-    cmd = node_command("bike_rig.nodes.fitter", "grace_s:=0.5")
+    cmd = node_command("bike_rig.ros.nodes.fitter", "grace_s:=0.5")
     done_a, batches_a, stop_a = synthetic_trial("a", 6)
     start_b, batches_b, stop_b = synthetic_trial("b", 7)
     with RosProcess("fitter1", cmd, ros_env, tmp_path) as fitter:
@@ -570,7 +570,7 @@ def test_a_restarted_fitter_refits_the_trial_in_progress(
     ],
 )
 def test_bad_parameters_end_in_one_line(parameters: list[str], message: str, ros_env: dict[str, str]) -> None:
-    cmd = node_command("bike_rig.nodes.fitter", *parameters, params_file=str(config_file("fitter.yaml")))
+    cmd = node_command("bike_rig.ros.nodes.fitter", *parameters, params_file=str(config_file("fitter.yaml")))
     done = subprocess.run(["timeout", "-k", "5", "60", *cmd], env=ros_env, capture_output=True, text=True, timeout=90)
     assert done.returncode == 2, done.stderr
     assert done.stderr.strip().splitlines() == [message]
@@ -598,7 +598,7 @@ def test_lost_batches_are_fetched_again_from_the_drivers_resend_service(
         return response
 
     probe.node.create_service(srvs.ResendSamples, RESEND_SAMPLES, on_resend)
-    cmd = node_command("bike_rig.nodes.fitter", "grace_s:=0.3", "history_grace_s:=0.3")
+    cmd = node_command("bike_rig.ros.nodes.fitter", "grace_s:=0.3", "history_grace_s:=0.3")
 
     def by_id(trial_id: str) -> Any:
         probe.spin_until(

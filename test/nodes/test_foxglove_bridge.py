@@ -21,9 +21,9 @@ import numpy as np
 import pytest
 
 from bike_rig.bag.typestore import message_definition, store_for
+from bike_rig.config.topics import EIGEN_SWEEP, GYRO, PARAMETERS, PERIODS, TRIAL_EVENTS
 from bike_rig.core.loader import load_input
-from bike_rig.liveview import DIAGNOSTICS, VIEW_TOPICS
-from bike_rig.topics import EIGEN_SWEEP, GYRO, PARAMETERS, PERIODS, TRIAL_EVENTS
+from bike_rig.ros.liveview import DIAGNOSTICS, VIEW_TOPICS
 from test.support.foxglove_client import foxglove_client
 from test.support.probe import STEP_TIMEOUT_S, Probe, msgs, node_command
 from test.support.processes import RosProcess
@@ -168,7 +168,7 @@ def assert_same(decoded: Any, published: Any, where: str) -> None:
 def bridge(ros_env: dict[str, str], tmp_path: Path) -> Iterator[tuple[RosProcess, str]]:
     """The bridge node as a process on a free port, and its ``ws://`` address."""
     port = free_port()
-    cmd = node_command("bike_rig.nodes.foxglove_bridge", f"port:={port}")
+    cmd = node_command("bike_rig.ros.nodes.foxglove_bridge", f"port:={port}")
     with RosProcess("foxglove_bridge", cmd, ros_env, tmp_path) as proc:
         yield proc, f"ws://127.0.0.1:{port}"
 
@@ -251,7 +251,7 @@ def test_a_taken_port_is_one_line_and_status_2(ros_env: dict[str, str], tmp_path
         taken.bind(("127.0.0.1", 0))
         taken.listen()
         port = taken.getsockname()[1]
-        cmd = node_command("bike_rig.nodes.foxglove_bridge", f"port:={port}")
+        cmd = node_command("bike_rig.ros.nodes.foxglove_bridge", f"port:={port}")
         with RosProcess("foxglove_bridge", cmd, ros_env, tmp_path) as proc:
             code = proc.proc.wait(timeout=STEP_TIMEOUT_S)
     err = proc.stderr_path.read_text().strip().splitlines()

@@ -2,7 +2,7 @@
 
 An SDK server in this process (``foxglove.start_server`` on a free loopback port, one channel
 with a ``ros2msg`` schema and ``cdr`` encoding, as the bridge serves) behind a
-:class:`~bike_rig.nodes.foxglove_relay.FoxgloveRelay`. Clients offering either protocol name
+:class:`~bike_rig.ros.nodes.foxglove_relay.FoxgloveRelay`. Clients offering either protocol name
 (``foxglove.sdk.v1``, ``foxglove.websocket.v1``) get the server's ``serverInfo`` and
 ``advertise`` and, once subscribed, every message logged, byte for byte and in order; a client
 offering neither is refused with HTTP 400; stopping the relay closes its clients. The official
@@ -23,7 +23,7 @@ import pytest
 from websockets.exceptions import InvalidStatus
 from websockets.sync.client import connect
 
-from bike_rig.nodes.foxglove_relay import LEGACY_SUBPROTOCOL, SDK_SUBPROTOCOL, FoxgloveRelay, RelayError
+from bike_rig.ros.nodes.foxglove_relay import LEGACY_SUBPROTOCOL, SDK_SUBPROTOCOL, FoxgloveRelay, RelayError
 from test.support.foxglove_client import foxglove_client, official_client
 
 foxglove = pytest.importorskip("foxglove")

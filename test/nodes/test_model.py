@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from bike_rig import topics
+from bike_rig.config import topics
 from bike_rig.core.benchmark import ComMethod, ParameterSet
 from bike_rig.core.feedback import load_feedback
 from bike_rig.core.rider import PAPER_RIDER, add_rider
@@ -153,7 +153,16 @@ def test_late_model_node_gets_the_parameter_nodes_set(probe: Probe, node_env: di
 
 
 def test_bad_model_parameter_is_one_error_line_and_status_2(node_env: dict[str, str]) -> None:
-    argv = [sys.executable, "-m", "bike_rig.nodes.model", "--ros-args", "-p", "speed_min:=5.0", "-p", "speed_max:=1.0"]
+    argv = [
+        sys.executable,
+        "-m",
+        "bike_rig.ros.nodes.model",
+        "--ros-args",
+        "-p",
+        "speed_min:=5.0",
+        "-p",
+        "speed_max:=1.0",
+    ]
     done = subprocess.run(argv, env=node_env, capture_output=True, text=True, timeout=60)
     assert done.returncode == 2
     assert done.stderr.strip().splitlines() == ["model: error: parameters 'speed_min' 5.0 > 'speed_max' 1.0"]
@@ -194,7 +203,7 @@ def test_model_node_with_feedback_publishes_the_closed_loop(
 def test_bad_feedback_parameter_is_one_error_line(node_env: dict[str, str], tmp_path: Path) -> None:
     bad = tmp_path / "bad.yaml"
     bad.write_text("format: bike_rig-feedback/1\nk_phi: .nan\n")
-    argv = [sys.executable, "-m", "bike_rig.nodes.model", "--ros-args", "-p", f"feedback:={bad}"]
+    argv = [sys.executable, "-m", "bike_rig.ros.nodes.model", "--ros-args", "-p", f"feedback:={bad}"]
     done = subprocess.run(argv, env=node_env, capture_output=True, text=True, timeout=60)
     assert done.returncode == 2
     lines = done.stderr.strip().splitlines()

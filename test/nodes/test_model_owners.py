@@ -14,10 +14,10 @@ from pathlib import Path
 
 import pytest
 
-from bike_rig import topics
+from bike_rig.config import topics
+from bike_rig.config.paths import config_file
 from bike_rig.core.benchmark import ParameterSet
 from bike_rig.core.loader import load_input
-from bike_rig.paths import config_file
 from test.support.nodes import (
     BROWSER,
     STAMP_NS,

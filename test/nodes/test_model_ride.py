@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from bike_rig import topics
+from bike_rig.config import topics
 from bike_rig.core.benchmark import ComMethod
 from bike_rig.core.feedback import load_feedback
 from bike_rig.messages import fill_ride_speed, state_space_model_from_msg

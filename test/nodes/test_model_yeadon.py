@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bike_rig import topics
+from bike_rig.config import topics
 from bike_rig.core.benchmark import ComMethod
 from bike_rig.core.io_bp import read_bp_measured
 from bike_rig.core.rider import add_rider, resolve_rider
@@ -78,7 +78,7 @@ def test_model_node_with_a_yeadon_rider(probe: Probe, ros_env: dict[str, str], t
 def test_bad_rider_file_parameter_is_one_error_line_and_status_2(ros_env: dict[str, str], tmp_path: Path) -> None:
     bad = tmp_path / "bad.yaml"
     bad.write_text("yeadon_measurements: nowhere.txt\nyeadon_configuration: nowhere.txt\n", encoding="utf-8")
-    argv = [sys.executable, "-m", "bike_rig.nodes.model", "--ros-args", "-p", f"rider:={bad}"]
+    argv = [sys.executable, "-m", "bike_rig.ros.nodes.model", "--ros-args", "-p", f"rider:={bad}"]
     done = subprocess.run(argv, env=node_environment(ros_env), capture_output=True, text=True, timeout=60)
     assert done.returncode == 2
     lines = done.stderr.strip().splitlines()

@@ -5,8 +5,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-from bike_rig import topics
-from bike_rig.nodes.owners import HOLD_S, RELOOK_S, TOPIC_OWNERS, OwnerFilter, Released
+from bike_rig.config import topics
+from bike_rig.ros.nodes.owners import HOLD_S, RELOOK_S, TOPIC_OWNERS, OwnerFilter, Released
 from test.support.fakes import ManualClock
 
 PARAMETERS = topics.PARAMETERS.name

@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from bike_rig import topics
+from bike_rig.config import topics
 from bike_rig.core.benchmark import compute_parameters
 from bike_rig.core.loader import load_measurements, load_static_readings
 from bike_rig.messages import session_parameters_from_msg, static_readings_from_msg
@@ -119,7 +119,7 @@ def test_incomplete_session_reports_what_is_missing(probe: Probe, node_env: dict
 def test_bad_measurement_file_is_one_error_line_and_status_2(node_env: dict[str, str], tmp_path: Path) -> None:
     bad = tmp_path / "bad.yaml"
     bad.write_text(BROWSER.read_text().replace("mass: [9.86, 0.02]", "mass: [-9.86, 0.02]"))
-    argv = [sys.executable, "-m", "bike_rig.nodes.parameter", "--ros-args", "-p", f"measurements:={bad}"]
+    argv = [sys.executable, "-m", "bike_rig.ros.nodes.parameter", "--ros-args", "-p", f"measurements:={bad}"]
     done = subprocess.run(argv, env=node_env, capture_output=True, text=True, timeout=60)
     assert done.returncode == 2
     lines = done.stderr.strip().splitlines()

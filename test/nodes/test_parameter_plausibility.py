@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from bike_rig import topics
+from bike_rig.config import topics
 from bike_rig.pipeline.fit import TrialFit
 from test.support.nodes import BROWSER, browser_trials, publish_trials, start_node
 from test.support.probe import Probe

@@ -18,13 +18,10 @@ from typing import Any
 import numpy as np
 import pytest
 
-from bike_rig import topics
-from bike_rig.bag.compare import relative_difference
 from bike_rig.bag.recover import scan_mcap
-from bike_rig.bag.replay import replay_bag
-from bike_rig.bag.session import read_session
 from bike_rig.bag.simulated import live_results, simulated_messages
 from bike_rig.bag.typestore import rig_typestore
+from bike_rig.config import topics
 from bike_rig.core.benchmark import compute_parameters
 from bike_rig.core.measurements import Measurements
 from bike_rig.messages import (
@@ -34,6 +31,9 @@ from bike_rig.messages import (
     static_readings_from_msg,
     trial_fit_from_msg,
 )
+from bike_rig.offline.compare import relative_difference
+from bike_rig.offline.replay import replay_bag
+from bike_rig.offline.session import read_session
 from bike_rig.pipeline.assemble import SessionParameters, assemble
 from bike_rig.pipeline.readings import ReadingEntry, apply_entries
 from test.support.entered import MISTAKE_KEY, one_trial_session, operator_entries
@@ -242,7 +242,7 @@ def test_readings_entered_live_complete_correct_record_and_replay(
 def test_neither_file_nor_name_or_a_name_not_the_files_is_one_error_line(
     node_env: dict[str, str], tmp_path: Path, params: tuple[str, ...], expected: str
 ) -> None:
-    argv = [sys.executable, "-m", "bike_rig.nodes.parameter", "--ros-args", *params]
+    argv = [sys.executable, "-m", "bike_rig.ros.nodes.parameter", "--ros-args", *params]
     done = subprocess.run(argv, env=node_env, capture_output=True, text=True, timeout=60)
     assert done.returncode == 2
     lines = done.stderr.strip().splitlines()

@@ -1,4 +1,4 @@
-"""Declaring node parameters from specs (bike_rig.nodes.params), in this process.
+"""Declaring node parameters from specs (bike_rig.ros.nodes.settings), in this process.
 
 Descriptors, values from overrides, and every kind of bad value as one NodeParameterError line.
 """
@@ -16,7 +16,7 @@ from rclpy.context import Context
 from rclpy.parameter import Parameter
 from rclpy.signals import SignalHandlerOptions
 
-from bike_rig.params import ParamSpec
+from bike_rig.config.settings import ParamSpec
 from bike_rig.sources import backend_parameters
 from bike_rig.sources.base import TIME_SCALE
 
@@ -61,7 +61,7 @@ SPECS = (
 
 
 def test_descriptors_carry_ranges_and_choices() -> None:
-    from bike_rig.nodes.params import descriptor
+    from bike_rig.ros.nodes.settings import descriptor
 
     mode, count, scale, flush, topics, _ = (descriptor(s) for s in SPECS)
     assert mode.read_only and mode.additional_constraints == "one of: a, b" and mode.description == "a mode"
@@ -72,7 +72,7 @@ def test_descriptors_carry_ranges_and_choices() -> None:
 
 
 def test_defaults_and_overrides_are_read_and_converted(make_node: NodeFactory) -> None:
-    from bike_rig.nodes.params import declare_parameters
+    from bike_rig.ros.nodes.settings import declare_parameters
 
     assert declare_parameters(make_node(), SPECS) == {
         "mode": "a",
@@ -114,7 +114,7 @@ def test_defaults_and_overrides_are_read_and_converted(make_node: NodeFactory) -
     ],
 )
 def test_bad_values_are_one_error(make_node: NodeFactory, overrides: dict[str, Any], message: str) -> None:
-    from bike_rig.nodes.params import NodeParameterError, declare_parameters
+    from bike_rig.ros.nodes.settings import NodeParameterError, declare_parameters
 
     with pytest.raises(NodeParameterError) as info:
         declare_parameters(make_node(**overrides), SPECS)
@@ -122,7 +122,7 @@ def test_bad_values_are_one_error(make_node: NodeFactory, overrides: dict[str, A
 
 
 def test_the_driver_declares_every_backends_parameters() -> None:
-    from bike_rig.nodes.driver import COMMON_PARAMETERS, driver_parameters
+    from bike_rig.ros.nodes.driver import COMMON_PARAMETERS, driver_parameters
 
     specs = driver_parameters()
     assert specs[: len(COMMON_PARAMETERS)] == COMMON_PARAMETERS

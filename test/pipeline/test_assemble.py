@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from bike_rig.config.paths import config_file
 from bike_rig.core.benchmark import ComMethod, ParameterSet, compute_parameters
 from bike_rig.core.errors import GeometryError, MeasurementError, ModelError
 from bike_rig.core.loader import load_measurements, load_static_readings
@@ -17,7 +18,6 @@ from bike_rig.core.period import combine_periods
 from bike_rig.core.rider import PAPER_RIDER, add_rider
 from bike_rig.core.uncertainty.matrix_sigma import SigmaConvention, canonical_with_sigma
 from bike_rig.core.whipple import critical_speeds, eigenvalues, state_space
-from bike_rig.paths import config_file
 from bike_rig.pipeline.assemble import SessionAssembly, assemble, combine_trials, required_period_keys
 from bike_rig.pipeline.errors import AssemblyError, FlagCodeError
 from bike_rig.pipeline.fit import TrialFit

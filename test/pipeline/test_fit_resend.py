@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from bike_rig.config.topics import GYRO
 from bike_rig.pipeline.acquire import SampleBatch, TrialEventKind, TrialEventRecord
 from bike_rig.pipeline.fit import TrialFit, TrialFitOptions, fit_trial
 from bike_rig.pipeline.fit_state import RESEND_GIVE_UP_S, RESEND_RETRY_S, FitterState, ResendRequest
@@ -19,7 +20,6 @@ from bike_rig.pipeline.resend import (
     batch_samples,
     history_depth,
 )
-from bike_rig.topics import GYRO
 from test.support.fakes import ManualClock, RecordingLog
 
 RATE = 1000.0

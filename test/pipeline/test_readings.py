@@ -10,13 +10,14 @@ import numpy as np
 import pytest
 
 from bike_rig.bag.typestore import new_message
+from bike_rig.config.paths import config_file
+from bike_rig.config.topics import READINGS
 from bike_rig.core.benchmark import compute_parameters
 from bike_rig.core.errors import GeometryError, MeasurementError
 from bike_rig.core.io_yaml import dump_measurements_yaml, load_yaml_document, measurements_from_document
 from bike_rig.core.loader import load_measurements, load_static_readings
 from bike_rig.core.measurements import Measurements
 from bike_rig.messages import fill_reading_entry, reading_entry_from_msg
-from bike_rig.paths import config_file
 from bike_rig.pipeline.assemble import SessionAssembly, required_readings
 from bike_rig.pipeline.errors import AssemblyError
 from bike_rig.pipeline.fit import TrialFit
@@ -30,7 +31,6 @@ from bike_rig.pipeline.readings import (
     apply_entries,
     check_entry,
 )
-from bike_rig.topics import READINGS
 from test.support.nodes import BROWSER_KEYS, STATIC_KEYS
 
 BROWSER = config_file("bicycles/browser.yaml")

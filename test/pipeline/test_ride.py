@@ -8,13 +8,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from bike_rig.config.paths import config_dir
 from bike_rig.core.feedback import resolve_feedback
 from bike_rig.core.loader import load_input
 from bike_rig.core.ride.eigen import MeasuredEigenvalue
 from bike_rig.core.uncertainty.matrix_sigma import canonical_with_sigma
 from bike_rig.core.whipple import state_space
 from bike_rig.core.whipple.closed_loop import closed_loop_state_space
-from bike_rig.paths import config_dir
 from bike_rig.pipeline.ride import compare_ride, normalised_deviation, predicted_weave
 
 SHARED = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "bicycleparameters"

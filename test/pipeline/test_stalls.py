@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from bike_rig.cli.run_cmd import HEARD_S
-from bike_rig.diagnostics import Level, Status
+from bike_rig.pipeline.diagnostics import Level, Status
 from bike_rig.pipeline.health import InputLag, input_lag_statuses
 from bike_rig.pipeline.stalls import NEVER_HEARD_S, RESUMED_S, SILENT_S, StallWatch, Standing
 from test.support.fakes import ManualClock

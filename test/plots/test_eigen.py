@@ -15,15 +15,15 @@ import numpy as np
 import pytest
 from matplotlib.figure import Figure
 
+from bike_rig.config.paths import config_dir
 from bike_rig.core.errors import BikeRigError
 from bike_rig.core.uncertainty.eigen_sigma import eigenvalues_with_sigma
 from bike_rig.core.uncertainty.matrix_sigma import canonical_with_sigma
 from bike_rig.core.whipple import characteristic_coefficients, critical_speeds
-from bike_rig.paths import config_dir
+from bike_rig.offline.subjects import Subject, load_subject
 from bike_rig.plots.eigen import eigen_vs_speed, panel_grid
 from bike_rig.plots.model_data import FigureInputError, eigen_curves, model_parameters
 from bike_rig.plots.style import save_figure
-from bike_rig.subjects import Subject, load_subject
 
 SPEEDS = np.linspace(0.0, 10.0, 251)
 

@@ -15,15 +15,15 @@ import pytest
 from scipy import signal
 
 from bike_rig.cli.main import main
+from bike_rig.config.paths import config_dir
 from bike_rig.core.feedback import load_feedback
 from bike_rig.core.frequency import INPUTS, OUTPUTS
 from bike_rig.core.uncertainty.matrix_sigma import canonical_with_sigma
 from bike_rig.core.whipple import state_space
-from bike_rig.paths import config_dir
+from bike_rig.offline.subjects import Subject, load_subject
 from bike_rig.plots.bode import bode_figure
 from bike_rig.plots.eigen import eigen_vs_speed
 from bike_rig.plots.model_data import bode_curves, eigen_curves
-from bike_rig.subjects import Subject, load_subject
 
 ASSIST_YAML = config_dir() / "feedback" / "balance_assist.yaml"
 ASSIST = load_feedback(ASSIST_YAML)

@@ -13,11 +13,12 @@ import numpy as np
 import pytest
 from matplotlib.figure import Figure
 
+from bike_rig.config.paths import config_dir
 from bike_rig.core.errors import BikeRigError
 from bike_rig.core.frequency import frequency_response
 from bike_rig.core.uncertainty.matrix_sigma import canonical_with_sigma
 from bike_rig.core.whipple import state_space
-from bike_rig.paths import config_dir
+from bike_rig.offline.subjects import Subject, load_subject
 from bike_rig.plots.bode import bode_figure
 from bike_rig.plots.locus import root_locus
 from bike_rig.plots.model_data import (
@@ -28,7 +29,6 @@ from bike_rig.plots.model_data import (
     model_parameters,
 )
 from bike_rig.plots.modes import eigenvector_figure, phasor_lengths
-from bike_rig.subjects import Subject, load_subject
 
 SPEEDS = np.linspace(0.0, 10.0, 201)
 

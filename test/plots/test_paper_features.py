@@ -56,14 +56,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from bike_rig.config.paths import config_dir
 from bike_rig.core.benchmark import ParameterSet, parameters_from_values
 from bike_rig.core.io_yaml import dump_parameters_yaml
 from bike_rig.core.uncertainty.matrix_sigma import canonical_with_sigma
 from bike_rig.core.uncertainty.speed_sigma import critical_speeds_with_sigma
 from bike_rig.core.whipple import WhippleMatrices, characteristic_coefficients, critical_speeds, eigenvalues
-from bike_rig.paths import config_dir
+from bike_rig.offline.subjects import Subject, load_subject
 from bike_rig.plots.model_data import EigenCurves, eigen_curves, mode_shape, model_parameters, quartic_discriminant
-from bike_rig.subjects import Subject, load_subject
 from test.support.paper import Table, table2, table3, table5
 
 BICYCLES = ("browser", "browserins", "crescendo", "fisher", "stratos", "yellow")

@@ -11,9 +11,9 @@ import numpy as np
 
 from bike_rig.core.feedback import resolve_feedback
 from bike_rig.core.rider import PAPER_RIDER, add_rider
+from bike_rig.offline.subjects import load_parameters
 from bike_rig.pipeline.ride import RideComparison, predicted_weave
 from bike_rig.plots.ride import branch_changes, ride_validation
-from bike_rig.subjects import load_parameters
 
 SPEEDS = np.linspace(0.5, 10.0, 39)
 NO_RIDE = RideComparison((), (), float("nan"), ())

@@ -15,7 +15,8 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Circle, Ellipse
 
-from bike_rig.paths import config_file
+from bike_rig.config.paths import config_file
+from bike_rig.offline.subjects import Subject, load_subject
 from bike_rig.plots.sideview import (
     ELLIPSE_SIGMA,
     _centres,
@@ -25,7 +26,6 @@ from bike_rig.plots.sideview import (
     side_view,
 )
 from bike_rig.plots.style import bicycle_colour
-from bike_rig.subjects import Subject, load_subject
 
 
 @pytest.fixture(scope="module")

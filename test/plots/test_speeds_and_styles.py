@@ -22,14 +22,14 @@ import pytest
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
-from bike_rig.paths import config_dir
+from bike_rig.config.paths import config_dir
+from bike_rig.offline.subjects import Subject, load_subject
 from bike_rig.plots.bode import bode_figure
 from bike_rig.plots.model_data import bode_curves, eigen_curves, mode_shape
 from bike_rig.plots.modes import FALLBACK_SPEED, default_mode_speed, eigenvector_figure
 from bike_rig.plots.registry import BODE_SPEEDS
 from bike_rig.report.figures import figure_specs
 from bike_rig.report.results import compute_results
-from bike_rig.subjects import Subject, load_subject
 
 PAPER_BICYCLES = ("browser", "browserins", "crescendo", "fisher", "stratos", "yellow")
 

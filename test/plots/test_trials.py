@@ -22,9 +22,9 @@ from bike_rig.bag.simulated import write_simulated_bag
 from bike_rig.core.period import PeriodFit
 from bike_rig.core.period.result import Flag, FlagCode
 from bike_rig.core.sim import write_session
+from bike_rig.offline.subjects import SessionTrial, Subject, load_subject
 from bike_rig.plots.registry import FIT_DPI, FIT_FIGURE_SIZE_IN
 from bike_rig.plots.trials import fit_figure, fit_title, overview_data, trial_overview
-from bike_rig.subjects import SessionTrial, Subject, load_subject
 from test.support.simulated import short_session
 
 

@@ -10,10 +10,10 @@ from __future__ import annotations
 import matplotlib.pyplot as plt
 import pytest
 
+from bike_rig.offline.subjects import load_subject
 from bike_rig.report.build import report_rider
 from bike_rig.report.figures import REPORT_DPI, figure_specs
 from bike_rig.report.results import compute_results
-from bike_rig.subjects import load_subject
 
 SUBJECT = load_subject("browser")
 SPECS = figure_specs(SUBJECT, compute_results(SUBJECT, report_rider("paper", SUBJECT)), "paper")

@@ -24,21 +24,21 @@ import pytest
 from matplotlib.figure import Figure
 
 from bike_rig.bag.simulated import write_simulated_bag
+from bike_rig.config.paths import config_file
 from bike_rig.core.benchmark import PARAMETER_NAMES
 from bike_rig.core.errors import BikeRigError, ModelError
 from bike_rig.core.io_yaml import dump_parameters_yaml
 from bike_rig.core.period.result import Flag, FlagCode
 from bike_rig.core.rider import PAPER_RIDER, add_rider
+from bike_rig.core.textfmt import TABLE2_ORDER, format_value_sigma, sigma_digits
 from bike_rig.core.uncertainty.budget import uncertainty_budget
 from bike_rig.core.uncertainty.matrix_sigma import MATRIX_NAMES, canonical_with_sigma
 from bike_rig.core.uncertainty.speed_sigma import critical_speeds_with_sigma
 from bike_rig.core.whipple import stable_speed_range
-from bike_rig.paths import config_file
+from bike_rig.offline.subjects import Subject, load_subject
 from bike_rig.pipeline.fit_details import FitDetails
 from bike_rig.report import REPORT_FILE, Report, ReportOutputError, build_report, write_report
 from bike_rig.report.figures import FigureSpec, draw_figures
-from bike_rig.subjects import Subject, load_subject
-from bike_rig.textfmt import TABLE2_ORDER, format_value_sigma, sigma_digits
 from test.support.simulated import short_session
 
 BROWSER = config_file("bicycles/browser.yaml")
@@ -177,7 +177,7 @@ def parse(text: str) -> Page:
 def check_value_sigma(value_cell: Cell, sigma_cell: Cell, value: float, sigma: float) -> None:
     """The cells hold ``value`` and ``sigma`` exactly (data attributes) and as rounded text.
 
-    σ to one or two significant digits by the one rule (:func:`bike_rig.textfmt.sigma_digits`),
+    σ to one or two significant digits by the one rule (:func:`bike_rig.core.textfmt.sigma_digits`),
     the value to the same decimal place.
     """
     assert float(value_cell.attrs["data-value"]) == value

@@ -32,8 +32,8 @@ import pytest
 from matplotlib.image import imread
 
 from bike_rig.bag.simulated import write_simulated_bag
+from bike_rig.offline.subjects import load_subject
 from bike_rig.report import write_report
-from bike_rig.subjects import load_subject
 from test.support.simulated import short_session
 
 CHROMIUM = Path("/usr/bin/chromium")

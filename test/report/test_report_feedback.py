@@ -8,12 +8,12 @@ from pathlib import Path
 import pytest
 
 from bike_rig.cli.main import main
+from bike_rig.config.paths import config_file
 from bike_rig.core.feedback import load_feedback
 from bike_rig.core.rider import PAPER_RIDER, add_rider
 from bike_rig.core.uncertainty.speed_sigma import critical_speeds_with_sigma
-from bike_rig.paths import config_file
+from bike_rig.offline.subjects import load_subject
 from bike_rig.report import build_report
-from bike_rig.subjects import load_subject
 
 ASSIST_YAML = config_file("feedback/balance_assist.yaml")
 WHEN = "2026-01-01 00:00:00 UTC"

@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from bike_rig.bag.simulated import write_simulated_bag
-from bike_rig.subjects import SubjectError, load_parameters, load_subject
+from bike_rig.offline.subjects import SubjectError, load_parameters, load_subject
 from test.support.cli import run_cli
 from test.support.simulated import short_session
 

@@ -8,11 +8,11 @@ import re
 import numpy as np
 
 from bike_rig.cli.main import _parameters
+from bike_rig.config.paths import config_file
 from bike_rig.core.feedback import resolve_feedback
 from bike_rig.core.ride.eigen import fit_segment
 from bike_rig.core.rider import PAPER_RIDER
 from bike_rig.core.sim.ride import RideSimulation, regular_kicks, simulate_ride
-from bike_rig.paths import config_file
 from bike_rig.report.results import compute_variant
 from bike_rig.report.ride import compute_ride, ride_section
 
@@ -40,8 +40,8 @@ def test_ride_section_tables_the_segments_per_speed_and_embeds_the_figure() -> N
 
 
 def test_report_with_rides_and_feedback_adds_the_calibration_section() -> None:
+    from bike_rig.offline.subjects import load_subject
     from bike_rig.report.build import _calibration
-    from bike_rig.subjects import load_subject
 
     subject = load_subject("browser")
     fb = resolve_feedback("balance_assist")

@@ -11,11 +11,11 @@ from bike_rig.cli.main import main
 from bike_rig.core.rider import RiderError, add_rider, resolve_rider
 from bike_rig.core.rider_yeadon import YeadonRider
 from bike_rig.core.uncertainty.speed_mc import speed_monte_carlo
+from bike_rig.offline.subjects import load_subject
 from bike_rig.report import sections
 from bike_rig.report.build import report_rider
 from bike_rig.report.figures import figure_specs
 from bike_rig.report.results import compute_results
-from bike_rig.subjects import load_subject
 from test.support.paper import shared_dir
 
 BP = shared_dir() / "data" / "bicycleparameters"

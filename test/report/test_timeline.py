@@ -18,14 +18,14 @@ from html.parser import HTMLParser
 
 import pytest
 
-from bike_rig import topics
 from bike_rig.bag.simulated import SimulatedMessage, live_results, simulated_messages, write_simulated_bag
-from bike_rig.bag.timeline import TIME_BASE, TimelineEntry
 from bike_rig.bag.typestore import new_message
+from bike_rig.config import topics
 from bike_rig.messages import set_stamp, stamp_ns
+from bike_rig.offline.subjects import Subject, load_subject
+from bike_rig.offline.timeline import TIME_BASE, TimelineEntry
 from bike_rig.report.html import esc
 from bike_rig.report.sections import timeline_section, trials_section
-from bike_rig.subjects import Subject, load_subject
 from test.support.simulated import short_session
 
 #: The simulated rig runs this many times faster than the computer's clock.

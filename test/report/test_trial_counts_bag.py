@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import dataclasses
 
+from bike_rig.offline.subjects import load_subject
 from bike_rig.report.sections import _trial_counts
-from bike_rig.subjects import load_subject
 
 
 def test_trials_without_a_fit_are_counted_and_said() -> None:

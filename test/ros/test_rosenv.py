@@ -1,4 +1,4 @@
-"""bike_rig.rosenv: the environment of ROS processes, domain ids, stale shared memory."""
+"""bike_rig.ros.env: the environment of ROS processes, domain ids, stale shared memory."""
 
 from __future__ import annotations
 
@@ -9,9 +9,9 @@ from pathlib import Path
 
 import pytest
 
-from bike_rig import rosenv
-from bike_rig.paths import config_file
-from bike_rig.rosenv import (
+from bike_rig.config.paths import config_file
+from bike_rig.ros import env as rosenv
+from bike_rig.ros.env import (
     StaticPeerError,
     fallback_domain_id,
     remove_stale_fastdds_segments,

@@ -22,8 +22,8 @@ import rclpy
 from rclpy.duration import Duration
 from rclpy.node import Node
 
-from bike_rig.rosqos import profile
-from bike_rig.topics import GYRO, PERIODS, TRIAL_EVENTS
+from bike_rig.config.topics import GYRO, PERIODS, TRIAL_EVENTS
+from bike_rig.ros.qos import profile
 
 msgs: Any = importlib.import_module("bike_rig_msgs.msg")
 

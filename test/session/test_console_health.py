@@ -6,10 +6,10 @@ import asyncio
 
 from textual.widgets import RichLog, Static
 
+from bike_rig.config.paths import config_file
 from bike_rig.console.app import SessionApp
 from bike_rig.core.sim import load_rig
-from bike_rig.diagnostics import Level, Status, StatusReport
-from bike_rig.paths import config_file
+from bike_rig.pipeline.diagnostics import Level, Status, StatusReport
 from bike_rig.session.setup import build_controller
 from test.support.fakelink import FakeLink
 

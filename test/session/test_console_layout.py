@@ -6,9 +6,9 @@ import asyncio
 
 from textual.widgets import DataTable, RichLog, Static
 
+from bike_rig.config.paths import config_file
 from bike_rig.console.app import SessionApp
 from bike_rig.core.sim import load_rig
-from bike_rig.paths import config_file
 from bike_rig.session.controller import SessionController
 from bike_rig.session.setup import build_controller
 from test.support.fakelink import FakeLink

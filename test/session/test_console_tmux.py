@@ -18,12 +18,12 @@ from pathlib import Path
 
 import pytest
 
-from bike_rig.bag.session import read_session
+from bike_rig.config.paths import config_file
 from bike_rig.core.io_yaml import dump_measurements_yaml
 from bike_rig.core.measurements import Measurements, Reading
 from bike_rig.core.sim import load_rig, load_true_parameters, simulate_session
 from bike_rig.core.symbols import PARAMETER_NAMES
-from bike_rig.paths import config_file
+from bike_rig.offline.session import read_session
 from bike_rig.session.controller import COMMAND_HELP
 from bike_rig.session.plan import ReadingItem, plan_from_rig
 from test.support.sessions import kill_session, session_pids, wait_gone

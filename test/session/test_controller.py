@@ -8,8 +8,8 @@ import json
 import numpy as np
 import pytest
 
+from bike_rig.config.paths import config_file
 from bike_rig.core.sim import load_rig
-from bike_rig.paths import config_file
 from bike_rig.session.plain import run_plain
 from bike_rig.session.plan import ItemState, ReadingItem, TrialItem, plan_from_rig
 from bike_rig.session.setup import build_controller
@@ -340,7 +340,7 @@ def test_the_fit_details_join_the_result_before_or_after_it(ctl_link, details_fi
 
 
 def test_diagnostics_give_a_health_line_and_a_reply_when_a_node_changes_level(ctl_link) -> None:  # type: ignore[no-untyped-def]
-    from bike_rig.diagnostics import Level, Status, StatusReport
+    from bike_rig.pipeline.diagnostics import Level, Status, StatusReport
 
     ctl, link, _ = ctl_link
 
@@ -363,7 +363,7 @@ def test_diagnostics_give_a_health_line_and_a_reply_when_a_node_changes_level(ct
 
 
 def test_a_stalled_or_lagging_node_is_one_health_line_each_way(ctl_link) -> None:  # type: ignore[no-untyped-def]
-    from bike_rig.diagnostics import Level, Status, StatusReport
+    from bike_rig.pipeline.diagnostics import Level, Status, StatusReport
     from bike_rig.pipeline.health import InputLag, input_lag_statuses
 
     ctl, link, t = ctl_link

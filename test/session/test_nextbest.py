@@ -18,11 +18,11 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
+from bike_rig.config.paths import config_file
 from bike_rig.core.benchmark import compute_parameters
 from bike_rig.core.measurements import Measurements, Reading
 from bike_rig.core.period import PeriodFit, combine_periods, fit_period
 from bike_rig.core.sim import SimulatedSession, load_rig, load_true_parameters, simulate_session
-from bike_rig.paths import config_file
 from bike_rig.pipeline.model import compute_model
 from bike_rig.pipeline.offline import DEFAULT_SPEEDS
 from bike_rig.session.nextbest import (

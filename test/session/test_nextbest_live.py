@@ -27,10 +27,10 @@ from typing import Any
 import numpy as np
 import pytest
 
+from bike_rig.config.paths import config_file
 from bike_rig.core.benchmark import compute_parameters
 from bike_rig.core.sim import SimulatedSession, load_rig, load_true_parameters, simulate_session
 from bike_rig.core.uncertainty.budget import WEAVE, uncertainty_budget
-from bike_rig.paths import config_file
 from bike_rig.session.nextbest import nominal_reading_sigmas
 from bike_rig.session.plan import SessionPlan, plan_from_rig
 from test.support.sessions import kill_session

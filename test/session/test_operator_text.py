@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from bike_rig.config.paths import config_file
 from bike_rig.console.app import MIN_TOP_ROWS, layout_rows
 from bike_rig.core.period.advice import FLAG_ADVICE
 from bike_rig.core.sim import load_rig, load_true_parameters, simulate_session
-from bike_rig.paths import config_file
 from bike_rig.session.live import LiveTrace, silence_advice
 from bike_rig.session.setup import connection
 from bike_rig.session.state import flag_text

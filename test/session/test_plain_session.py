@@ -7,8 +7,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+from bike_rig.config.paths import config_file
 from bike_rig.core.sim import load_rig, load_true_parameters, simulate_session
-from bike_rig.paths import config_file
 from bike_rig.session.plan import plan_from_rig
 from test.support.sessions import kill_session, plan_script
 

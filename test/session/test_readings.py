@@ -7,9 +7,9 @@ from pathlib import Path
 
 import pytest
 
+from bike_rig.config.paths import config_file
 from bike_rig.core.loader import load_measurements
 from bike_rig.core.measurements import Measurements, Reading
-from bike_rig.paths import config_file
 from bike_rig.pipeline.readings import ReadingEntry, is_static_key
 from bike_rig.session.readings import (
     ImpossibleValueError,

@@ -20,10 +20,10 @@ from dataclasses import replace
 from pathlib import Path
 from typing import IO, Any
 
-from bike_rig.bag.replay import replay_bag
 from bike_rig.bag.simulated import write_simulated_bag
+from bike_rig.config.paths import config_file
 from bike_rig.core.sim import SimulatedSession, load_rig, load_true_parameters, simulate_session
-from bike_rig.paths import config_file
+from bike_rig.offline.replay import replay_bag
 from bike_rig.pipeline.readings import canonical_order
 from bike_rig.session.plan import SessionPlan, plan_from_rig
 from test.support.sessions import kill_session, plan_script, session_pids, wait_gone

@@ -10,10 +10,10 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from bike_rig.bag.session import read_session
+from bike_rig.config.paths import config_file
 from bike_rig.core.sim import load_rig, load_true_parameters, simulate_session
 from bike_rig.core.sim.session import SimulatedTrial
-from bike_rig.paths import config_file
+from bike_rig.offline.session import read_session
 from bike_rig.pipeline.acquire import SampleBatch, TrialEventKind, TrialEventRecord
 from bike_rig.pipeline.fit import TrialFit, fit_trial
 from test.support.sessions import PlainSession as Session

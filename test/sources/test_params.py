@@ -1,4 +1,4 @@
-"""Parameter specs (bike_rig.params) and the backends' own parameters.
+"""Parameter specs (bike_rig.config.settings) and the backends' own parameters.
 
 Read through ``sources.base.Parameters``: defaults, ranges and choices are defined once, by each backend.
 """
@@ -10,7 +10,7 @@ from typing import Any, ClassVar
 
 import pytest
 
-from bike_rig.params import ParamRangeError, ParamSpec, ParamTypeError, ParamValueError, merge_specs
+from bike_rig.config.settings import ParamRangeError, ParamSpec, ParamTypeError, ParamValueError, merge_specs
 from bike_rig.sources import BACKENDS, SourceConfigError, backend_parameters, source_class
 from bike_rig.sources.base import SAMPLE_RATE, TIME_SCALE, GyroSource, Parameters, SourceEvent
 

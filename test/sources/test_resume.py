@@ -10,14 +10,14 @@ from typing import Any
 import numpy as np
 import pytest
 
-from bike_rig import topics
 from bike_rig.bag.errors import BagError
-from bike_rig.bag.resume import NO_STATIC_READINGS, resume_point
 from bike_rig.bag.simulated import SimulatedMessage, simulated_messages
 from bike_rig.bag.typestore import new_message, rig_typestore
 from bike_rig.bag.writer import BagWriter, contract_qos
+from bike_rig.config import topics
 from bike_rig.core.sim import SimulatedSession, load_rig, load_true_parameters, simulate_session
 from bike_rig.messages import fill_reading_entry
+from bike_rig.offline.resume import NO_STATIC_READINGS, resume_point
 from bike_rig.pipeline.readings import ReadingEntry
 from bike_rig.sources.base import RigClock, SampleBlock, SourceEvent, TrialRequest, TrialStarted, TrialStopped
 from bike_rig.sources.errors import SourceConfigError

@@ -5,7 +5,7 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-from bike_rig.paths import config_file
+from bike_rig.config.paths import config_file
 from test.support.paper import shared_dir
 
 #: The benchmark bicycle's parameter file.

@@ -12,15 +12,15 @@ import dataclasses
 from collections.abc import Sequence
 from pathlib import Path
 
-from bike_rig import topics
 from bike_rig.bag.simulated import SimulatedMessage, simulated_messages
 from bike_rig.bag.typestore import new_message, rig_typestore
 from bike_rig.bag.writer import BagWriter, contract_qos
+from bike_rig.config import topics
+from bike_rig.config.paths import config_file
 from bike_rig.core.io_yaml import dump_measurements_yaml
 from bike_rig.core.measurements import Measurements
 from bike_rig.core.sim import SimulatedSession, load_rig, load_true_parameters, simulate_session
 from bike_rig.messages import fill_reading_entry, fill_static_readings, set_stamp
-from bike_rig.paths import config_file
 from bike_rig.pipeline.readings import ReadingEntry, apply_entries
 
 #: A reading entered wrongly (grams for kilograms) and corrected later.

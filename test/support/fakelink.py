@@ -13,9 +13,9 @@ from typing import Any
 
 import numpy as np
 
+from bike_rig.config.paths import config_file
 from bike_rig.core.measurements import Measurements
 from bike_rig.core.sim import load_rig, load_true_parameters, simulate_session
-from bike_rig.paths import config_file
 from bike_rig.pipeline.acquire import SampleBatch, TrialEventKind, TrialEventRecord
 from bike_rig.pipeline.assemble import SessionAssembly
 from bike_rig.pipeline.fit import TrialFit

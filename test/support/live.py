@@ -9,7 +9,7 @@ from pathlib import Path
 
 import yaml
 
-from bike_rig.paths import config_file
+from bike_rig.config.paths import config_file
 from test.support.processes import RosProcess
 
 #: The beating trial (the fitter flags it, poor fit or beating: REDO).

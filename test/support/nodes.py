@@ -9,7 +9,8 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from bike_rig import topics
+from bike_rig.config import topics
+from bike_rig.config.paths import config_file
 from bike_rig.core.benchmark import ComMethod, ParameterSet
 from bike_rig.core.loader import load_measurements, load_static_readings
 from bike_rig.messages import (
@@ -17,7 +18,6 @@ from bike_rig.messages import (
     fill_period_estimate,
     set_stamp,
 )
-from bike_rig.paths import config_file
 from bike_rig.pipeline.assemble import assemble
 from bike_rig.pipeline.fit import TrialFit
 from test.support.probe import Probe
@@ -55,8 +55,8 @@ def node_environment(ros_env: Mapping[str, str]) -> dict[str, str]:
 
 
 def start_node(module: str, name: str, env: Mapping[str, str], log_dir: Path, *ros_args: str) -> RosProcess:
-    """``python -m bike_rig.nodes.<module> --ros-args ...`` as a child process."""
-    argv = [sys.executable, "-m", f"bike_rig.nodes.{module}", "--ros-args", *ros_args]
+    """``python -m bike_rig.ros.nodes.<module> --ros-args ...`` as a child process."""
+    argv = [sys.executable, "-m", f"bike_rig.ros.nodes.{module}", "--ros-args", *ros_args]
     return RosProcess(name, argv, env, log_dir)
 
 

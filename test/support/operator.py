@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from bike_rig.topics import GYRO, START_TRIAL, STOP_TRIAL, TRIAL_EVENTS
+from bike_rig.config.topics import GYRO, START_TRIAL, STOP_TRIAL, TRIAL_EVENTS
 from test.support.probe import STEP_TIMEOUT_S, Probe, msgs, srvs
 from test.support.processes import RosProcess
 

@@ -55,8 +55,8 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Final
 
+from bike_rig.config.paths import config_file
 from bike_rig.core.errors import BikeRigError, InputFileError
-from bike_rig.paths import config_file
 
 __all__ = [
     "real_files",

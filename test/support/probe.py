@@ -18,8 +18,8 @@ import rclpy
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.signals import SignalHandlerOptions
 
-from bike_rig import topics
-from bike_rig.rosqos import profile
+from bike_rig.config import topics
+from bike_rig.ros.qos import profile
 from test.support.processes import RosProcess
 
 __all__ = ["ABORT", "RESEND_S", "START", "STEP_TIMEOUT_S", "STOP", "Probe", "msgs", "node_command", "srvs"]

@@ -128,7 +128,7 @@ class RosProcess:
                 self.proc.wait(timeout=wait_s)
         if self.proc.poll() is None:
             # last resort, for the whole group (the child of `timeout` too); this leaves
-            # Fast DDS shared-memory files behind (see bike_rig.rosenv)
+            # Fast DDS shared-memory files behind (see bike_rig.ros.env)
             with contextlib.suppress(ProcessLookupError):
                 os.killpg(self.proc.pid, signal.SIGKILL)
         code = self.proc.wait()

@@ -9,7 +9,7 @@ import numpy as np
 from rosbags.rosbag2 import StoragePlugin, Writer
 
 from bike_rig.bag.typestore import rig_typestore
-from bike_rig.topics import GYRO, PERIODS, TRIAL_EVENTS
+from bike_rig.config.topics import GYRO, PERIODS, TRIAL_EVENTS
 
 #: Log time of the first message, ns.
 T0 = 1_700_000_000_000_000_000

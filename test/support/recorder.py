@@ -21,7 +21,7 @@ def start_publisher(tmp_path: Path, env: dict[str, str], spec: dict[str, Any]) -
 
 
 def start_recorder(tmp_path: Path, env: dict[str, str], bag: Path, *params: str) -> RosProcess:
-    argv = [sys.executable, "-m", "bike_rig.nodes.recorder", "--ros-args", "-p", f"output:={bag}"]
+    argv = [sys.executable, "-m", "bike_rig.ros.nodes.recorder", "--ros-args", "-p", f"output:={bag}"]
     for p in params:
         argv += ["-p", p]
     return RosProcess("recorder", argv, env, tmp_path)

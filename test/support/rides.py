@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from bike_rig.paths import config_dir
+from bike_rig.config.paths import config_dir
 from test.support.cli import run_cli
 
 #: The Browser's measurement file and the balance assist's controller file.

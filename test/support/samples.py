@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from bike_rig.bag.typestore import new_message, rig_typestore
-from bike_rig.topics import GYRO, TOPICS
+from bike_rig.config.topics import GYRO, TOPICS
 
 _INTS = {"int8", "uint8", "int16", "uint16", "int32", "uint32", "int64", "uint64", "byte", "char"}
 _FLOATS = {"float32", "float64"}

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import dataclasses
 
+from bike_rig.config.paths import config_file
 from bike_rig.core.sim import SimulatedSession, load_rig, load_true_parameters, simulate_session
-from bike_rig.paths import config_file
 
 
 def short_session(seed: int = 7, duration_s: float = 12.0) -> SimulatedSession:

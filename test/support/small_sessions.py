@@ -7,6 +7,7 @@ from typing import Any
 
 import yaml
 
+from bike_rig.config.paths import config_file
 from bike_rig.core.sim import (
     SimulatedSession,
     load_rig,
@@ -14,7 +15,6 @@ from bike_rig.core.sim import (
     simulate_session,
     write_session,
 )
-from bike_rig.paths import config_file
 from bike_rig.sources import (
     RigClock,
     open_source,

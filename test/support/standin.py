@@ -1,7 +1,7 @@
 """Parameter sets for the model-node tests, and a stand-in for the parameter node's process.
 
 The model node takes parameter sets only from the process of the node named ``parameter``
-(:mod:`bike_rig.nodes.owners`). :class:`ParameterStandIn` is such a node inside the test's own
+(:mod:`bike_rig.ros.nodes.owners`). :class:`ParameterStandIn` is such a node inside the test's own
 process (the probe's rclpy context): a set published through it is the parameter node's.
 """
 
@@ -14,12 +14,12 @@ from typing import Any
 import numpy as np
 import rclpy
 
-from bike_rig import topics
+from bike_rig.config import topics
 from bike_rig.core.benchmark import ComMethod, ParameterSet
 from bike_rig.core.uncertainty.uncertain import UncertainVector
 from bike_rig.messages import fill_benchmark_parameters, set_stamp
 from bike_rig.pipeline.assemble import SessionParameters
-from bike_rig.rosqos import profile
+from bike_rig.ros.qos import profile
 
 msgs: Any = importlib.import_module("bike_rig_msgs.msg")
 

@@ -19,6 +19,7 @@ import numpy as np
 import pytest
 
 from bike_rig.cli.main import _parameters
+from bike_rig.config.paths import config_file
 from bike_rig.core.feedback import resolve_feedback
 from bike_rig.core.ride.calibration import measure_calibration
 from bike_rig.core.ride.eigen import FLAG_SEGMENT_CYCLES, fit_segment
@@ -26,7 +27,6 @@ from bike_rig.core.ride.ridesim import RideConditions
 from bike_rig.core.rider import PAPER_RIDER, add_rider
 from bike_rig.core.sim.ride import Kick, RideSimulation, simulate_ride
 from bike_rig.core.uncertainty.matrix_sigma import canonical_with_sigma
-from bike_rig.paths import config_file
 
 #: Settling after the kick's end before the segment starts, s (the caster mode dies out).
 SETTLE_S = 0.3

@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 from bike_rig.cli.main import _parameters
+from bike_rig.config.paths import config_file
 from bike_rig.core.feedback import Feedback, resolve_feedback
 from bike_rig.core.ride.eigen import CombinedEigenvalue
 from bike_rig.core.ride.posterior import (
@@ -29,7 +30,6 @@ from bike_rig.core.ride.variants import calibrate
 from bike_rig.core.ride.weave_model import model_weave
 from bike_rig.core.rider import PAPER_RIDER
 from bike_rig.core.symbols import PARAMETER_NAMES
-from bike_rig.paths import config_file
 
 SPEEDS = np.linspace(1.5, 4.5, 10)
 TRUE = "no rider, gain scale free"

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from bike_rig.cli.main import _parameters
+from bike_rig.config.paths import config_file
 from bike_rig.core.feedback import resolve_feedback
 from bike_rig.core.ride.eigen import fit_segment
 from bike_rig.core.ride.record import RideRecord
@@ -13,7 +14,6 @@ from bike_rig.core.ride.segment import find_kicks, noise_sigma, segment_record
 from bike_rig.core.rider import PAPER_RIDER, add_rider
 from bike_rig.core.sim.ride import Kick, RideSimulation, SimulatedRide, simulate_ride
 from bike_rig.core.uncertainty.matrix_sigma import canonical_with_sigma
-from bike_rig.paths import config_file
 
 #: Kick times of the long ride [s]: irregular, with a quiet stretch from 22 to 40 s.
 KICK_TIMES = (2.0, 7.5, 14.0, 19.0, 40.0, 46.5, 52.0)

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from bike_rig.cli.main import _parameters
+from bike_rig.config.paths import config_file
 from bike_rig.core.feedback import resolve_feedback
 from bike_rig.core.ride.weave_mc import eigenvalue_monte_carlo
 from bike_rig.core.rider import PAPER_RIDER, add_rider
-from bike_rig.paths import config_file
 from bike_rig.pipeline.ride import MONTE_CARLO, predicted_weave
 
 

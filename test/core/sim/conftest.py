@@ -7,8 +7,8 @@ import secrets
 
 import pytest
 
+from bike_rig.config.paths import config_file
 from bike_rig.core.sim.rig import RigConfig, load_rig
-from bike_rig.paths import config_file
 from test.support.paper import table2
 
 

@@ -10,9 +10,9 @@ import yaml
 
 from bike_rig.cli import simulate_cmd
 from bike_rig.cli.main import main
+from bike_rig.config.paths import config_dir, config_file
 from bike_rig.core.errors import BikeRigError, InputFileError
 from bike_rig.core.sim.errors import RigFileError
-from bike_rig.paths import config_dir, config_file
 
 BROWSER = str(config_dir() / "bicycles" / "browser.yaml")
 BENCHMARK = str(config_dir() / "bicycles" / "benchmark.yaml")

@@ -9,6 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from bike_rig.config.paths import config_dir
 from bike_rig.core import com, geometry, inertia
 from bike_rig.core.benchmark import benchmark_formulas
 from bike_rig.core.sim import physics
@@ -17,7 +18,6 @@ from bike_rig.core.sim.rig import RigConfig
 from bike_rig.core.sim.session import load_true_parameters
 from bike_rig.core.symbols import PARAMETER_NAMES
 from bike_rig.core.units import radians
-from bike_rig.paths import config_dir
 
 BICYCLE_FILES = sorted((config_dir() / "bicycles").glob("*.yaml"))
 

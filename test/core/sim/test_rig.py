@@ -8,10 +8,10 @@ from pathlib import Path
 
 import pytest
 
+from bike_rig.config.paths import config_file
 from bike_rig.core.errors import InputFileError
 from bike_rig.core.sim.errors import RigFileError
 from bike_rig.core.sim.rig import RigConfig, load_rig, torsion_rod_stiffness
-from bike_rig.paths import config_file
 
 SHIPPED = config_file("rig.yaml")
 

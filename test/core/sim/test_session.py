@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from numpy.typing import NDArray
 
+from bike_rig.config.paths import config_file
 from bike_rig.core.measurements import REQUIRED_KEYS, validate
 from bike_rig.core.sim.errors import SimulationError
 from bike_rig.core.sim.gyro import adc_quantise, angular_rate, gyro_volts
@@ -16,7 +17,6 @@ from bike_rig.core.sim.pendulum import small_swing_factor
 from bike_rig.core.sim.rig import CoupledSwing, RigConfig, load_rig
 from bike_rig.core.sim.session import SimulatedSession, motion_rate, reading_sigma, simulate_session
 from bike_rig.core.units import DEGREE
-from bike_rig.paths import config_file
 
 MEASUREMENTS = (
     "rear_wheel_compound",

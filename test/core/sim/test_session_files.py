@@ -14,10 +14,10 @@ import pytest
 import yaml
 
 from bike_rig.cli.main import main
+from bike_rig.config.paths import config_dir, config_file
 from bike_rig.core.benchmark import compute_parameters
 from bike_rig.core.loader import load_measurements
 from bike_rig.core.symbols import PARAMETER_NAMES
-from bike_rig.paths import config_dir, config_file
 
 BROWSER = str(config_dir() / "bicycles" / "browser.yaml")
 

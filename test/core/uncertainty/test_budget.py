@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from bike_rig.config.paths import config_file
 from bike_rig.core.benchmark import ParameterSet, RawPropagation, compute_parameters
 from bike_rig.core.io_yaml import dump_parameters_yaml
 from bike_rig.core.loader import load_input, load_measurements
@@ -37,7 +38,6 @@ from bike_rig.core.uncertainty.budget import (
 )
 from bike_rig.core.uncertainty.speed_sigma import critical_speeds_with_sigma
 from bike_rig.core.whipple import canonical_matrices, critical_speeds
-from bike_rig.paths import config_file
 from test.support.paper import shared_dir
 
 BICYCLES = ("browser", "browserins", "crescendo", "fisher", "stratos", "yellow")

@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from bike_rig.config.paths import config_file
 from bike_rig.core.benchmark import ParameterSet, compute_parameters, monte_carlo_parameters
 from bike_rig.core.loader import load_measurements
 from bike_rig.core.rider import PAPER_RIDER, add_rider
@@ -16,7 +17,6 @@ from bike_rig.core.symbols import PARAMETER_NAMES
 from bike_rig.core.uncertainty.eigen_sigma import eigenvalue_gradient, eigenvalues_with_sigma
 from bike_rig.core.uncertainty.matrix_sigma import SigmaConvention, canonical_with_sigma
 from bike_rig.core.whipple import canonical_matrices, characteristic_coefficients, eigenvalues, quartic_roots
-from bike_rig.paths import config_file
 
 BICYCLES = ("browser", "browserins", "crescendo", "fisher", "stratos", "yellow")
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from bike_rig.config.paths import config_file
 from bike_rig.core.benchmark import compute_parameters
 from bike_rig.core.feedback import Feedback, GainSchedule, load_feedback
 from bike_rig.core.loader import load_measurements
@@ -17,7 +18,6 @@ from bike_rig.core.uncertainty.eigen_sigma import eigenvalue_gain_gradient, eige
 from bike_rig.core.uncertainty.speed_sigma import critical_speeds_with_sigma
 from bike_rig.core.whipple import canonical_matrices, eigenvalues
 from bike_rig.core.whipple.closed_loop import closed_loop_critical_speeds
-from bike_rig.paths import config_file
 
 ASSIST = load_feedback(config_file("feedback/balance_assist.yaml"))
 

@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from bike_rig.config.paths import config_file
 from bike_rig.core.benchmark import ParameterSet, compute_parameters, monte_carlo_parameters
 from bike_rig.core.io_yaml import dump_parameters_yaml
 from bike_rig.core.loader import load_input, load_measurements
@@ -32,7 +33,6 @@ from bike_rig.core.uncertainty.speed_mc import (
     speed_monte_carlo_from_parameters,
 )
 from bike_rig.core.whipple import WhippleMatrices, canonical_matrices, critical_speeds
-from bike_rig.paths import config_file
 
 BICYCLES = ("browser", "browserins", "crescendo", "fisher", "stratos", "yellow")
 SAMPLES = 2000

@@ -11,6 +11,7 @@ import math
 import numpy as np
 import pytest
 
+from bike_rig.config.paths import config_file
 from bike_rig.core.benchmark import ParameterSet, compute_parameters
 from bike_rig.core.loader import load_input, load_measurements
 from bike_rig.core.rider import PAPER_RIDER, add_rider
@@ -18,7 +19,6 @@ from bike_rig.core.symbols import PARAMETER_NAMES
 from bike_rig.core.uncertainty.matrix_sigma import SigmaConvention
 from bike_rig.core.uncertainty.speed_sigma import critical_speed_gradient, critical_speeds_with_sigma
 from bike_rig.core.whipple import WhippleMatrices, canonical_matrices, critical_speeds
-from bike_rig.paths import config_file
 
 MC_SAMPLES = 4000
 MC_TOLERANCE = 0.15
