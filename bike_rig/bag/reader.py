@@ -18,24 +18,23 @@ from __future__ import annotations
 import gc
 import warnings
 from collections.abc import Iterable, Iterator
-from contextlib import contextmanager
 from dataclasses import dataclass
 from functools import partial
 from pathlib import Path, PurePath
 from types import TracebackType
-from typing import TYPE_CHECKING, Any, BinaryIO, NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
 from ..core.safe_yaml import NotRegularFileError, open_regular_file
 from .check import Metadata, check_mcap, check_metadata
+from .chunks import file_messages, first_corrupt_chunk, no_collection, one_line
 from .errors import BagError, BagReadError, IncompleteBagError, NotABagError, ReplayError
 from .foreign import check_ros2_cdr
 from .order import split_order
 from .schemas import Decoding, RecordedSchema, decoding_for
 
 if TYPE_CHECKING:
-    from mcap.records import Channel, Message
     from rosbags.interfaces import Qos
     from rosbags.rosbag2 import Reader
 
@@ -389,7 +388,7 @@ class BagReader:
             for conn, log_time, data in self.reader.messages(connections=conns):
                 yield RawMessage(conn.topic, log_time, data)
         except ReaderError as exc:
-            raise BagReadError(self.shown, f"corrupt data ({_sentence(exc)})") from None
+            raise BagReadError(self.shown, f"corrupt data ({one_line(exc)})") from None
         except (GeneratorExit, KeyboardInterrupt):
             raise
         except Exception as exc:  # the decompressors' own classes (zstandard.ZstdError, lz4's RuntimeError)
@@ -398,10 +397,10 @@ class BagReader:
     def _corrupt_chunk(self, exc: BaseException) -> str:
         """What to say of a chunk rosbags' reader could not read: which chunk, when the mcap library finds it."""
         for f in self.storage_files:
-            bad = _first_corrupt_chunk(f)
+            bad = first_corrupt_chunk(f)
             if bad:
                 return bad
-        return f"corrupt data ({type(exc).__name__}: {_sentence(exc)})"
+        return f"corrupt data ({type(exc).__name__}: {one_line(exc)})"
 
     def decoding(self, topic: str) -> Decoding:
         """How a topic's messages are decoded: with the bag's own definition of its type.
@@ -479,7 +478,7 @@ class BagReader:
         accepted = self._read_channels()
         if accepted is None:
             return None
-        with _no_collection():
+        with no_collection():
             return self._records(names, files, accepted)
 
     def _records(self, names: list[str], files: list[Path], accepted: dict[str, set[int]]) -> list[Record] | None:
@@ -489,7 +488,7 @@ class BagReader:
             base, ids = len(out), accepted.get(f.name, set())
             try:
                 with f.open("rb") as stream:
-                    found = _file_messages(stream, set(names))
+                    found = file_messages(stream, set(names))
                     out += [
                         Record(channel.topic, message.log_time, message.sequence, base + k, message.data)
                         for k, (channel, message) in enumerate(found)
@@ -498,7 +497,7 @@ class BagReader:
             except (GeneratorExit, KeyboardInterrupt):
                 raise
             except Exception:  # the mcap library's own errors
-                bad = _first_corrupt_chunk(f)
+                bad = first_corrupt_chunk(f)
                 if bad:
                     raise BagReadError(self.shown, bad) from None
                 return None
@@ -554,85 +553,6 @@ class BagReader:
         return [StampedMessage(r.topic, r.sequence, r.stream, r.data) for r in sorted(found, key=lambda r: r.stream)]
 
 
-@contextmanager
-def _no_collection() -> Iterator[None]:
-    """No cyclic garbage collection meanwhile (a bag's messages are many objects and no cycles)."""
-    enabled = gc.isenabled()
-    gc.disable()
-    try:
-        yield
-    finally:
-        if enabled:
-            gc.enable()
-
-
-def _file_messages(stream: BinaryIO, topics: set[str]) -> list[tuple[Channel, Message]]:
-    """The messages of ``topics`` in an MCAP file, as the mcap library's reader gives them in file order.
-
-    (``iter_messages(topics, log_time_order=False)``: chunk by chunk as the summary lists them;
-    a file without chunk indexes read by the library's reader.)
-    """
-    from mcap.reader import make_reader
-    from mcap.records import Chunk, Message
-    from mcap.stream_reader import StreamReader, breakup_chunk
-
-    reader = make_reader(stream)
-    summary = reader.get_summary()
-    if summary is None or not summary.chunk_indexes:
-        return [(c, m) for _, c, m in reader.iter_messages(topics=list(topics), log_time_order=False)]
-    channels = summary.channels
-    out = []
-    for index in summary.chunk_indexes:
-        if index.message_index_offsets and all(channels[c].topic not in topics for c in index.message_index_offsets):
-            continue
-        stream.seek(index.chunk_start_offset)
-        chunk = next(StreamReader(stream, skip_magic=True, emit_chunks=True).records)
-        if not isinstance(chunk, Chunk):
-            raise ValueError(f"a {type(chunk).__name__} record where the index puts a chunk")
-        for record in breakup_chunk(chunk):
-            if isinstance(record, Message):
-                channel = channels[record.channel_id]
-                if channel.topic in topics:
-                    out.append((channel, record))
-    return out
-
-
-def _first_corrupt_chunk(path: Path) -> str:
-    """``"<file>: chunk at byte N is corrupt (why)"``: the first chunk the mcap library cannot unpack ("" if none)."""
-    from mcap.reader import make_reader
-    from mcap.records import Chunk
-    from mcap.stream_reader import StreamReader, breakup_chunk
-
-    try:
-        with path.open("rb") as stream:
-            summary = make_reader(stream).get_summary()
-            indexes = sorted(summary.chunk_indexes, key=lambda c: c.chunk_start_offset) if summary else []
-            for index in indexes:
-                stream.seek(index.chunk_start_offset)
-                try:
-                    record = next(StreamReader(stream, skip_magic=True, emit_chunks=True).records)
-                    if not isinstance(record, Chunk):
-                        raise ValueError(f"a {type(record).__name__} record where the index puts a chunk")
-                    for _ in breakup_chunk(record, validate_crc=True):
-                        pass
-                except (GeneratorExit, KeyboardInterrupt):
-                    raise
-                except Exception as exc:  # the decompressors' and the library's own classes
-                    reason = f"{type(exc).__name__}: {_sentence(exc)}"
-                    return f"{path.name}: chunk at byte {index.chunk_start_offset} is corrupt ({reason})"
-    except OSError:
-        return ""
-    except Exception:  # its summary does not read: rosbags' reader says what is wrong
-        return ""
-    return ""
-
-
-def _sentence(exc: BaseException) -> str:
-    """The exception's message on one line (rosbags passes on PyYAML's and ruamel's, of several lines)."""
-    text = " ".join(str(exc).split()).rstrip(".")
-    return text[:400] + "..." if len(text) > 400 else text or type(exc).__name__
-
-
 def _try_rosbags(resolved: Path) -> tuple[Reader | None, str]:
     """Open rosbags' reader of the bag: the reader, or None and why it cannot be opened (one line)."""
     from rosbags.rosbag2 import Reader
@@ -642,11 +562,11 @@ def _try_rosbags(resolved: Path) -> tuple[Reader | None, str]:
         reader = Reader(resolved)
         reader.open()
     except ReaderError as exc:
-        return None, _sentence(exc)
+        return None, one_line(exc)
     except (GeneratorExit, KeyboardInterrupt):
         raise
     except Exception as exc:  # its parsers' and decompressors' own classes (zstd, ruamel, struct)
-        return None, f"{type(exc).__name__}: {_sentence(exc)}"
+        return None, f"{type(exc).__name__}: {one_line(exc)}"
     return reader, ""
 
 
