@@ -1,0 +1,104 @@
+"""Segmentation of whole simulated raw ride logs: pushes found, cut error, false segments.
+
+Prints numbers, asserts nothing. Each log (:func:`bike_rig.core.sim.ride_log.simulate_raw_log`:
+Browser with the paper's rider, a speed-scheduled assist, 179 s at 100 Hz, roll rate and wheel
+speed, no steer torque; the rider starts from standstill, rides, turns, stops and starts again,
+and is pushed sideways while riding straight; :func:`~bike_rig.core.sim.ride_log.ride_plan`)
+is segmented by :func:`bike_rig.core.ride.segment.segment_record` and each segment fitted by
+:func:`bike_rig.core.ride.eigen.fit_segment`. A push is found when a segment's kick begins
+within 0.3 s of it; its cut error is the segment's start and stop less the truth's (the push's
+end; where its own response's envelope last exceeds twice the riding's RMS). A false segment
+belongs to no push; it must never be clean. Each speed is run with the wheel speed and, for
+comparison, without it (roll rate alone); and with no pushes at all.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+from bike_rig.cli.main import _parameters
+from bike_rig.core.ride.eigen import fit_segment
+from bike_rig.core.ride.record import RideRecord
+from bike_rig.core.ride.segment import segment_record
+from bike_rig.core.rider import PAPER_RIDER, add_rider
+from bike_rig.core.sim.ride_log import ride_plan, simulate_raw_log
+from bike_rig.core.uncertainty.matrix_sigma import canonical_with_sigma
+from bike_rig.paths import config_file
+
+#: A segment's kick this close to a push [s] finds it.
+FOUND_S = 0.3
+
+
+def run(speed: float, pushes: int, seeds: range, wheel: bool, matrices: object, g: float) -> dict[str, float]:
+    """The counts over ``seeds`` logs at ``speed`` [m/s] with ``pushes`` pushes each."""
+    found = false = false_clean = true_clean = 0
+    starts: list[float] = []
+    stops: list[float] = []
+    seconds = 0.0
+    for seed in seeds:
+        rng = np.random.default_rng(seed)
+        log = simulate_raw_log(matrices, g, ride_plan(179.0, speed, pushes, rng), rng)  # type: ignore[arg-type]
+        record = RideRecord("log", log.times, log.roll_rate, speed=log.wheel_speed if wheel else None)
+        t0 = time.perf_counter()
+        segments = segment_record(record)
+        seconds += time.perf_counter() - t0
+        matched = set()
+        for seg in segments:
+            inside = (record.times >= seg.start) & (record.times <= seg.stop)
+            clean = fit_segment(record.times[inside], record.signal[inside], speed=speed).clean
+            hits = [k for k, p in enumerate(log.pushes) if abs(seg.kick.onset - p.time) <= FOUND_S]
+            if hits and hits[0] not in matched:
+                matched.add(hits[0])
+                truth = log.pushes[hits[0]]
+                starts.append(seg.start - truth.start)
+                stops.append(seg.stop - truth.stop)
+                true_clean += clean
+            else:
+                false += 1
+                false_clean += clean
+        found += len(matched)
+    errors = np.maximum(np.abs(starts), np.abs(stops)) if starts else np.empty(0)
+    return {
+        "pushes": float(pushes * len(seeds)),
+        "found": float(found),
+        "clean": float(true_clean),
+        "false": float(false),
+        "false_clean": float(false_clean),
+        "start_median": float(np.median(starts)) if starts else float("nan"),
+        "stop_median": float(np.median(stops)) if stops else float("nan"),
+        "stop_abs90": float(np.percentile(np.abs(stops), 90)) if stops else float("nan"),
+        "within": float(np.mean(errors <= 0.3)) if errors.size else float("nan"),
+        "seconds": seconds / len(seeds),
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--seeds", type=int, default=20, help="logs per row (default 20)")
+    parser.add_argument("--speeds", type=float, nargs="+", default=[5.0, 1.67, 2.5, 3.33, 4.17])
+    args = parser.parse_args()
+    ps = add_rider(_parameters(str(config_file("bicycles/browser.yaml")), "centroid"), PAPER_RIDER)
+    ms = canonical_with_sigma(ps)
+    seeds = range(args.seeds)
+    print(f"{args.seeds} simulated 179 s logs per row; a cut is within 0.3 s when both its ends are")
+    head = (
+        f"{'km/h':>5} {'input':<10} {'pushes':>6} {'found':>5} {'clean':>5} {'false':>5} {'f.clean':>7} "
+        f"{'start-truth':>11} {'stop-truth':>10} {'|stop| p90':>10} {'within 0.3 s':>12} {'s/log':>6}"
+    )
+    print(head)
+    rows = [(v, 3, w) for v in args.speeds for w in (True, False)] + [(args.speeds[0], 0, True)]
+    for v, n, wheel in rows:
+        r = run(v, n, seeds, wheel, ms.matrices, ms.g)
+        name = ("roll+wheel" if wheel else "roll only") + ("" if n else ", none")
+        print(
+            f"{3.6 * v:5.1f} {name:<10} {r['pushes']:6.0f} {r['found']:5.0f} {r['clean']:5.0f} {r['false']:5.0f} "
+            f"{r['false_clean']:7.0f} {r['start_median']:+11.2f} {r['stop_median']:+10.2f} {r['stop_abs90']:10.2f} "
+            f"{100 * r['within']:11.0f}% {r['seconds']:6.2f}"
+        )
+
+
+if __name__ == "__main__":
+    main()
