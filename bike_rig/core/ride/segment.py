@@ -245,16 +245,19 @@ def speed_transients(t: FloatArray, speed: FloatArray, opt: SegmentOptions) -> t
 def find_kicks(record: RideRecord, options: SegmentOptions | None = None) -> list[Kick]:
     """The perturbations of a record: from its steer torque if it has one, else its signal.
 
-    Without torque but with a wheel speed, a roll-rate kick is sought only within
-    ``speed_window_s`` of the wheel speed's transients (a push).
+    Without torque but with a usable wheel speed (one that varies: :func:`speed_transients`
+    gives a finite σ), a roll-rate kick is sought only within ``speed_window_s`` of the wheel
+    speed's transients (a push).
     """
     opt = options or SegmentOptions()
     if record.torque is not None:
         return _torque_kicks(record.times, record.torque, opt)
     z = np.abs(record.signal - _baseline(record.times, record.signal, opt))
-    if record.speed is None:
+    times, sizes, sigma = (
+        speed_transients(record.times, record.speed, opt) if record.speed is not None else (None, None, math.nan)
+    )
+    if times is None or sizes is None or not math.isfinite(sigma):  # no usable wheel speed
         return _signal_kicks(record.times, z, noise_sigma(record.signal), opt)
-    times, sizes, sigma = speed_transients(record.times, record.speed, opt)
     only = _near(record.times, times, opt.speed_window_s)
     confirmed = []
     for kick in _signal_kicks(record.times, z, noise_sigma(record.signal), opt, only):

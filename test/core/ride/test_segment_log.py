@@ -108,3 +108,12 @@ def test_a_log_csv_keeps_its_wheel_speed(tmp_path: Path) -> None:
     assert record.speed == pytest.approx(log.wheel_speed, abs=1e-5)
     (seg,) = segment_record(record)
     assert abs(seg.kick.onset - log.pushes[0].time) < 0.2
+    assert record.mean_speed(seg.start, seg.stop) == pytest.approx(5.0, abs=0.05)  # the segment's speed
+
+
+@pytest.mark.parametrize("fill", [5.0, np.nan])
+def test_a_speed_that_never_varies_leaves_the_roll_rate_alone(fill: float) -> None:
+    """A logger's constant nominal speed, or a speed topic without messages: kicks as without speed."""
+    log = _log(5.0, 1, seed=7, duration=60.0)
+    flat = RideRecord("log", log.times, log.roll_rate, speed=np.full(log.times.size, fill))
+    assert find_kicks(flat) == find_kicks(_record(log, wheel=False)) != []
