@@ -22,8 +22,8 @@ roll rate, confirmed by the wheel speed when the record has one:
 Each segment starts ``settle_s`` after its kick ends (the fast caster mode dies out) and ends
 where the free decay ends (:func:`_free_decay_end`): a decaying sinusoid
 ``c + e^{σt}(a cos ωt + b sin ωt)`` is fitted to one cycle and grown half a cycle at a time;
-it ends where the next half-cycle's residual leaves the model (a sequential test against the
-noise level: the rider or the motor took over) or where its envelope falls to ``decay_level``
+it ends where the next cycle's residual holds a weave beyond the noise level (a sequential
+test: the rider or the motor took over) or where its envelope falls to ``decay_level``
 times the noise level (it no longer stands out of the riding). The noise level is the
 riding's roll-rate σ before the kick (``riding_s``, after the last kick's response faded) or
 the fit's residual RMS, whichever is larger. Other ends: the next kick (``gap_s`` before it),
@@ -333,6 +333,16 @@ class _DecayEnd:
     rate: float = math.nan
 
 
+def _weave_departure(tau: FloatArray, residual: FloatArray, omega: float) -> float:
+    """The mean square ``(a² + b²) / 2`` of the weave in a residual [signal units²].
+
+    ``a cos ωτ + b sin ωτ`` is fitted beside an offset and a slope (the slow modes, not the weave).
+    """
+    basis = np.column_stack([np.ones(tau.size), tau, np.cos(omega * tau), np.sin(omega * tau)])
+    coef = np.linalg.lstsq(basis, residual, rcond=None)[0]
+    return float(0.5 * (coef[2] ** 2 + coef[3] ** 2))
+
+
 def _fades(t0: float, params: FloatArray, level: float) -> float:
     """Where ``√(a² + b²) e^{σ t}`` of ``params`` falls to ``level`` [s] (inf: it does not fall)."""
     amplitude, sig = float(math.hypot(params[3], params[4])), float(params[1])
@@ -345,10 +355,11 @@ def _free_decay_end(t: FloatArray, y: FloatArray, floor: float, opt: SegmentOpti
     """Where the decaying sinusoid from ``t[0]`` stops explaining ``y`` (module docstring).
 
     The model is fitted to one cycle, then to one more half-cycle at a time. Before each
-    half-cycle is added, its residual from the model fitted so far is tested: a mean square
-    beyond ``departure`` times the noise level's (a χ² with 2 dof, one cycle's amplitude and
-    phase, passes 4.6 once in 100) ends the decay where the fit ends: the rider or the motor
-    took over. The decay also ends where its envelope ``√(a² + b²) e^{σ t}`` falls to
+    half-cycle is added, the next cycle's residual from the model fitted so far is tested: the
+    weave in it (a sinusoid at the model's ω fitted beside an offset and a slope, which the slow
+    modes may leave) with a mean square beyond ``departure`` times the noise level's (a χ² with
+    2 dof, an amplitude and a phase, passes 4.6 once in 100) ends the decay where the fit ends:
+    the rider or the motor took over. The decay also ends where its envelope ``√(a² + b²) e^{σ t}`` falls to
     ``decay_level`` times the noise level: beyond, it no longer stands out of the riding; that
     end is taken from a fit reaching half a cycle beyond it. The noise level is the fit's
     residual RMS or ``floor`` (the riding's level before the kick), whichever is larger.
@@ -391,14 +402,14 @@ def _free_decay_end(t: FloatArray, y: FloatArray, floor: float, opt: SegmentOpti
             why = f"free decay ends: its envelope falls to {opt.decay_level:g}× the noise level {noise:.3g} ({lam})"
             return _DecayEnd(fades, why, 2.0 * half, fades, sig)
         refined = False
-        chunk = (tt > end) & (tt <= end + half)
-        if not np.any(chunk) or tt[-1] < end + half:
+        chunk = (tt > end) & (tt <= end + 2.0 * half)
+        if tt[-1] < end + 2.0 * half or chunk.sum() < 8:
             return _DecayEnd(None, "", 2.0 * half, fades, sig)
-        ratio = float(np.mean((y[chunk] - _decay_model(params, tt[chunk])) ** 2)) / noise**2
+        ratio = _weave_departure(tt[chunk] - end, y[chunk] - _decay_model(params, tt[chunk]), w) / noise**2
         if ratio > opt.departure:
             why = (
-                f"free decay ends: the next half-cycle's residual RMS is {math.sqrt(ratio):.1f}× the noise level "
-                f"{noise:.3g} ({lam}): the rider or the motor took over"
+                f"free decay ends: over the next cycle the weave leaves the model by {math.sqrt(ratio):.1f}× "
+                f"the noise level {noise:.3g} ({lam}): the rider or the motor took over"
             )
             return _DecayEnd(t0 + end, why, 2.0 * half, fades, sig)
         end += half

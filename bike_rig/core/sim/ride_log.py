@@ -57,6 +57,8 @@ FloatArray = NDArray[np.float64]
 
 #: Speeds of the cached discretisations are rounded to this [m/s].
 SPEED_STEP = 0.05
+#: A roll rate beyond this means the simulated bicycle fell over [rad/s].
+MAX_ROLL_RATE = 10.0
 #: A push's own response is followed this long [s].
 TRUTH_SPAN_S = 10.0
 #: The columns of a simulated raw log's CSV file, in order (no steer torque).
@@ -261,7 +263,8 @@ def simulate_raw_log(matrices: WhippleMatrices, g: float, log: RideLog, rng: np.
         rng: The random generator (noise, signs, the rider).
 
     Raises:
-        SimulationError: A non-positive duration or rate, or a negative speed.
+        SimulationError: A non-positive duration or rate, a negative speed, or a ride that falls
+            over (the gains do not stabilise this bicycle).
     """
     from scipy.signal import hilbert
 
@@ -289,9 +292,15 @@ def simulate_raw_log(matrices: WhippleMatrices, g: float, log: RideLog, rng: np.
     signs = rng.choice((-1.0, 1.0), len(log.pushes))
     pushes = [(p, s * log.push_torque) for p, s in zip(log.pushes, signs, strict=True)]
     steer = rider + turn
-    base_states = _run(matrices, g, log, t, v, pedal, steer, [])
+    with np.errstate(all="ignore"):  # (a ride that falls over is refused below)
+        base_states = _run(matrices, g, log, t, v, pedal, steer, [])
+        rates = _run(matrices, g, log, t, v, pedal, steer, pushes)[:, 2]
     base = base_states[:, 2]
-    rates = _run(matrices, g, log, t, v, pedal, steer, pushes)[:, 2]
+    if not np.all(np.isfinite(rates)) or np.max(np.abs(rates)) > MAX_ROLL_RATE:
+        raise SimulationError(
+            f"the simulated ride falls over: roll rate beyond {MAX_ROLL_RATE:g} rad/s (the assist's gains "
+            f"do not keep this bicycle upright at 0–{log.cruise:g} m/s)"
+        )
     measured = rates + rng.normal(0.0, log.noise_roll_rate, n)
     wheel = v + rng.normal(0.0, log.noise_speed, n)
     truths = []
