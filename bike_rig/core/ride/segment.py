@@ -77,9 +77,9 @@ class SegmentOptions:
         speed_threshold: A wheel-speed transient's level, in the wheel speed's noise σ.
         departure: The next half-cycle's mean square residual, in the fit's, that ends a free decay.
         decay_level: The free decay ends where its envelope falls to this many times the noise level.
-        riding_s: The riding's roll-rate RMS over this long before a kick, after the last kick's
-            response faded (at least ``window_s`` of it, else the white noise σ), is the noise
-            level's floor [s].
+        riding_s: The riding's roll-rate RMS over this long, ending a quarter ``window_s`` before
+            a kick's onset (which lags the push by up to its rise), after the last kick's response
+            faded (at least ``window_s`` of it, else the white noise σ), is the noise level's floor [s].
     """
 
     window_s: float = 1.0
@@ -436,7 +436,8 @@ def segment_record(record: RideRecord, options: SegmentOptions | None = None) ->
         stops.append((start + opt.max_length_s, f"the longest segment, {opt.max_length_s:g} s"))
         limit = min(s[0] for s in stops)
         i1 = int(np.searchsorted(t, limit, side="right"))
-        before = (t >= kick.onset - opt.riding_s) & (t < kick.onset) & (t > previous)
+        lead = kick.onset - 0.25 * opt.window_s  # (the onset lags the push by up to its rise)
+        before = (t >= lead - opt.riding_s) & (t < lead) & (t > previous)
         enough = np.sum(before) * float(np.median(np.diff(t))) >= opt.window_s
         riding = float(np.sqrt(np.mean(detrended[before] ** 2))) if enough else sigma
         decay = _free_decay_end(t[i0:i1], detrended[i0:i1], max(riding, sigma), opt)
