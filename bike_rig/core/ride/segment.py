@@ -75,8 +75,9 @@ class SegmentOptions:
         max_length_s: The longest segment [s] (a safety bound: the free decay's model ends a segment).
         speed_window_s: A wheel-speed transient this close to a roll-rate kick confirms it [s].
         speed_threshold: A wheel-speed transient's level, in the wheel speed's noise σ.
-        departure: The next half-cycle's mean square residual, in the fit's, that ends a free decay.
-        decay_level: The free decay ends where its envelope falls to this many times the noise level.
+        departure: The mean square of the weave in the next cycle's residual, in the noise level's,
+            that ends a free decay [-].
+        decay_level: The free decay ends where its envelope falls to this many times the noise level [-].
         riding_s: The riding's roll-rate RMS over this long, ending a quarter ``window_s`` before
             a kick's onset (which lags the push by up to its rise), after the last kick's response
             faded (at least ``window_s`` of it, else the white noise σ), is the noise level's floor [s].
@@ -444,7 +445,7 @@ def segment_record(record: RideRecord, options: SegmentOptions | None = None) ->
         if decay.end is not None:
             stops.append((decay.end, decay.reason))
         stop, why = min(stops, key=lambda s: s[0])
-        previous = max(stop, decay.fades)  # the push's response lasts until its envelope fades
+        previous = max(stop, min(decay.fades, stop + opt.riding_s))  # the response lasts until it fades
         seen = decay.rate < 0 and stop - start >= decay.period
         if stop <= start or not (kick.confirmed or seen):
             continue  # the rider's own motion: no decaying oscillation of a cycle or more
