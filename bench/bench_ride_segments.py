@@ -9,13 +9,15 @@ is segmented by :func:`bike_rig.core.ride.segment.segment_record` and each segme
 within 0.3 s of it; its cut error is the segment's start and stop less the truth's (the push's
 end; where its own response's envelope last exceeds twice the riding's RMS). A false segment
 belongs to no push; it must never be clean. Each speed is run with the wheel speed and, for
-comparison, without it (roll rate alone); and with no pushes at all.
+comparison, without it (roll rate alone); and with no pushes at all. ``--jolt`` sets the
+pushes' largest wheel-speed jolt (default 0.4 m/s, each push's drawn in [½, 1] of it).
 """
 
 from __future__ import annotations
 
 import argparse
 import time
+from dataclasses import replace
 
 import numpy as np
 
@@ -32,15 +34,19 @@ from bike_rig.paths import config_file
 FOUND_S = 0.3
 
 
-def run(speed: float, pushes: int, seeds: range, wheel: bool, matrices: object, g: float) -> dict[str, float]:
-    """The counts over ``seeds`` logs at ``speed`` [m/s] with ``pushes`` pushes each."""
+def run(
+    speed: float, pushes: int, seeds: range, wheel: bool, matrices: object, g: float, jolt: float | None = None
+) -> dict[str, float]:
+    """The counts over ``seeds`` logs at ``speed`` [m/s] with ``pushes`` pushes each (``jolt``: its largest [m/s])."""
     found = false = false_clean = true_clean = 0
     starts: list[float] = []
     stops: list[float] = []
     seconds = 0.0
     for seed in seeds:
         rng = np.random.default_rng(seed)
-        log = simulate_raw_log(matrices, g, ride_plan(179.0, speed, pushes, rng), rng)  # type: ignore[arg-type]
+        plan = ride_plan(179.0, speed, pushes, rng)
+        plan = plan if jolt is None else replace(plan, push_jolt=jolt)
+        log = simulate_raw_log(matrices, g, plan, rng)  # type: ignore[arg-type]
         record = RideRecord("log", log.times, log.roll_rate, speed=log.wheel_speed if wheel else None)
         t0 = time.perf_counter()
         segments = segment_record(record)
@@ -81,6 +87,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--seeds", type=int, default=20, help="logs per row (default 20)")
     parser.add_argument("--speeds", type=float, nargs="+", default=[5.0, 1.67, 2.5, 3.33, 4.17])
+    parser.add_argument("--jolt", type=float, help="the pushes' largest wheel jolt, m/s (default: the simulation's)")
     args = parser.parse_args()
     ps = add_rider(_parameters(str(config_file("bicycles/browser.yaml")), "centroid"), PAPER_RIDER)
     ms = canonical_with_sigma(ps)
@@ -93,7 +100,7 @@ def main() -> None:
     print(head)
     rows = [(v, 3, w) for v in args.speeds for w in (True, False)] + [(args.speeds[0], 0, True)]
     for v, n, wheel in rows:
-        r = run(v, n, seeds, wheel, ms.matrices, ms.g)
+        r = run(v, n, seeds, wheel, ms.matrices, ms.g, args.jolt)
         name = ("roll+wheel" if wheel else "roll only") + ("" if n else ", no push")
         print(
             f"{3.6 * v:5.1f} {name:<16} {r['pushes']:6.0f} {r['found']:5.0f} {r['clean']:5.0f} {r['false']:5.0f} "
