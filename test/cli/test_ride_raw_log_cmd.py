@@ -34,3 +34,14 @@ def test_a_raw_log_needs_a_csv_and_pushes(capsys: pytest.CaptureFixture[str], tm
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert "--raw-log needs N >= 0" in err and len(err.strip().splitlines()) == 1
+
+
+def test_a_log_without_pushes_says_why_it_has_no_segment(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    out = tmp_path / "riding.csv"
+    argv = ["ride", "simulate", BROWSER, "--rider", "paper", "--speed", "5", "--duration", "90", "--raw-log", "0"]
+    assert main([*argv, "--seed", "4", "-o", str(out)]) == 0
+    capsys.readouterr()
+    assert main(["ride", "fit", str(out), "--segments", "find"]) == 0
+    got = capsys.readouterr()
+    assert got.out == "" and len(got.err.strip().splitlines()) == 1
+    assert "no segment" in got.err and "none within 0.3 s of a wheel-speed transient" in got.err

@@ -48,7 +48,16 @@ from numpy.typing import NDArray
 
 from .record import RideRecord
 
-__all__ = ["Kick", "Segment", "SegmentOptions", "find_kicks", "noise_sigma", "segment_record", "speed_transients"]
+__all__ = [
+    "Kick",
+    "Segment",
+    "SegmentOptions",
+    "find_kicks",
+    "noise_sigma",
+    "segment_record",
+    "speed_transients",
+    "why_no_segment",
+]
 
 FloatArray = NDArray[np.float64]
 
@@ -451,3 +460,25 @@ def segment_record(record: RideRecord, options: SegmentOptions | None = None) ->
             continue  # the rider's own motion: no decaying oscillation of a cycle or more
         segments.append(Segment(start, stop, kick, f"{opt.settle_s:g} s after the kick ({kick.reason})", why))
     return segments
+
+
+def why_no_segment(record: RideRecord, options: SegmentOptions | None = None) -> str:
+    """Why :func:`segment_record` finds no segment in ``record``: what was found, in words."""
+    opt = options or SegmentOptions()
+    if record.torque is not None:
+        return f"no steer-torque kick beyond {opt.torque_threshold:g}σ of its noise"
+    z = np.abs(record.signal - _baseline(record.times, record.signal, opt))
+    rolls = _signal_kicks(record.times, z, noise_sigma(record.signal), opt)
+    confirmed = find_kicks(record, opt)
+    if not rolls:
+        rising = f"{opt.rise:g}× within {opt.window_s:g} s above {opt.threshold:g}σ"
+        return f"no roll-rate kick (an envelope rising {rising})"
+    if confirmed or record.speed is None:
+        return f"{len(rolls)} roll-rate kicks, none followed by a decaying oscillation of a cycle or more"
+    times, _, _ = speed_transients(record.times, record.speed, opt)
+    jolts = 1 + int(np.sum(np.diff(times) > opt.speed_window_s)) if times.size else 0
+    return (
+        f"{len(rolls)} roll-rate kicks, none within {opt.speed_window_s:g} s of a wheel-speed transient "
+        f"({jolts} beyond {opt.speed_threshold:g}σ in the record): the rider's own motions, "
+        "or pushes that do not jolt the wheel (without the speed every roll-rate kick is tried)"
+    )
