@@ -480,5 +480,5 @@ def why_no_segment(record: RideRecord, options: SegmentOptions | None = None) ->
     return (
         f"{len(rolls)} roll-rate kicks, none within {opt.speed_window_s:g} s of a wheel-speed transient "
         f"({jolts} beyond {opt.speed_threshold:g}σ in the record): the rider's own motions, "
-        "or pushes that do not jolt the wheel (without the speed every roll-rate kick is tried)"
+        "or pushes that do not jolt the wheel (a record without a speed tries every roll-rate kick)"
     )
