@@ -136,6 +136,8 @@ def add_parser(sub: Any) -> None:
     s.add_argument("--kick-torque", type=float, default=5.0, help="steer torque of a 0.1 s kick, N m (default 5)")
     s.add_argument("--noise", type=float, default=0.01, help="σ of the roll-rate sensor, rad/s (default 0.01)")
     s.add_argument("--seed", type=int, default=0)
+    raw = "instead: a whole raw log (riding off and on, turns, N lateral pushes; roll rate and wheel speed; CSV)"
+    s.add_argument("--raw-log", type=int, metavar="N", help=raw)
     s.set_defaults(func=run_simulate)
 
 
@@ -166,7 +168,14 @@ def measure(args: argparse.Namespace) -> list[tuple[MeasuredEigenvalue, Segment,
         args.segments,
         args.model,
     )
-    return [(m.eigenvalue, m.segment, m.record) for m in measure_records(args.records, options)]
+    rows = [(m.eigenvalue, m.segment, m.record) for m in measure_records(args.records, options)]
+    for path in sorted(set(args.records) - {m.source for m, _, _ in rows}):
+        from ..core.ride.segment import why_no_segment
+        from ..rides import load_record
+
+        note = f"note: {path}: no segment: {why_no_segment(load_record(path, options))}"
+        print(terminal_safe(note), file=sys.stderr)
+    return rows
 
 
 def _num(x: float) -> float | None:
@@ -530,6 +539,26 @@ def _validate_text(comparison: Any, rows: list[tuple[MeasuredEigenvalue, Segment
     return "\n".join(lines)
 
 
+def _simulate_raw_log(args: argparse.Namespace, ms: Any) -> int:
+    """``ride simulate --raw-log N`` (:mod:`bike_rig.core.sim.ride_log`, its own assist); returns 0."""
+    from dataclasses import replace
+
+    import numpy as np
+
+    from ..core.sim.ride_log import ride_plan, simulate_raw_log, write_log_csv
+
+    if args.raw_log < 0 or not args.out.lower().endswith(".csv"):
+        raise UsageError(f"--raw-log needs N >= 0 pushes and an OUT.csv, got {args.raw_log} and {args.out}")
+    rng = np.random.default_rng(args.seed)
+    plan = ride_plan(args.duration, args.speed, args.raw_log, rng)
+    plan = replace(plan, rate_hz=args.rate, noise_roll_rate=args.noise)
+    log = simulate_raw_log(ms.matrices, ms.g, plan, rng)
+    write_log_csv(log, args.out)
+    pushes = ", ".join(f"{p.time:.2f} s (free decay {p.start:.2f}–{p.stop:.2f} s)" for p in log.pushes) or "none"
+    print(terminal_safe(f"wrote {args.out}: a {args.duration:g} s raw log at {args.speed:g} m/s; pushes {pushes}"))
+    return 0
+
+
 def run_simulate(args: argparse.Namespace) -> int:
     """``bike-rig ride simulate``; returns 0.
 
@@ -545,6 +574,8 @@ def run_simulate(args: argparse.Namespace) -> int:
             raise UsageError(f"--{name.replace('_', '-')} must be a finite positive number, got {x}")
     ps, fb = _bicycle(args)
     ms = canonical_with_sigma(ps)
+    if args.raw_log is not None:
+        return _simulate_raw_log(args, ms)
     first = min(1.0, 0.2 * args.duration)
     kicks = regular_kicks(args.duration, args.kick_every, first=first, steer_torque=args.kick_torque)
     sim = RideSimulation(args.speed, args.duration, args.rate, kicks, noise_roll_rate=args.noise, seed=args.seed)

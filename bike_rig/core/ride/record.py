@@ -1,14 +1,14 @@
 """A ride record and its CSV reader.
 
 A record is a plain time series: the sample times [s], the signal (the roll rate [rad/s],
-or whatever column is chosen), and optionally the forward speed [m/s] and the steer torque
-[N m] at the same times. A CSV file has one header line naming its columns; the time column
+or whatever column is chosen), and optionally the forward (wheel) speed [m/s] and the steer
+torque [N m] at the same times. A CSV file has one header line naming its columns; the time column
 holds seconds (``12.34``) or ISO 8601 timestamps (``2024-05-01T10:00:00.120``), which become
 seconds from the first sample.
 
 Default columns (each may be named by option instead): time ``time``, ``t``, ``time_s`` or
-``timestamp``; signal ``roll_rate``, ``gyro_x`` or ``angular_velocity_x``; speed ``speed``
-or ``speed_mps``; steer torque ``steer_torque`` (all optional but time and signal).
+``timestamp``; signal ``roll_rate``, ``gyro_x`` or ``angular_velocity_x``; speed ``speed``,
+``speed_mps`` or ``wheel_speed``; steer torque ``steer_torque`` (all optional but time and signal).
 """
 
 from __future__ import annotations
@@ -44,7 +44,7 @@ TIME_COLUMNS = ("time", "t", "time_s", "timestamp")
 #: Signal (roll rate) columns tried in turn when none is named.
 SIGNAL_COLUMNS = ("roll_rate", "gyro_x", "angular_velocity_x")
 #: Speed columns tried in turn when none is named.
-SPEED_COLUMNS = ("speed", "speed_mps")
+SPEED_COLUMNS = ("speed", "speed_mps", "wheel_speed")
 #: Steer torque columns tried in turn when none is named.
 TORQUE_COLUMNS = ("steer_torque",)
 
@@ -62,7 +62,7 @@ class RideRecord:
         times: Sample times [s] from the first sample, increasing.
         signal: The signal fitted, e.g. the roll rate [rad/s].
         signal_name: The signal's column (or topic and field).
-        speed: Forward speed at every sample [m/s], or None.
+        speed: Forward (wheel) speed at every sample [m/s], or None.
         torque: Steer torque at every sample [N m], or None.
     """
 

@@ -1,0 +1,47 @@
+"""``bike-rig ride simulate --raw-log``: a whole raw log, then ``ride fit --segments find`` on it."""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import pytest
+
+from bike_rig.cli.main import main
+from bike_rig.paths import config_dir
+
+BROWSER = str(config_dir() / "bicycles" / "browser.yaml")
+
+
+def test_a_simulated_raw_log_is_segmented_push_by_push(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    out = tmp_path / "log.csv"
+    argv = ["ride", "simulate", BROWSER, "--rider", "paper", "--speed", "5", "--duration", "179"]
+    assert main([*argv, "--raw-log", "3", "--seed", "3", "-o", str(out)]) == 0
+    told = capsys.readouterr().out
+    decays = [(float(a), float(b)) for a, b in re.findall(r"free decay ([\d.]+)–([\d.]+) s", told)]
+    assert len(decays) == 3 and out.read_text().splitlines()[0] == "time,roll_rate,wheel_speed"
+    assert main(["ride", "fit", str(out), "--segments", "find", "--json"]) == 0
+    segments = json.loads(capsys.readouterr().out)
+    assert len(segments) == 3
+    for seg, (start, stop) in zip(segments, decays, strict=True):
+        assert abs(seg["start"] - start) < 0.3 and abs(seg["stop"] - stop) < 1.0
+        assert seg["speed"] == pytest.approx(5.0, abs=0.05) and "wheel speed" in seg["start_reason"]
+
+
+def test_a_raw_log_needs_a_csv_and_pushes(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    argv = ["ride", "simulate", BROWSER, "--speed", "5", "--raw-log", "-1", "-o", str(tmp_path / "x.csv")]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "--raw-log needs N >= 0" in err and len(err.strip().splitlines()) == 1
+
+
+def test_a_log_without_pushes_says_why_it_has_no_segment(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    out = tmp_path / "riding.csv"
+    argv = ["ride", "simulate", BROWSER, "--rider", "paper", "--speed", "5", "--duration", "90", "--raw-log", "0"]
+    assert main([*argv, "--seed", "4", "-o", str(out)]) == 0
+    capsys.readouterr()
+    assert main(["ride", "fit", str(out), "--segments", "find"]) == 0
+    got = capsys.readouterr()
+    assert got.out == "" and len(got.err.strip().splitlines()) == 1
+    assert "no segment" in got.err and "none within 0.3 s of a wheel-speed transient" in got.err
