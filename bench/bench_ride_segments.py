@@ -22,13 +22,13 @@ from dataclasses import replace
 import numpy as np
 
 from bike_rig.cli.main import _parameters
+from bike_rig.config.paths import config_file
 from bike_rig.core.ride.eigen import fit_segment
 from bike_rig.core.ride.record import RideRecord
 from bike_rig.core.ride.segment import segment_record
 from bike_rig.core.rider import PAPER_RIDER, add_rider
 from bike_rig.core.sim.ride_log import ride_plan, simulate_raw_log
 from bike_rig.core.uncertainty.matrix_sigma import canonical_with_sigma
-from bike_rig.paths import config_file
 
 #: A segment's kick this close to a push [s] finds it.
 FOUND_S = 0.3

@@ -171,7 +171,7 @@ def measure(args: argparse.Namespace) -> list[tuple[MeasuredEigenvalue, Segment,
     rows = [(m.eigenvalue, m.segment, m.record) for m in measure_records(args.records, options)]
     for path in sorted(set(args.records) - {m.source for m, _, _ in rows}):
         from ..core.ride.segment import why_no_segment
-        from ..rides import load_record
+        from ..offline.rides import load_record
 
         note = f"note: {path}: no segment: {why_no_segment(load_record(path, options))}"
         print(terminal_safe(note), file=sys.stderr)

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from bike_rig.cli.main import main
-from bike_rig.paths import config_dir
+from bike_rig.config.paths import config_dir
 
 BROWSER = str(config_dir() / "bicycles" / "browser.yaml")
 

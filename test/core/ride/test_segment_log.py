@@ -9,13 +9,13 @@ import numpy as np
 import pytest
 
 from bike_rig.cli.main import _parameters
+from bike_rig.config.paths import config_file
 from bike_rig.core.ride.eigen import fit_segment
 from bike_rig.core.ride.record import RideRecord, read_ride_csv
 from bike_rig.core.ride.segment import SegmentOptions, find_kicks, segment_record, speed_transients
 from bike_rig.core.rider import PAPER_RIDER, add_rider
 from bike_rig.core.sim.ride_log import RideLog, SimulatedLog, ride_plan, simulate_raw_log, write_log_csv
 from bike_rig.core.uncertainty.matrix_sigma import canonical_with_sigma
-from bike_rig.paths import config_file
 
 
 @cache
