@@ -7,6 +7,7 @@ every trial's period against its key's combined period, r² and cycles.
 from __future__ import annotations
 
 import math
+import textwrap
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -30,6 +31,7 @@ __all__ = [
     "TrialOverview",
     "fit_figure",
     "fit_title",
+    "incomplete_text",
     "overview_data",
     "trial_overview",
     "trial_status",
@@ -43,10 +45,21 @@ STATUS_LABELS: dict[str, tuple[str, str, str]] = {
     "left out": ("left out (flagged or rejected)", "s", "C3"),
     "no period": ("no period", "X", "0.2"),
 }
+#: Longest line of the overview's heading, characters.
+_TITLE_WIDTH = 110
 #: Smallest half-range of the deviation axis, ppm.
 _MIN_RANGE_PPM = 10.0
 #: Margin of the deviation axis around the used trials' error bars.
 _RANGE_MARGIN = 1.6
+
+
+def incomplete_text(missing: Sequence[str]) -> str:
+    """What an incomplete session lacks, for a figure: its keys without a usable trial.
+
+    Args:
+        missing: The measurement keys without a usable trial.
+    """
+    return f"incomplete session: no usable trial yet for {', '.join(missing) or 'unknown keys'}"
 
 
 def trial_status(trial: SessionTrial) -> str:
@@ -396,9 +409,10 @@ def trial_overview(subject: Subject) -> Figure:
     dev_ax, r2_ax, cyc_ax = fig.subplots(3, 1, sharex=True, height_ratios=(3, 1.3, 1.3))
     n = len(ov.points)
     used = sum(p.status == "used" for p in ov.points)
-    _draw_deviation(
-        dev_ax, ov, f"{subject.name}: {n} trials, {used} used, {len(ov.references)} periods ({subject.path})"
-    )
+    title = f"{subject.name}: {n} trials, {used} used, {len(ov.references)} periods ({subject.path})"
+    if not subject.complete:
+        title += "\n" + textwrap.fill(incomplete_text(subject.missing), _TITLE_WIDTH)
+    _draw_deviation(dev_ax, ov, title)
     defaults = FitOptions()
     valid = [p for p in ov.points if p.trial.fit.valid]
     xs = np.array([p.x for p in valid])
