@@ -43,7 +43,7 @@ from ..bag.replay import FitOverrides, ReplayResult, ReplaySettings, replay_bag,
 from ..core.benchmark import ComMethod
 from ..core.errors import BikeRigError
 from ..core.uncertainty.matrix_sigma import SigmaConvention
-from ..textfmt import terminal_safe
+from ..textfmt import format_speed, terminal_safe
 from . import format as fmt
 from .commands import HELP
 from .options import (
@@ -186,7 +186,7 @@ def _trials_table(result: ReplayResult) -> str:
 
 
 def _speed(s: Any) -> str:
-    return "none" if s is None else f"{_vs(s.speed, s.sigma)} m/s"
+    return format_speed(s)
 
 
 def replay_text(result: ReplayResult) -> str:

@@ -88,7 +88,7 @@ def fit_title(trial: SessionTrial) -> str:
     fit = trial.fit
     head = f"{trial.trial_id} ({trial.key})"
     if fit.valid:
-        value, sigma = format_value_sigma(fit.period, fit.period_sigma)
+        value, sigma = format_value_sigma(fit.period, fit.period_sigma, digits=None)
         head += f": T = {value} ± {sigma} s, ζ = {fit.zeta:.2e}, r² = {fit.r2:.5f}, {fit.n_cycles:.1f} cycles"
     else:
         head += ": no period"

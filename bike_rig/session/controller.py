@@ -28,7 +28,7 @@ from ..pipeline.model import StabilitySweep
 from ..pipeline.readings import ReadingEntry
 from ..pipeline.stalls import StallWatch
 from ..suggest import did_you_mean
-from ..textfmt import format_speed
+from ..textfmt import format_speed, format_value_sigma
 from .plan import ItemState, ReadingItem, TrialItem
 from .state import OperatorSession
 
@@ -426,7 +426,8 @@ class SessionController:
         out = []
         for name in PARAMETER_NAMES:
             v, s = ps.value(name), ps.sigma(name)
-            out.append(Reply("info", f"{name:4s} {v: .6g} ± {s:.2g}", {"name": name, "value": v, "sigma": s}))
+            value, sigma = format_value_sigma(v, s, digits=None)
+            out.append(Reply("info", f"{name:4s} {value:>12} ± {sigma}", {"name": name, "value": v, "sigma": s}))
         return out
 
     def _cmd_help(self, args: Sequence[str]) -> list[Reply]:

@@ -28,6 +28,7 @@ from ..pipeline.fit import TrialFit
 from ..pipeline.fit_details import FitDetails
 from ..pipeline.model import StabilitySweep
 from ..pipeline.readings import ReadingEntry
+from ..textfmt import format_uncertain
 from .live import LiveStatus, LiveTrace
 from .plan import ItemState, PlanItem, ReadingItem, SessionPlan, TrialItem
 
@@ -133,7 +134,7 @@ def result_line(view: SessionTrialView) -> str:
         return f"{head} aborted" if view.aborted else f"{head} waiting for its fit"
     cycles = _cycles(fit, view.sample_rate_hz)
     counted = f", {cycles:.0f} cycles" if math.isfinite(cycles) else ""  # (none: neither event nor batch told the rate)
-    numbers = f"T = {fit.period:.6g} ± {fit.period_sigma:.2g} s{counted}, r² {fit.fit.r2:.5f}"
+    numbers = f"T = {format_uncertain(fit.period, fit.period_sigma, 's')}{counted}, r² {fit.fit.r2:.5f}"
     numbers = numbers if fit.valid else "no period"
     details = FitDetails.of(fit).summary(fit.period) if fit.valid else ""
     more = f"; {details}" if details else ""
