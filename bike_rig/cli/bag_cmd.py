@@ -110,7 +110,7 @@ def _validity(t: TrialSummary) -> str:
 def _period(t: TrialSummary) -> str:
     if not math.isfinite(t.period):
         return "-"
-    v, s = format_value_sigma(t.period, t.period_sigma)
+    v, s = format_value_sigma(t.period, t.period_sigma, digits=None)
     return f"{v} ± {s}"
 
 

@@ -204,7 +204,7 @@ def fit_json(file: str, fit: PeriodFit) -> dict[str, Any]:
 def _value_sigma(value: float, sigma: float) -> tuple[str, str]:
     if not math.isfinite(value):
         return "-", "-"
-    return format_value_sigma(value, sigma)
+    return format_value_sigma(value, sigma, digits=None)
 
 
 def fit_table(trials: Sequence[Trial], fits: Sequence[PeriodFit]) -> str:
@@ -311,7 +311,7 @@ def _combined_line(label: str, c: CombinedPeriod) -> str:
     counts = f"{c.n_used} used, {c.n_flagged} flagged, {c.n_invalid} without period"
     if c.n_used == 0:
         return f"combined period of {label}: none ({counts})"
-    value, sigma = format_value_sigma(c.value, c.sigma)
+    value, sigma = format_value_sigma(c.value, c.sigma, digits=None)
     birge = f"; Birge ratio {c.birge_ratio:.2f}" if math.isfinite(c.birge_ratio) else ""
     return f"combined period of {label}: T = {value} ± {sigma} s ({counts}{birge})"
 

@@ -11,7 +11,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 
 from ..core.benchmark import PARAMETER_NAMES, ComEstimate, ParameterSet
-from ..core.textfmt import LABELS, TABLE2_ORDER, format_value_sigma, terminal_safe
+from ..core.textfmt import LABELS, TABLE2_ORDER, format_uncertain, format_value_sigma, terminal_safe
 from ..core.uncertainty.matrix_sigma import MatrixSet
 from ..core.uncertainty.mc_sigma import PrintedSigmas
 from ..core.uncertainty.uncertain import UncertainVector
@@ -78,10 +78,11 @@ def com_summary(coms: Mapping[str, ComEstimate]) -> str:
     lines = ["mass centres (x, z) [m], centroid Eq 17-19 vs least squares Eq 20:"]
     for part, est in coms.items():
         c, s = est.centroid, est.least_squares
+        centroid = ", ".join(format_uncertain(v, e) for v, e in zip(c.values, c.sigmas, strict=True))
+        lstsq = ", ".join(format_uncertain(v, e) for v, e in zip(s.values, s.sigmas, strict=True))
         lines.append(
-            f"  {names[part]:<15} centroid ({c.values[0]:.4f}, {c.values[1]:.4f}) σ ({c.sigmas[0]:.4f}, "
-            f"{c.sigmas[1]:.4f}); least squares ({s.values[0]:.4f}, {s.values[1]:.4f}) σ ({s.sigmas[0]:.4f}, "
-            f"{s.sigmas[1]:.4f}); more accurate: {est.more_accurate.value}; used: {est.used.value}"
+            f"  {names[part]:<15} centroid ({centroid}); least squares ({lstsq}); "
+            f"more accurate: {est.more_accurate.value}; used: {est.used.value}"
         )
     return "\n".join(lines)
 

@@ -23,7 +23,7 @@ from ..core.rider import add_rider
 from ..core.textfmt import format_speed
 from ..core.uncertainty.matrix_sigma import MatrixSet, SigmaConvention, canonical_with_sigma
 from ..core.uncertainty.speed_sigma import CriticalSpeedsWithSigma, critical_speeds_with_sigma
-from ..core.whipple import EigenvalueSweep, critical_speeds, eigenvalues
+from ..core.whipple import EigenvalueSweep, eigenvalues
 from ..core.whipple.closed_loop import closed_loop_stable_range
 from . import format as fmt
 from .commands import HELP
@@ -85,14 +85,17 @@ def feedback_json(
     return {
         "feedback": {"name": fb.name, "file": fb.source, "gains": fb.gains(speeds).tolist()},
         "stable_speed_ranges": [[lo, hi if math.isfinite(hi) else None] for lo, hi in ranges],
-        "open_loop": {"weave_speed": open_cs.weave, "capsize_speed": open_cs.capsize},
+        "open_loop": {
+            f"{label}_speed{part}": None if speed is None else _number(getattr(speed, attr))
+            for label, speed in (("weave", open_cs.weave), ("capsize", open_cs.capsize))
+            for part, attr in (("", "speed"), ("_sigma", "sigma"))
+        },
     }
 
 
-def feedback_text(fb: Feedback, ranges: tuple[tuple[float, float], ...], open_cs: Any) -> str:
-    """The closed loop's heading: the feedback, its stable speed ranges and the open loop's speeds."""
-    weave = "none" if open_cs.weave is None else f"{open_cs.weave:.3f} m/s"
-    capsize = "none" if open_cs.capsize is None else f"{open_cs.capsize:.3f} m/s"
+def feedback_text(fb: Feedback, ranges: tuple[tuple[float, float], ...], open_cs: CriticalSpeedsWithSigma) -> str:
+    """The closed loop's heading: the feedback, its stable speed ranges and the open loop's speeds with σ."""
+    weave, capsize = format_speed(open_cs.weave, "weave"), format_speed(open_cs.capsize, "capsize")
     gains = "".join(
         f"  {k} [{u}]: {s.describe()}\n" for k, u, s in zip(GAIN_KEYS, GAIN_UNITS, fb.schedules, strict=True)
     )
@@ -133,7 +136,7 @@ def run(args: argparse.Namespace) -> int:
     closed: list[str] = []
     if fb is not None:
         ranges = closed_loop_stable_range(ms.matrices, ms.g, fb)
-        open_cs = critical_speeds(ms.matrices, ms.g)
+        open_cs = critical_speeds_with_sigma(ps, convention, ms)
         closed = [feedback_text(fb, ranges, open_cs)]
     if args.json:
         doc = model_json(ms, cs, speeds, eig)

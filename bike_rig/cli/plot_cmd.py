@@ -11,7 +11,10 @@ parameter file or a session bag (:func:`bike_rig.offline.subjects.load_subject`)
 (``eigen``, ``locus``, ``modes``, ``bode``, once per rider asked for) and ``side`` draw every
 input in one figure (a panel or a line each); ``trials`` and ``fits`` draw each input that
 has trials on its own (with ``all``, inputs without trials are skipped with a note on stderr;
-asked for by name, an input without trials is an error). Files written (see
+asked for by name, an input without trials is an error). A bag of a session that did not finish
+has trials but no parameters: its trial figures are drawn (the overview names the keys still
+without a usable trial) with a note on stderr saying what is missing; ``all`` leaves it out of
+the model figures and ``side``, which refuse it when asked for by name. Files written (see
 :func:`figure_stem`)::
 
     DIR/<kind>[_rider].<fmt>              eigen, locus, modes, bode (``_rider``: the paper's rider)
@@ -235,11 +238,50 @@ def _no_trials_reason(subject: Subject) -> str:
     return "it has no trials"
 
 
+def _complete_for_kinds(subjects: list[Subject], kinds: Sequence[str], ride: bool) -> list[Subject]:
+    """Check the incomplete sessions among ``subjects`` against the kinds asked for, and say what they lack.
+
+    An incomplete session (a bag of a session that did not finish) has trials but no parameters:
+    its trial figures are drawn and a note on stderr names the keys without a usable trial; the
+    figures drawn from the parameters leave it out (``all``: with the note) or, asked for by name,
+    are refused.
+
+    Args:
+        subjects: The inputs.
+        kinds: The kinds to draw.
+        ride: Ride records are given (else the ``ride`` kind draws nothing).
+
+    Returns:
+        ``subjects``, in order.
+
+    Raises:
+        SubjectError: A figure drawn from the parameters is asked for by name and an input is
+            incomplete (names it and its missing keys).
+    """
+    from ..offline.subjects import SubjectError, incomplete_reason
+
+    model_kinds = [k for k in kinds if not FIGURES[k].needs_trials and (ride or "ride" not in FIGURES[k].options)]
+    for subject in subjects:
+        if subject.complete:
+            continue
+        reason = incomplete_reason(subject.missing)
+        if model_kinds and len(kinds) == 1:
+            raise SubjectError(subject.path, f"{reason}; the {kinds[0]} figure needs its parameters")
+        skipped = f"; no {', '.join(model_kinds)} figures for it (they need its parameters)" if model_kinds else ""
+        drawn = "drawing the trials it has" if subject.trials else "no trial to draw yet"
+        print(f"bike-rig plot: note: {subject.path}: {reason}: {drawn}{skipped}", file=sys.stderr)
+    return subjects
+
+
 def _kind_jobs(kind: FigureKind, subjects: list[Subject], opts: PlotOptions, out: Path) -> Iterator[FigureJob]:
     """The figures of one kind: one of every input (per rider), or one per input or trial."""
     draw = kind.drawer()  # imported here, so a figure's time (--timings) is its drawing only
     if "ride" in kind.options and not opts.ride:
         return  # (drawn only for ride records)
+    if not kind.needs_trials:
+        subjects = [s for s in subjects if s.complete]  # (an incomplete session has no parameters)
+        if not subjects:
+            return
     options = {name: getattr(opts, name) for name in kind.options if name != "rider"}
     if options.get("speed", 0.0) is None:
         del options["speed"]  # the figure's own default (see DEFAULT_SPEED_TEXT)
@@ -297,7 +339,7 @@ def run(args: argparse.Namespace) -> int:
     if args.kind == "ride" and not opts.ride:
         raise PlotUsageError("the ride figure needs ride records: --ride RECORD (CSV file or bag, repeatable)")
     out = check_out_dir(args.out)
-    subjects = [load_subject(p, args.com_method) for p in args.inputs]
+    subjects = [load_subject(p, args.com_method, partial=True) for p in args.inputs]
     kinds = KINDS if args.kind == "all" else (args.kind,)
     for subject in subjects:
         if subject.trials:
@@ -307,6 +349,7 @@ def run(args: argparse.Namespace) -> int:
             raise PlotUsageError(why)
         if args.kind == "all":
             print(f"bike-rig plot: note: {why}; no trials or fits figures for it", file=sys.stderr)
+    subjects = _complete_for_kinds(subjects, kinds, bool(opts.ride))
     timings: list[str] = []
     for job in figure_jobs(kinds, subjects, opts, out):
         t0 = time.perf_counter()

@@ -19,7 +19,7 @@ from typing import Any
 
 from ..core.benchmark import ComMethod
 from ..core.errors import BikeRigError
-from ..core.textfmt import terminal_safe
+from ..core.textfmt import format_speed, terminal_safe
 from ..core.uncertainty.matrix_sigma import SigmaConvention
 from ..offline.replay import FitOverrides, ReplayResult, ReplaySettings, replay_bag, result_json
 from . import format as fmt
@@ -164,7 +164,7 @@ def _trials_table(result: ReplayResult) -> str:
 
 
 def _speed(s: Any) -> str:
-    return "none" if s is None else f"{_vs(s.speed, s.sigma)} m/s"
+    return format_speed(s)
 
 
 def replay_text(result: ReplayResult) -> str:

@@ -53,7 +53,7 @@ from ..core.ride.eigen import MODELS, MeasuredEigenvalue, combine_eigenvalues
 from ..core.ride.record import RideRecord
 from ..core.ride.segment import Segment
 from ..core.symbols import PARAMETER_NAMES
-from ..core.textfmt import terminal_safe
+from ..core.textfmt import format_uncertain, terminal_safe
 from ..offline.rides import WHOLE_BELOW_S, RecordOptions, measure_records
 from .commands import HELP
 from .common import UsageError
@@ -416,10 +416,8 @@ def _calibrate_text(result: Any) -> str:
     for i, n in enumerate(PARAMETER_NAMES):
         if n in tight or abs(best.shifts[i]) >= 0.5 or n in best.unknowns.free:
             change = f"{best.shifts[i]:+.1f} σ, ratio {best.sigma_ratio[i]:.2f}"
-            lines.append(
-                f"    {n:<5} {prior.values[i]:.5g} ± {prior.sigmas[i]:.2g} → {best.values[i]:.5g} ± "
-                f"{best.sigmas[i]:.2g}  ({change})"
-            )
+            before = format_uncertain(prior.values[i], prior.sigmas[i])
+            lines.append(f"    {n:<5} {before} → {format_uncertain(best.values[i], best.sigmas[i])}  ({change})")
     if lines[-1].startswith("best variant"):
         lines.append("    none: every parameter stays within 0.5 prior σ and keeps its prior σ")
     lines.append(f"verdict: {cal.verdict}")

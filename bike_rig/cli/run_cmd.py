@@ -48,7 +48,7 @@ from typing import TYPE_CHECKING, Any
 
 from ..config.paths import config_dir, config_file
 from ..core.errors import BikeRigError
-from ..core.textfmt import terminal_safe
+from ..core.textfmt import format_speed, format_uncertain, terminal_safe
 from ..pipeline.stalls import StallWatch
 from .commands import HELP
 from .common import UsageError
@@ -269,9 +269,7 @@ class RunTracker:
 
 
 def _speed(s: Any) -> str:
-    if s is None or not math.isfinite(s.speed):
-        return "none"
-    return f"{s.speed:.3f} ± {s.sigma:.3f} m/s"
+    return format_speed(s)
 
 
 def _listed(items: tuple[str, ...], most: int = 12) -> str:
@@ -301,7 +299,7 @@ def result_lines(trial_id: str, key: str, fit: TrialFit, sample_rate_hz: float =
         n = fit.window[1] - fit.window[0]
         ok_rate = math.isfinite(sample_rate_hz) and sample_rate_hz > 0 and fit.period > 0
         cycles = f", {n / sample_rate_hz / fit.period:.0f} cycles" if ok_rate else ""
-        numbers = f"T = {fit.period:.6f} ± {fit.period_sigma:.2g} s{cycles}, r² {fit.fit.r2:.5f}"
+        numbers = f"T = {format_uncertain(fit.period, fit.period_sigma, 's')}{cycles}, r² {fit.fit.r2:.5f}"
     else:
         numbers = "no period"
     if fit.usable:

@@ -56,7 +56,7 @@ _REPLY_STYLE = {
 def title_text(bicycle: str, done: int, total: int, speeds: StabilitySweep | None) -> str:
     """The title line: bicycle, progress and, once there, both speeds with σ (compact: 80 columns).
 
-    E.g. ``bike_rig · Browser · 68/68 done  weave 4.195±0.045  capsize 4.350±0.064 m/s``.
+    E.g. ``bike_rig · Browser · 68/68 done  weave 4.20±0.05  capsize 4.35±0.06 m/s``.
     """
     title = f"bike_rig · {bicycle} · {done}/{total} done"
     if speeds is None or speeds.weave is None or speeds.capsize is None:

@@ -7,6 +7,7 @@ every trial's period against its key's combined period, r² and cycles.
 from __future__ import annotations
 
 import math
+import textwrap
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -20,6 +21,7 @@ from ..core.period import FitOptions, combine_periods
 from ..core.textfmt import format_value_sigma
 from ..offline.subjects import SessionTrial, Subject, is_bag_path
 from ..offline.timeline import TIME_BASE
+from .labels import RowLabels
 from .style import new_figure
 
 __all__ = [
@@ -29,6 +31,7 @@ __all__ = [
     "TrialOverview",
     "fit_figure",
     "fit_title",
+    "incomplete_text",
     "overview_data",
     "trial_overview",
     "trial_status",
@@ -42,10 +45,21 @@ STATUS_LABELS: dict[str, tuple[str, str, str]] = {
     "left out": ("left out (flagged or rejected)", "s", "C3"),
     "no period": ("no period", "X", "0.2"),
 }
+#: Longest line of the overview's heading, characters.
+_TITLE_WIDTH = 110
 #: Smallest half-range of the deviation axis, ppm.
 _MIN_RANGE_PPM = 10.0
 #: Margin of the deviation axis around the used trials' error bars.
 _RANGE_MARGIN = 1.6
+
+
+def incomplete_text(missing: Sequence[str]) -> str:
+    """What an incomplete session lacks, for a figure: its keys without a usable trial.
+
+    Args:
+        missing: The measurement keys without a usable trial.
+    """
+    return f"incomplete session: no usable trial yet for {', '.join(missing) or 'unknown keys'}"
 
 
 def trial_status(trial: SessionTrial) -> str:
@@ -74,7 +88,7 @@ def fit_title(trial: SessionTrial) -> str:
     fit = trial.fit
     head = f"{trial.trial_id} ({trial.key})"
     if fit.valid:
-        value, sigma = format_value_sigma(fit.period, fit.period_sigma)
+        value, sigma = format_value_sigma(fit.period, fit.period_sigma, digits=None)
         head += f": T = {value} ± {sigma} s, ζ = {fit.zeta:.2e}, r² = {fit.r2:.5f}, {fit.n_cycles:.1f} cycles"
     else:
         head += ": no period"
@@ -142,7 +156,7 @@ def fit_figure(trial: SessionTrial) -> Figure:
         bottom.axhline(0.0, color="0.3", linewidth=0.6)
     else:
         bottom.text(0.5, 0.5, "no fit", transform=bottom.transAxes, ha="center", va="center")
-    top.legend(loc="upper right", fontsize=8)
+    fig.legend(handles=top.get_legend_handles_labels()[0], loc="outside right upper", fontsize=8)
     return fig
 
 
@@ -270,10 +284,11 @@ def _key_groups(ov: TrialOverview) -> list[tuple[str, float, float]]:
     return groups
 
 
-def _draw_deviation(ax: Axes, ov: TrialOverview) -> None:
+def _draw_deviation(ax: Axes, ov: TrialOverview, title: str) -> None:
     half = _deviation_range(ov.points)
     refs = {r.key: r for r in ov.references}
     pad = 0.4 if not ov.time_axis else 0.0
+    centres, labels, gids = [], [], []
     for j, (key, a, b) in enumerate(_key_groups(ov)):
         if j % 2:
             ax.axvspan(a - 0.5 if not ov.time_axis else a, b + 0.5 if not ov.time_axis else b, color="0.93", zorder=0)
@@ -281,18 +296,10 @@ def _draw_deviation(ax: Axes, ov: TrialOverview) -> None:
         if ref.basis == "combined" and math.isfinite(ref.sigma):
             s = ref.sigma / ref.period * 1e6
             ax.fill_between([a - pad, b + pad], [-s, -s], [s, s], color="C2", alpha=0.25, linewidth=0, zorder=1)
-        label = key if ref.basis == "combined" else f"{key}\n({ref.basis})"
-        ax.text(
-            (a + b) / 2,
-            1.01,
-            label,
-            transform=ax.get_xaxis_transform(),
-            ha="center",
-            va="bottom",
-            fontsize=6,
-            rotation=90,
-            gid=f"key:{key}",
-        )
+        centres.append((a + b) / 2)
+        labels.append(key if ref.basis == "combined" else f"{key} ({ref.basis})")
+        gids.append(f"key:{key}")
+    RowLabels(ax, centres, labels, gids, title=title, fontsize=7)
     for status, (label, marker, colour) in STATUS_LABELS.items():
         pts = [p for p in ov.points if p.status == status]
         if not pts:
@@ -375,11 +382,6 @@ def _draw_deviation(ax: Axes, ov: TrialOverview) -> None:
     ax.axhline(0.0, color="0.3", linewidth=0.6)
     ax.set_ylim(-half, half)
     ax.set_ylabel("(T − T_key) / T_key [ppm]")
-    handles, _ = ax.get_legend_handles_labels()
-    handles.append(Patch(color="C2", alpha=0.25, label="σ of the key's combined period"))
-    fig = ax.get_figure()
-    assert isinstance(fig, Figure)
-    fig.legend(handles=handles, loc="outside right upper", fontsize=7)
 
 
 def trial_overview(subject: Subject) -> Figure:
@@ -405,12 +407,12 @@ def trial_overview(subject: Subject) -> Figure:
     ov = overview_data(subject)
     fig = new_figure(11.0, 7.5)
     dev_ax, r2_ax, cyc_ax = fig.subplots(3, 1, sharex=True, height_ratios=(3, 1.3, 1.3))
-    _draw_deviation(dev_ax, ov)
     n = len(ov.points)
     used = sum(p.status == "used" for p in ov.points)
-    dev_ax.set_title(
-        f"{subject.name}: {n} trials, {used} used, {len(ov.references)} periods ({subject.path})", fontsize=10, pad=28
-    )
+    title = f"{subject.name}: {n} trials, {used} used, {len(ov.references)} periods ({subject.path})"
+    if not subject.complete:
+        title += "\n" + textwrap.fill(incomplete_text(subject.missing), _TITLE_WIDTH)
+    _draw_deviation(dev_ax, ov, title)
     defaults = FitOptions()
     valid = [p for p in ov.points if p.trial.fit.valid]
     xs = np.array([p.x for p in valid])
@@ -427,7 +429,6 @@ def trial_overview(subject: Subject) -> Figure:
     if one_minus.size and np.all(np.isfinite(one_minus)):
         r2_ax.set_yscale("log")
     r2_ax.set_ylabel("1 − r²")
-    r2_ax.legend(loc="upper right", fontsize=6)
     cycles = np.array([p.trial.fit.n_cycles for p in valid])
     cyc_ax.scatter(xs, cycles, s=12, c=colours, gid="overview:cycles")
     cyc_ax.axhline(
@@ -439,7 +440,10 @@ def trial_overview(subject: Subject) -> Figure:
     )
     cyc_ax.set_ylim(bottom=0.0)
     cyc_ax.set_ylabel("cycles in window")
-    cyc_ax.legend(loc="lower right", fontsize=6)
+    handles = [h for ax in (dev_ax, r2_ax, cyc_ax) for h in ax.get_legend_handles_labels()[0]]
+    band = Patch(color="C2", alpha=0.25, label="σ of the key's combined period")
+    handles.insert(len(dev_ax.get_legend_handles_labels()[0]), band)
+    fig.legend(handles=handles, loc="outside right upper", fontsize=7)
     if ov.time_axis:
         cyc_ax.set_xlabel(f"trial start [{TIME_BASE}]")
     else:

@@ -20,7 +20,7 @@ from typing import Any, Protocol
 from ..core.period.advice import flag_advice
 from ..core.suggest import did_you_mean
 from ..core.symbols import PARAMETER_NAMES
-from ..core.textfmt import format_speed
+from ..core.textfmt import format_speed, format_value_sigma
 from ..pipeline.acquire import SampleBatch, TrialEventRecord
 from ..pipeline.assemble import SessionParameters
 from ..pipeline.diagnostics import HealthBoard, StatusReport
@@ -426,7 +426,8 @@ class SessionController:
         out = []
         for name in PARAMETER_NAMES:
             v, s = ps.value(name), ps.sigma(name)
-            out.append(Reply("info", f"{name:4s} {v: .6g} ± {s:.2g}", {"name": name, "value": v, "sigma": s}))
+            value, sigma = format_value_sigma(v, s, digits=None)
+            out.append(Reply("info", f"{name:4s} {value:>12} ± {sigma}", {"name": name, "value": v, "sigma": s}))
         return out
 
     def _cmd_help(self, args: Sequence[str]) -> list[Reply]:

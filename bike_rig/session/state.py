@@ -15,6 +15,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 from ..core.period.advice import flag_advice
+from ..core.textfmt import format_uncertain
 from ..pipeline.acquire import SampleBatch, TrialEventKind, TrialEventRecord
 from ..pipeline.assemble import SessionParameters
 from ..pipeline.fit import TrialFit
@@ -126,7 +127,7 @@ def result_line(view: SessionTrialView) -> str:
         return f"{head} aborted" if view.aborted else f"{head} waiting for its fit"
     cycles = _cycles(fit, view.sample_rate_hz)
     counted = f", {cycles:.0f} cycles" if math.isfinite(cycles) else ""  # (none: neither event nor batch told the rate)
-    numbers = f"T = {fit.period:.6g} ± {fit.period_sigma:.2g} s{counted}, r² {fit.fit.r2:.5f}"
+    numbers = f"T = {format_uncertain(fit.period, fit.period_sigma, 's')}{counted}, r² {fit.fit.r2:.5f}"
     numbers = numbers if fit.valid else "no period"
     details = FitDetails.of(fit).summary(fit.period) if fit.valid else ""
     more = f"; {details}" if details else ""

@@ -183,13 +183,13 @@ def test_each_result_is_printed_once_with_flags_reasons_and_advice() -> None:
     assert tr.add(_event(TrialEventKind.START, "a", "TcR1")) == ["trial a (TcR1): recording"]
     assert tr.add(_event(TrialEventKind.STOP, "a", "TcR1", 15_000)) == []
     assert tr.pending() == ["a"]
-    assert tr.add(_fit("a", "TcR1")) == ["trial a (TcR1): T = 1.500000 ± 2.5e-05 s, 9 cycles, r² 0.99876 - ok"]
+    assert tr.add(_fit("a", "TcR1")) == ["trial a (TcR1): T = 1.500000 ± 0.000025 s, 9 cycles, r² 0.99876 - ok"]
     assert tr.pending() == []
     assert tr.add(_fit("a", "TcR1", n=15_001)) == []  # a re-publication (restarted fitter) is not printed again
     tr.add(_event(TrialEventKind.START, "b", "TtB2"))
     lines = tr.add(_fit("b", "TtB2", ("beating", "clipped")))
     assert lines == [
-        "trial b (TtB2): T = 1.500000 ± 2.5e-05 s, 9 cycles, r² 0.99876 - REDO",
+        "trial b (TtB2): T = 1.500000 ± 0.000025 s, 9 cycles, r² 0.99876 - REDO",
         f"    beating: reason of beating -> {FLAG_ADVICE[FlagCode.BEATING]}",
         f"    clipped: reason of clipped -> {FLAG_ADVICE[FlagCode.CLIPPED]}",
     ]
@@ -218,13 +218,16 @@ def test_the_parameter_set_is_announced_once_complete_with_the_speeds() -> None:
     sweep = StabilitySweep("Browser", "", _sweep(), SpeedWithSigma(4.1954, 0.0451), SpeedWithSigma(4.35, math.nan))
     complete = SessionParameters("Browser", ComMethod.CENTROID, (), (), parameters=_parameter_set())
     assert tr.add(complete) == []  # no model yet
-    assert tr.add(sweep) == ["parameter set complete: weave speed 4.195 ± 0.045 m/s, capsize speed 4.350 ± nan m/s"]
+    assert tr.add(sweep) == [
+        "parameter set complete: weave speed 4.20 ± 0.05 m/s, "
+        "capsize speed 4.350000 m/s (σ undefined: not a simple root)"
+    ]
     assert tr.add(sweep) == [] and tr.add(complete) == []
     # the model may arrive before its set (two processes): said once both are in
     late = RunTracker()
     assert late.add(incomplete) == [] and late.add(sweep) == []
     assert late.add(complete) == [f"parameter set complete: {late.speeds_text()}"]
-    assert tr.summary()[-1].startswith("parameters: complete (Browser); weave speed 4.195 ± 0.045 m/s")
+    assert tr.summary()[-1].startswith("parameters: complete (Browser); weave speed 4.20 ± 0.05 m/s")
 
 
 def _parameter_set() -> ParameterSet:
@@ -245,7 +248,7 @@ def _sweep() -> EigenvalueSweep:
 
 def test_a_result_without_a_known_rate_leaves_out_the_cycles() -> None:
     line = result_lines("x", "", _fit("x", ""))[0]
-    assert line == "trial x (?): T = 1.500000 ± 2.5e-05 s, r² 0.99876 - ok"
+    assert line == "trial x (?): T = 1.500000 ± 0.000025 s, r² 0.99876 - ok"
     assert os.linesep not in line
 
 

@@ -9,7 +9,7 @@ Numbers are read back from the figure's artists (by gid), never pixels.
 from __future__ import annotations
 
 import dataclasses
-import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -95,8 +95,12 @@ def test_fit_figure_draws_the_samples_fit_and_residuals(bag_subject: Subject) ->
     title = fig.axes[0].get_title()
     assert trial.trial_id in title and trial.key in title
     assert f"r² = {trial.fit.r2:.5f}" in title
-    sigma_digits = -math.floor(math.log10(trial.fit.period_sigma))
-    assert f"{trial.fit.period:.{sigma_digits}f} ± " in title
+    m = re.search(r"T = ([0-9.]+) ± ([0-9.]+) s", title)  # σ to 1-2 significant digits, T to σ's last digit
+    assert m is not None, title
+    value, sigma = m.groups()
+    assert len(sigma.lstrip("0.")) in (1, 2) and len(value.split(".")[1]) == len(sigma.split(".")[1])
+    assert abs(float(sigma) - trial.fit.period_sigma) <= 0.2 * trial.fit.period_sigma
+    assert abs(float(value) - trial.fit.period) <= 0.5 * 10.0 ** -len(value.split(".")[1])
     assert "rad/s" in fig.axes[0].get_ylabel()
 
 

@@ -5,7 +5,10 @@ Debian's ``chromium`` (``/usr/bin/chromium``) is installed by the test set-up
 report in an iframe (``--allow-file-access-from-files`` lets it read the frame) and, once the
 frame has loaded, writes into its own DOM how many ``<img>`` are complete with a natural width,
 which failed, and the figure count the report states; ``--dump-dom`` prints that DOM. A second
-run takes a screenshot of the report, which must not be blank.
+run takes a screenshot of the report, which must not be blank. Both for a finished session's
+report and for the partial report of an unfinished one. (What each figure draws, its texts
+apart and inside its canvas and its legends off the data, is checked from matplotlib's renderer:
+``test/report/test_figure_text_inside.py``, ``test/plots/test_figure_layout.py``.)
 
 Chromium is kept off the network: where the user may (root, as in CI) it runs in a network
 namespace of its own with no interface (``unshare --net``); in any case with no background
@@ -44,6 +47,8 @@ VIRTUAL_TIME_MS = 20000
 FRAME_WIDTH_PX = 800
 #: Trials whose fit figures are in the rendered report (a few; the page layout is the same).
 TRIALS = 4
+#: Measurement keys with trials in the incomplete session (the others are missing).
+KEPT = 2
 
 FLAGS = (
     "--headless",
@@ -133,18 +138,30 @@ def run_chromium(args: list[str], profile: Path) -> str:
     return out
 
 
-@pytest.fixture(scope="module")
-def report_file(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """A bag's report (model figures, trial overview, a few trial fits)."""
+@pytest.fixture(scope="module", params=["full", "partial"])
+def report_file(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory) -> tuple[str, Path]:
+    """A finished session's report, or the partial report of an unfinished one, and which.
+
+    The full one has the model figures, the trial overview and a few fits; the partial one (its
+    first keys' trials only) the overview and the fits.
+    """
     tmp = tmp_path_factory.mktemp("chromium-report")
-    subject = load_subject(write_simulated_bag(tmp / "bag", short_session()))
+    session = short_session()
+    if request.param == "partial":
+        kept = set(list(dict.fromkeys(t.key for t in session.trials))[:KEPT])
+        session = dataclasses.replace(session, trials=tuple(t for t in session.trials if t.key in kept))
+    subject = load_subject(write_simulated_bag(tmp / "bag", session), partial=True)
+    assert subject.complete == (request.param == "full")
     subject = dataclasses.replace(subject, trials=subject.trials[:TRIALS])
-    return write_report(subject, tmp / "report").path
+    return request.param, write_report(subject, tmp / "report").path
 
 
-def test_report_renders_with_every_figure_loaded(report_file: Path, tmp_path: Path) -> None:
+def test_report_renders_with_every_figure_loaded(report_file: tuple[str, Path], tmp_path: Path) -> None:
+    kind, report_file_path = report_file
     harness = tmp_path / "harness.html"
-    harness.write_text(HARNESS.format(src=html.escape(report_file.as_uri()), width=FRAME_WIDTH_PX), encoding="utf-8")
+    harness.write_text(
+        HARNESS.format(src=html.escape(report_file_path.as_uri()), width=FRAME_WIDTH_PX), encoding="utf-8"
+    )
     profile = tmp_path / "profile"
     profile.mkdir()
     dom = run_chromium(
@@ -156,20 +173,21 @@ def test_report_renders_with_every_figure_loaded(report_file: Path, tmp_path: Pa
     result = json.loads(html.unescape(m.group(1)))
     assert "error" not in result, result
     assert result["title"].endswith("bicycle parameter report")
-    # 9 model figures + the trial overview + one fit per trial, all decoded
-    assert result["declared"] == 9 + 1 + TRIALS
+    assert ("partial" in result["title"]) == (kind == "partial")
+    # 9 model figures (none without parameters) + the trial overview + one fit per trial, all decoded
+    assert result["declared"] == (9 if kind == "full" else 0) + 1 + TRIALS
     assert result["images"] == result["declared"] == result["figures"]
     assert result["loaded"] == result["declared"]
     assert result["failed"] == []
-    assert result["tables"] >= 8
-    assert result["height"] > 5000  # laid out, not collapsed
+    assert result["tables"] >= (8 if kind == "full" else 3)
+    assert result["height"] > (5000 if kind == "full" else 2000)  # laid out, not collapsed
     # no table wider than a narrow window: the page does not scroll sideways
     assert result["clientWidth"] == FRAME_WIDTH_PX
     assert result["scrollWidth"] <= result["clientWidth"], result
     assert result["widest"] <= result["clientWidth"], result
 
 
-def test_report_screenshot_is_not_blank(report_file: Path, tmp_path: Path) -> None:
+def test_report_screenshot_is_not_blank(report_file: tuple[str, Path], tmp_path: Path) -> None:
     profile = tmp_path / "profile"
     profile.mkdir()
     shot = tmp_path / "shot.png"
@@ -178,7 +196,7 @@ def test_report_screenshot_is_not_blank(report_file: Path, tmp_path: Path) -> No
             "--window-size=1200,1600",
             f"--virtual-time-budget={VIRTUAL_TIME_MS}",
             f"--screenshot={shot}",
-            report_file.as_uri(),
+            report_file[1].as_uri(),
         ],
         profile,
     )

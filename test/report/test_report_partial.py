@@ -1,7 +1,8 @@
 """An incomplete session bag: a partial report; the commands that need its parameters refuse it.
 
-The report says what is missing and shows the trials; ``params``, ``model`` and ``budget`` end in
-one line naming the missing keys.
+The report says what is missing and shows the trials; ``plot`` draws the trial figures and says
+what is missing; ``params``, ``model``, ``budget`` and a model figure end in one line naming the
+missing keys.
 """
 
 from __future__ import annotations
@@ -10,10 +11,13 @@ import dataclasses
 import re
 from pathlib import Path
 
+import matplotlib.pyplot as plt
 import pytest
+from matplotlib.text import Text
 
 from bike_rig.bag.simulated import write_simulated_bag
 from bike_rig.offline.subjects import SubjectError, load_parameters, load_subject
+from bike_rig.plots.registry import FIGURES
 from test.support.cli import run_cli
 from test.support.simulated import short_session
 
@@ -71,3 +75,40 @@ def test_commands_needing_parameters_refuse(incomplete_bag: tuple[Path, tuple[st
     lines = err.strip().splitlines()
     assert len(lines) == 1 and "Traceback" not in err
     assert str(bag) in lines[0] and "incomplete" in lines[0] and all(k in lines[0] for k in missing)
+
+
+def test_plot_of_an_incomplete_bag_draws_its_trials_and_says_what_is_missing(
+    incomplete_bag: tuple[Path, tuple[str, ...]], tmp_path: Path
+) -> None:
+    bag, missing = incomplete_bag
+    subject = load_subject(bag, partial=True)
+    for kind in ("trials", "all"):
+        out = tmp_path / kind
+        code, written, err = run_cli("plot", kind, str(bag), "-o", str(out))
+        assert code == 0, err
+        files = sorted(Path(p).name for p in written.split())
+        # the overview and one fit per trial it has; no model figure (it has no parameters)
+        fits = [f for f in files if f.startswith("fit_browser_")]
+        assert "trials_browser.png" in files and len(files) == 1 + len(fits)
+        assert len(fits) == (len(subject.trials) if kind == "all" else 0)
+        assert sorted(p.name for p in out.iterdir()) == files
+        note = err.strip().splitlines()
+        assert len(note) == 1 and "Traceback" not in err
+        assert str(bag) in note[0] and "incomplete" in note[0] and all(k in note[0] for k in missing)
+        assert ("no eigen, locus, modes, bode, side figures" in note[0]) == (kind == "all")
+    fig = FIGURES["trials"].draw(subject)
+    heading = [t.get_text() for t in fig.findobj(Text) if "incomplete session" in t.get_text()]
+    assert len(heading) == 1 and all(k in heading[0] for k in missing)  # the figure says it too
+    plt.close(fig)
+
+
+def test_plot_of_a_model_figure_of_an_incomplete_bag_is_refused(
+    incomplete_bag: tuple[Path, tuple[str, ...]], tmp_path: Path
+) -> None:
+    bag, missing = incomplete_bag
+    code, out, err = run_cli("plot", "eigen", str(bag), "-o", str(tmp_path / "figs"))
+    assert code == 2 and not out.strip()
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in err
+    assert str(bag) in lines[0] and "incomplete" in lines[0] and all(k in lines[0] for k in missing)
+    assert not any((tmp_path / "figs").iterdir())

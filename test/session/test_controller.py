@@ -92,7 +92,7 @@ def test_a_result_whose_events_are_late_counts_its_cycles_from_the_batches_rate(
     link.period(trial_id, first.key, 1.2, 1e-4)
     link.events_out = [e for e in link.events_out if not getattr(e, "kind", None)]  # and the STOP too
     result = [r for r in ctl.pump() if r.kind == "result"]
-    assert result and "T = 1.2 ± 0.0001 s, 25 cycles, r²" in result[0].text  # (30,000 samples at 1 kHz)
+    assert result and "T = 1.20000 ± 0.00010 s, 25 cycles, r²" in result[0].text  # (30,000 samples at 1 kHz)
     # with no batch either, the line leaves the cycles out rather than print "nan cycles"
     second = ctl.session.plan.trials[1]
     ctl.execute(f"start {second.item_id}")
@@ -101,7 +101,7 @@ def test_a_result_whose_events_are_late_counts_its_cycles_from_the_batches_rate(
     link.period(link.started[1][0], second.key, 0.8, 1e-4)
     link.events_out = [e for e in link.events_out if not getattr(e, "kind", None)]
     result = [r for r in ctl.pump() if r.kind == "result"]
-    assert result and "T = 0.8 ± 0.0001 s, r² 0.99990 — ok" in result[0].text
+    assert result and "T = 0.80000 ± 0.00010 s, r² 0.99990 — ok" in result[0].text
 
 
 def test_abort_records_redo_and_refusal_is_reported(ctl_link) -> None:  # type: ignore[no-untyped-def]

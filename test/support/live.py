@@ -16,7 +16,7 @@ from test.support.processes import RosProcess
 BEATING = "frame_torsional_o2_t1"
 #: A result line; the cycles need the trial's sample rate, from its START (DDS may deliver a
 #: START up to a heartbeat late at the very start of a run, after its result).
-RESULT = re.compile(r"^trial (\S+) \((\w+)\): T = (\d+\.\d{6}) ± (\S+) s(, \d+ cycles)?, r² (\d\.\d{5}) - (ok|REDO)$")
+RESULT = re.compile(r"^trial (\S+) \((\w+)\): T = (\d+\.\d+) ± (\S+) s(, \d+ cycles)?, r² (\d\.\d{5}) - (ok|REDO)$")
 
 
 def live_rig(directory: Path, beating: bool = True) -> Path:

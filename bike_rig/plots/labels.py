@@ -1,0 +1,158 @@
+"""Labels over an axes that never overlap: placed in rows, as many as the labels need.
+
+:class:`RowLabels` writes each label centred over its x (data coordinates) above the axes. At
+every draw, and whenever a layout engine asks for its extent, it measures the labels with the
+renderer at the axes' current size and puts each in the lowest row where it clears the labels
+already there by a gap; rows are stacked upwards. However many labels, however long, and at
+whatever figure size or resolution, no two overlap, and constrained layout keeps them inside
+the figure (their extent is part of the axes'). A heading, if given, sits above the top row.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+from matplotlib.artist import Artist
+from matplotlib.axes import Axes
+from matplotlib.backend_bases import RendererBase
+from matplotlib.text import Text
+from matplotlib.transforms import Bbox, ScaledTranslation
+
+__all__ = ["RowLabels", "label_rows"]
+
+#: Gap between neighbouring labels of a row, and between rows, points.
+GAP_PT = 3.0
+#: Space between the axes' top and the first row, points.
+PAD_PT = 3.0
+
+
+def label_rows(extents: Sequence[tuple[float, float]], gap: float) -> list[int]:
+    """Rows for labels of horizontal extents ``extents`` so that no two of a row are closer than ``gap``.
+
+    Labels are taken from left to right (by centre) and each goes in the lowest row whose last
+    label ends at least ``gap`` before it starts (a new row when none does).
+
+    Args:
+        extents: (left, right) of each label, any unit.
+        gap: Smallest clearance between two labels of a row, same unit.
+
+    Returns:
+        Each label's 0-based row, in the order of ``extents``.
+    """
+    ends: list[float] = []
+    rows = [0] * len(extents)
+    for i in sorted(range(len(extents)), key=lambda k: extents[k][0] + extents[k][1]):
+        left, right = extents[i]
+        row = next((r for r, end in enumerate(ends) if end + gap <= left), len(ends))
+        if row == len(ends):
+            ends.append(right)
+        else:
+            ends[row] = right
+        rows[i] = row
+    return rows
+
+
+class RowLabels(Artist):
+    """Labels centred over x positions above an axes, in rows so that none overlap.
+
+    Args:
+        ax: The axes (the labels are added to it).
+        xs: Each label's centre, data coordinates of ``ax``'s x axis.
+        labels: The labels' texts.
+        gids: Each label's gid (none: no gid).
+        title: A heading centred over the axes above the top row ("": none), in place of the
+            axes' title (which would not know the rows' height).
+        title_size: The heading's font size, points.
+        **text: Keywords of :class:`matplotlib.text.Text` (e.g. ``fontsize``).
+    """
+
+    def __init__(
+        self,
+        ax: Axes,
+        xs: Sequence[float],
+        labels: Sequence[str],
+        gids: Sequence[str] = (),
+        title: str = "",
+        title_size: float = 10.0,
+        **text: Any,
+    ) -> None:
+        """Make the labels and add them to ``ax``."""
+        super().__init__()
+        fig = ax.get_figure()
+        assert fig is not None
+        self._ax = ax
+        self._texts: list[Text] = []
+        for i, (x, label) in enumerate(zip(xs, labels, strict=True)):
+            t = Text(x, 1.0, label, ha="center", va="bottom", clip_on=False, **text)
+            t.set_figure(fig)
+            if i < len(gids):
+                t.set_gid(gids[i])
+            self._texts.append(t)
+        self._title: Text | None = None
+        if title:
+            self._title = Text(0.5, 1.0, title, ha="center", va="bottom", clip_on=False, fontsize=title_size)
+            self._title.set_figure(fig)
+        self.set_figure(fig)
+        self.rows: list[int] = [0] * len(self._texts)
+        ax.add_artist(self)
+        self.set_clip_on(False)
+
+    @property
+    def texts(self) -> list[Text]:
+        """The labels, in the order given."""
+        return list(self._texts)
+
+    @property
+    def title(self) -> Text | None:
+        """The heading, if any."""
+        return self._title
+
+    def _all(self) -> list[Text]:
+        return self._texts + ([self._title] if self._title is not None else [])
+
+    def get_children(self) -> list[Artist]:
+        """The labels and the heading (so that ``findobj`` and the layout see them)."""
+        return list(self._all())
+
+    def _place(self, renderer: RendererBase) -> None:
+        """Measure the labels at the axes' current size and put each in its row."""
+        fig = self._ax.get_figure()
+        assert fig is not None
+        base = self._ax.get_xaxis_transform()
+        dpi = fig.get_dpi()
+        gap_px = GAP_PT * dpi / 72.0
+        for t in self._texts:
+            t.set_transform(base)
+        boxes = [t.get_window_extent(renderer) for t in self._texts]
+        self.rows = label_rows([(b.x0, b.x1) for b in boxes], gap_px)
+        row_pt = max((b.height for b in boxes), default=0.0) * 72.0 / dpi + GAP_PT
+        scale = fig.dpi_scale_trans
+        for t, row in zip(self._texts, self.rows, strict=True):
+            t.set_transform(base + ScaledTranslation(0.0, (PAD_PT + row * row_pt) / 72.0, scale))
+        if self._title is not None:
+            top = PAD_PT + (max(self.rows) + 1) * row_pt if self._texts else PAD_PT
+            self._title.set_transform(self._ax.transAxes + ScaledTranslation(0.0, (top + GAP_PT) / 72.0, scale))
+
+    def get_window_extent(self, renderer: RendererBase | None = None) -> Bbox:
+        """The labels' extent, laid out at the axes' current size, pixels."""
+        fig = self._ax.get_figure()
+        assert fig is not None
+        r = renderer if renderer is not None else fig.canvas.get_renderer()  # type: ignore[attr-defined]
+        if not self._all():
+            return Bbox.null()
+        self._place(r)
+        return Bbox.union([t.get_window_extent(r) for t in self._all()])
+
+    def get_tightbbox(self, renderer: RendererBase | None = None) -> Bbox:
+        """Same as :meth:`get_window_extent` (for the layout engine)."""
+        return self.get_window_extent(renderer)
+
+    def draw(self, renderer: RendererBase) -> None:
+        """Lay the labels out at the axes' current size and draw them."""
+        if not self.get_visible() or not self._all():
+            return
+        self._place(renderer)
+        for t in self._all():
+            t.draw(renderer)
+        self.stale = False
