@@ -157,7 +157,7 @@ class SpeedLike(Protocol):
 
 
 def format_speed(speed: SpeedLike | None, mode: str = "", *, compact: bool = False) -> str:
-    """A weave or capsize speed with its σ for people, the same everywhere: ``4.195 ± 0.045 m/s``.
+    """A weave or capsize speed with its σ for people, the same everywhere: ``4.20 ± 0.05 m/s``.
 
     σ to 1–2 significant digits by the one rule (:func:`sigma_digits`), the speed to σ's
     last digit (:func:`format_value_sigma`).
@@ -166,14 +166,14 @@ def format_speed(speed: SpeedLike | None, mode: str = "", *, compact: bool = Fal
         speed: The speed with σ, m/s; None (or a speed that is not finite) when the bicycle
             has no such crossing.
         mode: The speed's name (``weave``, ``capsize``) for the text of an absent one.
-        compact: Without spaces or unit (``4.195±0.045``), for narrow places such as the
+        compact: Without spaces or unit (``4.20±0.05``), for narrow places such as the
             console's title.
 
     Returns:
-        ``4.195 ± 0.045 m/s``; ``4.292383 ± 0 m/s (the parameters carry no σ)`` for σ 0;
+        ``4.20 ± 0.05 m/s`` (σ 0.045); ``4.292383 ± 0 m/s (the parameters carry no σ)`` for σ 0;
         ``4.292383 m/s (σ undefined: not a simple root)`` for a σ that is not finite;
         ``none (no weave crossing)``, or ``none`` without ``mode``, for no speed. Compact:
-        ``4.195±0.045``, ``4.29238±0``, ``4.29238`` and ``none``.
+        ``4.20±0.05``, ``4.29238±0``, ``4.29238`` and ``none``.
     """
     if speed is None or not math.isfinite(speed.speed):
         return f"none (no {mode} crossing)" if mode and not compact else "none"
