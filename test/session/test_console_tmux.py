@@ -225,8 +225,9 @@ def test_a_session_with_a_readings_file_at_the_console(  # type: ignore[no-untyp
         tmux.type("params")
         tmux.keys("Enter")
         names = [rf"(?<![A-Za-z]){re.escape(n)}\s+-?[0-9.]+(?:e[-+]?\d+)? ± " for n in PARAMETER_NAMES]
-        if height >= 50:  # the whole reply in the pane at once, with its echo
-            tmux.wait_for("".join(f"(?=.*{n})" for n in [r"> params", *names]), 30, flat=True)
+        if height >= 50:  # the whole reply in the pane at once; its echo may have scrolled up by a late line
+            tmux.wait_for("".join(f"(?=.*{n})" for n in names), 30, flat=True)
+            _read_back(tmux, r"> params", names[-1:])
         else:
             _read_back(tmux, r"> params", names)
         tmux.keys("C-c")
