@@ -37,11 +37,13 @@ from numpy.typing import NDArray
 
 __all__ = [
     "BLOCK_PERIODS",
+    "MAX_CONDITION",
     "MAX_RHO",
     "UPPER_SIGMAS",
     "DrivenCovariance",
     "ResidualNoise",
     "driven_covariance",
+    "inverse_normal_matrix",
     "pooled_drive",
     "residual_noise",
 ]
@@ -54,6 +56,9 @@ MAX_RHO = 0.995
 BLOCK_PERIODS = 1.0 / 16.0
 #: The drive used is the estimate plus this many of its chance σ (calibrated, test_calibration) [-].
 UPPER_SIGMAS = 0.5
+#: A design whose column-scaled Jacobian has a larger condition number does not determine its
+#: parameters (``JᵀJ`` would be inverted to rounding noise: σ of 1e-36 or negative variances) [-].
+MAX_CONDITION = 1e7
 
 
 @dataclass(frozen=True)
@@ -124,6 +129,22 @@ class DrivenCovariance:
         return self.white + q * self.per_drive
 
 
+def inverse_normal_matrix(jac: FloatArray) -> FloatArray:
+    """``(JᵀJ)⁻¹`` from the SVD of the column-scaled Jacobian: positive semi-definite by construction.
+
+    Raises:
+        numpy.linalg.LinAlgError: A zero column, or a condition number above :data:`MAX_CONDITION`
+            (the segment does not determine the parameters).
+    """
+    scale = np.sqrt(np.sum(jac**2, axis=0))
+    if not np.all(np.isfinite(scale)) or not np.all(scale > 0):
+        raise np.linalg.LinAlgError("a parameter the record does not change")
+    _, s, vt = np.linalg.svd(jac / scale, full_matrices=False)
+    if not s[-1] * MAX_CONDITION > s[0]:
+        raise np.linalg.LinAlgError(f"condition number {s[0] / s[-1]:.1e}")
+    return np.asarray((vt.T / s**2) @ vt / np.outer(scale, scale), dtype=float)
+
+
 def _block_drive(t: FloatArray, jac: FloatArray, bread: FloatArray, u: FloatArray, z: complex, m: int) -> float:
     """``tr(A(I − P) K (I − P)ᵀAᵀ)``: the drive's variance per unit q in the residuals' block means."""
     n = t.size
@@ -151,12 +172,12 @@ def driven_covariance(
         white: The sensor's white-noise σ (NaN: all of the residuals are white, no drive).
 
     Raises:
-        numpy.linalg.LinAlgError: A singular ``JᵀJ``.
+        numpy.linalg.LinAlgError: A singular or ill-conditioned ``JᵀJ`` (:func:`inverse_normal_matrix`).
     """
     from scipy.signal import lfilter
 
     n, p = jac.shape
-    bread = np.asarray(np.linalg.inv(jac.T @ jac), dtype=float)
+    bread = inverse_normal_matrix(jac)
     sse = float(residuals @ residuals)
     w2 = min(white**2, sse / max(1, n - p)) if math.isfinite(white) else sse / max(1, n - p)
     dt = float(np.median(np.diff(t)))
