@@ -17,7 +17,10 @@ the gains acting at **0.7** of their nominal scale, and one inertia shifted by *
    parameter; the largest shift of any unconstrained parameter. A fixed +2 σ shift is pulled
    toward the prior by the posterior (by (σ_post/σ_prior)² of it), so its coverage is expected
    below 68 % (printed beside it; the gain scale's too: the unseen shift biases it through the
-   prior); with the truth drawn from the prior (``random``, ``ifyy-random``) it is 68 %.
+   prior); with the truth drawn from the prior (``random``, ``ifyy-random``) it is 68 %. Printed
+   beside: the gain scale's mean error in its σ against the one the shifted parameter's
+   confounding predicts (:meth:`bike_rig.core.ride.posterior.Posterior.gain_scale_confounders`),
+   and how often the verdict names it.
 2. **End to end** (``--e2e-seeds``, default 6): realistic segments
    (:func:`bike_rig.core.ride.ridesim.simulate_segment`: rider steering, a saturating motor,
    gyro noise; three segments of 1.2–2.5 cycles per speed, 8 speeds) fitted
@@ -96,6 +99,7 @@ def eigenvalue_campaign(ps: ParameterSet, fb: Feedback, name: str, seeds: int, r
     j = PARAMETER_NAMES.index(name)
     first = scale_in = shift_in = constrained_in = constrained_n = 0
     ratios, shifts, loose_max, expected = [], [], 0.0, []
+    observed_bias, predicted_bias, named = [], [], 0
     scale_expected = 0.6827
     if not random_truth:  # the fixed shift biases the gain scale through the prior: by how much, without noise
         exact = _data(_truth(ps, name, None), fb, np.random.default_rng(0), noise=False)
@@ -108,6 +112,10 @@ def eigenvalue_campaign(ps: ParameterSet, fb: Feedback, name: str, seeds: int, r
         first += cal.best.name == TRUE_VARIANT
         post = next(r.posterior for r in cal.variants if r.name == TRUE_VARIANT)
         scale_in += abs(post.gain_scale - TRUE_SCALE) <= post.gain_scale_sigma
+        observed_bias.append((post.gain_scale - TRUE_SCALE) / post.gain_scale_sigma)
+        lean = {c.name: c.in_sigma for c in post.gain_scale_confounders(share=0.0)}
+        predicted_bias.append(0.0 if random_truth else 2.0 * lean.get(name, 0.0))
+        named += name in {c.name for c in post.gain_scale_confounders()}
         ratio = post.sigma_ratio
         ratios.append(float(ratio[j]))
         shifts.append(float(post.shifts[j]))
@@ -133,6 +141,11 @@ def eigenvalue_campaign(ps: ParameterSet, fb: Feedback, name: str, seeds: int, r
     print(
         f"    gain scale within its posterior σ of {TRUE_SCALE}: {scale_in / seeds:.1%} "
         f"(expected {scale_expected:.1%}: the bias of a noise-free ride's posterior)"
+    )
+    print(
+        f"    gain scale's error in its σ: mean {np.mean(observed_bias):+.2f}, SD {np.std(observed_bias):.2f}; "
+        f"the shift of {name} predicts {np.mean(predicted_bias):+.2f} (Posterior.gain_scale_confounders); "
+        f"{name} named a confounder of the gain scale in {named / seeds:.0%} of the verdicts"
     )
     true = "a draw of the prior" if random_truth else "+2.00"
     print(

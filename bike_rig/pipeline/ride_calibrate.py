@@ -122,6 +122,15 @@ def _variant_json(r: VariantResult) -> dict[str, Any]:
         "gain_scale_free": p.unknowns.gain_scale,
         "gain_scale": p.gain_scale,
         "gain_scale_sigma": _num(p.gain_scale_sigma),
+        "gain_scale_confounders": [
+            {
+                "parameter": c.name,
+                "shift_per_prior_sigma": c.per_prior_sigma,
+                "shift_in_gain_scale_sigma": c.in_sigma,
+                "sigma_ratio": c.sigma_ratio,
+            }
+            for c in p.gain_scale_confounders()
+        ],
         "chi2": _num(p.chi2),
         "chi2_data": _num(p.chi2_data),
         "dof": p.dof,

@@ -48,6 +48,10 @@ def test_calibrate_finds_the_rider_aboard_at_the_nominal_gains(
     assert best["rider"] and got["explained"]
     scaled = next(v for v in got["variants"] if v["rider"] and v["gain_scale_free"])
     assert abs(scaled["gain_scale"] - 1.0) <= 3 * scaled["gain_scale_sigma"]
+    for c in scaled["gain_scale_confounders"]:  # the priors the gain scale leans on: at least 0.3 of its σ each
+        assert c["parameter"] in best["parameters"] and abs(c["shift_in_gain_scale_sigma"]) >= 0.3
+        assert c["shift_per_prior_sigma"] == pytest.approx(c["shift_in_gain_scale_sigma"] * scaled["gain_scale_sigma"])
+    assert all(v["gain_scale_confounders"] == [] for v in got["variants"] if not v["gain_scale_free"])
     assert all(not v["rider"] for v in got["variants"][2:])  # both no-rider variants rank last
     assert set(best["parameters"]) >= {"IBzz", "lam", "c"} and len(best["covariance"]) == 26
     assert "with the rider aboard" in got["verdict"]

@@ -20,7 +20,10 @@ part is not) by moments, ``q̂ = (Σ r̄_b² − white part) / tr(A(I − P)K(I 
 possibly negative. One segment's q̂ is noisy (where it comes out ≤ 0 the σ of a driven record
 would be the white one, several times too small), so segments at one speed share q: the mean
 of their q̂ plus :data:`UPPER_SIGMAS` of its σ, clipped at 0
-(:func:`bike_rig.core.ride.eigen.pool_drive`). q̂ comes from the Eq 23 + trend fit whatever the
+(:func:`bike_rig.core.ride.eigen.pool_drive`); where they scatter about their weighted mean
+beyond their σ at that drive, it is raised until they do not (:func:`scatter_drive`: the
+moment estimate misses part of a coloured drive, a rider's steering torque, measured up to a
+factor 2–5 low on simulated rides). q̂ comes from the Eq 23 + trend fit whatever the
 model chosen (:mod:`.choice`): Eq 23 leaves the capsize mode in its residuals, which is no drive,
 and a free real mode absorbs part of the drive's trace. The residuals' lag-one correlation gives
 the samples' worth for the model choice (:class:`ResidualNoise`). Units: the signal's (rad/s), q in
@@ -37,13 +40,16 @@ from numpy.typing import NDArray
 
 __all__ = [
     "BLOCK_PERIODS",
+    "MAX_CONDITION",
     "MAX_RHO",
     "UPPER_SIGMAS",
     "DrivenCovariance",
     "ResidualNoise",
     "driven_covariance",
+    "inverse_normal_matrix",
     "pooled_drive",
     "residual_noise",
+    "scatter_drive",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -54,6 +60,9 @@ MAX_RHO = 0.995
 BLOCK_PERIODS = 1.0 / 16.0
 #: The drive used is the estimate plus this many of its chance σ (calibrated, test_calibration) [-].
 UPPER_SIGMAS = 0.5
+#: A design whose column-scaled Jacobian has a larger condition number does not determine its
+#: parameters (``JᵀJ`` would be inverted to rounding noise: σ of 1e-36 or negative variances) [-].
+MAX_CONDITION = 1e7
 
 
 @dataclass(frozen=True)
@@ -124,6 +133,22 @@ class DrivenCovariance:
         return self.white + q * self.per_drive
 
 
+def inverse_normal_matrix(jac: FloatArray) -> FloatArray:
+    """``(JᵀJ)⁻¹`` from the SVD of the column-scaled Jacobian: positive semi-definite by construction.
+
+    Raises:
+        numpy.linalg.LinAlgError: A zero column, or a condition number above :data:`MAX_CONDITION`
+            (the segment does not determine the parameters).
+    """
+    scale = np.sqrt(np.sum(jac**2, axis=0))
+    if not np.all(np.isfinite(scale)) or not np.all(scale > 0):
+        raise np.linalg.LinAlgError("a parameter the record does not change")
+    _, s, vt = np.linalg.svd(jac / scale, full_matrices=False)
+    if not s[-1] * MAX_CONDITION > s[0]:
+        raise np.linalg.LinAlgError(f"condition number {s[0] / s[-1]:.1e}")
+    return np.asarray((vt.T / s**2) @ vt / np.outer(scale, scale), dtype=float)
+
+
 def _block_drive(t: FloatArray, jac: FloatArray, bread: FloatArray, u: FloatArray, z: complex, m: int) -> float:
     """``tr(A(I − P) K (I − P)ᵀAᵀ)``: the drive's variance per unit q in the residuals' block means."""
     n = t.size
@@ -151,12 +176,12 @@ def driven_covariance(
         white: The sensor's white-noise σ (NaN: all of the residuals are white, no drive).
 
     Raises:
-        numpy.linalg.LinAlgError: A singular ``JᵀJ``.
+        numpy.linalg.LinAlgError: A singular or ill-conditioned ``JᵀJ`` (:func:`inverse_normal_matrix`).
     """
     from scipy.signal import lfilter
 
     n, p = jac.shape
-    bread = np.asarray(np.linalg.inv(jac.T @ jac), dtype=float)
+    bread = inverse_normal_matrix(jac)
     sse = float(residuals @ residuals)
     w2 = min(white**2, sse / max(1, n - p)) if math.isfinite(white) else sse / max(1, n - p)
     dt = float(np.median(np.diff(t)))
@@ -195,3 +220,42 @@ def pooled_drive(drives: list[tuple[float, float]]) -> float:
     spread = sum((q - mean) ** 2 for q, _ in ok) / (n - 1) if n > 1 else 0.0  # the drive's own scatter
     sigma = math.sqrt(sum(s**2 for _, s in ok) / n**2 + spread / n)
     return max(0.0, mean + UPPER_SIGMAS * sigma)
+
+
+def _scatter_chi2(x: FloatArray, fixed: FloatArray, per_drive: FloatArray, q: float) -> float:
+    """Σ over the parts of min_m Σ_i (x_i − m)² / (fixed_i + q per_drive_i) [-]."""
+    w = 1.0 / np.maximum(fixed + q * per_drive, 1e-300)
+    mean = np.sum(w * x, axis=0) / np.sum(w, axis=0)
+    return float(np.sum(w * (x - mean) ** 2))
+
+
+def scatter_drive(x: FloatArray, variance: FloatArray, q: float) -> float:
+    """The drive at least ``q`` at which segments of one eigenvalue scatter as their σ say.
+
+    The segments at one speed measure one eigenvalue; if they scatter about their weighted
+    mean by more than their σ at the drive ``q`` allow (χ² above its n − 1 degrees of freedom
+    per part), the drive is raised until it does not (Paule and Mandel's estimate of an
+    excess variance, here the drive's, whose σ² per unit drive each segment knows). χ² falls as
+    q rises, so the root is unique.
+
+    Args:
+        x: The segments' (Re λ, Im λ) (n × 2) [1/s].
+        variance: Their ``(Re fixed, Re per unit drive, Im fixed, Im per unit drive)`` (n × 4).
+        q: The drive from the residuals (:func:`pooled_drive`) [signal units² / s].
+
+    Returns:
+        The drive [signal units² / s]: ``q`` where the segments do not scatter beyond it.
+    """
+    from scipy.optimize import brentq
+
+    n = x.shape[0]
+    fixed, per_drive = variance[:, [0, 2]], variance[:, [1, 3]]
+    target = 2.0 * (n - 1)
+    if n < 2 or not np.all(per_drive > 0) or _scatter_chi2(x, fixed, per_drive, q) <= target:
+        return q
+    hi = max(q, float(np.max(fixed / per_drive)), 1e-30)
+    for _ in range(200):
+        if _scatter_chi2(x, fixed, per_drive, hi) <= target:
+            return float(brentq(lambda d: _scatter_chi2(x, fixed, per_drive, d) - target, q, hi, xtol=1e-12 * hi))
+        hi *= 4.0
+    return hi

@@ -19,6 +19,10 @@ The posterior covariance is ``(Jᵀ J)⁻¹`` at the minimum (Laplace); a direct
 prior leave undetermined (a flat unknown the rides do not see) is reported as such, never given
 a σ.
 
+The gain scale's σ is marginal: it holds every prior parameter's uncertainty through their
+posterior correlation. Which parameters' priors its estimate leans on, and by how much a truth
+one prior σ away would move it, is :meth:`Posterior.gain_scale_confounders`.
+
 Where the linearisation holds is checked, not assumed: the χ² the last full step predicted
 against the recomputed one, and :data:`CHECK_DRAWS` draws of the posterior whose exact
 eigenvalues are set against the linear prediction (RMS in data σ, :data:`NONLINEAR_LIMIT`), and
@@ -45,6 +49,8 @@ from .weave_model import MIN_IMAG, model_weave, scale_gradient
 
 __all__ = [
     "CHECK_DRAWS",
+    "CONFOUNDER_SHARE",
+    "Confounder",
     "NONLINEAR_LIMIT",
     "CalibrationDataError",
     "Linearity",
@@ -71,6 +77,8 @@ NONLINEAR_LIMIT = 0.3
 RANK_TOLERANCE = 1e-10
 #: A speed whose combined σ [1/s] is below this is not credible (a degenerate fit) and is left out.
 MIN_DATA_SIGMA = 1e-6
+#: A parameter one prior σ off that moves the gain scale's estimate by this share of its σ confounds it [-].
+CONFOUNDER_SHARE = 0.3
 #: Step in the whitened unknowns of the forward differences for a sampled assist [-].
 FD_STEP = 1e-6
 #: A prior direction of Σ0 with a smaller variance (relative to the largest) is exact.
@@ -188,6 +196,24 @@ class Linearity:
 
 
 @dataclass(frozen=True)
+class Confounder:
+    """A parameter whose prior the gain scale's estimate leans on (:meth:`Posterior.gain_scale_confounders`).
+
+    Attributes:
+        name: The parameter (PARAMETER_NAMES spelling).
+        per_prior_sigma: The gain scale's shift if the true parameter were one prior σ above
+            its prior value [-].
+        in_sigma: That shift in the gain scale's posterior σ [-].
+        sigma_ratio: The parameter's posterior / prior σ (near 1: the rides do not constrain it).
+    """
+
+    name: str
+    per_prior_sigma: float
+    in_sigma: float
+    sigma_ratio: float
+
+
+@dataclass(frozen=True)
 class Posterior:
     """One variant's posterior (module docstring).
 
@@ -245,6 +271,33 @@ class Posterior:
         with np.errstate(divide="ignore", invalid="ignore"):
             out = (self.values - self.prior.parameters.values) / s0
         return np.where(s0 > 0, out, 0.0)
+
+    def gain_scale_confounders(self, share: float = CONFOUNDER_SHARE) -> list[Confounder]:
+        """The parameters whose prior the gain scale's estimate leans on, largest lean first.
+
+        In the linearised posterior, a true parameter ``θ_j`` one prior σ from its prior value
+        (the parameters the rig's covariance correlates with it at their mean given it), which
+        the rides cannot tell from the prior, moves the estimated gain scale by
+        ``−Cov(s, θ_j) / σ0_j`` (the posterior mean is ``x̂ = x* − P Π x*`` with ``Π`` the prior's
+        precision). Listed: those moving it by at least ``share`` of its σ. Its σ already holds
+        their prior's uncertainty (marginalised, never conditioned on the prior's value); a truth
+        several prior σ away biases it nonetheless, and this says by how much and through which.
+        Empty without a free, determined gain scale.
+        """
+        if not (self.unknowns.gain_scale and math.isfinite(self.gain_scale_sigma) and self.gain_scale_sigma > 0):
+            return []
+        cov_z = np.where(np.isfinite(self.z_covariance), self.z_covariance, 0.0)
+        cov_theta_s = self.jacobian_unknowns @ cov_z[:, -1]
+        s0 = self.prior.parameters.sigmas
+        ratio = self.sigma_ratio
+        out = []
+        for i, name in enumerate(PARAMETER_NAMES):
+            if not s0[i] > 0 or name in self.unknowns.free:
+                continue
+            lean = -float(cov_theta_s[i]) / float(s0[i])
+            if abs(lean) >= share * self.gain_scale_sigma:
+                out.append(Confounder(name, lean, lean / self.gain_scale_sigma, float(ratio[i])))
+        return sorted(out, key=lambda c: -abs(c.in_sigma))
 
     @property
     def sigma_ratio(self) -> FloatArray:

@@ -15,7 +15,10 @@ fixed (α, ω_d, μ) the model is linear in A, B, C, D, which are solved by leas
 (variable projection); :func:`scipy.optimize.least_squares` fits the nonlinear parameters from
 a starting (α, ω_d). σ: the sandwich of :mod:`.noise` (white sensor noise plus the weave driven
 by the rider) with the Jacobian of all parameters, times the Student-t factor for n_eff − p
-degrees of freedom. Which model a segment gets is :mod:`.choice`'s.
+degrees of freedom; its white part never below the residuals' own, ``SSE/(n − p) (JᵀJ)⁻¹``
+(what the residual supports, whatever the sensor's noise). A design that does not determine
+its parameters (condition number above :data:`.noise.MAX_CONDITION`) is no fit. Which model a
+segment gets is :mod:`.choice`'s.
 Units: t s, α and μ 1/s, ω_d rad/s; A, B, C in the signal's units, D in its units per second.
 """
 
@@ -28,7 +31,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..period.sigma import student_factor
-from .noise import ResidualNoise, driven_covariance, pooled_drive, residual_noise
+from .noise import ResidualNoise, driven_covariance, inverse_normal_matrix, pooled_drive, residual_noise
 
 __all__ = ["RealModeFit", "RealModeFitFailed", "fit_with_real_mode", "real_mode_basis"]
 
@@ -193,10 +196,11 @@ def fit_with_real_mode(
     sse = float(r @ r)
     f2 = student_factor(max(1.0, noise.n_eff(n) - p)) ** 2
     ia, iw = cols, cols + 1
+    floor = sse / max(1, n - p) * inverse_normal_matrix(jac)  # the residuals' own covariance, taken as white
     variance = (
-        f2 * float(driven.white[ia, ia]),
+        f2 * max(float(driven.white[ia, ia]), float(floor[ia, ia])),
         f2 * float(driven.per_drive[ia, ia]),
-        f2 * float(driven.white[iw, iw]),
+        f2 * max(float(driven.white[iw, iw]), float(floor[iw, iw])),
         f2 * float(driven.per_drive[iw, iw]),
     )
     q = pooled_drive([(driven.drive, driven.drive_sigma)])

@@ -12,10 +12,11 @@ the prior's term; its degrees of freedom are the data values less ``k``.
 The verdict in words (:func:`describe`) says which variant explains the rides (χ² probability
 above :data:`MIN_P`), at what gain scale, how far the parameters move (in prior σ), which
 parameters the rides constrain (posterior / prior σ below :data:`CONSTRAINED_RATIO`; the rest
-stay at their prior), what the rides cannot determine, and where the linearisation does not
-hold; or that no variant explains the rides. A saturating assist is not a variant of its own:
-eigenvalues are small-signal quantities, and a motor that saturates acts on them as a lower
-gain scale, which the gain-scale variants measure.
+stay at their prior), which parameters' priors the gain scale's estimate leans on
+(:meth:`~.posterior.Posterior.gain_scale_confounders`), what the rides cannot determine, and
+where the linearisation does not hold; or that no variant explains the rides. A saturating
+assist is not a variant of its own: eigenvalues are small-signal quantities, and a motor that
+saturates acts on them as a lower gain scale, which the gain-scale variants measure.
 Units: SI; eigenvalues 1/s; gain scale dimensionless.
 """
 
@@ -314,7 +315,30 @@ def describe(ranked: Sequence[VariantResult], has_feedback: bool, has_rider: boo
             text += f"; the rides cannot tell it from '{second.name}' (Δ(−2 ln Z) = {gap:.1f})"
         elif math.isfinite(gap):
             text += f"; next best '{second.name}', Δ(−2 ln Z) = {gap:.1f}"
-    return text + _constraints(post), True
+    return text + _confounding(post) + _constraints(post), True
+
+
+#: The confounders named in the verdict at most.
+MAX_CONFOUNDERS = 4
+
+
+def _confounding(post: Posterior) -> str:
+    """Which parameters' priors the gain scale's estimate leans on, in words (empty: none)."""
+    found = post.gain_scale_confounders()[:MAX_CONFOUNDERS]
+    if not found:
+        return ""
+    names = [c.name for c in found]
+    listed = names[0] if len(names) == 1 else f"{', '.join(names[:-1])} and {names[-1]}"
+    moves = ", ".join(f"{c.per_prior_sigma:+.2g}" for c in found)
+    shares = ", ".join(f"{abs(c.in_sigma):.1f}" for c in found)
+    unseen = all(c.sigma_ratio >= CONSTRAINED_RATIO for c in found)
+    seen = "which the rides hardly constrain" if unseen else "partly constrained by the rides"
+    each = "it" if len(found) == 1 else "each"
+    return (
+        f". The gain scale is confounded with {listed} ({seen}): {each} one prior σ above its prior value would "
+        f"move the gain scale by {moves} ({shares} of its σ, which allows for their prior σ; a truth several "
+        "prior σ away biases it)"
+    )
 
 
 def _constraints(post: Posterior) -> str:

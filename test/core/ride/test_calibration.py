@@ -172,3 +172,32 @@ def test_realistic_rides_scatter_as_their_sigma_say() -> None:
     for part in ("chi2_real", "chi2_imag"):
         pooled = sum(getattr(c, part) * c.dof for c in runs) / dof
         assert 0.5 <= pooled <= 2.0, (part, pooled, runs)
+
+
+def test_shipped_gains_with_a_steering_rider_scatter_as_their_sigma_say() -> None:
+    """The shipped assist (a weave near neutral at 2.5–3.5 m/s), a rider steering 0.2 N m, saturating or not.
+
+    The residuals' moment estimate of the drive came out 2–5 times low here (χ²/dof 1.8–3.5);
+    the shared drive is raised where the segments at one speed scatter beyond their σ. The
+    errors against the simulated weave, which that does not see, must then be about 1 σ.
+    """
+    browser = canonical_with_sigma(
+        add_rider(_parameters(str(config_file("bicycles/browser.yaml")), "centroid"), PAPER_RIDER)
+    )
+    assist = resolve_feedback(str(config_file("feedback/balance_assist.yaml")))
+    assert assist is not None
+    runs = [
+        measure_calibration(
+            browser.matrices, browser.g, assist.gains, (2.5, 3.0, 3.5), RideConditions(saturation=sat), 8, seed=seed
+        )
+        for sat, seed in ((5.0, 21), (math.inf, 22))
+    ]
+    dof = sum(c.dof for c in runs)
+    clean = sum(c.clean for c in runs)
+    assert dof >= 50
+    for part in ("chi2_real", "chi2_imag"):
+        pooled = sum(getattr(c, part) * c.dof for c in runs) / dof
+        assert 0.5 <= pooled <= 2.0, (part, pooled, runs)
+    for part in ("z_real", "z_imag"):
+        rms = math.sqrt(sum(getattr(c, part) ** 2 * c.clean for c in runs) / clean)
+        assert 0.7 <= rms <= 1.3, (part, rms, runs)  # measured 0.99 and 1.17 (before: 1.44)

@@ -159,3 +159,32 @@ def _sampled_parts(ps: object, fb: Feedback) -> tuple[np.ndarray, np.ndarray, np
     vals = ps.parameters.as_dict()  # type: ignore[attr-defined]
     lam, _, _ = model_weave(vals, SPEEDS, fb, 0.7, np.full(SPEEDS.size, -3 + 10j), rate_hz=100.0)
     return lam.real, np.full(SPEEDS.size, 0.1), lam.imag
+
+
+def test_the_gain_scale_says_which_priors_it_leans_on_and_by_how_much(bicycle: tuple[object, Feedback]) -> None:
+    """IBzz +2 prior σ (with what the rig's covariance ties to it): the rides cannot see it, the gain scale moves.
+
+    Its σ is marginal (wider than with IBzz known); the shift IBzz causes is the one the
+    confounders predict, and the verdict names IBzz.
+    """
+    ps, fb = bicycle
+    cov = ps.parameters.covariance  # type: ignore[attr-defined]
+    j = PARAMETER_NAMES.index("IBzz")
+    truth = ps.parameters.values + 2.0 * cov[:, j] / math.sqrt(cov[j, j])  # type: ignore[attr-defined]
+    lam, _, _ = model_weave(
+        dict(zip(PARAMETER_NAMES, truth, strict=True)), SPEEDS, fb, 0.7, np.full(SPEEDS.size, -3 + 10j)
+    )
+    exact = RideData(SPEEDS, lam.real, np.full(SPEEDS.size, 0.1), lam.imag, np.full(SPEEDS.size, 0.1))
+    post = posterior(ps, exact, fb, Unknowns(gain_scale=True))  # type: ignore[arg-type]
+    found = {c.name: c for c in post.gain_scale_confounders()}
+    assert "IBzz" in found and found["IBzz"].sigma_ratio > 0.9
+    predicted = 0.7 + 2.0 * found["IBzz"].per_prior_sigma
+    assert post.gain_scale == pytest.approx(predicted, abs=0.1 * abs(predicted - 0.7))
+    assert abs(post.gain_scale - 0.7) > 0.3 * post.gain_scale_sigma  # the case is exercised: a visible bias
+    cov_s = post.jacobian_unknowns @ post.z_covariance[:, -1]
+    known = post.gain_scale_sigma**2 - cov_s[j] ** 2 / post.covariance[j, j]
+    assert post.gain_scale_sigma > 1.05 * math.sqrt(known)  # marginal over IBzz, not conditioned on it
+    cal = calibrate(ps, exact, PAPER_RIDER, fb)  # type: ignore[arg-type]
+    assert "The gain scale is confounded with " in cal.verdict and "IBzz" in cal.verdict
+    fixed = posterior(ps, exact, fb, Unknowns())  # type: ignore[arg-type]
+    assert fixed.gain_scale_confounders() == []
