@@ -14,7 +14,7 @@ import math
 
 import pytest
 
-from bike_rig.paths import config_dir
+from bike_rig.config.paths import config_dir
 from test.support.cli import run
 from test.support.paper import shared_dir
 

@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from bike_rig.cli.main import _parameters
+from bike_rig.config.paths import config_file
 from bike_rig.core.feedback import resolve_feedback
 from bike_rig.core.ride.eigen import fit_segment
 from bike_rig.core.ride.noise import inverse_normal_matrix
@@ -22,7 +23,6 @@ from bike_rig.core.ride.realmode import fit_with_real_mode
 from bike_rig.core.ride.ridesim import RideConditions, simulate_segment
 from bike_rig.core.rider import PAPER_RIDER, add_rider
 from bike_rig.core.uncertainty.matrix_sigma import canonical_with_sigma
-from bike_rig.paths import config_file
 
 
 @pytest.fixture(scope="module")
