@@ -1,11 +1,12 @@
-"""Labels over an axes that never overlap: placed in rows, as many as the labels need.
+"""Labels beside an axes that never overlap: placed in rows, as many as the labels need.
 
-:class:`RowLabels` writes each label centred over its x (data coordinates) above the axes. At
-every draw, and whenever a layout engine asks for its extent, it measures the labels with the
-renderer at the axes' current size and puts each in the lowest row where it clears the labels
-already there by a gap; rows are stacked upwards. However many labels, however long, and at
-whatever figure size or resolution, no two overlap, and constrained layout keeps them inside
-the figure (their extent is part of the axes'). A heading, if given, sits above the top row.
+:class:`RowLabels` writes each label centred on its x (data coordinates) above the axes, or
+below it (under its x axis' ticks and tick labels). At every draw, and whenever a layout engine
+asks for its extent, it measures the labels with the renderer at the axes' current size and
+puts each in the row nearest the axes where it clears the labels already there by a gap; rows
+are stacked away from the axes. However many labels, however long, and at whatever figure size
+or resolution, no two overlap, and constrained layout keeps them inside the figure (their
+extent is part of the axes'). A heading, if given, sits beyond the outermost row.
 """
 
 from __future__ import annotations
@@ -54,16 +55,17 @@ def label_rows(extents: Sequence[tuple[float, float]], gap: float) -> list[int]:
 
 
 class RowLabels(Artist):
-    """Labels centred over x positions above an axes, in rows so that none overlap.
+    """Labels centred on x positions above (or below) an axes, in rows so that none overlap.
 
     Args:
         ax: The axes (the labels are added to it).
         xs: Each label's centre, data coordinates of ``ax``'s x axis.
         labels: The labels' texts.
         gids: Each label's gid (none: no gid).
-        title: A heading centred over the axes above the top row ("": none), in place of the
-            axes' title (which would not know the rows' height).
+        title: A heading centred on the axes beyond the outermost row ("": none); above the
+            axes, in place of the axes' title (which would not know the rows' height).
         title_size: The heading's font size, points.
+        below: Put the rows below the axes (under its x axis' ticks and tick labels), not above.
         **text: Keywords of :class:`matplotlib.text.Text` (e.g. ``fontsize``).
     """
 
@@ -75,6 +77,7 @@ class RowLabels(Artist):
         gids: Sequence[str] = (),
         title: str = "",
         title_size: float = 10.0,
+        below: bool = False,
         **text: Any,
     ) -> None:
         """Make the labels and add them to ``ax``."""
@@ -82,16 +85,18 @@ class RowLabels(Artist):
         fig = ax.get_figure()
         assert fig is not None
         self._ax = ax
+        self._below = below
+        edge, va = (0.0, "top") if below else (1.0, "bottom")
         self._texts: list[Text] = []
         for i, (x, label) in enumerate(zip(xs, labels, strict=True)):
-            t = Text(x, 1.0, label, ha="center", va="bottom", clip_on=False, **text)
+            t = Text(x, edge, label, ha="center", va=va, clip_on=False, **text)
             t.set_figure(fig)
             if i < len(gids):
                 t.set_gid(gids[i])
             self._texts.append(t)
         self._title: Text | None = None
         if title:
-            self._title = Text(0.5, 1.0, title, ha="center", va="bottom", clip_on=False, fontsize=title_size)
+            self._title = Text(0.5, edge, title, ha="center", va=va, clip_on=False, fontsize=title_size)
             self._title.set_figure(fig)
         self.set_figure(fig)
         self.rows: list[int] = [0] * len(self._texts)
@@ -115,6 +120,16 @@ class RowLabels(Artist):
         """The labels and the heading (so that ``findobj`` and the layout see them)."""
         return list(self._all())
 
+    def _axis_depth_pt(self, renderer: RendererBase, dpi: float) -> float:
+        """How far the x axis (ticks, tick labels, label) reaches below the axes, points."""
+        ax = self._ax
+        ticks = [t.get_tick_padding() for t in ax.xaxis.majorTicks[:1] if t.tick1line.get_visible()]
+        depth = max(ticks, default=0.0)
+        box = ax.xaxis.get_tightbbox(renderer)
+        if box is not None and box.height > 0:
+            depth = max(depth, (ax.get_window_extent(renderer).y0 - box.y0) * 72.0 / dpi)
+        return float(depth)
+
     def _place(self, renderer: RendererBase) -> None:
         """Measure the labels at the axes' current size and put each in its row."""
         fig = self._ax.get_figure()
@@ -128,11 +143,14 @@ class RowLabels(Artist):
         self.rows = label_rows([(b.x0, b.x1) for b in boxes], gap_px)
         row_pt = max((b.height for b in boxes), default=0.0) * 72.0 / dpi + GAP_PT
         scale = fig.dpi_scale_trans
+        start = PAD_PT + (self._axis_depth_pt(renderer, dpi) if self._below else 0.0)
+        sign = -1.0 if self._below else 1.0
         for t, row in zip(self._texts, self.rows, strict=True):
-            t.set_transform(base + ScaledTranslation(0.0, (PAD_PT + row * row_pt) / 72.0, scale))
+            t.set_transform(base + ScaledTranslation(0.0, sign * (start + row * row_pt) / 72.0, scale))
         if self._title is not None:
-            top = PAD_PT + (max(self.rows) + 1) * row_pt if self._texts else PAD_PT
-            self._title.set_transform(self._ax.transAxes + ScaledTranslation(0.0, (top + GAP_PT) / 72.0, scale))
+            outer = start + (max(self.rows) + 1) * row_pt if self._texts else start
+            shift = sign * (outer + GAP_PT) / 72.0
+            self._title.set_transform(self._ax.transAxes + ScaledTranslation(0.0, shift, scale))
 
     def get_window_extent(self, renderer: RendererBase | None = None) -> Bbox:
         """The labels' extent, laid out at the axes' current size, pixels."""
