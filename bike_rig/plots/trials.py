@@ -10,11 +10,17 @@ import math
 import textwrap
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
+from matplotlib.artist import Artist
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
+from matplotlib.legend import Legend
+from matplotlib.legend_handler import HandlerBase
 from matplotlib.patches import Patch
+from matplotlib.text import Text
+from matplotlib.transforms import Transform
 from numpy.typing import NDArray
 
 from ..core.period import FitOptions, combine_periods
@@ -26,13 +32,16 @@ from .style import new_figure
 
 __all__ = [
     "STATUS_LABELS",
+    "FlagKey",
     "KeyReference",
     "OverviewPoint",
     "TrialOverview",
     "fit_figure",
     "fit_title",
+    "flag_key",
     "incomplete_text",
     "overview_data",
+    "short_code",
     "trial_overview",
     "trial_status",
 ]
@@ -51,6 +60,8 @@ _TITLE_WIDTH = 110
 _MIN_RANGE_PPM = 10.0
 #: Margin of the deviation axis around the used trials' error bars.
 _RANGE_MARGIN = 1.6
+#: Colour of the flag codes and of the values of trials off the deviation scale.
+_FLAG_COLOUR = "C3"
 
 
 def incomplete_text(missing: Sequence[str]) -> str:
@@ -260,6 +271,95 @@ def overview_data(subject: Subject) -> TrialOverview:
     return TrialOverview(tuple(refs.values()), tuple(points), time_axis)
 
 
+@dataclass(frozen=True)
+class FlagKey:
+    """A flag code of the overview and the short code written under its trials.
+
+    Attributes:
+        code: The flag code (``too_few_cycles``...).
+        short: Its short code on the figure: ``A``, ``B``, … ``Z``, ``AA``… in order of first
+            appearance in the session.
+        n_trials: Trials flagged with it.
+    """
+
+    code: str
+    short: str
+    n_trials: int
+
+
+def short_code(index: int) -> str:
+    """The ``index``-th (0-based) short code of a flag: A to Z, then AA, AB and so on.
+
+    Args:
+        index: The flag's place in the session's order of first appearance, ≥ 0.
+    """
+    out = ""
+    n = index + 1
+    while n:
+        n, r = divmod(n - 1, 26)
+        out = chr(ord("A") + r) + out
+    return out
+
+
+def flag_key(ov: TrialOverview) -> tuple[FlagKey, ...]:
+    """The flag codes of a session's trials with their short codes, in order of first appearance.
+
+    Args:
+        ov: The overview's numbers.
+    """
+    counts: dict[str, int] = {}
+    for p in ov.points:
+        for code in dict.fromkeys(p.trial.fit.flag_codes):
+            counts[code] = counts.get(code, 0) + 1
+    return tuple(FlagKey(code, short_code(i), n) for i, (code, n) in enumerate(counts.items()))
+
+
+def _trial_note(p: OverviewPoint, half: float, shorts: dict[str, str]) -> str:
+    """What is written under a trial: its flags' short codes, and its deviation when off the scale."""
+    lines = []
+    if p.trial.fit.flag_codes:
+        lines.append(",".join(shorts[c] for c in dict.fromkeys(p.trial.fit.flag_codes)))
+    if p.status != "no period" and math.isfinite(p.deviation_ppm) and abs(p.deviation_ppm) > half:
+        lines.append(f"{p.deviation_ppm:+.3g} ppm")
+    return "\n".join(lines)
+
+
+class _ShortCode:
+    """A legend handle: a flag's short code, drawn in place of a marker."""
+
+    def __init__(self, short: str) -> None:
+        self.short = short
+
+
+class _ShortCodeHandler(HandlerBase):
+    """Draws a :class:`_ShortCode` handle as its text, centred in the handle box."""
+
+    def create_artists(
+        self,
+        legend: Legend,
+        orig_handle: Any,
+        xdescent: float,
+        ydescent: float,
+        width: float,
+        height: float,
+        fontsize: float,
+        trans: Transform,
+    ) -> Sequence[Artist]:
+        """The short code as a text in the legend's handle box."""
+        text = Text(
+            width / 2 - xdescent,
+            height / 2 - ydescent,
+            orig_handle.short,
+            ha="center",
+            va="center",
+            fontsize=fontsize,
+            color=_FLAG_COLOUR,
+            fontweight="bold",
+            transform=trans,
+        )
+        return [text]
+
+
 def _deviation_range(points: Sequence[OverviewPoint]) -> float:
     """Half-range of the deviation axis: the used trials' error bars with a margin, ppm."""
     core = [p for p in points if p.status == "used" and math.isfinite(p.deviation_ppm)]
@@ -284,7 +384,8 @@ def _key_groups(ov: TrialOverview) -> list[tuple[str, float, float]]:
     return groups
 
 
-def _draw_deviation(ax: Axes, ov: TrialOverview, title: str) -> None:
+def _draw_deviation(ax: Axes, ov: TrialOverview, title: str) -> tuple[FlagKey, ...]:
+    """The deviation panel; returns the flag codes written under its trials."""
     half = _deviation_range(ov.points)
     refs = {r.key: r for r in ov.references}
     pad = 0.4 if not ov.time_axis else 0.0
@@ -349,39 +450,23 @@ def _draw_deviation(ax: Axes, ov: TrialOverview, title: str) -> None:
                     gid=f"offscale:{p.trial.trial_id}",
                     zorder=4,
                 )
-                ax.annotate(
-                    f"{p.deviation_ppm:+.3g} ppm",
-                    (p.x, edge),
-                    xytext=(4, 0),
-                    textcoords="offset points",
-                    fontsize=6,
-                    va="center",
-                    color=colour,
-                )
-    for p in ov.points:
-        codes = p.trial.fit.flag_codes
-        if not codes:
-            continue
-        if p.status == "no period" or not math.isfinite(p.deviation_ppm):
-            y = -0.9 * half
-        else:
-            y = float(np.clip(p.deviation_ppm, -0.95 * half, 0.95 * half))
-        below = y > 0.5 * half
-        ax.annotate(
-            ", ".join(codes),
-            (p.x, y),
-            xytext=(3, -8 if below else 6),
-            textcoords="offset points",
-            fontsize=6,
-            rotation=-60 if below else 60,
-            va="top" if below else "bottom",
-            rotation_mode="anchor",
-            color="C3",
-            gid=f"flags:{p.trial.trial_id}",
-        )
+    flags = flag_key(ov)
+    shorts = {k.code: k.short for k in flags}
+    notes = [(p, _trial_note(p, half, shorts)) for p in ov.points]
+    notes = [(p, note) for p, note in notes if note]
+    RowLabels(
+        ax,
+        [p.x for p, _ in notes],
+        [note for _, note in notes],
+        [f"flags:{p.trial.trial_id}" for p, _ in notes],
+        below=True,
+        fontsize=6,
+        color=_FLAG_COLOUR,
+    )
     ax.axhline(0.0, color="0.3", linewidth=0.6)
     ax.set_ylim(-half, half)
     ax.set_ylabel("(T − T_key) / T_key [ppm]")
+    return flags
 
 
 def trial_overview(subject: Subject) -> Figure:
@@ -389,9 +474,10 @@ def trial_overview(subject: Subject) -> Figure:
 
     Top: each trial's period relative to its key's combined period (ppm, error bars σ_T),
     so keys of very different periods share one axis, with the combined period's σ as a
-    band; used, left-out and period-less trials have distinct markers, flag codes are
-    written beside their trial and periods off the scale are drawn at its edge with their
-    value. Middle: 1 − r² (log). Bottom: cycles in the fit window. Trials are placed by their
+    band; used, left-out and period-less trials have distinct markers and periods off the
+    scale are drawn at its edge. Under the panel, in rows that never overlap, each flagged
+    trial's flags as short codes (``A,B``; the legend names them, see :func:`flag_key`) and
+    each off-scale trial's deviation. Middle: 1 − r² (log). Bottom: cycles in the fit window. Trials are placed by their
     start time for a bag, else in session order.
 
     Args:
@@ -412,7 +498,7 @@ def trial_overview(subject: Subject) -> Figure:
     title = f"{subject.name}: {n} trials, {used} used, {len(ov.references)} periods ({subject.path})"
     if not subject.complete:
         title += "\n" + textwrap.fill(incomplete_text(subject.missing), _TITLE_WIDTH)
-    _draw_deviation(dev_ax, ov, title)
+    flags = _draw_deviation(dev_ax, ov, title)
     defaults = FitOptions()
     valid = [p for p in ov.points if p.trial.fit.valid]
     xs = np.array([p.x for p in valid])
@@ -440,10 +526,21 @@ def trial_overview(subject: Subject) -> Figure:
     )
     cyc_ax.set_ylim(bottom=0.0)
     cyc_ax.set_ylabel("cycles in window")
-    handles = [h for ax in (dev_ax, r2_ax, cyc_ax) for h in ax.get_legend_handles_labels()[0]]
-    band = Patch(color="C2", alpha=0.25, label="σ of the key's combined period")
-    handles.insert(len(dev_ax.get_legend_handles_labels()[0]), band)
-    fig.legend(handles=handles, loc="outside right upper", fontsize=7)
+    handles: list[Any] = []
+    labels: list[str] = []
+    for ax in (dev_ax, r2_ax, cyc_ax):
+        h, lab = ax.get_legend_handles_labels()
+        handles += h
+        labels += lab
+        if ax is dev_ax:
+            handles.append(Patch(color="C2", alpha=0.25))
+            labels.append("σ of the key's combined period")
+    if flags:
+        handles.append(_ShortCode(""))
+        labels.append("flags, under each trial:")
+        handles += [_ShortCode(k.short) for k in flags]
+        labels += [f"{k.code} ({k.n_trials})" for k in flags]
+    fig.legend(handles, labels, loc="outside right upper", fontsize=7, handler_map={_ShortCode: _ShortCodeHandler()})
     if ov.time_axis:
         cyc_ax.set_xlabel(f"trial start [{TIME_BASE}]")
     else:

@@ -1,7 +1,7 @@
 """Trial figures: a trial's fit figure draws its samples, fit and residuals.
 
 The overview places every trial against its key's combined period, and shows a flagged or
-period-less trial as such.
+period-less trial as such, its flags' short codes under it.
 
 Numbers are read back from the figure's artists (by gid), never pixels.
 """
@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
-from matplotlib.text import Annotation, Text
+from matplotlib.text import Text
 
 from bike_rig.bag.simulated import write_simulated_bag
 from bike_rig.core.period import PeriodFit
@@ -213,12 +213,15 @@ def test_overview_draws_used_left_out_and_period_less_trials_apart(bag_subject: 
     assert off.get_ydata()[0] > 0.9 * high  # at the top edge: the trial is 1 % long
     gone = line(fig, "overview:no period")
     assert list(gone.get_xdata()) == [trials[7].start_s]
-    for i, codes in ((1, "poor_fit, drift"), (4, "beating"), (7, "no_oscillation")):
-        note = artist(fig, f"flags:{trials[i].trial_id}")
-        assert isinstance(note, Annotation) and note.get_text() == codes
+    # flags as short codes under their trial, in order of first appearance, named by the legend
     p4 = next(p for p in ov.points if p.trial is trials[4])
     assert p4.deviation_ppm == pytest.approx(1e4, rel=5e-3)  # (the other trials' mean: tens of ppm off)
-    assert f"{p4.deviation_ppm:+.3g} ppm" in [t.get_text() for t in fig.axes[0].texts]  # its value, written
+    for i, codes in ((1, "A,B"), (4, f"C\n{p4.deviation_ppm:+.3g} ppm"), (7, "D")):  # the off-scale value too
+        note = artist(fig, f"flags:{trials[i].trial_id}")
+        assert isinstance(note, Text) and note.get_text() == codes
+    legend = [t.get_text() for t in fig.legends[0].get_texts()]
+    for code in ("poor_fit (1)", "drift (1)", "beating (1)", "no_oscillation (1)"):
+        assert code in legend
     # r² and cycles panels: one point per trial with a period
     r2 = artist(fig, "overview:r2")
     assert len(r2.get_offsets()) == 38  # type: ignore[attr-defined]
