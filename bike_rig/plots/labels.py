@@ -6,26 +6,39 @@ asks for its extent, it measures the labels with the renderer at the axes' curre
 puts each in the row nearest the axes where it clears the labels already there by a gap; rows
 are stacked away from the axes. However many labels, however long, and at whatever figure size
 or resolution, no two overlap, and constrained layout keeps them inside the figure (their
-extent is part of the axes'). A heading, if given, sits beyond the outermost row.
+extent is part of the axes'). A heading, if given, sits beyond the outermost row, its lines
+wrapped to the axes' width; :class:`SettlingLayout` runs constrained layout until rows and
+heading, whose height follows the axes' width, have settled.
 """
 
 from __future__ import annotations
 
+import textwrap
 from collections.abc import Sequence
 from typing import Any
 
 from matplotlib.artist import Artist
 from matplotlib.axes import Axes
 from matplotlib.backend_bases import RendererBase
+from matplotlib.figure import Figure
+from matplotlib.layout_engine import ConstrainedLayoutEngine
 from matplotlib.text import Text
 from matplotlib.transforms import Bbox, ScaledTranslation
 
-__all__ = ["RowLabels", "label_rows"]
+__all__ = ["RowLabels", "SettlingLayout", "label_rows"]
 
 #: Gap between neighbouring labels of a row, and between rows, points.
 GAP_PT = 3.0
 #: Space between the axes' top and the first row, points.
 PAD_PT = 3.0
+#: Fewest characters a line of a heading is wrapped to.
+_MIN_TITLE_CHARS = 20
+#: Most times a heading is wrapped narrower to fit the axes' width.
+_MAX_WRAPS = 8
+#: Most passes of :class:`SettlingLayout`.
+_MAX_PASSES = 5
+#: Move of an axes' corner, figure fraction, below which :class:`SettlingLayout` has settled.
+_SETTLED = 1e-4
 
 
 def label_rows(extents: Sequence[tuple[float, float]], gap: float) -> list[int]:
@@ -54,6 +67,26 @@ def label_rows(extents: Sequence[tuple[float, float]], gap: float) -> list[int]:
     return rows
 
 
+class SettlingLayout(ConstrainedLayoutEngine):
+    """Constrained layout, run again until the axes stop moving.
+
+    The height of :class:`RowLabels` depends on the axes' width (narrower axes, more rows), which
+    the layout sets: one pass of constrained layout may leave rows or a heading off the figure.
+    Keywords are :class:`matplotlib.layout_engine.ConstrainedLayoutEngine`'s.
+    """
+
+    def execute(self, fig: Figure) -> dict[str, Any]:  # type: ignore[override]
+        """Lay ``fig`` out, up to a few passes, until no axes moves."""
+        done: dict[str, Any] = {}
+        for _ in range(_MAX_PASSES):
+            before = [ax.get_position().get_points().copy() for ax in fig.axes]
+            done = super().execute(fig)
+            moved = [abs(ax.get_position().get_points() - b).max() for ax, b in zip(fig.axes, before, strict=True)]
+            if max(moved, default=0.0) < _SETTLED:
+                break
+        return done
+
+
 class RowLabels(Artist):
     """Labels centred on x positions above (or below) an axes, in rows so that none overlap.
 
@@ -62,8 +95,9 @@ class RowLabels(Artist):
         xs: Each label's centre, data coordinates of ``ax``'s x axis.
         labels: The labels' texts.
         gids: Each label's gid (none: no gid).
-        title: A heading centred on the axes beyond the outermost row ("": none); above the
-            axes, in place of the axes' title (which would not know the rows' height).
+        title: A heading beyond the outermost row, centred on the axes and its lines wrapped to
+            the axes' width ("": none); above the axes, in place of the axes' title (which would
+            not know the rows' height).
         title_size: The heading's font size, points.
         below: Put the rows below the axes (under its x axis' ticks and tick labels), not above.
         **text: Keywords of :class:`matplotlib.text.Text` (e.g. ``fontsize``).
@@ -98,6 +132,7 @@ class RowLabels(Artist):
         if title:
             self._title = Text(0.5, edge, title, ha="center", va=va, clip_on=False, fontsize=title_size)
             self._title.set_figure(fig)
+        self._title_text = title
         self.set_figure(fig)
         self.rows: list[int] = [0] * len(self._texts)
         ax.add_artist(self)
@@ -151,6 +186,21 @@ class RowLabels(Artist):
             outer = start + (max(self.rows) + 1) * row_pt if self._texts else start
             shift = sign * (outer + GAP_PT) / 72.0
             self._title.set_transform(self._ax.transAxes + ScaledTranslation(0.0, shift, scale))
+            self._fit_title(renderer)
+
+    def _fit_title(self, renderer: RendererBase) -> None:
+        """Wrap the heading's lines (as given) to the axes' width (it adds no width to the axes)."""
+        title = self._title
+        assert title is not None
+        title.set_text(self._title_text)
+        room = float(self._ax.get_window_extent(renderer).width)
+        for _ in range(_MAX_WRAPS):
+            width = title.get_window_extent(renderer).width
+            longest = max(len(line) for line in title.get_text().split("\n"))
+            if width <= room or longest <= _MIN_TITLE_CHARS:
+                return
+            chars = max(_MIN_TITLE_CHARS, min(longest - 1, int(longest * room / width)))
+            title.set_text("\n".join(textwrap.fill(line, chars) for line in self._title_text.split("\n")))
 
     def get_window_extent(self, renderer: RendererBase | None = None) -> Bbox:
         """The labels' extent, laid out at the axes' current size, pixels."""

@@ -7,7 +7,6 @@ every trial's period against its key's combined period, r² and cycles.
 from __future__ import annotations
 
 import math
-import textwrap
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -27,7 +26,7 @@ from ..core.period import FitOptions, combine_periods
 from ..core.textfmt import format_value_sigma
 from ..offline.subjects import SessionTrial, Subject, is_bag_path
 from ..offline.timeline import TIME_BASE
-from .labels import RowLabels
+from .labels import RowLabels, SettlingLayout
 from .style import new_figure
 
 __all__ = [
@@ -54,8 +53,6 @@ STATUS_LABELS: dict[str, tuple[str, str, str]] = {
     "left out": ("left out (flagged or rejected)", "s", "C3"),
     "no period": ("no period", "X", "0.2"),
 }
-#: Longest line of the overview's heading, characters.
-_TITLE_WIDTH = 110
 #: Smallest half-range of the deviation axis, ppm.
 _MIN_RANGE_PPM = 10.0
 #: Margin of the deviation axis around the used trials' error bars.
@@ -492,12 +489,13 @@ def trial_overview(subject: Subject) -> Figure:
     """
     ov = overview_data(subject)
     fig = new_figure(11.0, 7.5)
+    fig.set_layout_engine(SettlingLayout())
     dev_ax, r2_ax, cyc_ax = fig.subplots(3, 1, sharex=True, height_ratios=(3, 1.3, 1.3))
     n = len(ov.points)
     used = sum(p.status == "used" for p in ov.points)
     title = f"{subject.name}: {n} trials, {used} used, {len(ov.references)} periods ({subject.path})"
     if not subject.complete:
-        title += "\n" + textwrap.fill(incomplete_text(subject.missing), _TITLE_WIDTH)
+        title += "\n" + incomplete_text(subject.missing)
     flags = _draw_deviation(dev_ax, ov, title)
     defaults = FitOptions()
     valid = [p for p in ov.points if p.trial.fit.valid]
@@ -525,7 +523,7 @@ def trial_overview(subject: Subject) -> Figure:
         label=f"default flag threshold ({defaults.min_cycles:g} cycles)",
     )
     cyc_ax.set_ylim(bottom=0.0)
-    cyc_ax.set_ylabel("cycles in window")
+    cyc_ax.set_ylabel("cycles in\nwindow")
     handles: list[Any] = []
     labels: list[str] = []
     for ax in (dev_ax, r2_ax, cyc_ax):

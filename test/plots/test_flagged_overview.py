@@ -2,10 +2,10 @@
 
 Two sessions: one of 4 s trials (too short for the rig's periods: the fitter flags every
 trial, about half without a period) and one whose trials carry every flag code, three each,
-several in a row off the deviation scale. Drawn at ``bike-rig plot``'s size and at the report's,
-no two texts overlap and none leaves the canvas (:func:`test.support.figure_layout.layout_faults`),
-and every flagged trial's short codes, read back from what was drawn, name its flags through
-the legend.
+several in a row off the deviation scale. Drawn at ``bike-rig plot``'s size and at the report's
+(and smaller and larger), no two texts overlap and none leaves the canvas
+(:func:`test.support.figure_layout.layout_faults`), and every flagged trial's short codes, read
+back from what was drawn, name its flags through the legend.
 """
 
 from __future__ import annotations
@@ -198,5 +198,22 @@ def test_row_labels_below_an_axes_clear_its_ticks_and_tick_labels(size_in: tuple
         assert max(rows.rows) >= 1  # crowded: more than one row
         for label in rows.texts:
             assert label.get_window_extent(renderer).y1 <= tick_bottom  # under the x axis and its label
+    finally:
+        plt.close(fig)
+
+
+@pytest.mark.parametrize("size_in", [(7.0, 5.0), (9.0, 6.0), (14.0, 9.0)])
+@pytest.mark.parametrize("name", ["short trials", "every flag"])
+def test_the_flagged_overview_is_laid_out_at_other_sizes(
+    name: str, size_in: tuple[float, float], sessions: dict[str, Subject]
+) -> None:
+    fig = FIGURES["trials"].draw(sessions[name])
+    fig.set_size_inches(*size_in)
+    try:
+        faults = layout_faults(fig)
+        assert not faults, f"{name} at {size_in} in: " + "\n".join(faults)
+        heading = [t.text for t in drawn_texts(fig) if t.text.startswith(sessions[name].name + ":")]
+        assert len(heading) == 1  # wrapped to the panel's width, nothing dropped
+        assert all(k in heading[0].split() or k + "," in heading[0].split() for k in sessions[name].missing)
     finally:
         plt.close(fig)
