@@ -113,6 +113,7 @@ def test_the_recorded_estimates_carry_their_fit_details(recorded: Recorded, curr
     assert result.live.identical and not result.notes
     swinging = [t for t in result.trials if math.isfinite(t.result.fit.small_swing_systematic)]
     assert swinging  # the compound pendulums' small-swing periods were checked over trimmed windows
+    assert any(t.recorded is not None and math.isfinite(t.recorded.fit.ends_period) for t in result.trials)
     for t in result.trials:
         assert t.recorded is not None
         live, replayed = t.recorded.fit, t.result.fit
