@@ -241,6 +241,9 @@ def full_details() -> FitDetails:
         (1.6057, 1.60347, 1.60175, 1.60184),
         (4e-4, 3e-4, 3e-4, 4e-4),
         ("damping dry (...)", "the period ..."),
+        ends_period=1.6021,
+        ends_period_sigma=3.1e-5,
+        small_swing_systematic=4.2e-5,
     )
 
 

@@ -3,10 +3,10 @@
 :func:`decoding_for` parses a channel's schema (``ros2msg`` or ``ros2idl``) with rosbags and
 compares it field by field and constant by constant with the rig's typestore
 (:func:`bike_rig.bag.typestore.rig_typestore`): the same decodes with ours; one that still has
-every field and constant of ours with the same types (reordered, fields added) decodes with a
-typestore from the bag's schema; anything else is refused in one line naming the type and both
-RIHS01 hashes. The schema decides; metadata.yaml's type hash is used only for a bag without
-schemas (SQLite storage).
+every field and constant of ours with the same types (reordered, fields added; those of
+:data:`OPTIONAL_FIELDS` may be absent) decodes with a typestore from the bag's schema;
+anything else is refused in one line naming the type and both RIHS01 hashes. The schema
+decides; metadata.yaml's type hash is used only for a bag without schemas (SQLite storage).
 """
 
 from __future__ import annotations
@@ -25,10 +25,16 @@ from .typestore import rig_typestore, type_hash
 if TYPE_CHECKING:
     from rosbags.typesys.store import Typestore
 
-__all__ = ["SCHEMA_ENCODINGS", "Decoding", "RecordedSchema", "decoding_for"]
+__all__ = ["OPTIONAL_FIELDS", "SCHEMA_ENCODINGS", "Decoding", "RecordedSchema", "decoding_for"]
 
 #: MCAP schema encodings of ROS 2 message definitions (rosbag2 writes ``ros2msg``).
 SCHEMA_ENCODINGS = ("ros2msg", "ros2idl")
+
+#: Per type, the fields added after bags were recorded without them: a bag's definition may lack
+#: them (its messages are decoded with it, and the records keep their defaults, NaN).
+OPTIONAL_FIELDS: dict[str, frozenset[str]] = {
+    "bike_rig_msgs/msg/FitDetails": frozenset({"ends_period", "ends_period_sigma", "small_swing_systematic"}),
+}
 
 
 @dataclass(frozen=True)
@@ -122,7 +128,10 @@ def _missing(bag: dict[str, Any], ours: dict[str, Any], msgtype: str) -> str:
             if theirs_c.get(const[0]) != _plain(const):
                 return f"{short}: constant {const[0]} is not {const[1]} {const[0]}={const[2]}"
         theirs_f = dict(bag_fields)
+        optional = OPTIONAL_FIELDS.get(name, frozenset())
         for field, desc in our_fields:
+            if field not in theirs_f and field in optional:
+                continue
             if field not in theirs_f:
                 return f"{short} has no field {field}"
             if _plain(theirs_f[field]) != _plain(desc):

@@ -5,8 +5,8 @@ a START stamped with its first sample's rig time, ``GyroBatch`` messages of
 ``samples_per_batch`` samples stamped ``start + round(index * 1e9 / rate)``, and a STOP with the
 sample count; ``pause_s`` between trials, each message logged ``latency_ns`` after its stamp.
 :func:`live_results` adds what the live graph publishes, computed with the nodes' own ROS-free
-functions: a ``PeriodEstimate`` per STOP, ``BenchmarkParameters`` after each, and the model's
-``CanonicalMatrices`` and ``EigenSweep`` for the complete set.
+functions: a ``PeriodEstimate`` and its ``FitDetails`` per STOP, ``BenchmarkParameters`` after
+each, and the model's ``CanonicalMatrices`` and ``EigenSweep`` for the complete set.
 """
 
 from __future__ import annotations
@@ -28,6 +28,7 @@ from ..messages import (
     fill_benchmark_parameters,
     fill_canonical_matrices,
     fill_eigen_sweep,
+    fill_fit_details,
     fill_gyro_batch,
     fill_period_estimate,
     fill_static_readings,
@@ -39,15 +40,26 @@ from ..messages import (
 )
 from ..pipeline.acquire import NS_PER_S, SampleBatch, TrialEventKind, TrialEventRecord, sample_stamp_ns
 from ..pipeline.fit import TrialFit, TrialFitOptions, fit_trial
+from ..pipeline.fit_details import FitDetails
 from ..pipeline.offline import DEFAULT_SPEEDS, GraphSettings, OfflineGraph, TrialInput
 from .typestore import new_message, rig_typestore
 from .writer import BagWriter, Compression, contract_qos
 
-__all__ = ["SimulatedMessage", "live_results", "period_estimate", "simulated_messages", "write_simulated_bag"]
+__all__ = [
+    "RECORDED_TOPICS",
+    "SimulatedMessage",
+    "fit_details",
+    "live_results",
+    "period_estimate",
+    "simulated_messages",
+    "write_simulated_bag",
+]
 
 STATIC_TYPE = topics.STATIC_READINGS.type
 EVENT_TYPE = topics.TRIAL_EVENTS.type
 BATCH_TYPE = topics.GYRO.type
+#: The topics a simulated bag holds: the rig's, and the fitter's details.
+RECORDED_TOPICS = (*topics.TOPICS, topics.FIT_DETAILS)
 
 
 @dataclass(frozen=True)
@@ -157,9 +169,9 @@ def write_simulated_bag(
     store = rig_typestore()
     messages = sorted([*simulated_messages(session, **options), *extra], key=lambda m: m.log_time)
     with BagWriter(path, compression=compression, flush_period_s=3600.0, chunk_size=chunk_size) as w:
-        for t in topics.TOPICS:
+        for t in RECORDED_TOPICS:
             w.add_topic(t.name, t.type, offered_qos=[contract_qos(t.qos)])
-        types = {t.name: t.type for t in topics.TOPICS}
+        types = {t.name: t.type for t in RECORDED_TOPICS}
         for m in messages:
             data = store.serialize_cdr(m.message, types[m.topic])
             w.write(m.topic, m.log_time, bytes(data))
@@ -169,6 +181,11 @@ def write_simulated_bag(
 def period_estimate(r: TrialFit) -> Any:
     """The ``PeriodEstimate`` the fitter node publishes for a result."""
     return fill_period_estimate(new_message(topics.PERIODS.type), r)
+
+
+def fit_details(r: TrialFit) -> Any:
+    """The ``FitDetails`` the fitter node publishes with a result's estimate."""
+    return fill_fit_details(new_message(topics.FIT_DETAILS.type), FitDetails.of(r))
 
 
 def _published(topic: topics.Topic, record: Any, fill: Any, stamp_ns: int, log_time: int) -> SimulatedMessage:
@@ -186,7 +203,7 @@ def live_results(
     speeds: Any = None,
     delay_ns: int = 5_000_000,
 ) -> list[SimulatedMessage]:
-    """What the fitter, parameter and model nodes publish for a recorded input stream.
+    """What the fitter (estimates and their details), parameter and model nodes publish for an input stream.
 
     The stream's messages become records and go trial by trial through the offline runner
     (:meth:`bike_rig.pipeline.offline.OfflineGraph.step`).
@@ -229,9 +246,11 @@ def live_results(
             if graph is None:
                 fitted = fit_trial(trial.batches, trial.start, trial.stop, settings.fit_options)
                 out.append(SimulatedMessage(topics.PERIODS.name, t, period_estimate(fitted)))
+                out.append(SimulatedMessage(topics.FIT_DETAILS.name, t, fit_details(fitted)))
                 continue
             step = graph.step(trial)
             out.append(SimulatedMessage(topics.PERIODS.name, t, period_estimate(step.trial)))
+            out.append(SimulatedMessage(topics.FIT_DETAILS.name, t, fit_details(step.trial)))
             stamp = t + delay_ns
             out.append(_published(topics.PARAMETERS, step.session, fill_benchmark_parameters, stamp, stamp))
             if step.matrices is not None and step.stability is not None:

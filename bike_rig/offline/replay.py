@@ -44,7 +44,7 @@ from ..core.loader import load_static_readings
 from ..core.measurements import Measurements, Origin
 from ..core.period import WindowPolicy
 from ..core.uncertainty.matrix_sigma import SigmaConvention
-from ..messages import MessageError, static_readings_from_msg, trial_fit_from_msg
+from ..messages import MessageError, fit_details_from_msg, static_readings_from_msg, trial_fit_from_msg
 from ..pipeline.assemble import SessionAssembly, SessionParameters, required_readings
 from ..pipeline.errors import AssemblyError
 from ..pipeline.fit import TrialFit, TrialFitOptions
@@ -206,11 +206,26 @@ def _session_options(session: RecordedSession) -> TrialFitOptions | None:
     return _options(text, "a period estimate", session.path)
 
 
+def _with_details(session: RecordedSession, trial: TrialFit) -> TrialFit:
+    """A recorded estimate with its trial's last ``FitDetails`` joined (as is without one, or a bad one).
+
+    A bag recorded before a field of the details was added keeps that field at its default (NaN).
+    """
+    msg = session.fit_details.get(trial.trial_id)
+    if msg is None:
+        return trial
+    try:
+        return fit_details_from_msg(msg).apply(trial)
+    except MessageError:
+        return trial
+
+
 def _live_estimates(session: RecordedSession, static: Measurements, method: ComMethod) -> dict[str, TrialFit]:
-    """The estimate of each trial the live parameter node kept.
+    """The estimate of each trial the live parameter node kept, with its fit details.
 
     Every recorded PeriodEstimate goes through a :class:`SessionAssembly` in the order received
-    (its rules decide which one of a trial's re-publications stays).
+    (its rules decide which one of a trial's re-publications stays); the trial's last
+    ``FitDetails`` then completes its fit (:func:`_with_details`).
     """
     live = SessionAssembly(static, method, origin=topics.PERIODS.name)
     for t in session.trials.values():
@@ -227,7 +242,7 @@ def _live_estimates(session: RecordedSession, static: Measurements, method: ComM
                 kept[t.trial_id] = trial_fit_from_msg(t.estimate)
             except MessageError:
                 continue
-    return kept
+    return {tid: _with_details(session, trial) for tid, trial in kept.items()}
 
 
 def _trial_options(
@@ -361,6 +376,7 @@ def replay_session(session: RecordedSession, settings: ReplaySettings | None = N
     )
     run = graph.run((_input(t) for t in session.trials.values()), lambda t: chosen[t.trial_id][0])
     notes = [readings_note] if readings_note else []
+    notes += session.notes
     notes += [f"trial {tid} left out: {why}" for tid, why in run.rejected.items()]
     used = {tid for p in run.session.periods for tid in p.trial_ids}
     trials = tuple(

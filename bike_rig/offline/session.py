@@ -1,8 +1,8 @@
 """A recorded session, read back from a bag.
 
 Trials (their events and gyro batches), static readings (the parameter node's latest, and
-every reading entered during the session), and the live results (period estimates, parameter
-set, model) the graph published.
+every reading entered during the session), and the live results (period estimates with the
+fitter's ``FitDetails``, parameter set, model) the graph published.
 
 Messages are the dataclasses rosbags deserializes into (:mod:`bike_rig.bag.typestore`), with
 the same fields as the rclpy messages, so the nodes' ROS-free functions take them as they are;
@@ -28,7 +28,7 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from ..bag.errors import BagReadError, NoRigTopicsError
+from ..bag.errors import BagReadError, NoRigTopicsError, ReplayError
 from ..bag.gyro_cdr import gyro_batch, gyro_columns
 from ..bag.order import publication_order
 from ..bag.reader import BagReader, Record, TopicInfo
@@ -162,6 +162,9 @@ class RecordedSession:
         eigen_sweeps: Every EigenSweep message, in publication order.
         stray_batches: Gyro batches outside any trial (empty trial id).
         all_static_readings: Every StaticReadings message, in publication order.
+        fit_details: The last FitDetails message of each trial (log time), by trial id.
+        notes: What of the bag was not read, and why (e.g. FitDetails of a definition bike_rig
+            cannot read: the estimates are read without them).
         live_order: What ordered the live topics' messages (:data:`BY_SEQUENCE`,
             :data:`BY_STORAGE` or :data:`BY_LOG_TIME`; see :mod:`bike_rig.bag.order`).
     """
@@ -180,6 +183,8 @@ class RecordedSession:
     eigen_sweeps: list[Any] = field(default_factory=list)
     stray_batches: int = 0
     all_static_readings: list[Any] = field(default_factory=list)
+    fit_details: dict[str, Any] = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)
     live_order: str = BY_STORAGE
 
     @property
@@ -259,6 +264,8 @@ def _add(session: RecordedSession, topic: str, msg: Any) -> None:
         session.matrices.append(msg)
     elif topic == topics.EIGEN_SWEEP.name:
         session.eigen_sweeps.append(msg)
+    elif topic == topics.FIT_DETAILS.name:
+        session.fit_details[str(msg.trial_id)] = msg
 
 
 def read_session(path: str | Path, which: Iterable[str] | None = None) -> RecordedSession:
@@ -283,7 +290,11 @@ def read_session(path: str | Path, which: Iterable[str] | None = None) -> Record
         empty = RecordedSession(
             bag.shown, dict(bag.topics), bag.start_time, bag.end_time, bag.message_count, bag.storage_files
         )
+        if topics.FIT_DETAILS.name in bag.topics:
+            rig.append(topics.FIT_DETAILS.name)
         wanted = rig if which is None else [t for t in rig if t in set(which)]
+        notes = _details_readable(bag, wanted)
+        empty.notes += notes
         for t in wanted:
             bag.decoding(t)
         records = bag.records(wanted)
@@ -303,6 +314,22 @@ def read_session(path: str | Path, which: Iterable[str] | None = None) -> Record
         else:
             session.live_order = BY_LOG_TIME
     return session
+
+
+def _details_readable(bag: BagReader, wanted: list[str]) -> list[str]:
+    """Leave the FitDetails topic out of ``wanted`` when its definition cannot be read, and say so.
+
+    The estimates carry what the parameters need; the details only add to them.
+    """
+    name = topics.FIT_DETAILS.name
+    if name not in wanted:
+        return []
+    try:
+        bag.decoding(name)
+    except ReplayError as exc:
+        wanted.remove(name)
+        return [f"the fit details on {name} were not read ({exc.reason})"]
+    return []
 
 
 def _stamped_live(bag: BagReader, live: list[str]) -> list[_Keyed] | None:

@@ -35,6 +35,12 @@ class FitDetails:
         window_periods: The period along the record, s.
         window_period_sigmas: Their σ, s.
         notes: The fit's remarks.
+        ends_period: The record's own mean period from the phase at the window's ends, s (NaN:
+            fewer than 6 cycles, or a recording made before this field).
+        ends_period_sigma: Its σ, s.
+        small_swing_systematic: The small-swing period's systematic σ, included in the
+            estimate's ``period_sigma``, s (0: none; NaN: not evaluated, the option off, or a
+            recording made before this field).
     """
 
     trial_id: str
@@ -49,6 +55,9 @@ class FitDetails:
     window_periods: tuple[float, ...] = ()
     window_period_sigmas: tuple[float, ...] = ()
     notes: tuple[str, ...] = ()
+    ends_period: float = math.nan
+    ends_period_sigma: float = math.nan
+    small_swing_systematic: float = math.nan
 
     @classmethod
     def of(cls, trial: TrialFit) -> FitDetails:

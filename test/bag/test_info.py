@@ -9,10 +9,10 @@ from pathlib import Path
 import pytest
 
 from bike_rig.bag.errors import IncompleteBagError, NoRigTopicsError
-from bike_rig.bag.simulated import SimulatedMessage, write_simulated_bag
+from bike_rig.bag.simulated import RECORDED_TOPICS, SimulatedMessage, write_simulated_bag
 from bike_rig.bag.typestore import new_message
 from bike_rig.bag.writer import BagWriter
-from bike_rig.config.topics import EIGEN_SWEEP, GYRO, PARAMETERS, PERIODS, TOPICS, TRIAL_EVENTS
+from bike_rig.config.topics import EIGEN_SWEEP, GYRO, PARAMETERS, PERIODS, TRIAL_EVENTS
 from bike_rig.core.sim import SimulatedSession
 from bike_rig.offline.info import summarize
 from test.support.cli import run_cli
@@ -76,7 +76,7 @@ def test_summary_of_a_session(session: SimulatedSession, info_bag: Path) -> None
     counts = {t.name: t.count for t in s.topics}
     assert counts[GYRO.name] == len(session.trials) * math.ceil(n / 50)
     assert counts[TRIAL_EVENTS.name] == 2 * len(session.trials)
-    assert set(counts) == {t.name for t in TOPICS}
+    assert set(counts) == {t.name for t in RECORDED_TOPICS}
     assert s.live.parameter_sets == 1 and not s.live.complete and s.live.missing == ("TcR1", "TtB1")
     assert (s.live.weave_speed, s.live.capsize_speed) == (4.2, None)
     assert s.duration_s == pytest.approx((s.end_ns - s.start_ns) / 1e9)

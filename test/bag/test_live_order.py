@@ -15,10 +15,10 @@ import yaml
 
 from bike_rig.bag import reader as reader_module
 from bike_rig.bag.order import publication_order
-from bike_rig.bag.simulated import SimulatedMessage, live_results, simulated_messages
+from bike_rig.bag.simulated import RECORDED_TOPICS, SimulatedMessage, live_results, simulated_messages
 from bike_rig.bag.typestore import rig_typestore
 from bike_rig.bag.writer import BagWriter, contract_qos
-from bike_rig.config.topics import PARAMETERS, TOPICS, TRIAL_EVENTS
+from bike_rig.config.topics import PARAMETERS, TRIAL_EVENTS
 from bike_rig.core.sim import SimulatedSession
 from bike_rig.offline.info import summarize
 from bike_rig.offline.replay import replay_bag
@@ -56,10 +56,10 @@ def write_bag(
     a new storage file starts before each message of ``split_before``.
     """
     store = rig_typestore()
-    types = {t.name: t.type for t in TOPICS}
+    types = {t.name: t.type for t in RECORDED_TOPICS}
     counts = dict.fromkeys(types, 0)
     with BagWriter(path, flush_period_s=3600.0) as w:
-        for t in TOPICS:
+        for t in RECORDED_TOPICS:
             w.add_topic(t.name, t.type, offered_qos=[contract_qos(t.qos)])
         for i, m in enumerate(stream):
             if i in split_before:

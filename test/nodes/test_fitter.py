@@ -23,10 +23,11 @@ import pytest
 
 from bike_rig import messages
 from bike_rig.config.paths import config_file
-from bike_rig.config.topics import GYRO, PERIODS, RESEND_SAMPLES, TRIAL_EVENTS
+from bike_rig.config.topics import FIT_DETAILS, GYRO, PERIODS, RESEND_SAMPLES, TRIAL_EVENTS
 from bike_rig.core.period import FitOptions, WindowPolicy, fit_period
 from bike_rig.pipeline.acquire import SampleBatch, TrialEventKind, TrialEventRecord
 from bike_rig.pipeline.fit import TrialFit, TrialFitOptions, fit_trial
+from bike_rig.pipeline.fit_details import FitDetails
 from bike_rig.pipeline.fit_state import FitterState
 from bike_rig.pipeline.resend import SentBatches
 from test.support.fakes import ManualClock, RecordingLog
@@ -359,6 +360,7 @@ def test_every_trial_of_a_session_through_driver_and_fitter(
 ) -> None:
     session, path = small_session(tmp_path)
     periods = probe.subscribe(PERIODS, msgs.PeriodEstimate)
+    details = probe.subscribe(FIT_DETAILS, msgs.FitDetails)
     fitter_cmd = node_command("bike_rig.ros.nodes.fitter", params_file=str(config_file("fitter.yaml")))
     driver_cmd = node_command(
         "bike_rig.ros.nodes.driver",
@@ -375,9 +377,9 @@ def test_every_trial_of_a_session_through_driver_and_fitter(
         RosProcess("driver", driver_cmd, ros_env, tmp_path) as driver,
     ):
         probe.spin_until(
-            lambda: len(periods) == len(session.trials),
+            lambda: len(periods) == len(details) == len(session.trials),
             STEP_TIMEOUT_S,
-            "every trial's period",
+            "every trial's period and fit details",
             lambda: fitter.describe() + driver.describe(),
         )
         assert fitter.proc.poll() is None and driver.proc.poll() is None
@@ -386,7 +388,7 @@ def test_every_trial_of_a_session_through_driver_and_fitter(
     options = TrialFitOptions.from_json(periods[0].fit_options_json)
     assert options == TrialFitOptions()  # config/fitter.yaml holds the defaults
     start_ns = T0
-    for estimate, truth in zip(periods, session.trials):
+    for estimate, detail, truth in zip(periods, details, session.trials, strict=True):
         n = truth.rate.size
         stop_ns = start_ns + round(n * 1e6)
         start = event(0, truth.name, key=truth.key, ns=start_ns)
@@ -394,6 +396,10 @@ def test_every_trial_of_a_session_through_driver_and_fitter(
         expected = fit_trial(batches_of(truth.rate, truth.name), start, stop, options)
         assert_identical(estimate, expected)
         assert estimate.n_samples == estimate.n_expected == n
+        got, want = messages.fit_details_from_msg(detail), FitDetails.of(expected)
+        for f in dataclasses.fields(FitDetails):  # the ends period and the small-swing systematic too
+            a, b = getattr(got, f.name), getattr(want, f.name)
+            assert a == b or (isinstance(a, float) and same(a, b)), (truth.name, f.name, a, b)
         start_ns = stop_ns + 100_000_000
 
 
