@@ -149,6 +149,13 @@ def test_can_gyro_trials_through_the_services(probe: Probe, ros_env: dict[str, s
         stopped = probe.call(stop_client, srvs.StopTrial.Request(trial_id=second.trial_id, abort=True))
         assert stopped.accepted and "aborted" in stopped.message
         probe.spin_until(lambda: any(e.kind == ABORT for e in events), STEP_TIMEOUT_S, "the ABORT")
+        aborted = next(e for e in events if e.kind == ABORT).sample_count
+
+        def received() -> int:
+            return sum(len(b.rates) for b in batches if b.trial_id == second.trial_id)
+
+        # the gyro topic is not ordered with the events': batches sent before the ABORT may come after it
+        probe.spin_until(lambda: received() >= aborted, STEP_TIMEOUT_S, f"the aborted trial's {aborted} samples")
         again = probe.call(stop_client, srvs.StopTrial.Request(trial_id="", abort=False))
         assert not again.accepted and "no trial is running" in again.message
         assert driver.proc.poll() is None
