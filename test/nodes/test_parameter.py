@@ -9,8 +9,10 @@ process, on the run's domain with LOCALHOST discovery. It is also used by test_m
 
 from __future__ import annotations
 
+import math
 import subprocess
 import sys
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -18,7 +20,7 @@ import numpy as np
 import pytest
 
 from bike_rig.config import topics
-from bike_rig.core.benchmark import compute_parameters
+from bike_rig.core.benchmark import ComMethod, compute_parameters
 from bike_rig.core.loader import load_measurements, load_static_readings
 from bike_rig.messages import session_parameters_from_msg, static_readings_from_msg
 from bike_rig.pipeline.assemble import SessionParameters, assemble
@@ -126,3 +128,48 @@ def test_bad_measurement_file_is_one_error_line_and_status_2(node_env: dict[str,
     assert len(lines) == 1, done.stderr
     assert "bad.yaml:" in lines[0] and "frame.mass" in lines[0] and "must be positive" in lines[0]
     assert "Traceback" not in done.stderr
+
+
+def test_fit_details_keep_the_small_swing_systematic_whole(
+    probe: Probe, node_env: dict[str, str], tmp_path: Path
+) -> None:
+    """The node joins each estimate's fit details: a small-swing systematic the trials share is not averaged down."""
+    from bike_rig.messages import fill_fit_details
+    from bike_rig.pipeline.fit_details import FitDetails
+    from bike_rig_msgs.msg import BenchmarkParameters
+    from bike_rig_msgs.msg import FitDetails as FitDetailsMsg
+
+    static = load_static_readings(BROWSER)
+    period = load_measurements(BROWSER).value("TcR1")
+    s_random, s_shared = 2e-5, 1e-4
+    tcr1 = [
+        TrialFit.from_period(f"TcR1_t{i}", "TcR1", period + d, math.hypot(s_random, s_shared), True, stamp_ns=100 + i)
+        for i, d in enumerate((-1e-5, 0.0, 1e-5))
+    ]
+    details = [  # the small-swing period chosen (the option), its systematic shared by the key's trials
+        replace(FitDetails.of(t), small_swing_period=t.period, small_swing_systematic=s_shared) for t in tcr1
+    ]
+    others = [t for t in browser_trials() if t.measurement_key != "TcR1"]
+    joined = assemble(static, [*others, *(d.apply(t) for d, t in zip(details, tcr1))], ComMethod.CENTROID)
+    plain = assemble(static, [*others, *tcr1], ComMethod.CENTROID)
+
+    def tcr1_sigma(session: SessionParameters) -> float:
+        return next(p.sigma for p in session.periods if p.key == "TcR1")
+
+    expected = tcr1_sigma(joined)
+    assert expected > 1.5 * tcr1_sigma(plain)  # the systematic whole, not over √3 (the test can fail)
+    publish_trials(probe, [*others, *tcr1])
+    pub = probe.publisher(topics.FIT_DETAILS, FitDetailsMsg)
+    for d in details:
+        pub.publish(fill_fit_details(FitDetailsMsg(), d))
+    probe.listen(topics.PARAMETERS, BenchmarkParameters)
+    with start_node("parameter", "parameter", node_env, tmp_path, "-p", f"measurements:={BROWSER}") as node:
+        msg = probe.wait_message(
+            topics.PARAMETERS,
+            lambda m: m.complete and math.isclose(tcr1_sigma(session_parameters_from_msg(m)), expected, rel_tol=1e-9),
+            "a complete set with TcR1's systematic whole",
+            [node],
+        )
+    got = session_parameters_from_msg(msg)
+    assert got.parameters is not None and joined.parameters is not None
+    assert np.allclose(got.parameters.parameters.covariance, joined.parameters.parameters.covariance, rtol=1e-9)

@@ -84,11 +84,13 @@ from ...messages import (
     MessageError,
     fill_benchmark_parameters,
     fill_static_readings,
+    fit_details_from_msg,
     reading_entry_from_msg,
     trial_fit_from_msg,
 )
 from ...pipeline.assemble import KeyPeriod, SessionAssembly, SessionParameters
 from ...pipeline.errors import AssemblyError
+from ...pipeline.fit_details import FitDetails
 from ...pipeline.health import ParameterHealth, parameter_statuses
 from ...pipeline.readings import ReadingEntry, apply_entries
 from ..qos import profile
@@ -232,7 +234,11 @@ class ParameterNode(Node):
         self._status_period = float(status_period)
         self._last: SessionParameters | None = None
         self._error = ""
+        self._details: dict[str, FitDetails] = {}
         self.create_subscription(_msgs.PeriodEstimate, topics.PERIODS.name, self._on_period, profile(topics.PERIODS))
+        self.create_subscription(
+            _msgs.FitDetails, topics.FIT_DETAILS.name, self._on_details, profile(topics.FIT_DETAILS)
+        )
         self.create_subscription(_msgs.ReadingEntry, topics.READINGS.name, self._on_entry, profile(topics.READINGS))
         self.create_timer(EVALUATE_PERIOD_S, self._evaluate)
         self.create_timer(self._status_period, self._status)
@@ -248,10 +254,28 @@ class ParameterNode(Node):
         self.diagnostics.note_input(info)
         try:
             trial = trial_fit_from_msg(msg)
-            self._dirty |= self._session.add(trial)
+            details = self._details.get(trial.trial_id)
+            self._dirty |= self._session.add(details.apply(trial) if details is not None else trial)
         except (AssemblyError, MessageError) as exc:
             self.get_logger().warning(f"period estimate ignored: {exc}")
         self._soon()
+
+    def _on_details(self, msg: Any, info: Any) -> None:
+        """Join a trial's fit details to its estimate (the small-swing systematic is shared by a key's trials)."""
+        self.diagnostics.note_input(info)
+        try:
+            details = fit_details_from_msg(msg)
+        except MessageError as exc:
+            self.get_logger().warning(f"fit details ignored: {exc}")
+            return
+        self._details[details.trial_id] = details
+        trial = next((t for t in self._session.trials if t.trial_id == details.trial_id), None)
+        if trial is not None:
+            try:
+                self._dirty |= self._session.add(details.apply(trial))
+            except AssemblyError as exc:
+                self.get_logger().warning(f"fit details ignored: {exc}")
+            self._soon()
 
     def _on_entry(self, msg: Any, info: Any) -> None:
         """Apply one entered reading on top of the file's (a bad one: one warning line, ignored)."""
