@@ -19,7 +19,7 @@ whose fitted ω_d strays from that frequency beyond :data:`MAX_FREQUENCY_RATIO` 
 saturated, fits as a fast growth with a slow "oscillation" and a tiny σ); the
 fitter's flags (no oscillation, ...) are kept. :func:`pool_drive` lets the segments at one speed
 share the rider's drive (raised where they scatter beyond their σ, when the record's segments
-over all its speeds do so beyond chance), and recomputes their σ with it.
+over all its speeds, or these alone, do so beyond chance), and recomputes their σ with it.
 
 Segments at one speed combine as trials do (:mod:`bike_rig.core.period.combine`): the weighted
 mean of the unflagged ones, σ widened by the Birge ratio when they scatter more than their σ.
@@ -339,8 +339,10 @@ def pool_drive(segments: Sequence[MeasuredEigenvalue]) -> list[MeasuredEigenvalu
     One segment's estimate of the drive is noisy; the valid segments at one speed share theirs
     (:mod:`.noise`). Where the unflagged ones of the record, over all its speeds, scatter beyond
     their σ at those drives more than chance allows (:func:`~.noise.scatter_significant`), each
-    speed's drive is raised until its segments do not (:func:`~.noise.scatter_drive`); every
-    segment there gets its σ at its speed's drive. Segments without a speed keep their own.
+    speed's drive is raised until its segments do not (:func:`~.noise.scatter_drive`); so is a
+    speed's whose own scatter is beyond chance among the record's speeds (one bad speed is not
+    diluted by many good ones). Every segment gets its σ at its speed's drive. Segments without
+    a speed keep their own.
     """
     out = list(segments)
     shared: list[tuple[list[int], float, NDArray[np.float64], NDArray[np.float64]]] = []
@@ -355,8 +357,9 @@ def pool_drive(segments: Sequence[MeasuredEigenvalue]) -> list[MeasuredEigenvalu
         shared.append((valid, q, x, v))
     scatter = [scatter_chi2(x, v, q) for _, q, x, v in shared]
     raise_drive = scatter_significant(sum(c for c, _ in scatter), sum(d for _, d in scatter))
-    for valid, q, x, v in shared:
-        q_used = scatter_drive(x, v, q) if raise_drive else q
+    for (valid, q, x, v), (chi2, dof) in zip(shared, scatter, strict=True):
+        alone = scatter_significant(chi2, dof, tests=len(shared))  # one speed's scatter among the record's
+        q_used = scatter_drive(x, v, q) if raise_drive or alone else q
         for i in valid:
             out[i] = segments[i].with_drive(q_used)
     return out

@@ -24,12 +24,12 @@ of their q̂ plus :data:`UPPER_SIGMAS` of its σ, clipped at 0
 beyond their σ at that drive, it is raised until they do not (:func:`scatter_drive`: the
 moment estimate misses part of a coloured drive, a rider's steering torque, measured up to a
 factor 2–5 low on simulated rides). Three segments scatter beyond their σ by chance often, so
-the raise needs evidence: the record's scatter over all its speeds must exceed chance at
-:data:`SCATTER_P` (:func:`scatter_significant`). q̂ comes from the Eq 23 + trend fit whatever the
-model chosen (:mod:`.choice`): Eq 23 leaves the capsize mode in its residuals, which is no drive,
-and a free real mode absorbs part of the drive's trace. The residuals' lag-one correlation gives
-the samples' worth for the model choice (:class:`ResidualNoise`). Units: the signal's (rad/s), q in
-its units² per second.
+the raise needs evidence: the record's scatter over all its speeds, or that speed's own among
+the record's speeds, must exceed chance at :data:`SCATTER_P` (:func:`scatter_significant`).
+q̂ comes from the Eq 23 + trend fit whatever the model chosen (:mod:`.choice`): Eq 23 leaves
+the capsize mode in its residuals, which is no drive, and a free real mode absorbs part of the
+drive's trace. The residuals' lag-one correlation gives the samples' worth for the model choice
+(:class:`ResidualNoise`). Units: the signal's (rad/s), q in its units² per second.
 """
 
 from __future__ import annotations
@@ -249,11 +249,17 @@ def scatter_chi2(x: FloatArray, variance: FloatArray, q: float) -> tuple[float, 
     return _scatter_chi2(x, variance[:, [0, 2]], variance[:, [1, 3]], q), 2 * (n - 1)
 
 
-def scatter_significant(chi2: float, dof: int) -> bool:
-    """Whether a scatter of ``chi2`` over ``dof`` degrees of freedom exceeds chance at :data:`SCATTER_P`."""
+def scatter_significant(chi2: float, dof: int, tests: int = 1) -> bool:
+    """Whether a scatter of ``chi2`` over ``dof`` degrees of freedom exceeds chance at :data:`SCATTER_P`.
+
+    Args:
+        chi2: The scatter's χ² [-].
+        dof: Its degrees of freedom.
+        tests: Scatters tested alike (one of them beyond chance at SCATTER_P / tests, Bonferroni).
+    """
     from scipy.stats import chi2 as chi2_dist
 
-    return dof > 0 and bool(chi2_dist.sf(chi2, dof) < SCATTER_P)
+    return dof > 0 and bool(chi2_dist.sf(chi2, dof) < SCATTER_P / max(1, tests))
 
 
 def _scatter_chi2(x: FloatArray, fixed: FloatArray, per_drive: FloatArray, q: float) -> float:

@@ -41,6 +41,8 @@ def test_significance_needs_more_than_chance_scatter() -> None:
     assert not scatter_significant(11.0, 4)  # beyond the 95 % quantile (9.5), within the 99 % one (13.3)
     assert scatter_significant(14.0, 4)
     assert not scatter_significant(0.0, 0)  # no scatter to see
+    assert not scatter_significant(14.0, 4, tests=6)  # one of six speeds: 0.0073 is chance (Bonferroni: 0.0017)
+    assert scatter_significant(18.0, 4, tests=6)
     x = np.array([[-0.5, 7.0], [-0.8, 7.4], [-0.2, 6.7]])
     v = np.tile([1e-3, 1.0, 1e-3, 1.0], (3, 1))
     chi2, dof = scatter_chi2(x, v, 0.0)
