@@ -1,8 +1,9 @@
 """How well the segments' σ describe their scatter on simulated rides: pooled χ²/dof at one speed.
 
 Groups of segments are simulated at each speed (:mod:`.ridesim`: a push, the rider's steering,
-the assist motor's saturation, gyro noise), fitted (:func:`.eigen.fit_segment`), their drive
-shared (:func:`.eigen.pool_drive`), and the clean ones of each group set against their weighted
+the assist motor's saturation, gyro noise) and fitted (:func:`.eigen.fit_segment`); one group at
+each speed makes a record, as a ride gives them, whose drive is shared per speed
+(:func:`.eigen.pool_drive`); the clean ones of each group set against their weighted
 mean: ``χ² = Σ (x_i − x̄)² / σ_i²`` with n − 1 degrees of freedom, pooled over the groups and
 speeds (≈ 1 when the σ are right), for Re λ and Im λ apart; beside it the RMS of the normalised
 errors against the simulated weave eigenvalue. Units: speeds m/s, eigenvalues 1/s.
@@ -18,8 +19,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..whipple import WhippleMatrices
-from .eigen import fit_segment, pool_drive
-from .ridesim import RideConditions, simulate_segment
+from .eigen import MeasuredEigenvalue, fit_segment, pool_drive
+from .ridesim import RideConditions, SimulatedSegment, simulate_segment
 
 __all__ = ["Calibration", "measure_calibration"]
 
@@ -65,7 +66,7 @@ def measure_calibration(
     seed: int = 0,
     model: str = "auto",
 ) -> Calibration:
-    """Simulate ``groups`` groups of ``per_group`` segments at each speed and pool their χ² (module docstring).
+    """Simulate ``groups`` records of ``per_group`` segments at each speed and pool their χ² (module docstring).
 
     Args:
         matrices: The canonical matrices (with the rider) [SI].
@@ -73,24 +74,31 @@ def measure_calibration(
         gains_at: The assist's gains at a speed [m/s] (None: no assist).
         speeds: m/s.
         conditions: The rider, motor, gyro and push.
-        groups: Groups per speed.
+        groups: Records (one group at each speed).
         per_group: Segments per group (at one speed).
         cycles: The segments' lengths are drawn uniformly from this range [weave cycles].
         seed: Seed of the random generator (reproducible).
         model: The segment model (:data:`.eigen.MODELS`).
     """
     rng = np.random.default_rng(seed)
-    chi2 = [0.0, 0.0]
-    dof = n = n_clean = 0
-    z: list[tuple[float, float]] = []
+    simulated: list[list[tuple[list[SimulatedSegment], list[MeasuredEigenvalue]]]] = []
     for v in speeds:
         gains = gains_at(v)
+        at_speed = []
         for _ in range(groups):
             sims = [
                 simulate_segment(matrices, g, v, gains, float(rng.uniform(*cycles)), conditions, rng)
                 for _ in range(per_group)
             ]
-            fits = pool_drive([fit_segment(s.times, s.roll_rate, speed=v, model=model) for s in sims])
+            at_speed.append((sims, [fit_segment(s.times, s.roll_rate, speed=v, model=model) for s in sims]))
+        simulated.append(at_speed)
+    chi2 = [0.0, 0.0]
+    dof = n = n_clean = 0
+    z: list[tuple[float, float]] = []
+    for record in zip(*simulated, strict=True):  # one group at each speed
+        pooled = iter(pool_drive([f for _, fits in record for f in fits]))
+        for sims, raw in record:
+            fits = [next(pooled) for _ in raw]
             n += len(fits)
             clean = [(f, s) for f, s in zip(fits, sims, strict=True) if f.clean]
             n_clean += len(clean)

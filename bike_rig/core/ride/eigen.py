@@ -18,7 +18,8 @@ whose fitted ω_d strays from that frequency beyond :data:`MAX_FREQUENCY_RATIO` 
 :data:`MIN_SEGMENT_CYCLES` of its own cycles (a record of a bicycle falling over, its motor
 saturated, fits as a fast growth with a slow "oscillation" and a tiny σ); the
 fitter's flags (no oscillation, ...) are kept. :func:`pool_drive` lets the segments at one speed
-share the rider's drive (raised where they scatter beyond their σ), and recomputes their σ with it.
+share the rider's drive (raised where they scatter beyond their σ, when the record's segments
+over all its speeds, or these alone, do so beyond chance), and recomputes their σ with it.
 
 Segments at one speed combine as trials do (:mod:`bike_rig.core.period.combine`): the weighted
 mean of the unflagged ones, σ widened by the Birge ratio when they scatter more than their σ.
@@ -41,7 +42,7 @@ from ..period.result import FlagCode, PeriodFit
 from ..period.window import WindowPolicy
 from .choice import ModelChoice, choose_model
 from .envelope import envelope_problem
-from .noise import pooled_drive, scatter_drive
+from .noise import pooled_drive, scatter_chi2, scatter_drive, scatter_significant
 from .realmode import RealModeFitFailed, search_frequency
 from .segment import noise_sigma
 
@@ -336,11 +337,15 @@ def pool_drive(segments: Sequence[MeasuredEigenvalue]) -> list[MeasuredEigenvalu
     """The segments with the rider's drive shared at each speed (:func:`~.noise.pooled_drive`), in input order.
 
     One segment's estimate of the drive is noisy; the valid segments at one speed share theirs
-    (:mod:`.noise`), raised where the unflagged ones scatter beyond their σ at it
-    (:func:`~.noise.scatter_drive`), and every segment there gets its σ at that drive. Segments
-    without a speed keep their own.
+    (:mod:`.noise`). Where the unflagged ones of the record, over all its speeds, scatter beyond
+    their σ at those drives more than chance allows (:func:`~.noise.scatter_significant`), each
+    speed's drive is raised until its segments do not (:func:`~.noise.scatter_drive`); so is a
+    speed's whose own scatter is beyond chance among the record's speeds (one bad speed is not
+    diluted by many good ones). Every segment gets its σ at its speed's drive. Segments without
+    a speed keep their own.
     """
     out = list(segments)
+    shared: list[tuple[list[int], float, NDArray[np.float64], NDArray[np.float64]]] = []
     for group in speed_groups(segments):
         valid = [i for i in group if segments[i].valid and len(segments[i].variance) == 4]
         if len(valid) < 2:
@@ -349,9 +354,14 @@ def pool_drive(segments: Sequence[MeasuredEigenvalue]) -> list[MeasuredEigenvalu
         clean = [i for i in valid if not segments[i].flags]
         x = np.array([(segments[i].real, segments[i].imag) for i in clean], dtype=float).reshape(-1, 2)
         v = np.array([segments[i].variance for i in clean], dtype=float).reshape(-1, 4)
-        q = scatter_drive(x, v, q)
+        shared.append((valid, q, x, v))
+    scatter = [scatter_chi2(x, v, q) for _, q, x, v in shared]
+    raise_drive = scatter_significant(sum(c for c, _ in scatter), sum(d for _, d in scatter))
+    for (valid, q, x, v), (chi2, dof) in zip(shared, scatter, strict=True):
+        alone = scatter_significant(chi2, dof, tests=len(shared))  # one speed's scatter among the record's
+        q_used = scatter_drive(x, v, q) if raise_drive or alone else q
         for i in valid:
-            out[i] = segments[i].with_drive(q)
+            out[i] = segments[i].with_drive(q_used)
     return out
 
 

@@ -178,8 +178,9 @@ def test_shipped_gains_with_a_steering_rider_scatter_as_their_sigma_say() -> Non
     """The shipped assist (a weave near neutral at 2.5–3.5 m/s), a rider steering 0.2 N m, saturating or not.
 
     The residuals' moment estimate of the drive came out 2–5 times low here (χ²/dof 1.8–3.5);
-    the shared drive is raised where the segments at one speed scatter beyond their σ. The
-    errors against the simulated weave, which that does not see, must then be about 1 σ.
+    the shared drive is raised where the segments at one speed scatter beyond their σ (in a
+    record that does so beyond chance). The errors against the simulated weave, which that does
+    not see, must then be about 1 σ.
     """
     browser = canonical_with_sigma(
         add_rider(_parameters(str(config_file("bicycles/browser.yaml")), "centroid"), PAPER_RIDER)
@@ -200,4 +201,4 @@ def test_shipped_gains_with_a_steering_rider_scatter_as_their_sigma_say() -> Non
         assert 0.5 <= pooled <= 2.0, (part, pooled, runs)
     for part in ("z_real", "z_imag"):
         rms = math.sqrt(sum(getattr(c, part) ** 2 * c.clean for c in runs) / clean)
-        assert 0.7 <= rms <= 1.3, (part, rms, runs)  # measured 0.99 and 1.17 (before: 1.44)
+        assert 0.7 <= rms <= 1.3, (part, rms, runs)  # measured 1.10, 1.30 (no raise: 1.44; raising always: 1.17)
