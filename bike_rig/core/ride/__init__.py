@@ -1,4 +1,4 @@
-"""Ride validation: measured weave eigenvalues of an instrumented bicycle (issue 14, sections 2–4).
+"""Ride validation: measured weave eigenvalues of an instrumented bicycle.
 
 - :mod:`.record`: a ride record (times s, roll rate rad/s, optional speed m/s and steer torque
   N m) and its CSV reader (the bag reader is :mod:`bike_rig.bag.ride`)
