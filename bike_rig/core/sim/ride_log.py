@@ -146,12 +146,16 @@ class PushTruth:
         start: The free decay's start: the push's end [s].
         stop: The free decay's end [s].
         speed: The speed at the push [m/s].
+        level: The level its envelope falls to at ``stop`` [rad/s].
+        response: The push's own roll rate from ``time`` on, at the log's samples [rad/s].
     """
 
     time: float
     start: float
     stop: float
     speed: float
+    level: float = math.nan
+    response: FloatArray = field(default_factory=lambda: np.empty(0), repr=False, compare=False)
 
 
 @dataclass(frozen=True)
@@ -316,7 +320,7 @@ def simulate_raw_log(matrices: WhippleMatrices, g: float, log: RideLog, rng: np.
         level = log.decay_level * float(np.sqrt(np.mean(background[before] ** 2)))
         after = np.flatnonzero(np.abs(hilbert(np.r_[alone, np.zeros(alone.size)]))[: alone.size] > level)
         stop = float(t[w][after[-1]]) if after.size else p + log.push_s
-        truths.append(PushTruth(p, p + log.push_s, stop, float(np.interp(p, t, v))))
+        truths.append(PushTruth(p, p + log.push_s, stop, float(np.interp(p, t, v)), level, alone))
     wheel = np.where(v > 0, np.maximum(wheel, 0.0), 0.0)  # (a standing wheel reads 0)
     return SimulatedLog(t, measured, wheel, v, tuple(truths))
 

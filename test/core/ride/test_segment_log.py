@@ -49,6 +49,24 @@ def test_the_simulated_log_rides_off_and_on_and_jolts_the_wheel_at_each_push() -
     assert np.all(np.abs(times[:, None] - np.array([p.time for p in log.pushes])).min(axis=1) < 0.3)
 
 
+def test_each_push_keeps_its_own_response_and_the_level_its_decay_ends_at() -> None:
+    """The truth's end: the push's own response's envelope last reaches its level there."""
+    from scipy.signal import hilbert
+
+    log = _log(5.0, 3, seed=0)
+    for push in log.pushes:
+        i = int(np.searchsorted(log.times, push.time))
+        response = push.response
+        assert response.size > 0 and push.level > 0
+        envelope = np.abs(hilbert(np.r_[response, np.zeros(response.size)]))[: response.size]
+        last = int(np.flatnonzero(envelope > push.level)[-1])
+        assert log.times[i + last] == pytest.approx(push.stop, abs=0.011)
+        assert np.max(envelope) > 3.0 * push.level  # a response that stands out of the riding
+        before = (log.times >= push.time - 4.0) & (log.times < push.time)
+        riding = float(np.sqrt(np.mean(log.roll_rate[before] ** 2)))
+        assert push.level == pytest.approx(2.0 * riding, rel=0.3)  # twice the riding's RMS (no push in it)
+
+
 def test_raw_ride_logs_are_segmented_push_by_push() -> None:
     """Three 179 s logs at 18 km/h: each push found, nothing else, cut near the truth."""
     stops = []
