@@ -16,6 +16,7 @@ destroyed; a teardown still running :data:`TEARDOWN_S` later is cut short (``os.
 
 from __future__ import annotations
 
+import faulthandler
 import os
 import signal
 import sys
@@ -40,6 +41,10 @@ EXIT_USER_ERROR = 2
 #: Seconds the middleware's teardown (destroying the node, shutting rclpy down) may take after
 #: the node closed; a process still there then exits (status 0: everything was written).
 TEARDOWN_S = 10.0
+
+#: A stop still not done this long after it was asked for leaves every thread's stack on stderr
+#: (the node's log), so that a hang shows where it is, s (the launcher waits 15 s, then SIGTERM).
+STUCK_DUMP_S = 12.0
 
 
 def _exit_if_stuck(seconds: float) -> None:
@@ -83,6 +88,8 @@ def run_node(factory: Callable[[], Node], args: Sequence[str] | None = None, nam
     stop = {"requested": False}
 
     def request_stop(signum: int, _frame: FrameType | None) -> None:
+        if not stop["requested"]:
+            faulthandler.dump_traceback_later(STUCK_DUMP_S, exit=False)
         stop["requested"] = True
 
     signal.signal(signal.SIGTERM, request_stop)
