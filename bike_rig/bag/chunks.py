@@ -8,10 +8,12 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING, BinaryIO
 
+from ..core.errors import one_line
+
 if TYPE_CHECKING:
     from mcap.records import Channel, Message
 
-__all__ = ["file_messages", "first_corrupt_chunk", "no_collection", "one_line"]
+__all__ = ["exception_text", "file_messages", "first_corrupt_chunk", "no_collection"]
 
 
 @contextmanager
@@ -78,7 +80,7 @@ def first_corrupt_chunk(path: Path) -> str:
                 except (GeneratorExit, KeyboardInterrupt):
                     raise
                 except Exception as exc:  # the decompressors' and the library's own classes
-                    reason = f"{type(exc).__name__}: {one_line(exc)}"
+                    reason = f"{type(exc).__name__}: {exception_text(exc)}"
                     return f"{path.name}: chunk at byte {index.chunk_start_offset} is corrupt ({reason})"
     except OSError:
         return ""
@@ -87,7 +89,7 @@ def first_corrupt_chunk(path: Path) -> str:
     return ""
 
 
-def one_line(exc: BaseException) -> str:
-    """The exception's message on one line (rosbags passes on PyYAML's and ruamel's, of several lines)."""
-    text = " ".join(str(exc).split()).rstrip(".")
+def exception_text(exc: BaseException) -> str:
+    """The exception's message on one line, at most 400 characters (rosbags passes on multi-line YAML errors)."""
+    text = one_line(str(exc)).rstrip(".")
     return text[:400] + "..." if len(text) > 400 else text or type(exc).__name__

@@ -28,7 +28,7 @@ import numpy as np
 
 from ..core.safe_yaml import NotRegularFileError, open_regular_file
 from .check import Metadata, check_mcap, check_metadata
-from .chunks import file_messages, first_corrupt_chunk, no_collection, one_line
+from .chunks import exception_text, file_messages, first_corrupt_chunk, no_collection
 from .errors import BagError, BagReadError, IncompleteBagError, NotABagError, ReplayError
 from .foreign import check_ros2_cdr
 from .order import split_order
@@ -388,7 +388,7 @@ class BagReader:
             for conn, log_time, data in self.reader.messages(connections=conns):
                 yield RawMessage(conn.topic, log_time, data)
         except ReaderError as exc:
-            raise BagReadError(self.shown, f"corrupt data ({one_line(exc)})") from None
+            raise BagReadError(self.shown, f"corrupt data ({exception_text(exc)})") from None
         except (GeneratorExit, KeyboardInterrupt):
             raise
         except Exception as exc:  # the decompressors' own classes (zstandard.ZstdError, lz4's RuntimeError)
@@ -400,7 +400,7 @@ class BagReader:
             bad = first_corrupt_chunk(f)
             if bad:
                 return bad
-        return f"corrupt data ({type(exc).__name__}: {one_line(exc)})"
+        return f"corrupt data ({type(exc).__name__}: {exception_text(exc)})"
 
     def decoding(self, topic: str) -> Decoding:
         """How a topic's messages are decoded: with the bag's own definition of its type.
@@ -562,11 +562,11 @@ def _try_rosbags(resolved: Path) -> tuple[Reader | None, str]:
         reader = Reader(resolved)
         reader.open()
     except ReaderError as exc:
-        return None, one_line(exc)
+        return None, exception_text(exc)
     except (GeneratorExit, KeyboardInterrupt):
         raise
     except Exception as exc:  # its parsers' and decompressors' own classes (zstd, ruamel, struct)
-        return None, f"{type(exc).__name__}: {one_line(exc)}"
+        return None, f"{type(exc).__name__}: {exception_text(exc)}"
     return reader, ""
 
 
