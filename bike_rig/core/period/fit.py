@@ -569,5 +569,5 @@ class _Fitter:
         fit, residual = fit_damping(fit, blocks, sol, samples, units, modulation, self.options, eq23)
         if fit.period_sigma < fit.period_sigma_white:  # (never below Eq 27's, whichever model was chosen)
             fit = replace(fit, period_sigma=fit.period_sigma_white)
-        fit = with_end_check(with_stationarity(fit, eq23, residual), residual)
+        fit = with_end_check(with_stationarity(fit, eq23, residual), residual, fit)
         return with_small_swing_period(fit) if self.options.small_swing_period else fit
