@@ -40,6 +40,8 @@ from test.support.signals import LSB, gyro_trial
 QUIET = {"noise": LSB, "drift": 3 * LSB}
 CASES: dict[str, dict[str, Any]] = {
     "dry + swing, noisy": {},
+    "late −1 ms, noisy": {"late": (23.0, -0.001)},
+    "late −2 ms, noisy": {"late": (23.0, -0.002)},
     "late −3 ms, noisy": {"late": (23.0, -0.003)},
     "late +3 ms, noisy": {"late": (23.0, 0.003)},
     "late −7 ms, noisy": {"late": (23.0, -0.007)},
