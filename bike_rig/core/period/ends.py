@@ -40,9 +40,9 @@ all the way covers clean records in 53–63 % of records, and by an empirical-Ba
 On the simulated fork (dry friction, a 13° to 5° finite swing, a noisy 12-bit gyro; 200
 records each, ``bench/bench_period_late.py``) a change of −3 ms in the last 7 s of 30 s moves
 the mean period by about 1.8 σ_ΔT: ±σ covers the truth in 63 % of records, +3 ms in 74 %,
-−7 ms in 90 %; clean records in 78 %, Eq 23's own records in 85 %: σ grows on the third of
-clean records whose ends depart by more than σ_ΔT by chance. A change smaller than σ_ΔT goes
-unseen: −1 ms is covered in 47 % of records, −2 ms in 54 %.
+−7 ms in 90 %; clean records in 78 %, Eq 23's own records in 85 %: σ grows on the 23–33 % of
+clean records whose ends depart by more than σ_ΔT by chance (D / σ_ΔT scatters by 0.9–1.1
+there). A change smaller than σ_ΔT goes unseen: −1 ms is covered in 47 % of records, −2 ms in 54 %.
 """
 
 from __future__ import annotations
