@@ -240,7 +240,8 @@ def _rider_hint(args: argparse.Namespace, deviation: float) -> str | None:
 
 
 def _line(m: MeasuredEigenvalue, seg: Segment) -> str:
-    head = f"{m.source} #{m.index} {seg.start:.2f}–{seg.stop:.2f} s, {m.speed:.2f} m/s:"
+    speed = f"{m.speed:.2f} m/s" if math.isfinite(m.speed) else "speed unknown"
+    head = f"{m.source} #{m.index} {seg.start:.2f}–{seg.stop:.2f} s, {speed}:"
     if not m.valid:
         return f"{head} no eigenvalue ({'; '.join(m.flags)})"
     flags = f"  flags: {'; '.join(m.flags)}" if m.flags else ""

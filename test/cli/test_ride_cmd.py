@@ -183,3 +183,15 @@ def test_validate_of_records_without_any_segment_says_so_and_exits_0(
     code, out, _ = run(capsys, "ride", "validate", BROWSER, str(still), "--rider", "paper", "--json")
     got = json.loads(out)
     assert got["verdict"] == "no_segment" and got["segments"] == [] and got["normalised_deviation"] is None
+
+
+def test_fit_of_a_record_without_a_speed_prints_no_nan(capsys: pytest.CaptureFixture[str], long_csv: Path) -> None:
+    """A record with no speed column and no --speed: each segment's speed is said to be unknown."""
+    lines = long_csv.read_text().splitlines()
+    cols = lines[0].split(",")
+    keep = [i for i, c in enumerate(cols) if c != "speed"]
+    bare = long_csv.with_name("no_speed.csv")
+    bare.write_text("".join(",".join(ln.split(",")[i] for i in keep) + "\n" for ln in lines))
+    code, out, err = run(capsys, "ride", "fit", str(bare))
+    assert code == 0, err
+    assert "nan" not in out.lower() and out.count("speed unknown") == 4, out
