@@ -240,7 +240,8 @@ def _rider_hint(args: argparse.Namespace, deviation: float) -> str | None:
 
 
 def _line(m: MeasuredEigenvalue, seg: Segment) -> str:
-    head = f"{m.source} #{m.index} {seg.start:.2f}–{seg.stop:.2f} s, {m.speed:.2f} m/s:"
+    speed = f"{m.speed:.2f} m/s" if math.isfinite(m.speed) else "speed unknown"
+    head = f"{m.source} #{m.index} {seg.start:.2f}–{seg.stop:.2f} s, {speed}:"
     if not m.valid:
         return f"{head} no eigenvalue ({'; '.join(m.flags)})"
     flags = f"  flags: {'; '.join(m.flags)}" if m.flags else ""
@@ -537,8 +538,8 @@ def _validate_text(comparison: Any, rows: list[tuple[MeasuredEigenvalue, Segment
     return "\n".join(lines)
 
 
-def _simulate_raw_log(args: argparse.Namespace, ms: Any) -> int:
-    """``ride simulate --raw-log N`` (:mod:`bike_rig.core.sim.ride_log`, its own assist); returns 0."""
+def _simulate_raw_log(args: argparse.Namespace, ms: Any, fb: Feedback | None) -> int:
+    """``ride simulate --raw-log N`` (:mod:`bike_rig.core.sim.ride_log`): assist ``fb``, else its own; returns 0."""
     from dataclasses import replace
 
     import numpy as np
@@ -550,10 +551,17 @@ def _simulate_raw_log(args: argparse.Namespace, ms: Any) -> int:
     rng = np.random.default_rng(args.seed)
     plan = ride_plan(args.duration, args.speed, args.raw_log, rng)
     plan = replace(plan, rate_hz=args.rate, noise_roll_rate=args.noise)
+    if fb is not None:
+        plan = replace(plan, gains=lambda v: np.asarray(fb.gains(v), dtype=float))
     log = simulate_raw_log(ms.matrices, ms.g, plan, rng)
     write_log_csv(log, args.out)
     pushes = ", ".join(f"{p.time:.2f} s (free decay {p.start:.2f}–{p.stop:.2f} s)" for p in log.pushes) or "none"
-    print(terminal_safe(f"wrote {args.out}: a {args.duration:g} s raw log at {args.speed:g} m/s; pushes {pushes}"))
+    assist = f"assist {fb.name} (--feedback)" if fb is not None else "the simulator's own assist (no --feedback)"
+    print(
+        terminal_safe(
+            f"wrote {args.out}: a {args.duration:g} s raw log at {args.speed:g} m/s, {assist}; pushes {pushes}"
+        )
+    )
     return 0
 
 
@@ -573,7 +581,7 @@ def run_simulate(args: argparse.Namespace) -> int:
     ps, fb = _bicycle(args)
     ms = canonical_with_sigma(ps)
     if args.raw_log is not None:
-        return _simulate_raw_log(args, ms)
+        return _simulate_raw_log(args, ms, fb)
     first = min(1.0, 0.2 * args.duration)
     kicks = regular_kicks(args.duration, args.kick_every, first=first, steer_torque=args.kick_torque)
     sim = RideSimulation(args.speed, args.duration, args.rate, kicks, noise_roll_rate=args.noise, seed=args.seed)

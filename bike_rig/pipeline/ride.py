@@ -302,6 +302,8 @@ def compare_ride(
     Raises:
         ModelError: Bad speeds or a singular mass matrix.
     """
+    if not segments:  # nothing to predict at: the verdict says no segment was found
+        return RideComparison((), (), math.nan, (), (), overall_verdict([], [], 0))
     near = [complex(s.real, s.imag) if s.valid else complex(math.nan, math.nan) for s in segments]
     pred = predicted_weave(ps, [s.speed for s in segments], feedback, convention, near)
     rows = [SegmentComparison(*_against(s, pred, i), segment=s) for i, s in enumerate(segments)]

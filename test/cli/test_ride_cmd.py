@@ -167,3 +167,31 @@ def test_validate_without_a_clean_segment_says_so_and_exits_0(
     got = json.loads(out)
     assert got["verdict"] == "no_clean_segment" and got["normalised_deviation"] is None
     assert got["speeds"][0]["verdict"] == "no_clean_segment" and got["speeds"][0]["n_used"] == 0
+
+
+def test_validate_of_records_without_any_segment_says_so_and_exits_0(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    """A record with no kick in it (a constant roll rate, 8 s: searched for kicks): no segment, words, exit 0."""
+    still = tmp_path / "still.csv"
+    t = np.arange(800) / 100.0
+    still.write_text("time,roll_rate,speed,steer_torque\n" + "".join(f"{a:.2f},0.0,3.0,0.0\n" for a in t))
+    code, out, err = run(capsys, "ride", "validate", BROWSER, str(still), "--rider", "paper")
+    assert code == 0, err
+    assert "nan" not in out.lower()
+    assert out.splitlines()[-1] == "verdict: no verdict: no segment found in the records"
+    code, out, _ = run(capsys, "ride", "validate", BROWSER, str(still), "--rider", "paper", "--json")
+    got = json.loads(out)
+    assert got["verdict"] == "no_segment" and got["segments"] == [] and got["normalised_deviation"] is None
+
+
+def test_fit_of_a_record_without_a_speed_prints_no_nan(capsys: pytest.CaptureFixture[str], long_csv: Path) -> None:
+    """A record with no speed column and no --speed: each segment's speed is said to be unknown."""
+    lines = long_csv.read_text().splitlines()
+    cols = lines[0].split(",")
+    keep = [i for i, c in enumerate(cols) if c != "speed"]
+    bare = long_csv.with_name("no_speed.csv")
+    bare.write_text("".join(",".join(ln.split(",")[i] for i in keep) + "\n" for ln in lines))
+    code, out, err = run(capsys, "ride", "fit", str(bare))
+    assert code == 0, err
+    assert "nan" not in out.lower() and out.count("speed unknown") == 4, out

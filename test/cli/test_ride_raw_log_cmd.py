@@ -45,3 +45,25 @@ def test_a_log_without_pushes_says_why_it_has_no_segment(capsys: pytest.CaptureF
     got = capsys.readouterr()
     assert got.out == "" and len(got.err.strip().splitlines()) == 1
     assert "no segment" in got.err and "none within 0.3 s of a wheel-speed transient" in got.err
+
+
+def test_a_raw_log_follows_the_feedback_it_is_given(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    """``--feedback`` sets the raw log's assist; without it the simulator's own assist (said so)."""
+    own = "k_phidot: {speeds: [2.0, 3.3333333333333335, 5.0], values: [-50.0, -25.0, -20.0]}\nk_deltadot: 1.0\n"
+    other = "k_phidot: -50.0\nk_deltadot: 1.0\n"
+    argv = ["ride", "simulate", BROWSER, "--rider", "paper", "--speed", "5", "--duration", "40", "--seed", "4"]
+    logs = {}
+    for name, gains in (("none", None), ("own", own), ("other", other)):
+        extra = []
+        if gains is not None:
+            fb = tmp_path / f"{name}.yaml"
+            fb.write_text(f"format: bike_rig-feedback/1\nname: {name} gains\n{gains}", encoding="utf-8")
+            extra = ["--feedback", str(fb)]
+        out = tmp_path / f"{name}.csv"
+        assert main([*argv, *extra, "--raw-log", "1", "-o", str(out)]) == 0
+        told = capsys.readouterr().out
+        assert ("the simulator's own assist" in told) == (gains is None), told
+        assert gains is None or f"assist {name} gains" in told, told
+        logs[name] = out.read_text()
+    assert logs["own"] == logs["none"]  # the same gains: the same log, draw for draw
+    assert logs["other"] != logs["none"]

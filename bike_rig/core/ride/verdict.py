@@ -20,7 +20,7 @@ AGREE_SIGMA = 2.0
 #: Beyond this |z| [σ] the model disagrees; between the two it is in tension.
 DISAGREE_SIGMA = 3.0
 #: Verdict codes, from best to worst; then the ones without a comparison.
-CODES = ("agrees", "tension", "disagrees", "no_sigma", "no_eigenvalue", "no_clean_segment")
+CODES = ("agrees", "tension", "disagrees", "no_sigma", "no_eigenvalue", "no_clean_segment", "no_segment")
 
 
 @dataclass(frozen=True)
@@ -106,13 +106,15 @@ def overall_verdict(
     Args:
         speeds: (speed [m/s], its verdict) for each speed with clean segments.
         unmeasured: Speeds [m/s] where no segment is clean.
-        n_segments: All segments, for the words when none is clean.
+        n_segments: All segments, for the words when none is clean (0: none was found).
     """
     missing = f"; no clean segment at {_speeds(unmeasured)}" if unmeasured else ""
     compared = [(v, x) for v, x in speeds if x.code in ("agrees", "tension", "disagrees")]
     if not compared:
         if speeds:
             return Verdict("no_sigma", f"no verdict: no speed's comparison has a σ{missing}", math.nan)
+        if not n_segments:
+            return Verdict("no_segment", "no verdict: no segment found in the records", math.nan)
         return Verdict(
             "no_clean_segment",
             f"no verdict: no clean segment (of {n_segments}: each flagged or without an eigenvalue)",
