@@ -401,7 +401,9 @@ def _free_decay_end(
     the rider or the motor took over. The decay also ends where its envelope ``√(a² + b²) e^{σ t}`` falls to
     ``decay_level`` times the noise level: beyond, it no longer stands out of the riding; that
     end is taken from a fit reaching half a cycle beyond it. The noise level is the fit's
-    residual RMS or ``floor`` (the riding's level before the kick), whichever is larger.
+    residual RMS or ``floor`` (the riding's level before the kick), whichever is larger. With
+    ``ar`` (the riding's AR model, :mod:`.whiten`) each fit is whitened by it; the residual RMS
+    and the departure test stay those of the plain residual.
     """
     tt = t - t[0]
     t0 = float(t[0])
