@@ -26,10 +26,14 @@ it ends where the next cycle's residual holds a weave beyond the noise level (a 
 test: the rider or the motor took over) or where its envelope falls to ``decay_level``
 times the noise level (it no longer stands out of the riding). The noise level is the
 riding's roll-rate σ before the kick (``riding_s``, after the last kick's response faded) or
-the fit's residual RMS, whichever is larger. Other ends: the next kick (``gap_s`` before it),
-the end of the record, ``max_length_s`` (a safety bound, not the rule). A roll-rate kick not
-confirmed by the torque or the wheel speed gives a segment only where its model decays and
-lasts a cycle or more (else it is the rider's motion: starting off, a turn).
+the fit's residual RMS, whichever is larger. The riding is coloured (the weave driven by the
+rider's steering, at the decay's own frequency): where that stretch identifies an AR model of
+order 1 to ``noise_order`` (:mod:`.whiten`, by BIC, evenly sampled), the decay is fitted by
+generalised least squares whitened by it, else by ordinary least squares. Other ends: the
+next kick (``gap_s`` before it), the end of the record, ``max_length_s`` (a safety bound, not
+the rule). A roll-rate kick not confirmed by the torque or the wheel speed gives a segment
+only where its model decays and lasts a cycle or more (else it is the rider's motion:
+starting off, a turn).
 In the roll rate alone a kick is found only where the oscillation before it has decayed
 below 1/``rise`` of the kick's response: record the steer torque where kicks come often. The reasons for
 each start and end are recorded. The noise σ is robust: the median absolute deviation of the
@@ -47,6 +51,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .record import RideRecord
+from .whiten import NoiseAR, fit_noise_ar
 
 __all__ = [
     "Kick",
@@ -67,6 +72,8 @@ MAD_TO_SIGMA = 1.482602218505602
 SPEED_TREND_S = 1.0
 #: A push's jolt in the wheel speed lasts about this long [s].
 SPEED_PULSE_S = 0.1
+#: A stretch is evenly sampled (its noise's AR model holds) where each step is the median one within this share [-].
+EVEN_STEP = 0.1
 
 
 @dataclass(frozen=True)
@@ -90,6 +97,8 @@ class SegmentOptions:
         riding_s: The riding's roll-rate RMS over this long, ending a quarter ``window_s`` before
             a kick's onset (which lags the push by up to its rise), after the last kick's response
             faded (at least ``window_s`` of it, else the white noise σ), is the noise level's floor [s].
+        noise_order: The largest order of the riding's AR model that whitens the decay's fit
+            (:mod:`.whiten`; 0: ordinary least squares) [-].
     """
 
     window_s: float = 1.0
@@ -105,6 +114,7 @@ class SegmentOptions:
     departure: float = 4.6
     decay_level: float = 2.0
     riding_s: float = 4.0
+    noise_order: int = 12
 
 
 @dataclass(frozen=True)
@@ -287,18 +297,35 @@ def _baseline(t: FloatArray, y: FloatArray, opt: SegmentOptions) -> FloatArray:
     return np.asarray(median_filter(y, size=min(n, y.size), mode="nearest"), dtype=float)
 
 
+def _even(t: FloatArray, step: float | None = None) -> bool:
+    """Whether ``t`` is evenly sampled: each step within :data:`EVEN_STEP` of ``step`` (None: the median step) [s]."""
+    if t.size < 2:
+        return False
+    steps = np.diff(t)
+    dt = float(np.median(steps)) if step is None else step
+    return bool(dt > 0 and np.max(np.abs(steps - dt)) <= EVEN_STEP * dt)
+
+
 def _decay_model(p: FloatArray, tt: FloatArray) -> FloatArray:
     """``c + e^{σ t} (a cos ω t + b sin ω t)`` for ``p = [c, σ, ω, a, b]`` (units of the signal)."""
     c, sig, w, a, b = p
     return np.asarray(c + np.exp(sig * tt) * (a * np.cos(w * tt) + b * np.sin(w * tt)), dtype=float)
 
 
-def _fit_decay(tt: FloatArray, y: FloatArray, start: FloatArray) -> FloatArray | None:
-    """The least-squares ``[c, σ, ω, a, b]`` of :func:`_decay_model` from ``start``, or None (no fit)."""
+def _fit_decay(tt: FloatArray, y: FloatArray, start: FloatArray, noise: NoiseAR | None = None) -> FloatArray | None:
+    """The least-squares ``[c, σ, ω, a, b]`` of :func:`_decay_model` from ``start``, or None (no fit).
+
+    With ``noise`` (the riding's AR model, evenly sampled as ``tt``) the residual is whitened by
+    it: generalised least squares.
+    """
     from scipy.optimize import least_squares
 
+    def residual(p: FloatArray) -> FloatArray:
+        r = _decay_model(p, tt) - y
+        return r if noise is None else noise.whiten(r)
+
     try:
-        fit = least_squares(lambda p: _decay_model(p, tt) - y, start, method="lm")
+        fit = least_squares(residual, start, method="lm")
     except (ValueError, np.linalg.LinAlgError):
         return None
     return np.asarray(fit.x, dtype=float) if fit.success and np.all(np.isfinite(fit.x)) else None
@@ -361,7 +388,9 @@ def _fades(t0: float, params: FloatArray, level: float) -> float:
     return t0 + math.log(level / amplitude) / sig if sig < 0 else math.inf
 
 
-def _free_decay_end(t: FloatArray, y: FloatArray, floor: float, opt: SegmentOptions) -> _DecayEnd:
+def _free_decay_end(
+    t: FloatArray, y: FloatArray, floor: float, opt: SegmentOptions, ar: NoiseAR | None = None
+) -> _DecayEnd:
     """Where the decaying sinusoid from ``t[0]`` stops explaining ``y`` (module docstring).
 
     The model is fitted to one cycle, then to one more half-cycle at a time. Before each
@@ -372,7 +401,9 @@ def _free_decay_end(t: FloatArray, y: FloatArray, floor: float, opt: SegmentOpti
     the rider or the motor took over. The decay also ends where its envelope ``√(a² + b²) e^{σ t}`` falls to
     ``decay_level`` times the noise level: beyond, it no longer stands out of the riding; that
     end is taken from a fit reaching half a cycle beyond it. The noise level is the fit's
-    residual RMS or ``floor`` (the riding's level before the kick), whichever is larger.
+    residual RMS or ``floor`` (the riding's level before the kick), whichever is larger. With
+    ``ar`` (the riding's AR model, :mod:`.whiten`) each fit is whitened by it; the residual RMS
+    and the departure test stay those of the plain residual.
     """
     tt = t - t[0]
     t0 = float(t[0])
@@ -390,7 +421,7 @@ def _free_decay_end(t: FloatArray, y: FloatArray, floor: float, opt: SegmentOpti
             basis = np.column_stack([np.ones(x.size), np.cos(w * x), np.sin(w * x)])
             c, a, b = np.linalg.lstsq(basis, y[inside], rcond=None)[0]
             params = np.array([c, 0.0, w, a, b])
-        fitted = _fit_decay(tt[inside], y[inside], params)
+        fitted = _fit_decay(tt[inside], y[inside], params, ar)
         if fitted is None:
             return _DecayEnd(t0 + end, "the decaying sinusoid cannot be fitted beyond here", 2.0 * half, t0 + end)
         params = fitted
@@ -404,7 +435,7 @@ def _free_decay_end(t: FloatArray, y: FloatArray, floor: float, opt: SegmentOpti
         noise = max(rms, floor)
         level = opt.decay_level * noise
         fades = _fades(t0, params, level)
-        lam = f"λ ≈ {sig:.2f} + {w:.2f}i 1/s"
+        lam = f"λ ≈ {sig:.2f} + {w:.2f}i 1/s" + (f", whitened by the riding's AR({ar.order})" if ar is not None else "")
         if fades <= t0 + end:
             if not refined and end < fades - t0 + half <= tt[-1]:
                 refined, end = True, fades - t0 + half  # the envelope from data beyond its end too
@@ -450,7 +481,9 @@ def segment_record(record: RideRecord, options: SegmentOptions | None = None) ->
         before = (t >= lead - opt.riding_s) & (t < lead) & (t > previous)
         enough = np.sum(before) * float(np.median(np.diff(t))) >= opt.window_s
         riding = float(np.sqrt(np.mean(detrended[before] ** 2))) if enough else sigma
-        decay = _free_decay_end(t[i0:i1], detrended[i0:i1], max(riding, sigma), opt)
+        even = enough and _even(t[before]) and _even(t[i0:i1], float(np.median(np.diff(t[before]))))
+        ar = fit_noise_ar(detrended[before], opt.noise_order) if even else None
+        decay = _free_decay_end(t[i0:i1], detrended[i0:i1], max(riding, sigma), opt, ar)
         if decay.end is not None:
             stops.append((decay.end, decay.reason))
         stop, why = min(stops, key=lambda s: s[0])
