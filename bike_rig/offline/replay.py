@@ -256,6 +256,11 @@ def _input(t: RecordedTrial) -> TrialInput:
     return TrialInput(t.trial_id, t.start, t.stop, t.batches)
 
 
+def _estimate_only(t: RecordedTrial) -> bool:
+    """Only period estimates of the trial were recorded: no gyro batch and no trial event to fit again."""
+    return len(t.batches) == 0 and t.event is None
+
+
 # ---------------------------------------------------------------- settings from the bag
 
 
@@ -366,9 +371,12 @@ def replay_session(session: RecordedSession, settings: ReplaySettings | None = N
         GraphSettings(com_method=method, rider=rider, convention=convention, speeds=speeds),
         origin=f"{bag} (replayed fits)",
     )
-    run = graph.run((_input(t) for t in session.trials.values()), lambda t: chosen[t.trial_id][0])
+    unfit = [tid for tid, t in session.trials.items() if _estimate_only(t)]
+    fit = (_input(t) for t in session.trials.values() if t.trial_id not in unfit)
+    run = graph.run(fit, lambda t: chosen[t.trial_id][0])
     notes = [readings_note] if readings_note else []
     notes += session.notes
+    notes += [f"trial {tid} left out: only its period estimate was recorded (no gyro data to fit)" for tid in unfit]
     notes += [f"trial {tid} left out: {why}" for tid, why in run.rejected.items()]
     used = {tid for p in run.session.periods for tid in p.trial_ids}
     trials = tuple(
