@@ -19,6 +19,7 @@ from matplotlib.legend import Legend
 from matplotlib.legend_handler import HandlerBase
 from matplotlib.patches import Patch
 from matplotlib.text import Text
+from matplotlib.ticker import MaxNLocator
 from matplotlib.transforms import Transform
 from numpy.typing import NDArray
 
@@ -524,6 +525,8 @@ def trial_overview(subject: Subject) -> Figure:
         label=f"default flag threshold ({defaults.min_cycles:g} cycles)",
     )
     cyc_ax.set_ylim(bottom=0.0)
+    # as the default (AutoLocator), but a panel too short for two tick labels gets one
+    cyc_ax.yaxis.set_major_locator(MaxNLocator("auto", steps=[1, 2, 2.5, 5, 10], min_n_ticks=1))
     cyc_ax.set_ylabel("cycles in\nwindow", rotation=0, ha="right", va="center")
     handles: list[Any] = []
     labels: list[str] = []
