@@ -206,28 +206,20 @@ def _session_options(session: RecordedSession) -> TrialFitOptions | None:
     return _options(text, "a period estimate", session.path)
 
 
-def _with_details(session: RecordedSession, trial: TrialFit) -> TrialFit:
-    """A recorded estimate with its trial's last ``FitDetails`` joined (as is without one, or a bad one).
-
-    A bag recorded before a field of the details was added keeps that field at its default (NaN).
-    """
-    msg = session.fit_details.get(trial.trial_id)
-    if msg is None:
-        return trial
-    try:
-        return fit_details_from_msg(msg).apply(trial)
-    except MessageError:
-        return trial
-
-
 def _live_estimates(session: RecordedSession, static: Measurements, method: ComMethod) -> dict[str, TrialFit]:
     """The estimate of each trial the live parameter node kept, with its fit details.
 
-    Every recorded PeriodEstimate goes through a :class:`SessionAssembly` in the order received
-    (its rules decide which one of a trial's re-publications stays); the trial's last
-    ``FitDetails`` then completes its fit (:func:`_with_details`).
+    Each trial's last ``FitDetails`` (a bad one left out) and every recorded PeriodEstimate, in
+    the order received, go through a :class:`SessionAssembly`: its rules decide which one of a
+    trial's re-publications stays, and it joins the details. A bag recorded before a field of
+    the details was added keeps that field at its default (NaN).
     """
     live = SessionAssembly(static, method, origin=topics.PERIODS.name)
+    for msg in session.fit_details.values():
+        try:
+            live.add_details(fit_details_from_msg(msg))
+        except MessageError:
+            continue
     for t in session.trials.values():
         for msg in t.estimates:
             try:
@@ -235,14 +227,14 @@ def _live_estimates(session: RecordedSession, static: Measurements, method: ComM
             except (AssemblyError, MessageError):
                 continue
     kept = {p.trial_id: p for p in live.trials}
-    # trials whose estimates the assembly refused (e.g. an unknown key): their last one
+    # trials whose estimates the assembly refused (e.g. an unknown key): their last one, joined alike
     for t in session.trials.values():
         if t.trial_id not in kept and t.estimate is not None:
             try:
-                kept[t.trial_id] = trial_fit_from_msg(t.estimate)
+                kept[t.trial_id] = live.joined(trial_fit_from_msg(t.estimate))
             except MessageError:
                 continue
-    return {tid: _with_details(session, trial) for tid, trial in kept.items()}
+    return kept
 
 
 def _trial_options(
@@ -262,6 +254,11 @@ def _trial_options(
 
 def _input(t: RecordedTrial) -> TrialInput:
     return TrialInput(t.trial_id, t.start, t.stop, t.batches)
+
+
+def _estimate_only(t: RecordedTrial) -> bool:
+    """Only period estimates of the trial were recorded: no gyro batch and no trial event to fit again."""
+    return len(t.batches) == 0 and t.event is None
 
 
 # ---------------------------------------------------------------- settings from the bag
@@ -374,9 +371,12 @@ def replay_session(session: RecordedSession, settings: ReplaySettings | None = N
         GraphSettings(com_method=method, rider=rider, convention=convention, speeds=speeds),
         origin=f"{bag} (replayed fits)",
     )
-    run = graph.run((_input(t) for t in session.trials.values()), lambda t: chosen[t.trial_id][0])
+    unfit = [tid for tid, t in session.trials.items() if _estimate_only(t)]
+    fit = (_input(t) for t in session.trials.values() if t.trial_id not in unfit)
+    run = graph.run(fit, lambda t: chosen[t.trial_id][0])
     notes = [readings_note] if readings_note else []
     notes += session.notes
+    notes += [f"trial {tid} left out: only its period estimate was recorded (no gyro data to fit)" for tid in unfit]
     notes += [f"trial {tid} left out: {why}" for tid, why in run.rejected.items()]
     used = {tid for p in run.session.periods for tid in p.trial_ids}
     trials = tuple(

@@ -2,10 +2,11 @@
 
 :class:`SessionAssembly` holds the static readings (from a file or entered,
 :mod:`bike_rig.pipeline.readings`), takes trial results one by one (a trial republished under
-its id replaces the earlier), combines each key's usable trials (:func:`combine_trials`), says
-what is missing, and computes the parameters with
-:func:`~bike_rig.core.benchmark.compute_parameters`. The parameter node and the offline runner
-share it, and it is deterministic (trials combined in id order, readings in one canonical
+its id replaces the earlier) and joins each one's fit details (:class:`FitDetails`, which
+arrive apart, before or after it), combines each key's usable trials (:func:`combine_trials`),
+says what is missing, and computes the parameters with
+:func:`~bike_rig.core.benchmark.compute_parameters`. The parameter node, the offline runner and
+the replay share it, and it is deterministic (trials combined in id order, readings in one canonical
 order), so a replay gives bit-identical results. SI (periods s); degrees only in ``gamma`` and
 ``alpha*``.
 """
@@ -36,6 +37,7 @@ from ..core.parameter_checks import compute_checked
 from ..core.period import CombinedPeriod, PeriodFit, combine_periods
 from .errors import AssemblyError
 from .fit import TrialFit
+from .fit_details import FitDetails
 from .readings import canonical_order
 
 __all__ = [
@@ -260,7 +262,7 @@ _PLACEHOLDER = Reading(1.0, 0.0)
 
 @dataclass
 class SessionAssembly:
-    """Static readings plus the period estimates received so far.
+    """Static readings plus the period estimates (and their fit details) received so far.
 
     Args:
         static: The static readings (:func:`bike_rig.core.loader.load_static_readings`, or
@@ -285,6 +287,7 @@ class SessionAssembly:
     origin: str = "period estimates"
     partial: bool = False
     _trials: dict[str, TrialFit] = field(default_factory=dict, init=False, repr=False)
+    _details: dict[str, FitDetails] = field(default_factory=dict, init=False, repr=False)
     _keys: tuple[str, ...] = field(default=(), init=False, repr=False)
     _missing_readings: tuple[str, ...] = field(default=(), init=False, repr=False)
 
@@ -351,7 +354,7 @@ class SessionAssembly:
         return tuple(self._trials[k] for k in sorted(self._trials))
 
     def add(self, trial: TrialFit) -> bool:
-        """Take one period estimate.
+        """Take one period estimate, with its trial's fit details joined when they arrived (:meth:`joined`).
 
         One with a trial id seen before replaces the earlier one, unless it was fitted from fewer
         samples (then the earlier one is kept).
@@ -365,6 +368,7 @@ class SessionAssembly:
                 σ is not one a rig pendulum can give (:data:`PLAUSIBLE_PERIOD_S`, σ below the
                 period); the estimate is then not kept, and nothing is blocked by it.
         """
+        trial = self.joined(trial)
         key = trial.measurement_key
         if trial.usable and not (
             PLAUSIBLE_PERIOD_S[0] <= trial.period <= PLAUSIBLE_PERIOD_S[1] and 0 <= trial.period_sigma < trial.period
@@ -394,6 +398,34 @@ class SessionAssembly:
         if key not in self._keys:  # a new hanging orientation (partial readings only)
             self._missing_readings, self._keys = self._requirements(self.static)
         return True
+
+    def add_details(self, details: FitDetails) -> bool:
+        """Take one trial's fit details, which may come before or after its estimate.
+
+        They are kept by trial id (later details of a trial replace the earlier) and joined to
+        the trial's estimate: to the one held now, and to every one that arrives later.
+
+        Returns:
+            Whether a held estimate changed (False when its estimate has not arrived yet).
+        """
+        self._details[details.trial_id] = details
+        held = self._trials.get(details.trial_id)
+        if held is None:
+            return False
+        joined = details.apply(held)
+        if joined == held:
+            return False
+        self._trials[details.trial_id] = joined
+        return True
+
+    def joined(self, trial: TrialFit) -> TrialFit:
+        """``trial`` with the fit details received for its trial id (as is when none arrived).
+
+        :meth:`add` joins them so; also for an estimate the assembly refuses (the replay's
+        record of what the live graph published).
+        """
+        details = self._details.get(trial.trial_id)
+        return trial if details is None else details.apply(trial)
 
     def add_all(self, trials: Iterable[TrialFit]) -> None:
         """:meth:`add` each trial in turn."""

@@ -8,24 +8,29 @@ are stacked away from the axes. However many labels, however long, and at whatev
 or resolution, no two overlap, and constrained layout keeps them inside the figure (their
 extent is part of the axes'). A heading, if given, sits beyond the outermost row, its lines
 wrapped to the axes' width; :class:`SettlingLayout` runs constrained layout until rows and
-heading, whose height follows the axes' width, have settled.
+heading, whose height follows the axes' width, have settled. The legend of a
+:class:`LegendFittingFigure` is made again at every draw in as few columns (and, on a small
+figure, as small a font) as let it fit the figure, at whatever size it is drawn.
 """
 
 from __future__ import annotations
 
+import math
 import textwrap
 from collections.abc import Sequence
 from typing import Any
 
+import matplotlib as mpl
 from matplotlib.artist import Artist
 from matplotlib.axes import Axes
 from matplotlib.backend_bases import RendererBase
 from matplotlib.figure import Figure
 from matplotlib.layout_engine import ConstrainedLayoutEngine
+from matplotlib.legend import Legend
 from matplotlib.text import Text
 from matplotlib.transforms import Bbox, ScaledTranslation
 
-__all__ = ["RowLabels", "SettlingLayout", "label_rows"]
+__all__ = ["LegendFittingFigure", "RowLabels", "SettlingLayout", "label_rows"]
 
 #: Gap between neighbouring labels of a row, and between rows, points.
 GAP_PT = 3.0
@@ -39,6 +44,12 @@ _MAX_WRAPS = 8
 _MAX_PASSES = 5
 #: Move of an axes' corner, figure fraction, below which :class:`SettlingLayout` has settled.
 _SETTLED = 1e-4
+#: Widest a fitted legend may be, fraction of the figure's width, before its font gets smaller.
+LEGEND_MAX_WIDTH = 0.3
+#: Smallest font a fitted legend gets, points.
+LEGEND_MIN_FONTSIZE = 5.0
+#: Step of a fitted legend's font, points.
+_LEGEND_FONT_STEP = 0.5
 
 
 def label_rows(extents: Sequence[tuple[float, float]], gap: float) -> list[int]:
@@ -224,3 +235,75 @@ class RowLabels(Artist):
         for t in self._all():
             t.draw(renderer)
         self.stale = False
+
+
+class LegendFittingFigure(Figure):
+    """A figure whose legend (:meth:`fitted_legend`) fits it at whatever size it is drawn.
+
+    Before every draw the legend is made again: in as few columns as let it fit the figure's
+    height (between the layout's pads), its font made smaller, down to
+    :data:`LEGEND_MIN_FONTSIZE`, while it is wider than :data:`LEGEND_MAX_WIDTH` of the
+    figure. A layout engine (constrained layout) then makes room for it. Arguments are
+    :class:`matplotlib.figure.Figure`'s.
+    """
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        """Make the figure, with no fitted legend yet."""
+        super().__init__(*args, **kwargs)
+        self._legend_spec: tuple[list[Any], list[str], dict[str, Any]] | None = None
+        self._fitted: Legend | None = None
+        self._fitted_to: tuple[float, float, float] | None = None  # figure width, height (px), dpi
+
+    def fitted_legend(self, handles: Sequence[Any], labels: Sequence[str], **kwargs: Any) -> Legend:
+        """The figure's fitted legend (:meth:`matplotlib.figure.Figure.legend`'s keywords but ``ncols``).
+
+        ``fontsize`` (points; default 7) is its largest font.
+
+        Returns:
+            The legend as made now (one column); ``legends`` holds the one last drawn.
+        """
+        self._legend_spec = (list(handles), list(labels), {"fontsize": 7.0, **kwargs})
+        self._fitted_to = None
+        return self._make_legend(1, float(self._legend_spec[2]["fontsize"]))
+
+    def _make_legend(self, ncols: int, fontsize: float) -> Legend:
+        assert self._legend_spec is not None
+        handles, labels, kwargs = self._legend_spec
+        if self._fitted is not None and self._fitted in self.legends:
+            self._fitted.remove()
+        self._fitted = self.legend(handles, labels, **{**kwargs, "ncols": ncols, "fontsize": fontsize})
+        return self._fitted
+
+    def _fit_legend(self, renderer: RendererBase) -> None:
+        """Make the legend again: the largest font (to the smallest) whose fewest fitting columns are narrow enough.
+
+        Only when the figure's size or resolution changed: ``savefig`` draws twice, the second
+        time without the layout engine, and the legend must stay the one the layout made room for.
+        """
+        assert self._legend_spec is not None
+        size = (float(self.bbox.width), float(self.bbox.height), float(self.dpi))
+        if size == self._fitted_to:
+            return
+        self._fitted_to = size
+        engine = self.get_layout_engine()
+        params = engine.get() if engine is not None else {}
+        pad_in = float(params.get("h_pad", mpl.rcParams["figure.constrained_layout.h_pad"]))
+        room = self.bbox.height - 2.0 * pad_in * self.dpi
+        widest = LEGEND_MAX_WIDTH * self.bbox.width
+        n_entries = max(1, len(self._legend_spec[1]))
+        fontsize = float(self._legend_spec[2]["fontsize"])
+        while True:
+            ncols = 1
+            box = self._make_legend(ncols, fontsize).get_window_extent(renderer)
+            while box.height > room and ncols < n_entries:
+                ncols = min(n_entries, max(ncols + 1, math.ceil(ncols * box.height / room)))
+                box = self._make_legend(ncols, fontsize).get_window_extent(renderer)
+            if box.width <= widest or fontsize - _LEGEND_FONT_STEP < LEGEND_MIN_FONTSIZE:
+                return
+            fontsize -= _LEGEND_FONT_STEP
+
+    def draw(self, renderer: RendererBase) -> None:
+        """Fit the legend to the figure as it is now, then draw."""
+        if self._legend_spec is not None and self.get_visible():
+            self._fit_legend(renderer)
+        super().draw(renderer)

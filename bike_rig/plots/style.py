@@ -53,17 +53,18 @@ _WIDTH_STEP = 0.35
 _MARKS_PER_LINE = 10
 
 
-def new_figure(width_in: float = 8.0, height_in: float = 5.0) -> Figure:
+def new_figure(width_in: float = 8.0, height_in: float = 5.0, figure_class: type[Figure] = Figure) -> Figure:
     """A figure with an Agg canvas and constrained layout.
 
     Args:
         width_in: Width, inches.
         height_in: Height, inches.
+        figure_class: The figure's class (a subclass of :class:`~matplotlib.figure.Figure`).
 
     Returns:
         The empty figure.
     """
-    fig = Figure(figsize=(width_in, height_in), layout="constrained")
+    fig = figure_class(figsize=(width_in, height_in), layout="constrained")
     FigureCanvasAgg(fig)
     return fig
 

@@ -19,6 +19,7 @@ from matplotlib.legend import Legend
 from matplotlib.legend_handler import HandlerBase
 from matplotlib.patches import Patch
 from matplotlib.text import Text
+from matplotlib.ticker import MaxNLocator
 from matplotlib.transforms import Transform
 from numpy.typing import NDArray
 
@@ -26,7 +27,7 @@ from ..core.period import FitOptions, combine_periods
 from ..core.textfmt import format_value_sigma
 from ..offline.subjects import SessionTrial, Subject, is_bag_path
 from ..offline.timeline import TIME_BASE
-from .labels import RowLabels, SettlingLayout
+from .labels import LegendFittingFigure, RowLabels, SettlingLayout
 from .style import new_figure
 
 __all__ = [
@@ -462,7 +463,7 @@ def _draw_deviation(ax: Axes, ov: TrialOverview, title: str) -> tuple[FlagKey, .
     )
     ax.axhline(0.0, color="0.3", linewidth=0.6)
     ax.set_ylim(-half, half)
-    ax.set_ylabel("(T − T_key) / T_key [ppm]")
+    ax.set_ylabel("(T − T_key) / T_key\n[ppm]")
     return flags
 
 
@@ -475,7 +476,8 @@ def trial_overview(subject: Subject) -> Figure:
     scale are drawn at its edge. Under the panel, in rows that never overlap, each flagged
     trial's flags as short codes (``A,B``; the legend names them, see :func:`flag_key`) and
     each off-scale trial's deviation. Middle: 1 − r² (log). Bottom: cycles in the fit window. Trials are placed by their
-    start time for a bag, else in session order.
+    start time for a bag, else in session order. The legend fits the figure at whatever size it
+    is drawn (:class:`~bike_rig.plots.labels.LegendFittingFigure`: columns, a smaller font).
 
     Args:
         subject: A bicycle with trials.
@@ -488,7 +490,7 @@ def trial_overview(subject: Subject) -> Figure:
         ValueError: The subject has no trials.
     """
     ov = overview_data(subject)
-    fig = new_figure(11.0, 7.5)
+    fig = new_figure(11.0, 7.5, LegendFittingFigure)
     fig.set_layout_engine(SettlingLayout())
     dev_ax, r2_ax, cyc_ax = fig.subplots(3, 1, sharex=True, height_ratios=(3, 1.3, 1.3))
     n = len(ov.points)
@@ -512,7 +514,7 @@ def trial_overview(subject: Subject) -> Figure:
     )
     if one_minus.size and np.all(np.isfinite(one_minus)):
         r2_ax.set_yscale("log")
-    r2_ax.set_ylabel("1 − r²")
+    r2_ax.set_ylabel("1 − r²", rotation=0, ha="right", va="center")
     cycles = np.array([p.trial.fit.n_cycles for p in valid])
     cyc_ax.scatter(xs, cycles, s=12, c=colours, gid="overview:cycles")
     cyc_ax.axhline(
@@ -523,7 +525,9 @@ def trial_overview(subject: Subject) -> Figure:
         label=f"default flag threshold ({defaults.min_cycles:g} cycles)",
     )
     cyc_ax.set_ylim(bottom=0.0)
-    cyc_ax.set_ylabel("cycles in\nwindow")
+    # as the default (AutoLocator), but a panel too short for two tick labels gets one
+    cyc_ax.yaxis.set_major_locator(MaxNLocator("auto", steps=[1, 2, 2.5, 5, 10], min_n_ticks=1))
+    cyc_ax.set_ylabel("cycles in\nwindow", rotation=0, ha="right", va="center")
     handles: list[Any] = []
     labels: list[str] = []
     for ax in (dev_ax, r2_ax, cyc_ax):
@@ -538,7 +542,10 @@ def trial_overview(subject: Subject) -> Figure:
         labels.append("flags, under each trial:")
         handles += [_ShortCode(k.short) for k in flags]
         labels += [f"{k.code} ({k.n_trials})" for k in flags]
-    fig.legend(handles, labels, loc="outside right upper", fontsize=7, handler_map={_ShortCode: _ShortCodeHandler()})
+    assert isinstance(fig, LegendFittingFigure)
+    fig.fitted_legend(
+        handles, labels, loc="outside right upper", fontsize=7, handler_map={_ShortCode: _ShortCodeHandler()}
+    )
     if ov.time_axis:
         cyc_ax.set_xlabel(f"trial start [{TIME_BASE}]")
     else:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import random
 from pathlib import Path
@@ -18,9 +19,16 @@ from bike_rig.core.period import combine_periods
 from bike_rig.core.rider import PAPER_RIDER, add_rider
 from bike_rig.core.uncertainty.matrix_sigma import SigmaConvention, canonical_with_sigma
 from bike_rig.core.whipple import critical_speeds, eigenvalues, state_space
-from bike_rig.pipeline.assemble import SessionAssembly, assemble, combine_trials, required_period_keys
+from bike_rig.pipeline.assemble import (
+    SessionAssembly,
+    SessionParameters,
+    assemble,
+    combine_trials,
+    required_period_keys,
+)
 from bike_rig.pipeline.errors import AssemblyError, FlagCodeError
 from bike_rig.pipeline.fit import TrialFit
+from bike_rig.pipeline.fit_details import FitDetails
 from bike_rig.pipeline.model import compute_model, state_space_at
 from test.support.nodes import BROWSER_KEYS
 
@@ -229,8 +237,6 @@ def test_a_refit_from_fewer_samples_never_replaces_a_complete_one() -> None:
 
     The complete estimate stays, in either order of arrival.
     """
-    import dataclasses
-
     static = load_static_readings(config_file("bicycles/browser.yaml"))
     full = TrialFit.from_period("t1", "TcR1", 1.3611, 4e-6, True, n_samples=30000, n_expected=30000)
     partial = dataclasses.replace(full, fit=dataclasses.replace(full.fit, period=1.37, valid=True), n_samples=12000)
@@ -318,3 +324,79 @@ def test_a_flywheel_is_measured_live_too() -> None:
     assert expected is not None
     assert result.parameters.parts.names == ("mD", "IDxx", "IDyy")
     assert np.allclose(result.parameters.parts.values, expected.values, rtol=1e-12, atol=0)
+
+
+def _shared_systematic(trials: list[TrialFit], s_shared: float) -> list[FitDetails]:
+    """Each trial's fit details with a small-swing systematic the key's trials share (the fitter's option)."""
+    return [
+        dataclasses.replace(FitDetails.of(t), small_swing_period=t.period, small_swing_systematic=s_shared)
+        for t in trials
+    ]
+
+
+def _tcr1_trials(full: Measurements) -> list[TrialFit]:
+    s = math.hypot(2e-5, 1e-4)
+    return [
+        TrialFit.from_period(f"TcR1-t{i}", "TcR1", full.value("TcR1") + d, s, True)
+        for i, d in enumerate((-1e-5, 0, 1e-5))
+    ]
+
+
+@pytest.mark.parametrize("details_first", [True, False])
+def test_fit_details_join_their_estimate_in_either_order(details_first: bool) -> None:
+    """A trial's fit details are joined to its estimate whether they arrive before or after it."""
+    full = load_measurements(bicycle("browser"))
+    static = load_static_readings(bicycle("browser"))
+    others = file_trials(full, tuple(k for k in BROWSER_KEYS if k != "TcR1"))
+    tcr1 = _tcr1_trials(full)
+    details = _shared_systematic(tcr1, 1e-4)
+    with_details = [d.apply(t) for d, t in zip(details, tcr1, strict=True)]
+    joined = assemble(static, [*others, *with_details])
+    plain = assemble(static, [*others, *tcr1])
+
+    def tcr1_sigma(result: SessionParameters) -> float:
+        return next(p.sigma for p in result.periods if p.key == "TcR1")
+
+    assert tcr1_sigma(joined) > 1.5 * tcr1_sigma(plain)  # the shared systematic is not averaged down
+    session = SessionAssembly(static)
+    session.add_all(others)
+    if details_first:
+        assert not any(session.add_details(d) for d in details)  # nothing held yet to join
+        session.add_all(tcr1)
+    else:
+        session.add_all(tcr1)
+        assert all(session.add_details(d) for d in details)
+    assert {t.trial_id: t for t in session.trials} == {t.trial_id: t for t in (*others, *with_details)}
+    assert_same_set(session.result().parameters, joined.parameters)
+    assert tcr1_sigma(session.result()) == tcr1_sigma(joined)
+
+
+def test_later_details_and_estimates_keep_the_join() -> None:
+    """Re-published details replace the earlier; a re-published estimate keeps its trial's details."""
+    full = load_measurements(bicycle("browser"))
+    session = SessionAssembly(load_static_readings(bicycle("browser")))
+    trial = _tcr1_trials(full)[0]
+    first, second = _shared_systematic([trial], 1e-4)[0], _shared_systematic([trial], 3e-4)[0]
+    assert session.add(trial) and session.add_details(first)
+    assert not session.add_details(first)  # the same details again change nothing
+    assert session.add_details(second)
+    assert session.trials == (second.apply(trial),)
+    again = TrialFit.from_period(trial.trial_id, "TcR1", trial.period + 2e-6, trial.period_sigma, True)
+    assert session.add(again)
+    assert session.trials == (second.apply(again),)
+    assert session.trials[0].fit.small_swing_systematic == 3e-4
+
+
+def test_a_refused_estimate_is_joined_alike() -> None:
+    """The details of an estimate the assembly refuses stay, and :meth:`joined` gives it them as ``add`` would."""
+    session = SessionAssembly(load_static_readings(bicycle("browser")))
+    rogue = TrialFit.from_period("rogue-t1", "TtQ7", 1.2, 1e-4, True)
+    details = dataclasses.replace(FitDetails.of(rogue), ends_period=1.21, ends_period_sigma=1e-3)
+    assert not session.add_details(details)
+    with pytest.raises(AssemblyError, match="not a period"):
+        session.add(rogue)
+    assert session.trials == ()
+    assert session.joined(rogue) == details.apply(rogue)
+    assert session.joined(rogue).fit.ends_period == 1.21
+    other = TrialFit.from_period("other-t1", "TcR1", 1.36, 1e-4, True)
+    assert session.joined(other) is other  # no details: as is

@@ -202,7 +202,7 @@ def test_row_labels_below_an_axes_clear_its_ticks_and_tick_labels(size_in: tuple
         plt.close(fig)
 
 
-@pytest.mark.parametrize("size_in", [(7.0, 5.0), (9.0, 6.0), (14.0, 9.0)])
+@pytest.mark.parametrize("size_in", [(6.0, 4.0), (7.0, 5.0), (9.0, 6.0), (14.0, 9.0)])
 @pytest.mark.parametrize("name", ["short trials", "every flag"])
 def test_the_flagged_overview_is_laid_out_at_other_sizes(
     name: str, size_in: tuple[float, float], sessions: dict[str, Subject]

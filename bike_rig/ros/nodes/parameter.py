@@ -18,7 +18,9 @@ It subscribes to ``/bike_rig/periods`` (reliable, transient-local: a restarted n
 the whole session's estimates again) and feeds every estimate to
 :class:`bike_rig.pipeline.assemble.SessionAssembly` (with ``partial`` readings), which dedupes
 by trial id and combines the valid, unflagged trials of each measurement key. A period of a
-hanging orientation whose readings are not entered yet is kept until they are.
+hanging orientation whose readings are not entered yet is kept until they are. The fitter's
+``FitDetails`` (``/bike_rig/fit_details``; e.g. a small-swing systematic the key's trials share)
+go to the same assembly, which joins them to their trial's estimate whichever comes first.
 
 On ``/bike_rig/parameters`` (reliable, transient-local, depth 1) it publishes:
 
@@ -90,7 +92,6 @@ from ...messages import (
 )
 from ...pipeline.assemble import KeyPeriod, SessionAssembly, SessionParameters
 from ...pipeline.errors import AssemblyError
-from ...pipeline.fit_details import FitDetails
 from ...pipeline.health import ParameterHealth, parameter_statuses
 from ...pipeline.readings import ReadingEntry, apply_entries
 from ..qos import profile
@@ -234,7 +235,6 @@ class ParameterNode(Node):
         self._status_period = float(status_period)
         self._last: SessionParameters | None = None
         self._error = ""
-        self._details: dict[str, FitDetails] = {}
         self.create_subscription(_msgs.PeriodEstimate, topics.PERIODS.name, self._on_period, profile(topics.PERIODS))
         self.create_subscription(
             _msgs.FitDetails, topics.FIT_DETAILS.name, self._on_details, profile(topics.FIT_DETAILS)
@@ -253,28 +253,21 @@ class ParameterNode(Node):
     def _on_period(self, msg: Any, info: Any) -> None:
         self.diagnostics.note_input(info)
         try:
-            trial = trial_fit_from_msg(msg)
-            details = self._details.get(trial.trial_id)
-            self._dirty |= self._session.add(details.apply(trial) if details is not None else trial)
+            self._dirty |= self._session.add(trial_fit_from_msg(msg))
         except (AssemblyError, MessageError) as exc:
             self.get_logger().warning(f"period estimate ignored: {exc}")
         self._soon()
 
     def _on_details(self, msg: Any, info: Any) -> None:
-        """Join a trial's fit details to its estimate (the small-swing systematic is shared by a key's trials)."""
+        """Hand a trial's fit details to the assembly, which joins them to its estimate."""
         self.diagnostics.note_input(info)
         try:
             details = fit_details_from_msg(msg)
         except MessageError as exc:
             self.get_logger().warning(f"fit details ignored: {exc}")
             return
-        self._details[details.trial_id] = details
-        trial = next((t for t in self._session.trials if t.trial_id == details.trial_id), None)
-        if trial is not None:
-            try:
-                self._dirty |= self._session.add(details.apply(trial))
-            except AssemblyError as exc:
-                self.get_logger().warning(f"fit details ignored: {exc}")
+        if self._session.add_details(details):
+            self._dirty = True
             self._soon()
 
     def _on_entry(self, msg: Any, info: Any) -> None:
