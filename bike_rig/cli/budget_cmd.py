@@ -201,17 +201,18 @@ def conditioning_lines(angles: dict[str, float], sigmas: PrintedSigmas | None) -
         sigmas: The printed σ (None: no Monte Carlo, e.g. with a rider).
 
     Returns:
-        Text lines: one per hung part, then, when a part is nearly parallel, the outputs whose
-        σ is the Monte Carlo one with their linear σ.
+        Text lines: one per hung part, then, when a part is nearly parallel or any σ is the
+        Monte Carlo one, those outputs with their linear σ.
     """
     lines = ["mass-centre line conditioning (smallest angle between hanging lines):"]
     for part, deg in angles.items():
         note = "  nearly parallel" if deg < NEAR_PARALLEL_DEG else ""
         lines.append(f"    {PART_NAMES[part]:<16}{deg:6.1f}°{note}")
-    if min(angles.values(), default=180.0) >= NEAR_PARALLEL_DEG:
-        return lines
+    near = min(angles.values(), default=180.0) < NEAR_PARALLEL_DEG
     head = f"Monte Carlo σ ({MC_SAMPLES:,} seeded draws through the raw readings): "
     if sigmas is None:
-        return [*lines, head + "not run with a rider; the σ printed are linear"]
+        return [*lines, head + "not run with a rider; the σ printed are linear"] if near else lines
+    if not near and not sigmas.monte_carlo:
+        return lines
     got = [f"{n} {sigmas.sigma[n]:.3g} (linear {sigmas.linear[n]:.3g})" for n in sorted(sigmas.monte_carlo)]
     return [*lines, head + (", ".join(got) if got else "none printed")]

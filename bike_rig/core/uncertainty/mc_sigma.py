@@ -1,11 +1,12 @@
-"""The parameters' σ to print: a seeded Monte Carlo σ where nearly parallel hanging lines make the linear σ wrong.
+"""The parameters' σ to print: a seeded Monte Carlo σ wherever the linear σ misjudges it.
 
-With two hanging lines of a part closer than :data:`NEAR_PARALLEL_DEG` the mass centre is a
-nearly singular intersection and first-order propagation misjudges its σ. There the raw
-readings are drawn (:data:`MC_SAMPLES` seeded normal draws) and every parameter whose Monte
-Carlo σ departs from the linear σ by more than :data:`MC_DEPARTURE` gets the Monte Carlo σ, and
-so does the mass centre those lines locate (``xB, zB`` for the frame, ``xH, zH`` for the fork or
-its parts S and G).
+First-order propagation holds while the formulas are nearly linear over the readings' σ; two
+hanging lines of a part closer than :data:`NEAR_PARALLEL_DEG` (a nearly singular intersection),
+or angle and distance σ large against the lines' spread, break that. So the raw readings are
+always drawn as a check (:data:`MC_SAMPLES` seeded normal draws), and every parameter whose Monte
+Carlo σ departs from the linear σ by more than :data:`MC_DEPARTURE` (four times the draws' own
+relative error) gets the Monte Carlo σ; so does the mass centre that nearly parallel lines locate
+(``xB, zB`` for the frame, ``xH, zH`` for the fork or its parts S and G).
 """
 
 from __future__ import annotations
@@ -52,7 +53,7 @@ class PrintedSigmas:
         monte_carlo: The parameters whose σ is the Monte Carlo one.
         linear: ``{parameter: linear σ}`` of the parameters in ``monte_carlo``.
         near_parallel: ``{part letter: smallest angle between its hanging lines (deg)}`` of the
-            parts below :data:`NEAR_PARALLEL_DEG`; empty when the Monte Carlo was not run.
+            parts below :data:`NEAR_PARALLEL_DEG`.
     """
 
     sigma: dict[str, float]
@@ -64,8 +65,12 @@ class PrintedSigmas:
         """The footnote for the Monte Carlo σ, or None when none is printed."""
         if not self.monte_carlo:
             return None
-        parts = ", ".join(f"{PART_NAMES[p]} {deg:.1f}°" for p, deg in self.near_parallel.items())
-        return f"σ from a {MC_SAMPLES:,}-draw Monte Carlo (nearly parallel hanging lines: {parts})"
+        if self.near_parallel:
+            parts = ", ".join(f"{PART_NAMES[p]} {deg:.1f}°" for p, deg in self.near_parallel.items())
+            why = f"nearly parallel hanging lines: {parts}"
+        else:
+            why = f"the linear σ departs from it by more than {100 * MC_DEPARTURE:g} %"
+        return f"σ from a {MC_SAMPLES:,}-draw Monte Carlo ({why})"
 
 
 def line_angles(m: Measurements) -> dict[str, float]:
@@ -83,7 +88,7 @@ def printed_sigmas(
     method: ComMethod = ComMethod.CENTROID,
     lump_flywheel: bool = False,
 ) -> PrintedSigmas:
-    """The σ to print per parameter: Monte Carlo where lines are nearly parallel and it departs.
+    """The σ to print per parameter: Monte Carlo where it departs from the linear σ (module docstring).
 
     Args:
         m: The raw readings the parameters were computed from.
@@ -92,15 +97,13 @@ def printed_sigmas(
         lump_flywheel: As they were computed.
 
     Returns:
-        The linear σ everywhere when every part's lines are at least
-        :data:`NEAR_PARALLEL_DEG` apart; otherwise the Monte Carlo σ (:data:`MC_SAMPLES`
-        seeded draws through the raw readings) for each parameter whose σ departs from the
-        linear σ by more than :data:`MC_DEPARTURE`.
+        The Monte Carlo σ (:data:`MC_SAMPLES` seeded draws through the raw readings) for each
+        parameter whose σ departs from the linear σ by more than :data:`MC_DEPARTURE`, and for
+        the mass centre of each part whose lines are under :data:`NEAR_PARALLEL_DEG` apart;
+        the linear σ elsewhere.
     """
     sigma = {n: linear.sigma(n) for n in linear.names}
     near = {p: deg for p, deg in line_angles(m).items() if deg < NEAR_PARALLEL_DEG}
-    if not near:
-        return PrintedSigmas(sigma, frozenset(), {}, {})
     in_key_order = dataclasses.replace(m, readings=dict(sorted(m.readings.items())))  # same draws, any file format
     draws = monte_carlo_parameters(in_key_order, MC_SAMPLES, MC_SEED, method, lump_flywheel)
     located = {n for p in near for n in _LOCATED[p]}

@@ -1,4 +1,4 @@
-"""The printed σ: Monte Carlo where hanging lines are nearly parallel, linear elsewhere."""
+"""The printed σ: Monte Carlo where it departs from the linear σ or lines are nearly parallel."""
 
 from __future__ import annotations
 
@@ -74,3 +74,20 @@ def test_lines_made_nearly_parallel_switch_to_the_monte_carlo_sigma() -> None:
         assert abs(got.sigma[name] / lin.sigma(name) - 1.0) > MC_DEPARTURE, name
     for name in set(lin.names) - got.monte_carlo:
         assert got.sigma[name] == lin.sigma(name)
+
+
+def test_large_angle_sigma_on_spread_lines_switches_to_the_monte_carlo_sigma() -> None:
+    """Lines 41–45° apart, but angles read to ±4°: the formulas bend over the σ, no angle rule sees it."""
+    m = _measurements("Browser")
+    wide = {k: dataclasses.replace(r, sigma=4.0) if k.startswith("alpha") else r for k, r in m.readings.items()}
+    rough = dataclasses.replace(m, readings=wide)
+    assert min(line_angles(rough).values()) >= NEAR_PARALLEL_DEG
+    lin = compute_parameters(rough).parameters
+    got = printed_sigmas(rough, lin)
+    assert "IByy" in got.monte_carlo and not got.near_parallel
+    for name in got.monte_carlo:
+        assert abs(got.sigma[name] / lin.sigma(name) - 1.0) > MC_DEPARTURE, name
+    for name in set(lin.names) - got.monte_carlo:
+        assert got.sigma[name] == lin.sigma(name)
+    note = got.note()
+    assert note is not None and "departs from it by more than 2 %" in note
