@@ -8,7 +8,8 @@ is segmented by :func:`bike_rig.core.ride.segment.segment_record` and each segme
 :func:`bike_rig.core.ride.eigen.fit_segment`. A push is found when a segment's kick begins
 within 0.3 s of it; its cut error is the segment's start and stop less the truth's (the push's
 end; where its own response's envelope last exceeds twice the riding's RMS). A false segment
-belongs to no push; it must never be clean. Each speed is run with the wheel speed and, for
+belongs to no push; it must never be clean (a kick only the roll rate shows is flagged
+``unconfirmed_kick``, as ``bike-rig ride`` flags it). Each speed is run with the wheel speed and, for
 comparison, without it (roll rate alone); and with no pushes at all. ``--jolt`` sets the
 pushes' largest wheel-speed jolt (default 0.4 m/s, each push's drawn in [½, 1] of it).
 """
@@ -25,7 +26,7 @@ from bike_rig.cli.main import _parameters
 from bike_rig.config.paths import config_file
 from bike_rig.core.ride.eigen import fit_segment
 from bike_rig.core.ride.record import RideRecord
-from bike_rig.core.ride.segment import segment_record
+from bike_rig.core.ride.segment import segment_record, unconfirmed_flag
 from bike_rig.core.rider import PAPER_RIDER, add_rider
 from bike_rig.core.sim.ride_log import ride_plan, simulate_raw_log
 from bike_rig.core.uncertainty.matrix_sigma import canonical_with_sigma
@@ -54,7 +55,8 @@ def run(
         matched = set()
         for seg in segments:
             inside = (record.times >= seg.start) & (record.times <= seg.stop)
-            clean = fit_segment(record.times[inside], record.signal[inside], speed=speed).clean
+            fitted = fit_segment(record.times[inside], record.signal[inside], speed=speed)
+            clean = fitted.clean and unconfirmed_flag(seg, record) is None  # as ``bike-rig ride`` flags it
             hits = [k for k, p in enumerate(log.pushes) if abs(seg.kick.onset - p.time) <= FOUND_S]
             if hits and hits[0] not in matched:
                 matched.add(hits[0])

@@ -9,13 +9,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from ..core.errors import BikeRigError
 from ..core.ride.eigen import MeasuredEigenvalue, fit_segment, pool_drive
 from ..core.ride.record import RideRecord, read_ride_csv
-from ..core.ride.segment import Kick, Segment, segment_record
+from ..core.ride.segment import Kick, Segment, segment_record, unconfirmed_flag
 
 __all__ = ["WHOLE_BELOW_S", "MeasuredSegment", "RecordOptions", "RideOptionError", "load_record", "measure_records"]
 
@@ -81,11 +81,12 @@ def load_record(path: str, options: RecordOptions) -> RideRecord:
     return read_ride_csv(path, options.signal, options.time, options.speed_column, options.torque_column)
 
 
-def _segments(record: RideRecord, mode: str) -> list[Segment]:
+def _segments(record: RideRecord, mode: str) -> tuple[list[Segment], bool]:
+    """The record's segments, and whether they were found in it (not the whole record)."""
     first, last = float(record.times[0]), float(record.times[-1])
     if mode == "whole" or (mode == "auto" and last - first < WHOLE_BELOW_S):
-        return [Segment(first, last, Kick(first, first, "a stored free decay"), "the record's start", "its end")]
-    return segment_record(record)
+        return [Segment(first, last, Kick(first, first, "a stored free decay"), "the record's start", "its end")], False
+    return segment_record(record), True
 
 
 def measure_records(paths: Sequence[str], options: RecordOptions) -> list[MeasuredSegment]:
@@ -100,12 +101,16 @@ def measure_records(paths: Sequence[str], options: RecordOptions) -> list[Measur
     out = []
     for path in paths:
         record = load_record(path, options)
-        for k, seg in enumerate(_segments(record, options.segments), start=1):
+        segments, found = _segments(record, options.segments)
+        for k, seg in enumerate(segments, start=1):
             inside = (record.times >= seg.start) & (record.times <= seg.stop)
             speed = options.speed if options.speed is not None else record.mean_speed(seg.start, seg.stop)
             m = fit_segment(
                 record.times[inside], record.signal[inside], speed=speed, source=path, index=k, model=options.model
             )
+            flag = unconfirmed_flag(seg, record) if found else None
+            if flag is not None:
+                m = replace(m, flags=(*m.flags, flag))
             out.append(MeasuredSegment(m, seg, record))
     pooled = pool_drive([m.eigenvalue for m in out])  # the rider's drive shared at each speed
     return [MeasuredSegment(e, m.segment, m.record) for e, m in zip(pooled, out, strict=True)]

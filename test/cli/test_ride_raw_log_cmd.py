@@ -27,6 +27,25 @@ def test_a_simulated_raw_log_is_segmented_push_by_push(capsys: pytest.CaptureFix
     for seg, (start, stop) in zip(segments, decays, strict=True):
         assert abs(seg["start"] - start) < 0.3 and abs(seg["stop"] - stop) < 1.0
         assert seg["speed"] == pytest.approx(5.0, abs=0.05) and "wheel speed" in seg["start_reason"]
+        assert not any(f.startswith("unconfirmed_kick") for f in seg["flags"])
+
+
+def test_a_raw_log_without_wheel_speed_gives_no_clean_eigenvalue(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    """Roll rate alone: the rider's motions look like pushes, so no segment found in it is clean."""
+    out = tmp_path / "log.csv"
+    argv = ["ride", "simulate", BROWSER, "--rider", "paper", "--speed", "5", "--duration", "179"]
+    assert main([*argv, "--raw-log", "3", "--seed", "3", "-o", str(out)]) == 0
+    capsys.readouterr()
+    rows = [line.split(",") for line in out.read_text().splitlines()]
+    roll = tmp_path / "roll.csv"
+    roll.write_text("\n".join(",".join(r[:2]) for r in rows) + "\n", encoding="utf-8")
+    assert main(["ride", "fit", str(roll), "--segments", "find", "--speed", "5", "--json"]) == 0
+    segments = json.loads(capsys.readouterr().out)
+    assert len(segments) >= 3
+    for seg in segments:
+        assert any(f.startswith("unconfirmed_kick") and "no wheel speed" in f for f in seg["flags"])
 
 
 def test_a_raw_log_needs_a_csv_and_pushes(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:

@@ -33,7 +33,8 @@ generalised least squares whitened by it, else by ordinary least squares. Other 
 next kick (``gap_s`` before it), the end of the record, ``max_length_s`` (a safety bound, not
 the rule). A roll-rate kick not confirmed by the torque or the wheel speed gives a segment
 only where its model decays and lasts a cycle or more (else it is the rider's motion:
-starting off, a turn).
+starting off, a turn), and that segment is flagged ``unconfirmed_kick`` when measured
+(:func:`unconfirmed_flag`): never clean.
 In the roll rate alone a kick is found only where the oscillation before it has decayed
 below 1/``rise`` of the kick's response: record the steer torque where kicks come often. The reasons for
 each start and end are recorded. The noise σ is robust: the median absolute deviation of the
@@ -55,17 +56,21 @@ from .whiten import NoiseAR, fit_noise_ar
 
 __all__ = [
     "Kick",
+    "UNCONFIRMED_KICK",
     "Segment",
     "SegmentOptions",
     "find_kicks",
     "noise_sigma",
     "segment_record",
     "speed_transients",
+    "unconfirmed_flag",
     "why_no_segment",
 ]
 
 FloatArray = NDArray[np.float64]
 
+#: The flag of a found segment that only the roll rate saw begin (:func:`unconfirmed_flag`).
+UNCONFIRMED_KICK = "unconfirmed_kick"
 #: MAD of a normal distribution's samples times this is its σ.
 MAD_TO_SIGMA = 1.482602218505602
 #: The wheel speed's local trend is a quadratic over this long [s].
@@ -514,4 +519,19 @@ def why_no_segment(record: RideRecord, options: SegmentOptions | None = None) ->
         f"{len(rolls)} roll-rate kicks, none within {opt.speed_window_s:g} s of a wheel-speed transient "
         f"({jolts} beyond {opt.speed_threshold:g}σ in the record): the rider's own motions, "
         "or pushes that do not jolt the wheel (a record without a speed tries every roll-rate kick)"
+    )
+
+
+def unconfirmed_flag(segment: Segment, record: RideRecord) -> str | None:
+    """The flag of a found segment whose kick only the roll rate shows (None: confirmed).
+
+    Neither the steer torque nor a wheel-speed jolt marks its start, and the rider's own motions
+    (starting off, a turn, steering) look alike: such a segment is reported but never clean.
+    """
+    if segment.kick.confirmed:
+        return None
+    missing = "no wheel-speed jolt near it" if record.speed is not None else "the record has no wheel speed"
+    return (
+        f"{UNCONFIRMED_KICK}: only the roll rate shows a kick ({missing}, no steer torque): "
+        "the rider's own motions look alike"
     )
