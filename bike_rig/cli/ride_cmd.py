@@ -169,6 +169,9 @@ def measure(args: argparse.Namespace) -> list[tuple[MeasuredEigenvalue, Segment,
         args.model,
     )
     rows = [(m.eigenvalue, m.segment, m.record) for m in measure_records(args.records, options)]
+    for record in {id(r): r for _, _, r in rows}.values():
+        for text in record.notes:
+            print(terminal_safe(f"note: {record.source}: {text}"), file=sys.stderr)
     for path in sorted(set(args.records) - {m.source for m, _, _ in rows}):
         from ..core.ride.segment import why_no_segment
         from ..offline.rides import load_record

@@ -68,7 +68,7 @@ class MeasuredSegment:
 
 
 def load_record(path: str, options: RecordOptions) -> RideRecord:
-    """A CSV file or a bag, read with ``options``.
+    """A CSV file or a bag, read with ``options``, without its non-finite samples (noted).
 
     Raises:
         RideDataError: A bad CSV file. BagError: a bad bag.
@@ -77,8 +77,12 @@ def load_record(path: str, options: RecordOptions) -> RideRecord:
     if p.is_dir() or p.suffix.lower() == ".mcap":
         from ..bag.ride import read_ride_bag
 
-        return read_ride_bag(path, options.topic, options.field, options.speed_topic, torque_topic=options.torque_topic)
-    return read_ride_csv(path, options.signal, options.time, options.speed_column, options.torque_column)
+        record = read_ride_bag(
+            path, options.topic, options.field, options.speed_topic, torque_topic=options.torque_topic
+        )
+    else:
+        record = read_ride_csv(path, options.signal, options.time, options.speed_column, options.torque_column)
+    return record.finite()
 
 
 def _segments(record: RideRecord, mode: str) -> tuple[list[Segment], bool]:

@@ -195,3 +195,27 @@ def test_fit_of_a_record_without_a_speed_prints_no_nan(capsys: pytest.CaptureFix
     code, out, err = run(capsys, "ride", "fit", str(bare))
     assert code == 0, err
     assert "nan" not in out.lower() and out.count("speed unknown") == 4, out
+
+
+def test_fit_leaves_out_samples_that_are_not_numbers_and_says_so(
+    capsys: pytest.CaptureFixture[str], long_csv: Path
+) -> None:
+    """Six NaN samples early in a decay: noted on stderr, and the segment is still found and fitted."""
+    lines = long_csv.read_text().splitlines()
+    col = lines[0].split(",").index("roll_rate")
+    rows = [ln.split(",") for ln in lines[1:]]
+    for row in rows:
+        if 1.5 <= float(row[0]) <= 1.55:
+            row[col] = "nan"
+    holed = long_csv.with_name("holed.csv")
+    holed.write_text("\n".join([lines[0], *(",".join(r) for r in rows)]) + "\n")
+    code, out, err = run(capsys, "ride", "fit", str(holed), "--json")
+    assert code == 0, err
+    assert "6 samples of roll_rate are not numbers" in err and "1.500 and 1.550 s" in err
+    whole, holes = json.loads(run(capsys, "ride", "fit", str(long_csv), "--json")[1]), json.loads(out)
+    assert len(holes) == len(whole) == 4
+    assert holes[0]["valid"] and abs(holes[0]["real"] - whole[0]["real"]) < whole[0]["real_sigma"]
+    all_nan = long_csv.with_name("all_nan.csv")
+    all_nan.write_text("time,roll_rate\n0,nan\n0.01,nan\n0.02,0.1\n")
+    code, _, err = run(capsys, "ride", "fit", str(all_nan))
+    assert code == 2 and "1 of 3 samples of roll_rate are numbers" in err and len(err.strip().splitlines()) == 1

@@ -17,7 +17,7 @@ import csv
 import io
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from datetime import datetime
 from pathlib import Path
 
@@ -64,6 +64,7 @@ class RideRecord:
         signal_name: The signal's column (or topic and field).
         speed: Forward (wheel) speed at every sample [m/s], or None.
         torque: Steer torque at every sample [N m], or None.
+        notes: What was done to the record as read (samples left out), for the user.
     """
 
     source: str
@@ -72,6 +73,38 @@ class RideRecord:
     signal_name: str = "roll_rate"
     speed: FloatArray | None = None
     torque: FloatArray | None = None
+    notes: tuple[str, ...] = ()
+
+    def finite(self) -> RideRecord:
+        """The record without the samples whose signal is not a number (NaN, ±inf), and a note of them.
+
+        Segments are found and fitted across the gap left (the fits take uneven times); a
+        record whose every sample is finite is returned as it is.
+
+        Raises:
+            RideDataError: Fewer than two samples are numbers.
+        """
+        good = np.isfinite(self.signal)
+        if bool(np.all(good)):
+            return self
+        if int(np.sum(good)) < 2:
+            reason = f"{int(np.sum(good))} of {good.size} samples of {self.signal_name} are numbers: a record needs two"
+            raise RideDataError(self.source, reason)
+        bad = np.flatnonzero(~good)
+        spans = int(np.sum(np.diff(bad) > 1)) + 1
+        note = (
+            f"{bad.size} samples of {self.signal_name} are not numbers (NaN or inf) between "
+            f"{self.times[bad[0]]:.3f} and {self.times[bad[-1]]:.3f} s ({spans} gap{'s' if spans > 1 else ''}): "
+            "left out, the segments span the gaps"
+        )
+        return replace(
+            self,
+            times=self.times[good],
+            signal=self.signal[good],
+            speed=None if self.speed is None else self.speed[good],
+            torque=None if self.torque is None else self.torque[good],
+            notes=(*self.notes, note),
+        )
 
     def mean_speed(self, start: float = -math.inf, stop: float = math.inf) -> float:
         """The mean of the speed column between ``start`` and ``stop`` [s] (NaN without one) [m/s]."""
