@@ -611,8 +611,7 @@ class DampingChoice:
         if self.fit is not None and self.fit.swing:
             swing = (
                 f", the period follows the swing (κ = {self.fit.kappa:.3g}: small-swing period "
-                f"{self.fit.small_swing_period:.6g} s, its fit's σ {self.fit.sigma_small_swing_period:.2g} s "
-                "before the checks below)"
+                f"{self.fit.small_swing_period:.6g} s, fit σ {self.fit.sigma_small_swing_period:.2g} s before checks)"
             )
         return (
             f"damping {self.model.value}{swing} (γ/σ = {self.z_gamma:.1f}, α/σ = {self.z_alpha:.1f}, "
