@@ -23,7 +23,7 @@ from bike_rig.core.period import (
 from bike_rig.core.period.damping import MAX_OFFSET_INTERVALS, offset_hats
 from bike_rig.core.period.oscillation import alpha_omega_d, fit_variance, zeta_omega
 from bike_rig.core.period.window import first_at_or_after
-from test.support.signals import gyro_trial, quantise
+from test.support.signals import LSB, gyro_trial, quantise
 
 # ---------------------------------------------------------------- the paper's equations
 
@@ -360,6 +360,29 @@ def test_held_samples_are_detected() -> None:
     fit = fit_period(y, sample_rate_hz=1000.0)
     assert fit.valid and fit.has_flag(FlagCode.GAP_FILLED), fit.flags
     assert "61 samples at t = 6.999 s" in str(fit.flags)  # the last good sample, held 60 more
+
+
+def test_a_sensor_that_stops_is_cut_off_and_flagged() -> None:
+    """A gyro holding one value from 12 s on: the fit keeps the 12 s before, and says why."""
+    trial = gyro_trial(8)
+    y = trial.samples.copy()
+    y[12000:] = y[12000]
+    fit = fit_period(y, sample_rate_hz=1000.0)
+    assert fit.valid and fit.has_flag(FlagCode.GAP_FILLED), fit.flags
+    reason = str(fit.flags)
+    assert "(18 s from t = 1" in reason and "the sensor or its link stopped" in reason
+    assert 5.0 <= fit.n_cycles <= 8.0 and abs(fit.period - trial.period) < 4 * fit.period_sigma
+    stamped = fit_period(y, times=np.arange(y.size) / 1000.0)  # the same with timestamps
+    assert stamped.has_flag(FlagCode.GAP_FILLED) and abs(stamped.period - fit.period) < 0.1 * fit.period_sigma
+
+
+def test_a_swing_that_died_into_the_resolution_is_cut_off_with_a_note() -> None:
+    y = gyro_trial(8).samples.copy()  # a 12-bit gyro
+    y[20000:] = y[20000]  # the last 10 s hold one value after a second within one ADC step
+    y[19000:20000] = y[20000] + (np.arange(1000) % 2) * LSB
+    fit = fit_period(y, sample_rate_hz=1000.0)
+    assert not fit.has_flag(FlagCode.GAP_FILLED), fit.flags
+    assert any("died into the sensor's resolution" in n for n in fit.notes), fit.notes
 
 
 def test_drift_dominating_is_flagged() -> None:

@@ -1,7 +1,10 @@
 """Stage 1 of the period fit (:mod:`~bike_rig.core.period.fit`): the samples and times it can use.
 
 Non-finite samples (and samples with non-finite timestamps) are left out and flagged; given
-timestamps must increase (gaps are noted). Bad data never raise out of the fit: they end in
+timestamps must increase (gaps are noted). A record that ends holding one value for
+:data:`HELD_TAIL_S` or more is cut where the hold begins: flagged ``gap_filled`` when the signal
+was swinging just before (the sensor or its link stopped), noted when the swing had died into
+the sensor's resolution. Bad data never raise out of the fit: they end in
 :class:`Invalid`, which the fit turns into a result with ``valid=False`` and its flags.
 """
 
@@ -14,9 +17,14 @@ from numpy.typing import ArrayLike, NDArray
 
 from .result import Flag, FlagCode
 
-__all__ = ["Invalid", "clean_samples"]
+__all__ = ["HELD_TAIL_S", "Invalid", "clean_samples"]
 
 FloatArray = NDArray[np.float64]
+
+#: A record's last samples holding one value this long [s] (and 8 samples or more) are cut.
+HELD_TAIL_S = 1.0
+#: A hold after a swing of more than this many of the sensor's steps (over HELD_TAIL_S) is a stall.
+STALL_STEPS = 10
 
 
 class Invalid(Exception):
@@ -79,9 +87,50 @@ def clean_samples(
         even = 1.0 / rate
         if not math.isfinite(n * even):
             raise Invalid(Flag(FlagCode.BAD_TIMES, "the times span more than the floating-point range"))
-        return None, y, None, even, 0.0
+        keep = _held_tail(y, None, even, flags, notes)
+        return None, y[:keep], None, even, 0.0
     t, t0 = _check_times(t, index, rate, notes)
-    return t, y, index, None, t0
+    keep = _held_tail(y, t, None, flags, notes)
+    return t[:keep], y[:keep], None if index is None else index[:keep], None, t0
+
+
+def _held_tail(y: FloatArray, t: FloatArray | None, even: float | None, flags: list[Flag], notes: list[str]) -> int:
+    """How many samples to keep: all but a final hold of one value over :data:`HELD_TAIL_S` (module docstring)."""
+    n = y.size
+    if n < 16 or y[-1] != y[-2]:
+        return n  # the common case
+    changes = np.flatnonzero(y[1:] != y[:-1])
+    if changes.size == 0:
+        return n  # constant throughout: the window's constant check says so
+    first = int(changes[-1]) + 1  # the hold's first sample
+
+    def time(i: int) -> float:
+        return float(t[i]) if t is not None else i * float(even or 0.0)
+
+    held = time(n - 1) - time(first)
+    if n - first < 8 or held < HELD_TAIL_S or first < 8:
+        return n
+    since = time(first) - HELD_TAIL_S
+    if t is not None:
+        lead = int(np.searchsorted(t[:first], since))
+    else:
+        lead = max(0, math.ceil(since / float(even or 1.0)))
+    before = y[lead:first]
+    steps = np.abs(np.diff(y[:first]))
+    step = float(np.min(steps[steps > 0])) if np.any(steps > 0) else 0.0
+    swing = float(np.ptp(before)) if before.size else 0.0
+    what = f"the last {n - first} samples ({held:.3g} s from t = {time(first):.3f} s) hold {y[first]:.6g}"
+    if step > 0.0 and swing > STALL_STEPS * step:
+        flags.append(
+            Flag(
+                FlagCode.GAP_FILLED,
+                f"{what} right after a swing of {swing:.3g}: the sensor or its link stopped; "
+                "the fit uses the samples before",
+            )
+        )
+    else:
+        notes.append(f"{what}: the swing had died into the sensor's resolution; the fit uses the samples before")
+    return first
 
 
 def _leave_out(
