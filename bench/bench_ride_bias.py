@@ -10,7 +10,8 @@ over 1.2–2.5 weave cycles (uniform) and fitted as ``ride validate --segments w
 zero-order-hold discretisation with the assist's gains, ``ln eig(Φ − Γ_δ K) / Δt`` (the
 continuous model's ``A − BK`` differs from it by a few % in Re λ). Per speed: clean segments,
 the mean and RMS of their z = (x − truth)/σ (Re, Im), the speed mean's z and the pooled χ²/dof of
-the clean segments about their weighted mean.
+the clean segments about their weighted mean, and the unweighted mean's error in Re λ (a
+segment's σ grows with its fitted decay rate, so the weighted mean leans towards slow draws).
 
 ``--signal response`` fits the push's own response (no riding, no sensor noise: the bias of the
 cut, the model and the saturation); ``log`` (default) fits the log itself. ``--rider-torque`` and ``--saturation`` set
@@ -60,11 +61,12 @@ def _stats(segs: list[MeasuredEigenvalue], truth: complex) -> str:
     chi_r = float(np.sum(wr * (re - np.sum(wr * re) / np.sum(wr)) ** 2)) / dof
     chi_i = float(np.sum(wi * (im - np.sum(wi * im) / np.sum(wi)) ** 2)) / dof
     rr, ri = math.sqrt(float(np.mean(zr**2))), math.sqrt(float(np.mean(zi**2)))
+    plain = float(np.mean([s.real for s in clean])) - truth.real
     return (
         f"clean {len(clean):2d}/{len(segs):2d}  z Re {zr.mean():+5.2f}/{rr:4.2f}  Im {zi.mean():+5.2f}/{ri:4.2f}"
         f"  mean Re {c.real:+.3f}±{c.real_sigma:.3f} ({(c.real - truth.real) / c.real_sigma:+4.1f}σ)"
         f" Im {c.imag:.3f}±{c.imag_sigma:.3f} ({(c.imag - truth.imag) / c.imag_sigma:+4.1f}σ)"
-        f"  χ²/dof {chi_r:4.2f}/{chi_i:4.2f}"
+        f"  χ²/dof {chi_r:4.2f}/{chi_i:4.2f}  unweighted mean Re − truth {plain:+.3f}"
     )
 
 
