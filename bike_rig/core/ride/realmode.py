@@ -233,6 +233,9 @@ SEARCH_MAX_HZ = 5.0
 SEARCH_MIN_CYCLES = 0.7
 #: Its grid step, in cycles over the segment.
 SEARCH_STEP_CYCLES = 0.02
+#: Its decays tried: the oscillation's envelope falls by e^(−x) over the segment for each x [-]
+#: (0: undamped; a free decay cut at its end by the noise falls by 2–4).
+SEARCH_DECAYS = (0.0, 1.0, 2.0, 3.0, 4.0)
 #: The false-alarm probability an oscillation found by the search must beat (as the trial fitter's).
 SEARCH_FALSE_ALARM = 1e-4
 
@@ -244,10 +247,12 @@ class FrequencySearch:
     Attributes:
         omega_d: The best angular frequency of the grid [rad/s].
         false_alarm: Probability that noise alone gives as large an F anywhere on the grid [-].
+        alpha: The best decay rate of the grid [1/s] (a start for the fit).
     """
 
     omega_d: float
     false_alarm: float
+    alpha: float = 0.0
 
     @property
     def found(self) -> bool:
@@ -256,13 +261,17 @@ class FrequencySearch:
 
 
 def search_frequency(times: ArrayLike, samples: ArrayLike) -> FrequencySearch:
-    """The frequency of an undamped sinusoid plus a linear trend that fits best, on a grid, and its significance.
+    """The frequency and decay of a decaying sinusoid plus a trend that fit best, on a grid, and its significance.
 
-    For a segment too short for the trial fitter's spectrum (about one cycle): at each ω of a
-    grid from :data:`SEARCH_MIN_CYCLES` cycles over the segment to :data:`SEARCH_MAX_HZ`, the
-    least-squares fit of A + Dτ + B sin ωτ + C cos ωτ; the best ω, and the F test of B, C
-    against the trend alone, F = ((SSE₀ − SSE)/2) / (SSE/(n − 5)), its p-value multiplied by the
-    number of independent frequencies searched (Bonferroni; the grid's width in cycles).
+    For a segment too short for the trial fitter's spectrum (about one cycle, or a few that
+    decay into the noise): at each ω of a grid from :data:`SEARCH_MIN_CYCLES` cycles over the
+    segment to :data:`SEARCH_MAX_HZ` and each decay α of :data:`SEARCH_DECAYS` (over the
+    segment's length), the least-squares fit of A + Dτ + e^{−ατ}(B sin ωτ + C cos ωτ); the best
+    (ω, α), and the F test of B, C against the trend alone, F = ((SSE₀ − SSE)/2) / (SSE/(n − 5)),
+    its p-value multiplied by the number of independent candidates searched (Bonferroni; the
+    grid's width in cycles times the decays tried). An undamped search alone misses a fast
+    free decay (its best sinusoid fits it poorly and at a wrong frequency), which would leave
+    out the segments that decay fastest and bias the speed's mean towards slow decay.
 
     Args:
         times: Sample times [s].
@@ -280,16 +289,20 @@ def search_frequency(times: ArrayLike, samples: ArrayLike) -> FrequencySearch:
     r0 = trend @ _solve(trend, y) - y
     sse0 = float(r0 @ r0)
     cycles = np.arange(SEARCH_MIN_CYCLES, max(SEARCH_MIN_CYCLES, SEARCH_MAX_HZ * duration), SEARCH_STEP_CYCLES)
-    best_sse, best_omega = math.inf, math.nan
-    for c in cycles:
-        w = 2.0 * math.pi * c / duration
-        phi = np.column_stack([trend, np.sin(w * tau), np.cos(w * tau)])
-        r = phi @ _solve(phi, y) - y
-        sse = float(r @ r)
-        if sse < best_sse:
-            best_sse, best_omega = sse, w
+    best_sse, best_omega, best_alpha = math.inf, math.nan, 0.0
+    for x in SEARCH_DECAYS:
+        alpha = x / duration if duration > 0 else 0.0
+        e = np.exp(-alpha * tau)
+        for c in cycles:
+            w = 2.0 * math.pi * c / duration
+            phi = np.column_stack([trend, e * np.sin(w * tau), e * np.cos(w * tau)])
+            r = phi @ _solve(phi, y) - y
+            sse = float(r @ r)
+            if sse < best_sse:
+                best_sse, best_omega, best_alpha = sse, w, alpha
     if not (best_sse > 0 and sse0 > best_sse):
-        return FrequencySearch(best_omega, 1.0 if sse0 <= best_sse else 0.0)
+        return FrequencySearch(best_omega, 1.0 if sse0 <= best_sse else 0.0, best_alpha)
     f_value = ((sse0 - best_sse) / 2.0) / (best_sse / (n - 5))
-    independent = max(1.0, float(cycles[-1] - cycles[0]) if cycles.size > 1 else 1.0)
-    return FrequencySearch(best_omega, min(1.0, independent * float(f_distribution.sf(f_value, 2, n - 5))))
+    independent = max(1.0, float(cycles[-1] - cycles[0]) if cycles.size > 1 else 1.0) * len(SEARCH_DECAYS)
+    p = float(f_distribution.sf(f_value, 2, n - 5))
+    return FrequencySearch(best_omega, min(1.0, independent * p), best_alpha)
