@@ -82,6 +82,7 @@ def main() -> None:
     parser.add_argument("--saturation", type=float, default=None, help="motor limit [N m]")
     parser.add_argument("--duration", type=float, default=150.0, help="log length [s] (default 150)")
     parser.add_argument("--verbose", action="store_true", help="print each segment")
+    parser.add_argument("--found", action="store_true", help="segments found in the log; plain and injected")
     args = parser.parse_args()
     if args.rider:
         from bike_rig.cli.common import rider_from_spec
@@ -92,6 +93,9 @@ def main() -> None:
     bicycle = _parameters(args.parameters or str(config_file("bicycles/browser.yaml")), "centroid")
     ms = canonical_with_sigma(add_rider(bicycle, rider) if rider is not None else bicycle)
     print(f"signal {args.signal}, model {args.model}, {args.seeds} logs × 3 pushes per speed")
+    if args.found:
+        _found(args, ms)
+        return
     for v in (float(x) for x in args.speeds.split(",")):
         segs: list[MeasuredEigenvalue] = []
         truth = complex("nan")
@@ -123,6 +127,78 @@ def main() -> None:
                     f" Im {m.imag:.3f}±{m.imag_sigma:.3f} {m.model} {'; '.join(f[:40] for f in m.flags)}"
                 )
         print(f"{v:5.2f} m/s truth {truth.real:+.3f}{truth.imag:+.3f}i  {_stats(segs, truth)}", flush=True)
+
+
+def _flag_codes(segs: list[MeasuredEigenvalue]) -> str:
+    codes: dict[str, int] = {}
+    for m in segs:
+        for f in m.flags:
+            codes[f.split(":")[0]] = codes.get(f.split(":")[0], 0) + 1
+    return ", ".join(f"{k} {n}" for k, n in sorted(codes.items())) or "none"
+
+
+def _found(args: argparse.Namespace, ms: object) -> None:
+    """Segments found in each log, fitted plain and with the riding injected (module docstring)."""
+    from bike_rig.core.ride.record import RideRecord
+    from bike_rig.core.ride.segment import segment_record, unconfirmed_flag
+    from bike_rig.offline.rides import MeasuredSegment, _injected
+
+    for v in (float(x) for x in args.speeds.split(",")):
+        plain: list[MeasuredEigenvalue] = []
+        after: list[MeasuredEigenvalue] = []
+        truth = complex("nan")
+        pushes = found = false = 0
+        for s in range(args.seeds):
+            rng = np.random.default_rng(100 + s)
+            plan = ride_plan(args.duration, v, 3, rng)
+            if args.rider_torque is not None:
+                plan = replace(plan, rider_torque=args.rider_torque)
+            if args.saturation is not None:
+                plan = replace(plan, saturation=args.saturation)
+            truth = _truth(ms, v, plan.rate_hz)
+            log = simulate_raw_log(ms.matrices, ms.g, plan, rng)  # type: ignore[attr-defined]
+            record = RideRecord(f"seed {s}", log.times, log.roll_rate, speed=log.wheel_speed)
+            segments = segment_record(record)
+            fits = []
+            for k, seg in enumerate(segments, start=1):
+                inside = (record.times >= seg.start) & (record.times <= seg.stop)
+                m = fit_segment(
+                    record.times[inside],
+                    record.signal[inside],
+                    speed=record.mean_speed(seg.start, seg.stop),
+                    source=record.source,
+                    index=k,
+                    model=args.model,
+                )
+                flag = unconfirmed_flag(seg, record)
+                fits.append(replace(m, flags=(*m.flags, flag)) if flag is not None else m)
+            pooled = pool_drive(fits)
+            done = _injected(
+                [MeasuredSegment(e, g, record) for e, g in zip(pooled, segments, strict=True)],
+                [True] * len(segments),
+                args.model,
+            )
+            pushes += len(log.pushes)
+            near = [any(0 <= g.start - p.time <= 2.0 for g in segments) for p in log.pushes]
+            found += sum(near)
+            false += sum(not any(0 <= g.start - p.time <= 2.0 for p in log.pushes) for g in segments)
+            plain += pooled
+            after += [d.eigenvalue for d in done]
+            if args.verbose:
+                for a, b in zip(pooled, (d.eigenvalue for d in done), strict=True):
+                    print(
+                        f"  {a.source} #{a.index} {a.n_cycles:.2f} cyc Re {a.real:+.3f}±{a.real_sigma:.3f} → "
+                        f"{b.real:+.3f}±{b.real_sigma:.3f}  Im {a.imag:.3f}±{a.imag_sigma:.3f} → "
+                        f"{b.imag:.3f}±{b.imag_sigma:.3f}  {'; '.join(f[:30] for f in b.flags)}"
+                    )
+        injected = sum(len(b.notes) > len(a.notes) for a, b in zip(plain, after, strict=True))
+        corrected = sum(a.real != b.real or a.imag != b.imag for a, b in zip(plain, after, strict=True) if a.valid)
+        print(
+            f"{v:5.2f} m/s truth {truth.real:+.3f}{truth.imag:+.3f}i  pushes found {found}/{pushes}, "
+            f"false segments {false}, injected {injected}/{len(after)}, corrected {corrected}"
+        )
+        print(f"   plain     {_stats(plain, truth)}  flags: {_flag_codes(plain)}")
+        print(f"   injected  {_stats(after, truth)}  flags: {_flag_codes(after)}", flush=True)
 
 
 if __name__ == "__main__":

@@ -14,6 +14,7 @@ from pathlib import Path
 
 from ..core.errors import BikeRigError
 from ..core.ride.eigen import MeasuredEigenvalue, fit_segment, pool_drive
+from ..core.ride.injection import inject_segments
 from ..core.ride.record import RideRecord, read_ride_csv
 from ..core.ride.segment import Kick, Segment, segment_record, unconfirmed_flag
 
@@ -96,6 +97,9 @@ def _segments(record: RideRecord, mode: str) -> tuple[list[Segment], bool]:
 def measure_records(paths: Sequence[str], options: RecordOptions) -> list[MeasuredSegment]:
     """Every record's segments fitted, in order, their σ with the rider's drive shared at each speed.
 
+    Segments found in a record then get their bias and σ from the record's own riding injected
+    into their fitted decay (:mod:`bike_rig.core.ride.injection`; none where it has too little).
+
     Raises:
         RideOptionError: A negative or non-finite speed.
         RideDataError, BagError: A record cannot be read.
@@ -103,9 +107,11 @@ def measure_records(paths: Sequence[str], options: RecordOptions) -> list[Measur
     if options.speed is not None and not (math.isfinite(options.speed) and options.speed >= 0):
         raise RideOptionError(f"--speed must be a finite speed >= 0 m/s, got {options.speed}")
     out = []
+    found_in: list[bool] = []
     for path in paths:
         record = load_record(path, options)
         segments, found = _segments(record, options.segments)
+        found_in += [found] * len(segments)
         for k, seg in enumerate(segments, start=1):
             inside = (record.times >= seg.start) & (record.times <= seg.stop)
             speed = options.speed if options.speed is not None else record.mean_speed(seg.start, seg.stop)
@@ -117,4 +123,21 @@ def measure_records(paths: Sequence[str], options: RecordOptions) -> list[Measur
                 m = replace(m, flags=(*m.flags, flag))
             out.append(MeasuredSegment(m, seg, record))
     pooled = pool_drive([m.eigenvalue for m in out])  # the rider's drive shared at each speed
-    return [MeasuredSegment(e, m.segment, m.record) for e, m in zip(pooled, out, strict=True)]
+    return _injected(
+        [MeasuredSegment(e, m.segment, m.record) for e, m in zip(pooled, out, strict=True)], found_in, options.model
+    )
+
+
+def _injected(measured: list[MeasuredSegment], found: list[bool], model: str) -> list[MeasuredSegment]:
+    """Found segments with their bias and σ from their record's own riding (:mod:`bike_rig.core.ride.injection`)."""
+    out = list(measured)
+    by_record: dict[int, list[int]] = {}
+    for i, (m, f) in enumerate(zip(measured, found, strict=True)):
+        if f:
+            by_record.setdefault(id(m.record), []).append(i)
+    for idx in by_record.values():
+        record = measured[idx[0]].record
+        done = inject_segments(record, [measured[i].segment for i in idx], [measured[i].eigenvalue for i in idx], model)
+        for i, e in zip(idx, done, strict=True):
+            out[i] = replace(measured[i], eigenvalue=e)
+    return out
