@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from numpy.typing import NDArray
@@ -54,20 +55,25 @@ class NoiseAR:
         """The order p."""
         return int(self.coef.size)
 
+    @cached_property
+    def _head_factor(self) -> FloatArray:
+        """The lower Cholesky factor of the first p samples' covariance ``toeplitz(γ₀…γ_{p−1})``."""
+        from scipy.linalg import cholesky, toeplitz
+
+        return np.asarray(cholesky(toeplitz(self.acov), lower=True), dtype=float)
+
     def whiten(self, r: FloatArray) -> FloatArray:
         """The residual ``r`` whitened along its first axis (module docstring).
 
         Unit-variance white noise where ``r`` is this noise; ``r`` of shape (n,) or (n, k).
         """
-        from scipy.linalg import cholesky, solve_triangular
+        from scipy.linalg import solve_triangular
         from scipy.signal import lfilter
 
         p = min(self.order, r.shape[0])
         head = r[:p]
-        if p:
-            gamma = self.acov[:p]
-            lower = cholesky(np.array([[gamma[abs(i - j)] for j in range(p)] for i in range(p)]), lower=True)
-            head = solve_triangular(lower, head, lower=True)
+        if p:  # (a leading block of the factor is the factor of the leading block)
+            head = solve_triangular(self._head_factor[:p, :p], head, lower=True)
         tail = np.asarray(lfilter(np.r_[1.0, -self.coef], [1.0], r, axis=0), dtype=float)[p:] / self.sigma
         return np.asarray(np.concatenate([head, tail]), dtype=float)
 
