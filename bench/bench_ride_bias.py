@@ -22,7 +22,9 @@ from __future__ import annotations
 
 import argparse
 import math
+from collections import Counter
 from dataclasses import replace
+from typing import Any
 
 import numpy as np
 from scipy.signal import cont2discrete
@@ -31,7 +33,7 @@ from bike_rig.cli.main import _parameters
 from bike_rig.config.paths import config_file
 from bike_rig.core.ride.eigen import MeasuredEigenvalue, combine_eigenvalues, fit_segment, pool_drive
 from bike_rig.core.rider import PAPER_RIDER, add_rider
-from bike_rig.core.sim.ride_log import SPEED_STEP, assist_gains, ride_plan, simulate_raw_log
+from bike_rig.core.sim.ride_log import SPEED_STEP, SimulatedLog, assist_gains, ride_plan, simulate_raw_log
 from bike_rig.core.uncertainty.matrix_sigma import canonical_with_sigma
 from bike_rig.core.whipple import state_space
 
@@ -100,14 +102,7 @@ def main() -> None:
         segs: list[MeasuredEigenvalue] = []
         truth = complex("nan")
         for s in range(args.seeds):
-            rng = np.random.default_rng(100 + s)
-            plan = ride_plan(args.duration, v, 3, rng)
-            if args.rider_torque is not None:
-                plan = replace(plan, rider_torque=args.rider_torque)
-            if args.saturation is not None:
-                plan = replace(plan, saturation=args.saturation)
-            truth = _truth(ms, v, plan.rate_hz)
-            log = simulate_raw_log(ms.matrices, ms.g, plan, rng)
+            log, truth = _simulate(args, ms, v, s)
             cut = np.random.default_rng(s)
             for p in log.pushes:
                 stop = p.start + cut.uniform(1.2, 2.5) * 2 * math.pi / truth.imag
@@ -129,19 +124,27 @@ def main() -> None:
         print(f"{v:5.2f} m/s truth {truth.real:+.3f}{truth.imag:+.3f}i  {_stats(segs, truth)}", flush=True)
 
 
+def _simulate(args: argparse.Namespace, ms: Any, v: float, seed: int) -> tuple[SimulatedLog, complex]:
+    """Seed ``seed``'s raw log at ``v`` [m/s] with the options' rider and motor, and its weave's truth."""
+    rng = np.random.default_rng(100 + seed)
+    plan = ride_plan(args.duration, v, 3, rng)
+    if args.rider_torque is not None:
+        plan = replace(plan, rider_torque=args.rider_torque)
+    if args.saturation is not None:
+        plan = replace(plan, saturation=args.saturation)
+    return simulate_raw_log(ms.matrices, ms.g, plan, rng), _truth(ms, v, plan.rate_hz)
+
+
 def _flag_codes(segs: list[MeasuredEigenvalue]) -> str:
-    codes: dict[str, int] = {}
-    for m in segs:
-        for f in m.flags:
-            codes[f.split(":")[0]] = codes.get(f.split(":")[0], 0) + 1
+    codes = Counter(f.split(":")[0] for m in segs for f in m.flags)
     return ", ".join(f"{k} {n}" for k, n in sorted(codes.items())) or "none"
 
 
 def _found(args: argparse.Namespace, ms: object) -> None:
     """Segments found in each log, fitted plain and with the riding injected (module docstring)."""
+    from bike_rig.core.ride.injection import inject_segments
     from bike_rig.core.ride.record import RideRecord
     from bike_rig.core.ride.segment import segment_record, unconfirmed_flag
-    from bike_rig.offline.rides import MeasuredSegment, _injected
 
     for v in (float(x) for x in args.speeds.split(",")):
         plain: list[MeasuredEigenvalue] = []
@@ -149,14 +152,7 @@ def _found(args: argparse.Namespace, ms: object) -> None:
         truth = complex("nan")
         pushes = found = false = 0
         for s in range(args.seeds):
-            rng = np.random.default_rng(100 + s)
-            plan = ride_plan(args.duration, v, 3, rng)
-            if args.rider_torque is not None:
-                plan = replace(plan, rider_torque=args.rider_torque)
-            if args.saturation is not None:
-                plan = replace(plan, saturation=args.saturation)
-            truth = _truth(ms, v, plan.rate_hz)
-            log = simulate_raw_log(ms.matrices, ms.g, plan, rng)  # type: ignore[attr-defined]
+            log, truth = _simulate(args, ms, v, s)
             record = RideRecord(f"seed {s}", log.times, log.roll_rate, speed=log.wheel_speed)
             segments = segment_record(record)
             fits = []
@@ -173,19 +169,15 @@ def _found(args: argparse.Namespace, ms: object) -> None:
                 flag = unconfirmed_flag(seg, record)
                 fits.append(replace(m, flags=(*m.flags, flag)) if flag is not None else m)
             pooled = pool_drive(fits)
-            done = _injected(
-                [MeasuredSegment(e, g, record) for e, g in zip(pooled, segments, strict=True)],
-                [True] * len(segments),
-                args.model,
-            )
+            done = inject_segments(record, segments, pooled, args.model)
             pushes += len(log.pushes)
             near = [any(0 <= g.start - p.time <= 2.0 for g in segments) for p in log.pushes]
             found += sum(near)
             false += sum(not any(0 <= g.start - p.time <= 2.0 for p in log.pushes) for g in segments)
             plain += pooled
-            after += [d.eigenvalue for d in done]
+            after += done
             if args.verbose:
-                for a, b in zip(pooled, (d.eigenvalue for d in done), strict=True):
+                for a, b in zip(pooled, done, strict=True):
                     print(
                         f"  {a.source} #{a.index} {a.n_cycles:.2f} cyc Re {a.real:+.3f}±{a.real_sigma:.3f} → "
                         f"{b.real:+.3f}±{b.real_sigma:.3f}  Im {a.imag:.3f}±{a.imag_sigma:.3f} → "

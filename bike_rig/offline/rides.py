@@ -107,11 +107,11 @@ def measure_records(paths: Sequence[str], options: RecordOptions) -> list[Measur
     if options.speed is not None and not (math.isfinite(options.speed) and options.speed >= 0):
         raise RideOptionError(f"--speed must be a finite speed >= 0 m/s, got {options.speed}")
     out = []
-    found_in: list[bool] = []
+    found_in: list[range] = []  # the segments found in a record (not a whole record), by position in out
     for path in paths:
         record = load_record(path, options)
         segments, found = _segments(record, options.segments)
-        found_in += [found] * len(segments)
+        first = len(out)
         for k, seg in enumerate(segments, start=1):
             inside = (record.times >= seg.start) & (record.times <= seg.stop)
             speed = options.speed if options.speed is not None else record.mean_speed(seg.start, seg.stop)
@@ -122,22 +122,15 @@ def measure_records(paths: Sequence[str], options: RecordOptions) -> list[Measur
             if flag is not None:
                 m = replace(m, flags=(*m.flags, flag))
             out.append(MeasuredSegment(m, seg, record))
+        if found and len(out) > first:
+            found_in.append(range(first, len(out)))
     pooled = pool_drive([m.eigenvalue for m in out])  # the rider's drive shared at each speed
-    return _injected(
-        [MeasuredSegment(e, m.segment, m.record) for e, m in zip(pooled, out, strict=True)], found_in, options.model
-    )
-
-
-def _injected(measured: list[MeasuredSegment], found: list[bool], model: str) -> list[MeasuredSegment]:
-    """Found segments with their bias and σ from their record's own riding (:mod:`bike_rig.core.ride.injection`)."""
-    out = list(measured)
-    by_record: dict[int, list[int]] = {}
-    for i, (m, f) in enumerate(zip(measured, found, strict=True)):
-        if f:
-            by_record.setdefault(id(m.record), []).append(i)
-    for idx in by_record.values():
-        record = measured[idx[0]].record
-        done = inject_segments(record, [measured[i].segment for i in idx], [measured[i].eigenvalue for i in idx], model)
+    measured = [MeasuredSegment(e, m.segment, m.record) for e, m in zip(pooled, out, strict=True)]
+    for idx in found_in:  # their bias and σ from their record's own riding
+        record = out[idx.start].record
+        done = inject_segments(
+            record, [out[i].segment for i in idx], [measured[i].eigenvalue for i in idx], options.model
+        )
         for i, e in zip(idx, done, strict=True):
-            out[i] = replace(measured[i], eigenvalue=e)
-    return out
+            measured[i] = MeasuredSegment(e, out[i].segment, record)
+    return measured
