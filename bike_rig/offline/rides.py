@@ -106,7 +106,7 @@ def measure_records(paths: Sequence[str], options: RecordOptions) -> list[Measur
     """
     if options.speed is not None and not (math.isfinite(options.speed) and options.speed >= 0):
         raise RideOptionError(f"--speed must be a finite speed >= 0 m/s, got {options.speed}")
-    out = []
+    out: list[MeasuredSegment] = []
     found_in: list[range] = []  # the segments found in a record (not a whole record), by position in out
     for path in paths:
         record = load_record(path, options)
