@@ -15,6 +15,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .quality import smallest_step
 from .result import Flag, FlagCode
 
 __all__ = ["HELD_TAIL_S", "Invalid", "clean_samples"]
@@ -116,8 +117,7 @@ def _held_tail(y: FloatArray, t: FloatArray | None, even: float | None, flags: l
     else:
         lead = max(0, math.ceil(since / float(even or 1.0)))
     before = y[lead:first]
-    steps = np.abs(np.diff(y[:first]))
-    step = float(np.min(steps[steps > 0])) if np.any(steps > 0) else 0.0
+    step = smallest_step(y[:first])
     swing = float(np.ptp(before)) if before.size else 0.0
     what = f"the last {n - first} samples ({held:.3g} s from t = {time(first):.3f} s) hold {y[first]:.6g}"
     if step > 0.0 and swing > STALL_STEPS * step:

@@ -49,6 +49,7 @@ __all__ = [
     "held_flag",
     "modulation_index",
     "noise_and_quantum",
+    "smallest_step",
     "steady_phase",
     "two_mode_flag",
 ]
@@ -75,12 +76,20 @@ def noise_and_quantum(y: FloatArray, residuals: FloatArray) -> tuple[float, floa
     dr = residuals[1::stride] - residuals[:-1:stride]
     dr -= np.mean(dr)
     noise = math.sqrt(float(np.einsum("i,i->", dr, dr)) / (2.0 * dr.size)) if dr.size > 1 else 0.0
+    return noise, smallest_step(y, stride)
+
+
+def smallest_step(y: FloatArray, stride: int = 1) -> float:
+    """The smallest non-zero step between consecutive samples (the ADC's quantum when quantised; 0: none).
+
+    With ``stride`` > 1 only every ``stride``-th pair is looked at (all pairs when none of those differ).
+    """
     steps = np.abs(y[1::stride] - y[:-1:stride])
     steps = steps[steps > 0]
     if steps.size == 0 and stride > 1:
         steps = np.abs(np.diff(y))
         steps = steps[steps > 0]
-    return noise, (float(np.min(steps)) if steps.size else 0.0)
+    return float(np.min(steps)) if steps.size else 0.0
 
 
 def _clip_tolerance(noise: float, quantum: float) -> float:
