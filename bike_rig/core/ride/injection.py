@@ -250,6 +250,6 @@ def inject_segments(
         inside = (t >= seg.start) & (t <= seg.stop)
         ts, ys = t[inside], y[inside]
         starts = _starts(record, riding, ts.size, m.speed, opt.speed_share)
-        inj = inject(ts, ys, m, noise, starts, opt, model) if m.valid else None
+        inj = inject(ts, ys, m, noise, starts, opt, model)
         out.append(m if inj is None else injected(m, inj))
     return out
