@@ -87,8 +87,9 @@ class RideRecord:
         good = np.isfinite(self.signal)
         if bool(np.all(good)):
             return self
-        if int(np.sum(good)) < 2:
-            reason = f"{int(np.sum(good))} of {good.size} samples of {self.signal_name} are numbers: a record needs two"
+        numbers = int(np.sum(good))
+        if numbers < 2:
+            reason = f"{numbers} of {good.size} samples of {self.signal_name} are numbers: a record needs two"
             raise RideDataError(self.source, reason)
         bad = np.flatnonzero(~good)
         spans = int(np.sum(np.diff(bad) > 1)) + 1
