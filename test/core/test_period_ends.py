@@ -67,6 +67,19 @@ def test_a_late_change_is_seen_by_the_ends_and_carried_by_the_sigma() -> None:
     assert not any(f.has_flag(FlagCode.PERIOD_DRIFT) for f in fits)  # (too small to be certain)
 
 
+def test_every_widening_by_the_ends_is_said_in_a_note() -> None:
+    # clean trials and late changes alike: whenever the ends widen σ, a note gives both periods and both σ
+    records = [swing_record(seed, late=(23.0, -0.003 * (seed % 2))) for seed in range(30)]
+    fits = [fit_period(r.samples, RATE_HZ) for r in records]
+    widened = [f for f in fits if any("is widened to" in note for note in f.notes)]
+    # (the distance's σ under the law is at most ends_period_sigma: beyond it the ends surely depart)
+    departed = [f for f in fits if abs(f.ends_period - f.period) > f.ends_period_sigma]
+    assert departed and set(map(id, departed)) <= set(map(id, widened))
+    for f in widened:
+        note = next(note for note in f.notes if "is widened to" in note)
+        assert f"{f.period_sigma:.2g} s to hold" in note and f"{f.ends_period:.6g}" in note
+
+
 def test_short_records_have_no_ends_check_and_steady_ones_agree_with_it() -> None:
     short = fit_period(gyro_trial(1, period=2.0, duration=10.0).samples, RATE_HZ)
     assert short.valid and math.isnan(short.ends_period)

@@ -215,10 +215,18 @@ def with_end_check(fit: PeriodFit, residual: PhaseResidual, model: PeriodFit | N
     distance = ends - fit.period
     notes, flags = list(fit.notes), list(fit.flags)
     p = check.probability
-    if p < WIDEN_FROM:
+    departs = abs(distance) > DEPARTS_BEYOND * sigma_shift
+    sigma = max(fit.period_sigma, bias_aware_sigma(distance, sigma_shift, fit.period_sigma)) if departs else 0.0
+    if p < WIDEN_FROM or departs:
+        widened = (
+            f"; the period's σ {fit.period_sigma:.2g} s is widened to {sigma:.2g} s to hold the truth if that "
+            f"departure is the model's bias"
+            if sigma > fit.period_sigma
+            else ""
+        )
         notes.append(
             f"the phase at the window's ends departs from {check.model} by {check.shift:.3g} rad "
-            f"({abs(check.z):.1f} σ, p = {p:.1g}): the ends' mean period is {ends:.6g} ± {sigma_ends:.2g} s"
+            f"({abs(check.z):.1f} σ, p = {p:.1g}): the ends' mean period is {ends:.6g} ± {sigma_ends:.2g} s" + widened
         )
     if p < FLAG_FROM and abs(check.z) >= MAX_BIRGE and not fit.has_flag(FlagCode.PERIOD_DRIFT):
         flags.append(
@@ -229,10 +237,9 @@ def with_end_check(fit: PeriodFit, residual: PhaseResidual, model: PeriodFit | N
                 f"{ends:.6g} s, the model's {fit.period:.6g} s)",
             )
         )
-    if not abs(distance) > DEPARTS_BEYOND * sigma_shift:
+    if not departs:
         return replace(fit, notes=tuple(notes), flags=tuple(flags))
     model_sigma = fit.period_sigma / fit.sigma_widening if fit.sigma_widening > 0 else fit.period_sigma
-    sigma = max(fit.period_sigma, bias_aware_sigma(distance, sigma_shift, fit.period_sigma))
     return replace(
         fit,
         period_sigma=sigma,
