@@ -176,9 +176,14 @@ def test_a_period_with_one_noisy_trial_asks_for_one_more_trial(seed: int) -> Non
     assert ranked.index(readings[0]) > max(i for i, s in enumerate(ranked) if s.kind == TRIAL and s.score > 1e-9)
 
     # the weights' part of the prediction; whether the two trials will scatter (a Birge ratio
-    # above 1, 3 % of sessions here) cannot be known before the trial
-    fits[key] = [short, fit_period(second.rate, sample_rate_hz=second.sample_rate)]
-    assert combine_periods(fits[key]).sigma_internal <= top.sigma_after
+    # above 1, 3 % of sessions here) cannot be known before the trial, nor whether the whole
+    # trial's ends will depart from its law by chance and widen its σ (a note says so)
+    whole = fit_period(second.rate, sample_rate_hz=second.sample_rate)
+    fits[key] = [short, whole]
+    if whole.period_sigma <= short.period_sigma:
+        assert combine_periods(fits[key]).sigma_internal <= top.sigma_after
+    else:
+        assert any("is widened to" in note for note in whole.notes), whole.notes
 
 
 def test_one_more_trial_is_combined_as_the_trials_are(seed: int) -> None:
