@@ -310,10 +310,6 @@ class BagWriter:
         self._channels[name] = _Channel(0, name, msgtype, rihs01, list(offered_qos))
         self._metadata_bytes = self._metadata_record_size()
 
-    def _tell(self) -> int:
-        assert self._stream is not None
-        return self._stream.tell()
-
     def topic_qos(self, name: str) -> list[Qos]:
         """The offered QoS profiles a topic was added with."""
         return list(self._channels[name].offered_qos)
@@ -321,10 +317,6 @@ class BagWriter:
     def has_topic(self, name: str) -> bool:
         """Whether the topic has been added."""
         return name in self._channels
-
-    def topic_id(self, name: str) -> int:
-        """The channel id of a topic in the current storage file (0 until a message of it is written there)."""
-        return self._channels[name].id
 
     def write(
         self,

@@ -335,7 +335,6 @@ class TrialAccumulator:
         self.duplicates = 0
         self.oversized: list[tuple[int, int]] = []
         self.dropped = 0
-        self.non_finite = 0
         #: Why samples are missing, when the receiver knows (said in the ``gap`` flag).
         self.gap_cause = ""
 
@@ -370,7 +369,6 @@ class TrialAccumulator:
         self.kept += keep
         bad = int(np.count_nonzero(~np.isfinite(kept)))
         if bad:
-            self.non_finite += bad
             problem = "non_finite", f"{bad} NaN/infinite samples in the batch at index {first}"
         return problem
 
@@ -400,8 +398,6 @@ class TrialAccumulator:
         self._parts[start] = samples
         self._rates[start] = rate
         self.kept = total
-        # (a finite sum means finite samples; only otherwise are they counted)
-        self.non_finite = 0 if math.isfinite(float(np.sum(samples))) else int(np.count_nonzero(~np.isfinite(samples)))
         return True
 
     def missing(self, n_expected: int) -> list[tuple[int, int]]:

@@ -134,9 +134,6 @@ class FitterState:
         #: Whether a resend service answers (set by the node): lost batches are asked for again.
         self.can_resend = False
         self._resend: list[ResendRequest] = []
-        #: Resend requests made and batches received in answers.
-        self.resend_requests = 0
-        self.resent_batches = 0
         self._events = 0
         #: The last few trials published with samples missing (their batches may still come).
         self._gapped: OrderedDict[_Key, _Open] = OrderedDict()
@@ -283,7 +280,6 @@ class FitterState:
             return
         first, end = gaps[0][0], gaps[-1][1]
         self._resend.append(ResendRequest(t.source, t.trial_id, first, end - first))
-        self.resend_requests += 1
         if t.first_asked_s is None:
             missing = sum(b - a for a, b in gaps)
             self.log.info(f"trial {t.trial_id}: {missing} samples lost on the way; asked the driver again")
@@ -315,7 +311,6 @@ class FitterState:
         for batch in batches:
             if batch.trial_id == trial_id and not t.acc.covers_range(batch.first_index, len(batch.rates)):
                 t.acc.add(batch)
-                self.resent_batches += 1
         n = int(t.stop.sample_count)
         if t.acc.covers(n):
             self.log.info(f"trial {trial_id}: the lost samples came again from the driver")

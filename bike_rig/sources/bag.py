@@ -99,7 +99,6 @@ class BagSource(GyroSource):
         self._finished = False
         self._open_trials: set[str] = set()
         self.skipped_batches = 0
-        self.trials_seen = 0
 
     @classmethod
     def from_parameters(cls, parameters: Mapping[str, Any]) -> BagSource:
@@ -169,7 +168,6 @@ class BagSource(GyroSource):
             return SampleBlock(msg.trial_id, int(msg.first_index), np.array(msg.rates, dtype=np.float64), volts)
         if msg.kind == _START:
             self._open_trials.add(msg.trial_id)
-            self.trials_seen += 1
             return TrialStarted(TrialInfo(**record_fields(TrialInfo, msg)), stamp_ns(msg.header))
         if msg.kind in (_STOP, _ABORT):
             if msg.trial_id not in self._open_trials:

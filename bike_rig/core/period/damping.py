@@ -309,11 +309,6 @@ class EnvelopeFit:
         return TWO_PI / self.omega
 
     @property
-    def sigma_period(self) -> float:
-        """σ of the period, s."""
-        return TWO_PI * self.sigma_omega / self.omega**2
-
-    @property
     def swing(self) -> bool:
         """Whether the finite swing's frequency change κ was fitted."""
         return math.isfinite(self.sigma_kappa)

@@ -224,7 +224,6 @@ class DriverNode(Node):
         self._range = float(self.values["gyro_range_rad_s"])
         self.samples_missing = 0
         self.clipped = 0
-        self.resent_requests = 0
         self.diagnostics = DiagnosticsUpdater(self, self._health)
         waiting = f"; waiting for {self.wait_for} gyro subscriber(s)" if self.wait_for else ""
         self.get_logger().info(f"driver ready: {self.source.describe()}{waiting}")
@@ -488,7 +487,6 @@ class DriverNode(Node):
             answer = self.sent.resend(str(request.trial_id), int(request.first_index), int(request.count))
             response.held, response.complete, response.message = answer.held, answer.complete, answer.message
             response.batches = [fill_gyro_batch(_msgs.GyroBatch(), b) for b in answer.batches]
-            self.resent_requests += 1
             if self._exit_at is not None:
                 self._exit_at = max(self._exit_at, time.monotonic() + LINGER_S)
             self.get_logger().info(
