@@ -43,7 +43,6 @@ __all__ = [
     "BagReader",
     "RawMessage",
     "Record",
-    "StampedMessage",
     "TopicInfo",
     "listed_files",
     "open_bag",
@@ -75,23 +74,6 @@ class Record(NamedTuple):
 
     topic: str
     log_time: int
-    sequence: int
-    stream: int
-    data: bytes
-
-
-class StampedMessage(NamedTuple):
-    """One recorded message with where the recorder put it.
-
-    Attributes:
-        topic: Its topic.
-        sequence: The publication sequence number the recorder stored with it (0: none).
-        stream: Its rank in the recorder's order of storage (file by the split index in its
-            name, then place in the file).
-        data: The CDR bytes.
-    """
-
-    topic: str
     sequence: int
     stream: int
     data: bytes
@@ -538,7 +520,7 @@ class BagReader:
             }  # (rosbags' Reader.messages keeps the channels that match one of its connections so)
         return out
 
-    def stamped(self, topics: Iterable[str]) -> list[StampedMessage] | None:
+    def stamped(self, topics: Iterable[str]) -> list[Record] | None:
         """Every message of ``topics`` with its publication sequence, in the recorder's order of storage.
 
         Returns:
@@ -550,7 +532,7 @@ class BagReader:
         found = self.records(topics)
         if found is None:
             return None
-        return [StampedMessage(r.topic, r.sequence, r.stream, r.data) for r in sorted(found, key=lambda r: r.stream)]
+        return sorted(found, key=lambda r: r.stream)
 
 
 def _try_rosbags(resolved: Path) -> tuple[Reader | None, str]:

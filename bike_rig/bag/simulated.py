@@ -12,7 +12,7 @@ each, and the model's ``CanonicalMatrices`` and ``EigenSweep`` for the complete 
 from __future__ import annotations
 
 from collections.abc import Iterable, Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -128,19 +128,7 @@ def simulated_messages(
             log_time = sample_stamp_ns(t0, stop_at - 1, rate) + latency_ns
             yield SimulatedMessage(topics.GYRO.name, log_time, fill_gyro_batch(new_message(BATCH_TYPE), batch))
         end = sample_stamp_ns(t0, n, rate)  # just after the last sample, as the driver stamps STOP
-        stop = TrialEventRecord(
-            TrialEventKind.STOP,
-            trial.name,
-            trial.key,
-            m.part,
-            m.pendulum,
-            m.orientation or 0,
-            trial.trial,
-            rate,
-            sample_count=n,
-            stamp_ns=end,
-            frame_id=frame_id,
-        )
+        stop = replace(start, kind=TrialEventKind.STOP, sample_count=n, stamp_ns=end)
         yield SimulatedMessage(topics.TRIAL_EVENTS.name, end + latency_ns + 1000, _event_message(stop))
         t0 = end + int(pause_s * NS_PER_S)
 

@@ -39,7 +39,7 @@ from ..pipeline.swing import swing_alternative
 from .commands import HELP
 from .common import emit, feedback_from_spec, rider_from_spec
 from .format import format_value_sigma
-from .options import add_feedback_option, add_strict_option
+from .options import add_com_method_option, add_feedback_option, add_strict_option
 
 __all__ = ["BudgetUsageError", "add_parser", "budget_text", "run"]
 
@@ -68,12 +68,7 @@ def add_parser(sub: Any) -> None:
     add_feedback_option(q)
     add_strict_option(q)
     q.add_argument("--top", type=int, default=5, metavar="N", help="inputs shown per output in the table (default 5)")
-    q.add_argument(
-        "--com-method",
-        choices=[m.value for m in ComMethod],
-        default=None,
-        help="mass-centre method for raw readings: centroid (paper) or lstsq (default: centroid; a bag: as recorded)",
-    )
+    add_com_method_option(q)
     q.add_argument("-o", "--output", metavar="FILE", help="write to this file instead of standard output")
     q.set_defaults(func=run)
 

@@ -15,6 +15,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
+from ..core.benchmark import ComMethod
 from ..core.errors import BikeRigError
 from ..core.period import FitOptions, WindowPolicy
 from ..core.trial_columns import TIME_UNITS, ColumnChoice
@@ -23,6 +24,7 @@ __all__ = [
     "THRESHOLDS",
     "Threshold",
     "add_column_options",
+    "add_com_method_option",
     "add_feedback_option",
     "add_strict_option",
     "add_threshold_options",
@@ -212,6 +214,20 @@ def columns_from_args(args: argparse.Namespace) -> ColumnChoice:
         The choice; a column given as digits is a 0-based index, anything else a header name.
     """
     return ColumnChoice.from_text(args.time, args.signal, args.time_unit)
+
+
+def add_com_method_option(group: argparse._ActionsContainer) -> None:
+    """Add ``--com-method``: the mass-centre method for raw readings (absent: None, the input's own).
+
+    Args:
+        group: The parser or argument group to add it to.
+    """
+    group.add_argument(
+        "--com-method",
+        choices=[m.value for m in ComMethod],
+        default=None,
+        help="mass-centre method for raw readings: centroid (paper) or lstsq (default: centroid; a bag: as recorded)",
+    )
 
 
 def add_feedback_option(group: argparse._ActionsContainer) -> None:

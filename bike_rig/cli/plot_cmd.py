@@ -48,7 +48,6 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..core.benchmark import ComMethod
 from ..core.errors import BikeRigError
 from ..core.feedback import Feedback
 from ..core.frequency import INPUTS, OUTPUTS
@@ -58,7 +57,7 @@ from ..plots.output import check_out_dir, trial_name, unique_names
 from ..plots.registry import FIGURES, KINDS, FigureKind, Scope, figure_stem
 from .commands import HELP
 from .common import feedback_from_spec
-from .options import add_feedback_option
+from .options import add_com_method_option, add_feedback_option
 
 if TYPE_CHECKING:
     from ..offline.subjects import Subject
@@ -398,12 +397,7 @@ def add_parser(sub: Any) -> None:
     )
     q.add_argument("--input", help=f"input of the bode figure: {', '.join(INPUTS)} (default {INPUTS[1]})")
     q.add_argument("--output", help=f"output of the bode figure: {', '.join(OUTPUTS)} (default {OUTPUTS[0]})")
-    q.add_argument(
-        "--com-method",
-        choices=[m.value for m in ComMethod],
-        default=None,
-        help="mass-centre method for raw readings: centroid (paper) or lstsq (default: centroid; a bag: as recorded)",
-    )
+    add_com_method_option(q)
     add_feedback_option(q)
     q.add_argument(
         "--ride",

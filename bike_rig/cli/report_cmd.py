@@ -16,10 +16,9 @@ import argparse
 import sys
 from typing import Any
 
-from ..core.benchmark import ComMethod
 from ..core.textfmt import terminal_safe
 from .commands import HELP
-from .options import add_feedback_option, add_strict_option
+from .options import add_com_method_option, add_feedback_option, add_strict_option
 
 __all__ = ["add_parser", "run"]
 
@@ -84,12 +83,7 @@ def add_parser(sub: Any) -> None:
     )
     q.add_argument("input", help="measurement file, parameter file or session bag (directory, metadata.yaml, .mcap)")
     q.add_argument("-o", "--output", required=True, metavar="DIR", help="directory to write index.html into")
-    q.add_argument(
-        "--com-method",
-        choices=[m.value for m in ComMethod],
-        default=None,
-        help="mass-centre method for raw readings: centroid (paper) or lstsq (default: centroid; a bag: as recorded)",
-    )
+    add_com_method_option(q)
     add_feedback_option(q)
     add_strict_option(q)
     q.add_argument(

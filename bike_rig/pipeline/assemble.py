@@ -37,7 +37,7 @@ from ..core.parameter_checks import compute_checked
 from ..core.period import CombinedPeriod, PeriodFit, combine_periods
 from .errors import AssemblyError
 from .fit import TrialFit
-from .fit_details import FitDetails
+from .fit_details import FitDetails, join_details
 from .readings import canonical_order
 
 __all__ = [
@@ -424,8 +424,7 @@ class SessionAssembly:
         :meth:`add` joins them so; also for an estimate the assembly refuses (the replay's
         record of what the live graph published).
         """
-        details = self._details.get(trial.trial_id)
-        return trial if details is None else details.apply(trial)
+        return join_details(trial, self._details)
 
     def add_all(self, trials: Iterable[TrialFit]) -> None:
         """:meth:`add` each trial in turn."""

@@ -4,18 +4,20 @@ The ``PeriodEstimate`` carries what the parameters need (the period, σ, flags);
 tells how the swing decays, whether the period follows the swing, and how it moves along the
 record (:mod:`bike_rig.core.period.damping`, :mod:`bike_rig.core.period.stationarity`). Those
 travel in a ``FitDetails`` message of their own, so that recordings made before them keep
-their ``PeriodEstimate`` definition; the console joins the two by trial id.
+their ``PeriodEstimate`` definition; the parameter node, the replay and the console join the two
+by trial id (:func:`join_details`).
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, fields, replace
 
 from ..core.period import PeriodFit
 from .fit import TrialFit
 
-__all__ = ["FitDetails"]
+__all__ = ["FitDetails", "join_details"]
 
 
 @dataclass(frozen=True)
@@ -87,6 +89,20 @@ class FitDetails:
                 f"period moves {self.window_periods[0]:.5g} → {self.window_periods[-1]:.5g} s ({100 * spread:.2g} %)"
             )
         return ", ".join(parts)
+
+
+def join_details(trial: TrialFit, details: Mapping[str, FitDetails]) -> TrialFit:
+    """``trial`` with the fit details held for its trial id joined (as is when none arrived).
+
+    The details and the estimate travel on topics of their own, either may come first: a
+    listener keeps the newest details by trial id and joins them to every estimate of the trial.
+
+    Args:
+        trial: A period estimate.
+        details: The newest details received, by trial id.
+    """
+    found = details.get(trial.trial_id)
+    return trial if found is None else found.apply(trial)
 
 
 #: The fields that are the fit's own (:class:`~bike_rig.core.period.PeriodFit`'s of the same names).

@@ -512,17 +512,26 @@ class RunningGraph:
         """The process id of node ``name``."""
         return next(p.popen.pid for p in self.processes if p.spec.name == name)
 
-    def restart(self, name: str) -> None:
-        """Start node ``name`` again (after it died or was killed)."""
+    def _index(self, name: str) -> int:
+        """Where node ``name`` is in :attr:`processes`.
+
+        Raises:
+            LaunchError: No such node.
+        """
         for i, p in enumerate(self.processes):
             if p.spec.name == name:
-                if p.popen.poll() is None:
-                    raise LaunchError(f"node '{name}' is still running (pid {p.popen.pid})")
-                with p.log.open("ab") as out:
-                    popen = _popen_node(p.spec.command(), out, self.env)
-                self.processes[i] = _Process(p.spec, popen, p.log)
-                return
+                return i
         raise LaunchError(f"no node named '{name}'")
+
+    def restart(self, name: str) -> None:
+        """Start node ``name`` again (after it died or was killed)."""
+        i = self._index(name)
+        p = self.processes[i]
+        if p.popen.poll() is None:
+            raise LaunchError(f"node '{name}' is still running (pid {p.popen.pid})")
+        with p.log.open("ab") as out:
+            popen = _popen_node(p.spec.command(), out, self.env)
+        self.processes[i] = _Process(p.spec, popen, p.log)
 
     def stop_node(self, name: str, timeout_s: float = 15.0) -> int:
         """Stop node ``name`` (SIGINT, then SIGTERM, then SIGKILL) and return its exit status.
@@ -530,10 +539,7 @@ class RunningGraph:
         Raises:
             LaunchError: No such node.
         """
-        for p in self.processes:
-            if p.spec.name == name:
-                return _stop(p.popen, timeout_s)
-        raise LaunchError(f"no node named '{name}'")
+        return _stop(self.processes[self._index(name)].popen, timeout_s)
 
     def interrupt(self, name: str) -> None:
         """Send node ``name`` a SIGINT (a clean stop) without waiting; :meth:`stop_node` waits.
@@ -541,13 +547,10 @@ class RunningGraph:
         Raises:
             LaunchError: No such node.
         """
-        for p in self.processes:
-            if p.spec.name == name:
-                if p.popen.poll() is None:
-                    with contextlib.suppress(ProcessLookupError):
-                        p.popen.send_signal(signal.SIGINT)
-                return
-        raise LaunchError(f"no node named '{name}'")
+        popen = self.processes[self._index(name)].popen
+        if popen.poll() is None:
+            with contextlib.suppress(ProcessLookupError):
+                popen.send_signal(signal.SIGINT)
 
     def log(self, name: str) -> Path:
         """The log file of node ``name``.
@@ -555,10 +558,7 @@ class RunningGraph:
         Raises:
             LaunchError: No such node.
         """
-        for p in self.processes:
-            if p.spec.name == name:
-                return p.log
-        raise LaunchError(f"no node named '{name}'")
+        return self.processes[self._index(name)].log
 
     def stop(self, timeout_s: float = 15.0) -> dict[str, int]:
         """Stop every node: SIGINT, then SIGTERM, then SIGKILL, each node's exit waited for.

@@ -19,7 +19,7 @@ from ..core.textfmt import format_uncertain
 from ..pipeline.acquire import SampleBatch, TrialEventKind, TrialEventRecord
 from ..pipeline.assemble import SessionParameters
 from ..pipeline.fit import TrialFit
-from ..pipeline.fit_details import FitDetails
+from ..pipeline.fit_details import FitDetails, join_details
 from ..pipeline.model import StabilitySweep
 from ..pipeline.readings import ReadingEntry
 from .live import LiveStatus, LiveTrace
@@ -159,7 +159,7 @@ class OperatorSession:
     results: list[str] = field(default_factory=list)
     resumed: tuple[str, ...] = ()
     _item_trial: dict[str, str] = field(default_factory=dict)
-    _details: dict[str, FitDetails] = field(default_factory=dict)  # arrived before their estimate
+    _details: dict[str, FitDetails] = field(default_factory=dict)  # the newest by trial id
 
     # ------------------------------------------------------------------ feeding
     def resume(self, trial_ids: Sequence[str]) -> None:
@@ -236,8 +236,7 @@ class OperatorSession:
                 self._item_trial.setdefault(item_id, fit.trial_id)
         if math.isnan(view.sample_rate_hz) and math.isfinite(fit.sample_rate_hz):
             view.sample_rate_hz = fit.sample_rate_hz
-        details = self._details.pop(fit.trial_id, None)
-        view.fit = fit if details is None else details.apply(fit)
+        view.fit = join_details(fit, self._details)
         view.state = ItemState.OK if fit.usable else ItemState.REDO
         if self.live is not None and self.live.trial_id == fit.trial_id:
             self.live = None  # its result proves it stopped (the STOP may arrive after: another topic)
@@ -251,9 +250,9 @@ class OperatorSession:
         Returns:
             When its result line was already given: what it adds, as one line ("" when nothing).
         """
+        self._details[details.trial_id] = details
         view = self.trials.get(details.trial_id)
         if view is None or view.fit is None:
-            self._details[details.trial_id] = details
             return ""
         view.fit = details.apply(view.fit)
         summary = details.summary(view.fit.period) if view.fit.valid else ""

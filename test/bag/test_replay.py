@@ -18,7 +18,7 @@ import pytest
 from bike_rig.bag.errors import NoRigTopicsError, ReplayError
 from bike_rig.bag.simulated import SimulatedMessage, live_results, simulated_messages, write_simulated_bag
 from bike_rig.config.topics import GYRO, STATIC_READINGS, TRIAL_EVENTS
-from bike_rig.core.benchmark import compute_parameters
+from bike_rig.core.benchmark import PARAMETER_NAMES, compute_parameters
 from bike_rig.core.period import WindowPolicy, combine_periods, fit_period
 from bike_rig.core.sim import SimulatedSession
 from bike_rig.core.uncertainty.matrix_sigma import canonical_with_sigma
@@ -136,34 +136,7 @@ def test_json_output(session: SimulatedSession, live_bag: Path) -> None:
     assert (code, err) == (0, "")
     data = json.loads(out)
     assert data["bicycle"] == "Browser"
-    assert set(data["parameters"]) == {
-        "IBxx",
-        "IBxz",
-        "IByy",
-        "IBzz",
-        "IFxx",
-        "IFyy",
-        "IHxx",
-        "IHxz",
-        "IHyy",
-        "IHzz",
-        "IRxx",
-        "IRyy",
-        "c",
-        "g",
-        "lam",
-        "mB",
-        "mF",
-        "mH",
-        "mR",
-        "rF",
-        "rR",
-        "w",
-        "xB",
-        "xH",
-        "zB",
-        "zH",
-    }
+    assert set(data["parameters"]) == set(PARAMETER_NAMES)
     assert all(set(v) == {"value", "sigma"} for v in data["parameters"].values())
     assert isinstance(data["weave_speed"], float) and isinstance(data["capsize_speed"], float)
     assert [t["trial_id"] for t in data["trials"]] == [t.name for t in session.trials]

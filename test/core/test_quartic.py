@@ -23,6 +23,7 @@ from bike_rig.core.benchmark import ParameterSet, compute_parameters
 from bike_rig.core.loader import load_input
 from bike_rig.core.rider import PAPER_RIDER, add_rider
 from bike_rig.core.whipple import canonical_matrices, characteristic_coefficients, eigenvalues, quartic_roots
+from bike_rig.plots.model_data import quartic_discriminant
 
 FloatArray = NDArray[np.float64]
 ComplexArray = NDArray[np.complex128]
@@ -134,38 +135,15 @@ def test_widely_scaled_coefficients() -> None:
     _assert_roots_match(coef)
 
 
-def _discriminant(a: Any) -> Any:
-    """Discriminant of the quartic ``a[..., 0] s⁴ + … + a[..., 4]`` (zero at a double root)."""
-    a4, a3, a2, a1, a0 = (a[..., k] for k in range(5))
-    return (
-        256 * a4**3 * a0**3
-        - 192 * a4**2 * a3 * a1 * a0**2
-        - 128 * a4**2 * a2**2 * a0**2
-        + 144 * a4**2 * a2 * a1**2 * a0
-        - 27 * a4**2 * a1**4
-        + 144 * a4 * a3**2 * a2 * a0**2
-        - 6 * a4 * a3**2 * a1**2 * a0
-        - 80 * a4 * a3 * a2**2 * a1 * a0
-        + 18 * a4 * a3 * a2 * a1**3
-        + 16 * a4 * a2**4 * a0
-        - 4 * a4 * a2**3 * a1**2
-        - 27 * a3**4 * a0**2
-        + 18 * a3**3 * a2 * a1 * a0
-        - 4 * a3**3 * a1**3
-        - 4 * a3**2 * a2**3 * a0
-        + a3**2 * a2**2 * a1**2
-    )
-
-
 def _branch_speeds(coefficients: Any, grid: FloatArray) -> list[float]:
     """Speeds (m/s) where two roots meet: sign changes of the discriminant, bisected."""
-    disc = _discriminant(coefficients(grid))
+    disc = quartic_discriminant(coefficients(grid))
     out = []
     for i in np.flatnonzero(np.sign(disc[1:]) != np.sign(disc[:-1])):
         lo, hi = float(grid[i]), float(grid[i + 1])
         for _ in range(80):
             mid = 0.5 * (lo + hi)
-            if np.sign(_discriminant(coefficients(np.array([mid])))[0]) == np.sign(disc[i]):
+            if np.sign(quartic_discriminant(coefficients(np.array([mid])))[0]) == np.sign(disc[i]):
                 lo = mid
             else:
                 hi = mid

@@ -79,6 +79,17 @@ def test_restart_after_kill(tmp_path: Path) -> None:
     assert len(first) == 1 and len(second) == 2
 
 
+def test_a_node_is_found_by_name_or_refused(tmp_path: Path) -> None:
+    graph = Graph((NodeSpec("a", "test.nodes.fake_node"),))
+    with RunningGraph(graph, tmp_path / "logs", env=_env(tmp_path)) as running:
+        assert running.log("a") == running.processes[0].log
+        with pytest.raises(LaunchError, match=r"^node 'a' is still running \(pid \d+\)$"):
+            running.restart("a")
+        for method in (running.restart, running.stop_node, running.interrupt, running.log):
+            with pytest.raises(LaunchError, match="^no node named 'b'$"):
+                method("b")
+
+
 def test_graph_file_and_errors(tmp_path: Path) -> None:
     (tmp_path / "p.yaml").write_text("a:\n  ros__parameters: {}\n")
     good = tmp_path / "graph.yaml"

@@ -337,6 +337,9 @@ def test_the_fit_details_join_the_result_before_or_after_it(ctl_link, details_fi
         assert results == [line.split("; ")[0]]
         info = [r.text for r in replies if r.kind == "info"]
         assert info == [f"{first.item_id} {trial_id}: {line.split('; ', 1)[1]}"]
+    link.period(trial_id, first.key, 1.2, 1e-4)  # published again (a restarted fitter): the details stay
+    again = [r.text for r in ctl.pump() if r.kind == "result"]
+    assert again == [line] and result_line(ctl.session.trials[trial_id]) == line
 
 
 def test_diagnostics_give_a_health_line_and_a_reply_when_a_node_changes_level(ctl_link) -> None:  # type: ignore[no-untyped-def]

@@ -20,6 +20,7 @@ from bike_rig.messages import (
 )
 from bike_rig.pipeline.assemble import assemble
 from bike_rig.pipeline.fit import TrialFit
+from bike_rig.pipeline.readings import STATIC_KEYS as READING_KEYS
 from test.support.probe import Probe
 from test.support.processes import RosProcess
 from test.support.standin import ParameterStandIn
@@ -122,35 +123,10 @@ def state_space_request(speed: float, rider: str) -> Any:
 ASSIST = REPO / "config" / "feedback" / "balance_assist.yaml"
 
 
-#: Every static reading of a bicycle with three frame and three fork orientations, file order.
-STATIC_KEYS = (
-    "g",
-    "w",
-    "gamma",
-    "f",
-    "mP",
-    "lP",
-    "dP",
-    "mR",
-    "nR",
-    "dR",
-    "lR",
-    "mF",
-    "nF",
-    "dF",
-    "lF",
-    "mB",
-    "alphaB1",
-    "aB1",
-    "alphaB2",
-    "aB2",
-    "alphaB3",
-    "aB3",
-    "mH",
-    "alphaH1",
-    "aH1",
-    "alphaH2",
-    "aH2",
-    "alphaH3",
-    "aH3",
-)
+def _three_orientations(part: str) -> tuple[str, ...]:
+    return tuple(f"{prefix}{part}{i}" for i in (1, 2, 3) for prefix in ("alpha", "a"))
+
+
+#: Every static reading of a bicycle with three frame and three fork orientations, file order:
+#: each part's orientations follow its mass.
+STATIC_KEYS = READING_KEYS[:-1] + _three_orientations("B") + READING_KEYS[-1:] + _three_orientations("H")

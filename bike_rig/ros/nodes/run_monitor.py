@@ -38,7 +38,7 @@ from typing import Any, TypeAlias
 import rclpy
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.qos import QoSProfile
 from rclpy.signals import SignalHandlerOptions
 
 from ...config import topics
@@ -76,12 +76,7 @@ OWNERS = TOPIC_OWNERS
 MAX_BURST = 1000
 
 #: The gyro subscription's QoS: it is there to be counted, not to receive the session's history.
-_COUNTED_ONLY = QoSProfile(
-    history=HistoryPolicy.KEEP_LAST,
-    depth=1,
-    reliability=ReliabilityPolicy.BEST_EFFORT,
-    durability=DurabilityPolicy.VOLATILE,
-)
+_COUNTED_ONLY = profile(topics.QosSpec(reliable=False, transient_local=False, depth=1))
 
 #: What the monitor hands on.
 MonitorRecord: TypeAlias = (

@@ -19,8 +19,6 @@ import importlib
 import time
 from typing import Any
 
-from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
-
 from ...config import topics
 from ...messages import fill_reading_entry
 from ...pipeline.readings import ReadingEntry
@@ -41,12 +39,7 @@ DISCOVERY_TIMEOUT_S = 30.0
 #: How long one spin waits while a service call is pending, s.
 _CALL_SPIN_S = 0.005
 
-_LIVE = QoSProfile(
-    history=HistoryPolicy.KEEP_LAST,
-    depth=1000,
-    reliability=ReliabilityPolicy.RELIABLE,
-    durability=DurabilityPolicy.VOLATILE,
-)
+_LIVE = profile(topics.QosSpec(reliable=True, transient_local=False, depth=1000))
 
 
 class SessionLink:
