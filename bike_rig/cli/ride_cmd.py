@@ -122,7 +122,7 @@ def add_parser(sub: Any) -> None:
         help="parameters freed from their prior in further variants, e.g. IBzz,IFyy",
     )
     c.add_argument("--speeds", nargs=3, metavar=("START", "STOP", "N"), help="speeds of the bands, m/s")
-    rate_help = "a digital assist's sample rate, Hz: torque held over each sample (default: continuous)"
+    rate_help = "a digital assist's sample rate, Hz: torque held over each sample (default: --feedback's rate_hz)"
     c.add_argument("--assist-rate", type=float, metavar="HZ", help=rate_help)
     c.set_defaults(func=run_calibrate)
     s = rs.add_parser("simulate", help="a simulated ride of the linear model (CSV, or a bag for a directory name)")
@@ -377,6 +377,7 @@ def run_calibrate(args: argparse.Namespace) -> int:
     bicycle = _parameters(args.parameters, args.com_method)
     rider, fb = rider_from_spec(args.rider), feedback_from_spec(args.feedback)
     rows = measure(args)
+    rate = rate if rate is not None or fb is None else fb.rate_hz  # (the file's rate_hz by default)
     result = calibrate_rides(bicycle, [m for m, _, _ in rows], rider, fb, free, speeds, rate)
     if args.json:
         print(json.dumps(calibration_json(result), indent=2))
@@ -555,7 +556,7 @@ def _simulate_raw_log(args: argparse.Namespace, ms: Any, fb: Feedback | None) ->
     plan = ride_plan(args.duration, args.speed, args.raw_log, rng)
     plan = replace(plan, rate_hz=args.rate, noise_roll_rate=args.noise)
     if fb is not None:
-        plan = replace(plan, gains=lambda v: np.asarray(fb.gains(v), dtype=float))
+        plan = replace(plan, gains=lambda v: np.asarray(fb.gains(v), dtype=float), controller_hz=fb.rate_hz)
     log = simulate_raw_log(ms.matrices, ms.g, plan, rng)
     write_log_csv(log, args.out)
     pushes = ", ".join(f"{p.time:.2f} s (free decay {p.start:.2f}–{p.stop:.2f} s)" for p in log.pushes) or "none"

@@ -4,8 +4,10 @@ A controller adds ``T_δ = −(kφ φ + kδ δ + kφ̇ φ̇ + kδ̇ δ̇)`` (N m
 torque (``x = [φ, δ, φ̇, δ̇]``, ``u = [T_φ, T_δ]``): the closed loop is ``ẋ = (A − B K) x``,
 ``K = [[0, 0, 0, 0], [kφ, kδ, kφ̇, kδ̇]]``. The file (``format: bike_rig-feedback/1``, in
 ``docs/formats.md``) gives each gain (N m/rad, N m s/rad) as a number or a table over speed
-(m/s; linear inside, held outside), optionally with σ (:meth:`Feedback.uncertain_knots`).
-:func:`resolve_feedback` is the one place a feedback choice becomes a :class:`Feedback`.
+(m/s; linear inside, held outside), optionally with σ (:meth:`Feedback.uncertain_knots`), and
+optionally the controller's rate ``rate_hz`` (Hz; a digital controller that samples the state and
+holds the torque one period; absent: continuous). :func:`resolve_feedback` is the one place a
+feedback choice becomes a :class:`Feedback`.
 """
 
 from __future__ import annotations
@@ -28,6 +30,7 @@ __all__ = [
     "GAIN_KEYS",
     "GAIN_UNITS",
     "NO_FEEDBACK",
+    "RATE_KEY",
     "Feedback",
     "FeedbackError",
     "GainSchedule",
@@ -46,7 +49,9 @@ GAIN_KEYS: tuple[str, str, str, str] = ("k_phi", "k_delta", "k_phidot", "k_delta
 GAIN_UNITS: tuple[str, str, str, str] = ("N m/rad", "N m/rad", "N m s/rad", "N m s/rad")
 #: The record name of "no feedback".
 NO_FEEDBACK = ""
-_OTHER_KEYS = ("format", "name")
+#: The key of a digital controller's sample rate (Hz).
+RATE_KEY = "rate_hz"
+_OTHER_KEYS = ("format", "name", RATE_KEY)
 
 
 class FeedbackError(InputFileError):
@@ -133,6 +138,8 @@ class Feedback:
         k_phidot: Roll-rate gain, N m s/rad.
         k_deltadot: Steer-rate gain, N m s/rad.
         source: The file it was read from ("" when built in code).
+        rate_hz: A digital controller's sample rate (Hz): it samples the state and holds the
+            torque for ``1/rate_hz`` s. None: a continuous controller.
     """
 
     name: str
@@ -141,6 +148,12 @@ class Feedback:
     k_phidot: GainSchedule = _ZERO
     k_deltadot: GainSchedule = _ZERO
     source: str = ""
+    rate_hz: float | None = None
+
+    @property
+    def period(self) -> float | None:
+        """The controller's period ``1/rate_hz`` (s), or None for a continuous controller."""
+        return None if self.rate_hz is None else 1.0 / self.rate_hz
 
     @property
     def schedules(self) -> tuple[GainSchedule, GainSchedule, GainSchedule, GainSchedule]:
@@ -276,13 +289,26 @@ def _schedule(path: str, lines: Mapping[tuple[object, ...], int], key: str, spec
     return GainSchedule(tuple(speeds), tuple(values), tuple(sigmas))
 
 
+def _rate(path: str, lines: Mapping[tuple[object, ...], int], spec: Any) -> float:
+    """The controller's rate (Hz): a finite number > 0."""
+    value = _number(spec)
+    if value is None or value <= 0.0:
+        reason = (
+            f"the controller's rate is a finite number > 0 Hz ({short_repr(spec)} given); "
+            "leave it out for a continuous controller"
+        )
+        raise _error(path, lines, (RATE_KEY,), reason)
+    return value
+
+
 def load_feedback(path: str | Path) -> Feedback:
     """A feedback from a YAML file (``format: bike_rig-feedback/1``, see ``docs/formats.md``).
 
     Raises:
         FeedbackError: The file is missing, unreadable or not YAML, has the wrong format, an
-            unknown key, or a bad gain (not a finite number; a table with non-increasing speeds,
-            a length mismatch or a non-finite entry), with the file, key and line.
+            unknown key, a bad gain (not a finite number; a table with non-increasing speeds,
+            a length mismatch or a non-finite entry) or a ``rate_hz`` that is not a finite
+            number > 0, with the file, key and line.
     """
     spec = str(path)
     try:
@@ -299,8 +325,9 @@ def load_feedback(path: str | Path) -> Feedback:
             allowed = ", ".join(GAIN_KEYS + _OTHER_KEYS)
             raise _error(spec, lines, (str(k),), f"unknown key (a feedback file has {allowed})")
     gains = {k: _schedule(spec, lines, k, data[k]) for k in GAIN_KEYS if k in data}
+    rate = _rate(spec, lines, data[RATE_KEY]) if RATE_KEY in data else None
     name = data.get("name", Path(spec).stem)
-    return Feedback(name=str(name), source=spec, **gains)
+    return Feedback(name=str(name), source=spec, rate_hz=rate, **gains)
 
 
 def feedback_key(spec: str | Path | None) -> str:

@@ -7,7 +7,12 @@ the eigen-solver and σ of ``bike-rig model`` and the eigenvalue figures. Where 
 complex pairs exist the one nearest the measured eigenvalue is taken, and a note says so; where
 the model has none at a measured speed, its eigenvalue nearest the measured one (a real root, Im λ
 = 0). Where the first-order σ is not defined (near a branch point, NaN) it is a Monte Carlo σ
-(:mod:`bike_rig.core.ride.weave_mc`), and the prediction says so (``sigma_method``).
+(:mod:`bike_rig.core.ride.weave_mc`), and the prediction says so (``sigma_method``). With a
+feedback that has a rate (``rate_hz``: a digital controller holding its torque each period) the
+eigenvalue is the sampled loop's (:func:`bike_rig.core.whipple.sampled.sampled_closed_loop_eigenvalues`):
+the continuous loop's eigenvalue shifted by the sampled-minus-continuous difference at the
+nominal parameters, its σ the continuous loop's (the shift is a few % of λ, its own σ smaller
+still), and a note says so.
 
 :func:`compare_ride` sets each measured segment (:mod:`bike_rig.core.ride.eigen`) against it:
 the normalised deviation of each part ``z = (measured − predicted) / sqrt(σ_m² + σ_p²)``, a
@@ -36,6 +41,8 @@ from ..core.ride.verdict import Verdict, overall_verdict, pair_verdict
 from ..core.ride.weave_mc import eigenvalue_monte_carlo
 from ..core.uncertainty.eigen_sigma import eigenvalues_with_sigma
 from ..core.uncertainty.matrix_sigma import SigmaConvention
+from ..core.whipple import canonical_matrices
+from ..core.whipple.sampled import NYQUIST_SHARE, aliased, sampled_closed_loop_eigenvalues
 
 __all__ = [
     "MONTE_CARLO",
@@ -43,6 +50,7 @@ __all__ = [
     "PredictedWeave",
     "RideComparison",
     "RideSpeedError",
+    "SampledLoopError",
     "compare_ride",
     "normalised_deviation",
     "predicted_weave",
@@ -65,6 +73,10 @@ MONTE_CARLO_NOTE = "model σ by Monte Carlo: the linear σ is not defined near a
 
 class RideSpeedError(ModelError):
     """A segment has no speed, so no prediction."""
+
+
+class SampledLoopError(ModelError):
+    """The feedback's controller rate is too slow for the mode compared."""
 
 
 @dataclass(frozen=True)
@@ -113,6 +125,8 @@ def predicted_weave(
             labelled weave, else the fastest (NaN where none).
 
     Raises:
+        SampledLoopError: The feedback's rate is too slow for the chosen mode (its sampled
+            ``|Im λ|`` beyond :data:`~bike_rig.core.whipple.sampled.NYQUIST_SHARE` of ``π/T``).
         ModelError: Bad speeds or a singular mass matrix.
     """
     v = np.atleast_1d(np.asarray(speeds, dtype=float))
@@ -146,6 +160,7 @@ def predicted_weave(
             j = weave[0] if weave else max(cand, key=lambda c: lam[i, c].imag)
         out[:, i] = lam[i, j].real, es.sigma_real[i, j], lam[i, j].imag, es.sigma_imag[i, j]
         branch[i] = j
+    branch_index = list(branch)
     branch = _branches(lam, branch)
     method = [LINEAR if np.isfinite(out[1, i]) else NO_SIGMA for i in range(v.size)]
     missing = np.flatnonzero(np.isfinite(out[0]) & ~(np.isfinite(out[1]) & np.isfinite(out[3])))
@@ -159,7 +174,59 @@ def predicted_weave(
                     f"{v[m]:.3g} m/s: near a branch point: the weave pair is real in "
                     f"{100 * mc.real_fraction[k]:.0f} % of the Monte Carlo draws"
                 )
+    if feedback is not None and feedback.rate_hz is not None:
+        notes += _sample_and_hold(ps, v, lam, branch_index, out, feedback)
     return PredictedWeave(v, out[0], out[1], out[2], out[3], tuple(notes), tuple(method), tuple(branch))
+
+
+def _sample_and_hold(
+    ps: ParameterSet, v: FloatArray, lam: NDArray[np.complex128], picked: list[int], out: FloatArray, feedback: Feedback
+) -> list[str]:
+    """Shift each chosen eigenvalue in ``out`` (rows Re, σ, Im, σ) to the sampled loop's; the notes to add.
+
+    The continuous loop's eigenvalues ``lam`` (N, 4) [1/s] are matched one to one with the
+    sampled loop's at the same speed (least total distance); the chosen one's counterpart minus
+    it is added to Re λ and |Im λ|. σ stays the continuous loop's.
+
+    Raises:
+        SampledLoopError: A chosen mode's counterpart is too fast for the rate.
+    """
+    from scipy.optimize import linear_sum_assignment
+
+    rate, period = float(feedback.rate_hz or math.nan), float(feedback.period or math.nan)
+    values = ps.parameters.as_dict()
+    sampled = sampled_closed_loop_eigenvalues(
+        canonical_matrices(values), v, ps.parameters.value("g"), feedback.gains(v), period
+    )
+    notes: list[str] = []
+    moved_re, moved_im = [], []
+    for i, j in enumerate(picked):
+        if j < 0 or not (np.isfinite(lam[i]).all() and np.isfinite(sampled[i]).all()):
+            continue
+        rows, cols = linear_sum_assignment(np.abs(lam[i][:, None] - sampled[i][None, :]))
+        mu = complex(sampled[i][int(cols[list(rows).index(j)])])
+        if aliased(mu, period):
+            raise SampledLoopError(
+                f"the feedback's controller at {rate:g} Hz is too slow for the mode at {v[i]:.3g} m/s: its sampled "
+                f"|Im λ| {abs(mu.imag):.3g} rad/s is beyond {NYQUIST_SHARE:g} × π/T = "
+                f"{NYQUIST_SHARE * math.pi * rate:.3g} rad/s"
+            )
+        if (abs(mu.imag) > MIN_IMAG) != (abs(lam[i, j].imag) > MIN_IMAG):
+            kind = "oscillates" if abs(mu.imag) > MIN_IMAG else "is real"
+            notes.append(f"{v[i]:.3g} m/s: sampled at {rate:g} Hz the mode {kind}, unlike the continuous loop's")
+        d_re, d_im = mu.real - lam[i, j].real, abs(mu.imag) - abs(lam[i, j].imag)
+        moved_re.append(abs(d_re))
+        moved_im.append(abs(d_im))
+        out[0, i] += d_re
+        out[2, i] += d_im
+    if moved_re:
+        notes.insert(
+            0,
+            f"the assist samples the state at {rate:g} Hz and holds its torque (zero-order hold): the model's "
+            f"eigenvalue is the sampled loop's, up to {max(moved_re):.2g} 1/s (Re λ) and "
+            f"{max(moved_im):.2g} rad/s (Im λ) from the continuous loop's; its σ is the continuous loop's",
+        )
+    return notes
 
 
 def _branches(lam: NDArray[np.complex128], picked: list[int]) -> list[int]:

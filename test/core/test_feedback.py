@@ -135,6 +135,14 @@ def test_missing_keys_are_zero_and_names(tmp_path: Path) -> None:
         ("k_delta: {speeds: [1, 2], values: [1, 2], sigmas: [0.1]}\n", r":2: key 'k_delta.sigmas': 1 sigmas for 2"),
         ("k_delta: {speeds: [1, 2], values: [1, 2], sigmas: [0.1, -1]}\n", r":2: key 'k_delta.sigmas\[1\]': a σ"),
         ("k_delta: {speeds: [], values: []}\n", r":2: key 'k_delta.speeds': expected a non-empty list"),
+        ("k_phi: 1\nrate_hz: 0\n", r":3: key 'rate_hz': the controller's rate is a finite number > 0 Hz \(0 given\)"),
+        ("rate_hz: -100\n", r":2: key 'rate_hz': the controller's rate is a finite number > 0 Hz \(-100 given\)"),
+        ("rate_hz: .inf\n", r":2: key 'rate_hz': the controller's rate is a finite number > 0 Hz \(inf given\)"),
+        ("rate_hz: .nan\n", r":2: key 'rate_hz': the controller's rate is a finite number > 0 Hz"),
+        ("rate_hz: true\n", r":2: key 'rate_hz': the controller's rate is a finite number > 0 Hz \(True given\)"),
+        ("rate_hz: 100 Hz\n", r":2: key 'rate_hz': .*\('100 Hz' given\); leave it out for a continuous controller"),
+        ("rate_hz: [100]\n", r":2: key 'rate_hz': the controller's rate is a finite number > 0 Hz"),
+        ("rate: 100\n", r":2: key 'rate': unknown key \(a feedback file has .*rate_hz\)"),
     ],
 )
 def test_bad_files_name_file_key_and_line(tmp_path: Path, text: str, message: str) -> None:
@@ -142,6 +150,14 @@ def test_bad_files_name_file_key_and_line(tmp_path: Path, text: str, message: st
     path = _write(tmp_path, text)
     with pytest.raises(FeedbackError, match="^" + str(path).replace(".", r"\.") + message):
         load_feedback(path)
+
+
+def test_controller_rate_is_optional(tmp_path: Path) -> None:
+    """``rate_hz`` gives a digital controller's period; without it the controller is continuous."""
+    assert load_feedback(EXAMPLE).rate_hz is None and load_feedback(EXAMPLE).period is None
+    fb = load_feedback(_write(tmp_path, "k_phidot: -20\nrate_hz: 250\n"))
+    assert fb.rate_hz == 250.0 and fb.period == pytest.approx(0.004)
+    np.testing.assert_array_equal(fb.gains(3.0), [0.0, 0.0, -20.0, 0.0])  # the gains are unchanged
 
 
 def test_gains_with_sigma(tmp_path: Path) -> None:

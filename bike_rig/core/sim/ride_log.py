@@ -7,7 +7,9 @@ sideways at the seat post a few times while riding straight. The linear Whipple 
 the speed of each sample (exact zero-order-hold discretisation, cached per 0.05 m/s) with
 
 * the steer torque ``−K(v) x`` of the balance assist and the rider's arms (``K`` from
-  :attr:`RideLog.gains`; the assist's share clipped at ``saturation`` N m), plus the rider's
+  :attr:`RideLog.gains`; the assist's share clipped at ``saturation`` N m; the assist samples
+  the state and holds its torque for one period of ``controller_hz``, by default the log's
+  rate; a faster assist steps the model in sub-steps), plus the rider's
   steering noise (Ornstein–Uhlenbeck: σ ``rider_torque`` N m, correlation time ``rider_tau`` s),
   plus each turn's steer torque (a half-sine in, held, a half-sine out);
 * the roll torque of each push (``push_torque`` N m for ``push_s`` s), of the rider's pedalling
@@ -34,6 +36,7 @@ import csv
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from fractions import Fraction
 from pathlib import Path
 
 import numpy as np
@@ -61,6 +64,8 @@ SPEED_STEP = 0.05
 MAX_ROLL_RATE = 10.0
 #: A push's own response is followed this long [s].
 TRUTH_SPAN_S = 10.0
+#: The most model sub-steps per log sample (an assist this many times faster than the log at most).
+MAX_SUBSTEPS = 50
 #: The columns of a simulated raw log's CSV file, in order (no steer torque).
 LOG_COLUMNS = ("time", "roll_rate", "wheel_speed")
 
@@ -107,6 +112,8 @@ class RideLog:
         feet_speed: Below this the rider's feet hold the roll [m/s].
         decay_level: The free decay's end, in RMS of the riding's roll rate [-].
         gains: The steer-torque gains at a speed (:func:`assist_gains`).
+        controller_hz: The assist's rate [Hz]: it samples the state and holds its torque this
+            long; a simple ratio (at most :data:`MAX_SUBSTEPS`) of ``rate_hz``. None: ``rate_hz``.
     """
 
     duration: float
@@ -135,6 +142,27 @@ class RideLog:
     feet_speed: float = 1.5
     decay_level: float = 2.0
     gains: Callable[[float], FloatArray] = field(default=assist_gains, repr=False)
+    controller_hz: float | None = None
+
+
+def _steps(log: RideLog) -> tuple[int, int]:
+    """``(p, q)``: the model steps ``p`` times per log sample and the assist acts every ``q`` steps.
+
+    Raises:
+        SimulationError: The assist's rate is not finite and > 0, or not a simple ratio of the log's.
+    """
+    if log.controller_hz is None:
+        return 1, 1
+    rate = log.controller_hz
+    if not (math.isfinite(rate) and rate > 0):
+        raise SimulationError(f"the assist's rate must be a finite number > 0 Hz, got {rate}")
+    ratio = Fraction(rate / log.rate_hz).limit_denominator(1000)
+    if ratio.numerator > MAX_SUBSTEPS or abs(float(ratio) - rate / log.rate_hz) > 1e-9 * rate / log.rate_hz:
+        raise SimulationError(
+            f"the assist's rate {rate:g} Hz must be a simple ratio p/q of the log's {log.rate_hz:g} Hz "
+            f"(p <= {MAX_SUBSTEPS}, q <= 1000)"
+        )
+    return ratio.numerator, ratio.denominator
 
 
 @dataclass(frozen=True)
@@ -267,8 +295,9 @@ def simulate_raw_log(matrices: WhippleMatrices, g: float, log: RideLog, rng: np.
         rng: The random generator (noise, signs, the rider).
 
     Raises:
-        SimulationError: A non-positive duration or rate, a negative speed, or a ride that falls
-            over (the gains do not stabilise this bicycle).
+        SimulationError: A non-positive duration or rate, a negative speed, an assist's rate
+            that is not a simple ratio of the log's, or a ride that falls over (the gains do not
+            stabilise this bicycle).
     """
     from scipy.signal import hilbert
 
@@ -277,6 +306,7 @@ def simulate_raw_log(matrices: WhippleMatrices, g: float, log: RideLog, rng: np.
             f"a ride log needs duration > 0 s, rate > 0 Hz and speed >= 0 m/s, "
             f"got {log.duration} s, {log.rate_hz} Hz, {log.cruise} m/s"
         )
+    hold = _steps(log)[1]  # the assist acts every `hold` log samples (1 when it is as fast or faster)
     n = int(round(log.duration * log.rate_hz))
     dt = 1.0 / log.rate_hz
     t = np.arange(n, dtype=np.float64) * dt
@@ -313,9 +343,11 @@ def simulate_raw_log(matrices: WhippleMatrices, g: float, log: RideLog, rng: np.
         size = log.push_jolt * rng.uniform(0.5, 1.0) * rng.choice((-1.0, 1.0))
         u = np.clip((t - p) / log.push_jolt_s, 0.0, None)
         wheel += size * u * np.exp(1.0 - u)
-        w = slice(int(np.searchsorted(t, p)), int(np.searchsorted(t, p + TRUTH_SPAN_S)))
+        first = int(np.searchsorted(t, p))
+        w = slice(first - first % hold, int(np.searchsorted(t, p + TRUTH_SPAN_S)))  # from a tick of the assist
         parts = (t[w], v[w], pedal[w], steer[w])
-        alone = _run(matrices, g, log, *parts, [(p, s)], base_states[w.start])[:, 2] - base[w]
+        alone = (_run(matrices, g, log, *parts, [(p, s)], base_states[w.start])[:, 2] - base[w])[first - w.start :]
+        w = slice(first, w.stop)
         before = (t >= p - 4.0) & (t < p)
         level = log.decay_level * float(np.sqrt(np.mean(background[before] ** 2)))
         after = np.flatnonzero(np.abs(hilbert(np.r_[alone, np.zeros(alone.size)]))[: alone.size] > level)
@@ -339,26 +371,31 @@ def _run(
     """The true states ``[φ, δ, φ̇, δ̇]`` (shape (n, 4)) over ``t`` from ``x0`` with the given pushes (start [s], N m)."""
     from scipy.signal import cont2discrete
 
-    dt = 1.0 / log.rate_hz
+    p, q = _steps(log)
+    h = 1.0 / (log.rate_hz * p)
     keys = np.rint(v / SPEED_STEP).astype(int)
     cache: dict[int, tuple[FloatArray, FloatArray, FloatArray]] = {}
     for key in np.unique(keys):
         a, b = (np.asarray(m, dtype=float) for m in state_space(matrices, key * SPEED_STEP, g))
-        ad, bd, *_ = cont2discrete((a, b, np.eye(4), np.zeros((4, 2))), dt, method="zoh")
+        ad, bd, *_ = cont2discrete((a, b, np.eye(4), np.zeros((4, 2))), h, method="zoh")
         cache[int(key)] = (np.asarray(ad, dtype=float), np.asarray(bd, dtype=float), log.gains(key * SPEED_STEP))
     feet = np.clip(1.0 - v / log.feet_speed, 0.0, 1.0) if log.feet_speed > 0 else np.zeros(t.size)
     roll = pedal.copy()
-    for p, s in pushes:
-        roll[(t >= p) & (t < p + log.push_s)] += s
+    for start, s in pushes:
+        roll[(t >= start) & (t < start + log.push_s)] += s
     x = np.zeros(4) if x0 is None else np.asarray(x0, dtype=float).copy()
     states = np.empty((t.size, 4))
+    first = int(round(t[0] * log.rate_hz)) * p if t.size else 0  # the assist's ticks are at absolute steps
+    assist = 0.0
     for i in range(t.size):
         ad, bd, k = cache[int(keys[i])]
         states[i] = x
-        assist = min(log.saturation, max(-log.saturation, -float(k @ x)))
-        u0 = roll[i] - feet[i] * (3000.0 * x[0] + 600.0 * x[2])
-        u1 = assist + steer[i] - feet[i] * (20.0 * x[1] + 2.0 * x[3])
-        x = ad @ x + bd[:, 0] * u0 + bd[:, 1] * u1
+        for j in range(p):
+            if (first + i * p + j) % q == 0 or (i == 0 and j == 0):
+                assist = min(log.saturation, max(-log.saturation, -float(k @ x)))
+            u0 = roll[i] - feet[i] * (3000.0 * x[0] + 600.0 * x[2])
+            u1 = assist + steer[i] - feet[i] * (20.0 * x[1] + 2.0 * x[3])
+            x = ad @ x + bd[:, 0] * u0 + bd[:, 1] * u1
     return states
 
 
