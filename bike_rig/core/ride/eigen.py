@@ -13,7 +13,7 @@ is ``λ = −ζω ± i ω_d`` (Eq 25).
 The cycle count that flags a segment comes from a frequency that does not depend on the model
 judged: the trial fitter's ω_d, or the frequency search's. A segment with fewer than
 :data:`MIN_SEGMENT_CYCLES` cycles has no eigenvalue, one with fewer than
-:data:`FLAG_SEGMENT_CYCLES` is flagged (both ``too_few_cycles``); one whose half-cycle peaks do
+:data:`FLAG_SEGMENT_CYCLES` is flagged (both ``too_few_cycles``); one whose half-cycle amplitudes do
 not follow one exponential envelope is flagged ``not_free_decay`` (:mod:`.envelope`), as is one
 whose fitted ω_d strays from that frequency beyond :data:`MAX_FREQUENCY_RATIO` or holds fewer than
 :data:`MIN_SEGMENT_CYCLES` of its own cycles (a record of a bicycle falling over, its motor
