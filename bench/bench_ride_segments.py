@@ -50,7 +50,7 @@ def run(
         log = simulate_raw_log(matrices, g, plan, rng)  # type: ignore[arg-type]
         record = RideRecord("log", log.times, log.roll_rate, speed=log.wheel_speed if wheel else None)
         t0 = time.perf_counter()
-        segments = segment_record(record)
+        segments = segment_record(record).segments
         seconds += time.perf_counter() - t0
         matched = set()
         for seg in segments:
