@@ -154,8 +154,8 @@ def _found(args: argparse.Namespace, ms: object) -> None:
         for s in range(args.seeds):
             log, truth = _simulate(args, ms, v, s)
             record = RideRecord(f"seed {s}", log.times, log.roll_rate, speed=log.wheel_speed)
-            found = segment_record(record)
-            segments = found.segments
+            segmentation = segment_record(record)
+            segments = segmentation.segments
             fits = []
             for k, seg in enumerate(segments, start=1):
                 inside = (record.times >= seg.start) & (record.times <= seg.stop)
@@ -170,7 +170,7 @@ def _found(args: argparse.Namespace, ms: object) -> None:
                 flag = unconfirmed_flag(seg, record)
                 fits.append(replace(m, flags=(*m.flags, flag)) if flag is not None else m)
             pooled = pool_drive(fits)
-            done = inject_segments(record, found, pooled, args.model)
+            done = inject_segments(record, segmentation, pooled, args.model)
             pushes += len(log.pushes)
             near = [any(0 <= g.start - p.time <= 2.0 for g in segments) for p in log.pushes]
             found += sum(near)

@@ -319,13 +319,16 @@ def _kicks(record: RideRecord, detrended: FloatArray, sigma: float, opt: Segment
 
 
 def detrend(record: RideRecord, options: SegmentOptions | None = None) -> FloatArray:
-    """The record's signal less its baseline, a running median over ``10 window_s`` (units of the signal)."""
+    """The record's signal less its baseline (:func:`_baseline`) (units of the signal)."""
+    return record.signal - _baseline(record.times, record.signal, options or SegmentOptions())
+
+
+def _baseline(t: FloatArray, y: FloatArray, opt: SegmentOptions) -> FloatArray:
+    """The running median of ``y`` over ``10 window_s`` (units of ``y``)."""
     from scipy.ndimage import median_filter
 
-    opt = options or SegmentOptions()
-    t, y = record.times, record.signal
     n = max(3, int(round(10 * opt.window_s / float(np.median(np.diff(t))))))
-    return np.asarray(y - median_filter(y, size=min(n, y.size), mode="nearest"), dtype=float)
+    return np.asarray(median_filter(y, size=min(n, y.size), mode="nearest"), dtype=float)
 
 
 def _even(t: FloatArray, step: float | None = None) -> bool:
