@@ -18,7 +18,15 @@ from ..core.ride.injection import inject_segments
 from ..core.ride.record import RideRecord, read_ride_csv
 from ..core.ride.segment import Kick, Segment, Segmentation, segment_record, unconfirmed_flag
 
-__all__ = ["WHOLE_BELOW_S", "MeasuredSegment", "RecordOptions", "RideOptionError", "load_record", "measure_records"]
+__all__ = [
+    "WHOLE_BELOW_S",
+    "MeasuredSegment",
+    "RecordOptions",
+    "RideOptionError",
+    "fit_segments",
+    "load_record",
+    "measure_records",
+]
 
 #: ``segments="auto"``: records shorter than this are one segment [s].
 WHOLE_BELOW_S = 5.0
@@ -100,6 +108,37 @@ def _whole(record: RideRecord) -> Segment:
     return Segment(first, last, Kick(first, first, "a stored free decay"), "the record's start", "its end")
 
 
+def fit_segments(
+    record: RideRecord,
+    segments: Sequence[Segment],
+    *,
+    found: bool,
+    model: str = "auto",
+    speed: float | None = None,
+    source: str | None = None,
+) -> list[MeasuredEigenvalue]:
+    """Each segment of ``record`` fitted, numbered from 1 (:func:`~bike_rig.core.ride.eigen.fit_segment`).
+
+    Its speed is ``speed`` [m/s] or the record's mean over it; its source ``source`` or the
+    record's. A segment ``found`` by the segmenter whose kick only the roll rate shows is flagged
+    (:func:`~bike_rig.core.ride.segment.unconfirmed_flag`).
+    """
+    out = []
+    for k, seg in enumerate(segments, start=1):
+        inside = (record.times >= seg.start) & (record.times <= seg.stop)
+        m = fit_segment(
+            record.times[inside],
+            record.signal[inside],
+            speed=speed if speed is not None else record.mean_speed(seg.start, seg.stop),
+            source=source if source is not None else record.source,
+            index=k,
+            model=model,
+        )
+        flag = unconfirmed_flag(seg, record) if found else None
+        out.append(m if flag is None else replace(m, flags=(*m.flags, flag)))
+    return out
+
+
 def measure_records(paths: Sequence[str], options: RecordOptions) -> list[MeasuredSegment]:
     """Every record's segments fitted, in order, their σ with the rider's drive shared at each speed.
 
@@ -119,16 +158,10 @@ def measure_records(paths: Sequence[str], options: RecordOptions) -> list[Measur
         found = _found(record, options.segments)
         segments = found.segments if found is not None else (_whole(record),)
         first = len(out)
-        for k, seg in enumerate(segments, start=1):
-            inside = (record.times >= seg.start) & (record.times <= seg.stop)
-            speed = options.speed if options.speed is not None else record.mean_speed(seg.start, seg.stop)
-            m = fit_segment(
-                record.times[inside], record.signal[inside], speed=speed, source=path, index=k, model=options.model
-            )
-            flag = unconfirmed_flag(seg, record) if found is not None else None
-            if flag is not None:
-                m = replace(m, flags=(*m.flags, flag))
-            out.append(MeasuredSegment(m, seg, record))
+        fitted = fit_segments(
+            record, segments, found=found is not None, model=options.model, speed=options.speed, source=path
+        )
+        out += [MeasuredSegment(m, seg, record) for m, seg in zip(fitted, segments, strict=True)]
         if found is not None and len(out) > first:
             found_in.append((range(first, len(out)), found))
     pooled = pool_drive([m.eigenvalue for m in out])  # the rider's drive shared at each speed
