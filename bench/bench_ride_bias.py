@@ -144,7 +144,8 @@ def _found(args: argparse.Namespace, ms: object) -> None:
     """Segments found in each log, fitted plain and with the riding injected (module docstring)."""
     from bike_rig.core.ride.injection import inject_segments
     from bike_rig.core.ride.record import RideRecord
-    from bike_rig.core.ride.segment import segment_record, unconfirmed_flag
+    from bike_rig.core.ride.segment import segment_record
+    from bike_rig.offline.rides import fit_segments
 
     for v in (float(x) for x in args.speeds.split(",")):
         plain: list[MeasuredEigenvalue] = []
@@ -154,22 +155,10 @@ def _found(args: argparse.Namespace, ms: object) -> None:
         for s in range(args.seeds):
             log, truth = _simulate(args, ms, v, s)
             record = RideRecord(f"seed {s}", log.times, log.roll_rate, speed=log.wheel_speed)
-            segments = segment_record(record)
-            fits = []
-            for k, seg in enumerate(segments, start=1):
-                inside = (record.times >= seg.start) & (record.times <= seg.stop)
-                m = fit_segment(
-                    record.times[inside],
-                    record.signal[inside],
-                    speed=record.mean_speed(seg.start, seg.stop),
-                    source=record.source,
-                    index=k,
-                    model=args.model,
-                )
-                flag = unconfirmed_flag(seg, record)
-                fits.append(replace(m, flags=(*m.flags, flag)) if flag is not None else m)
-            pooled = pool_drive(fits)
-            done = inject_segments(record, segments, pooled, args.model)
+            segmentation = segment_record(record)
+            segments = segmentation.segments
+            pooled = pool_drive(fit_segments(record, segments, found=True, model=args.model))
+            done = inject_segments(record, segmentation, pooled, args.model)
             pushes += len(log.pushes)
             near = [any(0 <= g.start - p.time <= 2.0 for g in segments) for p in log.pushes]
             found += sum(near)

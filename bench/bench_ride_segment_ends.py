@@ -119,7 +119,7 @@ def run(speed: float, seeds: range, matrices: object, g: float, order: int) -> d
             i = int(np.searchsorted(t, p.time))
             background[i : i + p.response.size] -= p.response
         background -= seg_mod._baseline(t, background, opt)
-        for seg in seg_mod.segment_record(record, opt):
+        for seg in seg_mod.segment_record(record, opt).segments:
             hits = [p for p in log.pushes if abs(seg.kick.onset - p.time) <= FOUND_S]
             if not hits:
                 continue

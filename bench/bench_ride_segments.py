@@ -5,7 +5,7 @@ Browser with the paper's rider, a speed-scheduled assist, 179 s at 100 Hz, roll 
 speed, no steer torque; the rider starts from standstill, rides, turns, stops and starts again,
 and is pushed sideways while riding straight; :func:`~bike_rig.core.sim.ride_log.ride_plan`)
 is segmented by :func:`bike_rig.core.ride.segment.segment_record` and each segment fitted by
-:func:`bike_rig.core.ride.eigen.fit_segment`. A push is found when a segment's kick begins
+:func:`bike_rig.offline.rides.fit_segments`. A push is found when a segment's kick begins
 within 0.3 s of it; its cut error is the segment's start and stop less the truth's (the push's
 end; where its own response's envelope last exceeds twice the riding's RMS). A false segment
 belongs to no push; it must never be clean (a kick only the roll rate shows is flagged
@@ -24,12 +24,12 @@ import numpy as np
 
 from bike_rig.cli.main import _parameters
 from bike_rig.config.paths import config_file
-from bike_rig.core.ride.eigen import fit_segment
 from bike_rig.core.ride.record import RideRecord
-from bike_rig.core.ride.segment import segment_record, unconfirmed_flag
+from bike_rig.core.ride.segment import segment_record
 from bike_rig.core.rider import PAPER_RIDER, add_rider
 from bike_rig.core.sim.ride_log import ride_plan, simulate_raw_log
 from bike_rig.core.uncertainty.matrix_sigma import canonical_with_sigma
+from bike_rig.offline.rides import fit_segments
 
 #: A segment's kick this close to a push [s] finds it.
 FOUND_S = 0.3
@@ -50,13 +50,11 @@ def run(
         log = simulate_raw_log(matrices, g, plan, rng)  # type: ignore[arg-type]
         record = RideRecord("log", log.times, log.roll_rate, speed=log.wheel_speed if wheel else None)
         t0 = time.perf_counter()
-        segments = segment_record(record)
+        segments = segment_record(record).segments
         seconds += time.perf_counter() - t0
         matched = set()
-        for seg in segments:
-            inside = (record.times >= seg.start) & (record.times <= seg.stop)
-            fitted = fit_segment(record.times[inside], record.signal[inside], speed=speed)
-            clean = fitted.clean and unconfirmed_flag(seg, record) is None  # as ``bike-rig ride`` flags it
+        for seg, fitted in zip(segments, fit_segments(record, segments, found=True, speed=speed), strict=True):
+            clean = fitted.clean  # with the flag of a kick only the roll rate shows, as ``bike-rig ride`` adds it
             hits = [k for k, p in enumerate(log.pushes) if abs(seg.kick.onset - p.time) <= FOUND_S]
             if hits and hits[0] not in matched:
                 matched.add(hits[0])

@@ -16,9 +16,17 @@ from ..core.errors import BikeRigError
 from ..core.ride.eigen import MeasuredEigenvalue, fit_segment, pool_drive
 from ..core.ride.injection import inject_segments
 from ..core.ride.record import RideRecord, read_ride_csv
-from ..core.ride.segment import Kick, Segment, segment_record, unconfirmed_flag
+from ..core.ride.segment import Kick, Segment, Segmentation, segment_record, unconfirmed_flag
 
-__all__ = ["WHOLE_BELOW_S", "MeasuredSegment", "RecordOptions", "RideOptionError", "load_record", "measure_records"]
+__all__ = [
+    "WHOLE_BELOW_S",
+    "MeasuredSegment",
+    "RecordOptions",
+    "RideOptionError",
+    "fit_segments",
+    "load_record",
+    "measure_records",
+]
 
 #: ``segments="auto"``: records shorter than this are one segment [s].
 WHOLE_BELOW_S = 5.0
@@ -86,12 +94,49 @@ def load_record(path: str, options: RecordOptions) -> RideRecord:
     return record.finite()
 
 
-def _segments(record: RideRecord, mode: str) -> tuple[list[Segment], bool]:
-    """The record's segments, and whether they were found in it (not the whole record)."""
+def _found(record: RideRecord, mode: str) -> Segmentation | None:
+    """The record's segmentation, or None where it is one segment whole (``mode``)."""
     first, last = float(record.times[0]), float(record.times[-1])
     if mode == "whole" or (mode == "auto" and last - first < WHOLE_BELOW_S):
-        return [Segment(first, last, Kick(first, first, "a stored free decay"), "the record's start", "its end")], False
-    return segment_record(record), True
+        return None
+    return segment_record(record)
+
+
+def _whole(record: RideRecord) -> Segment:
+    """The whole record as one segment."""
+    first, last = float(record.times[0]), float(record.times[-1])
+    return Segment(first, last, Kick(first, first, "a stored free decay"), "the record's start", "its end")
+
+
+def fit_segments(
+    record: RideRecord,
+    segments: Sequence[Segment],
+    *,
+    found: bool,
+    model: str = "auto",
+    speed: float | None = None,
+    source: str | None = None,
+) -> list[MeasuredEigenvalue]:
+    """Each segment of ``record`` fitted, numbered from 1 (:func:`~bike_rig.core.ride.eigen.fit_segment`).
+
+    Its speed is ``speed`` [m/s] or the record's mean over it; its source ``source`` or the
+    record's. A segment ``found`` by the segmenter whose kick only the roll rate shows is flagged
+    (:func:`~bike_rig.core.ride.segment.unconfirmed_flag`).
+    """
+    out = []
+    for k, seg in enumerate(segments, start=1):
+        inside = (record.times >= seg.start) & (record.times <= seg.stop)
+        m = fit_segment(
+            record.times[inside],
+            record.signal[inside],
+            speed=speed if speed is not None else record.mean_speed(seg.start, seg.stop),
+            source=source if source is not None else record.source,
+            index=k,
+            model=model,
+        )
+        flag = unconfirmed_flag(seg, record) if found else None
+        out.append(m if flag is None else replace(m, flags=(*m.flags, flag)))
+    return out
 
 
 def measure_records(paths: Sequence[str], options: RecordOptions) -> list[MeasuredSegment]:
@@ -107,30 +152,23 @@ def measure_records(paths: Sequence[str], options: RecordOptions) -> list[Measur
     if options.speed is not None and not (math.isfinite(options.speed) and options.speed >= 0):
         raise RideOptionError(f"--speed must be a finite speed >= 0 m/s, got {options.speed}")
     out: list[MeasuredSegment] = []
-    found_in: list[range] = []  # the segments found in a record (not a whole record), by position in out
+    found_in: list[tuple[range, Segmentation]] = []  # a record's found segments, by position in out
     for path in paths:
         record = load_record(path, options)
-        segments, found = _segments(record, options.segments)
+        found = _found(record, options.segments)
+        segments = found.segments if found is not None else (_whole(record),)
         first = len(out)
-        for k, seg in enumerate(segments, start=1):
-            inside = (record.times >= seg.start) & (record.times <= seg.stop)
-            speed = options.speed if options.speed is not None else record.mean_speed(seg.start, seg.stop)
-            m = fit_segment(
-                record.times[inside], record.signal[inside], speed=speed, source=path, index=k, model=options.model
-            )
-            flag = unconfirmed_flag(seg, record) if found else None
-            if flag is not None:
-                m = replace(m, flags=(*m.flags, flag))
-            out.append(MeasuredSegment(m, seg, record))
-        if found and len(out) > first:
-            found_in.append(range(first, len(out)))
+        fitted = fit_segments(
+            record, segments, found=found is not None, model=options.model, speed=options.speed, source=path
+        )
+        out += [MeasuredSegment(m, seg, record) for m, seg in zip(fitted, segments, strict=True)]
+        if found is not None and len(out) > first:
+            found_in.append((range(first, len(out)), found))
     pooled = pool_drive([m.eigenvalue for m in out])  # the rider's drive shared at each speed
     measured = [MeasuredSegment(e, m.segment, m.record) for e, m in zip(pooled, out, strict=True)]
-    for idx in found_in:  # their bias and σ from their record's own riding
+    for idx, segmentation in found_in:  # their bias and σ from their record's own riding
         record = out[idx.start].record
-        done = inject_segments(
-            record, [out[i].segment for i in idx], [measured[i].eigenvalue for i in idx], options.model
-        )
+        done = inject_segments(record, segmentation, [measured[i].eigenvalue for i in idx], options.model)
         for i, e in zip(idx, done, strict=True):
             measured[i] = MeasuredSegment(e, out[i].segment, record)
     return measured

@@ -5,17 +5,19 @@ frequency), and a decaying sinusoid fitted through it is biased: the rider's ste
 the weave going and the fit sees a slower decay. Where the record holds riding outside its
 segments, each segment's estimator is measured on that riding (a parametric bootstrap with the
 record's own noise): the fitted model's response m(t) (the chosen model, :mod:`.choice`) plus
-``injections`` stretches of the riding of the segment's length (detrended as the segmenter does,
-:mod:`.segment`), each refitted as the segment was (:func:`.eigen.fit_segment`). From the
-refits' (Re λ, Im λ): the bias ``b`` (their mean less the model's) with its standard error
-``s_b`` (their scatter over √ of the independent stretches the riding holds, at most the
-refits), and their scatter ``s``. The eigenvalue is corrected by −b where ``|b| > s_b``; its σ²
-becomes ``max(σ², s²) + s_b²``. A correction that would make a decaying segment grow (Re λ
-across 0) is not made: the segment is flagged ``bias_unstable`` instead.
+``injections`` stretches of the riding of the segment's length (the signal as the segmenter
+detrended it, :class:`.segment.Segmentation`), each refitted as the segment was
+(:func:`.eigen.fit_segment`). From the refits' (Re λ, Im λ): the bias ``b`` (their mean less
+the model's) with its standard error ``s_b`` (their scatter over √ of the independent stretches
+the riding holds, at most the refits), and their scatter ``s``. The eigenvalue is corrected by
+−b where ``|b| > s_b``; its σ² becomes ``max(σ², s²) + s_b²``. A correction that would make a
+decaying segment grow (Re λ across 0) is not made: the segment is flagged ``bias_unstable``
+instead.
 
-The riding: samples outside every kick (from ``lead_s`` before its onset) and its segment, up to
-``guard_s`` past the segment's end (its response fading) or the kick's end, at a speed within
-``speed_share`` of the segment's (a record without a speed: all of them). A segment is left as it
+The riding: samples outside every kick the segmenter found, with a segment or without (from
+``lead_s`` before its onset), and its segment, up to ``guard_s`` past the segment's end (its
+response fading) or the kick's end, at a speed within ``speed_share`` of the segment's (a record
+without a speed: all of them). A segment is left as it
 is where the riding holds fewer than ``min_stretches`` independent stretches of its length, or fewer than
 half the refits give an eigenvalue (hand-cut records, whole records, short logs: no riding).
 
@@ -38,7 +40,7 @@ from .choice import choose_model
 from .eigen import MeasuredEigenvalue, fit_segment
 from .realmode import RealModeFitFailed, real_mode_basis
 from .record import RideRecord
-from .segment import Segment, SegmentOptions, _baseline, find_kicks, noise_sigma
+from .segment import Segmentation, noise_sigma
 
 __all__ = ["BIAS_UNSTABLE", "Injection", "InjectionOptions", "inject_segments", "injected", "riding_mask"]
 
@@ -94,14 +96,12 @@ class Injection:
     scatter_imag: float
 
 
-def riding_mask(
-    record: RideRecord, segments: Sequence[Segment], options: InjectionOptions, seg_options: SegmentOptions
-) -> NDArray[np.bool_]:
-    """The samples of riding: outside every kick and segment and their guards (module docstring)."""
+def riding_mask(record: RideRecord, found: Segmentation, options: InjectionOptions) -> NDArray[np.bool_]:
+    """The samples of riding: outside every kick and segment ``found`` and their guards (module docstring)."""
     t = record.times
     keep = np.ones(t.size, dtype=bool)
-    spans = [(k.onset, k.end) for k in find_kicks(record, seg_options)]
-    spans += [(s.kick.onset, s.stop) for s in segments]
+    spans = [(k.onset, k.end) for k in found.kicks]
+    spans += [(s.kick.onset, s.stop) for s in found.segments]
     for a, b in spans:
         keep &= ~((t >= a - options.lead_s) & (t <= b + options.guard_s))
     return keep
@@ -228,28 +228,25 @@ def injected(m: MeasuredEigenvalue, inj: Injection) -> MeasuredEigenvalue:
 
 def inject_segments(
     record: RideRecord,
-    segments: Sequence[Segment],
+    found: Segmentation,
     measured: Sequence[MeasuredEigenvalue],
     model: str = "auto",
     options: InjectionOptions | None = None,
-    seg_options: SegmentOptions | None = None,
 ) -> list[MeasuredEigenvalue]:
-    """The record's found segments (``measured``, fitted from ``segments``) with their riding injected.
+    """The record's found segments (``measured``, fitted from ``found.segments``) with their riding injected.
 
     A segment keeps its eigenvalue and σ where the record's riding does not suffice (module docstring).
     """
     opt = options or InjectionOptions()
-    sopt = seg_options or SegmentOptions()
     t, y = record.times, record.signal
     if t.size < 2:
         return list(measured)
-    noise = y - _baseline(t, y, sopt)
-    riding = riding_mask(record, segments, opt, sopt)
+    riding = riding_mask(record, found, opt)
     out = []
-    for seg, m in zip(segments, measured, strict=True):
+    for seg, m in zip(found.segments, measured, strict=True):
         inside = (t >= seg.start) & (t <= seg.stop)
         ts, ys = t[inside], y[inside]
         starts = _starts(record, riding, ts.size, m.speed, opt.speed_share)
-        inj = inject(ts, ys, m, noise, starts, opt, model)
+        inj = inject(ts, ys, m, found.detrended, starts, opt, model)
         out.append(m if inj is None else injected(m, inj))
     return out

@@ -46,7 +46,7 @@ Units: times s, the signal in its own units (rad/s), torque N m, speed m/s.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
@@ -59,6 +59,8 @@ __all__ = [
     "UNCONFIRMED_KICK",
     "Segment",
     "SegmentOptions",
+    "Segmentation",
+    "detrend",
     "find_kicks",
     "noise_sigma",
     "segment_record",
@@ -156,6 +158,22 @@ class Segment:
     kick: Kick
     start_reason: str
     stop_reason: str
+
+
+@dataclass(frozen=True)
+class Segmentation:
+    """A record's segmentation (:func:`segment_record`).
+
+    Attributes:
+        segments: The free decays, in time order.
+        kicks: Every kick found (:func:`find_kicks`), with a segment or without (the rider's own
+            motions), in time order.
+        detrended: The signal less its baseline (:func:`detrend`), one per sample (units of the signal).
+    """
+
+    segments: tuple[Segment, ...]
+    kicks: tuple[Kick, ...]
+    detrended: FloatArray = field(repr=False, compare=False)
 
 
 def noise_sigma(y: FloatArray) -> float:
@@ -275,27 +293,38 @@ def find_kicks(record: RideRecord, options: SegmentOptions | None = None) -> lis
     speed's transients (a push).
     """
     opt = options or SegmentOptions()
+    return _kicks(record, detrend(record, opt), noise_sigma(record.signal), opt)
+
+
+def _kicks(record: RideRecord, detrended: FloatArray, sigma: float, opt: SegmentOptions) -> list[Kick]:
+    """:func:`find_kicks` with the record's :func:`detrend` and :func:`noise_sigma` of its signal."""
     if record.torque is not None:
         return _torque_kicks(record.times, record.torque, opt)
-    z = np.abs(record.signal - _baseline(record.times, record.signal, opt))
-    times, sizes, sigma = (
+    z = np.abs(detrended)
+    times, sizes, speed_sigma = (
         speed_transients(record.times, record.speed, opt) if record.speed is not None else (None, None, math.nan)
     )
-    if times is None or sizes is None or not math.isfinite(sigma):  # no usable wheel speed
-        return _signal_kicks(record.times, z, noise_sigma(record.signal), opt)
+    if times is None or sizes is None or not math.isfinite(speed_sigma):  # no usable wheel speed
+        return _signal_kicks(record.times, z, sigma, opt)
     only = _near(record.times, times, opt.speed_window_s)
     confirmed = []
-    for kick in _signal_kicks(record.times, z, noise_sigma(record.signal), opt, only):
+    for kick in _signal_kicks(record.times, z, sigma, opt, only):
         j = int(np.argmin(np.abs(times - kick.onset)))
         why = (
             f"{kick.reason}; wheel speed {sizes[j]:+.2f} m/s off its local trend over {SPEED_PULSE_S:g} s "
-            f"({abs(sizes[j]) / sigma:.0f}σ) at {times[j]:.2f} s"
+            f"({abs(sizes[j]) / speed_sigma:.0f}σ) at {times[j]:.2f} s"
         )
         confirmed.append(Kick(kick.onset, kick.end, why, confirmed=True))
     return confirmed
 
 
+def detrend(record: RideRecord, options: SegmentOptions | None = None) -> FloatArray:
+    """The record's signal less its baseline (:func:`_baseline`) (units of the signal)."""
+    return record.signal - _baseline(record.times, record.signal, options or SegmentOptions())
+
+
 def _baseline(t: FloatArray, y: FloatArray, opt: SegmentOptions) -> FloatArray:
+    """The running median of ``y`` over ``10 window_s`` (units of ``y``)."""
     from scipy.ndimage import median_filter
 
     n = max(3, int(round(10 * opt.window_s / float(np.median(np.diff(t))))))
@@ -461,13 +490,14 @@ def _free_decay_end(
         end += half
 
 
-def segment_record(record: RideRecord, options: SegmentOptions | None = None) -> list[Segment]:
-    """The free decays of a long record (module docstring), in time order."""
+def segment_record(record: RideRecord, options: SegmentOptions | None = None) -> Segmentation:
+    """The free decays of a long record (module docstring), in time order, with every kick found."""
     opt = options or SegmentOptions()
-    t, y = record.times, record.signal
-    sigma = noise_sigma(y)
-    detrended = y - _baseline(t, y, opt)
-    kicks = find_kicks(record, opt)
+    t = record.times
+    sigma = noise_sigma(record.signal)
+    detrended = detrend(record, opt)
+    kicks = _kicks(record, detrended, sigma, opt)
+    dt = float(np.median(np.diff(t)))
     segments = []
     previous = -math.inf  # where the last kick's response fades: the riding's level is measured after it
     for k, kick in enumerate(kicks):
@@ -484,7 +514,7 @@ def segment_record(record: RideRecord, options: SegmentOptions | None = None) ->
         i1 = int(np.searchsorted(t, limit, side="right"))
         lead = kick.onset - 0.25 * opt.window_s  # (the onset lags the push by up to its rise)
         before = (t >= lead - opt.riding_s) & (t < lead) & (t > previous)
-        enough = np.sum(before) * float(np.median(np.diff(t))) >= opt.window_s
+        enough = np.sum(before) * dt >= opt.window_s
         riding = float(np.sqrt(np.mean(detrended[before] ** 2))) if enough else sigma
         even = enough and _even(t[before]) and _even(t[i0:i1], float(np.median(np.diff(t[before]))))
         ar = fit_noise_ar(detrended[before], opt.noise_order) if even else None
@@ -497,7 +527,7 @@ def segment_record(record: RideRecord, options: SegmentOptions | None = None) ->
         if stop <= start or not (kick.confirmed or seen):
             continue  # the rider's own motion: no decaying oscillation of a cycle or more
         segments.append(Segment(start, stop, kick, f"{opt.settle_s:g} s after the kick ({kick.reason})", why))
-    return segments
+    return Segmentation(tuple(segments), tuple(kicks), detrended)
 
 
 def why_no_segment(record: RideRecord, options: SegmentOptions | None = None) -> str:
@@ -505,9 +535,9 @@ def why_no_segment(record: RideRecord, options: SegmentOptions | None = None) ->
     opt = options or SegmentOptions()
     if record.torque is not None:
         return f"no steer-torque kick beyond {opt.torque_threshold:g}σ of its noise"
-    z = np.abs(record.signal - _baseline(record.times, record.signal, opt))
-    rolls = _signal_kicks(record.times, z, noise_sigma(record.signal), opt)
-    confirmed = find_kicks(record, opt)
+    detrended, sigma = detrend(record, opt), noise_sigma(record.signal)
+    rolls = _signal_kicks(record.times, np.abs(detrended), sigma, opt)
+    confirmed = _kicks(record, detrended, sigma, opt)
     if not rolls:
         rising = f"{opt.rise:g}× within {opt.window_s:g} s above {opt.threshold:g}σ"
         return f"no roll-rate kick (an envelope rising {rising})"

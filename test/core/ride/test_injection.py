@@ -8,9 +8,9 @@ import numpy as np
 from scipy.signal import lfilter
 
 from bike_rig.core.ride.eigen import fit_segment
-from bike_rig.core.ride.injection import InjectionOptions, inject_segments
+from bike_rig.core.ride.injection import InjectionOptions, inject_segments, riding_mask
 from bike_rig.core.ride.record import RideRecord
-from bike_rig.core.ride.segment import Kick, Segment
+from bike_rig.core.ride.segment import Kick, Segment, Segmentation, detrend, find_kicks
 
 RATE = 100.0
 #: The decay's eigenvalue [1/s].
@@ -37,6 +37,11 @@ def _record(seed: int, length: float = 90.0, level: float = 0.1) -> tuple[RideRe
     return RideRecord("test", t, y), segment
 
 
+def _found(record: RideRecord, segment: Segment) -> Segmentation:
+    """The hand-cut ``segment`` with the kicks the segmenter finds in ``record``."""
+    return Segmentation((segment,), tuple(find_kicks(record)), detrend(record))
+
+
 def _fit(record: RideRecord, segment: Segment):  # type: ignore[no-untyped-def]
     inside = (record.times >= segment.start) & (record.times <= segment.stop)
     return fit_segment(record.times[inside], record.signal[inside])
@@ -47,7 +52,7 @@ def test_injection_removes_the_coloured_riding_bias() -> None:
     for seed in range(6):
         record, segment = _record(seed)
         m = _fit(record, segment)
-        (a,) = inject_segments(record, [segment], [m], options=OPTIONS)
+        (a,) = inject_segments(record, _found(record, segment), [m], options=OPTIONS)
         assert any("refits with this record's own riding" in n for n in a.notes)
         assert a.real_sigma >= m.real_sigma and a.imag_sigma >= m.imag_sigma
         plain.append((m.real - LAM.real, m.real_sigma))
@@ -61,8 +66,19 @@ def test_injection_removes_the_coloured_riding_bias() -> None:
 def test_no_riding_leaves_the_segment_as_it_is() -> None:
     record, segment = _record(1, length=8.0)  # the segment and its guards fill the record
     m = _fit(record, segment)
-    (a,) = inject_segments(record, [segment], [m], options=OPTIONS)
+    (a,) = inject_segments(record, _found(record, segment), [m], options=OPTIONS)
     assert a == m
+
+
+def test_the_riding_leaves_out_every_kick_with_a_segment_or_without() -> None:
+    record, segment = _record(3)
+    motion = Kick(20.0, 20.2, "the rider's own motion")
+    found = Segmentation((segment,), (motion, segment.kick), detrend(record))
+    riding = riding_mask(record, found, OPTIONS)
+    t = record.times
+    assert not riding[(t >= motion.onset - OPTIONS.lead_s) & (t <= motion.end + OPTIONS.guard_s)].any()
+    assert not riding[(t >= segment.kick.onset - OPTIONS.lead_s) & (t <= segment.stop + OPTIONS.guard_s)].any()
+    assert riding[(t > motion.end + OPTIONS.guard_s) & (t < segment.kick.onset - OPTIONS.lead_s)].all()
 
 
 def test_a_correction_never_makes_a_decay_grow() -> None:

@@ -34,7 +34,7 @@ def test_torque_kicks_are_all_found_and_none_else(speed: float) -> None:
     record = RideRecord("sim", ride.times, ride.roll_rate, speed=ride.speed, torque=ride.steer_torque)
     kicks = find_kicks(record)
     assert [round(k.onset, 2) for k in kicks] == pytest.approx(KICK_TIMES, abs=0.015)
-    segments = segment_record(record)
+    segments = segment_record(record).segments
     assert len(segments) == len(KICK_TIMES)
     for seg, t_kick in zip(segments, KICK_TIMES, strict=True):
         assert seg.start == pytest.approx(t_kick + 0.1 + 0.2, abs=0.02)  # kick end + settle
@@ -63,7 +63,7 @@ def test_noise_only_record_has_no_kicks() -> None:
     rng = np.random.default_rng(2)
     t = np.arange(6000) / 100.0
     record = RideRecord("noise", t, rng.normal(0.0, 0.01, t.size), torque=rng.normal(0.0, 0.05, t.size))
-    assert find_kicks(record) == [] and segment_record(record) == []
+    assert find_kicks(record) == [] and segment_record(record).segments == ()
     assert find_kicks(RideRecord("noise", t, record.signal)) == []
 
 
@@ -91,7 +91,7 @@ def _raw_log(rider: float, pushes: tuple[float, ...], seed: int) -> RideRecord:
 def test_a_raw_log_gives_each_push_a_segment_that_ends_with_its_free_decay() -> None:
     pushes = (3.0, 15.0, 27.0)
     record = _raw_log(0.1, pushes, seed=11)
-    segments = segment_record(record)
+    segments = segment_record(record).segments
     starts = [s.kick.onset for s in segments]
     for p in pushes:
         assert any(0.0 <= s - p < 0.3 for s in starts), (p, starts)
@@ -105,7 +105,7 @@ def test_a_raw_log_gives_each_push_a_segment_that_ends_with_its_free_decay() -> 
 
 def test_ordinary_riding_gives_no_clean_eigenvalue() -> None:
     record = _raw_log(0.1, (), seed=12)
-    for seg in segment_record(record):
+    for seg in segment_record(record).segments:
         inside = (record.times >= seg.start) & (record.times <= seg.stop)
         assert not fit_segment(record.times[inside], record.signal[inside], speed=4.2).clean, seg
 
@@ -118,6 +118,6 @@ def test_a_segment_ends_where_its_envelope_stops_explaining_the_record() -> None
     pumped = np.clip(t - 5.0, 0.0, 1.5) / 1.5 * 0.25  # the envelope grows again from 5 s
     y = np.where(t >= 2.0, (0.4 * np.exp(-0.3 * after) + pumped) * np.sin(8.6 * after), 0.0)
     record = RideRecord("pumped", t, y + rng.normal(0.0, 0.005, t.size))
-    (seg,) = segment_record(record)
+    (seg,) = segment_record(record).segments
     assert seg.kick.onset == pytest.approx(2.0, abs=0.3)
     assert seg.stop_reason.startswith("free decay ends") and 4.7 < seg.stop < 5.6, (seg.stop, seg.stop_reason)

@@ -72,7 +72,7 @@ def test_raw_ride_logs_are_segmented_push_by_push() -> None:
     stops = []
     for seed in (0, 1, 2):
         log = _log(5.0, 3, seed)
-        segments = segment_record(_record(log))
+        segments = segment_record(_record(log)).segments
         assert len(segments) == len(log.pushes), [(s.start, s.stop_reason) for s in segments]
         for seg, truth in zip(segments, log.pushes, strict=True):
             assert abs(seg.kick.onset - truth.time) < 0.2
@@ -88,9 +88,9 @@ def test_raw_ride_logs_are_segmented_push_by_push() -> None:
 def test_riding_without_a_push_gives_no_segment(seed: int) -> None:
     """Start-ups, stops, turns and the rider's steering: no segment, so no eigenvalue."""
     log = _log(5.0, 0, seed)
-    assert segment_record(_record(log)) == []
+    assert segment_record(_record(log)).segments == ()
     alone = _record(log, wheel=False)  # the roll rate alone: never an unstable "clean" weave from starting off
-    for seg in segment_record(alone):
+    for seg in segment_record(alone).segments:
         inside = (alone.times >= seg.start) & (alone.times <= seg.stop)
         m = fit_segment(alone.times[inside], alone.signal[inside], speed=float(np.mean(log.speed[inside])))
         assert not (m.clean and m.real > 0), seg
@@ -105,13 +105,22 @@ def test_roll_rate_kicks_of_riding_are_dropped_by_the_wheel_speed() -> None:
     assert [round(k.onset) for k in confirmed] == [round(k.onset) for k in alone if np.min(abs(pushes - k.onset)) < 0.3]
 
 
+def test_the_segmentation_keeps_every_kick_with_a_segment_or_without() -> None:
+    """The roll rate alone: the rider's motions are kicks without a segment, kept for the riding around them."""
+    alone = _record(_log(5.0, 3, seed=4), wheel=False)
+    found = segment_record(alone)
+    assert list(found.kicks) == find_kicks(alone)
+    assert {s.kick for s in found.segments} < set(found.kicks)
+    assert found.detrended.shape == alone.signal.shape
+
+
 def test_a_segment_ends_before_the_riders_next_motion() -> None:
     """A push, then 1.2 s later a turn: the segment ends by the turn, not at any cap."""
     matrices, g = _bicycle()
     rng = np.random.default_rng(5)
     plan = RideLog(40.0, 5.0, starts=(1.0,), turns=(21.2,), pushes=(20.0,), rider_torque=0.05)
     log = simulate_raw_log(matrices, g, plan, rng)  # type: ignore[arg-type]
-    (seg,) = segment_record(_record(log))
+    (seg,) = segment_record(_record(log)).segments
     assert seg.start == pytest.approx(log.pushes[0].start, abs=0.3)
     assert seg.stop < 21.2 + 0.5, (seg.stop, seg.stop_reason)
     assert seg.stop_reason.startswith("free decay ends")
@@ -124,7 +133,7 @@ def test_a_log_csv_keeps_its_wheel_speed(tmp_path: Path) -> None:
     record = read_ride_csv(path)
     assert record.torque is None and record.speed is not None
     assert record.speed == pytest.approx(log.wheel_speed, abs=1e-5)
-    (seg,) = segment_record(record)
+    (seg,) = segment_record(record).segments
     assert abs(seg.kick.onset - log.pushes[0].time) < 0.2
     assert record.mean_speed(seg.start, seg.stop) == pytest.approx(5.0, abs=0.05)  # the segment's speed
 

@@ -126,8 +126,8 @@ def _raw_log() -> SimulatedLog:
 def test_a_raw_log_segment_is_fitted_whitened_by_its_riding() -> None:
     log = _raw_log()
     record = RideRecord("log", log.times, log.roll_rate, speed=log.wheel_speed)
-    whitened = segment_record(record)
-    plain = segment_record(record, SegmentOptions(noise_order=0))
+    whitened = segment_record(record).segments
+    plain = segment_record(record, SegmentOptions(noise_order=0)).segments
     assert [s.kick.onset for s in whitened] == [s.kick.onset for s in plain]
     assert len(whitened) == len(log.pushes)
     assert all("whitened by the riding's AR(" in s.stop_reason for s in whitened)
@@ -138,6 +138,6 @@ def test_unevenly_sampled_riding_is_fitted_by_ordinary_least_squares() -> None:
     log = _raw_log()
     jitter = np.random.default_rng(12).uniform(-0.3, 0.3, log.times.size) * float(np.diff(log.times[:2])[0])
     record = RideRecord("log", log.times + jitter, log.roll_rate, speed=log.wheel_speed)
-    segments = segment_record(record)
+    segments = segment_record(record).segments
     assert len(segments) == len(log.pushes)
     assert not any("whitened" in s.stop_reason for s in segments)
