@@ -73,8 +73,6 @@ FloatArray = NDArray[np.float64]
 
 #: The flag of a found segment that only the roll rate saw begin (:func:`unconfirmed_flag`).
 UNCONFIRMED_KICK = "unconfirmed_kick"
-#: MAD of a normal distribution's samples times this is its σ.
-MAD_TO_SIGMA = 1.482602218505602
 #: The wheel speed's local trend is a quadratic over this long [s].
 SPEED_TREND_S = 1.0
 #: A push's jolt in the wheel speed lasts about this long [s].
@@ -178,10 +176,12 @@ class Segmentation:
 
 def noise_sigma(y: FloatArray) -> float:
     """Robust white-noise σ of a series: 1.4826 · MAD(Δ²y) / √6 (units of ``y``)."""
+    from scipy.stats import median_abs_deviation
+
     if y.size < 4:
         return math.nan
     d2 = np.diff(y, 2)
-    return float(MAD_TO_SIGMA * np.median(np.abs(d2 - np.median(d2))) / math.sqrt(6.0))
+    return float(median_abs_deviation(d2, scale="normal") / math.sqrt(6.0))
 
 
 def _running_max(z: FloatArray, n: int, forward: bool) -> FloatArray:
@@ -266,6 +266,7 @@ def speed_transients(t: FloatArray, speed: FloatArray, opt: SegmentOptions) -> t
     """
     from scipy.ndimage import uniform_filter1d
     from scipy.signal import savgol_filter
+    from scipy.stats import median_abs_deviation
 
     good = np.isfinite(speed)
     if good.sum() < 16:
@@ -278,7 +279,7 @@ def speed_transients(t: FloatArray, speed: FloatArray, opt: SegmentOptions) -> t
     turning = np.r_[False, np.diff(v) != 0.0]
     if turning.sum() < 16:
         return np.empty(0), np.empty(0), math.nan
-    sigma = float(MAD_TO_SIGMA * np.median(np.abs(pulse[turning] - np.median(pulse[turning]))))
+    sigma = float(median_abs_deviation(pulse[turning], scale="normal"))
     if not sigma > 0:
         return np.empty(0), np.empty(0), math.nan
     hits = np.flatnonzero(turning & (np.abs(pulse) > opt.speed_threshold * sigma))
