@@ -21,6 +21,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..whipple import WhippleMatrices, state_space
+from ..whipple.sampled import sampled_closed_loop_eigenvalues, zero_order_hold
 
 __all__ = ["RideConditions", "SimulatedSegment", "simulate_log", "simulate_segment"]
 
@@ -137,14 +138,12 @@ def _discrete(
     matrices: WhippleMatrices, g: float, speed: float, gains: ArrayLike | None, rate_hz: float
 ) -> tuple[FloatArray, FloatArray, FloatArray, complex]:
     """The sampled open loop (A_d, B_d), the gains and the sampled closed loop's weave eigenvalue."""
-    from scipy.signal import cont2discrete
-
-    a, b = (np.asarray(x, dtype=float) for x in state_space(matrices, speed, g))
+    a, b = state_space(matrices, speed, g)
     k = np.zeros(4) if gains is None else np.asarray(gains, dtype=float)
     dt = 1.0 / rate_hz
-    ad, bd, *_ = cont2discrete((a, b, np.eye(4), np.zeros((4, 2))), dt, method="zoh")
-    lam = np.log(np.linalg.eigvals(ad - np.outer(bd[:, 1], k)).astype(complex)) / dt  # the sampled assist's
-    return np.asarray(ad, dtype=float), np.asarray(bd, dtype=float), k, complex(lam[np.argmax(lam.imag)])
+    ad, bd = zero_order_hold(a, b, dt)
+    lam = sampled_closed_loop_eigenvalues(matrices, speed, g, k, dt)
+    return ad, bd, k, complex(lam[np.argmax(lam.imag)])
 
 
 def _run(

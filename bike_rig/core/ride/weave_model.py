@@ -11,16 +11,16 @@ Units: SI; eigenvalues 1/s; speeds m/s; gain scale dimensionless.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
 from ..feedback import Feedback
 from ..uncertainty.uncertain import COMPLEX_STEP
-from ..whipple import WhippleMatrices, canonical_matrices, state_space
+from ..whipple import canonical_matrices, state_space
 from ..whipple.closed_loop import closed_loop_rows, closed_loop_state_space
+from ..whipple.sampled import sampled_closed_loop_eigenvalues
 
 __all__ = ["MIN_IMAG", "model_weave", "scale_gradient"]
 
@@ -93,43 +93,8 @@ def model_weave(
         a, _ = closed_loop_state_space(mats, v, g, gains)
         lam = np.linalg.eigvals(np.asarray(a, dtype=float)).astype(complex)
     else:
-        lam = _sampled_eigenvalues(mats, v, g, gains, 1.0 / rate_hz)
+        lam = sampled_closed_loop_eigenvalues(mats, v, g, gains, 1.0 / rate_hz)
     return _pick(lam, np.broadcast_to(near, lam.shape[:-1]))
-
-
-def _expm(x: FloatArray) -> FloatArray:
-    """``e^x`` of a batch of small matrices (…, n, n): Taylor series of order 12 with scaling and squaring.
-
-    ``scipy.linalg.expm`` loops over a batch; this is the same accuracy (the scaled norm is below
-    1/2, the truncation error below 1e-16 of it) in a few batched matrix products.
-    """
-    norm = float(np.max(np.sum(np.abs(x), axis=-1))) if x.size else 0.0
-    squarings = max(0, math.ceil(math.log2(norm / 0.5))) if norm > 0.5 else 0
-    y = x / 2.0**squarings
-    term = np.broadcast_to(np.eye(x.shape[-1]), x.shape).copy()
-    out = term.copy()
-    for k in range(1, 13):
-        term = term @ y / k
-        out += term
-    for _ in range(squarings):
-        out = out @ out
-    return out
-
-
-def _sampled_eigenvalues(
-    mats: WhippleMatrices, v: ArrayLike, g: ArrayLike, gains: FloatArray, dt: float
-) -> ComplexArray:
-    """Eigenvalues [1/s] of the closed loop with the steer torque ``−K x`` held over each sample of ``dt`` [s]."""
-    a, b = state_space(mats, v, g)
-    a = np.asarray(a, dtype=float)
-    aug = np.zeros(a.shape[:-2] + (5, 5))
-    aug[..., :4, :4] = a
-    aug[..., :4, 4] = np.broadcast_to(np.asarray(b, dtype=float)[..., 1], a.shape[:-1])
-    e = _expm(aug * dt)
-    closed = e[..., :4, :4] - e[..., :4, 4, None] * np.asarray(gains, dtype=float)[..., None, :]
-    mu = np.linalg.eigvals(closed).astype(complex)
-    with np.errstate(divide="ignore"):
-        return np.asarray(np.log(mu) / dt)
 
 
 def scale_gradient(

@@ -43,6 +43,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..whipple import WhippleMatrices, state_space
+from ..whipple.sampled import zero_order_hold
 from .errors import SimulationError
 
 __all__ = [
@@ -369,16 +370,12 @@ def _run(
     x0: FloatArray | None = None,
 ) -> FloatArray:
     """The true states ``[φ, δ, φ̇, δ̇]`` (shape (n, 4)) over ``t`` from ``x0`` with the given pushes (start [s], N m)."""
-    from scipy.signal import cont2discrete
-
     p, q = _steps(log)
     h = 1.0 / (log.rate_hz * p)
     keys = np.rint(v / SPEED_STEP).astype(int)
-    cache: dict[int, tuple[FloatArray, FloatArray, FloatArray]] = {}
-    for key in np.unique(keys):
-        a, b = (np.asarray(m, dtype=float) for m in state_space(matrices, key * SPEED_STEP, g))
-        ad, bd, *_ = cont2discrete((a, b, np.eye(4), np.zeros((4, 2))), h, method="zoh")
-        cache[int(key)] = (np.asarray(ad, dtype=float), np.asarray(bd, dtype=float), log.gains(key * SPEED_STEP))
+    unique = np.unique(keys)
+    ads, bds = zero_order_hold(*state_space(matrices, unique * SPEED_STEP, g), h)
+    cache = {int(key): (ads[j], bds[j], log.gains(key * SPEED_STEP)) for j, key in enumerate(unique)}
     feet = np.clip(1.0 - v / log.feet_speed, 0.0, 1.0) if log.feet_speed > 0 else np.zeros(t.size)
     roll = pedal.copy()
     for start, s in pushes:
