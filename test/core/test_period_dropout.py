@@ -79,11 +79,16 @@ def test_several_dropouts_make_one_flag_and_timestamps_agree() -> None:
     assert abs(stamped.period - fit.period) < 0.1 * fit.period_sigma
 
 
-def test_a_reading_that_toggles_by_one_step_is_one_dropout() -> None:
+@pytest.mark.parametrize("level", [-5.0, 0.0])
+@pytest.mark.parametrize("share", [0.2, 0.5])
+def test_a_reading_that_toggles_by_one_step_is_one_dropout(level: float, share: float) -> None:
+    """The lowest code, now and then the next; or 0 V, now and then a code either side."""
     trial = gyro_trial(12, bits=None)
     y = volts(trial.samples)
     lsb = 10.0 / 2**12
-    y[8000:8500] = -5.0 + lsb * (np.random.default_rng(1).random(500) < 0.2)  # the lowest code, now and then the next
+    rng = np.random.default_rng(1)
+    toggles = rng.random(500) < share
+    y[8000:8500] = level + lsb * toggles * (1 if level == -5.0 else rng.choice([-1, 1], 500))
     fit = fit_period(y, sample_rate_hz=1000.0)
     (reason,) = dropout_reasons(fit)
     assert "from 8.000 s to 8.500 s" in reason and fit.valid, reason
@@ -137,3 +142,12 @@ def test_clean_records_never_carry_the_flag(rate_hz: float, duration: float) -> 
             for y in (volts(trial.samples), volts(trial.samples, "10-bit 0-5.2 V"), trial.samples):
                 fit = fit_period(y, sample_rate_hz=rate_hz)
                 assert not dropout_reasons(fit), (seed, amplitude, fit.flags)
+
+
+def test_two_samples_at_100_hz_are_a_dropout() -> None:
+    trial = gyro_trial(16, rate_hz=100.0, duration=20.0, bits=None)
+    y = volts(trial.samples)
+    y[1000:1002] = 0.0  # 20 ms
+    fit = fit_period(y, sample_rate_hz=100.0)
+    (reason,) = dropout_reasons(fit)
+    assert "from 10.000 s to 10.020 s (0.02 s, 2 samples)" in reason and fit.valid, reason

@@ -62,9 +62,11 @@ def clean_samples(
     """The samples the fit can use (finite, no dropout), their times and positions.
 
     Returns:
-        The times from the first sample kept [s], or None with their even spacing [s]
-        (given a rate and no sample left out but at the ends); the samples kept; their
-        positions in the input (None: all); the time of the first one on the caller's axis [s].
+        The times [s] from the first finite sample (the first dropout-free one when a
+        dropout starts the record, though: a lead-in counts from the record's start), or
+        None with their even spacing [s] (given a rate and no sample left out but at the
+        end); the samples kept; their positions in the input (None: all); the time of the
+        first finite sample on the caller's axis [s].
 
     Raises:
         Invalid: No usable samples or times (``flags`` holds what was flagged before).
@@ -121,12 +123,11 @@ def _leave_out_dropouts(
     total = n * float(even or 0.0) if t is None else float(t[-1] - t[0]) * n / max(1, n - 1)
     flags.append(dropout_flag(dropouts, swing, time_of, lambda d: dropout_duration(d, t, even, n), total))
     kept = np.flatnonzero(keep)  # (never empty: the dropouts were judged against other samples)
-    if t is None and kept[-1] - kept[0] == kept.size - 1:  # (only the ends: still evenly spaced)
-        a = int(kept[0])
-        return None, y[kept], kept, even, a * float(even or 0.0)
+    if t is None and kept[0] == 0 and kept[-1] == kept.size - 1:  # (only at the end: still evenly spaced)
+        return None, y[: kept.size], None, even, t0
+    # (the times keep their origin: a lead-in still counts from the record's start)
     new_t = np.asarray(kept * float(even or 0.0) if t is None else t[kept], dtype=np.float64)
-    shift = float(new_t[0])
-    return new_t - shift, y[kept], kept if index is None else index[kept], None, t0 + shift
+    return new_t, y[kept], kept if index is None else index[kept], None, t0
 
 
 def _held_tail(y: FloatArray, t: FloatArray | None, even: float | None, flags: list[Flag], notes: list[str]) -> int:

@@ -11,7 +11,9 @@ oscillation; the fit leaves them out as it leaves out other gaps. A stretch is a
   :data:`FAR_STEPS` steps and :data:`FAR_FRACTION` of its peak to peak): the oscillation never
   goes there, so any such run is a dropout; or it lies **at the edge** of that range (within
   :data:`EDGE_STEPS` steps, or beyond) and lasts longer than a period: no swing holds any
-  value that long (a peak holds for a fraction of a period, a clipped one less than half).
+  value that long (a peak holds for a fraction of a period, a clipped one less than half),
+  while the signal swings beside it (by :data:`LOCAL_SWING` of the range within a period
+  before or after: a slow drift's staircase also holds its extreme values, but creeps on).
 
 The range is that of the samples outside the candidate stretches, less one sample per stretch
 end at each side (a transition sample). The period of the edge rule is that of the highest
@@ -38,7 +40,7 @@ __all__ = ["Dropout", "dropout_duration", "dropout_flag", "find_dropouts"]
 FloatArray = NDArray[np.float64]
 
 #: Fewest samples in a dropout.
-MIN_RUN = 3
+MIN_RUN = 2
 #: Candidates: runs among this share of the lowest (or highest) samples.
 TAIL_FRACTION = 0.02
 #: A level beyond the others' range by more than this many steps (and FAR_FRACTION) is far outside.
@@ -49,8 +51,12 @@ FAR_FRACTION = 0.25
 EDGE_STEPS = 2.0
 #: Runs of one level (within a step) this many samples apart or closer are one stretch.
 JOIN_GAP = 8
+#: Samples beside a stretch looked at in one go when widening it.
+REACH = 32
 #: About this many samples (every k-th) give the tails' bounds and the step.
 SUBSAMPLE = 4096
+#: A stretch at the edge is a dropout only beside a swing of this share of the others' range.
+LOCAL_SWING = 0.25
 #: Fewest samples outside the candidate stretches to judge them by.
 MIN_REST = 16
 #: Spectral prominence of the other samples' oscillation below which no level is judged at the edge.
@@ -104,10 +110,11 @@ def find_dropouts(y: FloatArray, t: FloatArray | None, even: float | None) -> tu
         if not hi > lo:
             return none
         beyond = np.maximum(lo - levels, levels - hi)
-        if widened or not np.any(beyond > 0.0):
+        edge = beyond >= -1.5 * tol
+        if widened or not np.any(edge):
             break
         # (a reading that toggles by a step leaves samples of its own beside the runs: take them in)
-        starts, stops, levels, top = _widen(y, starts, stops, levels, top, beyond > 0.0, tol)
+        starts, stops, levels, top = _widen(y, starts, stops, levels, top, edge, tol)
     dropout = beyond > max(FAR_STEPS * step, FAR_FRACTION * (hi - lo))
     edge = ~dropout & (beyond >= -EDGE_STEPS * step)
     if np.any(edge) and hi - lo > 2.0 * FAR_STEPS * step:
@@ -115,7 +122,9 @@ def find_dropouts(y: FloatArray, t: FloatArray | None, even: float | None) -> tu
         crossings = (starts[1:] - stops[:-1])[top[1:] != top[:-1]]
         if crossings.size < 2 or np.max((stops - starts)[edge]) > np.median(crossings):
             times = np.asarray(np.flatnonzero(rest) * float(even or 0.0) if t is None else t[rest], dtype=np.float64)
-            dropout |= edge & (_durations(starts, stops, t, even, y.size) > _period(others, times))
+            period = _period(others, times)
+            for i in np.flatnonzero(edge & (_durations(starts, stops, t, even, y.size) > period)):
+                dropout[i] = _swings_beside(y, t, even, int(starts[i]), int(stops[i]), period, LOCAL_SWING * (hi - lo))
     starts, stops, levels, _ = _widen(y, starts[dropout], stops[dropout], levels[dropout], top[dropout], None, tol)
     return [Dropout(int(a), int(b), float(v)) for a, b, v in zip(starts, stops, levels, strict=True)], (lo, hi)
 
@@ -179,10 +188,10 @@ def _widen(
     """
     if starts.size == 0:
         return starts, stops, levels, top
+    chosen = np.flatnonzero(which) if which is not None else np.arange(starts.size)
     starts, stops = starts.copy(), stops.copy()
-    for i in np.flatnonzero(which) if which is not None else range(starts.size):
-        starts[i] = _reach(y, int(starts[i]), -1, float(levels[i]), tol)
-        stops[i] = _reach(y, int(stops[i]) - 1, 1, float(levels[i]), tol) + 1
+    starts[chosen] = _reach_all(y, starts[chosen], -1, levels[chosen], tol)
+    stops[chosen] = _reach_all(y, stops[chosen] - 1, 1, levels[chosen], tol) + 1
     order = np.argsort(starts, kind="stable")
     starts, stops, levels, top = starts[order], stops[order], levels[order], top[order]
     meet = (starts[1:] <= np.maximum.accumulate(stops)[:-1]) & (np.abs(np.diff(levels)) <= tol)
@@ -191,6 +200,19 @@ def _widen(
     starts = np.maximum(starts, np.append(0, np.maximum.accumulate(stops)[:-1]))  # (levels apart: no overlap)
     kept = stops > starts
     return starts[kept], stops[kept], levels[kept], top[kept]
+
+
+def _reach_all(y: FloatArray, at: NDArray[np.intp], direction: int, levels: FloatArray, tol: float) -> NDArray[np.intp]:
+    """:func:`_reach` from each of ``at`` at its level: the first :data:`REACH` samples at once, then one by one."""
+    n = y.size
+    steps = np.arange(1, REACH + 1) * direction
+    look = at[:, None] + steps[None, :]
+    inside = (look >= 0) & (look < n)
+    away = ~inside | (np.abs(y[np.clip(look, 0, n - 1)] - levels[:, None]) > tol)
+    reached = at + direction * np.argmax(away, axis=1)
+    for i in np.flatnonzero(~np.any(away, axis=1)):  # (still within a step after REACH samples)
+        reached[i] = _reach(y, int(at[i]), direction, float(levels[i]), tol)
+    return reached
 
 
 def _reach(y: FloatArray, i: int, direction: int, level: float, tol: float) -> int:
@@ -222,6 +244,19 @@ def _durations(
         return np.asarray((stops - starts) * float(even or 0.0), dtype=np.float64)
     ends = np.append(t, t[-1] + float(t[-1] - t[0]) / max(1, n - 1))
     return np.asarray(ends[stops] - t[starts], dtype=np.float64)
+
+
+def _swings_beside(
+    y: FloatArray, t: FloatArray | None, even: float | None, a: int, b: int, period: float, swing: float
+) -> bool:
+    """Whether the samples within a ``period`` [s] before ``a`` or after ``b`` (exclusive) swing by ``swing``."""
+    if t is None:
+        w = math.ceil(period / float(even or 1.0))
+        before, after = y[max(0, a - w) : a], y[b : b + w]
+    else:
+        before = y[int(np.searchsorted(t, t[a] - period)) : a]
+        after = y[b : int(np.searchsorted(t, t[b - 1] + period, side="right"))]
+    return any(side.size > 1 and float(np.ptp(side)) >= swing for side in (before, after))
 
 
 def _period(y: FloatArray, t: FloatArray) -> float:
