@@ -15,8 +15,9 @@ oscillation; the fit leaves them out as it leaves out other gaps. A stretch is a
   while the signal swings beside it (by :data:`LOCAL_SWING` of the range within a period
   before or after: a slow drift's staircase also holds its extreme values, but creeps on).
 
-The range is that of the samples outside the candidate stretches, less one sample per stretch
-end at each side (a transition sample). The period of the edge rule is that of the highest
+The range is that of the samples outside the candidate stretches (those at or beyond its edge
+first widened over their neighbours within a step: a reading that toggles), less one sample
+per stretch end at each side (a transition sample). The period of the edge rule is that of the highest
 spectral peak of the other samples, when it stands out as the fit's initial guess must. A level
 inside the range is never a dropout: a rate signal's zero crossing, or a swing that died into
 the sensor's resolution, is not (a hold there is :func:`~.quality.held_flag`'s business).
@@ -59,7 +60,8 @@ SUBSAMPLE = 4096
 LOCAL_SWING = 0.25
 #: Fewest samples outside the candidate stretches to judge them by.
 MIN_REST = 16
-#: Spectral prominence of the other samples' oscillation below which no level is judged at the edge.
+#: Spectral prominence of the other samples' oscillation below which no level is judged at the
+#: edge (the fit's initial guess needs as much).
 MIN_PROMINENCE = 40.0
 #: Dropouts listed by time in the flag's reason.
 LISTED = 3
@@ -104,17 +106,16 @@ def find_dropouts(y: FloatArray, t: FloatArray | None, even: float | None) -> tu
         if others.size < MIN_REST:
             return none
         trim = min(2 * starts.size, others.size // 1000)  # (a transition sample at each end)
-        lo, hi = (
-            float(v) for v in np.partition(others, (trim, others.size - 1 - trim))[[trim, others.size - 1 - trim]]
-        )
+        ends = np.partition(others, (trim, others.size - 1 - trim))
+        lo, hi = float(ends[trim]), float(ends[-1 - trim])
         if not hi > lo:
             return none
         beyond = np.maximum(lo - levels, levels - hi)
-        edge = beyond >= -1.5 * tol
-        if widened or not np.any(edge):
+        near = beyond >= -1.5 * tol
+        if widened or not np.any(near):
             break
         # (a reading that toggles by a step leaves samples of its own beside the runs: take them in)
-        starts, stops, levels, top = _widen(y, starts, stops, levels, top, edge, tol)
+        starts, stops, levels, top = _widen(y, starts, stops, levels, top, near, tol)
     dropout = beyond > max(FAR_STEPS * step, FAR_FRACTION * (hi - lo))
     edge = ~dropout & (beyond >= -EDGE_STEPS * step)
     if np.any(edge) and hi - lo > 2.0 * FAR_STEPS * step:
