@@ -4,8 +4,10 @@ Non-finite samples (and samples with non-finite timestamps) are left out and fla
 timestamps must increase (gaps are noted). A record that ends holding one value for
 :data:`HELD_TAIL_S` or more is cut where the hold begins: flagged ``gap_filled`` when the signal
 was swinging just before (the sensor or its link stopped), noted when the swing had died into
-the sensor's resolution. Bad data never raise out of the fit: they end in
-:class:`Invalid`, which the fit turns into a result with ``valid=False`` and its flags.
+the sensor's resolution. Stretches where the signal reads one value outside its swing (a
+dropout: :mod:`.dropout`) are left out and flagged ``gap_filled``. Bad data never raise out of
+the fit: they end in :class:`Invalid`, which the fit turns into a result with ``valid=False``
+and its flags.
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .dropout import dropout_duration, dropout_flag, find_dropouts
 from .quality import smallest_step
 from .result import Flag, FlagCode
 
@@ -56,12 +59,14 @@ def _as_series(values: ArrayLike, what: str) -> FloatArray:
 def clean_samples(
     samples: ArrayLike, rate: float | None, times: ArrayLike | None, flags: list[Flag], notes: list[str]
 ) -> tuple[FloatArray | None, FloatArray, NDArray[np.intp] | None, float | None, float]:
-    """The finite samples, their times and positions.
+    """The samples the fit can use (finite, no dropout), their times and positions.
 
     Returns:
-        The times from the first finite sample [s], or None with their even spacing [s]
-        (given a rate and no sample left out); the finite samples; their positions in the
-        input (None: all); the time of the first finite sample on the caller's axis [s].
+        The times [s] from the first finite sample (the first dropout-free one when a
+        dropout starts the record, though: a lead-in counts from the record's start), or
+        None with their even spacing [s] (given a rate and no sample left out but at the
+        end); the samples kept; their positions in the input (None: all); the time of the
+        first finite sample on the caller's axis [s].
 
     Raises:
         Invalid: No usable samples or times (``flags`` holds what was flagged before).
@@ -89,10 +94,40 @@ def clean_samples(
         if not math.isfinite(n * even):
             raise Invalid(Flag(FlagCode.BAD_TIMES, "the times span more than the floating-point range"))
         keep = _held_tail(y, None, even, flags, notes)
-        return None, y[:keep], None, even, 0.0
+        return _leave_out_dropouts(None, y[:keep], None, even, 0.0, flags)
     t, t0 = _check_times(t, index, rate, notes)
     keep = _held_tail(y, t, None, flags, notes)
-    return t[:keep], y[:keep], None if index is None else index[:keep], None, t0
+    return _leave_out_dropouts(t[:keep], y[:keep], None if index is None else index[:keep], None, t0, flags)
+
+
+def _leave_out_dropouts(
+    t: FloatArray | None,
+    y: FloatArray,
+    index: NDArray[np.intp] | None,
+    even: float | None,
+    t0: float,
+    flags: list[Flag],
+) -> tuple[FloatArray | None, FloatArray, NDArray[np.intp] | None, float | None, float]:
+    """Leave out (and flag) the dropouts (:mod:`.dropout`); the arguments and result as :func:`clean_samples`'s."""
+    dropouts, swing = find_dropouts(y, t, even)
+    if not dropouts:
+        return t, y, index, even, t0
+    n = y.size
+    keep = np.ones(n, dtype=bool)
+    for d in dropouts:
+        keep[d.start : d.stop] = False
+
+    def time_of(i: int) -> float:
+        return t0 + (float(t[i]) if t is not None else i * float(even or 0.0))
+
+    total = n * float(even or 0.0) if t is None else float(t[-1] - t[0]) * n / max(1, n - 1)
+    flags.append(dropout_flag(dropouts, swing, time_of, lambda d: dropout_duration(d, t, even, n), total))
+    kept = np.flatnonzero(keep)  # (never empty: the dropouts were judged against other samples)
+    if t is None and kept[0] == 0 and kept[-1] == kept.size - 1:  # (only at the end: still evenly spaced)
+        return None, y[: kept.size], None, even, t0
+    # (the times keep their origin: a lead-in still counts from the record's start)
+    new_t = np.asarray(kept * float(even or 0.0) if t is None else t[kept], dtype=np.float64)
+    return new_t, y[kept], kept if index is None else index[kept], None, t0
 
 
 def _held_tail(y: FloatArray, t: FloatArray | None, even: float | None, flags: list[Flag], notes: list[str]) -> int:
