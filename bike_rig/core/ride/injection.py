@@ -235,7 +235,8 @@ def inject_segments(
 ) -> list[MeasuredEigenvalue]:
     """The record's found segments (``measured``, fitted from ``found.segments``) with their riding injected.
 
-    A segment keeps its eigenvalue and σ where the record's riding does not suffice (module docstring).
+    A segment keeps its eigenvalue and σ where the record's riding does not suffice (module docstring),
+    and where it is flagged already: it enters no mean, so its refits would change nothing used.
     """
     opt = options or InjectionOptions()
     t, y = record.times, record.signal
@@ -244,6 +245,9 @@ def inject_segments(
     riding = riding_mask(record, found, opt)
     out = []
     for seg, m in zip(found.segments, measured, strict=True):
+        if not m.clean:
+            out.append(m)
+            continue
         inside = (t >= seg.start) & (t <= seg.stop)
         ts, ys = t[inside], y[inside]
         starts = _starts(record, riding, ts.size, m.speed, opt.speed_share)
