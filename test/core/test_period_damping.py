@@ -16,11 +16,12 @@ import pytest
 
 from bike_rig.core.period import FlagCode, fit_period
 from bike_rig.core.period.damping import envelope, half_cycle_times
-from test.support.signals import LSB, RATE_HZ, gyro_trial, pendulum_trial, quantise
+from test.support.signals import LSB, RATE_HZ, gyro_trial, pendulum_trial, pendulum_trials, quantise
 
 
 def _fits(n: int, **kw: float) -> list:
-    return [fit_period(pendulum_trial(seed, **kw)[0], RATE_HZ) for seed in range(n)]  # type: ignore[arg-type]
+    samples, _ = pendulum_trials(range(n), **kw)  # type: ignore[arg-type]
+    return [fit_period(y, RATE_HZ) for y in samples]
 
 
 def test_the_envelope_is_exponential_linear_or_both_and_ends_at_rest() -> None:

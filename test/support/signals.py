@@ -9,6 +9,7 @@ the paper's Fig. 7) with energy exchange.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -111,12 +112,41 @@ def pendulum_trial(
     duration: float = 30.0,
 ) -> tuple[np.ndarray, PendulumMotion]:
     """A pendulum's rate through the test gyro: rad/s samples at 1 kHz, and its motion."""
-    rng = np.random.default_rng(seed)
+    (samples,), motion = pendulum_trials(
+        [seed], period, zeta, loss_per_cycle, compound, swing, rate_amplitude, duration
+    )
+    return samples, motion
+
+
+def pendulum_trials(
+    seeds: Iterable[int],
+    period: float = 1.6,
+    zeta: float = 0.0,
+    loss_per_cycle: float = 0.0,
+    compound: bool = False,
+    swing: float | None = None,
+    rate_amplitude: float = 0.05,
+    duration: float = 30.0,
+) -> tuple[list[np.ndarray], PendulumMotion]:
+    """:func:`pendulum_trial` of each seed, the same samples, with one integration of the motion.
+
+    The seeds' records differ only in the phase they start at and in their noise: one
+    :func:`pendulum_rate` call over every record's sample times (each shifted by its phase)
+    integrates the shared motion once and evaluates it where each record needs it.
+    """
+    rngs = [np.random.default_rng(seed) for seed in seeds]
     w0 = 2 * math.pi / period
     theta0 = rate_amplitude / w0 if swing is None else swing
     motion = PendulumMotion(period, theta0, zeta, loss_per_cycle * theta0 * w0**2 / 4, compound)
     t = np.arange(round(duration * RATE_HZ)) / RATE_HZ
-    y = pendulum_rate(t, motion, float(rng.uniform(0, period))) * (rate_amplitude / (theta0 * w0))
-    y += 0.01 + LSB * rng.standard_normal(t.size)
-    y += np.cumsum(rng.standard_normal(t.size)) * (3 * LSB / math.sqrt(t.size))
-    return quantise(y), motion
+    shifted = np.concatenate([t + float(rng.uniform(0, period)) for rng in rngs])
+    order = np.argsort(shifted, kind="stable")
+    rates = np.empty_like(shifted)
+    rates[order] = pendulum_rate(shifted[order], motion)
+    out = []
+    for rng, rate in zip(rngs, np.split(rates, len(rngs)), strict=True):
+        y = rate * (rate_amplitude / (theta0 * w0))
+        y += 0.01 + LSB * rng.standard_normal(t.size)
+        y += np.cumsum(rng.standard_normal(t.size)) * (3 * LSB / math.sqrt(t.size))
+        out.append(quantise(y))
+    return out, motion
