@@ -27,7 +27,7 @@ from bike_rig.plots.registry import FIGURES
 from bike_rig.plots.style import new_figure
 from bike_rig.plots.trials import flag_key, overview_data, short_code
 from bike_rig.report.figures import REPORT_DPI
-from test.support.figure_layout import drawn_texts, layout_faults
+from test.support.figure_layout import drawn_layout_faults, drawn_texts, layout_faults
 from test.support.simulated import short_session
 
 #: Trial length of the session too short to fit, s (the rig's periods are 0.3-2.7 s, 4 cycles asked).
@@ -106,9 +106,10 @@ def test_a_heavily_flagged_session_s_overview_is_laid_out_and_names_every_flag(
     flagged = [t for t in subject.trials if t.fit.flag_codes]
     for size, fig in _drawings(subject):
         try:
-            faults = layout_faults(fig)
+            texts = drawn_texts(fig)
+            faults = drawn_layout_faults(fig, texts)
             assert not faults, f"{name} at the {size} size: " + "\n".join(faults)
-            drawn = [t.text for t in drawn_texts(fig)]
+            drawn = [t.text for t in texts]
             renderer = fig.canvas.get_renderer()  # type: ignore[attr-defined]
             key = _legend_key(fig)
             assert set(key.values()) == {c for t in flagged for c in t.fit.flag_codes}  # every code named
@@ -210,9 +211,10 @@ def test_the_flagged_overview_is_laid_out_at_other_sizes(
     fig = FIGURES["trials"].draw(sessions[name])
     fig.set_size_inches(*size_in)
     try:
-        faults = layout_faults(fig)
+        texts = drawn_texts(fig)
+        faults = drawn_layout_faults(fig, texts)
         assert not faults, f"{name} at {size_in} in: " + "\n".join(faults)
-        heading = [t.text for t in drawn_texts(fig) if t.text.startswith(sessions[name].name + ":")]
+        heading = [t.text for t in texts if t.text.startswith(sessions[name].name + ":")]
         assert len(heading) == 1  # wrapped to the panel's width, nothing dropped
         assert all(k in heading[0].split() or k + "," in heading[0].split() for k in sessions[name].missing)
     finally:

@@ -110,7 +110,11 @@ def layout_faults(fig: Figure, max_covered: float = MAX_COVERED) -> list[str]:
         Overlapping texts, texts outside the canvas, legends over more than ``max_covered`` of the
         data points.
     """
-    texts = drawn_texts(fig)
+    return drawn_layout_faults(fig, drawn_texts(fig), max_covered)
+
+
+def drawn_layout_faults(fig: Figure, texts: list[DrawnText], max_covered: float = MAX_COVERED) -> list[str]:
+    """:func:`layout_faults` of ``fig`` as it was just drawn, ``texts`` its :func:`drawn_texts` (one draw for both)."""
     canvas = fig.bbox
     faults = []
     for t in texts:
