@@ -13,6 +13,7 @@ weighted mean as their σ say (pooled χ²/dof within [0.5, 2]).
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -32,7 +33,9 @@ from bike_rig.core.uncertainty.matrix_sigma import canonical_with_sigma
 SETTLE_S = 0.3
 
 
-def _cases() -> list[tuple[object, float, np.ndarray | None]]:
+@functools.cache
+def _cases() -> tuple[tuple[object, float, np.ndarray | None], ...]:
+    """(bicycle, speed m/s, assist gains or None) of each simulated case, built once for the file."""
     browser = canonical_with_sigma(
         add_rider(_parameters(str(config_file("bicycles/browser.yaml")), "centroid"), PAPER_RIDER)
     )
@@ -44,14 +47,26 @@ def _cases() -> list[tuple[object, float, np.ndarray | None]]:
         cases.append((browser, v, assist.gains(v)))
     for v in (4.5, 5.5):
         cases.append((bench, v, None))
-    return cases
+    return tuple(cases)
+
+
+#: The weave eigenvalue of each of :func:`_cases`, by (id of its bicycle, speed), 1/s.
+_WEAVES: dict[tuple[int, float], complex] = {}
+
+
+def _weave(ms: object, v: float, gains: np.ndarray | None) -> complex:
+    """The weave eigenvalue of one of :func:`_cases`, 1/s (the model probed once per case)."""
+    key = (id(ms), v)
+    if key not in _WEAVES:
+        probe = simulate_ride(ms.matrices, ms.g, RideSimulation(v, 0.1), gains=gains)  # type: ignore[attr-defined]
+        lam = probe.eigenvalues
+        _WEAVES[key] = complex(lam[np.argmax(lam.imag)])
+    return _WEAVES[key]
 
 
 def _segment(ms: object, v: float, gains: np.ndarray | None, cycles: float, seed: int, noise: float = 0.01):
     """(times, roll rate, true weave eigenvalue) of one simulated short segment."""
-    probe = simulate_ride(ms.matrices, ms.g, RideSimulation(v, 0.1), gains=gains)  # type: ignore[attr-defined]
-    lam = probe.eigenvalues
-    weave = complex(lam[np.argmax(lam.imag)])
+    weave = _weave(ms, v, gains)
     length = cycles * 2 * math.pi / weave.imag
     start = 0.6 + SETTLE_S
     sim = RideSimulation(v, start + length + 0.05, kicks=(Kick(0.5, 0.1, 0.0, 5.0),), noise_roll_rate=noise, seed=seed)
@@ -140,10 +155,9 @@ def test_noise_only_and_too_short_segments_are_flagged() -> None:
 @pytest.mark.parametrize("model", ["auto", "eq23_trend", "eq23_real", "eq23"])
 def test_noise_free_segment_gives_the_eigenvalue(model: str) -> None:
     ms, v, gains = _cases()[1]
-    probe = simulate_ride(ms.matrices, ms.g, RideSimulation(v, 0.1), gains=gains)  # type: ignore[attr-defined]
     sim = RideSimulation(v, 4.0, kicks=(Kick(0.5, 0.1, 0.0, 5.0),), noise_roll_rate=1e-5, seed=1)
     ride = simulate_ride(ms.matrices, ms.g, sim, gains=gains)  # type: ignore[attr-defined]
-    weave = complex(probe.eigenvalues[np.argmax(probe.eigenvalues.imag)])
+    weave = _weave(ms, v, gains)
     inside = ride.times >= 1.5
     m = fit_segment(ride.times[inside], ride.roll_rate[inside], speed=v, model=model)
     tol = 0.02 if model == "eq23" else 2e-3  # Eq 23 alone: the capsize mode's bias
