@@ -26,10 +26,15 @@ def _bicycle() -> tuple[object, float]:
     return ms.matrices, ms.g
 
 
+@cache
 def _log(speed: float, pushes: int, seed: int, duration: float = 179.0) -> SimulatedLog:
+    """One seeded simulated log, simulated once for the file (read-only: the tests share it)."""
     matrices, g = _bicycle()
     rng = np.random.default_rng(seed)
-    return simulate_raw_log(matrices, g, ride_plan(duration, speed, pushes, rng), rng)  # type: ignore[arg-type]
+    log = simulate_raw_log(matrices, g, ride_plan(duration, speed, pushes, rng), rng)  # type: ignore[arg-type]
+    for a in (log.times, log.roll_rate, log.wheel_speed, log.speed, *(p.response for p in log.pushes)):
+        a.flags.writeable = False
+    return log
 
 
 def _record(log: SimulatedLog, wheel: bool = True) -> RideRecord:
