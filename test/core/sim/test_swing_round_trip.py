@@ -44,7 +44,16 @@ def _compound(session: SimulatedSession) -> list[str]:
     return [m.key for m in session.plan if m.pendulum == "compound"]
 
 
-def _periods(session: SimulatedSession, small: bool) -> tuple[dict[str, tuple[float, float]], list[SessionTrial]]:
+Periods = tuple[dict[str, tuple[float, float]], list[SessionTrial]]
+
+
+@pytest.fixture(scope="module")
+def fitted(sessions: list[SimulatedSession]) -> dict[tuple[int, bool], Periods]:
+    """:func:`_periods` of each session (by its index) with and without the small-swing option."""
+    return {(i, small): _periods(s, small) for i, s in enumerate(sessions) for small in (False, True)}
+
+
+def _periods(session: SimulatedSession, small: bool) -> Periods:
     periods, trials = {}, []
     for m in session.plan:
         fits = [
@@ -56,27 +65,31 @@ def _periods(session: SimulatedSession, small: bool) -> tuple[dict[str, tuple[fl
     return periods, trials
 
 
-def test_the_small_swing_period_option_recovers_the_truth(sessions: list[SimulatedSession]) -> None:
-    for session in sessions:
+def test_the_small_swing_period_option_recovers_the_truth(
+    sessions: list[SimulatedSession], fitted: dict[tuple[int, bool], Periods]
+) -> None:
+    for i, session in enumerate(sessions):
         keys = _compound(session)
-        fitted, _ = _periods(session, small=False)
-        small, _ = _periods(session, small=True)
+        at_centre, _ = fitted[i, False]
+        small, _ = fitted[i, True]
         truth = session.truth.damped_periods
         z_small = np.array([(small[k][0] - truth[k]) / small[k][1] for k in keys])
-        z_fitted = np.array([(fitted[k][0] - truth[k]) / fitted[k][1] for k in keys])
+        z_fitted = np.array([(at_centre[k][0] - truth[k]) / at_centre[k][1] for k in keys])
         assert np.all(np.abs(z_small) < 4.5), z_small
         assert np.mean(z_fitted) > 5 and np.all(z_fitted > 0), z_fitted  # the swing lengthens the period
         # the torsional periods do not follow the swing: the same either way
         others = [m.key for m in session.plan if m.key not in keys]
-        assert all(fitted[k] == small[k] for k in others)
+        assert all(at_centre[k] == small[k] for k in others)
         ps = compute_parameters(session.measurements(small)).parameters
         z = [(ps.value(k) - session.truth.parameters[k]) / ps.sigma(k) for k in ps.names if k != "g"]
         assert np.max(np.abs(z)) < 5, z
 
 
-def test_the_budget_states_the_swing_as_a_systematic_line(sessions: list[SimulatedSession]) -> None:
+def test_the_budget_states_the_swing_as_a_systematic_line(
+    sessions: list[SimulatedSession], fitted: dict[tuple[int, bool], Periods]
+) -> None:
     session = sessions[0]
-    periods, trials = _periods(session, small=False)
+    periods, trials = fitted[0, False]
     alternative = swing_alternative(trials)
     shifts = alternative[TO_SMALL]
     assert set(shifts) <= set(_compound(session)) and shifts
@@ -95,9 +108,11 @@ def test_the_budget_states_the_swing_as_a_systematic_line(sessions: list[Simulat
         assert shift == pytest.approx(-delta, rel=0.05, abs=1e-9 * max(1.0, abs(ps.parameters.value(name))))
 
 
-def test_the_budget_shows_the_small_swing_systematic_as_a_line(sessions: list[SimulatedSession]) -> None:
+def test_the_budget_shows_the_small_swing_systematic_as_a_line(
+    sessions: list[SimulatedSession], fitted: dict[tuple[int, bool], Periods]
+) -> None:
     session = sessions[0]
-    periods, trials = _periods(session, small=True)
+    periods, trials = fitted[0, True]
     parts = small_swing_parts((t.key, t.result.fit) for t in trials if t.used)
     assert parts, "no compound period of the session has a small-swing systematic"
     by_key = parts[SMALL_SWING_SOURCE]
