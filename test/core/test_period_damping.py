@@ -24,6 +24,14 @@ def _fits(n: int, **kw: float) -> list:
     return [fit_period(y, RATE_HZ) for y in samples]
 
 
+def test_a_campaign_s_records_are_each_seed_s_own_record() -> None:
+    # (the campaigns integrate the shared motion once: each seed's record must not see the others)
+    kw = {"loss_per_cycle": 0.04, "compound": True, "swing": math.radians(16.0), "rate_amplitude": 0.5}
+    batch, _ = pendulum_trials([5, 1, 3], **kw)  # type: ignore[arg-type]
+    for seed, samples in zip([5, 1, 3], batch, strict=True):
+        assert np.array_equal(samples, pendulum_trial(seed, **kw)[0])  # type: ignore[arg-type]
+
+
 def test_the_envelope_is_exponential_linear_or_both_and_ends_at_rest() -> None:
     tau = np.linspace(-10.0, 10.0, 201)
     e, de_da, phi = envelope(tau, 0.02, 0.0)
