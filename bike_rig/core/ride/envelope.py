@@ -22,9 +22,12 @@ the fit cannot follow raises the residuals with it, so the bump never stands out
 **Not a free decay** (any one):
 
 1. *A dip and a bump*: with three or more amplitudes, one misses the best exponential through
-   them (least squares on log a) by more than its σ, **and** the amplitudes rise and fall (a rise
-   after an earlier amplitude and a fall below an earlier one, each beyond 3 √2 σ_a): the misfit
-   has the shape of a pumped weave, not of a decay whose rate the rider's noise has bent.
+   them (least squares on log a) by more than its σ, **and** the misfit has the shape of a pumped
+   weave: the amplitudes rise and fall (a rise after an earlier amplitude and a fall below an
+   earlier one, each beyond 3 √2 σ_a), or they rise and level off (a rise beyond 3 √2 σ_a and
+   log a bending down, ``ln a_{k+1} − 2 ln a_k + ln a_{k−1}`` below minus its σ, from each
+   amplitude's σ above: a step). The rider's noise bends a free envelope the other way: it holds
+   the small amplitudes up, a decay's tail or a growth's start, so ln a bends up.
 2. *Against the fit*: where Re λ is beyond its σ, an amplitude rises (< 0: decaying) or falls
    (> 0: growing) from the one before by more than 3 √2 σ_a plus :data:`RELATIVE_TOLERANCE` of
    the larger.
@@ -121,6 +124,17 @@ def _exponential_misfit(h: HalfCycles, sigma_w: float) -> float:
     return float(np.max(np.abs(a - envelope) / sigma))
 
 
+def _levels_off(h: HalfCycles, sigma_w: float) -> bool:
+    """Whether ln a bends down beyond its σ somewhere (a rise that steps, not a growth; module docstring)."""
+    a = h.amplitudes
+    if a.size < 3 or not np.all(a > 0):
+        return False
+    relative = np.hypot(NOISE_AMPLITUDES * sigma_w * h.white / a, RIDING_SHARE)  # σ of ln a
+    bend = np.diff(np.log(a), 2)
+    sigma = np.sqrt(relative[2:] ** 2 + 4.0 * relative[1:-1] ** 2 + relative[:-2] ** 2)
+    return bool(np.any(bend < -sigma))
+
+
 def envelope_problem(
     t: FloatArray, detrended: FloatArray, omega_d: float, real: float, real_sigma: float, white: float
 ) -> str | None:
@@ -143,9 +157,10 @@ def envelope_problem(
     sigma_w = white if math.isfinite(white) else 0.0
     pair_white = NOISE_AMPLITUDES * sigma_w * np.hypot(h.white[:, None], h.white[None, :])
     misfit = _exponential_misfit(h, sigma_w)
-    if misfit > 1.0 and all(_rise_and_fall(a, pair_white)):
+    rise, fall = _rise_and_fall(a, pair_white)
+    if misfit > 1.0 and rise and (fall or _levels_off(h, sigma_w)):
         return (
-            f"not_free_decay: the envelope dips and rises beyond the noise, "
+            f"not_free_decay: the envelope {'dips and rises' if fall else 'steps up'} beyond the noise, "
             f"{misfit:.1f} σ off one exponential ({_listed(h)})"
         )
     steps = np.diff(a)
