@@ -59,6 +59,18 @@ def test_an_envelope_that_steps_up_and_levels_off_is_flagged(amplitudes: tuple[f
         assert problem is not None and problem.startswith("not_free_decay"), (seed, problem)
 
 
+@pytest.mark.parametrize("shift", [1.2, -1.2])
+def test_a_phase_jump_is_flagged_where_the_envelope_looks_free(shift: float) -> None:
+    """A push out of phase at the third peak: the cycle over it is 1.2 / 2π ≈ 19 % off the others."""
+    t = np.arange(0.0, 6.6 * math.pi / OMEGA, DT)
+    phase = OMEGA * (t - 0.05) + shift * (t > 0.05 + 2.5 * math.pi / OMEGA)
+    for seed in range(10):
+        y = 0.15 * np.sin(phase) + np.random.default_rng(seed).normal(0.0, 0.01, t.size)
+        assert envelope_problem(t, y, OMEGA, 0.0, 0.9, 0.01) is not None, seed
+        steady = 0.15 * np.sin(OMEGA * (t - 0.05)) + np.random.default_rng(seed).normal(0.0, 0.01, t.size)
+        assert envelope_problem(t, steady, OMEGA, 0.0, 0.9, 0.01) is None, seed
+
+
 @pytest.mark.parametrize(
     "amplitudes",
     [
