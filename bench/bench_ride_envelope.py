@@ -4,8 +4,10 @@ Prints numbers, asserts nothing. Free decays: the seven conditions of
 ``bench_ride_scatter.py`` (the Browser with the paper's rider, the balance assist as shipped,
 its roll-rate gain doubled, or none; the rider's steering 0.05–0.5 N m; the motor's limit),
 ``--segments`` segments of 1.2–2.5 cycles at each of two speeds
-(:func:`bike_rig.core.ride.ridesim.simulate_segment`); printed: how many the envelope check
-flags ``not_free_decay`` among those no other flag leaves out. Pumped decays: five decaying
+(:func:`bike_rig.core.ride.ridesim.simulate_segment`), and two growing weaves (shipped gains at
+2 and 2.5 m/s, +0.36 and +0.30/s; half the roll-rate gain at 3 and 3.5 m/s, +0.66 and +0.40/s);
+printed: how many the envelope check flags ``not_free_decay`` among those no other flag leaves
+out. Pumped decays: five decaying
 weaves (doubled gain at 2, 2.5 and 3 m/s, rider up to 0.5 N m; shipped gains at 4.5 m/s; at
 5.5 m/s with a 2 N m motor), ``--seeds`` segments of each kind:
 
@@ -18,7 +20,7 @@ half-cycle's peak larger or smaller), added to the free decay's record (the loop
 motor's limit is not applied to the pushes' response). A **clear** bump is one whose half-cycle
 amplitude after the last push is ≥ 1.3 times the one before it (noise-free record, rider
 included). Printed per kind: clear bumps flagged ``not_free_decay``, and left out of the speed
-means by any flag.
+means by any flag. ``--seed-offset`` draws other segments (tune on one set, report on another).
 """
 
 from __future__ import annotations
@@ -84,7 +86,9 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--segments", type=int, default=30, help="free decays per condition and speed (default 30)")
     parser.add_argument("--seeds", type=int, default=50, help="pumped segments per weave and kind (default 50)")
+    parser.add_argument("--seed-offset", type=int, default=0, help="added to every generator's seed (default 0)")
     args = parser.parse_args()
+    offset = args.seed_offset
     browser = canonical_with_sigma(
         add_rider(_parameters(str(config_file("bicycles/browser.yaml")), "centroid"), PAPER_RIDER)
     )
@@ -93,6 +97,9 @@ def main() -> None:
 
     def doubled(v: float) -> np.ndarray:
         return fb.gains(v) * np.array([1.0, 1.0, 2.0, 1.0])
+
+    def halved(v: float) -> np.ndarray:
+        return fb.gains(v) * np.array([1.0, 1.0, 0.5, 1.0])
 
     def none(v: float) -> None:
         return None
@@ -116,24 +123,14 @@ def main() -> None:
         ),
         ("no assist, rider 0.2 N m", none, (4.5, 5.5), RideConditions(rider_torque=0.2)),
     ]
+    growing: list[tuple[str, Gains, tuple[float, ...], RideConditions]] = [
+        ("growing: shipped gains, 2 and 2.5 m/s", fb.gains, (2.0, 2.5), RideConditions(rider_torque=0.2)),
+        ("growing: ½ roll-rate gain, 3 and 3.5 m/s", halved, (3.0, 3.5), RideConditions(rider_torque=0.2)),
+    ]
     m, g = browser.matrices, browser.g
-    print(f"{'free decays':48s} {'flagged / otherwise clean':>26s}")
-    total = [0, 0]
-    for i, (name, gains, speeds, conditions) in enumerate(free):
-        rng = np.random.default_rng(100 + i)
-        flagged = kept = 0
-        for v in speeds:
-            for _ in range(args.segments):
-                s = simulate_segment(m, g, v, gains(v), float(rng.uniform(1.2, 2.5)), conditions, rng)
-                fit = fit_segment(s.times, s.roll_rate, speed=v)
-                envelope = [f for f in fit.flags if f.startswith("not_free_decay: the envelope")]
-                if fit.valid and len(envelope) == len(fit.flags):  # no other flag leaves it out
-                    kept += 1
-                    flagged += bool(envelope)
-        total[0] += flagged
-        total[1] += kept
-        print(f"{name:48s} {flagged:>5d} / {kept:<5d} ({flagged / max(1, kept):5.1%})", flush=True)
-    print(f"{'all':48s} {total[0]:>5d} / {total[1]:<5d} ({total[0] / max(1, total[1]):5.1%})")
+    _free(m, g, "free decays", free, 100 + offset, args.segments)
+    print()
+    _free(m, g, "growing weaves", growing, 110 + offset, args.segments)
     pumps: list[tuple[str, Gains, float, RideConditions]] = [
         ("×2 gain, 2.0 m/s, rider 0.2 N m", doubled, 2.0, RideConditions(rider_torque=0.2)),
         ("×2 gain, 2.5 m/s, rider 0.2 N m", doubled, 2.5, RideConditions(rider_torque=0.2)),
@@ -145,7 +142,7 @@ def main() -> None:
         print(f"\n{kind + ' (clear: ≥ 1.3×)':48s} {'not_free_decay':>18s} {'left out':>10s}  ≥ 4 half-cycles")
         total = [0, 0, 0, 0, 0]
         for i, (name, gains, v, conditions) in enumerate(pumps):
-            rng = np.random.default_rng(200 + i + (50 if kind == "bump" else 0))
+            rng = np.random.default_rng(200 + i + (50 if kind == "bump" else 0) + offset)
             counts = [0, 0, 0, 0, 0]  # clear, flagged, left out; with ≥ 4 half-cycles: clear, flagged
             for _ in range(args.seeds):
                 t, y, ratio, halves = pumped(m, g, v, gains(v), kind.split()[0], conditions, rng)
@@ -158,6 +155,34 @@ def main() -> None:
             total = [a + b for a, b in zip(total, counts, strict=True)]
             _row(name, counts)
         _row("all", total)
+
+
+def _free(
+    m: WhippleMatrices,
+    g: float,
+    title: str,
+    cases: list[tuple[str, Gains, tuple[float, ...], RideConditions]],
+    first_seed: int,
+    segments: int,
+) -> None:
+    """Print, per condition, the free segments the envelope check flags among those otherwise clean."""
+    print(f"{title:48s} {'flagged / otherwise clean':>26s}")
+    total = [0, 0]
+    for i, (name, gains, speeds, conditions) in enumerate(cases):
+        rng = np.random.default_rng(first_seed + i)
+        flagged = kept = 0
+        for v in speeds:
+            for _ in range(segments):
+                s = simulate_segment(m, g, v, gains(v), float(rng.uniform(1.2, 2.5)), conditions, rng)
+                fit = fit_segment(s.times, s.roll_rate, speed=v)
+                envelope = [f for f in fit.flags if f.startswith("not_free_decay: the envelope")]
+                if fit.valid and len(envelope) == len(fit.flags):  # no other flag leaves it out
+                    kept += 1
+                    flagged += bool(envelope)
+        total[0] += flagged
+        total[1] += kept
+        print(f"{name:48s} {flagged:>5d} / {kept:<5d} ({flagged / max(1, kept):5.1%})", flush=True)
+    print(f"{'all':48s} {total[0]:>5d} / {total[1]:<5d} ({total[0] / max(1, total[1]):5.1%})")
 
 
 def _row(name: str, c: list[int]) -> None:

@@ -50,9 +50,31 @@ def test_a_bump_one_second_into_a_decay_is_flagged_whatever_the_fits_sigma() -> 
         assert problem is not None and problem.startswith("not_free_decay"), (seed, problem)
 
 
+@pytest.mark.parametrize("amplitudes", [(0.09, 0.09, 0.16, 0.16), (0.12, 0.11, 0.10, 0.17, 0.17)])
+def test_an_envelope_that_steps_up_and_levels_off_is_flagged(amplitudes: tuple[float, ...]) -> None:
+    """A dip hidden before the first whole half-cycle: only the rise that levels off is left to see."""
+    for seed in range(10):
+        t, y = _swing(amplitudes, seed)
+        problem = envelope_problem(t, y, OMEGA, 0.3, 1.2, 0.01)
+        assert problem is not None and problem.startswith("not_free_decay"), (seed, problem)
+
+
+@pytest.mark.parametrize("shift", [1.2, -1.2])
+def test_a_phase_jump_is_flagged_where_the_envelope_looks_free(shift: float) -> None:
+    """A push out of phase at the third peak: the cycle over it is 1.2 / 2π ≈ 19 % off the others."""
+    t = np.arange(0.0, 6.6 * math.pi / OMEGA, DT)
+    phase = OMEGA * (t - 0.05) + shift * (t > 0.05 + 2.5 * math.pi / OMEGA)
+    for seed in range(10):
+        y = 0.15 * np.sin(phase) + np.random.default_rng(seed).normal(0.0, 0.01, t.size)
+        assert envelope_problem(t, y, OMEGA, 0.0, 0.9, 0.01) is not None, seed
+        steady = 0.15 * np.sin(OMEGA * (t - 0.05)) + np.random.default_rng(seed).normal(0.0, 0.01, t.size)
+        assert envelope_problem(t, steady, OMEGA, 0.0, 0.9, 0.01) is None, seed
+
+
 @pytest.mark.parametrize(
     "amplitudes",
     [
+        (0.09, 0.092, 0.10, 0.12, 0.16, 0.22),  # a growth whose small start the rider held up
         (0.20, 0.17, 0.145, 0.123, 0.105, 0.09),  # a decay
         (0.09, 0.105, 0.123, 0.145, 0.17, 0.20),  # a growth
         (0.20, 0.15, 0.12, 0.105, 0.095, 0.09),  # a decay whose rate falls: monotone, bent, no pump
@@ -125,6 +147,22 @@ def test_simulated_free_decays_are_rarely_flagged(ride: Ride) -> None:
     rng = np.random.default_rng(11)
     flagged = 0
     for v, scale in ((2.5, 2.0), (4.2, 2.0), (3.0, 1.0), (4.5, 1.0)):
+        gains = fb.gains(v) * np.array([1.0, 1.0, scale, 1.0])
+        for _ in range(6):
+            s = simulate_segment(
+                matrices, g, v, gains, float(rng.uniform(1.2, 2.5)), RideConditions(rider_torque=0.2), rng
+            )
+            flags = fit_segment(s.times, s.roll_rate, speed=v).flags
+            flagged += any(f.startswith("not_free_decay: the envelope") for f in flags)
+    assert flagged <= 1
+
+
+def test_simulated_growing_weaves_are_rarely_flagged(ride: Ride) -> None:
+    """Unstable weaves (shipped gains at 2 m/s: +0.36/s; half the roll-rate gain at 3 m/s: +0.66/s)."""
+    matrices, g, fb = ride
+    rng = np.random.default_rng(12)
+    flagged = 0
+    for v, scale in ((2.0, 1.0), (3.0, 0.5)):
         gains = fb.gains(v) * np.array([1.0, 1.0, scale, 1.0])
         for _ in range(6):
             s = simulate_segment(
