@@ -66,14 +66,20 @@ class SessionLink:
         self._pending = []
         return out
 
-    def _call(self, client: Any, request: Any) -> Any:
+    def _call(self, client: Any, request: Any, service: str) -> tuple[Any, str]:
+        """The service's answer, or None and why there is none."""
         if not client.wait_for_service(timeout_sec=DISCOVERY_TIMEOUT_S):
-            return None
+            return None, f"the driver's service {service} not found within {DISCOVERY_TIMEOUT_S:g} s (is it running?)"
         future = client.call_async(request)
         deadline = time.monotonic() + SERVICE_TIMEOUT_S
         while not future.done() and time.monotonic() < deadline:
             self._pending += self.monitor.poll(timeout_s=_CALL_SPIN_S)
-        return future.result() if future.done() else None
+        if future.done():
+            return future.result(), ""
+        return None, (
+            f"no answer from the driver ({service}) within {SERVICE_TIMEOUT_S:g} s (a busy machine?): "
+            "if it acts on the request late, the console follows what it does"
+        )
 
     def start_trial(self, item: TrialItem, duration_s: float) -> StartReply:
         """Ask the driver to start a trial of ``item`` (StartTrial)."""
@@ -83,19 +89,18 @@ class SessionLink:
         req.orientation, req.repeat = m.orientation or 0, item.repeat
         req.measurement_key, req.duration_s = item.key, float(duration_s)
         req.note = f"plan item {item.item_id}"
-        res = self._call(self._start, req)
+        res, why = self._call(self._start, req, topics.START_TRIAL)
         if res is None:
-            what = f"no answer from the driver ({topics.START_TRIAL}) within {SERVICE_TIMEOUT_S:g} s"
-            return StartReply(False, "", f"{what} (is it running?)")
+            return StartReply(False, "", why)
         return StartReply(bool(res.accepted), str(res.trial_id), str(res.message))
 
     def stop_trial(self, trial_id: str, abort: bool) -> tuple[bool, str]:
         """Ask the driver to stop or abort ``trial_id`` (StopTrial)."""
         req = _srvs.StopTrial.Request()
         req.trial_id, req.abort = trial_id, bool(abort)
-        res = self._call(self._stop, req)
+        res, why = self._call(self._stop, req, topics.STOP_TRIAL)
         if res is None:
-            return False, f"no answer from the driver ({topics.STOP_TRIAL}) within {SERVICE_TIMEOUT_S:g} s"
+            return False, why
         return bool(res.accepted), str(res.message)
 
     def send_reading(self, entry: ReadingEntry) -> None:
