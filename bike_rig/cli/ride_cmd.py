@@ -589,7 +589,8 @@ def run_simulate(args: argparse.Namespace) -> int:
     first = min(1.0, 0.2 * args.duration)
     kicks = regular_kicks(args.duration, args.kick_every, first=first, steer_torque=args.kick_torque)
     sim = RideSimulation(args.speed, args.duration, args.rate, kicks, noise_roll_rate=args.noise, seed=args.seed)
-    ride = simulate_ride(ms.matrices, ms.g, sim, None if fb is None else fb.gains(args.speed))
+    gains = None if fb is None else fb.gains(args.speed)
+    ride = simulate_ride(ms.matrices, ms.g, sim, gains, None if fb is None else fb.rate_hz)
     if args.out.lower().endswith(".csv"):
         write_ride_csv(ride, args.out)
     else:

@@ -200,3 +200,29 @@ def test_the_raw_log_simulator_refuses_a_rate_it_cannot_step() -> None:
     ):
         with pytest.raises(SimulationError, match=match):
             simulate_raw_log(ms.matrices, ms.g, replace(RideLog(5.0, 4.0), controller_hz=hz), np.random.default_rng(0))
+
+
+@pytest.mark.parametrize(("sample_hz", "controller_hz"), [(100.0, 100.0), (200.0, 50.0), (100.0, 300.0)])
+def test_the_kick_simulator_runs_the_sampled_loop(sample_hz: float, controller_hz: float) -> None:
+    """``ride simulate``'s kicks with a rated feedback: its states recur with the sampled loop's map.
+
+    Free of kicks and noise, the states at the controller's instants (at the samples, when the
+    controller is faster: three of its periods a sample here) follow one linear map; fitted from
+    the states, its eigenvalues are the sampled loop's, not the continuous loop's.
+    """
+    from bike_rig.core.sim.ride import Kick, RideSimulation, simulate_ride
+
+    ms = _bicycle("browser")
+    v = 4.0
+    sim = RideSimulation(v, 6.0, sample_hz, (Kick(0.2, 0.1, 0.0, 5.0),), 0.0, 0.0, 0.0, 0.0, 0.0)
+    ride = simulate_ride(ms.matrices, ms.g, sim, GAINS, controller_hz)
+    every = max(1, round(sample_hz / controller_hz))  # samples per step of the map fitted
+    free = ride.states[int(0.4 * sample_hz) :: every]
+    m, *_ = np.linalg.lstsq(free[:-1], free[1:], rcond=None)
+    fitted = np.log(np.linalg.eigvals(m.T).astype(complex)) * sample_hz / every
+    sampled = sampled_closed_loop_eigenvalues(ms.matrices, v, ms.g, GAINS, 1.0 / controller_hz)
+    a, _ = closed_loop_state_space(ms.matrices, v, ms.g, GAINS)
+    continuous = np.linalg.eigvals(np.asarray(a, dtype=float))
+    assert _same(fitted, sampled) < 1e-6 * np.max(np.abs(sampled))
+    assert _same(fitted, continuous) > 100 * _same(fitted, sampled)
+    assert np.allclose(np.sort_complex(ride.eigenvalues), np.sort_complex(sampled))

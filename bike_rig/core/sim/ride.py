@@ -5,7 +5,9 @@ or the closed loop ``A − B K`` of :func:`bike_rig.core.whipple.closed_loop.clo
 with ``u = [T_φ, T_δ]`` the perturbations: rectangular torque pulses ("kicks", a push at the
 seat post and a jerk of the handlebar). The model is discretised exactly for inputs held
 over a sample (zero-order hold, :func:`scipy.signal.cont2discrete`) and run with
-:func:`scipy.signal.dlsim`; between kicks the bicycle moves freely. The sensors add white
+:func:`scipy.signal.dlsim`; between kicks the bicycle moves freely. A feedback with a rate is
+digital instead: it reads the state at its own instants and holds its torque to the next
+(the open loop stepped exactly between instants). The sensors add white
 Gaussian noise: roll rate φ̇ [rad/s], steer angle δ [rad], steer rate δ̇ [rad/s], speed [m/s]
 and the perturbing steer torque T_δ [N m], at the sample rate. Reproducible from one seed.
 """
@@ -13,6 +15,7 @@ and the perturbing steer torque T_δ [N m], at the sample rate. Reproducible fro
 from __future__ import annotations
 
 import csv
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -22,6 +25,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..whipple import WhippleMatrices, state_space
 from ..whipple.closed_loop import closed_loop_state_space
+from ..whipple.sampled import sampled_closed_loop_eigenvalues, zero_order_hold
 from .errors import SimulationError
 
 __all__ = ["Kick", "RideSimulation", "SimulatedRide", "regular_kicks", "simulate_ride", "write_ride_csv"]
@@ -114,7 +118,11 @@ def regular_kicks(
 
 
 def simulate_ride(
-    matrices: WhippleMatrices, g: float, sim: RideSimulation, gains: ArrayLike | None = None
+    matrices: WhippleMatrices,
+    g: float,
+    sim: RideSimulation,
+    gains: ArrayLike | None = None,
+    controller_hz: float | None = None,
 ) -> SimulatedRide:
     """Simulate a ride (module docstring).
 
@@ -123,9 +131,11 @@ def simulate_ride(
         g: Gravity [m/s²].
         sim: Speed, duration, rate, kicks, sensor noise and seed.
         gains: Steer-torque feedback ``[kφ, kδ, kφ̇, kδ̇]`` at the speed (None: the open loop).
+        controller_hz: The feedback's rate [Hz]: it samples the state at ``j / controller_hz``
+            and holds its torque to the next (:func:`_sampled_states`); None: continuous.
 
     Raises:
-        SimulationError: A non-positive duration or rate, or a negative speed.
+        SimulationError: A non-positive duration, rate or controller rate, or a negative speed.
     """
     from scipy.signal import cont2discrete, dlsim
 
@@ -134,7 +144,10 @@ def simulate_ride(
             f"a ride needs duration > 0 s, rate > 0 Hz and speed >= 0 m/s, "
             f"got {sim.duration} s, {sim.rate_hz} Hz, {sim.speed} m/s"
         )
-    if gains is None:
+    if controller_hz is not None and not (math.isfinite(controller_hz) and controller_hz > 0):
+        raise SimulationError(f"the feedback's rate must be a finite number > 0 Hz, got {controller_hz}")
+    sampled = gains is not None and controller_hz is not None
+    if gains is None or sampled:
         a, b = state_space(matrices, sim.speed, g)
     else:
         a, b = closed_loop_state_space(matrices, sim.speed, g, np.asarray(gains, dtype=float))
@@ -143,8 +156,15 @@ def simulate_ride(
     n = int(round(sim.duration * sim.rate_hz))
     t = np.arange(n, dtype=np.float64) * dt
     u = _inputs(t, sim.kicks, dt)
-    ad, bd, _, _, _ = cont2discrete((a, b, np.eye(4), np.zeros((4, 2))), dt, method="zoh")
-    _, _, x = dlsim((ad, bd, np.eye(4), np.zeros((4, 2)), dt), u)  # (one output per input row)
+    if sampled:
+        assert gains is not None and controller_hz is not None
+        k = np.asarray(gains, dtype=float)
+        x = _sampled_states(a, b, k, u, dt, 1.0 / controller_hz)
+        eigenvalues = sampled_closed_loop_eigenvalues(matrices, sim.speed, g, k, 1.0 / controller_hz)
+    else:
+        ad, bd, _, _, _ = cont2discrete((a, b, np.eye(4), np.zeros((4, 2))), dt, method="zoh")
+        _, _, x = dlsim((ad, bd, np.eye(4), np.zeros((4, 2)), dt), u)  # (one output per input row)
+        eigenvalues = np.asarray(np.linalg.eigvals(a), dtype=np.complex128)
     x = np.asarray(x, dtype=float)
     rng = np.random.default_rng(sim.seed)
 
@@ -159,9 +179,43 @@ def simulate_ride(
         speed=noisy(np.full(n, float(sim.speed)), sim.noise_speed),
         steer_torque=noisy(u[:, 1], sim.noise_torque),
         states=x,
-        eigenvalues=np.asarray(np.linalg.eigvals(a), dtype=np.complex128),
+        eigenvalues=np.asarray(eigenvalues, dtype=np.complex128),
         kicks=tuple(sim.kicks),
     )
+
+
+def _sampled_states(a: FloatArray, b: FloatArray, k: FloatArray, u: FloatArray, dt: float, period: float) -> FloatArray:
+    """The states at the samples ``i dt`` [SI] of the open loop ``(A, B)`` under the kicks ``u`` and a sampled feedback.
+
+    The feedback reads the state at ``j T`` (``T = period``) and holds ``T_δ = −K x(jT)`` to the
+    next; the kicks ``u[i]`` are held over each sample. The record is stepped exactly (zero-order
+    hold, :func:`~bike_rig.core.whipple.sampled.zero_order_hold`) from each instant of either
+    kind to the next; instants are merged on a 1 ns grid.
+    """
+    n = u.shape[0]
+    ns = 1e9
+    samples = np.round(np.arange(n + 1) * dt * ns).astype(np.int64)
+    reads = np.round(np.arange(int(np.floor(samples[-1] / (period * ns))) + 1) * period * ns).astype(np.int64)
+    instants = np.union1d(samples, reads[reads <= samples[-1]])
+    maps: dict[int, tuple[FloatArray, FloatArray]] = {}
+    x = np.zeros(4)
+    torque = np.zeros(2)
+    out = np.empty((n, 4))
+    sample = 0
+    read = set(reads.tolist())
+    for now, later in zip(instants[:-1], instants[1:], strict=True):
+        if sample < n and now == samples[sample]:
+            out[sample] = x
+            kick = u[sample]
+            sample += 1
+        if int(now) in read:
+            torque = np.array([0.0, -float(k @ x)])
+        step = int(later - now)
+        if step not in maps:
+            maps[step] = zero_order_hold(a, b, step / ns)
+        phi, gamma = maps[step]
+        x = phi @ x + gamma @ (kick + torque)
+    return out
 
 
 def _inputs(t: FloatArray, kicks: Sequence[Kick], dt: float) -> FloatArray:
