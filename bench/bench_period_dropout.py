@@ -90,7 +90,9 @@ def _is_dropout_flag(flag: Flag) -> bool:
 
 
 def _is_dropout(fit: PeriodFit) -> bool:
-    return any(_is_dropout_flag(f) for f in fit.flags)
+    """Found: flagged, or noted where it ends before the window (in the lead-in)."""
+    noted = any("dropout" in n and "before the window" in n for n in fit.notes)
+    return noted or any(_is_dropout_flag(f) for f in fit.flags)
 
 
 def _fit(samples: np.ndarray, rate: float, check: bool) -> PeriodFit:

@@ -57,9 +57,18 @@ def _as_series(values: ArrayLike, what: str) -> FloatArray:
 
 
 def clean_samples(
-    samples: ArrayLike, rate: float | None, times: ArrayLike | None, flags: list[Flag], notes: list[str]
+    samples: ArrayLike,
+    rate: float | None,
+    times: ArrayLike | None,
+    flags: list[Flag],
+    notes: list[str],
+    dropped: list[tuple[Flag, float]] | None = None,
 ) -> tuple[FloatArray | None, FloatArray, NDArray[np.intp] | None, float | None, float]:
     """The samples the fit can use (finite, no dropout), their times and positions.
+
+    ``dropped`` receives the dropouts' flag (also in ``flags``) with the time their last one
+    ends [s, on the returned times' axis; inf at the record's end]: one that ends before the
+    fit's window changes nothing the fit uses.
 
     Returns:
         The times [s] from the first finite sample (the first dropout-free one when a
@@ -94,10 +103,10 @@ def clean_samples(
         if not math.isfinite(n * even):
             raise Invalid(Flag(FlagCode.BAD_TIMES, "the times span more than the floating-point range"))
         keep = _held_tail(y, None, even, flags, notes)
-        return _leave_out_dropouts(None, y[:keep], None, even, 0.0, flags)
+        return _leave_out_dropouts(None, y[:keep], None, even, 0.0, flags, dropped)
     t, t0 = _check_times(t, index, rate, notes)
     keep = _held_tail(y, t, None, flags, notes)
-    return _leave_out_dropouts(t[:keep], y[:keep], None if index is None else index[:keep], None, t0, flags)
+    return _leave_out_dropouts(t[:keep], y[:keep], None if index is None else index[:keep], None, t0, flags, dropped)
 
 
 def _leave_out_dropouts(
@@ -107,6 +116,7 @@ def _leave_out_dropouts(
     even: float | None,
     t0: float,
     flags: list[Flag],
+    dropped: list[tuple[Flag, float]] | None = None,
 ) -> tuple[FloatArray | None, FloatArray, NDArray[np.intp] | None, float | None, float]:
     """Leave out (and flag) the dropouts (:mod:`.dropout`); the arguments and result as :func:`clean_samples`'s."""
     dropouts, swing = find_dropouts(y, t, even)
@@ -121,7 +131,11 @@ def _leave_out_dropouts(
         return t0 + (float(t[i]) if t is not None else i * float(even or 0.0))
 
     total = n * float(even or 0.0) if t is None else float(t[-1] - t[0]) * n / max(1, n - 1)
-    flags.append(dropout_flag(dropouts, swing, time_of, lambda d: dropout_duration(d, t, even, n), total))
+    flag = dropout_flag(dropouts, swing, time_of, lambda d: dropout_duration(d, t, even, n), total)
+    flags.append(flag)
+    if dropped is not None:
+        last = max(d.stop for d in dropouts)
+        dropped.append((flag, time_of(last) - t0 if last < n else math.inf))
     kept = np.flatnonzero(keep)  # (never empty: the dropouts were judged against other samples)
     if t is None and kept[0] == 0 and kept[-1] == kept.size - 1:  # (only at the end: still evenly spaced)
         return None, y[: kept.size], None, even, t0

@@ -264,7 +264,8 @@ class _Fitter:
 
     def _select(self, samples: ArrayLike, rate: float | None, times: ArrayLike | None) -> _Window:
         """The policy's window of the cleaned samples, scaled (:meth:`_scale`)."""
-        t, y, index, even, self.t0 = clean_samples(samples, rate, times, self.flags, self.notes)
+        dropped: list[tuple[Flag, float]] = []
+        t, y, index, even, self.t0 = clean_samples(samples, rate, times, self.flags, self.notes, dropped)
         self.index = index
         if even is not None:  # samples k · even [s]: their times are never materialised
             start, stop = select_window_even(even, y, self.options.window)
@@ -282,6 +283,10 @@ class _Fitter:
             first, last = start * even, (stop - 1) * even
         else:
             first, last = float(tw[0]), float(tw[-1])
+        for flag, end in dropped:
+            if end <= first:  # (the lead-in's: nothing the fit uses)
+                self.flags[:] = [f for f in self.flags if f is not flag]
+                self.notes.append(f"{flag.reason}; before the window ({first:.3g} s on): no effect on the period")
         return _Window(self._scale(y[start:stop]), tw, even, start, first, last)
 
     def _scale(self, yw: FloatArray) -> FloatArray:
