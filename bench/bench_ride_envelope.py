@@ -31,6 +31,8 @@ from collections.abc import Callable
 from dataclasses import replace
 
 import numpy as np
+from bench_ride_scatter import Condition
+from bench_ride_scatter import conditions as scatter_conditions  # bench/bench_ride_scatter.py
 
 from bike_rig.cli.main import _parameters
 from bike_rig.config.paths import config_file
@@ -101,29 +103,8 @@ def main() -> None:
     def halved(v: float) -> np.ndarray:
         return fb.gains(v) * np.array([1.0, 1.0, 0.5, 1.0])
 
-    def none(v: float) -> None:
-        return None
-
-    free: list[tuple[str, Gains, tuple[float, ...], RideConditions]] = [
-        ("×2 roll-rate gain, rider 0.05 N m, motor 5 N m", doubled, (2.5, 4.2), RideConditions(rider_torque=0.05)),
-        ("×2 roll-rate gain, rider 0.2 N m, motor 5 N m", doubled, (2.5, 4.2), RideConditions(rider_torque=0.2)),
-        (
-            "×2 roll-rate gain, rider 0.2 N m, motor 2 N m",
-            doubled,
-            (2.5, 4.2),
-            RideConditions(rider_torque=0.2, saturation=2.0),
-        ),
-        ("shipped gains, rider 0.2 N m, motor 5 N m", fb.gains, (3.0, 4.5), RideConditions(rider_torque=0.2)),
-        ("shipped gains, rider 0.5 N m, motor 5 N m", fb.gains, (3.0, 4.5), RideConditions(rider_torque=0.5)),
-        (
-            "shipped gains, rider 0.2 N m, no motor limit",
-            fb.gains,
-            (3.0, 4.5),
-            RideConditions(rider_torque=0.2, saturation=math.inf),
-        ),
-        ("no assist, rider 0.2 N m", none, (4.5, 5.5), RideConditions(rider_torque=0.2)),
-    ]
-    growing: list[tuple[str, Gains, tuple[float, ...], RideConditions]] = [
+    free = scatter_conditions(fb)  # (the scatter table's seven conditions)
+    growing: list[Condition] = [
         ("growing: shipped gains, 2 and 2.5 m/s", fb.gains, (2.0, 2.5), RideConditions(rider_torque=0.2)),
         ("growing: ½ roll-rate gain, 3 and 3.5 m/s", halved, (3.0, 3.5), RideConditions(rider_torque=0.2)),
     ]
@@ -161,7 +142,7 @@ def _free(
     m: WhippleMatrices,
     g: float,
     title: str,
-    cases: list[tuple[str, Gains, tuple[float, ...], RideConditions]],
+    cases: list[Condition],
     first_seed: int,
     segments: int,
 ) -> None:
