@@ -143,26 +143,20 @@ def test_a_simulated_ride_pumped_about_one_second_in_is_flagged(ride: Ride) -> N
 
 
 def test_simulated_free_decays_are_rarely_flagged(ride: Ride) -> None:
-    matrices, g, fb = ride
-    rng = np.random.default_rng(11)
-    flagged = 0
-    for v, scale in ((2.5, 2.0), (4.2, 2.0), (3.0, 1.0), (4.5, 1.0)):
-        gains = fb.gains(v) * np.array([1.0, 1.0, scale, 1.0])
-        for _ in range(6):
-            s = simulate_segment(
-                matrices, g, v, gains, float(rng.uniform(1.2, 2.5)), RideConditions(rider_torque=0.2), rng
-            )
-            flags = fit_segment(s.times, s.roll_rate, speed=v).flags
-            flagged += any(f.startswith("not_free_decay: the envelope") for f in flags)
-    assert flagged <= 1
+    assert _envelope_flagged(ride, ((2.5, 2.0), (4.2, 2.0), (3.0, 1.0), (4.5, 1.0)), seed=11) <= 1
 
 
 def test_simulated_growing_weaves_are_rarely_flagged(ride: Ride) -> None:
     """Unstable weaves (shipped gains at 2 m/s: +0.36/s; half the roll-rate gain at 3 m/s: +0.66/s)."""
+    assert _envelope_flagged(ride, ((2.0, 1.0), (3.0, 0.5)), seed=12) <= 1
+
+
+def _envelope_flagged(ride: Ride, cases: tuple[tuple[float, float], ...], seed: int) -> int:
+    """How many of 6 simulated segments per (speed [m/s], roll-rate gain scale) the envelope check flags."""
     matrices, g, fb = ride
-    rng = np.random.default_rng(12)
+    rng = np.random.default_rng(seed)
     flagged = 0
-    for v, scale in ((2.0, 1.0), (3.0, 0.5)):
+    for v, scale in cases:
         gains = fb.gains(v) * np.array([1.0, 1.0, scale, 1.0])
         for _ in range(6):
             s = simulate_segment(
@@ -170,4 +164,4 @@ def test_simulated_growing_weaves_are_rarely_flagged(ride: Ride) -> None:
             )
             flags = fit_segment(s.times, s.roll_rate, speed=v).flags
             flagged += any(f.startswith("not_free_decay: the envelope") for f in flags)
-    assert flagged <= 1
+    return flagged
