@@ -98,10 +98,9 @@ def half_cycle_amplitudes(t: FloatArray, detrended: FloatArray, omega_d: float) 
     for c in crossings:
         if not kept or t[c] - t[kept[-1]] > 0.4 * math.pi / omega_d:
             kept.append(int(c))
-    y0, y1 = np.abs(detrended[np.array(kept, dtype=int) - 1]), np.abs(detrended[kept])
-    zero = t[np.array(kept, dtype=int) - 1] + (t[kept] - t[np.array(kept, dtype=int) - 1]) * y0 / np.maximum(
-        y0 + y1, np.finfo(float).tiny
-    )
+    before = np.array(kept, dtype=int) - 1  # (the sample before each crossing)
+    y0, y1 = np.abs(detrended[before]), np.abs(detrended[kept])
+    zero = t[before] + (t[kept] - t[before]) * y0 / np.maximum(y0 + y1, np.finfo(float).tiny)
     times, amplitudes, white, lengths = [], [], [], []
     for k in range(len(kept) - 1):
         a, b, start, stop = kept[k], kept[k + 1], zero[k], zero[k + 1]
