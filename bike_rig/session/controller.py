@@ -458,6 +458,8 @@ class SessionController:
             return [Reply("info", late, {"trial_id": ev.trial_id, "damping_model": ev.damping_model})] if late else []
         elif isinstance(ev, TrialFit):
             line = s.on_period(ev)
+            if line is None:
+                return [Reply("warning", s.foreign[-1], {"trial_id": ev.trial_id, "foreign": True})]
             state = ItemState.OK.value if ev.usable else ItemState.REDO.value
             return [Reply("result", line, _fit_data(ev, state))]
         elif isinstance(ev, SessionParameters):

@@ -15,6 +15,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 from ..core.period.advice import flag_advice
+from ..core.period.result import FlagCode
 from ..core.textfmt import format_uncertain
 from ..pipeline.acquire import SampleBatch, TrialEventKind, TrialEventRecord
 from ..pipeline.assemble import SessionParameters
@@ -41,6 +42,7 @@ class SessionTrialView:
         fit: The period estimate, once published.
         aborted: Its end was an ABORT.
         stopped: A STOP or ABORT was seen.
+        started: This console started it, or its START was seen.
     """
 
     trial_id: str
@@ -51,6 +53,12 @@ class SessionTrialView:
     fit: TrialFit | None = None
     aborted: bool = False
     stopped: bool = False
+    started: bool = False
+
+
+def _unannounced(fit: TrialFit) -> bool:
+    """Whether the fitter had no START for ``fit``'s samples (its flags say so)."""
+    return bool({FlagCode.NO_START.value, FlagCode.UNKNOWN_TRIAL.value} & set(fit.flag_codes))
 
 
 def _known_rate(rate_hz: float) -> bool:
@@ -146,6 +154,7 @@ class OperatorSession:
         plan: The session plan.
         bicycle: The bicycle's name.
         source: The gyro source's name (for the no-samples warning).
+        foreign: Lines on results ignored as another process's (see :meth:`on_period`).
     """
 
     plan: SessionPlan
@@ -157,6 +166,7 @@ class OperatorSession:
     stability: StabilitySweep | None = None
     live: LiveTrace | None = None
     results: list[str] = field(default_factory=list)
+    foreign: list[str] = field(default_factory=list)
     resumed: tuple[str, ...] = ()
     _item_trial: dict[str, str] = field(default_factory=dict)
     _details: dict[str, FitDetails] = field(default_factory=dict)  # the newest by trial id
@@ -179,7 +189,7 @@ class OperatorSession:
         """The driver accepted a start of ``item_id`` as ``trial_id``: track it from now."""
         item = self.plan.item(item_id)
         key = item.key
-        self.trials[trial_id] = SessionTrialView(trial_id, item_id, key)
+        self.trials[trial_id] = SessionTrialView(trial_id, item_id, key, started=True)
         self._item_trial[item_id] = trial_id
         self.live = LiveTrace(trial_id, now_wall_s, source=self.source)
 
@@ -203,6 +213,7 @@ class OperatorSession:
         if math.isfinite(event.sample_rate_hz):
             view.sample_rate_hz = event.sample_rate_hz
         if event.kind == TrialEventKind.START:
+            view.started = True
             if event.trial_id in self.resumed:
                 return  # a recorded trial coming back: nothing to watch live
             if self.live is None or self.live.trial_id != event.trial_id:
@@ -224,9 +235,21 @@ class OperatorSession:
             if view is not None and math.isnan(view.sample_rate_hz) and _known_rate(batch.sample_rate_hz):
                 view.sample_rate_hz = batch.sample_rate_hz  # (its cycles need it: the result may come first)
 
-    def on_period(self, fit: TrialFit) -> str:
-        """A period estimate: the trial's state becomes OK or REDO. Returns its result line."""
+    def on_period(self, fit: TrialFit) -> str | None:
+        """A period estimate: the trial's state becomes OK or REDO. Returns its result line.
+
+        A result without a START of its own (``no_start``, ``unknown_trial``) for a trial this
+        console started, or whose START it saw, is another process's under the same id: the
+        fitter publishes it before the driver's START reaches it. It is not this trial's result;
+        None, and :attr:`foreign` has the line saying so.
+        """
         view = self.trials.get(fit.trial_id)
+        if view is not None and view.started and _unannounced(fit):
+            self.foreign.append(
+                f"{fit.trial_id}: a result without a START from another process than the driver's ignored "
+                f"({', '.join(fit.flag_codes)})"
+            )
+            return None
         if view is None:
             event = TrialEventRecord(TrialEventKind.STOP, fit.trial_id, fit.measurement_key)
             item_id = self._item_for(event)

@@ -10,6 +10,7 @@ import pytest
 
 from bike_rig.config.paths import config_file
 from bike_rig.core.sim import load_rig
+from bike_rig.pipeline.fit import TrialFit
 from bike_rig.session.plain import run_plain
 from bike_rig.session.plan import ItemState, ReadingItem, TrialItem, plan_from_rig
 from bike_rig.session.setup import build_controller
@@ -78,6 +79,29 @@ def test_a_result_before_its_stop_event_ends_the_recording(ctl_link) -> None:  #
     ctl.pump()
     assert ctl.session.recording() is None
     assert ctl.execute("start")[0].kind == "ok"
+
+
+def test_another_process_result_without_start_under_the_recording_id_is_not_its_result(ctl_link) -> None:  # type: ignore[no-untyped-def]
+    """A rogue's STOP of the driver's next trial id is published (``no_start``) before the driver's START.
+
+    The console started that id: the result is not its trial's; it says so and keeps recording.
+    """
+    ctl, link, t = ctl_link
+    first = ctl.session.plan.trials[0]
+    ctl.execute("start")
+    trial_id = link.started[0][0]
+    ctl.pump()
+    nan = float("nan")
+    reasons = ("STOP without a START event", "50 of 100 samples")
+    link.events_out.append(TrialFit.from_period(trial_id, first.key, nan, nan, False, ("no_start", "gap"), reasons))
+    replies = ctl.pump()
+    assert not [r for r in replies if r.kind == "result"]
+    warned = [r for r in replies if r.kind == "warning" and r.data.get("foreign")]
+    assert len(warned) == 1 and "another process" in warned[0].text and "no_start, gap" in warned[0].text
+    assert ctl.session.state(first) == ItemState.RECORDING and ctl.session.recording() is not None
+    link.period(trial_id, first.key, 1.2, 1e-4)  # the driver's own
+    result = [r for r in ctl.pump() if r.kind == "result"]
+    assert result and result[0].text.endswith("— ok") and ctl.session.state(first) == ItemState.OK
 
 
 def test_a_result_whose_events_are_late_counts_its_cycles_from_the_batches_rate(ctl_link) -> None:  # type: ignore[no-untyped-def]
