@@ -252,7 +252,8 @@ class FitterState:
         """Whether a stopped trial still missing samples is to be fitted now.
 
         Its missing batches are lost once the source's stream has passed it, or its batches have
-        been silent for ``grace_s``; lost ones are asked for again where a resend service answers.
+        been silent for ``grace_s``; lost ones are asked for again where a resend service answers
+        (only of a trial its source started: the driver knows no other).
         """
         assert t.stop is not None and t.stop_order is not None
         silent = now - max(self.last_batch_s.get(t.source, 0.0), t.stop_seen_s, self.matched_at) >= self.grace_s
@@ -265,6 +266,8 @@ class FitterState:
             return now - max(t.stop_seen_s, self.matched_at, flowing) >= self.grace_s
         if not lost:
             return False
+        if t.start is None:
+            return True  # (no START from its source: not a trial the driver can be asked about)
         if t.first_asked_s is not None and now - t.first_asked_s >= RESEND_GIVE_UP_S:
             t.acc.gap_cause = f"asked for again, the driver did not answer in {RESEND_GIVE_UP_S:g} s"
             return True

@@ -242,3 +242,15 @@ def test_batches_that_come_after_the_trial_was_published_with_a_gap_refit_it() -
     assert again.n_samples == N and again.flag_codes == () and again.period == expected.period
     assert feed(s, a[4:5]) == []  # (a whole trial ignores late copies)
     assert any("its missing samples came late; fitted again" in line for line in log.lines)
+
+
+def test_a_stop_without_start_is_fitted_as_it_is_and_the_driver_is_not_asked() -> None:
+    """Another process's STOP of an id (no START from it): the driver knows nothing of that trial."""
+    s, log, clock = resending_state()
+    rogue = "rogue-participant"
+    s.on_batch(SampleBatch("t", 0, RATE, np.full(50, np.nan)), None, rogue)
+    s.on_event(event(1, "t", 100), rogue)
+    assert s.poll() == []
+    clock.now += 1.5  # silent for longer than grace_s
+    (fit,) = s.poll()
+    assert fit.trial_id == "t" and "no_start" in fit.flag_codes and s.take_resend_requests() == []
