@@ -30,7 +30,8 @@ from bike_rig.config.paths import config_file
 from bike_rig.core.sim import load_rig
 from bike_rig.pipeline.acquire import TrialEventKind, TrialEventRecord
 from bike_rig.ros.env import remove_stale_fastdds_segments, unique_domain_id
-from bike_rig.ros.launch import RunningGraph, load_graph
+from bike_rig.ros.launch import load_graph
+from bike_rig.ros.running import RunningGraph
 from bike_rig.session.setup import build_controller
 
 

@@ -57,8 +57,9 @@ if TYPE_CHECKING:
     from ..pipeline.assemble import SessionParameters
     from ..pipeline.fit import TrialFit
     from ..pipeline.model import StabilitySweep
-    from ..ros.launch import Graph, RunningGraph
+    from ..ros.launch import Graph
     from ..ros.nodes.run_monitor import GraphMonitor, MonitorRecord
+    from ..ros.running import RunningGraph
 
 __all__ = ["SETTLE_MAX_S", "SETTLE_S", "RunTracker", "add_parser", "run", "session_folder"]
 
@@ -457,8 +458,8 @@ class _Session:
         self.bag = Path(str(output)) if output else None
 
     def run(self) -> int:
-        from ..ros.launch import RunningGraph
         from ..ros.nodes.run_monitor import GraphMonitor
+        from ..ros.running import RunningGraph
 
         inside = self.out.resolve()
         if (self.bag is not None and self.bag.parent == inside) or self.log_dir.resolve().parent == inside:

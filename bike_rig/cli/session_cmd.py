@@ -22,7 +22,8 @@ from .commands import HELP
 
 if TYPE_CHECKING:
     from ..ros.graphwatch import NodeWatch
-    from ..ros.launch import Graph, NodeSpec, RunningGraph
+    from ..ros.launch import Graph, NodeSpec
+    from ..ros.running import RunningGraph
 
 __all__ = ["SessionArgumentError", "add_parser", "run"]
 
@@ -199,7 +200,7 @@ def _driver_values(node: NodeSpec) -> dict[str, object]:
 
 def _start(spec: Graph, folder: Path, domain_id: int | None, started: list[RunningGraph]) -> RunningGraph:
     """Start the session's graph (its PIDs in ``logs/pids``, its domain in this process's environment)."""
-    from ..ros.launch import RunningGraph
+    from ..ros.running import RunningGraph
 
     graph = RunningGraph(spec, folder / "logs", domain_id).start()
     started.append(graph)

@@ -26,7 +26,8 @@ from ..core.sim.session import load_true_parameters
 from ..pipeline.assemble import SessionParameters
 from ..pipeline.model import StabilitySweep
 from .env import ros_environment
-from .launch import RunningGraph, load_graph
+from .launch import load_graph
+from .running import RunningGraph
 
 __all__ = ["DemoError", "DemoResult", "run_demo"]
 

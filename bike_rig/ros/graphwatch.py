@@ -1,7 +1,7 @@
 """Watch a running graph's nodes: each death said once in one line, the stateless nodes restarted.
 
 A node of a live session may die (a crash, an operator's ``kill``, the out-of-memory killer).
-:class:`NodeWatch` turns :meth:`~bike_rig.ros.launch.RunningGraph.dead` into one line per death
+:class:`NodeWatch` turns :meth:`~bike_rig.ros.running.RunningGraph.dead` into one line per death
 (the node, how it ended, the last line of its log) and restarts the nodes that lose nothing by
 it (:data:`RESTARTABLE`: the fitter, the parameter and the model nodes get their inputs back
 from the topics' transient-local history), at most :attr:`NodeWatch.max_restarts` times each.
@@ -24,7 +24,7 @@ RESTARTABLE = frozenset({"fitter", "parameter", "model"})
 
 
 class WatchedGraph(Protocol):
-    """What :class:`NodeWatch` needs of a running graph (:class:`~bike_rig.ros.launch.RunningGraph`)."""
+    """What :class:`NodeWatch` needs of a running graph (:class:`~bike_rig.ros.running.RunningGraph`)."""
 
     def dead(self) -> list[tuple[str, int, str]]:
         """Nodes that have exited: (name, exit status, last lines of their log)."""

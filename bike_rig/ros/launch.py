@@ -1,7 +1,7 @@
 """The project's own launcher (there is no ``ros2 launch`` wheel).
 
-Start a graph of nodes as separate processes, forward signals, stop them cleanly, and report a
-node that died.
+A graph of nodes, each run as its own process: read (:func:`load_graph`) and checked here,
+started, stopped and watched by :class:`bike_rig.ros.running.RunningGraph`.
 
 A graph file (``format: bike_rig-graph/1``, see ``config/graph.yaml``)::
 
@@ -16,7 +16,7 @@ Every process gets ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`` and the run's own
 ``ROS_DOMAIN_ID`` (:mod:`bike_rig.ros.env`), and ``ROS_STATIC_PEERS`` only when the graph is
 split over two hosts (:meth:`Graph.subset`, ``static_peers``).
 
-Before anything starts, :meth:`Graph.checked` (called by :meth:`RunningGraph.start`) checks
+Before anything starts, :meth:`Graph.checked` (called by :meth:`~bike_rig.ros.running.RunningGraph.start`) checks
 every ``-p`` override of a bike_rig node against the parameters the node declares
 (:func:`bike_rig.ros.nodes.settings.node_parameter_specs`): an unknown name, or a value of the wrong
 type or out of range, is a one-line :class:`LaunchError` naming the node's parameters; an
@@ -26,34 +26,23 @@ working directory: a relative path is taken from the current directory when it e
 else from the parameter file's folder (a value written in one), else from the config folder
 (:func:`bike_rig.config.paths.config_dir`, e.g. ``bicycles/browser.yaml``). A file given as an override
 that exists in none of them is an error; an output (the recorder's bag) must not exist yet.
-
-Each node runs in its own process group (a Ctrl-C in the terminal reaches the launcher only,
-which stops the nodes in order), and gets SIGTERM from the kernel when the launcher dies
-however it dies (``PR_SET_PDEATHSIG``: a killed console or ``bike-rig run`` leaves no node
-running; the recorder closes its bag on SIGTERM, so nothing recorded is lost).
 """
 
 from __future__ import annotations
 
-import contextlib
-import ctypes
 import difflib
 import json
 import os
-import signal
-import subprocess
 import sys
-import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import IO, TYPE_CHECKING
+from typing import TYPE_CHECKING
 
 from ..config.paths import config_dir
 from ..config.settings import ParamValueError, parameter_message
 from ..core.errors import BikeRigError, InputFileError, one_line, short_repr
 from ..core.io_yaml import load_yaml_document
-from .env import ros_environment
 
 if TYPE_CHECKING:
     from ..config.settings import ParamSpec
@@ -65,7 +54,6 @@ __all__ = [
     "Graph",
     "LaunchError",
     "NodeSpec",
-    "RunningGraph",
     "load_graph",
     "parse_overrides",
 ]
@@ -404,206 +392,6 @@ def load_graph(path: str | Path) -> Graph:
     if len(set(names)) != len(names):
         raise InputFileError(p, "node names must be unique", key="nodes", line=lines.get(("nodes",)))
     return Graph(tuple(nodes), p)
-
-
-#: prctl(2) option: the signal the kernel sends a process when its parent (thread) ends.
-_PR_SET_PDEATHSIG = 1
-
-
-def _node_process_setup(launcher_pid: int) -> None:
-    """In a node's child process, before exec: end with the launcher (see the module docstring).
-
-    A launcher that died between fork and this call is not there to signal the child: the
-    child then ends itself at once.
-    """
-    with contextlib.suppress(OSError, AttributeError):
-        ctypes.CDLL(None, use_errno=True).prctl(_PR_SET_PDEATHSIG, signal.SIGTERM)
-    if os.getppid() != launcher_pid:
-        os.kill(os.getpid(), signal.SIGTERM)
-
-
-def _popen_node(command: Sequence[str], out: IO[bytes], env: Mapping[str, str]) -> subprocess.Popen[bytes]:
-    """Start one node process: own process group, output to ``out``, ended with the launcher."""
-    launcher = os.getpid()
-    return subprocess.Popen(
-        list(command),
-        stdout=out,
-        stderr=subprocess.STDOUT,
-        stdin=subprocess.DEVNULL,
-        env=dict(env),
-        start_new_session=True,
-        preexec_fn=lambda: _node_process_setup(launcher),
-    )
-
-
-@dataclass
-class _Process:
-    spec: NodeSpec
-    popen: subprocess.Popen[bytes]
-    log: Path
-
-
-class RunningGraph:
-    """The processes of a started graph; a context manager that always stops them.
-
-    Args:
-        graph: What to start.
-        log_dir: Where each node's stdout/stderr go (``<name>.log``).
-        domain_id: The run's ROS_DOMAIN_ID (default: allocated by :mod:`bike_rig.ros.env`).
-        env: Extra environment for every node.
-        static_peers: The other host's addresses when the graph is split over two hosts
-            (``ROS_STATIC_PEERS``, see :func:`bike_rig.ros.env.ros_environment`).
-    """
-
-    def __init__(
-        self,
-        graph: Graph,
-        log_dir: Path,
-        domain_id: int | None = None,
-        env: Mapping[str, str] | None = None,
-        static_peers: Sequence[str] = (),
-    ) -> None:
-        """Keep the graph and log directory and build the nodes' environment; nothing is started yet."""
-        self.graph = graph
-        self.log_dir = log_dir
-        base = dict(os.environ)
-        base.update(env or {})
-        self.env = ros_environment(base, domain_id=domain_id, static_peers=static_peers)
-        self.processes: list[_Process] = []
-
-    @property
-    def domain_id(self) -> int:
-        """The ROS_DOMAIN_ID every node of the run uses."""
-        return int(self.env["ROS_DOMAIN_ID"])
-
-    def start(self) -> RunningGraph:
-        """Check the graph (:meth:`Graph.checked`), then start every node (each in its own process group).
-
-        Raises:
-            LaunchError: A parameter override or file parameter is wrong (nothing is started).
-        """
-        self.graph = self.graph.checked()
-        self.log_dir.mkdir(parents=True, exist_ok=True)
-        for spec in self.graph.nodes:
-            log = self.log_dir / f"{spec.name}.log"
-            with log.open("wb") as out:
-                popen = _popen_node(spec.command(), out, self.env)
-            self.processes.append(_Process(spec, popen, log))
-        return self
-
-    def __enter__(self) -> RunningGraph:
-        """Start every node (:meth:`start`) and return the running graph."""
-        return self.start()
-
-    def __exit__(self, *exc: object) -> None:
-        """Stop every node, however the block ended."""
-        self.stop()
-
-    def dead(self) -> list[tuple[str, int, str]]:
-        """Nodes that have exited: (name, exit status, last lines of their log)."""
-        out = []
-        for p in self.processes:
-            code = p.popen.poll()
-            if code is not None:
-                out.append((p.spec.name, code, _tail(p.log)))
-        return out
-
-    def pid(self, name: str) -> int:
-        """The process id of node ``name``."""
-        return next(p.popen.pid for p in self.processes if p.spec.name == name)
-
-    def _index(self, name: str) -> int:
-        """Where node ``name`` is in :attr:`processes`.
-
-        Raises:
-            LaunchError: No such node.
-        """
-        for i, p in enumerate(self.processes):
-            if p.spec.name == name:
-                return i
-        raise LaunchError(f"no node named '{name}'")
-
-    def restart(self, name: str) -> None:
-        """Start node ``name`` again (after it died or was killed)."""
-        i = self._index(name)
-        p = self.processes[i]
-        if p.popen.poll() is None:
-            raise LaunchError(f"node '{name}' is still running (pid {p.popen.pid})")
-        with p.log.open("ab") as out:
-            popen = _popen_node(p.spec.command(), out, self.env)
-        self.processes[i] = _Process(p.spec, popen, p.log)
-
-    def stop_node(self, name: str, timeout_s: float = 15.0) -> int:
-        """Stop node ``name`` (SIGINT, then SIGTERM, then SIGKILL) and return its exit status.
-
-        Raises:
-            LaunchError: No such node.
-        """
-        return _stop(self.processes[self._index(name)].popen, timeout_s)
-
-    def interrupt(self, name: str) -> None:
-        """Send node ``name`` a SIGINT (a clean stop) without waiting; :meth:`stop_node` waits.
-
-        Raises:
-            LaunchError: No such node.
-        """
-        popen = self.processes[self._index(name)].popen
-        if popen.poll() is None:
-            with contextlib.suppress(ProcessLookupError):
-                popen.send_signal(signal.SIGINT)
-
-    def log(self, name: str) -> Path:
-        """The log file of node ``name``.
-
-        Raises:
-            LaunchError: No such node.
-        """
-        return self.processes[self._index(name)].log
-
-    def stop(self, timeout_s: float = 15.0) -> dict[str, int]:
-        """Stop every node: SIGINT, then SIGTERM, then SIGKILL, each node's exit waited for.
-
-        In reverse start order, in three steps: the last started (the source) alone, then the
-        nodes between together, then the first started (the recorder) alone, so that what the
-        source sent last is still taken in and everything published is recorded.
-
-        Returns:
-            Exit status per node name, in stop order.
-        """
-        procs = list(reversed(self.processes))
-        steps = [procs[:1], procs[1:-1], procs[-1:]] if len(procs) > 2 else [[p] for p in procs]
-        status: dict[str, int] = {}
-        for step in steps:
-            codes = _stop_together([p.popen for p in step], timeout_s)
-            status.update({p.spec.name: c for p, c in zip(step, codes, strict=True)})
-        return status
-
-
-def _stop_together(popens: Sequence[subprocess.Popen[bytes]], timeout_s: float) -> list[int]:
-    """Signal every process (SIGINT, then SIGTERM, then SIGKILL to those still running) and wait for them all."""
-    for sig, wait in ((signal.SIGINT, timeout_s), (signal.SIGTERM, 5.0), (signal.SIGKILL, 5.0)):
-        running = [p for p in popens if p.poll() is None]
-        if not running:
-            break
-        for p in running:
-            with contextlib.suppress(ProcessLookupError):
-                p.send_signal(sig)
-        deadline = time.monotonic() + wait
-        for p in running:
-            with contextlib.suppress(subprocess.TimeoutExpired):
-                p.wait(max(0.0, deadline - time.monotonic()))
-    return [p.wait() for p in popens]
-
-
-def _stop(popen: subprocess.Popen[bytes], timeout_s: float) -> int:
-    return _stop_together([popen], timeout_s)[0]
-
-
-def _tail(path: Path, lines: int = 5) -> str:
-    try:
-        return "\n".join(path.read_text(errors="replace").splitlines()[-lines:])
-    except OSError:
-        return ""
 
 
 def parse_overrides(items: Sequence[str]) -> dict[str, dict[str, object]]:

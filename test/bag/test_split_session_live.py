@@ -23,7 +23,7 @@ from bike_rig.offline.info import summarize
 from bike_rig.offline.replay import replay_bag, result_json
 from bike_rig.ros.demo import run_demo
 from bike_rig.ros.env import ros_environment
-from bike_rig.ros.launch import RunningGraph
+from bike_rig.ros.running import RunningGraph
 from test.support.probe import Probe
 
 pytestmark = pytest.mark.ros

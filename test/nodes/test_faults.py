@@ -26,7 +26,7 @@ from bike_rig.core.benchmark import compute_parameters
 from bike_rig.core.loader import load_measurements
 from bike_rig.core.symbols import PARAMETER_NAMES
 from bike_rig.ros.demo import run_demo
-from bike_rig.ros.launch import RunningGraph
+from bike_rig.ros.running import RunningGraph
 
 pytestmark = pytest.mark.ros  # a whole graph of node processes (run_demo)
 

@@ -9,7 +9,8 @@ from pathlib import Path
 import pytest
 
 from bike_rig.core.errors import InputFileError
-from bike_rig.ros.launch import Graph, LaunchError, NodeSpec, RunningGraph, load_graph, parse_overrides
+from bike_rig.ros.launch import Graph, LaunchError, NodeSpec, load_graph, parse_overrides
+from bike_rig.ros.running import RunningGraph
 from test.support.wait import wait_until
 
 REPO = Path(__file__).resolve().parents[2]
@@ -130,7 +131,8 @@ def test_the_nodes_end_with_their_launcher_however_it_dies(tmp_path: Path) -> No
     launcher = (
         "import sys, time\n"
         "from pathlib import Path\n"
-        "from bike_rig.ros.launch import Graph, NodeSpec, RunningGraph\n"
+        "from bike_rig.ros.launch import Graph, NodeSpec\n"
+        "from bike_rig.ros.running import RunningGraph\n"
         "g = Graph((NodeSpec('a', 'test.nodes.fake_node'), NodeSpec('b', 'test.nodes.fake_node')))\n"
         f"RunningGraph(g, Path({str(tmp_path / 'logs')!r}), env={_env(tmp_path)!r}).start()\n"
         "print('started', flush=True)\n"

@@ -15,7 +15,9 @@ topic contract's); topics that stayed silent are added, empty, when the bag clos
 are flushed at least every ``flush_period`` s (default 0.5), so a recorder killed with SIGKILL
 loses at most that much (``bike-rig bag recover``).
 SIGINT or SIGTERM: the messages already delivered are drained, then the bag is closed
-(summary, footer, metadata.yaml).
+(summary, footer, metadata.yaml). SIGUSR1 (the launcher, before it stops the other nodes): wait
+until every node named in ``sync_file`` is discovered and every publisher the graph shows is
+matched, take what they hold, log a line beginning ``synced:`` and remove ``sync_file``.
 
 Parameters (``config/recorder.yaml``):
 
@@ -35,6 +37,8 @@ Parameters (``config/recorder.yaml``):
   (default, as rosbag2's snapshot mode is opt-in): no snapshots, no memory spent.
 * ``snapshot_max_bytes`` (integer, bytes): the snapshot buffer's memory bound (message data
   plus 240 bytes per message); default 64 MiB.
+* ``sync_file`` (string): the file naming (one per line) the nodes a sync (SIGUSR1) waits for;
+  set by the launcher, which writes it before the signal and waits for it to go.
 
 Services (``bike_rig_msgs/srv``), as rosbag2's recorder offers them:
 
@@ -57,6 +61,7 @@ Run: ``python -m bike_rig.ros.nodes.recorder --ros-args -p output:=session1`` (o
 
 from __future__ import annotations
 
+import contextlib
 import importlib
 import os
 import shutil
@@ -97,6 +102,10 @@ DRAIN_TIMEOUT_S = 2.0
 """Longest time spent taking already-delivered messages after a stop request."""
 DRAIN_IDLE_S = 0.05
 """The drain ends when nothing arrives for this long."""
+SYNC_TIMEOUT_S = 10.0
+"""Longest wait for every publisher to be matched on a sync request (SIGUSR1)."""
+SYNCED = "synced:"
+"""What the log line that ends a sync begins with (the launcher waits for it)."""
 
 # the generated service classes ship no type information: imported by name
 _srvs: Any = importlib.import_module("bike_rig_msgs.srv")
@@ -145,6 +154,7 @@ PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec(
         "snapshot_max_bytes", 64 << 20, "most memory kept for save_snapshot (data + 240 per message), bytes", (1, 2**62)
     ),
+    ParamSpec("sync_file", "", "file naming the nodes a sync (SIGUSR1) waits for, removed when done; the launcher's"),
 )
 
 
@@ -262,10 +272,13 @@ class Recorder(Node):
         self.create_service(_srvs.Resume, RECORDER_RESUME, self._on_resume)
         self.create_service(_srvs.SplitBag, RECORDER_SPLIT, self._on_split)
         self.create_service(_srvs.SaveSnapshot, RECORDER_SNAPSHOT, self._on_snapshot)
-        for topic in self.topics:
-            self.create_subscription(
+        self.sync_file = Path(values["sync_file"]) if values["sync_file"] else None
+        self.subscriptions_by_topic = {
+            topic.name: self.create_subscription(
                 _message_class(topic.type), topic.name, self._callback(topic), profile(topic), raw=True
             )
+            for topic in self.topics
+        }
         self.get_logger().info(
             f"recording {len(self.topics)} topics to {self.writer.path} "
             f"(chunks flushed every {self.writer.flush_period_s:g} s, {self.writer.compression.value})"
@@ -461,6 +474,17 @@ class Recorder(Node):
         if first:
             self.get_logger().info(f"recording {topic.name} ({len(publishers)} publisher(s))")
 
+    def unsynced(self, nodes: Sequence[str]) -> list[str]:
+        """What a sync still waits for: ``nodes`` not discovered, publishers the graph shows not matched."""
+        seen = {name for name, _ in self.get_node_names_and_namespaces()}
+        out = [f"node {name} not discovered" for name in nodes if name not in seen]
+        for name, sub in self.subscriptions_by_topic.items():
+            known = len(self.get_publishers_info_by_topic(name))
+            matched = sub.get_publisher_count()
+            if matched < known:
+                out.append(f"{name}: {matched} of {known} publishers matched")
+        return out
+
     def tick(self) -> None:
         """Flush the chunk in progress if it is due (called by the spin loop)."""
         if self.failed is not None:
@@ -518,6 +542,48 @@ def _spin_until_idle(executor: SingleThreadedExecutor, node: Recorder) -> None:
             return
 
 
+def _sync(executor: SingleThreadedExecutor, node: Recorder) -> None:
+    """Wait until every publisher is matched (:meth:`Recorder.unsynced`), take what they hold, and say so.
+
+    Asked by the launcher before it stops the nodes that publish (SIGUSR1): a publisher the
+    recorder has not matched yet still holds its transient-local history, which it loses with
+    its process. The nodes waited for are named in :attr:`Recorder.sync_file`; it is removed
+    at the end, after a log line beginning with :data:`SYNCED`.
+    """
+    nodes: list[str] = []
+    if node.sync_file is not None:
+        with contextlib.suppress(OSError):
+            nodes = [n.strip() for n in node.sync_file.read_text(encoding="utf-8").splitlines() if n.strip()]
+    deadline = time.monotonic() + SYNC_TIMEOUT_S
+    waiting = node.unsynced(nodes)
+    while waiting and time.monotonic() < deadline:
+        executor.spin_once(timeout_sec=0.05)
+        node.tick()
+        waiting = node.unsynced(nodes)
+    _spin_until_idle(executor, node)
+    if waiting:
+        node.get_logger().warning(
+            f"{SYNCED} after {SYNC_TIMEOUT_S:g} s still {'; '.join(waiting)}: what they hold may not be recorded"
+        )
+    else:
+        node.get_logger().info(f"{SYNCED} every publisher matched, {node.received} messages received")
+    if node.sync_file is not None:
+        with contextlib.suppress(OSError):
+            node.sync_file.unlink()
+
+
+def _record_until_stopped(executor: SingleThreadedExecutor, node: Recorder, stop: dict[str, bool]) -> None:
+    """Spin until a stop is requested (syncing when asked), then drain what was delivered."""
+    while rclpy.ok() and not stop["requested"]:
+        executor.spin_once(timeout_sec=0.1)
+        node.tick()
+        if stop["sync"]:
+            stop["sync"] = False
+            _sync(executor, node)
+    if rclpy.ok():
+        _spin_until_idle(executor, node)
+
+
 def main(args: Sequence[str] | None = None) -> int:
     """Run the recorder until SIGINT/SIGTERM; returns the exit status (2 on a user mistake)."""
     env = ros_environment(os.environ)
@@ -526,24 +592,24 @@ def main(args: Sequence[str] | None = None) -> int:
     argv = list(sys.argv if args is None else args)
     # our own handlers (not rclpy's, which would shut the context down before the drain)
     rclpy.init(args=argv, signal_handler_options=SignalHandlerOptions.NO)
-    stop = {"requested": False}
+    stop = {"requested": False, "sync": False}
 
     def request_stop(signum: int, _frame: FrameType | None) -> None:
         stop["requested"] = True
 
+    def request_sync(signum: int, _frame: FrameType | None) -> None:
+        stop["sync"] = True
+
     for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
         signal.signal(sig, request_stop)
+    signal.signal(signal.SIGUSR1, request_sync)
     node: Recorder | None = None
     executor: SingleThreadedExecutor | None = None
     try:
         node = Recorder()
         executor = SingleThreadedExecutor()
         executor.add_node(node)
-        while rclpy.ok() and not stop["requested"]:
-            executor.spin_once(timeout_sec=0.1)
-            node.tick()
-        if rclpy.ok():
-            _spin_until_idle(executor, node)
+        _record_until_stopped(executor, node, stop)
         return 0 if node.close() else 1
     except BikeRigError as exc:
         print(f"{NODE_NAME}: error: {exc}", file=sys.stderr)
