@@ -239,8 +239,7 @@ class DriverNode(Node):
                     return
                 self._streaming = True
                 self.get_logger().info(f"{self.gyro_pub.get_subscription_count()} gyro subscriber(s): streaming")
-            self._publish_events(self.source.poll())
-            self._log_notices()
+            self._poll_source()
             self._warn_silent()
             if self.source.finished and not self._done_logged:
                 self._done_logged = True
@@ -261,6 +260,11 @@ class DriverNode(Node):
             self._errors += 1
             if self._errors in (1, 10, 100) or self._errors % 1000 == 0:
                 self.get_logger().error(f"reading the {self.source.name} source failed: {exc!r}")
+
+    def _poll_source(self) -> None:
+        """Publish what the source has, and log what it noticed doing so (a log file read whole at once)."""
+        self._publish_events(self.source.poll())
+        self._log_notices()
 
     def _log_notices(self) -> None:
         for warning, text in self.source.notices():
@@ -471,7 +475,7 @@ class DriverNode(Node):
             self._last_start = (wanted, info.trial_id, response.message)  # (before its events: a STOP clears it)
             self.silence.started(info.trial_id)
             if self._streaming:
-                self._publish_events(self.source.poll())  # the START, when the source has it at once
+                self._poll_source()  # the START, when the source has it at once
             self.get_logger().info(response.message)
         except TrialRequestError as exc:
             response.accepted, response.message = False, str(exc)
@@ -506,7 +510,7 @@ class DriverNode(Node):
     def _on_stop_trial(self, request: Any, response: Any) -> Any:
         try:
             stopped = self.source.stop_trial(request.trial_id, bool(request.abort))
-            self._publish_events(self.source.poll())  # the STOP goes out before the response
+            self._poll_source()  # the STOP goes out before the response
             response.accepted = True
             how = "aborted" if stopped.aborted else "stopped"
             response.message = f"trial {stopped.trial_id} {how} after {stopped.sample_count} samples"
