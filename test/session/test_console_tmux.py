@@ -151,13 +151,21 @@ def test_a_whole_session_at_the_console(tmp_path: Path, ros_env: dict[str, str],
     assert len(replayed["trials"]) == len(plan.trials) + 1 + redone  # every trial, the forced and the flagged redos
 
 
+def _log_pane(screen: str) -> str:
+    """The log pane's rows of a screen, flattened (the rest changes as it likes: health, sparkline)."""
+    rows = screen.splitlines()
+    top = next((i for i, row in enumerate(rows) if "─log ·" in row), -1)
+    bottom = next((i for i, row in enumerate(rows) if " command (" in row), len(rows))
+    return flatten("\n".join(rows[top + 1 : bottom]))
+
+
 def _read_back(tmux: TmuxSession, first: str, wanted: list[str]) -> None:
     """Read a reply from its first line ``first`` on, scrolling the log up with PgUp as the screen says; End returns.
 
     Every pattern of ``wanted`` must be seen on some screen on the way (a reply longer than the log pane);
     the last one first, at the log's end.
     """
-    screen = flatten(tmux.wait_for(wanted[-1], 30, flat=True))
+    screen = _log_pane(tmux.wait_for(wanted[-1], 30, flat=True))
     seen = screen
     for _ in range(20):
         if re.search(first, seen) and all(re.search(w, seen) for w in wanted):
@@ -165,9 +173,9 @@ def _read_back(tmux: TmuxSession, first: str, wanted: list[str]) -> None:
         tmux.keys("PageUp")
         deadline = time.monotonic() + 10
         now = screen
-        while now == screen and time.monotonic() < deadline:  # (until the page has moved, or at the top)
+        while now == screen and time.monotonic() < deadline:  # (until the log has moved, or at the top)
             time.sleep(0.05)
-            now = flatten(tmux.screen())
+            now = _log_pane(tmux.screen())
         screen, seen = now, f"{seen} {now}"
     missing = [w for w in wanted if not re.search(w, seen)]
     assert not missing and re.search(first, seen), f"never seen {missing or first}; last screen:\n{tmux.screen()}"
@@ -184,7 +192,8 @@ def test_a_session_with_a_readings_file_at_the_console(  # type: ignore[no-untyp
     The readings file marks every reading done; the connection line names the ROS domain and the view
     line; ``help`` lists every command; a trial far down the plan is flagged and the plan follows it
     (REDO in sight); every trial is recorded from the keyboard to the end of the plan; ``params``, a
-    26-line reply with its echo, is read whole (in the log pane at 200×50, scrolled with PgUp at 80×24).
+    26-line reply with its echo, is read whole (scrolled with PgUp where it does not fit; the log pane at
+    200×50 is tall enough for it).
     """
     folder = tmp_path / "session"
     file = tmp_path / "readings.yaml"
@@ -225,11 +234,12 @@ def test_a_session_with_a_readings_file_at_the_console(  # type: ignore[no-untyp
         tmux.type("params")
         tmux.keys("Enter")
         names = [rf"(?<![A-Za-z]){re.escape(n)}\s+-?[0-9.]+(?:e[-+]?\d+)? ± " for n in PARAMETER_NAMES]
-        if height >= 50:  # the whole reply in the pane at once; its echo may have scrolled up by a late line
-            tmux.wait_for("".join(f"(?=.*{n})" for n in names), 30, flat=True)
-            _read_back(tmux, r"> params", names[-1:])
-        else:
-            _read_back(tmux, r"> params", names)
+        _read_back(tmux, r"> params", names)
+        if height >= 50:  # the log pane holds the whole reply with its echo (late lines may scroll it, not its size)
+            rows = tmux.screen().splitlines()
+            top = next(i for i, row in enumerate(rows) if "─log ·" in row)
+            bottom = next(i for i, row in enumerate(rows) if " command (" in row)
+            assert bottom - top - 1 >= len(names) + 1, tmux.screen()
         tmux.keys("C-c")
         tmux.wait_for(r"Quit\? F10 or Ctrl-C again leaves", 30, flat=True)  # Ctrl-C asks too (no textual notice)
         tmux.keys("C-c")
