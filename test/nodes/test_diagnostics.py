@@ -115,8 +115,9 @@ def test_every_node_publishes_its_statuses_at_1_hz_and_levels_follow(
                 names = {s.name for s in statuses} - {f"{node}: input lag"}
                 assert names == {f"{node}: {c}" for c in concerns}, statuses
                 assert all(s.hardware_id == HARDWARE_ID and s.message for s in statuses)
+            # 1 Hz: a timer late under load fires the next on its 1 s grid (a short gap after a long one)
             gaps = [b[0] - a[0] for a, b in zip(arrays, arrays[1:], strict=False)]
-            assert all(0.7 <= g <= 1.5 for g in gaps), (node, gaps)  # 1 Hz on a shared 2-core machine
+            assert 0.7 <= sum(gaps) / len(gaps) <= 1.5 and all(0 < g < 3 for g in gaps), (node, gaps)
 
         def level(node: str, concern: str) -> Level | None:
             s = latest(box, node, concern)
