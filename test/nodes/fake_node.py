@@ -1,7 +1,7 @@
 """A stand-in node process for launcher tests.
 
-Writes its environment and arguments, then waits for a signal (or exits with the status given by
-``--exit N``).
+Writes its environment and arguments (atomically, as ``<pid>.json``), then waits for a signal
+(or exits with the status given by ``--exit N``).
 """
 
 from __future__ import annotations
@@ -17,9 +17,12 @@ def main() -> int:
     args = sys.argv[1:]
     out = os.environ["FAKE_NODE_OUT"]
     name = os.environ.get("FAKE_NODE_NAME", "node")
-    with open(f"{out}/{os.getpid()}.json", "w") as f:
-        env = {k: os.environ.get(k) for k in ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_DOMAIN_ID")}
+    env = {k: os.environ.get(k) for k in ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_DOMAIN_ID")}
+    # written aside and renamed: a reader polling ``*.json`` sees no report or a whole one
+    tmp = f"{out}/{os.getpid()}.tmp"
+    with open(tmp, "w") as f:
         json.dump({"args": args, "env": env, "name": name}, f)
+    os.replace(tmp, f"{out}/{os.getpid()}.json")
     if "--exit" in args:
         return int(args[args.index("--exit") + 1])
     stopped = {"sig": 0}

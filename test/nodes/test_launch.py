@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import time
 from pathlib import Path
 
 import pytest
@@ -11,7 +10,7 @@ import pytest
 from bike_rig.core.errors import InputFileError
 from bike_rig.ros.launch import Graph, LaunchError, NodeSpec, load_graph, parse_overrides
 from bike_rig.ros.running import RunningGraph
-from test.support.wait import wait_until
+from test.support.wait import WAIT_TIMEOUT_S, wait_until
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -20,7 +19,7 @@ def _env(tmp_path: Path) -> dict[str, str]:
     return {"FAKE_NODE_OUT": str(tmp_path), "PYTHONPATH": str(REPO)}
 
 
-def _reports(tmp_path: Path, n: int, timeout_s: float = 20.0) -> list[dict[str, object]]:
+def _reports(tmp_path: Path, n: int, timeout_s: float = WAIT_TIMEOUT_S) -> list[dict[str, object]]:
     files = wait_until(
         lambda: (fs := sorted(tmp_path.glob("*.json")))[n - 1 :] and fs,
         f"{n} fake nodes' reports",
@@ -28,7 +27,7 @@ def _reports(tmp_path: Path, n: int, timeout_s: float = 20.0) -> list[dict[str, 
         0.02,
         lambda: f"{len(list(tmp_path.glob('*.json')))} reported",
     )
-    time.sleep(0.05)  # (each report is written whole before the next poll)
+    # (each report appears whole: the fake node renames it into place)
     return [json.loads(f.read_text()) for f in files]
 
 
@@ -61,7 +60,7 @@ def test_nodes_get_localhost_and_the_runs_domain_id(tmp_path: Path) -> None:
 def test_a_dead_node_is_reported(tmp_path: Path) -> None:
     graph = Graph((NodeSpec("ok", "test.nodes.fake_node"), NodeSpec("bad", "test.nodes.no_such_module")))
     with RunningGraph(graph, tmp_path / "logs", env=_env(tmp_path)) as running:
-        dead = wait_until(running.dead, "a dead node", 20)
+        dead = wait_until(running.dead, "a dead node")
     assert [(name, code) for name, code, _ in dead] == [("bad", 1)]
     assert "No module named test.nodes.no_such_module" in dead[0][2]
 
@@ -74,7 +73,7 @@ def test_restart_after_kill(tmp_path: Path) -> None:
         import signal
 
         os.kill(running.pid("a"), signal.SIGKILL)
-        wait_until(running.dead, "the killed node", 10, 0.02)
+        wait_until(running.dead, "the killed node", interval_s=0.02)
         running.restart("a")
         second = _reports(tmp_path, 2)
     assert len(first) == 1 and len(second) == 2
@@ -152,17 +151,17 @@ def test_the_nodes_end_with_their_launcher_however_it_dies(tmp_path: Path) -> No
             assert len(reports) == len(pids) == 2
             proc.send_signal(signal.SIGKILL)
             proc.wait(10)
-            deadline = time.monotonic() + 10
-            while time.monotonic() < deadline and any(_running(p) for p in pids):
-                time.sleep(0.05)
-            alive = [p for p in pids if _running(p)]
+            wait_until(
+                lambda: not any(_running(p) for p in pids),
+                "the orphaned nodes to end",
+                describe=lambda: f"running: {[p for p in pids if _running(p)]}",
+            )
         finally:
             for f in tmp_path.glob("*.json"):
                 try:
                     os.kill(int(f.stem), signal.SIGKILL)
                 except ProcessLookupError:
                     pass
-    assert alive == []
 
 
 def test_a_subset_keeps_the_start_order_and_refuses_unknown_or_empty(tmp_path: Path) -> None:
