@@ -13,9 +13,9 @@ parameter node gets every period estimate again.
 
 from __future__ import annotations
 
+import functools
 import os
 import signal
-import time
 from pathlib import Path
 
 import pytest
@@ -27,6 +27,7 @@ from bike_rig.core.loader import load_measurements
 from bike_rig.core.symbols import PARAMETER_NAMES
 from bike_rig.ros.demo import run_demo
 from bike_rig.ros.running import RunningGraph
+from test.support.wait import wait_until
 
 pytestmark = pytest.mark.ros  # a whole graph of node processes (run_demo)
 
@@ -43,13 +44,14 @@ def _short_rig(tmp: Path) -> Path:
 def test_fitter_and_parameter_node_restarted_mid_session(tmp_path: Path) -> None:
     killed: list[tuple[str, int]] = []
 
+    def ended(running: RunningGraph, name: str) -> bool:
+        return name in {n for n, _, _ in running.dead()}
+
     def inject(running: RunningGraph, fitted: int) -> None:
         for name, at in (("fitter", 8), ("parameter", 20)):
             if fitted >= at and name not in {n for n, _ in killed}:
                 os.kill(running.pid(name), signal.SIGTERM)
-                deadline = time.monotonic() + 10
-                while name not in {n for n, _, _ in running.dead()} and time.monotonic() < deadline:
-                    time.sleep(0.01)
+                wait_until(functools.partial(ended, running, name), f"the SIGTERMed {name} to end", interval_s=0.01)
                 running.restart(name)
                 killed.append((name, fitted))
 
