@@ -23,6 +23,7 @@ from bike_rig.messages import fill_ride_speed, state_space_model_from_msg
 from bike_rig.pipeline.model import compute_model, state_space_at, state_space_with_sigma_at
 from test.support.nodes import ASSIST, STAMP_NS, offline_set, publish_set, start_node
 from test.support.probe import Probe
+from test.support.wait import WAIT_TIMEOUT_S
 
 pytestmark = pytest.mark.ros
 
@@ -43,7 +44,7 @@ def publish_speed(pub: Any, speed: float) -> None:
 
 def stream_until(probe: Probe, pub: Any, speed: float, condition: Any, what: str, node: Any) -> None:
     """Publish ``speed`` every 50 ms, as a speed sensor does (best effort), until ``condition()``."""
-    deadline = time.monotonic() + 30.0
+    deadline = time.monotonic() + WAIT_TIMEOUT_S
     while not condition():
         assert time.monotonic() < deadline, f"timed out waiting for {what}\n{node.describe()}"
         publish_speed(pub, speed)
@@ -111,8 +112,11 @@ def test_ride_speed_gives_the_latched_state_space_rate_limited_and_stepped(
             publish_speed(speed, v)
         stream_until(probe, speed, 6.0, lambda: box[-1].speed == 6.0, "the latest speed", node)
         last = box[-1]
-        later = box[1:]
-        assert later[-1] is last and 1 <= len(later) <= 2, [m.speed for m in later]
+        # which of them are published depends on how long each computation takes (one that takes an
+        # interval lets 4, 5 and 6 each through); what holds: speeds sent, in the order sent, the
+        # latest last, and the node's stamps (the time the rate limit counts from) an interval apart
+        later = [m.speed for m in box[1:]]
+        assert set(later) <= {4.0, 5.0, 6.0} and later == sorted(set(later)) and later[-1] == 6.0, later
         stamps = [stamp_of(m) for m in box]
         assert all(b - a >= INTERVAL_NS for a, b in zip(stamps, stamps[1:], strict=False)), np.diff(stamps)
         assert_equals_core(last, "paper", load_feedback(ASSIST))
