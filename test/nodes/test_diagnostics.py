@@ -2,14 +2,15 @@
 
 Every node's array arrives about once a second with the documented statuses; levels follow the
 conditions: the model is WARN until a parameter set arrives, then OK; the driver's samples go
-OK (idle) → WARN → ERROR while a trial on a silent CAN bus gets no samples, and back to OK when
-it is aborted; the recorder's disk status is WARN with a free-space threshold above the disk's;
-the parameter node is WARN while incomplete.
+OK (idle) → WARN → ERROR while a trial on a silent CAN bus gets no samples (each array at the
+level of the silence it reports), and back to OK when it is aborted; the recorder's disk status
+is WARN with a free-space threshold above the disk's; the parameter node is WARN while incomplete.
 """
 
 from __future__ import annotations
 
 import contextlib
+import math
 import uuid
 from pathlib import Path
 from typing import Any
@@ -20,10 +21,16 @@ from bike_rig.config import topics
 from bike_rig.core.benchmark import ComMethod
 from bike_rig.messages.diagnostics import statuses_from_msg
 from bike_rig.pipeline.diagnostics import HARDWARE_ID, Level, Status
+from bike_rig.pipeline.health import SILENCE_ERROR_FACTOR
 from test.support.nodes import BROWSER, STAMP_NS, publish_set, start_node
 from test.support.probe import Probe
+from test.support.wait import WAIT_TIMEOUT_S
 
 pytestmark = pytest.mark.ros
+
+#: The driver's ``silence_warning_s`` in the silent-bus trial, s: WARN from it, ERROR from
+#: SILENCE_ERROR_FACTOR times it, so WARN lasts 2 x 1.5 = 3 s, three 1 Hz arrays.
+SILENCE_S = 1.5
 
 #: The statuses each node publishes (README, Diagnostics).
 CONCERNS = {
@@ -56,6 +63,43 @@ def latest(box: list[Any], node: str, concern: str) -> Status | None:
     return next((s for s in arrays[-1][1] if s.name == f"{node}: {concern}"), None)
 
 
+def assert_levels_follow_the_silence(box: list[Any], trial_id: str) -> None:
+    """Each of the trial's driver arrays has the level its own silence gives (WARN in [1.5, 4.5) s).
+
+    So the levels only rise. Which arrays fall in the WARN band is the machine's timing (a stalled
+    driver may publish none there: then only ERROR is seen).
+    """
+    during = [
+        s
+        for _, statuses in arrays_of(box, "driver")
+        for s in statuses
+        if s.name == "driver: samples" and trial_id in s.value("recording")
+    ]
+    levels = [s.level for s in during]
+    assert levels == sorted(levels) and levels[-1] == Level.ERROR, during
+    bands = {
+        Level.WARN: (SILENCE_S, SILENCE_ERROR_FACTOR * SILENCE_S),
+        Level.ERROR: (SILENCE_ERROR_FACTOR * SILENCE_S, math.inf),
+    }
+    for s in during:
+        since = float(s.value("since last sample (s)"))
+        for band_level, (low, high) in bands.items():
+            if low + 0.01 <= since < high - 0.01:  # (the value is printed to 6 digits)
+                assert s.level == band_level, s
+
+
+def assert_1_hz(box: list[Any]) -> None:
+    """Every node's arrays come at 1 Hz on average over the whole run (about a dozen arrays).
+
+    A single gap is the node's latency, which a busy machine sets (a late timer fires the next on
+    its 1 s grid: a short gap after a long one), so only the mean is bounded.
+    """
+    for node in CONCERNS:
+        arrays = arrays_of(box, node)
+        gaps = [b[0] - a[0] for a, b in zip(arrays, arrays[1:], strict=False)]
+        assert 0.7 <= sum(gaps) / len(gaps) <= 1.5 and all(g > 0 for g in gaps), (node, gaps)
+
+
 def test_every_node_publishes_its_statuses_at_1_hz_and_levels_follow(
     probe: Probe, node_env: dict[str, str], tmp_path: Path
 ) -> None:
@@ -79,7 +123,7 @@ def test_every_node_publishes_its_statuses_at_1_hz_and_levels_follow(
                 "-p",
                 f"can_channel:={channel}",
                 "-p",
-                "silence_warning_s:=0.5",
+                f"silence_warning_s:={SILENCE_S}",
             ),
             "fitter": start_node("fitter", "fitter", node_env, tmp_path),
             "parameter": start_node("parameter", "parameter", node_env, tmp_path, "-p", f"measurements:={BROWSER}"),
@@ -104,7 +148,7 @@ def test_every_node_publishes_its_statuses_at_1_hz_and_levels_follow(
 
         def wait(condition: Any, what: str) -> None:
             try:
-                probe.wait_for(condition, what, timeout=40.0)
+                probe.wait_for(condition, what, timeout=WAIT_TIMEOUT_S)
             except AssertionError as exc:
                 raise AssertionError(f"{exc}\n{describe()}") from None
 
@@ -115,9 +159,6 @@ def test_every_node_publishes_its_statuses_at_1_hz_and_levels_follow(
                 names = {s.name for s in statuses} - {f"{node}: input lag"}
                 assert names == {f"{node}: {c}" for c in concerns}, statuses
                 assert all(s.hardware_id == HARDWARE_ID and s.message for s in statuses)
-            # 1 Hz: a timer late under load fires the next on its 1 s grid (a short gap after a long one)
-            gaps = [b[0] - a[0] for a, b in zip(arrays, arrays[1:], strict=False)]
-            assert 0.7 <= sum(gaps) / len(gaps) <= 1.5 and all(0 < g < 3 for g in gaps), (node, gaps)
 
         def level(node: str, concern: str) -> Level | None:
             s = latest(box, node, concern)
@@ -141,41 +182,57 @@ def test_every_node_publishes_its_statuses_at_1_hz_and_levels_follow(
             StartTrial, topics.START_TRIAL, StartTrial.Request(part="fork", pendulum="torsional", orientation=1)
         )
         assert started.accepted, started.message
-        wait(lambda: level("driver", "samples") == Level.WARN, "the driver's samples WARN")
         wait(lambda: level("driver", "samples") == Level.ERROR, "the driver's samples ERROR")
         error = latest(box, "driver", "samples")
         assert error is not None and started.trial_id in error.value("recording")
-        assert float(error.value("since last sample (s)")) >= 1.5 or error.value("since last sample (s)") == "inf"
+        assert float(error.value("since last sample (s)")) >= SILENCE_ERROR_FACTOR * SILENCE_S
+        assert_levels_follow_the_silence(box, started.trial_id)
         stopped = probe.call(StopTrial, topics.STOP_TRIAL, StopTrial.Request(trial_id=started.trial_id, abort=True))
         assert stopped.accepted, stopped.message
         wait(lambda: level("driver", "samples") == Level.OK, "the driver's samples OK again")
+        assert_1_hz(box)
         codes = {name: p.stop() for name, p in procs.items()}
     assert all(code == 0 for code in codes.values()), (codes, describe())
 
 
 def test_a_streaming_trial_is_ok_at_its_rate(probe: Probe, node_env: dict[str, str], tmp_path: Path) -> None:
-    """The simulated rig in operator mode: while a trial records, samples OK at ~1 kHz, not behind."""
+    """The simulated rig in operator mode: while a trial records, samples OK at ~1 kHz, not behind.
+
+    The rate is measured over the last 2 s of wall time, so a stalled driver shows a low rate (and
+    then a burst) for a while: the trial runs until an array shows it at its rate, which a busy
+    machine only delays. No sample is ever missing.
+    """
     from diagnostic_msgs.msg import DiagnosticArray
 
-    from bike_rig_msgs.srv import StartTrial
+    from bike_rig_msgs.srv import StartTrial, StopTrial
 
     box = probe.listen(topics.DIAGNOSTICS, DiagnosticArray)
     args = ("-p", "source:=sim", "-p", "mode:=operator", "-p", f"bicycle:={BROWSER}", "-p", "seed:=3")
     with start_node("driver", "driver_sim", node_env, tmp_path, *args) as driver:
-        request = StartTrial.Request(part="fork", pendulum="torsional", orientation=1, duration_s=6.0)
+        request = StartTrial.Request(part="fork", pendulum="torsional", orientation=1, duration_s=0.0)  # until stopped
         started = probe.call(StartTrial, topics.START_TRIAL, request)
         assert started.accepted, started.message
 
-        def recording_for_2_s() -> bool:
+        def samples() -> list[Status]:
+            return [s for _, statuses in arrays_of(box, "driver") for s in statuses if s.name == "driver: samples"]
+
+        def at_its_rate() -> bool:
+            assert all(s.value("samples missing") == "0" for s in samples()), samples()
             s = latest(box, "driver", "samples")
-            return s is not None and s.message.startswith("recording") and int(s.value("samples published")) > 2500
+            return (
+                s is not None
+                and started.trial_id in s.value("recording")
+                and int(s.value("samples published")) > 2500  # (the rate's 2 s window full of the trial)
+                and s.level == Level.OK
+                and 900.0 <= float(s.value("sample rate (Hz)")) <= 1100.0
+                and float(s.value("expected rate (Hz)")) == 1000.0
+                and float(s.value("behind (s)")) < 0.5
+            )
 
         try:
-            probe.wait_for(recording_for_2_s, "2.5 s of samples", timeout=40.0)
+            probe.wait_for(at_its_rate, "an array at 1 kHz, OK, not behind", timeout=WAIT_TIMEOUT_S)
         except AssertionError as exc:
-            raise AssertionError(f"{exc}\n{[str(latest(box, 'driver', 'samples'))]}\n{driver.describe()}") from None
-        s = latest(box, "driver", "samples")
-        assert s is not None and s.level == Level.OK, s
-        assert 900.0 <= float(s.value("sample rate (Hz)")) <= 1100.0 and float(s.value("expected rate (Hz)")) == 1000.0
-        assert float(s.value("behind (s)")) < 0.5 and s.value("samples missing") == "0"
+            raise AssertionError(f"{exc}\n{[str(s) for s in samples()[-5:]]}\n{driver.describe()}") from None
+        stopped = probe.call(StopTrial, topics.STOP_TRIAL, StopTrial.Request(trial_id=started.trial_id))
+        assert stopped.accepted, stopped.message
         assert driver.stop() == 0, driver.describe()
