@@ -368,7 +368,8 @@ class SessionController:
             missing = s.missing()
             shown = ", ".join(missing[:12]) + (f" … ({len(missing)} in all)" if len(missing) > 12 else "")
             lacking = s.lacking()
-            open_items = {"missing": list(missing), "lacking": list(lacking)}
+            # (unaccounted: usable trials the parameter node's set does not hold yet)
+            open_items = {"missing": list(missing), "lacking": list(lacking), "unaccounted": list(s.unaccounted())}
             out = [Reply("info", f"missing: {shown or 'nothing'}", open_items)]
             if not missing and lacking:  # (every item done, yet the parameter node still lacks these)
                 text = f"the parameter set still lacks {', '.join(lacking)}"

@@ -9,7 +9,9 @@ An outcome is one of:
   would print before the error line) other than a one-line
   :class:`~bike_rig.core.reading_ranges.UnitMistakeWarning` (a value a wrong unit explains:
   a remark, so an ``ok`` input with one is ``flagged``);
-* ``hang``: it ran past the time limit (stopped by ``SIGALRM``, so only in the main thread).
+* ``hang``: it ran past the time limit of CPU time (stopped by ``SIGPROF``, so only in the main
+  thread). CPU time, not wall time: a busy machine slows a call without making it a hang. The
+  inputs are regular files, so a reader cannot block without spending CPU time.
 
 Memory is tracemalloc's peak over the call [bytes] (numpy's buffers included) when traced;
 the process's peak resident set size (children included) is always kept, which bounds every
@@ -99,25 +101,25 @@ def run_reader(
     Args:
         reader: The file reader under test.
         path: The input file.
-        time_limit_s: Wall time after which the call is a hang [s].
+        time_limit_s: CPU time of the process (user and system) after which the call is a hang [s].
         measure_memory: Trace allocations for the peak (slows the call about twofold).
     """
 
     def alarm(_signum: int, _frame: FrameType | None) -> None:
         raise _Hang
 
-    previous = signal.signal(signal.SIGALRM, alarm)
+    previous = signal.signal(signal.SIGPROF, alarm)
     if measure_memory:
         tracemalloc.start()
     start = time.perf_counter()
-    signal.setitimer(signal.ITIMER_REAL, time_limit_s)
+    signal.setitimer(signal.ITIMER_PROF, time_limit_s)
     try:
         kind, message, flagged = _classify(lambda: reader(path))
     except _Hang:
-        kind, message, flagged = "hang", f"still running after {time_limit_s:g} s", False
+        kind, message, flagged = "hang", f"still running after {time_limit_s:g} s of CPU time", False
     finally:
-        signal.setitimer(signal.ITIMER_REAL, 0)
-        signal.signal(signal.SIGALRM, previous)
+        signal.setitimer(signal.ITIMER_PROF, 0)
+        signal.signal(signal.SIGPROF, previous)
         seconds = time.perf_counter() - start
         peak = tracemalloc.get_traced_memory()[1] if measure_memory else 0
         if measure_memory:

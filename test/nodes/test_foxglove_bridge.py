@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import importlib
 import socket
+import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -177,6 +178,48 @@ def _topic_types() -> dict[str, str]:
     return {v.name: v.type for v in VIEW_TOPICS}
 
 
+#: The trial id (gyro) and status name (diagnostics) of the messages that only show a subscription is in effect.
+SENTINEL = "sentinel"
+
+
+def _sentinel(topic: str) -> Any:
+    """A message of a live-only topic that is not the session's."""
+    if topic == GYRO.name:
+        return msgs.GyroBatch(trial_id=SENTINEL, first_index=0, sample_rate_hz=RATE, rates=[0.0] * BATCH)
+    diag = _diagnostics_module()
+    assert diag is not None and topic == DIAGNOSTICS.name, topic
+    return diag.DiagnosticArray(status=[diag.DiagnosticStatus(name=SENTINEL)])
+
+
+def _is_sentinel(topic: str, rec: Any) -> bool:
+    if topic not in (GYRO.name, DIAGNOSTICS.name):
+        return False
+    msgtype = _topic_types()[topic]
+    msg = store_for(msgtype).deserialize_cdr(rec.payload, msgtype)
+    return bool(msg.trial_id == SENTINEL) if topic == GYRO.name else any(st.name == SENTINEL for st in msg.status)
+
+
+def _counted(client: Any) -> dict[str, int]:
+    """The messages received per topic, sentinels left out."""
+    return {t: sum(not _is_sentinel(t, r) for r in v) for t, v in client.received.items()}
+
+
+def _await_live_subscriptions(client: Any, publishers: dict[str, Any], proc: RosProcess) -> None:
+    """Publish sentinels on the live-only topics until one of each reaches ``client``.
+
+    A live-only topic (no backlog) forwards only what is published once the bridge has taken the
+    subscription; the session's messages, published after the sentinels on the same publishers,
+    arrive after them (one publisher's messages stay in order), so none is published too early.
+    """
+    live = [t for t in (GYRO.name, DIAGNOSTICS.name) if t in publishers]
+    deadline = time.monotonic() + STEP_TIMEOUT_S
+    while not all(any(_is_sentinel(t, r) for r in client.received.get(t, [])) for t in live):
+        assert time.monotonic() < deadline, f"no sentinel forwarded within {STEP_TIMEOUT_S} s\n{proc.describe()}"
+        for t in live:
+            publishers[t].publish(_sentinel(t))
+        client.drain(0.1)
+
+
 def test_every_channel_carries_what_was_published(
     probe: Probe, bridge: tuple[RosProcess, str], shared_dir: Path
 ) -> None:
@@ -206,20 +249,19 @@ def test_every_channel_carries_what_was_published(
             ), topic
             assert channel["schema"] == message_definition(msgtype), f"{topic}: not the recorder's schema text"
         client.subscribe(session)
-        client.drain(0.5)  # (the subscriptions take effect before anything is published)
+        _await_live_subscriptions(client, publishers, proc)  # (before anything counted is published)
         for name in (TRIAL_EVENTS.name, GYRO.name, PERIODS.name, PARAMETERS.name, EIGEN_SWEEP.name, DIAGNOSTICS.name):
             for msg in session.get(name, []):
                 publishers[name].publish(msg)
         want = {name: len(ms) for name, ms in session.items()}
-        client.read_until(
-            lambda: {t: len(v) for t, v in client.received.items()} == want, STEP_TIMEOUT_S, f"every message ({want})"
-        )
+        client.read_until(lambda: _counted(client) == want, STEP_TIMEOUT_S, f"every message ({want})")
+        received = {t: [r for r in v if not _is_sentinel(t, r)] for t, v in client.received.items()}
         for topic, published in session.items():
             msgtype = _topic_types()[topic]
             store = store_for(msgtype)
-            for i, (rec, msg) in enumerate(zip(client.received[topic], published, strict=True)):
+            for i, (rec, msg) in enumerate(zip(received[topic], published, strict=True)):
                 assert_same(store.deserialize_cdr(rec.payload, msgtype), msg, f"{topic}[{i}]")
-        gyro = [store_for(GYRO.type).deserialize_cdr(r.payload, GYRO.type) for r in client.received[GYRO.name]]
+        gyro = [store_for(GYRO.type).deserialize_cdr(r.payload, GYRO.type) for r in received[GYRO.name]]
         sent = np.concatenate([np.asarray(b.rates) for b in session[GYRO.name]])
         assert np.array_equal(np.concatenate([g.rates for g in gyro]), sent)  # the whole trace, in order
 

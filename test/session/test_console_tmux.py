@@ -28,6 +28,7 @@ from bike_rig.session.controller import COMMAND_HELP
 from bike_rig.session.plan import ReadingItem, plan_from_rig
 from test.support.sessions import kill_session, session_pids, wait_gone
 from test.support.tmux import TMUX, TmuxSession, flatten
+from test.support.wait import WAIT_TIMEOUT_S, wait_until
 
 BIKE_RIG = Path(sys.executable).parent / "bike-rig"
 TIME_SCALE = 150.0
@@ -119,7 +120,8 @@ def test_a_whole_session_at_the_console(tmp_path: Path, ros_env: dict[str, str],
             if not flagged and item.key == "TtB2":
                 tmux.type(f"start {item.item_id} 2")  # too short: too few cycles
                 tmux.keys("Enter")
-                tmux.wait_for(r"REDO\s+\(too_few_cycles", 30, flat=True)
+                # (the plan's row: the result line in the log pane may be scrolled away by warnings)
+                tmux.wait_for(rf"\b{re.escape(item.item_id)}\s+REDO\s", WAIT_TIMEOUT_S)
                 tmux.wait_for(rf"F2 records {re.escape(item.item_id)} again", flat=True)
                 flagged = True
             redone += _record(tmux, item.item_id)
@@ -148,35 +150,49 @@ def test_a_whole_session_at_the_console(tmp_path: Path, ros_env: dict[str, str],
     w_entries = [(e.value, e.note) for e in recorded.reading_entries if e.key == "w"]
     assert [v for v, _ in w_entries] == [readings["w"][0] * 1.01, readings["w"][0]]  # the mistake and its correction
     assert {e.key for e in recorded.reading_entries} == set(readings)
+    short = [t for t in replayed["trials"] if t["measurement_key"] == "TtB2" and "too_few_cycles" in t["flags"]]
+    assert short, [(t["measurement_key"], t["flags"]) for t in replayed["trials"]]  # the trial recorded too short
     assert len(replayed["trials"]) == len(plan.trials) + 1 + redone  # every trial, the forced and the flagged redos
 
 
-def _log_pane(screen: str) -> str:
-    """The log pane's rows of a screen, flattened (the rest changes as it likes: health, sparkline)."""
+def _log_rows(screen: str) -> list[str]:
+    """The log pane's rows of a screen, each right-stripped (the rest changes as it likes: health, sparkline)."""
     rows = screen.splitlines()
     top = next((i for i, row in enumerate(rows) if "─log ·" in row), -1)
     bottom = next((i for i, row in enumerate(rows) if " command (" in row), len(rows))
-    return flatten("\n".join(rows[top + 1 : bottom]))
+    return [flatten(row) for row in rows[top + 1 : bottom]]
+
+
+def _scrolled_up(before: list[str], now: list[str]) -> bool:
+    """``now`` shows the log scrolled up from ``before``: changed, and not merely moved up by new lines at its end.
+
+    A line added at the log's end moves every row up (``before`` shifted); a page up shows the rows above
+    (``before``'s rows gone, or moved down when the log's top is reached).
+    """
+    n = len(before)
+    return now != before and not any(len(now) == n and now[: n - k] == before[k:] for k in range(1, n))
 
 
 def _read_back(tmux: TmuxSession, first: str, wanted: list[str]) -> None:
     """Read a reply from its first line ``first`` on, scrolling the log up with PgUp as the screen says; End returns.
 
     Every pattern of ``wanted`` must be seen on some screen on the way (a reply longer than the log pane);
-    the last one first, at the log's end.
+    the last one first, at the log's end. Each PgUp is followed by a wait for the scroll itself, so that no
+    page is passed over unread (a new line at the log's end changes the pane too, without a scroll).
     """
-    screen = _log_pane(tmux.wait_for(wanted[-1], 30, flat=True))
-    seen = screen
+    rows = _log_rows(tmux.wait_for(wanted[-1], WAIT_TIMEOUT_S, flat=True))
+    seen = " ".join(rows)
     for _ in range(20):
-        if re.search(first, seen) and all(re.search(w, seen) for w in wanted):
+        if re.search(first, seen):  # (the reply's first line: what it holds lies below)
             break
         tmux.keys("PageUp")
-        deadline = time.monotonic() + 10
-        now = screen
-        while now == screen and time.monotonic() < deadline:  # (until the log has moved, or at the top)
-            time.sleep(0.05)
-            now = _log_pane(tmux.screen())
-        screen, seen = now, f"{seen} {now}"
+
+        def scrolled(before: list[str] = rows) -> list[str] | None:
+            now = _log_rows(tmux.screen())
+            return now if _scrolled_up(before, now) else None
+
+        rows = wait_until(scrolled, "the log pane to scroll up a page", describe=tmux.screen)
+        seen = f"{seen} {' '.join(rows)}"
     missing = [w for w in wanted if not re.search(w, seen)]
     assert not missing and re.search(first, seen), f"never seen {missing or first}; last screen:\n{tmux.screen()}"
     tmux.keys("End")
@@ -262,7 +278,8 @@ def test_closing_the_terminal_ends_the_session_and_its_graph(tmp_path: Path, ros
     try:
         tmux.wait_for(r"· 0/68 done", 60)
         # the nodes' /diagnostics: one level per node on the health line
-        tmux.wait_for(r"Health:(?=.*\bdriver OK\b)(?=.*\bfitter OK\b)(?=.*\bparameter WARN\b)", 30, flat=True)
+        health = r"Health:(?=.*\bdriver OK\b)(?=.*\bfitter OK\b)(?=.*\bparameter WARN\b)"
+        tmux.wait_for(health, WAIT_TIMEOUT_S, flat=True)
         pids = session_pids(folder)
         assert set(pids) >= {"console", "driver", "recorder"}
     finally:

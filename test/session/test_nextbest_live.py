@@ -34,6 +34,7 @@ from bike_rig.core.uncertainty.budget import WEAVE, uncertainty_budget
 from bike_rig.session.nextbest import nominal_reading_sigmas
 from bike_rig.session.plan import SessionPlan, plan_from_rig
 from test.support.sessions import kill_session
+from test.support.wait import wait_until
 
 BIKE_RIG = Path(sys.executable).parent / "bike-rig"
 #: Rig seconds per wall second: a 30 s trial records in 0.2 s.
@@ -120,6 +121,13 @@ class _PlainSession:
         """Send ``command``; its ok or error reply (``name``: the command's name in the reply)."""
         self.send(command)
         return self.until(lambda x: x.get("command") == name and x["kind"] in ("ok", "error"), f"reply to '{command}'")
+
+
+def _held(s: _PlainSession) -> tuple[list[str], list[str]]:
+    """The session's status: the keys the parameter set lacks, and the usable trials it does not hold yet."""
+    s.send("status")
+    reply = s.until(lambda x: "unaccounted" in x, "the status")
+    return reply["lacking"], reply["unaccounted"]
 
 
 def _is_speeds(line: Line) -> bool:
@@ -209,6 +217,8 @@ def test_a_poor_reading_ranks_first_and_retaking_it_reduces_the_weave_sigma_as_p
                 assert reply["kind"] == "ok", reply
         _every_trial(s, plan)
         assert not any(_is_speeds(x) for x in s.seen), "the speeds came before the last reading"
+        # the parameter node holds every usable trial: the one set the last reading completes is of all of them
+        wait_until(lambda: _held(s) == ([poor.key], []), "the parameter node to hold every trial", interval_s=0.2)
 
         # the last reading completes the set: the first speeds are of every trial and the poor reading
         assert s.command(f"reading {poor.key} {poor.value!r} {poor.sigma!r}", "reading")["kind"] == "ok"

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -18,6 +17,7 @@ from bike_rig.pipeline.acquire import SampleBatch, TrialEventKind, TrialEventRec
 from bike_rig.pipeline.fit import TrialFit, fit_trial
 from test.support.sessions import PlainSession as Session
 from test.support.sessions import end_process, kill_session
+from test.support.wait import wait_until
 
 BIKE_RIG = Path(sys.executable).parent / "bike-rig"
 ROGUE = Path(__file__).with_name("rogue.py")
@@ -63,13 +63,15 @@ def test_junk_from_another_process_never_touches_the_drivers_trial(tmp_path: Pat
         rogue.stdin.flush()
         assert rogue.stdout.readline().strip() == "DONE"
         result = s.trial("TcR1#1")  # the id the rogue sent junk for
-        deadline = time.monotonic() + 20  # the parameter node's update follows the result
-        while True:
+
+        def missing() -> list[str]:
             s.send("status")
-            missing = s.until(lambda r: "missing" in r)["missing"]
-            if "TcR1" not in missing or time.monotonic() > deadline:
-                break
-            time.sleep(0.2)
+            return list(s.until(lambda r: "missing" in r)["missing"])
+
+        # the parameter node's update follows the result: the absurd estimate blocks nothing
+        wait_until(
+            lambda: "TcR1" not in missing(), "TcR1 no longer missing", interval_s=0.2, describe=lambda: str(missing())
+        )
         s.send("quit")
         s.proc.wait(60)
     finally:
@@ -83,7 +85,6 @@ def test_junk_from_another_process_never_touches_the_drivers_trial(tmp_path: Pat
     expected = _alone(trial)
     assert result["trial_id"] == trial.name and result["state"] == "ok" and result["flags"] == []
     assert result["period"] == expected.period and result["period_sigma"] == expected.period_sigma
-    assert "TcR1" not in missing  # the absurd estimate blocked nothing
     parameter_log = (folder / "logs" / "parameter.log").read_text()
     assert "trial 'rogue_t1': period 1e+308 ± 0.0001 s is not a rig pendulum's" in parameter_log
     fitter_log = (folder / "logs" / "fitter.log").read_text()
@@ -144,7 +145,7 @@ def test_a_flood_at_ten_times_the_rate_with_backward_stamps_and_wrong_rates(
         flood.stdin.flush()
         result = s.until(lambda r: r["kind"] == "result" and r.get("trial_id") == trial.name, timeout_s=90)
         done = flood.stdout.readline().split()
-        assert done[0] == "DONE" and int(done[1]) >= 0.8 * FLOOD_S * 200, done  # 10× the driver's 20 per second
+        assert done[0] == "DONE" and int(done[1]) > 0, done
         s.send("quit")
         s.proc.wait(60)
     finally:
@@ -159,6 +160,13 @@ def test_a_flood_at_ten_times_the_rate_with_backward_stamps_and_wrong_rates(
     recorded = read_session(folder / "bag").trials[trial.name].batches
     driver = {b.first_index for b in recorded if b.sample_rate_hz == rate}
     assert driver == set(range(0, n, 50))
+    # the flood overlapped the trial: the rogue's batches of its id (at 250 Hz) arrived among the driver's in
+    # each half of it (a count per second of wall time would measure the machine's load, not the fitter)
+    order = [(int(b.first_index), float(b.sample_rate_hz)) for b in recorded]
+    first, middle, last = (order.index((i, rate)) for i in (0, 50 * (n // 100), 50 * ((n - 1) // 50)))
+    junk = [k for k, (_, r) in enumerate(order) if r == 250.0]
+    early, late = sum(first < k < middle for k in junk), sum(middle < k < last for k in junk)
+    assert early > 0 and late > 0, f"rogue batches in the trial's halves: {early}, {late} (of {len(junk)})"
     fitter_log = (folder / "logs" / "fitter.log").read_text()
     assert f"trial {trial.name}: batches from another process than the one that started it: dropped" in fitter_log
     assert "flood_e20: STOP without START" in fitter_log  # the rogue's own events: its own trials

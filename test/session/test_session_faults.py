@@ -13,11 +13,11 @@ import os
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 from test.support.sessions import PlainSession as Session
 from test.support.sessions import kill_session, session_pids
+from test.support.wait import wait_until
 
 BIKE_RIG = Path(sys.executable).parent / "bike-rig"
 ITEMS = ["TcR1#1", "TcR1#2", "TcR1#3", "TtR1#1", "TtR1#2", "TtR1#3"]
@@ -38,15 +38,16 @@ def test_killed_nodes_are_said_restarted_and_a_killed_driver_resumed(tmp_path: P
             assert len(said["text"].splitlines()) == 1
             results.append(s.trial(item))
         assert all(r["state"] == "ok" for r in results), results
+
         # the restarted parameter and model nodes: the rear wheel's keys are no longer missing
-        deadline = time.monotonic() + 20
-        while True:
+        def held() -> list[str]:
+            """The parameter node's lacking keys once TcR1 and TtR1 are not among them, else []."""
             s.send("status")
-            missing = s.until(lambda r: "lacking" in r)["lacking"]  # (the parameter node's own keys)
-            if (missing and "TcR1" not in missing and "TtR1" not in missing) or time.monotonic() > deadline:
-                break
-            time.sleep(0.2)
-        assert "TcR1" not in missing and "TtR1" not in missing and "TtP1" in missing, missing
+            keys = list(s.until(lambda r: "lacking" in r)["lacking"])  # (the parameter node's own keys)
+            return keys if keys and "TcR1" not in keys and "TtR1" not in keys else []
+
+        missing = wait_until(held, "the restarted parameter node to hold TcR1 and TtR1", interval_s=0.2)
+        assert "TtP1" in missing, missing
         os.kill(pids["driver"], signal.SIGKILL)
         said = s.until(lambda r: r.get("node") == "driver" and r["kind"] == "error")
         assert "--resume" in said["text"] and str(a) in said["text"]
