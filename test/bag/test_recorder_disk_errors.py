@@ -155,27 +155,35 @@ def test_a_split_that_cannot_be_written_raises_and_loses_no_flushed_message(
 
 
 def _record(env: dict[str, str], tmp_path: Path, bag: Path, *params: str) -> tuple[int, str, list[str]]:
-    """Record 200 gyro batches and the static readings into ``bag``, stop the recorder.
+    """Record gyro batches and the static readings into ``bag``, stop the recorder.
+
+    Without ``params``: 200 gyro batches, all of them recorded. With ``params`` (a split limit):
+    gyro batches until the recorder says recording stopped, so the split comes however slowly
+    a loaded machine lets the recorder's log time advance.
 
     Returns:
         The exit status, the log, and its "recording stopped" lines.
     """
-    spec = {"early": {STATIC_READINGS.name: 1}, "live": {GYRO.name: 200}, "rate_hz": 400.0}
+    until_stop = bool(params)
+    live = {GYRO.name: 0 if until_stop else 200}
+    spec = {"early": {STATIC_READINGS.name: 1}, "live": live, "rate_hz": 400.0, "until_stop": until_stop}
     with start_publisher(tmp_path, env, spec) as pub:
         pub.expect("EARLY", STEP_TIMEOUT_S)
         with start_recorder(tmp_path, env, bag, "topics:=[gyro, static_readings]", *params) as rec:
             pub.expect("MATCHED", STEP_TIMEOUT_S)
             pub.send("GO")
-            published = json.loads(pub.expect("PUBLISHED", STEP_TIMEOUT_S))
-            assert published["counts"][GYRO.name] == 200
-            if params:  # a split fails while recording: wait for the recorder to say so
+            if until_stop:  # a split fails while recording: publish until the recorder says so
 
                 def stopped() -> bool:
                     assert rec.proc.poll() is None, rec.describe()
                     return "recording stopped" in rec.stderr_path.read_text()
 
                 wait_until(stopped, "the recorder to stop recording", STEP_TIMEOUT_S, describe=rec.describe)
+                pub.send("STOP")
+                pub.expect("PUBLISHED", STEP_TIMEOUT_S)
             else:
+                published = json.loads(pub.expect("PUBLISHED", STEP_TIMEOUT_S))
+                assert published["counts"][GYRO.name] == 200
                 wait_for_data(bag, {GYRO.name: 200, STATIC_READINGS.name: 1}, rec)
             code = rec.stop()
     log = rec.stderr_path.read_text()

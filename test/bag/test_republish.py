@@ -7,6 +7,7 @@ recorder: the same bytes, in the same order, with the timing scaled.
 from __future__ import annotations
 
 import dataclasses
+import re
 import sys
 from pathlib import Path
 
@@ -65,18 +66,36 @@ def test_republished_stream_is_recorded_identically(
         # bag recorded from DDS holds padded payloads already, so they round-trip unchanged)
         padded = [d + b"\0" * (-len(d) % 4) for _, d in original[topic]]
         assert [d for _, d in replayed[topic]] == padded, topic
-    # timing: the republisher's send times (the MCAP publish times the recorder keeps),
-    # relative to the first, are the original log times' offsets divided by RATE_SCALE
+    # timing. The republisher sleeps (on the monotonic clock) until each message is due, wall0 +
+    # (log offset from the bag's first message) / RATE_SCALE, and then publishes it; it prints
+    # its wall time, the bag span and its largest lag L (how late it found itself at a message).
+    # Load can only delay a send, never bring it forward, so what is asserted are lower bounds:
+    found = re.search(r" in ([0-9.]+) s \(bag span ([0-9.]+) s, .*, largest lag ([0-9.]+) ms\)", summary)
+    assert found, summary
+    wall_s, bag_span_s, lag_s = float(found[1]), float(found[2]), float(found[3]) / 1e3
+    # the playback took at least the bag's span, scaled (both printed to 0.01 s)
+    assert wall_s >= bag_span_s / RATE_SCALE - 0.01, summary
+    # the send times (DDS source stamps, which the recorder keeps as MCAP publish times):
+    # gyro batch k is sent no earlier than it is due. Relative to the first batch's send s0:
+    # s0 came before the republisher looked at the next message (the second batch at the latest,
+    # due at offset t1), which it found at most L late, so s0 <= wall0 + t1 / RATE_SCALE + L and
+    # sent_k - s0 >= (t_k - t1) / RATE_SCALE - L. (eps: L is printed to 0.1 ms, and the source
+    # stamps' realtime clock may be slewed against the monotonic one by at most 500 ppm.)
     scan = scan_mcap(copy / "copy_0.mcap")
     gyro_id = next(cid for cid, ch in scan.channels.items() if ch.topic == GYRO.name)
     sent = [m.publish_time for m in scan.messages if m.channel_id == gyro_id]
-    t0, s0 = original[GYRO.name][0][0], sent[0]
-    lags = [(s - s0) / 1e9 - (t - t0) / 1e9 / RATE_SCALE for (t, _), s in zip(original[GYRO.name], sent)]
-    span = (original[GYRO.name][-1][0] - t0) / 1e9 / RATE_SCALE
-    assert span > 2.0
-    # paced, not bursted: the typical message on its time (a loaded machine may delay a few)
-    assert sorted(abs(x) for x in lags)[len(lags) // 2] < 0.25, (min(lags), max(lags))
-    assert abs((sent[-1] - s0) / 1e9 - span) < 0.25 * span + 1.0, ((sent[-1] - s0) / 1e9, span)
-    # and they were received right away
-    delays = sorted((r - s) / 1e9 for (r, _), s in zip(replayed[GYRO.name], sent))
-    assert delays[0] >= 0 and delays[len(delays) // 2] < 1.0, (delays[0], delays[len(delays) // 2], delays[-1])
+    log_times = [t for t, _ in original[GYRO.name]]
+    assert len(sent) == len(log_times)
+    span = (log_times[-1] - log_times[0]) / 1e9 / RATE_SCALE
+    assert span > 2.0  # a burst (all sent at once) could not pass below unless reported that late
+    s0, t1 = sent[0], log_times[1]
+    eps = 1e-4 + 500e-6 * (max(sent) - s0) / 1e9
+    early = [
+        (k, (s - s0) / 1e9, (t - t1) / 1e9 / RATE_SCALE)
+        for k, (s, t) in enumerate(zip(sent, log_times))
+        if k > 0 and (s - s0) / 1e9 < (t - t1) / 1e9 / RATE_SCALE - lag_s - eps
+    ]
+    assert not early, (len(early), early[:5], summary)
+    # and each was received after it was sent (one host, one clock)
+    delays = [(r - s) / 1e9 for (r, _), s in zip(replayed[GYRO.name], sent)]
+    assert min(delays) >= 0, min(delays)
