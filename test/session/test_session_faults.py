@@ -72,7 +72,8 @@ def test_killed_nodes_are_said_restarted_and_a_killed_driver_resumed(tmp_path: P
     lines = [json.loads(x) for x in done.stdout.splitlines()]
     assert done.returncode == 0, (done.stderr[-2000:], lines)
     back = [x for x in lines if x["kind"] == "result"]
-    assert [x["period"] for x in back[:4]] == [r["period"] for r in results]  # the same trials, fitted again
+    # the same trials, fitted again (an aborted one has no period: the bag lacked its STOP)
+    assert [x.get("period") for x in back[:4]] == [r["period"] for r in results], (back, done.stderr[-2000:])
     assert back[4]["key"] == "TtR1" and back[4]["state"] == "ok"
     progress = next(x for x in lines if "done" in x)
     assert progress["done"] == 5
