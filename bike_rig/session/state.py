@@ -42,7 +42,7 @@ class SessionTrialView:
         fit: The period estimate, once published.
         aborted: Its end was an ABORT.
         stopped: A STOP or ABORT was seen.
-        started: This console started it, or its START was seen.
+        started: This console started it (the driver accepted its start).
     """
 
     trial_id: str
@@ -213,7 +213,6 @@ class OperatorSession:
         if math.isfinite(event.sample_rate_hz):
             view.sample_rate_hz = event.sample_rate_hz
         if event.kind == TrialEventKind.START:
-            view.started = True
             if event.trial_id in self.resumed:
                 return  # a recorded trial coming back: nothing to watch live
             if self.live is None or self.live.trial_id != event.trial_id:
@@ -239,9 +238,9 @@ class OperatorSession:
         """A period estimate: the trial's state becomes OK or REDO. Returns its result line.
 
         A result without a START of its own (``no_start``, ``unknown_trial``) for a trial this
-        console started, or whose START it saw, is another process's under the same id: the
-        fitter publishes it before the driver's START reaches it. It is not this trial's result;
-        None, and :attr:`foreign` has the line saying so.
+        console started is another process's under the same id: the fitter publishes it before
+        the driver's START reaches it. It is not this trial's result; None, and :attr:`foreign`
+        has the line saying so. (A trial only seen, e.g. resumed, takes whatever result comes.)
         """
         view = self.trials.get(fit.trial_id)
         if view is not None and view.started and _unannounced(fit):
