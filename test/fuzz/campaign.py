@@ -43,7 +43,7 @@ def fuzz_target(
         seed: The campaign's seed.
         inputs: How many inputs, the valid seeds included.
         seconds: Stop earlier once this much wall time has passed [s] (None: no limit).
-        time_limit_s: A call running longer is a hang [s].
+        time_limit_s: A call spending more CPU time is a hang [s].
         measure_memory: Measure each call's peak memory.
         progress: Called every 500 inputs with the tally so far.
     """
