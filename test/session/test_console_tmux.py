@@ -252,10 +252,9 @@ def test_a_session_with_a_readings_file_at_the_console(  # type: ignore[no-untyp
         names = [rf"(?<![A-Za-z]){re.escape(n)}\s+-?[0-9.]+(?:e[-+]?\d+)? ± " for n in PARAMETER_NAMES]
         _read_back(tmux, r"> params", names)
         if height >= 50:  # the log pane holds the whole reply with its echo (late lines may scroll it, not its size)
-            rows = tmux.screen().splitlines()
-            top = next(i for i, row in enumerate(rows) if "─log ·" in row)
-            bottom = next(i for i, row in enumerate(rows) if " command (" in row)
-            assert bottom - top - 1 >= len(names) + 1, tmux.screen()
+            screen = tmux.screen()
+            assert "─log ·" in screen and " command (" in screen, screen
+            assert len(_log_rows(screen)) >= len(names) + 1, screen
         tmux.keys("C-c")
         tmux.wait_for(r"Quit\? F10 or Ctrl-C again leaves", 30, flat=True)  # Ctrl-C asks too (no textual notice)
         tmux.keys("C-c")
