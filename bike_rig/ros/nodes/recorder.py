@@ -105,7 +105,7 @@ DRAIN_IDLE_S = 0.05
 SYNC_TIMEOUT_S = 10.0
 """Longest wait for every publisher to be matched on a sync request (SIGUSR1)."""
 SYNCED = "synced:"
-"""What the log line that ends a sync begins with (the launcher waits for it)."""
+"""What the log line that ends a sync begins with (the sync file is removed after it)."""
 
 # the generated service classes ship no type information: imported by name
 _srvs: Any = importlib.import_module("bike_rig_msgs.srv")
